@@ -1,0 +1,19 @@
+/* cf_common.c -- status names and library version. */
+#include "cf_common.h"
+
+#define CF_VERSION "0.1.0"
+
+const char *cf_common_status_name(int status)
+{
+    switch (status) {
+    case CF_OK: return "CF_OK";
+    case CF_EINVAL: return "CF_EINVAL";
+    case CF_ENOMEM: return "CF_ENOMEM";
+    case CF_EUNSTABLE: return "CF_EUNSTABLE";
+    case CF_ERANGE: return "CF_ERANGE";
+    case CF_ESTATE: return "CF_ESTATE";
+    default: return "CF_UNKNOWN";
+    }
+}
+
+const char *cf_common_version(void) { return CF_VERSION; }

@@ -1,0 +1,35 @@
+/*
+ * cf_common.h -- status codes and version shared by every part of libcolfrag.
+ *
+ * Conventions for the whole library (see STYLE.md):
+ *  - every exported symbol is prefixed cf_<concern>_ (this file: cf_common_);
+ *  - every fallible function returns a cf_status (CF_OK == 0) and, where it
+ *    works on an object, leaves a human-readable message on that object;
+ *  - nothing prints, exits or aborts, and there is no global mutable state.
+ * The region between the cffi markers is read verbatim by pycolfrag/_build.py.
+ */
+#ifndef CF_COMMON_H
+#define CF_COMMON_H
+
+#define CF_PI 3.14159265358979323846
+
+/* cffi:begin */
+#define CF_MSG_LEN 256
+
+typedef enum {
+    CF_OK = 0,          /* success */
+    CF_EINVAL = 1,      /* invalid argument (bad value, size, geometry) */
+    CF_ENOMEM = 2,      /* allocation failed */
+    CF_EUNSTABLE = 3,   /* numerical instability detected (NaN, energy blow-up) */
+    CF_ERANGE = 4,      /* argument outside the model's calibrated range */
+    CF_ESTATE = 5       /* object used in the wrong state */
+} cf_status;
+
+/* Name of a status code ("CF_EINVAL", ...); never NULL. */
+const char *cf_common_status_name(int status);
+
+/* Library version string, e.g. "0.1.0"; Python checks it at import. */
+const char *cf_common_version(void);
+/* cffi:end */
+
+#endif

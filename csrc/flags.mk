@@ -1,0 +1,9 @@
+# Compiler flags for the C library and its C tests, in one place (mirrored by
+# pycolfrag/_build.py). -ffp-contract=off keeps results bitwise reproducible.
+CC      ?= gcc
+CSTD    := -std=c99
+CWARN   := -Wall -Wextra -Wpedantic
+COPT    := -O3 -ffp-contract=off -fno-math-errno
+CFLAGS  := $(CSTD) $(CWARN) $(COPT)
+SANFLAGS := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
+LDLIBS  := -lm

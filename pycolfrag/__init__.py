@@ -1,0 +1,23 @@
+"""pycolfrag -- seismic fragility of free-standing multidrum classical columns.
+
+Quick tour (SPEC §10)::
+
+    import pycolfrag as pcf
+    col = pcf.Column.parthenon()
+    rec = pcf.ground_motion.synthesize(6.5, 10.0, seed=1)
+    res = pcf.simulate(col, rec.acc, rec.dt, history=True)
+    res.u_top, res.u_d, res.collapsed
+"""
+__version__ = "0.1.0"
+
+from .errors import (  # noqa: E402,F401
+    ModelRangeError,
+    ParameterError,
+    PycolfragError,
+    RecordFileError,
+    ResultsFileError,
+    SolverError,
+)
+from .column import Block, Column, JointProperties, Segment  # noqa: E402,F401
+from .solver import History, Response, simulate  # noqa: E402,F401
+from . import ground_motion, intensity  # noqa: E402,F401

@@ -1,0 +1,68 @@
+"""cffi build script (API mode, out of line) for the pycolfrag C library.
+
+Every C source in ``csrc/`` is compiled into one extension module,
+``pycolfrag._libcolfrag``.  The declarations cffi sees are taken from the public
+headers themselves: the text between the markers ``/* cffi:begin */`` and
+``/* cffi:end */`` of each ``csrc/*.h`` file (``cf_common.h`` first).  So a header
+and its cdef cannot drift apart, and API mode checks struct layouts against the
+real headers at build time.
+
+Built by ``pip install -e .`` through ``cffi_modules`` in ``setup.py``; there is no
+other build path for the extension (see TOOLCHAIN.md on stale ``.so`` files).
+"""
+from __future__ import annotations
+
+import glob
+import os
+import re
+
+from cffi import FFI
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+CSRC = os.path.normpath(os.path.join(HERE, "..", "csrc"))
+
+# Kept in one place and mirrored by csrc/flags.mk: reproducibility first.
+# -ffp-contract=off: no fused multiply-add, so results do not depend on the CPU;
+# no -march=native for the same reason (see docs/accuracy.md for what it costs).
+CFLAGS = ["-std=c99", "-O3", "-ffp-contract=off", "-fno-math-errno", "-Wall", "-Wextra"]
+
+_REGION = re.compile(r"/\*\s*cffi:begin\s*\*/(.*?)/\*\s*cffi:end\s*\*/", re.S)
+
+
+def _public_headers() -> list[str]:
+    headers = sorted(glob.glob(os.path.join(CSRC, "*.h")))
+    first = os.path.join(CSRC, "cf_common.h")
+    return [first] + [h for h in headers if h != first]
+
+
+def _cdefs(headers: list[str]) -> str:
+    parts = []
+    for path in headers:
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read()
+        for block in _REGION.findall(text):
+            parts.append(f"/* from {os.path.basename(path)} */\n{block}")
+    return "\n".join(parts)
+
+
+def make_builder() -> FFI:
+    headers = _public_headers()
+    ffi = FFI()
+    ffi.cdef(_cdefs(headers))
+    includes = "\n".join(f'#include "{os.path.basename(h)}"' for h in headers)
+    sources = sorted(glob.glob(os.path.join(CSRC, "*.c")))
+    ffi.set_source(
+        "pycolfrag._libcolfrag",
+        includes,
+        sources=[os.path.relpath(s, os.path.join(HERE, "..")) for s in sources],
+        include_dirs=[os.path.relpath(CSRC, os.path.join(HERE, ".."))],
+        extra_compile_args=CFLAGS,
+        libraries=["m"],
+    )
+    return ffi
+
+
+ffibuilder = make_builder()
+
+if __name__ == "__main__":  # pragma: no cover - manual use only
+    raise SystemExit("build with `pip install -e .` (or `make build`), not directly")

@@ -1,0 +1,465 @@
+"""Column geometry: stacks of rigid blocks made of regular-polygon frustum segments.
+
+A :class:`Column` is a list of :class:`Block` objects from the bottom up, resting
+on the ground (the base block, which moves with the ground motion). Each block is
+one rigid body made of one or more :class:`Segment` objects stacked vertically
+(a shaft drum is one segment; the Doric capital is an echinus frustum plus a
+square abacus slab). Only a block's bottom face (its first segment's bottom) and
+top face (its last segment's top) touch other blocks. Joint ``i`` is the
+interface under block ``i`` (joint 0 is the base joint on the ground).
+
+Diameters are those of the circle through the polygon's vertices (circumscribed),
+as in the paper's reference geometry; ``phase`` is the angle of the first vertex
+from the +x axis (the direction of ``acc_x``). All lengths in m, density in
+kg/m^3, joint stiffness in Pa/m (N/m per m^2 of joint), angles in degrees unless
+the name says ``_rad``.
+
+Columns come from :meth:`Column.parthenon` (the paper's default scene),
+:meth:`Column.from_drums`, :meth:`Column.single_block`, the constructor, or a JSON
+or TOML file (:meth:`Column.from_file`, format in ``docs/column_format.md``).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field, replace
+from importlib import resources
+from typing import Iterable, Sequence
+
+from .errors import ParameterError
+
+__all__ = ["Segment", "Block", "JointProperties", "Column"]
+
+
+def _finite_positive(value, name: str, allow_zero: bool = False) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v) or v < 0.0 or (v == 0.0 and not allow_zero):
+        raise ParameterError(f"{name} must be finite and {'>= 0' if allow_zero else '> 0'}, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A regular ``n_sides``-gon frustum (prism when ``r_bottom == r_top``).
+
+    Parameters
+    ----------
+    height : float
+        Height of the segment, m (> 0).
+    r_bottom, r_top : float
+        Circumradius of the bottom and top polygon, m (> 0).
+    n_sides : int
+        Number of polygon sides (>= 3).
+    phase_rad : float
+        Angle of the first vertex from +x, rad. Default 0 (a vertex points along x).
+    """
+
+    height: float
+    r_bottom: float
+    r_top: float
+    n_sides: int = 10
+    phase_rad: float = 0.0
+
+    def __post_init__(self):
+        _finite_positive(self.height, "segment height (m)")
+        _finite_positive(self.r_bottom, "segment bottom radius (m)")
+        _finite_positive(self.r_top, "segment top radius (m)")
+        if int(self.n_sides) != self.n_sides or self.n_sides < 3:
+            raise ParameterError(f"n_sides must be an integer >= 3, got {self.n_sides!r}")
+        if not math.isfinite(float(self.phase_rad)):
+            raise ParameterError(f"phase_rad must be finite, got {self.phase_rad!r}")
+
+    @property
+    def _k(self) -> float:
+        """Area of the polygon of unit circumradius: (n/2) sin(2 pi / n)."""
+        return 0.5 * self.n_sides * math.sin(2.0 * math.pi / self.n_sides)
+
+    @property
+    def volume(self) -> float:
+        """Exact volume, m^3: k h (r0^2 + r0 r1 + r1^2) / 3."""
+        r0, r1 = self.r_bottom, self.r_top
+        return self._k * self.height * (r0 * r0 + r0 * r1 + r1 * r1) / 3.0
+
+    @property
+    def centroid_height(self) -> float:
+        """Height of the centroid above the segment's bottom face, m (exact for linear taper)."""
+        r0, r1, h = self.r_bottom, self.r_top, self.height
+        # integral of z * (r0 + (r1 - r0) z/h)^2 dz over [0, h] divided by the volume integral
+        num = h * h * (r0 * r0 / 2.0 + 2.0 * r0 * (r1 - r0) / 3.0 + (r1 - r0) ** 2 / 4.0)
+        den = h * (r0 * r0 + r0 * r1 + r1 * r1) / 3.0
+        return num / den
+
+    def to_dict(self) -> dict:
+        return {
+            "height": self.height,
+            "diameter_bottom": 2.0 * self.r_bottom,
+            "diameter_top": 2.0 * self.r_top,
+            "n_sides": int(self.n_sides),
+            "phase_deg": math.degrees(self.phase_rad),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict, where: str = "segment") -> "Segment":
+        try:
+            return cls(
+                height=d["height"],
+                r_bottom=0.5 * float(d["diameter_bottom"]),
+                r_top=0.5 * float(d.get("diameter_top", d["diameter_bottom"])),
+                n_sides=int(d.get("n_sides", 10)),
+                phase_rad=math.radians(float(d.get("phase_deg", 0.0))),
+            )
+        except KeyError as exc:
+            raise ParameterError(f"{where}: missing key {exc}") from None
+        except (TypeError, ValueError) as exc:
+            if isinstance(exc, ParameterError):
+                raise ParameterError(f"{where}: {exc}") from None
+            raise ParameterError(f"{where}: {exc}") from None
+
+
+@dataclass(frozen=True)
+class Block:
+    """One rigid body: segments stacked from the bottom up (at least one)."""
+
+    segments: tuple
+    name: str = ""
+
+    def __post_init__(self):
+        segs = tuple(self.segments)
+        if not segs:
+            raise ParameterError(f"block {self.name!r} has no segments")
+        for s in segs:
+            if not isinstance(s, Segment):
+                raise ParameterError(f"block {self.name!r}: segments must be Segment objects, got {type(s).__name__}")
+        object.__setattr__(self, "segments", segs)
+
+    @property
+    def height(self) -> float:
+        return sum(s.height for s in self.segments)
+
+    @property
+    def volume(self) -> float:
+        return sum(s.volume for s in self.segments)
+
+    @property
+    def centroid_height(self) -> float:
+        """Centroid height above the block's bottom face, m."""
+        z0, acc = 0.0, 0.0
+        for s in self.segments:
+            acc += s.volume * (z0 + s.centroid_height)
+            z0 += s.height
+        return acc / self.volume
+
+    @property
+    def bottom(self) -> Segment:
+        return self.segments[0]
+
+    @property
+    def top(self) -> Segment:
+        return self.segments[-1]
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "segments": [s.to_dict() for s in self.segments]}
+
+
+@dataclass(frozen=True)
+class JointProperties:
+    """Joint constitutive parameters (paper Table I), uniform over the column.
+
+    Parameters
+    ----------
+    kn, ks : float
+        Normal and shear stiffness per unit area, Pa/m. Default 1e9 (1 GPa/m).
+    friction_deg : float
+        Coulomb friction angle, degrees, in (0, 90). Default 37.
+    cohesion, tensile_strength : float
+        Pa. Only 0 is supported (paper Table I; dry joints): a non-zero value is
+        refused rather than silently ignored.
+    """
+
+    kn: float = 1.0e9
+    ks: float = 1.0e9
+    friction_deg: float = 37.0
+    cohesion: float = 0.0
+    tensile_strength: float = 0.0
+
+    def __post_init__(self):
+        _finite_positive(self.kn, "joint normal stiffness kn (Pa/m)")
+        _finite_positive(self.ks, "joint shear stiffness ks (Pa/m)")
+        f = float(self.friction_deg)
+        if not math.isfinite(f) or not (0.0 < f < 90.0):
+            raise ParameterError(f"friction angle must be in (0, 90) degrees, got {self.friction_deg!r}")
+        for name in ("cohesion", "tensile_strength"):
+            v = getattr(self, name)
+            if v != 0.0:
+                raise ParameterError(f"joint {name} = {v!r} is not supported: dry joints have 0 (paper Table I)")
+
+    @property
+    def mu(self) -> float:
+        return math.tan(math.radians(self.friction_deg))
+
+    def to_dict(self) -> dict:
+        return {
+            "kn": self.kn,
+            "ks": self.ks,
+            "friction_angle_deg": self.friction_deg,
+            "cohesion": self.cohesion,
+            "tensile_strength": self.tensile_strength,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "JointProperties":
+        known = {"kn", "ks", "friction_angle_deg", "friction_angle", "friction_deg", "cohesion", "tensile_strength", "provenance"}
+        unknown = set(d) - known
+        if unknown:
+            raise ParameterError(f"joints: unknown keys {sorted(unknown)}")
+        fr = d.get("friction_angle_deg", d.get("friction_angle", d.get("friction_deg", 37.0)))
+        return cls(
+            kn=d.get("kn", 1.0e9),
+            ks=d.get("ks", 1.0e9),
+            friction_deg=fr,
+            cohesion=d.get("cohesion", 0.0),
+            tensile_strength=d.get("tensile_strength", 0.0),
+        )
+
+
+class Column:
+    """A free-standing stack of rigid blocks on a moving ground.
+
+    Parameters
+    ----------
+    blocks : sequence of Block
+        From the bottom up (at least one).
+    density : float
+        kg/m^3 (> 0). Default 2700 (marble).
+    joints : JointProperties
+        Joint properties for every joint, including the base joint.
+    name : str
+        A label stored with results.
+    """
+
+    def __init__(self, blocks: Sequence[Block], density: float = 2700.0,
+                 joints: JointProperties | None = None, name: str = "custom"):
+        blocks = tuple(blocks)
+        if not blocks:
+            raise ParameterError("a column needs at least one block")
+        for i, b in enumerate(blocks):
+            if not isinstance(b, Block):
+                raise ParameterError(f"blocks[{i}] must be a Block, got {type(b).__name__}")
+        self.blocks = blocks
+        self.density = _finite_positive(density, "density (kg/m^3)")
+        self.joints = joints if joints is not None else JointProperties()
+        if not isinstance(self.joints, JointProperties):
+            raise ParameterError(f"joints must be JointProperties, got {type(self.joints).__name__}")
+        self.name = str(name)
+
+    # ---- constructors -------------------------------------------------------------
+    @classmethod
+    def from_drums(cls, drum_heights: Iterable[float], diameter_bottom: float, diameter_top: float | None = None,
+                   n_sides: int = 10, capital: Block | None = None, density: float = 2700.0,
+                   joints: JointProperties | None = None, phase_deg: float = 0.0, name: str = "custom") -> "Column":
+        """A shaft of drums with linear taper from ``diameter_bottom`` to ``diameter_top`` (m)
+        over the total shaft height, optionally topped by ``capital``."""
+        try:
+            heights = [float(h) for h in drum_heights]
+        except (TypeError, ValueError):
+            raise ParameterError(f"drum_heights must be numbers, got {drum_heights!r}") from None
+        if not heights:
+            raise ParameterError("drum_heights is empty")
+        for i, h in enumerate(heights):
+            _finite_positive(h, f"drum_heights[{i}] (m)")
+        d0 = _finite_positive(diameter_bottom, "diameter_bottom (m)")
+        d1 = d0 if diameter_top is None else _finite_positive(diameter_top, "diameter_top (m)")
+        total = sum(heights)
+        phase = math.radians(float(phase_deg))
+        blocks, z = [], 0.0
+        for i, h in enumerate(heights):
+            rb = 0.5 * (d0 + (d1 - d0) * z / total)
+            rt = 0.5 * (d0 + (d1 - d0) * (z + h) / total)
+            blocks.append(Block((Segment(h, rb, rt, n_sides, phase),), name=f"drum {i + 1}"))
+            z += h
+        if capital is not None:
+            blocks.append(capital)
+        return cls(blocks, density=density, joints=joints, name=name)
+
+    @staticmethod
+    def doric_capital(echinus_height: float, echinus_diameter_bottom: float, echinus_diameter_top: float,
+                      abacus_height: float, abacus_side: float, n_sides: int = 10, phase_deg: float = 0.0) -> Block:
+        """A Doric capital as one rigid block: polygonal echinus frustum + square abacus slab (m)."""
+        ech = Segment(echinus_height, 0.5 * echinus_diameter_bottom, 0.5 * echinus_diameter_top,
+                      n_sides, math.radians(phase_deg))
+        r_ab = abacus_side / math.sqrt(2.0)  # circumradius of the square; sides parallel to x and y
+        ab = Segment(abacus_height, r_ab, r_ab, 4, math.pi / 4.0)
+        return Block((ech, ab), name="capital")
+
+    @classmethod
+    def single_block(cls, width: float, height: float, n_sides: int = 4, density: float = 2700.0,
+                     joints: JointProperties | None = None, flat_side_along_x: bool = True) -> "Column":
+        """One prismatic block of ``width`` (m, across flats for even ``n_sides``) and ``height`` (m).
+
+        With ``n_sides=4`` and ``flat_side_along_x`` this is a square block of side
+        ``width`` whose faces are normal to x and y: the 2D rocking block of Housner
+        (1963) when excited along x (half-width b = width/2).
+        """
+        w = _finite_positive(width, "width (m)")
+        _finite_positive(height, "height (m)")
+        if int(n_sides) != n_sides or n_sides < 3:
+            raise ParameterError(f"n_sides must be an integer >= 3, got {n_sides!r}")
+        r = 0.5 * w / math.cos(math.pi / n_sides)  # circumradius from the inradius w/2
+        phase = math.pi / n_sides if flat_side_along_x else 0.0
+        seg = Segment(height, r, r, n_sides, phase)
+        return cls((Block((seg,), name="block"),), density=density, joints=joints, name="single block")
+
+    @classmethod
+    def parthenon(cls, **overrides) -> "Column":
+        """The paper's default scene: Parthenon Pronaos column (12 drums + capital).
+
+        Keyword overrides are applied to the file's values: ``density``, ``joints``
+        (a :class:`JointProperties`), ``n_sides``, ``phase_deg``.
+        """
+        with resources.files("pycolfrag").joinpath("data/column_parthenon.json").open("r", encoding="utf-8") as fh:
+            d = json.load(fh)
+        for key in ("density", "n_sides", "phase_deg"):
+            if key in overrides:
+                d[key] = overrides.pop(key)
+        joints = overrides.pop("joints", None)
+        if overrides:
+            raise ParameterError(f"Column.parthenon: unknown overrides {sorted(overrides)}")
+        col = cls.from_dict(d)
+        if joints is not None:
+            col = col.with_joints(joints)
+        return col
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Column":
+        """Build from the file format of ``docs/column_format.md`` (``shaft``+``capital`` or ``blocks``)."""
+        if not isinstance(d, dict):
+            raise ParameterError(f"column description must be a mapping, got {type(d).__name__}")
+        density = d.get("density", 2700.0)
+        joints = JointProperties.from_dict(d.get("joints", {}))
+        name = d.get("name", "custom")
+        if "blocks" in d:
+            blocks = []
+            for i, bd in enumerate(d["blocks"]):
+                segs = bd.get("segments")
+                if not segs:
+                    raise ParameterError(f"blocks[{i}]: needs a non-empty 'segments' list")
+                blocks.append(Block(tuple(Segment.from_dict(s, f"blocks[{i}].segments[{j}]") for j, s in enumerate(segs)),
+                                    name=bd.get("name", f"block {i + 1}")))
+            return cls(blocks, density=density, joints=joints, name=name)
+        if "shaft" not in d:
+            raise ParameterError("column description needs 'shaft' (with optional 'capital') or 'blocks'")
+        sh = d["shaft"]
+        n_sides = int(d.get("n_sides", sh.get("n_sides", 10)))
+        phase = float(d.get("phase_deg", sh.get("phase_deg", 0.0)))
+        try:
+            heights = sh["drum_heights"]
+            d0 = sh["diameter_bottom"]
+        except KeyError as exc:
+            raise ParameterError(f"shaft: missing key {exc}") from None
+        capital = None
+        if d.get("capital"):
+            c = d["capital"]
+            try:
+                capital = cls.doric_capital(c["echinus_height"], c["echinus_diameter_bottom"], c["echinus_diameter_top"],
+                                            c["abacus_height"], c["abacus_side"],
+                                            n_sides=int(c.get("n_sides", n_sides)), phase_deg=phase)
+            except KeyError as exc:
+                raise ParameterError(f"capital: missing key {exc}") from None
+        return cls.from_drums(heights, d0, sh.get("diameter_top", d0), n_sides=n_sides, capital=capital,
+                              density=density, joints=joints, phase_deg=phase, name=name)
+
+    @classmethod
+    def from_file(cls, path: str | os.PathLike) -> "Column":
+        """Read a column from a ``.json`` or ``.toml`` file (format: ``docs/column_format.md``)."""
+        path = os.fspath(path)
+        if not os.path.exists(path):
+            raise FileNotFoundError(f"column file not found: {path}")
+        try:
+            if path.lower().endswith(".toml"):
+                import tomllib
+                with open(path, "rb") as fh:
+                    d = tomllib.load(fh)
+            else:
+                with open(path, encoding="utf-8") as fh:
+                    d = json.load(fh)
+        except (ValueError, UnicodeDecodeError) as exc:  # JSONDecodeError and TOMLDecodeError are ValueErrors
+            raise ParameterError(f"cannot parse column file {path}: {exc}") from None
+        return cls.from_dict(d)
+
+    def to_dict(self) -> dict:
+        """Lossless description in the generic ``blocks`` form (what results files store)."""
+        return {
+            "name": self.name,
+            "density": self.density,
+            "joints": self.joints.to_dict(),
+            "blocks": [b.to_dict() for b in self.blocks],
+        }
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+    def with_joints(self, joints: JointProperties | None = None, **changes) -> "Column":
+        """A copy with other joint properties (``joints`` or field changes such as ``kn=1e10``)."""
+        j = joints if joints is not None else replace(self.joints, **changes)
+        return Column(self.blocks, density=self.density, joints=j, name=self.name)
+
+    # ---- derived quantities ----------------------------------------------------------
+    @property
+    def n_blocks(self) -> int:
+        """Number of rigid blocks (drums + capital)."""
+        return len(self.blocks)
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joints, the base joint included (= n_blocks)."""
+        return len(self.blocks)
+
+    @property
+    def height(self) -> float:
+        """Total height, m."""
+        return sum(b.height for b in self.blocks)
+
+    @property
+    def base_diameter(self) -> float:
+        """Circumscribed diameter of the bottom face of block 1, m (normalises u_top)."""
+        return 2.0 * self.blocks[0].bottom.r_bottom
+
+    @property
+    def joint_diameters(self) -> list[float]:
+        """Diameter at each joint (bottom face of the block above), m (normalises u_d)."""
+        return [2.0 * b.bottom.r_bottom for b in self.blocks]
+
+    @property
+    def joint_heights(self) -> list[float]:
+        """Height of each joint above the ground at rest, m."""
+        z, out = 0.0, []
+        for b in self.blocks:
+            out.append(z)
+            z += b.height
+        return out
+
+    @property
+    def block_masses(self) -> list[float]:
+        """Mass of each block, kg."""
+        return [self.density * b.volume for b in self.blocks]
+
+    @property
+    def mass(self) -> float:
+        """Total mass, kg."""
+        return sum(self.block_masses)
+
+    @property
+    def com_height(self) -> float:
+        """Height of the centre of mass above the ground at rest, m."""
+        acc = 0.0
+        for z, b, m in zip(self.joint_heights, self.blocks, self.block_masses):
+            acc += m * (z + b.centroid_height)
+        return acc / self.mass
+
+    def __repr__(self) -> str:
+        return (f"Column({self.name!r}, n_blocks={self.n_blocks}, height={self.height:.3f} m, "
+                f"base_diameter={self.base_diameter:.3f} m, mass={self.mass:.0f} kg)")

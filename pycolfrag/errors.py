@@ -1,0 +1,31 @@
+"""Exceptions of pycolfrag.
+
+One base class, :class:`PycolfragError`; each subclass also inherits the builtin
+it means, so ``except ValueError`` keeps working for callers that do not know
+this package.
+"""
+from __future__ import annotations
+
+
+class PycolfragError(Exception):
+    """Base class of every error raised by pycolfrag."""
+
+
+class ParameterError(PycolfragError, ValueError):
+    """A bad argument: NaN/inf, wrong sign, wrong shape, impossible geometry."""
+
+
+class ModelRangeError(ParameterError):
+    """An argument outside the calibrated range of a published model (e.g. Mw, distance)."""
+
+
+class RecordFileError(PycolfragError, ValueError):
+    """A ground-motion file that exists but cannot be parsed (e.g. malformed .AT2)."""
+
+
+class SolverError(PycolfragError, RuntimeError):
+    """The solver detected a numerical failure (instability, NaN, energy blow-up)."""
+
+
+class ResultsFileError(PycolfragError, ValueError):
+    """A results file that does not match the run asked for (use --overwrite)."""

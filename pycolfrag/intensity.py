@@ -1,0 +1,1 @@
+"""Placeholder replaced by the ground-motion work (issue 3)."""
