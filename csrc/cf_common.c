@@ -17,3 +17,5 @@ const char *cf_common_status_name(int status)
 }
 
 const char *cf_common_version(void) { return CF_VERSION; }
+
+double cf_common_fma_probe(double a, double b, double c) { return a * b + c; }

@@ -30,6 +30,12 @@ const char *cf_common_status_name(int status);
 
 /* Library version string, e.g. "0.1.0"; Python checks it at import. */
 const char *cf_common_version(void);
+
+/* Returns a*b + c as this library's compiler flags evaluate it. With
+ * floating-point contraction off (-ffp-contract=off) this is the product rounded,
+ * then the sum rounded; a fused multiply-add would round once. Used by a test to
+ * prove that the build is reproducible across CPUs (REBOUND's fpcontract test). */
+double cf_common_fma_probe(double a, double b, double c);
 /* cffi:end */
 
 #endif

@@ -70,7 +70,7 @@ def as_double_array(x, name: str, ndim: int = 1, allow_empty: bool = False) -> n
     if bad.any():
         idx = np.argwhere(bad)[0]
         raise ParameterError(
-            f"{name} has a non-finite value {arr[tuple(idx)]!r} at index {tuple(int(i) for i in idx)}"
+            f"{name} has a non-finite value {float(arr[tuple(idx)])!r} at index {tuple(int(i) for i in idx)}"
         )
     return arr
 
