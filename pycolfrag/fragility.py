@@ -1,0 +1,780 @@
+"""Fragility analysis: paper Eqs. (1)-(4), surfaces over (Mw, R), stripe curves, MLE curves, bootstrap.
+
+Psycharis, Fragiadakis & Stefanou, "Seismic reliability assessment of classical columns subjected to
+near-fault ground motions", section "Fragility assessment":
+
+* Eq. (1)  F_R(Mw, R) = P(EDP >= edp | Mw, R)
+* Eq. (2)  F_R = 1 - Phi((ln edp - mu_lnEDP) / beta_lnEDP)               (no collapses)
+* Eq. (3)  P(C | Mw, R) = collapsed / total
+* Eq. (4)  P(EDP >= edp) = P(C) + (1 - P(C)) (1 - Phi((ln edp - mu) / beta)),  mu, beta of the
+  non-collapsed data.
+
+``mu`` and ``beta`` are the maximum-likelihood lognormal parameters of the non-collapsed EDPs
+(``scipy.stats.lognorm.fit(x, floc=0)``, i.e. the mean and the ``ddof=0`` standard deviation of
+``ln x``).  Non-collapsed EDPs that are exactly zero (a run that never moved) cannot enter a
+lognormal fit; they are counted as "below every positive threshold", so Eq. (4) becomes
+``P(C) + (1 - P(C)) q (1 - Phi(...))`` with ``q`` the fraction of positive non-collapsed EDPs and
+the fit done on the positive ones (for data without zeros this is exactly Eq. (4)).
+
+Beyond the paper:
+
+* the empirical ratio of Eq. (1) (``empirical_exceedance``), reported next to Eq. (4);
+* stripe curves accept equal-width (paper, 12 stripes) or equal-count stripes;
+* a smooth lognormal fragility function fitted by maximum likelihood over all samples
+  (``fit_lognormal_fragility``): each sample contributes a Bernoulli outcome
+  y = [collapsed or EDP >= edp] with P(y = 1 | IM) = Phi((ln IM - ln theta) / beta);
+  the binomial log-likelihood is maximised over (ln theta, ln beta) with scipy.optimize;
+* percentile-bootstrap confidence intervals (``scipy.stats.bootstrap``, resampling within each
+  scenario or stripe; stratified over scenarios for the MLE curve), with a seeded Generator.
+
+Every EDP here is dimensionless (u_top and u_d of the paper); IMs are in the units of the results
+file (PGA in g, PGV in cm/s, SA in g, SV in cm/s).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize, special, stats
+
+from .errors import ParameterError
+
+__all__ = [
+    "PerformanceLevel",
+    "PERFORMANCE_LEVELS",
+    "U_TOP_LEVELS",
+    "U_D_LEVELS",
+    "collapse_probability",
+    "lognormal_parameters",
+    "exceedance",
+    "empirical_exceedance",
+    "bootstrap_interval",
+    "ScenarioRow",
+    "scenario_table",
+    "Surface",
+    "exceedance_surface",
+    "mean_edp_surface",
+    "collapse_surface",
+    "StripeCurve",
+    "stripe_curve",
+    "LognormalFragility",
+    "fit_lognormal_fragility",
+    "exceeded",
+]
+
+
+@dataclass(frozen=True)
+class PerformanceLevel:
+    """One performance level of paper Tables III and IV.
+
+    Attributes
+    ----------
+    edp : str
+        ``"u_top"`` (max capital displacement / base diameter) or ``"u_d"`` (max residual drum
+        dislocation / joint diameter); both dimensionless.
+    threshold : float
+        Exceedance threshold ``edp`` of Eq. (1) (dimensionless).
+    name : str
+        The paper's name of the level.
+    """
+
+    edp: str
+    threshold: float
+    name: str
+
+    @property
+    def label(self) -> str:
+        """Plot/table label, e.g. ``u_top > 0.35``."""
+        return f"{self.edp} > {self.threshold:g}"
+
+
+#: Table III (risk of collapse).
+U_TOP_LEVELS = (
+    PerformanceLevel("u_top", 0.15, "Damage limitation"),
+    PerformanceLevel("u_top", 0.35, "Significant damage"),
+    PerformanceLevel("u_top", 1.0, "Near collapse"),
+)
+#: Table IV (residual drum dislocations).
+U_D_LEVELS = (
+    PerformanceLevel("u_d", 0.005, "Limited deformation"),
+    PerformanceLevel("u_d", 0.01, "Light deformation"),
+    PerformanceLevel("u_d", 0.02, "Significant deformation"),
+)
+PERFORMANCE_LEVELS = U_TOP_LEVELS + U_D_LEVELS
+
+
+# --------------------------------------------------------------------------- input checks
+
+def _as_inputs(edp, collapsed, threshold=None):
+    """Validate (edp, collapsed[, threshold]) and return float/bool arrays (and the threshold)."""
+    edp = np.asarray(edp, dtype=float)
+    collapsed = np.asarray(collapsed)
+    if edp.ndim != 1 or collapsed.ndim != 1:
+        raise ParameterError(f"edp and collapsed must be 1-D, got shapes {edp.shape} and {collapsed.shape}")
+    if edp.shape != collapsed.shape:
+        raise ParameterError(
+            f"edp and collapsed have mismatched lengths {edp.size} and {collapsed.size}")
+    if edp.size == 0:
+        raise ParameterError("empty group: no samples to compute a probability from")
+    if collapsed.dtype != bool:
+        if not np.all(np.isin(collapsed, (0, 1))):
+            raise ParameterError("collapsed must hold booleans (or 0/1)")
+        collapsed = collapsed.astype(bool)
+    ok = edp[~collapsed]
+    if not np.all(np.isfinite(ok)):
+        raise ParameterError("non-collapsed EDPs must be finite (NaN/inf found)")
+    if np.any(ok < 0):
+        raise ParameterError(f"EDPs must be non-negative, got min {ok.min()!r}")
+    if threshold is None:
+        return edp, collapsed
+    threshold = float(threshold)
+    if not np.isfinite(threshold) or threshold <= 0:
+        raise ParameterError(f"threshold must be a positive finite number, got {threshold!r}")
+    return edp, collapsed, threshold
+
+
+# --------------------------------------------------------------------------- Eqs. (1)-(4)
+
+def collapse_probability(collapsed) -> float:
+    """Paper Eq. (3): number of collapsed simulations over the total.
+
+    Parameters
+    ----------
+    collapsed : array_like of bool
+        One flag per simulation of the group (scenario or stripe).
+
+    Returns
+    -------
+    float
+        P(C) in [0, 1].
+    """
+    c = np.asarray(collapsed)
+    if c.ndim != 1 or c.size == 0:
+        raise ParameterError("collapsed must be a non-empty 1-D array (empty group?)")
+    if c.dtype != bool:
+        if not np.all(np.isin(c, (0, 1))):
+            raise ParameterError("collapsed must hold booleans (or 0/1)")
+        c = c.astype(bool)
+    return float(np.mean(c))
+
+
+def lognormal_parameters(edp) -> tuple[float, float]:
+    """Maximum-likelihood lognormal parameters of positive EDP values.
+
+    Parameters
+    ----------
+    edp : array_like
+        Positive EDP values (dimensionless), e.g. the non-collapsed ones of a scenario.
+
+    Returns
+    -------
+    (mu_ln, beta_ln) : tuple of float
+        Mean and dispersion of ``ln EDP`` (``scipy.stats.lognorm.fit(edp, floc=0)``:
+        ``beta = s``, ``mu = ln(scale)``; equal to ``mean(ln x)`` and ``std(ln x, ddof=0)``).
+    """
+    x = np.asarray(edp, dtype=float)
+    if x.ndim != 1 or x.size == 0:
+        raise ParameterError("lognormal_parameters needs a non-empty 1-D array (empty group?)")
+    if not np.all(np.isfinite(x)) or np.any(x <= 0):
+        raise ParameterError("lognormal_parameters needs finite positive values")
+    if x.size == 1 or np.all(x == x[0]):
+        return float(np.log(x[0])), 0.0
+    s, _loc, scale = stats.lognorm.fit(x, floc=0)
+    return float(np.log(scale)), float(s)
+
+
+def _lognormal_sf(threshold, mu, beta):
+    """1 - Phi((ln threshold - mu) / beta) with the beta = 0 limit (a step at exp(mu))."""
+    if beta > 0:
+        return float(stats.norm.sf((np.log(threshold) - mu) / beta))
+    return 1.0 if mu >= np.log(threshold) else 0.0
+
+
+def exceedance(edp, collapsed, threshold) -> float:
+    """Paper Eq. (4) (Eq. (2) when nothing collapsed): P(EDP >= threshold) of one group.
+
+    Parameters
+    ----------
+    edp : array_like of float
+        EDP of each simulation (dimensionless); values of collapsed runs are ignored (may be NaN).
+    collapsed : array_like of bool
+        Collapse flag of each simulation, same length.
+    threshold : float
+        The performance-level threshold ``edp`` (> 0, dimensionless).
+
+    Returns
+    -------
+    float
+        ``P(C) + (1 - P(C)) * (1 - Phi((ln threshold - mu) / beta))`` with ``mu``, ``beta`` the
+        lognormal parameters of the non-collapsed data (see the module docstring for zeros).
+    """
+    edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
+    pc = float(np.mean(collapsed))
+    ok = edp[~collapsed]
+    if ok.size == 0:
+        return 1.0
+    pos = ok[ok > 0]
+    if pos.size == 0:
+        return pc
+    q = pos.size / ok.size
+    mu, beta = lognormal_parameters(pos)
+    return pc + (1.0 - pc) * q * _lognormal_sf(threshold, mu, beta)
+
+
+def empirical_exceedance(edp, collapsed, threshold) -> float:
+    """Empirical ratio of Eq. (1): (collapsed or EDP >= threshold) / total.
+
+    Same arguments as :func:`exceedance`.
+    """
+    edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
+    return float(np.mean(exceeded(edp, collapsed, threshold)))
+
+
+def exceeded(edp, collapsed, threshold) -> np.ndarray:
+    """Bernoulli outcome of each simulation: collapsed or EDP >= threshold (bool array)."""
+    edp = np.asarray(edp, dtype=float)
+    collapsed = np.asarray(collapsed, dtype=bool)
+    with np.errstate(invalid="ignore"):
+        return collapsed | (np.nan_to_num(edp, nan=-np.inf) >= threshold)
+
+
+# --------------------------------------------------------------------------- vectorised statistics
+
+def _eq4_vectorised(threshold):
+    """Eq. (4) as a statistic over the last axis of (edp, collapsed) batches (for the bootstrap).
+
+    Uses the closed form of the lognormal MLE (mean and ddof=0 std of ln x), which is what
+    ``scipy.stats.lognorm.fit(x, floc=0)`` returns; ``tests/test_fragility.py`` checks the two agree.
+    """
+    ln_t = np.log(threshold)
+
+    def statistic(edp, collapsed, axis=-1):
+        edp = np.moveaxis(np.asarray(edp, dtype=float), axis, -1)
+        c = np.moveaxis(np.asarray(collapsed), axis, -1).astype(bool)
+        n = edp.shape[-1]
+        pos = (~c) & (np.nan_to_num(edp, nan=0.0) > 0)
+        n_ok = np.sum(~c, axis=-1)
+        n_pos = np.sum(pos, axis=-1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ln_x = np.where(pos, np.log(np.where(pos, edp, 1.0)), 0.0)
+            mu = np.sum(ln_x, axis=-1) / n_pos
+            var = np.sum(np.where(pos, (ln_x - mu[..., None]) ** 2, 0.0), axis=-1) / n_pos
+            beta = np.sqrt(var)
+            z = (ln_t - mu) / beta
+            tail = np.where(beta > 1e-12 * np.maximum(1.0, np.abs(mu)), stats.norm.sf(z),
+                            (mu >= ln_t).astype(float))
+            q = n_pos / n_ok
+        pc = 1.0 - n_ok / n
+        tail = np.where(n_pos > 0, q * tail, 0.0)
+        return np.where(n_ok > 0, pc + (1.0 - pc) * tail, 1.0)
+
+    return statistic
+
+
+def _empirical_vectorised(threshold):
+    def statistic(edp, collapsed, axis=-1):
+        return np.mean(exceeded(edp, collapsed, threshold), axis=axis)
+
+    return statistic
+
+
+def _mean_ok_vectorised(edp, collapsed, axis=-1):
+    """Mean EDP of the non-collapsed runs (paper Fig. 8a, b) over the last axis."""
+    edp = np.moveaxis(np.asarray(edp, dtype=float), axis, -1)
+    ok = ~np.moveaxis(np.asarray(collapsed), axis, -1).astype(bool)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sum(np.where(ok, np.nan_to_num(edp), 0.0), axis=-1) / np.sum(ok, axis=-1)
+
+
+def _rng(rng):
+    if rng is None or isinstance(rng, (int, np.integer)):
+        return np.random.default_rng(rng)
+    if isinstance(rng, np.random.Generator):
+        return rng
+    raise ParameterError(f"rng must be None, an int seed or a numpy Generator, got {type(rng).__name__}")
+
+
+def bootstrap_interval(edp, collapsed, threshold=None, *, statistic="eq4", n_boot=1000,
+                       confidence=0.90, rng=None) -> tuple[float, float]:
+    """Percentile bootstrap interval of a group statistic (``scipy.stats.bootstrap``, paired).
+
+    Parameters
+    ----------
+    edp, collapsed : array_like
+        The group's samples (one scenario or one stripe); rows are resampled with replacement.
+    threshold : float, optional
+        Performance-level threshold (needed for ``"eq4"`` and ``"empirical"``).
+    statistic : {"eq4", "empirical", "mean", "collapse"}
+        Eq. (4), the empirical ratio, the mean non-collapsed EDP, or Eq. (3).
+    n_boot : int
+        Bootstrap resamples.
+    confidence : float
+        Two-sided confidence level (0.90 gives the 5 % and 95 % percentiles).
+    rng : None, int or numpy.random.Generator
+        Seed or generator (reproducible bands).
+
+    Returns
+    -------
+    (low, high) : tuple of float
+        NaN when the group has fewer than 2 samples.
+    """
+    if statistic in ("eq4", "empirical"):
+        edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
+        fun = _eq4_vectorised(threshold) if statistic == "eq4" else _empirical_vectorised(threshold)
+    elif statistic == "mean":
+        edp, collapsed = _as_inputs(edp, collapsed)
+        if np.all(collapsed):
+            return (np.nan, np.nan)
+        fun = _mean_ok_vectorised
+    elif statistic == "collapse":
+        edp, collapsed = _as_inputs(edp, collapsed)
+
+        def fun(e, c, axis=-1):
+            return np.mean(np.asarray(c, dtype=float), axis=axis)
+    else:
+        raise ParameterError(f"unknown statistic {statistic!r}")
+    if not 0 < confidence < 1:
+        raise ParameterError(f"confidence must be in (0, 1), got {confidence!r}")
+    if int(n_boot) < 2:
+        raise ParameterError(f"n_boot must be >= 2, got {n_boot!r}")
+    if edp.size < 2:
+        return (np.nan, np.nan)
+    if statistic == "mean":
+        # a resample may hold only collapsed rows: its mean is undefined; the percentile of the
+        # rest is what we want, so draw the indices here and use nanpercentile.
+        g = _rng(rng)
+        idx = g.integers(0, edp.size, size=(int(n_boot), edp.size))
+        vals = fun(edp[idx], collapsed[idx])
+        a = 100 * (1 - confidence) / 2
+        lo, hi = np.nanpercentile(vals, [a, 100 - a])
+        return float(lo), float(hi)
+    res = stats.bootstrap((np.nan_to_num(edp, nan=0.0), collapsed.astype(float)), fun, paired=True,
+                          vectorized=True, n_resamples=int(n_boot), confidence_level=confidence,
+                          method="percentile", random_state=_rng(rng))
+    ci = res.confidence_interval
+    return float(ci.low), float(ci.high)
+
+
+# --------------------------------------------------------------------------- scenarios and surfaces
+
+@dataclass
+class ScenarioRow:
+    """Per-scenario summary (one row of the report's tables).
+
+    ``exceedance``, ``empirical`` and ``ci`` are keyed by the level label (``"u_top > 0.35"``);
+    ``ci`` holds the bootstrap interval of Eq. (4).  ``mu_ln``/``beta_ln`` are keyed by EDP name
+    (lognormal parameters of the positive non-collapsed values).
+    """
+
+    mw: float
+    dist_km: float
+    n: int
+    n_collapsed: int
+    p_collapse: float
+    p_collapse_ci: tuple
+    mean: dict = field(default_factory=dict)
+    mu_ln: dict = field(default_factory=dict)
+    beta_ln: dict = field(default_factory=dict)
+    exceedance: dict = field(default_factory=dict)
+    empirical: dict = field(default_factory=dict)
+    ci: dict = field(default_factory=dict)
+
+
+def _groups(mw, dist_km):
+    mw = np.asarray(mw, dtype=float)
+    dist_km = np.asarray(dist_km, dtype=float)
+    if mw.shape != dist_km.shape or mw.ndim != 1:
+        raise ParameterError(f"mw and dist_km must be 1-D of equal length, got {mw.shape} and {dist_km.shape}")
+    mws = np.unique(mw)
+    ds = np.unique(dist_km)
+    return mw, dist_km, mws, ds
+
+
+def scenario_table(mw, dist_km, edps: dict, collapsed, levels=PERFORMANCE_LEVELS, *, n_boot=1000,
+                   confidence=0.90, rng=None) -> list[ScenarioRow]:
+    """Per-scenario collapse probability, ln-EDP statistics and exceedance of every level.
+
+    Parameters
+    ----------
+    mw, dist_km : array_like
+        Scenario of each sample (magnitude, distance in km).
+    edps : dict of str -> array_like
+        EDP arrays by name (``{"u_top": ..., "u_d": ...}``), one value per sample.
+    collapsed : array_like of bool
+        Collapse flag of each sample.
+    levels : sequence of PerformanceLevel
+    n_boot, confidence, rng
+        Bootstrap settings (resampling within the scenario).
+
+    Returns
+    -------
+    list of ScenarioRow, ordered by (mw, dist_km).
+    """
+    mw, dist_km, mws, ds = _groups(mw, dist_km)
+    collapsed = np.asarray(collapsed).astype(bool)
+    edps = {k: np.asarray(v, dtype=float) for k, v in edps.items()}
+    for k, v in edps.items():
+        if v.shape != mw.shape:
+            raise ParameterError(f"{k} has length {v.size}, expected {mw.size}")
+    if collapsed.shape != mw.shape:
+        raise ParameterError(f"collapsed has length {collapsed.size}, expected {mw.size}")
+    g = _rng(rng)
+    rows = []
+    for m in mws:
+        for d in ds:
+            sel = (mw == m) & (dist_km == d)
+            if not np.any(sel):
+                continue
+            c = collapsed[sel]
+            row = ScenarioRow(float(m), float(d), int(sel.sum()), int(c.sum()), float(c.mean()),
+                              bootstrap_interval(np.zeros(c.size), c, statistic="collapse",
+                                                 n_boot=n_boot, confidence=confidence, rng=g))
+            for name, e in edps.items():
+                ok = e[sel][~c]
+                pos = ok[ok > 0]
+                row.mean[name] = float(np.mean(ok)) if ok.size else np.nan
+                if pos.size:
+                    row.mu_ln[name], row.beta_ln[name] = lognormal_parameters(pos)
+                else:
+                    row.mu_ln[name] = row.beta_ln[name] = np.nan
+            for lev in levels:
+                e = edps[lev.edp][sel]
+                row.exceedance[lev.label] = exceedance(e, c, lev.threshold)
+                row.empirical[lev.label] = empirical_exceedance(e, c, lev.threshold)
+                row.ci[lev.label] = bootstrap_interval(e, c, lev.threshold, n_boot=n_boot,
+                                                       confidence=confidence, rng=g)
+            rows.append(row)
+    return rows
+
+
+@dataclass
+class Surface:
+    """A quantity over the (Mw, R) grid with its bootstrap interval.
+
+    Attributes
+    ----------
+    mw : ndarray (n_mw,)
+    dist_km : ndarray (n_dist,)
+    value, low, high : ndarray (n_mw, n_dist)
+        Estimate and confidence limits; NaN where the grid has no samples.
+    n : ndarray of int (n_mw, n_dist)
+        Samples per scenario.
+    label : str
+    """
+
+    mw: np.ndarray
+    dist_km: np.ndarray
+    value: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    n: np.ndarray
+    label: str = ""
+
+    def at(self, mw: float, dist_km: float) -> tuple[float, float, float, int]:
+        """(value, low, high, n) at one scenario; ParameterError if it is not on the grid."""
+        i = np.flatnonzero(np.isclose(self.mw, mw))
+        j = np.flatnonzero(np.isclose(self.dist_km, dist_km))
+        if i.size == 0 or j.size == 0:
+            raise ParameterError(f"scenario Mw {mw}, R {dist_km} km is not on the grid")
+        i, j = i[0], j[0]
+        return (float(self.value[i, j]), float(self.low[i, j]), float(self.high[i, j]),
+                int(self.n[i, j]))
+
+
+def _surface(mw, dist_km, edp, collapsed, point, interval, label):
+    mw, dist_km, mws, ds = _groups(mw, dist_km)
+    edp, collapsed = _as_inputs(edp, collapsed)
+    if edp.shape != mw.shape:
+        raise ParameterError(f"EDP has length {edp.size}, expected {mw.size} (one per sample)")
+    shape = (mws.size, ds.size)
+    val, lo, hi = np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape, np.nan)
+    n = np.zeros(shape, dtype=int)
+    for i, m in enumerate(mws):
+        for j, d in enumerate(ds):
+            sel = (mw == m) & (dist_km == d)
+            n[i, j] = sel.sum()
+            if n[i, j] == 0:
+                continue
+            val[i, j] = point(edp[sel], collapsed[sel])
+            lo[i, j], hi[i, j] = interval(edp[sel], collapsed[sel])
+    return Surface(mws, ds, val, lo, hi, n, label)
+
+
+def exceedance_surface(mw, dist_km, edp, collapsed, threshold, *, method="eq4", n_boot=1000,
+                       confidence=0.90, rng=None, label="") -> Surface:
+    """Fragility surface F_R(Mw, R) = P(EDP >= threshold | Mw, R) (paper Figs. 12, 13).
+
+    Parameters
+    ----------
+    mw, dist_km, edp, collapsed : array_like
+        One value per sample (magnitude, km, dimensionless, bool).
+    threshold : float
+        Performance-level threshold (> 0).
+    method : {"eq4", "empirical"}
+        Eq. (4) with the lognormal fit, or the empirical ratio.
+    n_boot, confidence, rng
+        Bootstrap within each scenario.
+    """
+    if method not in ("eq4", "empirical"):
+        raise ParameterError(f"method must be 'eq4' or 'empirical', got {method!r}")
+    _ = _as_inputs(edp, collapsed, threshold)
+    g = _rng(rng)
+    fn = exceedance if method == "eq4" else empirical_exceedance
+    return _surface(mw, dist_km, edp, collapsed, lambda e, c: fn(e, c, threshold),
+                    lambda e, c: bootstrap_interval(e, c, threshold, statistic=method, n_boot=n_boot,
+                                                    confidence=confidence, rng=g),
+                    label or f"P(EDP >= {threshold:g})")
+
+
+def mean_edp_surface(mw, dist_km, edp, collapsed, *, n_boot=1000, confidence=0.90, rng=None,
+                     label="") -> Surface:
+    """Mean EDP of the non-collapsed samples over (Mw, R) (paper Fig. 8a, b); NaN if all collapsed."""
+    g = _rng(rng)
+
+    def point(e, c):
+        return float(np.mean(e[~c])) if np.any(~c) else np.nan
+
+    return _surface(mw, dist_km, edp, collapsed, point,
+                    lambda e, c: bootstrap_interval(e, c, statistic="mean", n_boot=n_boot,
+                                                    confidence=confidence, rng=g),
+                    label or "mean EDP (non-collapsed)")
+
+
+def collapse_surface(mw, dist_km, collapsed, *, n_boot=1000, confidence=0.90, rng=None) -> Surface:
+    """Collapse probability, Eq. (3), over (Mw, R) (paper Fig. 8c)."""
+    g = _rng(rng)
+    c = np.asarray(collapsed)
+    return _surface(mw, dist_km, np.zeros(c.shape), c, lambda e, c: float(np.mean(c)),
+                    lambda e, c: bootstrap_interval(e, c, statistic="collapse", n_boot=n_boot,
+                                                    confidence=confidence, rng=g),
+                    "P(collapse)")
+
+
+# --------------------------------------------------------------------------- stripes (paper Fig. 3)
+
+@dataclass
+class StripeCurve:
+    """Fragility curve P(EDP >= threshold | IM) by the stripe method (paper Fig. 3, Fig. 16).
+
+    Attributes
+    ----------
+    edges : ndarray (n_stripes + 1,)
+        Stripe limits on the IM axis (IM units).
+    im : ndarray (n_stripes,)
+        IM value of each stripe (mid-point for equal-width stripes, median IM for equal-count).
+    n, n_collapsed : ndarray of int
+    p, p_empirical, low, high : ndarray
+        Eq. (4) inside each stripe, the empirical ratio, and the bootstrap interval of Eq. (4);
+        NaN where a stripe holds fewer than ``min_count`` samples.
+    """
+
+    edges: np.ndarray
+    im: np.ndarray
+    n: np.ndarray
+    n_collapsed: np.ndarray
+    p: np.ndarray
+    p_empirical: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    threshold: float
+    stripes: str
+
+
+def stripe_edges(im, n_stripes=12, stripes="equal-width", im_range=None) -> np.ndarray:
+    """Stripe limits: ``n_stripes`` equal-width intervals (paper: 12) or equal-count quantiles."""
+    im = np.asarray(im, dtype=float)
+    if int(n_stripes) < 1:
+        raise ParameterError(f"n_stripes must be >= 1, got {n_stripes!r}")
+    if im.size == 0:
+        raise ParameterError("empty IM array")
+    if stripes == "equal-width":
+        lo, hi = (np.min(im), np.max(im)) if im_range is None else map(float, im_range)
+        if not hi > lo:
+            raise ParameterError(f"IM range must be increasing, got {lo}..{hi}")
+        return np.linspace(lo, hi, int(n_stripes) + 1)
+    if stripes == "equal-count":
+        return np.quantile(im, np.linspace(0, 1, int(n_stripes) + 1))
+    raise ParameterError(f"stripes must be 'equal-width' or 'equal-count', got {stripes!r}")
+
+
+def stripe_curve(im, edp, collapsed, threshold, *, n_stripes=12, stripes="equal-width",
+                 im_range=None, min_count=5, n_boot=1000, confidence=0.90, rng=None) -> StripeCurve:
+    """Stripe-method fragility curve (paper Fig. 3): Eq. (4) using only the data in each IM stripe.
+
+    Parameters
+    ----------
+    im : array_like
+        Intensity measure of each sample (PGA in g, PGV in cm/s, SA(T) in g, SV(T) in cm/s), > 0.
+    edp, collapsed : array_like
+        EDP and collapse flag of each sample.
+    threshold : float
+        Performance-level threshold (> 0).
+    n_stripes : int
+        Number of stripes (paper: 12).
+    stripes : {"equal-width", "equal-count"}
+    im_range : (float, float), optional
+        IM interval split into equal-width stripes (default: data min..max).
+    min_count : int
+        Stripes with fewer samples are reported as NaN.
+    n_boot, confidence, rng
+        Bootstrap within each stripe.
+    """
+    edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
+    im = np.asarray(im, dtype=float)
+    if im.shape != edp.shape:
+        raise ParameterError(f"im has length {im.size}, edp has {edp.size}")
+    if not np.all(np.isfinite(im)):
+        raise ParameterError("IM values must be finite")
+    edges = stripe_edges(im, n_stripes, stripes, im_range)
+    k = edges.size - 1
+    # stripe index; the last stripe is closed on the right
+    idx = np.clip(np.searchsorted(edges, im, side="right") - 1, 0, k - 1)
+    inside = (im >= edges[0]) & (im <= edges[-1])
+    g = _rng(rng)
+    out = {name: np.full(k, np.nan) for name in ("im", "p", "pe", "lo", "hi")}
+    n = np.zeros(k, dtype=int)
+    nc = np.zeros(k, dtype=int)
+    for s in range(k):
+        sel = inside & (idx == s)
+        n[s] = sel.sum()
+        nc[s] = collapsed[sel].sum()
+        out["im"][s] = 0.5 * (edges[s] + edges[s + 1]) if stripes == "equal-width" else (
+            np.median(im[sel]) if n[s] else np.nan)
+        if n[s] < max(int(min_count), 1):
+            continue
+        out["p"][s] = exceedance(edp[sel], collapsed[sel], threshold)
+        out["pe"][s] = empirical_exceedance(edp[sel], collapsed[sel], threshold)
+        out["lo"][s], out["hi"][s] = bootstrap_interval(edp[sel], collapsed[sel], threshold, n_boot=n_boot,
+                                                        confidence=confidence, rng=g)
+    return StripeCurve(edges, out["im"], n, nc, out["p"], out["pe"], out["lo"], out["hi"], threshold, stripes)
+
+
+# --------------------------------------------------------------------------- MLE lognormal curve
+
+@dataclass
+class LognormalFragility:
+    """Smooth fragility P(exceed | IM) = Phi(ln(IM / median) / beta), fitted by maximum likelihood.
+
+    Attributes
+    ----------
+    median : float
+        IM at 50 % probability (IM units).
+    beta : float
+        Lognormal dispersion (standard deviation of ln IM capacity).
+    n, n_exceed : int
+        Samples used and how many exceeded.
+    loglik : float
+        Maximised binomial log-likelihood.
+    band_im, band_low, band_high : ndarray or None
+        Bootstrap band of the curve on an IM grid (None without bootstrap).
+    """
+
+    median: float
+    beta: float
+    n: int
+    n_exceed: int
+    loglik: float
+    band_im: np.ndarray | None = None
+    band_low: np.ndarray | None = None
+    band_high: np.ndarray | None = None
+    median_ci: tuple = (np.nan, np.nan)
+    beta_ci: tuple = (np.nan, np.nan)
+
+    def __call__(self, im):
+        """Probability of exceedance at ``im`` (array_like, IM units)."""
+        im = np.asarray(im, dtype=float)
+        with np.errstate(divide="ignore"):
+            return stats.norm.cdf(np.log(im / self.median) / self.beta)
+
+
+def _mle(ln_im, y, x0=None):
+    """Maximise sum y ln Phi(z) + (1 - y) ln Phi(-z), z = (ln IM - ln theta) / beta.
+
+    Parameters are p = (ln theta, ln beta); BFGS with the analytic gradient
+    (d ln Phi(z) / dz = phi(z) / Phi(z), evaluated in log space with ``scipy.special.log_ndtr``).
+    """
+    sign = np.where(y, 1.0, -1.0)
+
+    def nll(p):
+        z = (ln_im - p[0]) * np.exp(-p[1])
+        sz = sign * z
+        lcdf = special.log_ndtr(sz)
+        w = sign * np.exp(-0.5 * sz * sz - 0.5 * np.log(2 * np.pi) - lcdf)   # d ln Phi(sz) / dz
+        grad = np.array([np.sum(w) * np.exp(-p[1]), np.sum(w * z)])          # of -loglik
+        return -np.sum(lcdf), grad
+
+    if x0 is None:
+        # start: halfway between the median ln IM of the two outcomes, dispersion 0.5
+        x0 = np.array([0.5 * (np.median(ln_im[y]) + np.median(ln_im[~y])), np.log(0.5)])
+    res = optimize.minimize(nll, x0, jac=True, method="BFGS", options={"gtol": 1e-8})
+    return res.x, -res.fun
+
+
+def fit_lognormal_fragility(im, edp, collapsed, threshold, *, groups=None, n_boot=0, confidence=0.90,
+                            rng=None, band_im=None) -> LognormalFragility:
+    """Lognormal fragility function by maximum likelihood over all samples.
+
+    Each sample is a Bernoulli trial y_i = [collapsed_i or EDP_i >= threshold] with
+    P(y_i = 1) = Phi((ln IM_i - ln theta) / beta); the binomial log-likelihood
+    sum y ln Phi + (1 - y) ln(1 - Phi) is maximised over (ln theta, ln beta) by
+    ``scipy.optimize.minimize`` (BFGS, analytic gradient).  Both outcomes must occur (otherwise the
+    maximum is at a boundary and ParameterError is raised).
+
+    Parameters
+    ----------
+    im : array_like
+        Intensity measure of each sample (> 0, IM units).
+    edp, collapsed, threshold
+        As in :func:`exceedance`.
+    groups : array_like, optional
+        Stratum of each sample (e.g. scenario index); the bootstrap resamples within each stratum
+        (all samples form one stratum when omitted).
+    n_boot : int
+        Bootstrap refits for the band (0: no band).
+    confidence : float
+        Two-sided level of the band.
+    rng : None, int or numpy.random.Generator
+    band_im : array_like, optional
+        IM grid of the band (default: 100 points log-spaced over the data).
+    """
+    edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
+    im = np.asarray(im, dtype=float)
+    if im.shape != edp.shape:
+        raise ParameterError(f"im has length {im.size}, edp has {edp.size}")
+    if not np.all(np.isfinite(im)) or np.any(im <= 0):
+        raise ParameterError("IM values must be finite and positive for a lognormal fit")
+    y = exceeded(edp, collapsed, threshold)
+    if y.all() or not y.any():
+        raise ParameterError(
+            f"every sample {'exceeds' if y.all() else 'stays below'} {threshold:g}: "
+            "the lognormal MLE has no interior maximum")
+    ln_im = np.log(im)
+    (ln_theta, ln_beta), ll = _mle(ln_im, y)
+    fit = LognormalFragility(float(np.exp(ln_theta)), float(np.exp(ln_beta)), int(y.size), int(y.sum()),
+                             float(ll))
+    if n_boot:
+        g = _rng(rng)
+        strata = np.zeros(y.size, dtype=int) if groups is None else np.unique(
+            np.asarray(groups), return_inverse=True)[1].ravel()
+        if strata.size != y.size:
+            raise ParameterError(f"groups has length {strata.size}, expected {y.size}")
+        members = [np.flatnonzero(strata == s) for s in np.unique(strata)]
+        grid = (np.geomspace(im.min(), im.max(), 100) if band_im is None
+                else np.asarray(band_im, dtype=float))
+        curves, meds, betas = [], [], []
+        for _ in range(int(n_boot)):
+            idx = np.concatenate([g.choice(m, size=m.size, replace=True) for m in members])
+            yb = y[idx]
+            if yb.all() or not yb.any():
+                continue
+            (a, b), _ll = _mle(ln_im[idx], yb, x0=np.array([ln_theta, ln_beta]))
+            meds.append(np.exp(a))
+            betas.append(np.exp(b))
+            curves.append(stats.norm.cdf((np.log(grid) - a) / np.exp(b)))
+        if curves:
+            a = 100 * (1 - confidence) / 2
+            fit.band_im = grid
+            fit.band_low, fit.band_high = np.percentile(np.array(curves), [a, 100 - a], axis=0)
+            fit.median_ci = tuple(np.percentile(meds, [a, 100 - a]))
+            fit.beta_ci = tuple(np.percentile(betas, [a, 100 - a]))
+    return fit
