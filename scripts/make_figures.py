@@ -1,0 +1,32 @@
+#!/usr/bin/env python
+"""Write the paper's figures (Figs. 7, 8, 9, 11-16; PNG and PDF) from a results file.
+
+    python scripts/make_figures.py results/grid.h5 [--out results/figures] [--n-boot 500] [--seed 0]
+"""
+import argparse
+import os
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+
+from pycolfrag import figures  # noqa: E402
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("results", help="HDF5 results file of scripts/run_grid.py")
+    p.add_argument("--out", default=None, help="output directory (default: <results dir>/figures)")
+    p.add_argument("--n-boot", type=int, default=500, help="bootstrap resamples for surfaces and bands")
+    p.add_argument("--seed", type=int, default=0, help="seed of the bootstrap")
+    a = p.parse_args(argv)
+    out = a.out or os.path.join(os.path.dirname(os.path.abspath(a.results)), "figures")
+    for path in figures.make_all(a.results, out, n_boot=a.n_boot, rng=a.seed):
+        print(path)
+
+
+if __name__ == "__main__":
+    main()

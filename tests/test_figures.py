@@ -1,0 +1,121 @@
+"""Figures from a small synthetic results file: each is produced without error and labelled.
+
+The file is written here with plain h5py following docs/architecture.md ("Results file"); the
+numbers are a made-up but plausible response model (only the plumbing is tested, not pixels).
+"""
+import json
+
+import h5py
+import numpy as np
+import pytest
+
+from pycolfrag import figures
+
+
+def write_results(path, seed=0, mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0, 20.0), n=30, n_failed=3,
+                  vp_scale=1.0):
+    """A small results file in the documented layout; the first ``n_failed`` rows fail (status 3)."""
+    rng = np.random.default_rng(seed)
+    mw = np.repeat(np.repeat(mws, len(dists)), n).astype(float)
+    dist = np.tile(np.repeat(dists, n), len(mws)).astype(float)
+    rows = mw.size
+    scen = np.repeat(np.arange(len(mws) * len(dists)), n)
+    sample = np.tile(np.arange(n), len(mws) * len(dists))
+    vp = vp_scale * 10 ** (-5.17 + 1.98 * np.minimum(mw, 7) - 0.14 * np.minimum(mw, 7) ** 2
+                           - 0.10 * np.log10(dist ** 2 + 0.562) + 0.16 * rng.standard_normal(rows))
+    fp = 1 / 10 ** (-2.87 + 0.47 * mw + 0.18 * rng.standard_normal(rows))
+    pgv = vp * np.exp(0.2 * rng.standard_normal(rows))
+    pga = 0.02 * pgv ** 0.8 * np.exp(0.3 * rng.standard_normal(rows))
+    ap = np.pi * fp * vp / 981
+    u_top = 0.004 * pgv * np.exp(0.6 * rng.standard_normal(rows))
+    collapsed = u_top > 1.1
+    u_d = 0.01 * u_top * np.exp(0.8 * rng.standard_normal(rows))
+    u_top[collapsed] = np.nan
+    u_d[collapsed] = np.nan
+    status = np.zeros(rows, dtype="i4")
+    status[:n_failed] = 3
+    periods = np.array([0.5, 1.0, 2.0])
+    sa = pga[:, None] * np.array([2.0, 1.2, 0.5])
+    sv = sa * 981 * periods / (2 * np.pi)
+    cols = dict(mw=mw, dist_km=dist, scenario=scen.astype("i4"), sample=sample.astype("i4"), vp_cm_s=vp,
+                fp_hz=fp, nu_rad=rng.uniform(-1.5, 1.5, rows), gamma=1.8 + 0.4 * rng.random(rows),
+                pga_g=pga, pgv_cm_s=pgv, u_top=u_top, u_d=u_d, collapsed=collapsed.astype("u1"), status=status,
+                wall_s=np.ones(rows), ap_g=ap, a_cm_s=vp, t0_s=np.full(rows, 10.0), pgd_cm=pgv,
+                tp_s=1 / fp)
+    with h5py.File(path, "w") as f:
+        g = f.create_group("samples")
+        for k, v in cols.items():
+            g[k] = v
+        g["message"] = np.array([b"synthetic failure" if s else b"" for s in status], dtype="S64")
+        sp = f.create_group("spectra")
+        sp["sa_g"] = sa
+        sp["sv_cm_s"] = sv
+        sp.attrs["periods_s"] = periods
+        f.attrs["seed"] = seed
+        f.attrs["n_ranks"] = 1
+        f.attrs["version"] = "test"
+        f.attrs["git_revision"] = "none"
+        f.attrs["column"] = json.dumps({"name": "synthetic"})
+        f.attrs["solver"] = json.dumps({"contact": "vertex"})
+        f.attrs["created"] = "2026-01-01T00:00:00Z"
+        f.attrs["vp_scale"] = vp_scale
+        f.attrs["grid_signature"] = json.dumps({"synthetic": True, "seed": seed})
+    return path
+
+
+@pytest.fixture(scope="module")
+def results_file(tmp_path_factory):
+    return write_results(tmp_path_factory.mktemp("res") / "grid.h5")
+
+
+def _check_labelled(fig):
+    assert fig.axes, "figure has no axes"
+    title = fig.get_suptitle() if hasattr(fig, "get_suptitle") else ""
+    for ax in fig.axes:
+        if ax.get_label() == "<colorbar>":
+            continue
+        assert ax.get_xlabel() and ax.get_ylabel(), f"unlabelled axes in {title!r}"
+        assert ax.get_title() or title, "figure without a title"
+        labels = ax.get_xlabel() + ax.get_ylabel() + (ax.get_zlabel() if ax.name == "3d" else "")
+        assert "(" in labels and ")" in labels, f"no unit in {labels!r}"
+
+
+def test_read_results_excludes_failed(results_file):
+    d = figures.read_results(results_file)
+    assert d.n_failed == 3 and d.n == d.n_total - 3 == 4 * 3 * 30 - 3
+    assert d.failures == {3: 3}
+    assert d["collapsed"].dtype == bool
+
+
+@pytest.mark.parametrize("stem", sorted(figures.FIGURES))
+def test_each_figure_labelled(results_file, stem):
+    d = figures.read_results(results_file)
+    fig = figures.FIGURES[stem](d, n_boot=30, rng=1)
+    assert fig is not None
+    _check_labelled(fig)
+    # units expected on particular figures
+    text = " ".join(a.get_xlabel() + " " + a.get_ylabel() for a in fig.axes)
+    if stem.startswith(("fig08", "fig12", "fig13")):
+        assert "R (km)" in text and all(a.name == "3d" for a in fig.axes)
+    if stem.startswith("fig11"):
+        assert "Tp = 1/fp (s)" in text and "PGA (g)" in text
+        lines = [ln for ln in fig.axes[2].get_lines() if "rocking" in ln.get_label()]
+        assert lines and np.allclose(lines[0].get_ydata(), 0.17)
+    if stem.startswith("fig16_"):
+        assert "PGA (g)" in text and "PGV (cm/s)" in text
+    if stem.startswith("fig09"):
+        assert "Vp (cm/s)" in text and "(g" in text
+
+
+def test_make_all_writes_png_and_pdf(results_file, tmp_path):
+    paths = figures.make_all(results_file, tmp_path / "fig", n_boot=20)
+    assert len(paths) == 2 * len(figures.FIGURES)
+    for p in paths:
+        with open(p, "rb") as fh:
+            head = fh.read(8)
+        assert head.startswith(b"\x89PNG") or head.startswith(b"%PDF")
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(ValueError):
+        figures.read_results(tmp_path / "nope.h5")
