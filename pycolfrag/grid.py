@@ -1,0 +1,723 @@
+"""The Monte Carlo grid driver behind ``scripts/run_grid.py`` (SPEC §5, issue 4).
+
+For every scenario (Mw, R) of the grid and every sample ``k`` of that scenario:
+
+1. pulse parameters = row ``k`` of the scenario's Latin hypercube
+   (:func:`pycolfrag.ground_motion.sample_pulse_parameters`, seeded from (seed, Mw, R) only);
+2. record = :func:`pycolfrag.ground_motion.synthesize` with those pulse parameters and a
+   high-frequency noise seed derived from (seed, Mw, R, k) through :class:`numpy.random.SeedSequence`;
+3. intensity measures (:func:`pycolfrag.intensity.measures`);
+4. response of the column (:func:`pycolfrag.simulate`): EDPs, collapse, timing.
+
+Nothing random depends on the rank or the order of work, so 1 rank and N ranks write identical
+datasets (except ``wall_s`` and the ``n_ranks`` attribute). The scenario enters the streams by its
+(Mw, R) values (in thousandths), not its index, so a sub-grid reproduces the full grid's records.
+
+Parallel layout (mpi4py, imported only when launched under MPI): every rank computes. Rank 0
+holds the queue of rows (longest expected first: Mw 7.5 before 5.5), takes one row at a time for
+itself, and between its own rows answers the other ranks' requests (non-blocking probes). The
+other ranks ask for their next chunk *before* computing the current one (prefetch), so a request
+is answered while they work and they do not wait for rank 0 to finish its row; a request also
+carries the finished rows of the previous chunk (one message per chunk). Chunks shrink as the
+queue empties (guided self-scheduling, at most ``chunk_max`` rows). With many ranks rank 0 only
+serves (``rank0_works="auto"``: it computes when there are at most 16 ranks). Rank 0 alone writes
+the results (:mod:`pycolfrag.results`: journal at once, HDF5 in batches).
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+import traceback
+from collections import OrderedDict, deque
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from . import __version__
+from . import results as _results
+from .errors import ParameterError, ResultsFileError
+
+__all__ = [
+    "DEFAULT_MW", "DEFAULT_DIST_KM", "DEFAULT_SAMPLES", "DEFAULT_SEED", "DEFAULT_PERIODS_S",
+    "GridSpec", "SampleContext", "run_sample", "run_grid", "derive_seed", "build_parser", "main",
+]
+
+DEFAULT_MW = (5.5, 6.0, 6.5, 7.0, 7.5)
+DEFAULT_DIST_KM = (5.0, 7.5, 10.0, 12.5, 15.0, 17.5, 20.0)
+DEFAULT_SAMPLES = 100
+DEFAULT_SEED = 20160601
+#: Spectral periods stored in /spectra, s.
+DEFAULT_PERIODS_S = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0)
+DEFAULT_DAMPING = 0.05
+DEFAULT_RECORD_DT_S = 0.005
+
+# tags of the rank-0 <-> worker protocol
+_TAG_REQUEST = 11   # worker -> 0: "next chunk please" + rows finished since the last request
+_TAG_DONE = 12      # worker -> 0: last rows; the worker stops
+_TAG_WORK = 13      # 0 -> worker: a list of row indices (empty: no more work)
+
+# stream identifiers mixed into the SeedSequence keys
+_STREAM_LHS = 1
+_STREAM_HF = 2
+
+
+def _key(x: float) -> int:
+    """A grid coordinate as an integer key (thousandths), stable across float spellings."""
+    return int(round(float(x) * 1000.0))
+
+
+def derive_seed(seed: int, *key: int) -> int:
+    """A 32-bit seed from ``numpy.random.SeedSequence(seed, spawn_key=key)``.
+
+    32 bits because the generators below accept any non-negative int up to 2**32 - 1 (also the
+    legacy ones); distinct keys give independent streams through the SeedSequence hash.
+    """
+    ss = np.random.SeedSequence(int(seed), spawn_key=tuple(int(k) for k in key))
+    return int(ss.generate_state(1, dtype=np.uint32)[0])
+
+
+def _parse_values(tokens: Sequence[str], name: str) -> tuple[float, ...]:
+    """Floats from tokens; ``a:b:step`` is an inclusive range (``5.5:7.5:0.5``); commas also split."""
+    out: list[float] = []
+    for tok in tokens:
+        for part in str(tok).replace(",", " ").split():
+            try:
+                if ":" in part:
+                    a, b, s = (float(x) for x in part.split(":"))
+                    if not (s > 0 and b >= a):
+                        raise ValueError
+                    n = int(math.floor((b - a) / s + 1e-9)) + 1
+                    out.extend(round(a + i * s, 10) for i in range(n))
+                else:
+                    out.append(float(part))
+            except ValueError:
+                raise ParameterError(f"{name}: cannot read {part!r} (a number or start:stop:step)") from None
+    if not out or any(not math.isfinite(v) for v in out):
+        raise ParameterError(f"{name}: needs finite values, got {tokens!r}")
+    if len(set(_key(v) for v in out)) != len(out):
+        raise ParameterError(f"{name}: repeated values in {out}")
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """Everything that fixes the results of a grid run (stored as the file's ``grid_signature``).
+
+    Parameters
+    ----------
+    mw, dist_km : tuple of float
+        Magnitudes and distances (km); scenarios are all pairs, Mw-major.
+    samples : int
+        Samples per scenario.
+    seed : int
+        Root seed (non-negative).
+    column : dict
+        ``Column.to_dict()`` of the column (after ``--kn``).
+    solver_options : dict
+        Keyword arguments for :func:`pycolfrag.simulate`.
+    vp_scale : float
+        Pulse-amplitude scale passed to the ground-motion model.
+    periods_s : tuple of float
+        Spectral periods, s. ``damping``: spectral damping ratio.
+    record_dt_s : float
+        Time step of the synthetic records, s.
+    max_record_s : float or None
+        Cut records to this length, s (tests and quick looks only: changes the physics).
+    sample_function : str or None
+        ``module:function`` replacing :func:`run_sample` (tests), None for the default.
+    """
+
+    mw: tuple = DEFAULT_MW
+    dist_km: tuple = DEFAULT_DIST_KM
+    samples: int = DEFAULT_SAMPLES
+    seed: int = DEFAULT_SEED
+    column: dict = field(default_factory=dict)
+    solver_options: dict = field(default_factory=dict)
+    vp_scale: float = 1.0
+    periods_s: tuple = DEFAULT_PERIODS_S
+    damping: float = DEFAULT_DAMPING
+    record_dt_s: float = DEFAULT_RECORD_DT_S
+    max_record_s: float | None = None
+    sample_function: str | None = None
+
+    def __post_init__(self):
+        if int(self.samples) != self.samples or self.samples < 1:
+            raise ParameterError(f"samples must be an integer >= 1, got {self.samples!r}")
+        if int(self.seed) != self.seed or self.seed < 0:
+            raise ParameterError(f"seed must be a non-negative integer, got {self.seed!r}")
+        if not self.mw or not self.dist_km:
+            raise ParameterError("the grid needs at least one Mw and one distance")
+        for name in ("vp_scale", "record_dt_s", "damping"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ParameterError(f"{name} must be finite and > 0, got {v!r}")
+        if not self.periods_s or any(not (math.isfinite(p) and p > 0) for p in self.periods_s):
+            raise ParameterError(f"periods must be finite and > 0, got {self.periods_s!r}")
+        if self.max_record_s is not None and not (math.isfinite(self.max_record_s) and self.max_record_s > 0):
+            raise ParameterError(f"max_record_s must be > 0, got {self.max_record_s!r}")
+
+    @property
+    def scenarios(self) -> list[tuple[float, float]]:
+        """(Mw, R km) of each scenario index."""
+        return [(m, r) for m in self.mw for r in self.dist_km]
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.scenarios) * self.samples
+
+    def signature(self) -> dict:
+        return {
+            "mw": [float(v) for v in self.mw], "dist_km": [float(v) for v in self.dist_km],
+            "samples": int(self.samples), "seed": int(self.seed), "column": self.column,
+            "solver": self.solver_options, "vp_scale": float(self.vp_scale),
+            "periods_s": [float(p) for p in self.periods_s], "damping": float(self.damping),
+            "record_dt_s": float(self.record_dt_s), "max_record_s": self.max_record_s,
+            "sample_function": self.sample_function,
+            "streams": "SeedSequence(seed, (stream, mw_key, dist_key[, sample])) -> uint32; v1",
+        }
+
+    def order(self, rows) -> list[int]:
+        """Longest expected first: Mw descending, then R descending (longer records), then sample."""
+        sc = self.scenarios
+        return sorted(rows, key=lambda r: (-sc[r // self.samples][0], -sc[r // self.samples][1], r))
+
+
+class SampleContext:
+    """What a rank needs to compute any row: the spec, the column, cached LHS tables."""
+
+    def __init__(self, spec: GridSpec):
+        from .column import Column
+        self.spec = spec
+        self.column = Column.from_dict(spec.column) if spec.column else Column.parthenon()
+        self._lhs: OrderedDict = OrderedDict()
+
+    def locate(self, row: int) -> tuple[int, int, float, float]:
+        """(scenario, sample, Mw, R km) of a row."""
+        sc, k = divmod(int(row), self.spec.samples)
+        mw, dist = self.spec.scenarios[sc]
+        return sc, k, mw, dist
+
+    def lhs_seed(self, scenario: int) -> int:
+        mw, dist = self.spec.scenarios[scenario]
+        return derive_seed(self.spec.seed, _STREAM_LHS, _key(mw), _key(dist))
+
+    def hf_seed(self, scenario: int, sample: int) -> int:
+        mw, dist = self.spec.scenarios[scenario]
+        return derive_seed(self.spec.seed, _STREAM_HF, _key(mw), _key(dist), int(sample))
+
+    def pulse(self, scenario: int, sample: int) -> dict:
+        """Row ``sample`` of the scenario's LHS of pulse parameters (cached per scenario)."""
+        if scenario not in self._lhs:
+            from .ground_motion import sample_pulse_parameters
+            mw, dist = self.spec.scenarios[scenario]
+            table = sample_pulse_parameters(mw, dist, self.spec.samples, self.lhs_seed(scenario),
+                                            vp_scale=self.spec.vp_scale)
+            self._lhs[scenario] = {k: np.asarray(v) for k, v in table.items()}
+            while len(self._lhs) > 8:
+                self._lhs.popitem(last=False)
+        return {k: (v[sample].item() if v.ndim else v.item()) for k, v in self._lhs[scenario].items()}
+
+
+def _meta(meta: dict, *names, default=math.nan):
+    for n in names:
+        if n in meta and meta[n] is not None:
+            return float(meta[n])
+    return default
+
+
+def run_sample(ctx: SampleContext, row: int) -> dict:
+    """Compute one row; never raises for a failing sample (``status`` > 0 and ``message`` instead)."""
+    from . import ground_motion, intensity
+    from .solver import simulate
+    spec = ctx.spec
+    sc, k, mw, dist = ctx.locate(row)
+    out = {"row": int(row), "scenario": sc, "sample": k, "mw": mw, "dist_km": dist,
+           "status": _results.STATUS_OK, "message": ""}
+    t0 = time.perf_counter()
+    phase = _results.STATUS_RECORD_FAILED
+    try:
+        rec = ground_motion.synthesize(mw, dist, ctx.hf_seed(sc, k), dt=spec.record_dt_s,
+                                       vp_scale=spec.vp_scale, pulse=ctx.pulse(sc, k))
+        acc, dt, meta = np.asarray(rec.acc, dtype=float), float(rec.dt), dict(rec.meta)
+        if spec.max_record_s is not None:
+            acc = acc[: int(round(spec.max_record_s / dt)) + 1]
+        out.update(vp_cm_s=_meta(meta, "Vp_cm_s"), fp_hz=_meta(meta, "fp_hz"), nu_rad=_meta(meta, "nu_rad"),
+                   gamma=_meta(meta, "gamma"), t0_s=_meta(meta, "t0_s"), a_cm_s=_meta(meta, "A_cm_s"),
+                   ap_g=_meta(meta, "Ap_g"), record_s=len(acc) * dt)
+        fp = out["fp_hz"]
+        out["tp_s"] = _meta(meta, "Tp_s", default=(1.0 / fp if fp and math.isfinite(fp) else math.nan))
+        phase = _results.STATUS_IM_FAILED
+        ims = intensity.measures(acc, dt, periods=spec.periods_s, damping=spec.damping)
+        out.update(pga_g=float(ims["pga_g"]), pgv_cm_s=float(ims["pgv_cm_s"]), pgd_cm=float(ims["pgd_cm"]),
+                   arias_m_s=float(ims["arias_m_s"]), d5_95_s=float(ims["d5_95_s"]),
+                   sa_g=np.asarray(ims["sa_g"], dtype=float), sv_cm_s=np.asarray(ims["sv_cm_s"], dtype=float))
+        phase = _results.STATUS_SOLVER_FAILED
+        res = simulate(ctx.column, acc, dt, **spec.solver_options)
+        phase = _results.STATUS_OTHER_FAILED
+        collapsed = bool(res.collapsed)
+        cb = getattr(res, "collapse_block", None)
+        ct = getattr(res, "collapse_time", None)
+        out.update(u_top=float(res.u_top), u_d=float(res.u_d), collapsed=int(collapsed),
+                   collapse_block=int(cb) if (collapsed and cb is not None and cb >= 0) else -1,
+                   collapse_time_s=float(ct) if (collapsed and ct is not None) else math.nan,
+                   n_steps=int(res.n_steps), t_end_s=float(res.t_end),
+                   energy_error=float(getattr(res, "energy_error", math.nan)))
+    except Exception as exc:  # a failed sample is a result, not the end of the run (SPEC §9)
+        out["status"] = phase
+        out["message"] = f"{type(exc).__name__}: {exc}"
+    out["wall_s"] = time.perf_counter() - t0
+    return out
+
+
+def _guarded(fn: Callable, ctx: SampleContext, row: int) -> dict:
+    """Run a sample function; an exception escaping it becomes a failed row."""
+    t0 = time.perf_counter()
+    try:
+        out = dict(fn(ctx, row))
+    except Exception as exc:
+        sc, k, mw, dist = ctx.locate(row)
+        out = {"scenario": sc, "sample": k, "mw": mw, "dist_km": dist, "status": _results.STATUS_OTHER_FAILED,
+               "message": f"{type(exc).__name__}: {exc}", "wall_s": time.perf_counter() - t0}
+    out.setdefault("wall_s", time.perf_counter() - t0)
+    out["row"] = int(row)
+    return out
+
+
+def _load_function(name: str | None) -> Callable:
+    if not name:
+        return run_sample
+    mod, _, attr = name.partition(":")
+    if not attr:
+        raise ParameterError(f"sample function must be 'module:function', got {name!r}")
+    return getattr(importlib.import_module(mod), attr)
+
+
+# ---------------------------------------------------------------------------------------
+# MPI
+# ---------------------------------------------------------------------------------------
+
+_LAUNCHER_VARS = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK", "PMI_RANK", "MPI_LOCALNRANKS", "HYDRA_CONTROL_FD")
+
+
+def get_comm(mode: str = "auto"):
+    """``MPI.COMM_WORLD`` or None (serial).
+
+    ``auto``: use MPI when started by a launcher (mpirun/srun environment) or when ``mpi4py.MPI``
+    is already imported (``python -m mpi4py``); otherwise do not import it at all. ``yes``: always
+    (an error when mpi4py is missing); ``no``: never.
+    """
+    if mode == "no":
+        return None
+    if mode == "auto" and "mpi4py.MPI" not in sys.modules and not any(v in os.environ for v in _LAUNCHER_VARS):
+        return None
+    try:
+        from mpi4py import MPI
+    except ImportError:
+        if mode == "yes":
+            raise
+        return None
+    return MPI.COMM_WORLD
+
+
+def _git_revision() -> str:
+    here = Path(__file__).resolve().parent.parent
+    try:
+        rev = subprocess.run(["git", "-C", str(here), "rev-parse", "HEAD"], capture_output=True, text=True,
+                             timeout=10).stdout.strip()
+        if not rev:
+            return "unknown"
+        dirty = subprocess.run(["git", "-C", str(here), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return rev + ("-dirty" if dirty else "")
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def _resolved_solver_json(opts: dict) -> str:
+    """The solver options with the solver's defaults filled in when it can tell them."""
+    full = dict(opts)
+    try:
+        from . import solver
+        for name in ("resolve_options", "default_options"):
+            f = getattr(solver, name, None)
+            if callable(f):
+                d = f(**opts) if name == "resolve_options" else {**f(), **opts}
+                full = dict(d if isinstance(d, dict) else getattr(d, "__dict__", d))
+                break
+    except Exception:
+        pass
+    return json.dumps(full, sort_keys=True, default=str)
+
+
+@dataclass
+class RunSummary:
+    """What :func:`run_grid` returns on rank 0."""
+
+    path: Path
+    n_rows: int
+    computed: int
+    failed: int
+    wall_s: float
+    n_ranks: int
+    table: list = field(default_factory=list)
+    figures_ok: bool | None = None
+
+
+def run_grid(spec: GridSpec, out, *, overwrite: bool = False, retry_failed: bool = False,
+             sample_fn: Callable | None = None, comm=None, progress: bool = True, rank0_works: str = "auto",
+             chunk_max: int = 8, flush_s: float = 2.0, command: str | None = None,
+             log: Callable[[str], None] | None = None) -> RunSummary | None:
+    """Run (or resume) a grid; every rank calls this. Returns a :class:`RunSummary` on rank 0, None elsewhere.
+
+    Raises :class:`~pycolfrag.errors.ResultsFileError` on rank 0 when ``out`` holds another run
+    (other ranks then return None).
+    """
+    log = log or (lambda s: print(s, flush=True))
+    rank = comm.Get_rank() if comm is not None else 0
+    size = comm.Get_size() if comm is not None else 1
+    fn = sample_fn or _load_function(spec.sample_function)
+    ctx = SampleContext(spec)
+    out = Path(out)
+
+    writer, todo, err = None, None, None
+    t_start = time.perf_counter()
+    started = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    if rank == 0:
+        try:
+            attrs = {
+                "seed": int(spec.seed), "version": __version__, "git_revision": _git_revision(),
+                "column": json.dumps(spec.column, sort_keys=True),
+                "solver": _resolved_solver_json(spec.solver_options),
+                "created": started,
+                "n_ranks": size, "mw": list(spec.mw), "dist_km": list(spec.dist_km), "samples": int(spec.samples),
+                "vp_scale": float(spec.vp_scale), "periods_s": list(spec.periods_s), "damping": float(spec.damping),
+                "record_dt_s": float(spec.record_dt_s),
+                "max_record_s": -1.0 if spec.max_record_s is None else float(spec.max_record_s),
+                "command": command or " ".join(sys.argv),
+            }
+            writer = _results.open_for_run(out, spec.signature(), attrs, spec.n_rows, spec.periods_s,
+                                           overwrite=overwrite)
+            need = ~writer.done
+            if retry_failed:
+                need |= writer.status > 0
+            todo = spec.order(np.flatnonzero(need).tolist())
+            if writer.resumed:
+                log(f"resuming {out}: {int(writer.done.sum())} of {spec.n_rows} rows already done, "
+                    f"{len(todo)} to compute")
+        except Exception as exc:
+            err = exc
+    if comm is not None and size > 1:
+        ok = comm.bcast(err is None, root=0)
+        if not ok:
+            if rank == 0:
+                raise err
+            return None
+    elif err is not None:
+        raise err
+
+    if rank != 0:
+        _worker(comm, ctx, fn)
+        return None
+
+    # ---- rank 0 ----
+    prev_sigterm = signal.getsignal(signal.SIGTERM)
+
+    def _on_sigterm(signum, frame):  # turn SIGTERM into an exception so the finally-block flushes
+        raise SystemExit(128 + signum)
+
+    try:
+        signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread
+        pass
+    pbar = _progress(len(todo), progress)
+    computed, failed, collapses = 0, 0, 0
+    last_flush = time.perf_counter()
+
+    def accept(rows):
+        nonlocal computed, failed, collapses, last_flush
+        if not rows:
+            return
+        writer.add(rows)
+        computed += len(rows)
+        failed += sum(1 for r in rows if r.get("status", 0) != 0)
+        collapses += sum(1 for r in rows if r.get("collapsed"))
+        if pbar is not None:
+            pbar.update(len(rows))
+            pbar.set_postfix(collapsed=collapses, failed=failed, refresh=False)
+        if time.perf_counter() - last_flush >= flush_s:
+            writer.flush()
+            last_flush = time.perf_counter()
+
+    try:
+        if size == 1:
+            for row in todo:
+                accept([_guarded(fn, ctx, row)])
+        else:
+            works = rank0_works == "yes" or (rank0_works == "auto" and size <= 16)
+            _serve(comm, ctx, fn, deque(todo), works, chunk_max, accept)
+    finally:
+        if pbar is not None:
+            pbar.close()
+        wall = time.perf_counter() - t_start
+        sessions = _previous_sessions(out)
+        sessions.append({"started": started,
+                         "n_ranks": size, "rows_computed": computed, "wall_s": round(wall, 3)})
+        writer.finish({"n_ranks": size, "sessions": json.dumps(sessions), "wall_s_last_session": wall})
+        signal.signal(signal.SIGTERM, prev_sigterm)
+    return RunSummary(path=out, n_rows=spec.n_rows, computed=computed, failed=failed, wall_s=wall, n_ranks=size,
+                      table=summary_table(out))
+
+
+def _previous_sessions(path) -> list:
+    try:
+        import h5py
+        with h5py.File(path, "r") as f:
+            return json.loads(f.attrs.get("sessions", "[]"))
+    except Exception:
+        return []
+
+
+def _progress(total: int, enabled: bool):
+    if not enabled or total == 0:
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None
+    tty = sys.stderr.isatty()
+    return tqdm(total=total, desc="grid", unit="run", dynamic_ncols=True, smoothing=0.05,
+                mininterval=0.5 if tty else 30.0)
+
+
+def _chunk(queue: deque, size: int, chunk_max: int) -> list[int]:
+    """Guided self-scheduling: a quarter of an equal share, between 1 and ``chunk_max`` rows."""
+    n = len(queue)
+    k = max(1, min(chunk_max, n // (4 * size)))
+    return [queue.popleft() for _ in range(min(k, n))]
+
+
+def _serve(comm, ctx, fn, queue: deque, works: bool, chunk_max: int, accept) -> None:
+    """Rank 0: answer requests between its own rows until every worker has stopped."""
+    from mpi4py import MPI
+    size = comm.Get_size()
+    status = MPI.Status()
+    active = size - 1
+    sends = []
+    while active > 0 or (works and queue):
+        served = False
+        while active > 0 and comm.Iprobe(source=MPI.ANY_SOURCE, tag=MPI.ANY_TAG, status=status):
+            src, tag = status.Get_source(), status.Get_tag()
+            rows = comm.recv(source=src, tag=tag)
+            if tag == _TAG_REQUEST:
+                sends.append(comm.isend(_chunk(queue, size, chunk_max), dest=src, tag=_TAG_WORK))
+            elif tag == _TAG_DONE:
+                active -= 1
+            accept(rows)
+            served = True
+        if works and queue:
+            row = queue.popleft()
+            accept([_guarded(fn, ctx, row)])
+        elif not served:
+            time.sleep(0.001)  # nothing to do but wait: do not spin on a shared core
+        if len(sends) > 64:
+            sends = [r for r in sends if not r.Test()]
+    for r in sends:
+        r.Wait()
+
+
+def _worker(comm, ctx, fn) -> None:
+    """Ranks > 0: ask for the next chunk before computing the current one; hand in rows per chunk."""
+    pending = [comm.isend([], dest=0, tag=_TAG_REQUEST)]
+    chunk = comm.recv(source=0, tag=_TAG_WORK)
+    done: list = []
+    while chunk:
+        pending.append(comm.isend(done, dest=0, tag=_TAG_REQUEST))  # prefetch + last chunk's rows
+        done = [_guarded(fn, ctx, row) for row in chunk]
+        chunk = comm.recv(source=0, tag=_TAG_WORK)
+        pending = [r for r in pending if not r.Test()]
+    pending.append(comm.isend(done, dest=0, tag=_TAG_DONE))
+    for r in pending:
+        r.Wait()
+
+
+# ---------------------------------------------------------------------------------------
+# summary, outputs, command line
+# ---------------------------------------------------------------------------------------
+
+def summary_table(path) -> list[dict]:
+    """Per scenario: Mw, R, rows done, failed, collapses, mean u_top and u_d of the
+    non-collapsed successful runs, and the summed sample wall time (CPU-seconds over ranks)."""
+    res = _results.load(path)
+    table = []
+    s = res.samples
+    for d in res.scenario_table():
+        idx = d["index"]
+        ok = s["status"][idx] == 0
+        nc = ok & ~s["collapsed"][idx]
+        table.append({
+            "mw": d["mw"], "dist_km": d["dist_km"], "done": d["n"], "failed": d["failed"],
+            "collapses": d["collapses"],
+            "mean_u_top": float(np.mean(s["u_top"][idx][nc])) if nc.any() else math.nan,
+            "mean_u_d": float(np.mean(s["u_d"][idx][nc])) if nc.any() else math.nan,
+            "cpu_s": float(np.nansum(s["wall_s"][idx])),
+        })
+    return table
+
+
+def format_table(table: list[dict], samples: int) -> str:
+    lines = [f"{'Mw':>4} {'R km':>5} {'done':>5} {'failed':>6} {'collapses':>9} {'mean u_top*':>11} "
+             f"{'mean u_d*':>10} {'cpu s':>8}"]
+    for t in table:
+        lines.append(f"{t['mw']:4.1f} {t['dist_km']:5.1f} {t['done']:5d} {t['failed']:6d} {t['collapses']:9d} "
+                     f"{t['mean_u_top']:11.4g} {t['mean_u_d']:10.4g} {t['cpu_s']:8.1f}")
+    lines.append("* means over successful runs without collapse; cpu s = summed sample wall times")
+    return "\n".join(lines)
+
+
+def make_outputs(out: Path, figures_dir: Path, report_path: Path, log) -> bool:
+    """Figures and report from the results file; a failure is reported, never raised."""
+    ok = True
+    for modname, funcname, target in (("pycolfrag.figures", "make_all", figures_dir),
+                                      ("pycolfrag.report", "write_report", report_path)):
+        try:
+            mod = importlib.import_module(modname)
+        except ImportError as exc:
+            log(f"{modname} not available ({exc}); skipped")
+            continue
+        try:
+            getattr(mod, funcname)(str(out), str(target))
+            log(f"{modname}.{funcname} -> {target}")
+        except Exception:
+            ok = False
+            log(f"WARNING: {modname}.{funcname} failed (the results in {out} are complete and safe):\n"
+                + traceback.format_exc())
+    return ok
+
+
+def _solver_value(text: str):
+    try:
+        return json.loads(text)
+    except ValueError:
+        return text
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="run_grid.py",
+        description="Monte Carlo fragility grid of a multidrum column (SPEC §5). Run as "
+                    "'python scripts/run_grid.py' or 'mpirun -n N python -m mpi4py scripts/run_grid.py'. "
+                    "Rerunning the same command resumes an interrupted run.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    g = p.add_argument_group("grid")
+    g.add_argument("--mw", nargs="+", default=["5.5:7.5:0.5"], metavar="MW",
+                   help="magnitudes: numbers or start:stop:step (inclusive)")
+    g.add_argument("--dist", nargs="+", default=["5:20:2.5"], metavar="KM",
+                   help="distances, km: numbers or start:stop:step (inclusive)")
+    g.add_argument("--samples", type=int, default=DEFAULT_SAMPLES, help="LHS samples per scenario")
+    g.add_argument("--seed", type=int, default=DEFAULT_SEED, help="root seed of every random stream")
+    g.add_argument("--vp-scale", type=float, default=1.0, help="scale of the pulse amplitude Vp")
+    g.add_argument("--periods", nargs="+", default=[",".join(map(str, DEFAULT_PERIODS_S))], metavar="T",
+                   help="spectral periods, s, stored in /spectra")
+    g.add_argument("--damping", type=float, default=DEFAULT_DAMPING, help="spectral damping ratio")
+    g.add_argument("--record-dt", type=float, default=DEFAULT_RECORD_DT_S, help="time step of the records, s")
+    g.add_argument("--max-record-s", type=float, default=None,
+                   help="cut every record to this many seconds (tests and quick looks: changes the results)")
+    c = p.add_argument_group("column and solver")
+    c.add_argument("--column", default=None, metavar="FILE",
+                   help="column file (.json/.toml, docs/column_format.md); default: Column.parthenon()")
+    c.add_argument("--kn", type=float, default=None, help="joint normal stiffness, Pa/m (overrides the column's)")
+    c.add_argument("--contact", default=None, help="solver contact model (simulate(contact=...))")
+    c.add_argument("--dt-factor", type=float, default=None, help="solver time-step factor (simulate(dt_factor=...))")
+    c.add_argument("--solver", action="append", default=[], metavar="KEY=VALUE",
+                   help="any simulate() keyword; VALUE read as JSON when it parses (repeatable)")
+    o = p.add_argument_group("output and run")
+    o.add_argument("--out", default="results/grid.h5", help="HDF5 results file")
+    o.add_argument("--overwrite", action="store_true", help="replace an existing results file of another run")
+    o.add_argument("--retry-failed", action="store_true", help="on resume, recompute rows that failed")
+    o.add_argument("--figures", action=argparse.BooleanOptionalAction, default=True,
+                   help="make figures and report at the end (pycolfrag.figures / pycolfrag.report)")
+    o.add_argument("--figures-dir", default=None, help="figure folder (default: <out folder>/figures)")
+    o.add_argument("--report", default=None, help="report path (default: <out folder>/report.md)")
+    o.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True, help="tqdm progress bar")
+    a = p.add_argument_group("advanced")
+    a.add_argument("--mpi", choices=("auto", "yes", "no"), default="auto",
+                   help="use MPI: auto = when started by mpirun/srun or 'python -m mpi4py'")
+    a.add_argument("--rank0-works", choices=("auto", "yes", "no"), default="auto",
+                   help="rank 0 computes rows between serving others (auto: with at most 16 ranks)")
+    a.add_argument("--chunk-max", type=int, default=8, help="largest chunk of rows handed to a rank")
+    a.add_argument("--flush-s", type=float, default=2.0, help="seconds between HDF5 writes (the journal is immediate)")
+    a.add_argument("--sample-function", default=None, metavar="MODULE:FUNC",
+                   help="replace the per-sample function (tests); part of the run's signature")
+    return p
+
+
+def spec_from_args(args) -> GridSpec:
+    from .column import Column
+    col = Column.from_file(args.column) if args.column else Column.parthenon()
+    if args.kn is not None:
+        col = col.with_joints(kn=args.kn)
+    opts: dict = {}
+    if args.contact is not None:
+        opts["contact"] = args.contact
+    if args.dt_factor is not None:
+        opts["dt_factor"] = args.dt_factor
+    for kv in args.solver:
+        k, sep, v = kv.partition("=")
+        if not sep or not k.strip():
+            raise ParameterError(f"--solver expects KEY=VALUE, got {kv!r}")
+        opts[k.strip().replace("-", "_")] = _solver_value(v.strip())
+    return GridSpec(mw=_parse_values(args.mw, "--mw"), dist_km=_parse_values(args.dist, "--dist"),
+                    samples=args.samples, seed=args.seed, column=col.to_dict(), solver_options=opts,
+                    vp_scale=args.vp_scale, periods_s=_parse_values(args.periods, "--periods"),
+                    damping=args.damping, record_dt_s=args.record_dt, max_record_s=args.max_record_s,
+                    sample_function=args.sample_function)
+
+
+def main(argv=None) -> int:
+    """Command-line entry point (``scripts/run_grid.py``). Exit codes: 0 ok, 2 bad arguments or a
+    results file of another run, 3 figures/report failed (results are complete)."""
+    args = build_parser().parse_args(argv)
+    comm = get_comm(args.mpi)
+    rank = comm.Get_rank() if comm is not None else 0
+    size = comm.Get_size() if comm is not None else 1
+    log = (lambda s: print(s, flush=True)) if rank == 0 else (lambda s: None)
+    try:
+        spec = spec_from_args(args)
+    except (ParameterError, FileNotFoundError) as exc:
+        log(f"run_grid: {exc}")
+        return 2
+    if rank == 0:
+        log(f"grid: {len(spec.mw)} Mw x {len(spec.dist_km)} R x {spec.samples} samples = {spec.n_rows} runs "
+            f"on {size} rank{'s' if size > 1 else ''} -> {args.out}")
+    try:
+        summary = run_grid(spec, args.out, overwrite=args.overwrite, retry_failed=args.retry_failed, comm=comm,
+                           progress=args.progress, rank0_works=args.rank0_works, chunk_max=args.chunk_max,
+                           flush_s=args.flush_s, command=" ".join([sys.argv[0]] + list(argv or sys.argv[1:])),
+                           log=log)
+    except ResultsFileError as exc:
+        log(f"run_grid: {exc}")
+        return 2
+    if summary is None:  # worker ranks
+        return 0
+    log(format_table(summary.table, spec.samples))
+    log(f"{summary.computed} runs computed in {summary.wall_s:.1f} s on {size} rank(s)"
+        + (f" ({summary.wall_s / summary.computed * size:.3f} rank-s per run)" if summary.computed else "")
+        + f"; {summary.failed} failed; results: {summary.path}")
+    if args.figures:
+        out = Path(args.out)
+        figdir = Path(args.figures_dir) if args.figures_dir else out.parent / "figures"
+        report = Path(args.report) if args.report else out.parent / "report.md"
+        if not make_outputs(out, figdir, report, log):
+            return 3
+    return 0
+

@@ -1,0 +1,46 @@
+"""Sample functions for the grid tests (loaded by ``--sample-function grid_fakes:NAME``; the
+tests put this folder on PYTHONPATH).
+
+* ``fake``: no physics; deterministic numbers from the row's own seeds, so the driver's
+  scheduling, resume and rank independence are tested without the solver. ``PCF_FAKE_SLEEP_S``
+  makes each row take that long (to kill a run part-way).
+* ``failing``: the real :func:`pycolfrag.grid.run_sample`, except that the rows listed in
+  ``PCF_FAIL_ROWS`` (comma-separated) raise.
+* ``failing_fake``: ``fake`` with the same forced failures.
+"""
+import os
+import time
+
+import numpy as np
+
+from pycolfrag.grid import run_sample
+
+
+def _fail_rows():
+    return {int(x) for x in os.environ.get("PCF_FAIL_ROWS", "").split(",") if x.strip()}
+
+
+def fake(ctx, row):
+    sc, k, mw, dist = ctx.locate(row)
+    rng = np.random.default_rng(ctx.hf_seed(sc, k))
+    lhs = np.random.default_rng(ctx.lhs_seed(sc)).random(ctx.spec.samples)[k]
+    time.sleep(float(os.environ.get("PCF_FAKE_SLEEP_S", "0")))
+    x = rng.random(8)
+    n_p = len(ctx.spec.periods_s)
+    return {"scenario": sc, "sample": k, "mw": mw, "dist_km": dist, "status": 0, "message": "",
+            "vp_cm_s": 50 * lhs * mw, "fp_hz": x[0], "nu_rad": x[1], "gamma": 2 + x[2], "t0_s": 5.0,
+            "pga_g": x[3], "pgv_cm_s": 100 * x[4], "pgd_cm": x[5], "arias_m_s": x[6], "d5_95_s": 10 * x[7],
+            "u_top": x[3] * x[4], "u_d": x[5] * 0.01, "collapsed": int(x[3] > 0.9),
+            "sa_g": rng.random(n_p), "sv_cm_s": rng.random(n_p)}
+
+
+def failing(ctx, row):
+    if row in _fail_rows():
+        raise RuntimeError(f"forced failure of row {row}")
+    return run_sample(ctx, row)
+
+
+def failing_fake(ctx, row):
+    if row in _fail_rows():
+        raise RuntimeError(f"forced failure of row {row}")
+    return fake(ctx, row)
