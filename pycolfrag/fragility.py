@@ -687,11 +687,17 @@ class LognormalFragility:
             return stats.norm.cdf(np.log(im / self.median) / self.beta)
 
 
+#: Bounds of the MLE dispersion (a separable sample would drive beta to 0).
+BETA_MIN, BETA_MAX = 0.02, 5.0
+
+
 def _mle(ln_im, y, x0=None):
     """Maximise sum y ln Phi(z) + (1 - y) ln Phi(-z), z = (ln IM - ln theta) / beta.
 
-    Parameters are p = (ln theta, ln beta); BFGS with the analytic gradient
+    Parameters are p = (ln theta, ln beta); L-BFGS-B with the analytic gradient
     (d ln Phi(z) / dz = phi(z) / Phi(z), evaluated in log space with ``scipy.special.log_ndtr``).
+    Bounds keep separable (bootstrap) samples finite: beta in [BETA_MIN, BETA_MAX] and ln theta
+    within 5 of the data's ln IM range.
     """
     sign = np.where(y, 1.0, -1.0)
 
@@ -706,7 +712,10 @@ def _mle(ln_im, y, x0=None):
     if x0 is None:
         # start: halfway between the median ln IM of the two outcomes, dispersion 0.5
         x0 = np.array([0.5 * (np.median(ln_im[y]) + np.median(ln_im[~y])), np.log(0.5)])
-    res = optimize.minimize(nll, x0, jac=True, method="BFGS", options={"gtol": 1e-8})
+    bounds = [(ln_im.min() - 5.0, ln_im.max() + 5.0), (np.log(BETA_MIN), np.log(BETA_MAX))]
+    x0 = np.clip(x0, [b[0] for b in bounds], [b[1] for b in bounds])
+    res = optimize.minimize(nll, x0, jac=True, method="L-BFGS-B", bounds=bounds,
+                            options={"gtol": 1e-9, "ftol": 1e-13})
     return res.x, -res.fun
 
 
@@ -717,7 +726,7 @@ def fit_lognormal_fragility(im, edp, collapsed, threshold, *, groups=None, n_boo
     Each sample is a Bernoulli trial y_i = [collapsed_i or EDP_i >= threshold] with
     P(y_i = 1) = Phi((ln IM_i - ln theta) / beta); the binomial log-likelihood
     sum y ln Phi + (1 - y) ln(1 - Phi) is maximised over (ln theta, ln beta) by
-    ``scipy.optimize.minimize`` (BFGS, analytic gradient).  Both outcomes must occur (otherwise the
+    ``scipy.optimize.minimize`` (L-BFGS-B, analytic gradient, bounded).  Both outcomes must occur (otherwise the
     maximum is at a boundary and ParameterError is raised).
 
     Parameters

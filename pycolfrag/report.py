@@ -1,0 +1,168 @@
+"""Markdown report of a results file: run metadata, per-scenario tables, IM fragility fits, figures.
+
+``write_report(results_path, out_path)`` is called by the grid driver at the end of a run
+(``results/report.md`` next to ``results/grid.h5`` by default) and by
+``python -m pycolfrag.report RESULTS.h5 [OUT.md]``.
+
+Confidence intervals: Eq. (4) exceedances and mean EDPs carry percentile-bootstrap intervals
+(resampling within the scenario, :mod:`pycolfrag.fragility`); the collapse probability, a binomial
+proportion, carries the exact Clopper-Pearson interval (``scipy.stats.binomtest``), which stays
+informative when no run collapsed (the bootstrap interval of 0 of n is [0, 0]).
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+from . import fragility as fr
+from .figures import FIGURES, im_curves, read_results
+
+__all__ = ["write_report", "binomial_ci", "fmt_ci"]
+
+CONFIDENCE = 0.90
+
+
+def binomial_ci(k: int, n: int, confidence: float = CONFIDENCE) -> tuple[float, float]:
+    """Exact (Clopper-Pearson) interval of a proportion k/n (``scipy.stats.binomtest``)."""
+    if n <= 0:
+        return (np.nan, np.nan)
+    ci = stats.binomtest(int(k), int(n)).proportion_ci(confidence_level=confidence, method="exact")
+    return float(ci.low), float(ci.high)
+
+
+def fmt_ci(v, ci=None, digits=2) -> str:
+    """``0.40 [0.31, 0.49]``; ``n/a`` for NaN."""
+    if v is None or not np.isfinite(v):
+        return "n/a"
+    s = f"{v:.{digits}f}"
+    if ci is not None and np.all(np.isfinite(ci)):
+        s += f" [{ci[0]:.{digits}f}, {ci[1]:.{digits}f}]"
+    return s
+
+
+def _g(x, digits=3):
+    return "n/a" if x is None or not np.isfinite(x) else f"{x:.{digits}g}"
+
+
+def _meta_lines(d):
+    a = d.attrs
+    out = [f"- results file: `{d.path}`",
+           f"- finished runs: {d.n_total}; successful: {d.n}; failed (excluded from all statistics): {d.n_failed}"
+           + (f" (by status code: {', '.join(f'{k}: {v}' for k, v in sorted(d.failures.items()))})"
+              if d.failures else "")]
+    for key in ("version", "git_revision", "seed", "n_ranks", "created", "vp_scale", "contact"):
+        if key in a:
+            out.append(f"- {key}: `{a[key]}`")
+    for key in ("column", "solver"):
+        if key in a:
+            try:
+                txt = json.dumps(json.loads(a[key]), sort_keys=True)
+            except (TypeError, ValueError):
+                txt = str(a[key])
+            out.append(f"- {key}: `{txt[:400]}{'...' if len(txt) > 400 else ''}`")
+    return out
+
+
+def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, rng=0) -> str:
+    """Write a Markdown report of a results file; return its path.
+
+    Parameters
+    ----------
+    results_path : str or path-like
+        HDF5 results of ``scripts/run_grid.py``.
+    out_path : str or path-like, optional
+        Markdown file (default: ``report.md`` next to the results file).
+    figures_dir : str or path-like, optional
+        Where :func:`pycolfrag.figures.make_all` wrote the PNGs (default: ``figures/`` next to the
+        report); PNGs found there are embedded with relative links.
+    n_boot : int
+        Bootstrap resamples per interval.
+    rng : int
+        Seed of the bootstrap (reports are reproducible).
+    """
+    d = read_results(results_path)
+    out_path = Path(out_path) if out_path else Path(os.fspath(results_path)).with_name("report.md")
+    figures_dir = Path(figures_dir) if figures_dir else out_path.parent / "figures"
+    g = np.random.default_rng(rng)
+    rows = fr.scenario_table(d["mw"], d["dist_km"], {"u_top": d["u_top"], "u_d": d["u_d"]}, d["collapsed"],
+                             n_boot=n_boot, confidence=CONFIDENCE, rng=g)
+    L = ["# pycolfrag results report", "",
+         "Fragility of the column by the method of Psycharis, Fragiadakis & Stefanou: Eq. (3) collapse "
+         "probability, Eq. (4) exceedance (lognormal fit of the non-collapsed runs combined with collapse) "
+         "and the empirical ratio. Intervals are two-sided 90 %: Clopper-Pearson for P(collapse), "
+         "percentile bootstrap within the scenario for everything else.", "", "## Run", ""]
+    L += _meta_lines(d)
+    L += ["", "## Collapse and EDP statistics per scenario", "",
+          "Means and log-moments use the non-collapsed runs; mu and beta are the mean and dispersion of ln EDP "
+          "(maximum likelihood, `scipy.stats.lognorm.fit` with loc = 0).", "",
+          "| Mw | R (km) | n | collapsed | P(collapse) [90 % CI] | mean u_top | mu ln u_top | beta ln u_top "
+          "| mean u_d | mu ln u_d | beta ln u_d |",
+          "|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        L.append(f"| {r.mw:g} | {r.dist_km:g} | {r.n} | {r.n_collapsed} | "
+                 f"{fmt_ci(r.p_collapse, binomial_ci(r.n_collapsed, r.n))} | {_g(r.mean['u_top'])} | "
+                 f"{_g(r.mu_ln['u_top'])} | {_g(r.beta_ln['u_top'])} | {_g(r.mean['u_d'])} | "
+                 f"{_g(r.mu_ln['u_d'])} | {_g(r.beta_ln['u_d'])} |")
+    for title, levels in (("Table III levels (u_top)", fr.U_TOP_LEVELS), ("Table IV levels (u_d)", fr.U_D_LEVELS)):
+        L += ["", f"## Exceedance probabilities per scenario: {title}", "",
+              "Each cell: Eq. (4) [90 % bootstrap CI] (empirical ratio).", "",
+              "| Mw | R (km) | n | " + " | ".join(f"{lv.label} ({lv.name})" for lv in levels) + " |",
+              "|---:|---:|---:|" + "---|" * len(levels)]
+        for r in rows:
+            cells = [f"{fmt_ci(r.exceedance[lv.label], r.ci[lv.label])} ({r.empirical[lv.label]:.2f})"
+                     for lv in levels]
+            L.append(f"| {r.mw:g} | {r.dist_km:g} | {r.n} | " + " | ".join(cells) + " |")
+    L += ["", "## Fragility against intensity measures", "",
+          "Lognormal fragility P = Phi(ln(IM / median) / beta) fitted by maximum likelihood to the exceedance "
+          "indicators (collapsed or EDP >= level) of all runs; 90 % intervals from a bootstrap stratified by "
+          "scenario. The stripe-method curves (12 equal-width stripes, Eq. (4) inside each) are in Fig. 16.", "",
+          "| IM | level | n exceeding | median [90 % CI] | beta [90 % CI] |", "|---|---|---:|---|---|"]
+    ims = [("PGA (g)", d["pga_g"]), ("PGV (cm/s)", d["pgv_cm_s"])]
+    if d.sa_g is not None and d.periods_s is not None and d.periods_s.size:
+        k = int(np.argmin(np.abs(d.periods_s - 1.0)))
+        ims.append((f"SA({d.periods_s[k]:g} s) (g)", d.sa_g[:, k]))
+        ims.append((f"SV({d.periods_s[k]:g} s) (cm/s)", d.sv_cm_s[:, k]))
+    for name, values in ims:
+        if not np.all(np.isfinite(values)) or np.any(values <= 0):
+            L.append(f"| {name} | all | - | IM not positive/finite in every run: not fitted | |")
+            continue
+        for lev, _sc, mle in im_curves(d, values, n_boot=max(n_boot // 5, 20), n_boot_mle=max(n_boot // 5, 20),
+                                       rng=g):
+            if mle is None:
+                L.append(f"| {name} | {lev.label} | - | no interior maximum (all or none exceed) | |")
+            else:
+                flag = " (beyond the largest IM: extrapolated)" if mle.median > np.max(values) else ""
+                L.append(f"| {name} | {lev.label} | {mle.n_exceed}/{mle.n} | {fmt_ci(mle.median, mle.median_ci, 3)}"
+                         f"{flag} | {fmt_ci(mle.beta, mle.beta_ci)} |")
+    L += ["", "## Figures", ""]
+    found = False
+    for stem in FIGURES:
+        png = figures_dir / f"{stem}.png"
+        if png.exists():
+            found = True
+            rel = os.path.relpath(png, out_path.parent)
+            L += [f"![{stem}]({rel})", ""]
+    if not found:
+        L.append(f"No figures found in `{figures_dir}`; run `python scripts/make_figures.py {d.path} "
+                 f"--out {figures_dir}`.")
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    out_path.write_text("\n".join(L) + "\n", encoding="utf-8")
+    return str(out_path)
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if not argv or argv[0] in ("-h", "--help"):
+        print("usage: python -m pycolfrag.report RESULTS.h5 [OUT.md]")
+        return 0 if argv else 2
+    print(write_report(argv[0], argv[1] if len(argv) > 1 else None))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
