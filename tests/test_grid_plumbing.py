@@ -1,0 +1,110 @@
+"""The default per-sample function, in process, with the physics replaced by stand-ins.
+
+Checks that :func:`pycolfrag.grid.run_sample` passes the right seeds and pulse parameters to the
+ground-motion model and files every record/IM/EDP value in the documented field, whatever the
+solver and generator compute; the real physics is exercised by tests/test_grid.py.
+"""
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import pycolfrag as pcf
+from pycolfrag import grid, results as R
+
+
+@pytest.fixture
+def fake_physics(monkeypatch):
+    calls = {"lhs": [], "synth": []}
+
+    def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0):
+        calls["lhs"].append((Mw, dist_km, n, seed, vp_scale))
+        rng = np.random.default_rng(seed)
+        return {"Vp_cm_s": 30 + 10 * rng.random(n), "fp_hz": 0.5 + rng.random(n), "nu_rad": rng.random(n),
+                "gamma": 2 + rng.random(n), "t0_s": 5 + rng.random(n)}
+
+    def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None):
+        calls["synth"].append((Mw, dist_km, seed, dt, vp_scale, dict(pulse)))
+        acc = np.random.default_rng(seed).normal(size=2001)
+        meta = dict(pulse, A_cm_s=12.0, Ap_g=0.3, Mw=Mw, dist_km=dist_km)
+        return SimpleNamespace(acc=acc, dt=dt, meta=meta)
+
+    def measures(acc, dt, periods=(0.2, 0.5, 1.0, 2.0, 3.0), damping=0.05):
+        p = np.asarray(periods)
+        return {"pga_g": float(np.abs(acc).max() / 9.81), "pgv_cm_s": 11.0, "pgd_cm": 3.0, "arias_m_s": 0.2,
+                "d5_95_s": 7.0, "sa_g": p * 2, "sv_cm_s": p * 3, "periods_s": p}
+
+    def simulate(col, acc_x, dt, **opts):
+        if opts.get("explode"):
+            raise pcf.SolverError("instability at t = 1.2 s")
+        big = float(np.abs(acc_x).max()) > 3.5
+        return SimpleNamespace(u_top=0.01 * len(acc_x) * dt, u_d=0.002, collapsed=big,
+                               collapse_block=4 if big else -1, collapse_time=2.5 if big else None,
+                               n_steps=len(acc_x) * 10, t_end=len(acc_x) * dt, energy_error=1e-6, options=opts)
+
+    monkeypatch.setattr(pcf.ground_motion, "sample_pulse_parameters", sample_pulse_parameters, raising=False)
+    monkeypatch.setattr(pcf.ground_motion, "synthesize", synthesize, raising=False)
+    monkeypatch.setattr(pcf.intensity, "measures", measures, raising=False)
+    monkeypatch.setattr(pcf.solver, "simulate", simulate)
+    return calls
+
+
+def test_run_sample_files_every_value(fake_physics):
+    spec = grid.GridSpec(mw=(6.0, 7.0), dist_km=(10.0,), samples=4, seed=3, periods_s=(0.5, 1.0),
+                         max_record_s=5.0, vp_scale=1.1)
+    ctx = grid.SampleContext(spec)
+    out = grid.run_sample(ctx, 6)  # scenario 1 (Mw 7, R 10), sample 2
+    assert out["status"] == 0, out["message"]
+    assert (out["scenario"], out["sample"], out["mw"], out["dist_km"]) == (1, 2, 7.0, 10.0)
+    mw, dist, n, lhs_seed, vps = fake_physics["lhs"][0]
+    assert (mw, dist, n, vps) == (7.0, 10.0, 4, 1.1) and lhs_seed == ctx.lhs_seed(1)
+    _, _, hf_seed, dt, vps, pulse = fake_physics["synth"][0]
+    assert hf_seed == ctx.hf_seed(1, 2) and dt == 0.005 and vps == 1.1
+    table = grid.SampleContext(spec).pulse(1, 2)
+    assert pulse == table and out["vp_cm_s"] == pulse["Vp_cm_s"] and out["fp_hz"] == pulse["fp_hz"]
+    assert out["tp_s"] == 1.0 / pulse["fp_hz"] and out["a_cm_s"] == 12.0 and out["ap_g"] == 0.3
+    assert out["record_s"] == pytest.approx(1001 * 0.005)  # cut to max_record_s (+1 sample)
+    assert out["pgv_cm_s"] == 11.0 and list(out["sa_g"]) == [1.0, 2.0] and list(out["sv_cm_s"]) == [1.5, 3.0]
+    assert out["u_top"] == pytest.approx(0.01 * 1001 * 0.005) and out["n_steps"] == 10010
+    assert out["wall_s"] > 0
+
+
+def test_streams_do_not_depend_on_order_or_process(fake_physics):
+    spec = grid.GridSpec(mw=(6.0, 7.0), dist_km=(5.0, 10.0), samples=3, seed=11, periods_s=(1.0,))
+    a = [grid.run_sample(grid.SampleContext(spec), r) for r in range(spec.n_rows)]
+    ctx = grid.SampleContext(spec)
+    b = {r: grid.run_sample(ctx, r) for r in reversed(spec.order(range(spec.n_rows)))}
+    for r in range(spec.n_rows):
+        for k, v in a[r].items():
+            if k != "wall_s":
+                assert np.array_equal(v, b[r][k], equal_nan=isinstance(v, float)), (r, k)
+    # a sub-grid reproduces the rows of the full grid (streams keyed by Mw and R values)
+    sub = grid.GridSpec(mw=(7.0,), dist_km=(10.0,), samples=3, seed=11, periods_s=(1.0,))
+    s = grid.run_sample(grid.SampleContext(sub), 1)
+    assert s["u_top"] == a[3 * 3 + 1]["u_top"] and s["pga_g"] == a[10]["pga_g"]
+
+
+def test_solver_failure_becomes_status_3_and_run_goes_on(fake_physics, tmp_path):
+    spec = grid.GridSpec(mw=(6.0,), dist_km=(10.0,), samples=2, seed=1, periods_s=(1.0,),
+                         solver_options={"explode": True})
+    summary = grid.run_grid(spec, tmp_path / "g.h5", progress=False, log=lambda s: None)
+    assert summary.computed == 2 and summary.failed == 2
+    r = R.load(tmp_path / "g.h5")
+    assert (r.samples["status"] == R.STATUS_SOLVER_FAILED).all()
+    assert r.samples["message"][0] == "SolverError: instability at t = 1.2 s"
+    assert np.isfinite(r.samples["pga_g"]).all() and np.isnan(r.samples["u_top"]).all()
+
+
+def test_in_process_run_writes_summary_and_collapse_fields(fake_physics, tmp_path):
+    spec = grid.GridSpec(mw=(6.0, 7.5), dist_km=(5.0,), samples=3, seed=2, periods_s=(0.5, 1.0))
+    summary = grid.run_grid(spec, tmp_path / "g.h5", progress=False, log=lambda s: None)
+    assert summary.n_ranks == 1 and summary.computed == 6 and len(summary.table) == 2
+    r = R.load(tmp_path / "g.h5")
+    c = r.samples["collapsed"]
+    assert (r.samples["collapse_block"][c] == 4).all() and (r.samples["collapse_block"][~c] == -1).all()
+    assert np.isnan(r.samples["collapse_time_s"][~c]).all()
+    text = grid.format_table(summary.table, 3)
+    assert "collapses" in text and "7.5" in text
+    assert sum(t["collapses"] for t in summary.table) == int(c.sum())
+    assert math.isclose(summary.table[0]["cpu_s"], float(r.samples["wall_s"][:3].sum()))
