@@ -388,7 +388,7 @@ def _describe(d: ResultsData) -> str:
             if key == "column" and isinstance(obj, dict):
                 j = obj.get("joints") or {}
                 if isinstance(j, dict) and j:
-                    parts.append("joints " + ", ".join(f"{k}={v}" for k, v in sorted(j.items())))
+                    parts.append("joints " + ", ".join(f"{k}={j[k]:g} Pa/m" for k in ("kn", "ks") if k in j))
     return "; ".join(p for p in parts if p)
 
 
