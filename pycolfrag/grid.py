@@ -439,7 +439,7 @@ def run_grid(spec: GridSpec, out, *, overwrite: bool = False, retry_failed: bool
         signal.signal(signal.SIGTERM, _on_sigterm)
     except ValueError:  # not the main thread
         pass
-    pbar = _progress(len(todo), progress)
+    pbar = _progress(len(todo), progress, under_mpi=comm is not None)
     computed, failed, collapses = 0, 0, 0
     last_flush = time.perf_counter()
 
@@ -487,16 +487,18 @@ def _previous_sessions(path) -> list:
         return []
 
 
-def _progress(total: int, enabled: bool):
+def _progress(total: int, enabled: bool, under_mpi: bool = False):
     if not enabled or total == 0:
         return None
     try:
         from tqdm import tqdm
     except ImportError:
         return None
-    tty = sys.stderr.isatty()
+    # Under mpirun stderr is always a pipe (stdout a pty), so a terminal cannot be told from a log
+    # file there: update every second under MPI or on a terminal, every 30 s into a plain file.
+    live = sys.stderr.isatty() or under_mpi
     return tqdm(total=total, desc="grid", unit="run", dynamic_ncols=True, smoothing=0.05,
-                mininterval=0.5 if tty else 30.0)
+                mininterval=1.0 if live else 30.0)
 
 
 def _chunk(queue: deque, size: int, chunk_max: int) -> list[int]:

@@ -3,7 +3,8 @@ tests put this folder on PYTHONPATH).
 
 * ``fake``: no physics; deterministic numbers from the row's own seeds, so the driver's
   scheduling, resume and rank independence are tested without the solver. ``PCF_FAKE_SLEEP_S``
-  makes each row take that long (to kill a run part-way).
+  makes each row take that long (to kill a run part-way); ``PCF_FAKE_BUSY_S`` burns CPU for
+  about that long times (1 + 4 (Mw - 5.5)) (scheduler benchmarks without the solver).
 * ``failing``: the real :func:`pycolfrag.grid.run_sample`, except that the rows listed in
   ``PCF_FAIL_ROWS`` (comma-separated) raise.
 * ``failing_fake``: ``fake`` with the same forced failures.
@@ -25,6 +26,10 @@ def fake(ctx, row):
     rng = np.random.default_rng(ctx.hf_seed(sc, k))
     lhs = np.random.default_rng(ctx.lhs_seed(sc)).random(ctx.spec.samples)[k]
     time.sleep(float(os.environ.get("PCF_FAKE_SLEEP_S", "0")))
+    busy = float(os.environ.get("PCF_FAKE_BUSY_S", "0")) * (1.0 + 4.0 * (mw - 5.5)) * (0.5 + lhs)
+    t_end = time.perf_counter() + busy  # CPU-bound, cost growing with Mw like the real runs
+    while time.perf_counter() < t_end:
+        pass
     x = rng.random(8)
     n_p = len(ctx.spec.periods_s)
     return {"scenario": sc, "sample": k, "mw": mw, "dist_km": dist, "status": 0, "message": "",
