@@ -271,7 +271,15 @@ def run_sample(ctx: SampleContext, row: int) -> dict:
                    collapse_block=int(cb) if (collapsed and cb is not None and cb >= 0) else -1,
                    collapse_time_s=float(ct) if (collapsed and ct is not None) else math.nan,
                    n_steps=int(res.n_steps), t_end_s=float(res.t_end),
-                   energy_error=float(getattr(res, "energy_error", math.nan)))
+                   energy_error=float(getattr(res, "energy_error", math.nan)),
+                   energy_warning=int(bool(getattr(res, "energy_warning", False))),
+                   solver_dt_s=float(getattr(res, "dt", math.nan)))
+        reason = getattr(res, "collapse_reason", None)
+        if collapsed and reason is not None:
+            try:
+                out["collapse_reason"] = int(getattr(reason, "value", reason))
+            except (TypeError, ValueError):  # a name rather than a code: keep the run, lose the code
+                out["collapse_reason"] = -1
     except Exception as exc:  # a failed sample is a result, not the end of the run (SPEC §9)
         out["status"] = phase
         out["message"] = f"{type(exc).__name__}: {exc}"

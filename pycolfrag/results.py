@@ -92,6 +92,9 @@ SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
     "n_steps": ("i8", 0, "solver time steps"),
     "t_end_s": ("f8", math.nan, "simulated time, s"),
     "energy_error": ("f8", math.nan, "relative energy balance error of the solver, -"),
+    "energy_warning": ("u1", 0, "1 if energy_error exceeded the solver's tolerance"),
+    "collapse_reason": ("i4", -1, "solver's collapse criterion code (Response.collapse_reason), -1: none"),
+    "solver_dt_s": ("f8", math.nan, "solver time step used, s"),
     # timing (the only fields that differ between runs with different rank counts)
     "wall_s": ("f8", math.nan, "wall time of the whole sample (record, IMs, solver), s"),
 }
