@@ -1,7 +1,311 @@
-"""Placeholder replaced by the solver work (issue 2)."""
-class Response:  # noqa: D101
-    pass
-class History:  # noqa: D101
-    pass
-def simulate(*args, **kwargs):  # noqa: D103
-    raise NotImplementedError("solver not built yet")
+"""Response of a column to one ground-motion record: :func:`simulate`.
+
+The physics lives in C (``csrc/solver.c``, documented in ``docs/solver.md``): rigid
+blocks with soft Coulomb joints, leapfrog integration in the frame that moves with
+the ground, step from the stability limit of the whole linearised stack. This module
+validates the input, passes it to C and wraps the output in :class:`Response` and
+:class:`History`.
+
+Example::
+
+    import numpy as np, pycolfrag as pcf
+    col = pcf.Column.parthenon()
+    t = np.arange(0, 3.0, 0.005)
+    res = pcf.simulate(col, 0.25 * 9.81 * np.sin(2 * np.pi * 2 * t), 0.005, history=True)
+    res.u_top, res.u_d, res.collapsed, res.history.top_disp
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._ffi import as_double_array, check, ffi, lib, ptr
+from .column import Column
+from .errors import ParameterError
+
+__all__ = ["simulate", "Response", "History", "EnergyWarning", "CONTACT_OPTIONS", "MAX_ABS_ACC"]
+
+#: contact discretisations understood by :func:`simulate`
+CONTACT_OPTIONS = {"vertex": lib.CF_SOLVER_CONTACT_VERTEX,
+                   "perimeter": lib.CF_SOLVER_CONTACT_PERIMETER,
+                   "exact": lib.CF_SOLVER_CONTACT_EXACT}
+_REASONS = {lib.CF_SOLVER_COLLAPSE_NONE: "",
+            lib.CF_SOLVER_COLLAPSE_OVERTURNING: "overturning",
+            lib.CF_SOLVER_COLLAPSE_OFF_FOOTPRINT: "off_footprint",
+            lib.CF_SOLVER_COLLAPSE_FALLING: "falling"}
+#: |acceleration| above this (m/s^2, about 10 g) is refused as a likely unit mistake
+MAX_ABS_ACC = 100.0
+_ENERGY_KEYS = ("kinetic", "gravity", "spring", "slip_dissipated", "damping_dissipated", "ground_work",
+                "balance_error")
+
+
+class EnergyWarning(UserWarning):
+    """The energy balance error of a run exceeded ``energy_tolerance``."""
+
+
+@dataclass
+class History:
+    """Time histories of one run, sampled every ``history_dt`` (SI units).
+
+    Attributes
+    ----------
+    t : (n,) s
+    top_disp : (n, 2) m -- x, y displacement of the top block's top-face centre relative to the ground
+    block_pos : (n, nb, 3) m -- centres of mass, in the frame moving with the ground
+    block_quat : (n, nb, 4) -- orientation quaternions (w, x, y, z)
+    joint_opening : (n, nj) m -- max normal gap of the upper face's vertices over the joint (0 closed)
+    joint_slip : (n, nj, 2) m -- dislocation vector of each joint (upper face centre minus lower)
+    energy : dict of (n,) arrays, J -- kinetic, gravity (change since the start), spring (change since
+        the pre-compressed start), slip_dissipated, damping_dissipated, ground_work (work of the
+        inertial forces -m a_g), balance_error = kinetic + gravity + spring + dissipated - ground_work
+    """
+
+    t: np.ndarray
+    top_disp: np.ndarray
+    block_pos: np.ndarray
+    block_quat: np.ndarray
+    joint_opening: np.ndarray
+    joint_slip: np.ndarray
+    energy: dict
+
+
+@dataclass
+class Response:
+    """EDPs and diagnostics of one run (see :func:`simulate`)."""
+
+    u_top: float
+    u_d: float
+    collapsed: bool
+    collapse_block: int | None
+    collapse_time: float
+    collapse_reason: str
+    n_steps: int
+    t_end: float
+    dt: float
+    dt_crit: float
+    energy_error: float
+    energy_scale: float
+    energy_warning: bool
+    residual_dislocation: np.ndarray
+    options: dict
+    history: History | None = None
+    message: str = ""
+    at_rest_exit: bool = False
+    max_top_disp: float = 0.0
+
+
+def _acc(a, name, n_expected=None):
+    if a is None:
+        return None
+    arr = as_double_array(a, name)
+    if n_expected is not None and arr.size != n_expected:
+        raise ParameterError(f"{name} has {arr.size} samples but acc_x has {n_expected}: components must "
+                             "share one time axis")
+    big = np.abs(arr) > MAX_ABS_ACC
+    if big.any():
+        i = int(np.argmax(big))
+        raise ParameterError(
+            f"{name}[{i}] = {arr[i]!r} m/s^2 exceeds {MAX_ABS_ACC:g} m/s^2 (about 10 g): accelerations must be in "
+            "m/s^2 (a record in cm/s^2 or a g-factor applied twice?)")
+    return arr
+
+
+def _flag(value, name):
+    if not isinstance(value, (bool, np.bool_)) and value not in (0, 1):
+        raise ParameterError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
+
+
+def _segments(col: Column, monolithic: bool):
+    segs = [s for b in col.blocks for s in b.segments]
+    arr = ffi.new("cf_geometry_segment[]", len(segs))
+    for i, s in enumerate(segs):
+        arr[i].height = s.height
+        arr[i].r_bottom = s.r_bottom
+        arr[i].r_top = s.r_top
+        arr[i].phase_rad = s.phase_rad
+        arr[i].n_sides = int(s.n_sides)
+    nseg = ffi.new("int[]", [len(b.segments) for b in col.blocks])
+    return arr, nseg
+
+
+def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, *, contact="vertex", points_per_edge=1,
+             dt_solver=None, dt_factor=0.8, tail_s=3.0, residual_window_s=2.0, planar=False, monolithic=False,
+             early_exit=True, damping_alpha=0.0, damping_start_s=None, history_dt=0.01, g=9.81,
+             energy_tolerance=0.05, initial_tilt_rad=0.0, contact_tolerance=0.01) -> Response:
+    """Simulate the column under one ground-motion record.
+
+    Parameters
+    ----------
+    col : Column
+        The column (blocks, density, joint properties).
+    acc_x : array (n,)
+        Horizontal ground acceleration along x, m/s^2 (the paper's fault-normal component).
+    dt : float
+        Sampling interval of the record, s (> 0). The record is interpolated linearly to the
+        solver step; after its end the ground is at rest.
+    acc_y, acc_z : array (n,), optional
+        Second horizontal and vertical components, m/s^2, on the same time axis.
+    history : bool
+        Also return time histories (:class:`History`) sampled every ``history_dt``.
+    contact : {"vertex", "perimeter", "exact"}
+        Joint discretisation: sub-contacts at the polygon vertices of both faces (3DEC-like,
+        default); a refined face mesh with ``points_per_edge`` points per polygon edge plus interior
+        nodes (converges to "exact" as points are added); or the exact integral of the pressure over
+        the compressed part of the overlap polygon.
+    points_per_edge : int
+        Refinement of "perimeter" (>= 1). Default 1.
+    dt_solver : float, optional
+        Explicit solver step, s; default ``dt_factor`` times the whole-stack stability limit.
+    dt_factor : float
+        Fraction of the stability limit (default 0.8).
+    tail_s : float
+        Free response after the end of the record, s (default 3).
+    residual_window_s : float
+        The residual dislocation is the average over this last part of the response, s (default 2).
+    planar : bool
+        Restrict the motion to the x-z plane (only with acc_y None).
+    monolithic : bool
+        The whole column as one rigid body on the base joint.
+    early_exit : bool
+        Stop at collapse, or once the column is at rest after the record.
+    damping_alpha : float
+        Mass-proportional damping, 1/s (default 0: none, as in the paper).
+    damping_start_s : float, optional
+        Damping acts from this time, s (default: from the start).
+    history_dt : float
+        History sampling interval, s.
+    g : float
+        Gravity, m/s^2.
+    energy_tolerance : float
+        Relative energy balance error above which the run warns (:class:`EnergyWarning`) and sets
+        ``energy_warning`` (default 0.05). Above 0.5 the run fails with SolverError (unstable).
+    initial_tilt_rad : float
+        Rigid initial tilt of the whole column about its +x base edge (rad), for free rocking.
+    contact_tolerance : float
+        A sub-contact overhanging the other face by less than this fraction of its circumradius
+        still bears (default 0.01; see docs/solver.md).
+
+    Returns
+    -------
+    Response
+        ``u_top``, ``u_d`` (dimensionless), ``collapsed``, ``collapse_block`` (0-based or None),
+        ``collapse_time`` (s or nan), ``collapse_reason``, ``n_steps``, ``t_end`` (s), ``dt``,
+        ``dt_crit`` (s), ``energy_error``, ``residual_dislocation`` (m per joint), ``options``,
+        ``history``.
+    """
+    if not isinstance(col, Column):
+        raise ParameterError(f"col must be a Column, got {type(col).__name__}")
+    dt = float(_positive(dt, "dt (record sampling interval, s)"))
+    ax = _acc(acc_x, "acc_x")
+    ay = _acc(acc_y, "acc_y", ax.size)
+    az = _acc(acc_z, "acc_z", ax.size)
+    if contact not in CONTACT_OPTIONS:
+        raise ParameterError(f"contact must be one of {sorted(CONTACT_OPTIONS)}, got {contact!r}")
+    if isinstance(points_per_edge, bool) or int(points_per_edge) != points_per_edge or not 1 <= points_per_edge <= 64:
+        raise ParameterError(f"points_per_edge must be an integer in [1, 64], got {points_per_edge!r}")
+    planar = _flag(planar, "planar")
+    monolithic = _flag(monolithic, "monolithic")
+    early_exit = _flag(early_exit, "early_exit")
+    history = _flag(history, "history")
+    if planar and ay is not None:
+        raise ParameterError("planar=True takes one horizontal component: acc_y must be None")
+
+    d = ffi.new("cf_solver_def *")
+    lib.cf_solver_def_default(d)
+    d.contact = CONTACT_OPTIONS[contact]
+    d.points_per_edge = int(points_per_edge)
+    d.dt = 0.0 if dt_solver is None else _positive(dt_solver, "dt_solver (s)")
+    d.dt_factor = _positive(dt_factor, "dt_factor")
+    d.tail_s = _positive(tail_s, "tail_s (s)", allow_zero=True)
+    d.residual_window_s = _positive(residual_window_s, "residual_window_s (s)")
+    d.planar = int(planar)
+    d.monolithic = int(monolithic)
+    d.early_exit = int(early_exit)
+    d.damping_alpha = _positive(damping_alpha, "damping_alpha (1/s)", allow_zero=True)
+    d.damping_start_s = 0.0 if damping_start_s is None else _finite(damping_start_s, "damping_start_s (s)")
+    d.history_dt = _positive(history_dt, "history_dt (s)")
+    d.g = _positive(g, "g (m/s^2)")
+    d.energy_tolerance = _positive(energy_tolerance, "energy_tolerance")
+    d.initial_tilt_rad = _finite(initial_tilt_rad, "initial_tilt_rad")
+    d.contact_tolerance = _positive(contact_tolerance, "contact_tolerance", allow_zero=True)
+    options = {
+        "contact": contact, "points_per_edge": int(points_per_edge), "dt_solver": dt_solver,
+        "dt_factor": float(dt_factor), "tail_s": float(tail_s), "residual_window_s": float(residual_window_s),
+        "planar": planar, "monolithic": monolithic, "early_exit": early_exit,
+        "damping_alpha": float(damping_alpha), "damping_start_s": damping_start_s,
+        "history_dt": float(history_dt), "g": float(g), "energy_tolerance": float(energy_tolerance),
+        "initial_tilt_rad": float(initial_tilt_rad), "contact_tolerance": float(contact_tolerance),
+    }
+
+    solver = ffi.gc(lib.cf_solver_create(), lib.cf_solver_free)
+    if solver == ffi.NULL:
+        raise MemoryError("cf_solver_create failed")
+    segs, nseg = _segments(col, monolithic)
+    j = col.joints
+    st = lib.cf_solver_setup(solver, d, col.n_blocks, nseg, segs, col.density, j.kn, j.ks, j.mu)
+    check(st, lib.cf_solver_message(solver), "simulate")
+
+    nb = col.n_blocks
+    hist_arrays = None
+    if history:
+        cap = lib.cf_solver_history_capacity(solver, ax.size, dt)
+        hist_arrays = dict(
+            t=np.zeros(cap), top=np.zeros((cap, 2)), pos=np.zeros((cap, nb, 3)), quat=np.zeros((cap, nb, 4)),
+            open=np.zeros((cap, nb)), slip=np.zeros((cap, nb, 2)), en=np.zeros((cap, 7)))
+        h = hist_arrays
+        check(lib.cf_solver_set_history(solver, cap, ptr(h["t"]), ptr(h["top"]), ptr(h["pos"]), ptr(h["quat"]),
+                                        ptr(h["open"]), ptr(h["slip"]), ptr(h["en"])),
+              lib.cf_solver_message(solver), "simulate")
+    resid = np.zeros(nb)
+    r = ffi.new("cf_solver_result *")
+    st = lib.cf_solver_run(solver, ptr(ax), ptr(ay) if ay is not None else ffi.NULL,
+                           ptr(az) if az is not None else ffi.NULL, ax.size, dt, ptr(resid), r)
+    check(st, lib.cf_solver_message(solver), "simulate")
+    message = ffi.string(lib.cf_solver_message(solver)).decode(errors="replace")
+    if r.energy_warning:
+        warnings.warn(f"simulate: {message}", EnergyWarning, stacklevel=2)
+
+    hist = None
+    if history:
+        n = r.n_history
+        h = hist_arrays
+        en = h["en"][:n]
+        hist = History(t=h["t"][:n].copy(), top_disp=h["top"][:n].copy(), block_pos=h["pos"][:n].copy(),
+                       block_quat=h["quat"][:n].copy(), joint_opening=h["open"][:n].copy(),
+                       joint_slip=h["slip"][:n].copy(),
+                       energy={k: en[:, i].copy() for i, k in enumerate(_ENERGY_KEYS)})
+    return Response(
+        u_top=float(r.u_top), u_d=float(r.u_d), collapsed=bool(r.collapsed),
+        collapse_block=int(r.collapse_block) if r.collapsed else None,
+        collapse_time=float(r.collapse_time) if r.collapsed else math.nan,
+        collapse_reason=_REASONS.get(r.collapse_reason, "unknown"),
+        n_steps=int(r.n_steps), t_end=float(r.t_end), dt=float(r.dt), dt_crit=float(r.dt_crit),
+        energy_error=float(r.energy_error), energy_scale=float(r.energy_scale),
+        energy_warning=bool(r.energy_warning), residual_dislocation=resid, options=options, history=hist,
+        message=message, at_rest_exit=bool(r.at_rest_exit), max_top_disp=float(r.max_top_disp))
+
+
+def _positive(value, name, allow_zero=False):
+    if isinstance(value, bool):
+        raise ParameterError(f"{name} must be a number, got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        raise ParameterError(f"{name} must be finite and {'>= 0' if allow_zero else '> 0'}, got {value!r}")
+    return v
+
+
+def _finite(value, name):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ParameterError(f"{name} must be finite, got {value!r}")
+    return v

@@ -1,0 +1,74 @@
+/* geometry.c -- exact mass properties of polygonal frusta and stacks of them. */
+#include <math.h>
+#include "cf_common.h"
+#include "geometry.h"
+
+double cf_geometry_polygon_area(int n, double r)
+{
+    return 0.5 * n * sin(2.0 * CF_PI / n) * r * r;
+}
+
+/* int_0^h r(z)^p z^q dz with r = r0 + (r1 - r0) z / h, exactly (binomial expansion). */
+static double poly_int(double r0, double r1, double h, int p, int q)
+{
+    double d = r1 - r0, sum = 0.0, binom = 1.0;
+    int j;
+    for (j = 0; j <= p; j++) {
+        sum += binom * pow(r0, p - j) * pow(d, j) / (double)(j + q + 1);
+        binom = binom * (p - j) / (j + 1);
+    }
+    return sum * pow(h, q + 1);
+}
+
+static int seg_ok(const cf_geometry_segment *s)
+{
+    return s && isfinite(s->height) && s->height > 0 && isfinite(s->r_bottom) && s->r_bottom > 0
+        && isfinite(s->r_top) && s->r_top > 0 && s->n_sides >= 3 && isfinite(s->phase_rad);
+}
+
+int cf_geometry_segment_props(const cf_geometry_segment *s, double rho, cf_geometry_massprops *out)
+{
+    double k, c, v, zc, i4, i22;
+    if (!seg_ok(s) || !out || !(rho > 0) || !isfinite(rho)) return CF_EINVAL;
+    k = 0.5 * s->n_sides * sin(2.0 * CF_PI / s->n_sides);
+    c = (2.0 + cos(2.0 * CF_PI / s->n_sides)) / 12.0;
+    v = k * poly_int(s->r_bottom, s->r_top, s->height, 2, 0);
+    zc = k * poly_int(s->r_bottom, s->r_top, s->height, 2, 1) / v;
+    i4 = poly_int(s->r_bottom, s->r_top, s->height, 4, 0);
+    i22 = poly_int(s->r_bottom, s->r_top, s->height, 2, 2);
+    out->volume = v;
+    out->mass = rho * v;
+    out->height = s->height;
+    out->com_z = zc;
+    out->izz = rho * 2.0 * k * c * i4;
+    out->ixx = rho * (k * c * i4 + k * i22) - out->mass * zc * zc;
+    return CF_OK;
+}
+
+int cf_geometry_block_props(const cf_geometry_segment *segs, int n, double rho, cf_geometry_massprops *out)
+{
+    cf_geometry_massprops p;
+    double m = 0, mz = 0, z0 = 0, ixx = 0, izz = 0, v = 0;
+    int i, st;
+    if (!segs || n < 1 || !out) return CF_EINVAL;
+    for (i = 0; i < n; i++) {
+        st = cf_geometry_segment_props(&segs[i], rho, &p);
+        if (st) return st;
+        m += p.mass; v += p.volume;
+        mz += p.mass * (z0 + p.com_z);
+        z0 += p.height;
+    }
+    out->mass = m; out->volume = v; out->height = z0;
+    out->com_z = mz / m;
+    z0 = 0;
+    for (i = 0; i < n; i++) {
+        double dz;
+        cf_geometry_segment_props(&segs[i], rho, &p);
+        dz = z0 + p.com_z - out->com_z;
+        ixx += p.ixx + p.mass * dz * dz;
+        izz += p.izz;
+        z0 += p.height;
+    }
+    out->ixx = ixx; out->izz = izz;
+    return CF_OK;
+}

@@ -1,0 +1,48 @@
+/*
+ * geometry.h -- exact mass properties of regular n-gon frustum segments and of
+ * blocks made of segments stacked vertically (shaft drums, the Doric capital).
+ *
+ * A segment is a frustum whose cross-section is a regular n-gon of circumradius
+ * r(z) varying linearly from r_bottom to r_top over its height. For n >= 3 the
+ * second moment of area of a regular polygon is isotropic in its plane, so the
+ * inertia tensor about the centroid is diag(ixx, ixx, izz) in a frame whose z axis
+ * is the segment's axis, whatever the phase of the polygon.
+ * Closed forms (c_n = (2 + cos(2 pi / n)) / 12, k_n = (n/2) sin(2 pi / n)):
+ *   area A(z) = k_n r^2, in-plane second moment per axis = k_n c_n r^4,
+ *   V = k_n int r^2 dz,  izz = rho 2 k_n c_n int r^4 dz,
+ *   ixx = rho int (k_n c_n r^4 + k_n r^2 (z - zc)^2) dz,
+ * the integrals of polynomials in z evaluated exactly (binomial expansion).
+ */
+#ifndef CF_GEOMETRY_H
+#define CF_GEOMETRY_H
+
+/* cffi:begin */
+typedef struct {
+    double height;     /* m, > 0 */
+    double r_bottom;   /* circumradius of the bottom polygon, m, > 0 */
+    double r_top;      /* circumradius of the top polygon, m, > 0 */
+    double phase_rad;  /* angle of the first vertex from +x, rad */
+    int n_sides;       /* polygon sides, >= 3 */
+} cf_geometry_segment;
+
+typedef struct {
+    double mass;       /* kg */
+    double volume;     /* m^3 */
+    double height;     /* m */
+    double com_z;      /* centre of mass above the bottom face, m */
+    double ixx;        /* moment of inertia about a horizontal axis through the COM, kg m^2 (= iyy) */
+    double izz;        /* moment of inertia about the vertical axis through the COM, kg m^2 */
+} cf_geometry_massprops;
+
+/* Area of a regular n-gon of circumradius r, m^2. */
+double cf_geometry_polygon_area(int n_sides, double r);
+
+/* Mass properties of one segment (density kg/m^3). CF_EINVAL on bad geometry. */
+int cf_geometry_segment_props(const cf_geometry_segment *seg, double density, cf_geometry_massprops *out);
+
+/* Mass properties of segments stacked from the bottom up, as one rigid body. */
+int cf_geometry_block_props(const cf_geometry_segment *segs, int n_segs, double density,
+                            cf_geometry_massprops *out);
+/* cffi:end */
+
+#endif

@@ -1,0 +1,106 @@
+/*
+ * solver.h -- 3D rigid-drum soft-contact solver (SPEC section 3, docs/solver.md).
+ *
+ * A column of rigid blocks (each a stack of cf_geometry_segment) stands on a base
+ * block that moves with a prescribed ground acceleration. The column is
+ * integrated in the frame that translates with the ground (inertial force
+ * -m a_g on every block), by a leapfrog (central-difference) scheme with unit
+ * quaternions and Euler's equations in body axes. Joints carry sub-contacts
+ * (polygon vertices or a refined face mesh) or the exact-interface integral.
+ *
+ * Use: cf_solver_create -> cf_solver_setup(def, geometry, joints) ->
+ * [cf_solver_set_history] -> cf_solver_run(record) -> read cf_solver_result;
+ * cf_solver_free. Every fallible call returns a cf_status and leaves a message
+ * (cf_solver_message). No global state; never prints, exits or aborts.
+ */
+#ifndef CF_SOLVER_H
+#define CF_SOLVER_H
+
+#include "geometry.h"
+
+/* cffi:begin */
+#define CF_SOLVER_CONTACT_VERTEX 0
+#define CF_SOLVER_CONTACT_PERIMETER 1
+#define CF_SOLVER_CONTACT_EXACT 2
+
+#define CF_SOLVER_COLLAPSE_NONE 0
+#define CF_SOLVER_COLLAPSE_OVERTURNING 1
+#define CF_SOLVER_COLLAPSE_OFF_FOOTPRINT 2
+#define CF_SOLVER_COLLAPSE_FALLING 3
+
+#define CF_SOLVER_MAX_SIDES 64
+#define CF_SOLVER_N_ENERGY 7
+
+typedef struct {
+    int contact;               /* CF_SOLVER_CONTACT_*; default VERTEX */
+    int points_per_edge;       /* refined face mesh subdivisions (PERIMETER), >= 1; default 1 */
+    double dt;                 /* solver step, s; 0 = automatic dt_factor * dt_crit; default 0 */
+    double dt_factor;          /* fraction of the whole-stack stability limit; default 0.8 */
+    double tail_s;             /* free response after the record, s; default 3.0 */
+    double residual_window_s;  /* averaging window of the residual dislocation, s; default 2.0 */
+    int planar;                /* 1: motion restricted to the x-z plane; default 0 */
+    int monolithic;            /* 1: the whole column as one rigid body; default 0 */
+    int early_exit;            /* 1: stop at collapse or at rest after the record; default 1 */
+    double damping_alpha;      /* mass-proportional damping, 1/s; default 0 */
+    double damping_start_s;    /* damping acts from this time on, s; default 0 */
+    double history_dt;         /* history sampling interval, s; default 0.01 */
+    double g;                  /* gravity, m/s^2; default 9.81 */
+    double energy_tolerance;   /* relative balance error that sets energy_warning; default 0.05 */
+    double unstable_tolerance; /* relative balance error that aborts with CF_EUNSTABLE; default 0.5 */
+    double initial_tilt_rad;   /* rigid initial tilt about the +x base edge (y axis), rad; default 0 */
+    double contact_tolerance;  /* a point overhanging the other face by less than this fraction of its
+                                  circumradius still counts as inside; default 1e-2 */
+} cf_solver_def;
+
+typedef struct {
+    double u_top;             /* max horizontal top displacement / base diameter */
+    double u_d;               /* max over joints of residual dislocation / joint diameter */
+    int collapsed;            /* 1 when a collapse criterion fired */
+    int collapse_block;       /* 0-based block, -1 if none */
+    int collapse_reason;      /* CF_SOLVER_COLLAPSE_* */
+    double collapse_time;     /* s, NaN if none */
+    long n_steps;             /* steps taken */
+    double t_end;             /* time of the last computed state, s */
+    double dt;                /* step used, s */
+    double dt_crit;           /* whole-stack stability limit, s */
+    double energy_error;      /* max |balance error| / energy_scale */
+    double energy_scale;      /* J: max over time of KE + |dVg| + |dVs| + D + |W| (floored) */
+    int energy_warning;       /* 1 when energy_error > energy_tolerance */
+    int at_rest_exit;         /* 1 when the run stopped early at rest */
+    int n_history;            /* history samples written */
+    double max_top_disp;      /* m, max horizontal top displacement */
+} cf_solver_result;
+
+typedef struct cf_solver cf_solver;
+
+void cf_solver_def_default(cf_solver_def *def);
+cf_solver *cf_solver_create(void);
+void cf_solver_free(cf_solver *s);
+const char *cf_solver_message(const cf_solver *s);
+
+/* Geometry: n_blocks blocks, block i made of n_segments[i] consecutive entries of
+ * segments (bottom up). density kg/m^3, kn and ks Pa/m, mu = tan(friction angle). */
+int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int n_blocks, const int *n_segments,
+                    const cf_geometry_segment *segments, double density, double kn, double ks, double mu);
+
+/* Whole-stack stability limit of the set-up column, s (after setup). */
+double cf_solver_dt_crit(const cf_solver *s);
+/* Step the run will use, s (after setup). */
+double cf_solver_dt(const cf_solver *s);
+/* History samples needed for a record of n samples at dt_rec (after setup). */
+int cf_solver_history_capacity(const cf_solver *s, int n, double dt_rec);
+
+/* Caller-owned history buffers (any may be NULL), capacity samples each:
+ * t (cap), top_disp (cap x 2), block_pos (cap x nb x 3), block_quat (cap x nb x 4),
+ * joint_opening (cap x nj), joint_slip (cap x nj x 2), energy (cap x 7: kinetic,
+ * gravity, spring, slip_dissipated, damping_dissipated, ground_work, balance_error). */
+int cf_solver_set_history(cf_solver *s, int capacity, double *t, double *top_disp, double *block_pos,
+                          double *block_quat, double *joint_opening, double *joint_slip, double *energy);
+
+/* Run one record: acc_x (n samples, m/s^2) at dt_rec; acc_y, acc_z may be NULL.
+ * residual_dislocation (n_blocks entries, m) may be NULL. */
+int cf_solver_run(cf_solver *s, const double *acc_x, const double *acc_y, const double *acc_z, int n,
+                  double dt_rec, double *residual_dislocation, cf_solver_result *res);
+/* cffi:end */
+
+#endif
