@@ -46,6 +46,7 @@ typedef struct {
     double area;            /* joint area, m^2 */
     int p0, np;             /* its sub-contacts: [p0, p0 + np) */
     double fs[3], mt;       /* exact mode: joint shear force (N), torsional moment (N m) */
+    double polar;           /* exact mode: polar moment of the joint area about its centre, m^4 */
 } joint_t;
 
 struct cf_solver {
@@ -73,7 +74,8 @@ struct cf_solver {
     double dt_crit, dt;
     /* history */
     int h_cap;
-    double *h_t, *h_top, *h_pos, *h_quat, *h_open, *h_slip, *h_en;
+    double *h_t, *h_top, *h_pos, *h_quat, *h_open, *h_slip, *h_en, *h_fn;
+    double *jfn;                    /* normal force of each joint this step, N */
 };
 
 static int fail(cf_solver *s, int st, const char *fmt, ...)
@@ -113,7 +115,7 @@ static void release(cf_solver *s)
     free(s->F); free(s->T); free(s->x0); free(s->q0); free(s->fext_prev); free(s->fdamp_prev);
     free(s->tdamp_prev); free(s->blk_body); free(s->blk_off); free(s->blk_top); free(s->blk_bot);
     free(s->blk_h); free(s->blk_m); free(s->joint_diam); free(s->jt); free(s->p_side); free(s->p_loc);
-    free(s->p_w); free(s->p_fs);
+    free(s->p_w); free(s->p_fs); free(s->jfn);
     {
         char msg[CF_MSG_LEN];
         memcpy(msg, s->msg, CF_MSG_LEN);
@@ -417,6 +419,7 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
     ALLOC(s->blk_bot, double, 3 * nblk); ALLOC(s->blk_h, double, nblk); ALLOC(s->blk_m, double, nblk);
     ALLOC(s->joint_diam, double, nblk);
     ALLOC(s->jt, joint_t, nj);
+    ALLOC(s->jfn, double, nj);
 
     bp = (cf_geometry_massprops *)calloc((size_t)nblk, sizeof *bp);
     zbot = (double *)calloc((size_t)nblk + 1, sizeof(double));
@@ -481,6 +484,10 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
                 make_face(&J->fl, top->n_sides, top->r_top, top->phase_rad, s->blk_top[3 * (j - 1) + 2]);
             }
             J->area = J->fl.area < J->fu.area ? J->fl.area : J->fu.area;
+            {
+                const face_t *fa = J->fl.area < J->fu.area ? &J->fl : &J->fu;
+                J->polar = fa->area * fa->rc * fa->rc * (2.0 + cos(2.0 * CF_PI / fa->n)) / 6.0;
+            }
         }
         free(first); free(last);
     }
@@ -567,6 +574,13 @@ int cf_solver_history_capacity(const cf_solver *s, int n, double dt_rec)
     return (int)floor(t_final / s->def.history_dt + 1e-9) + 2;
 }
 
+int cf_solver_set_history_normal(cf_solver *s, double *joint_normal)
+{
+    if (!s) return CF_EINVAL;
+    s->h_fn = joint_normal;
+    return CF_OK;
+}
+
 int cf_solver_set_history(cf_solver *s, int cap, double *t, double *top, double *pos, double *quat,
                           double *open, double *slip, double *en)
 {
@@ -642,7 +656,7 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
     const double *RL = s->R + 9 * bl, *RU = s->R + 9 * bu;
     double cL[3], nL[3], cU[3], nU[3];
     double tolL = s->def.contact_tolerance * J->fl.rc, tolU = s->def.contact_tolerance * J->fu.rc;
-    double kn = s->kn, ks = s->ks, mu = s->mu;
+    double kn = s->kn, ks = s->ks, mu = s->mu, jfn = 0.0;
     face_world(s, bl, &J->fl, cL, nL);
     face_world(s, bu, &J->fu, cU, nU);
     for (k = J->p0; k < J->p0 + J->np; k++) {
@@ -677,17 +691,22 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
         rel_vel(s, bl, bu, ww + 3 * bl, ww + 3 * bu, p, du);
         du[0] *= dt; du[1] *= dt; du[2] *= dt;
         e->dslip += contact_point_law(pen, n, du, w, kn, ks, mu, fs, &fn, &sl);
+        jfn += fn;
         Fw[0] = fn * n[0] + fs[0]; Fw[1] = fn * n[1] + fs[1]; Fw[2] = fn * n[2] + fs[2];
         apply_pair(s, bl, bu, p, Fw);
         e->vs += 0.5 * kn * w * pen * pen + 0.5 * (fs[0] * fs[0] + fs[1] * fs[1] + fs[2] * fs[2]) / (ks * w);
     }
+    s->jfn[J - s->jt] = jfn;
 }
 
 /* Exact interface: normal pressure integrated over the compressed overlap polygon;
- * shear as one joint-level incremental spring of area = compressed area applied at
- * the centre of pressure, capped by mu N; torsion as an incremental spring of
- * stiffness ks * (polar moment of the compressed area), capped by mu N (2/3) r_eq
- * (uniform pressure on a disc of the same area). */
+ * shear as one joint-level incremental spring acting at the centre of the lower
+ * face (so that its lever arms, hence the stability limit, do not change as the
+ * centre of pressure moves to a rocking toe), capped by mu N; torsion as an incremental spring about the joint normal, capped by
+ * mu N (2/3) r_eq (uniform pressure on a disc of the compressed area). The shear and
+ * torsional stiffnesses are those of the whole joint face (ks A, ks J_polar): with a
+ * stiffness that followed the compressed area the stored force would carry an energy
+ * that jumps without work as the joint opens; the cap mu N governs an open joint. */
 static void joint_exact(cf_solver *s, joint_t *J, const double *ww, double dt, step_energy *e)
 {
     int bl = J->bl, bu = J->bu, k, sl, nv;
@@ -695,6 +714,7 @@ static void joint_exact(cf_solver *s, joint_t *J, const double *ww, double dt, s
     double cL[3], nL[3], cU[3], nU[3], up[2 * MAXS], m[3], X0[3], d[3];
     double p0, px, py, fn, ks = s->ks;
     cf_contact_exact_result r;
+    s->jfn[J - s->jt] = 0.0;
     face_world(s, bl, &J->fl, cL, nL);
     face_world(s, bu, &J->fu, cU, nU);
     mat_tvec(RL, nU, m);
@@ -717,9 +737,8 @@ static void joint_exact(cf_solver *s, joint_t *J, const double *ww, double dt, s
     if (nv == 0 || !(r.force > 0.0)) {
         double st = J->fs[0] * J->fs[0] + J->fs[1] * J->fs[1] + J->fs[2] * J->fs[2];
         if (st > 0.0 || J->mt != 0.0) {
-            /* released: stored shear energy counted as dissipated (stiffness of the last contact unknown:
-             * use the full joint area, a lower bound of the stored energy) */
-            e->dslip += 0.5 * st / (ks * J->area);
+            /* released: stored shear energy counted as dissipated */
+            e->dslip += 0.5 * st / (ks * J->area) + 0.5 * J->mt * J->mt / (ks * J->polar);
             J->fs[0] = J->fs[1] = J->fs[2] = 0.0; J->mt = 0.0;
         }
         return;
@@ -729,27 +748,30 @@ static void joint_exact(cf_solver *s, joint_t *J, const double *ww, double dt, s
         loc[0] = r.xc; loc[1] = r.yc; loc[2] = 0.0;
         mat_vec(RL, loc, P);
         P[0] += cL[0]; P[1] += cL[1]; P[2] += cL[2];
-        rel_vel(s, bl, bu, ww + 3 * bl, ww + 3 * bu, P, du);
+        rel_vel(s, bl, bu, ww + 3 * bl, ww + 3 * bu, cL, du);
         du[0] *= dt; du[1] *= dt; du[2] *= dt;
-        pen_eq = r.force / (s->kn * r.area);
-        e->dslip += contact_point_law(pen_eq, nL, du, r.area, s->kn, ks, s->mu, J->fs, &fn, &sl);
-        Fw[0] = fn * nL[0] + J->fs[0]; Fw[1] = fn * nL[1] + J->fs[1]; Fw[2] = fn * nL[2] + J->fs[2];
+        pen_eq = r.force / (s->kn * J->area);
+        e->dslip += contact_point_law(pen_eq, nL, du, J->area, s->kn, ks, s->mu, J->fs, &fn, &sl);
+        s->jfn[J - s->jt] = fn;
+        Fw[0] = fn * nL[0]; Fw[1] = fn * nL[1]; Fw[2] = fn * nL[2];
         apply_pair(s, bl, bu, P, Fw);
+        apply_pair(s, bl, bu, cL, J->fs);
         /* torsion about the joint normal */
-        kt = ks * (r.polar > 1e-12 * r.area * r.area ? r.polar : 1e-12 * r.area * r.area);
+        kt = ks * J->polar;
         wr = v3_dot(ww + 3 * bu, nL) - (bl ? v3_dot(ww + 3 * bl, nL) : 0.0);
         mt_trial = J->mt - kt * wr * dt;
         req = sqrt(r.area / CF_PI);
         lim = s->mu * fn * (2.0 / 3.0) * req;
         if (fabs(mt_trial) > lim) {
             double capped = mt_trial > 0 ? lim : -lim;
-            e->dslip += 0.5 * (mt_trial * mt_trial - lim * lim) / kt;
+            /* trapezoidal work on the torsional spring minus its elastic energy change */
+            e->dslip += -0.5 * (J->mt + capped) * wr * dt - 0.5 * (capped * capped - J->mt * J->mt) / kt;
             mt_trial = capped;
         }
         J->mt = mt_trial;
         s->T[3 * bu] += J->mt * nL[0]; s->T[3 * bu + 1] += J->mt * nL[1]; s->T[3 * bu + 2] += J->mt * nL[2];
         if (bl) { s->T[3 * bl] -= J->mt * nL[0]; s->T[3 * bl + 1] -= J->mt * nL[1]; s->T[3 * bl + 2] -= J->mt * nL[2]; }
-        e->vs += r.energy + 0.5 * (J->fs[0] * J->fs[0] + J->fs[1] * J->fs[1] + J->fs[2] * J->fs[2]) / (ks * r.area)
+        e->vs += r.energy + 0.5 * (J->fs[0] * J->fs[0] + J->fs[1] * J->fs[1] + J->fs[2] * J->fs[2]) / (ks * J->area)
                + 0.5 * J->mt * J->mt / kt;
     }
 }
@@ -991,6 +1013,7 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
                     if (s->h_pos) block_point(s, j, s->blk_off + 3 * j, s->h_pos + 3 * ((size_t)h * nblk + j));
                     if (s->h_quat) memcpy(s->h_quat + 4 * ((size_t)h * nblk + j), s->q + 4 * b, 4 * sizeof(double));
                     if (s->h_open) s->h_open[(size_t)h * nblk + j] = opening(s, j);
+                    if (s->h_fn) s->h_fn[(size_t)h * nblk + j] = (s->def.monolithic && j > 0) ? NAN : s->jfn[j];
                     if (s->h_slip) dislocation(s, j, s->h_slip + 2 * ((size_t)h * nblk + j), s->h_slip + 2 * ((size_t)h * nblk + j) + 1);
                 }
                 if (s->h_en) {

@@ -97,6 +97,11 @@ int cf_solver_history_capacity(const cf_solver *s, int n, double dt_rec);
 int cf_solver_set_history(cf_solver *s, int capacity, double *t, double *top_disp, double *block_pos,
                           double *block_quat, double *joint_opening, double *joint_slip, double *energy);
 
+/* Optional extra history buffer (capacity x n_blocks): the normal force carried by
+ * each joint, N (NaN for the internal joints of a monolithic column). Call after
+ * cf_solver_set_history, which sets the capacity. */
+int cf_solver_set_history_normal(cf_solver *s, double *joint_normal);
+
 /* Run one record: acc_x (n samples, m/s^2) at dt_rec; acc_y, acc_z may be NULL.
  * residual_dislocation (n_blocks entries, m) may be NULL. */
 int cf_solver_run(cf_solver *s, const double *acc_x, const double *acc_y, const double *acc_z, int n,

@@ -58,6 +58,8 @@ class History:
     block_quat : (n, nb, 4) -- orientation quaternions (w, x, y, z)
     joint_opening : (n, nj) m -- max normal gap of the upper face's vertices over the joint (0 closed)
     joint_slip : (n, nj, 2) m -- dislocation vector of each joint (upper face centre minus lower)
+    joint_normal_force : (n, nj) N -- normal force carried by each joint (NaN for the internal
+        joints of a monolithic column)
     energy : dict of (n,) arrays, J -- kinetic, gravity (change since the start), spring (change since
         the pre-compressed start), slip_dissipated, damping_dissipated, ground_work (work of the
         inertial forces -m a_g), balance_error = kinetic + gravity + spring + dissipated - ground_work
@@ -70,6 +72,7 @@ class History:
     joint_opening: np.ndarray
     joint_slip: np.ndarray
     energy: dict
+    joint_normal_force: np.ndarray = None
 
 
 @dataclass
@@ -255,11 +258,12 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, *, contact="
         cap = lib.cf_solver_history_capacity(solver, ax.size, dt)
         hist_arrays = dict(
             t=np.zeros(cap), top=np.zeros((cap, 2)), pos=np.zeros((cap, nb, 3)), quat=np.zeros((cap, nb, 4)),
-            open=np.zeros((cap, nb)), slip=np.zeros((cap, nb, 2)), en=np.zeros((cap, 7)))
+            open=np.zeros((cap, nb)), slip=np.zeros((cap, nb, 2)), en=np.zeros((cap, 7)), fn=np.zeros((cap, nb)))
         h = hist_arrays
         check(lib.cf_solver_set_history(solver, cap, ptr(h["t"]), ptr(h["top"]), ptr(h["pos"]), ptr(h["quat"]),
                                         ptr(h["open"]), ptr(h["slip"]), ptr(h["en"])),
               lib.cf_solver_message(solver), "simulate")
+        check(lib.cf_solver_set_history_normal(solver, ptr(h["fn"])), lib.cf_solver_message(solver), "simulate")
     resid = np.zeros(nb)
     r = ffi.new("cf_solver_result *")
     st = lib.cf_solver_run(solver, ptr(ax), ptr(ay) if ay is not None else ffi.NULL,
@@ -276,7 +280,7 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, *, contact="
         en = h["en"][:n]
         hist = History(t=h["t"][:n].copy(), top_disp=h["top"][:n].copy(), block_pos=h["pos"][:n].copy(),
                        block_quat=h["quat"][:n].copy(), joint_opening=h["open"][:n].copy(),
-                       joint_slip=h["slip"][:n].copy(),
+                       joint_slip=h["slip"][:n].copy(), joint_normal_force=h["fn"][:n].copy(),
                        energy={k: en[:, i].copy() for i, k in enumerate(_ENERGY_KEYS)})
     return Response(
         u_top=float(r.u_top), u_d=float(r.u_d), collapsed=bool(r.collapsed),

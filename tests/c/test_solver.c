@@ -1,0 +1,120 @@
+/* The solver through its C API: stability limit of the default column, statics,
+ * status codes for bad input and misuse, determinism. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "cf_test.h"
+#include "cf_common.h"
+#include "solver.h"
+
+/* The default column (pycolfrag/data/column_parthenon.json): 12 drums, 10-gon,
+ * 1.65 m -> 1.28 m over 9.38 m, capital = echinus frustum + square abacus. */
+static void parthenon(cf_geometry_segment *seg, int *nseg)
+{
+    int i;
+    for (i = 0; i < 12; i++) {
+        double h = 9.38 / 12, z = i * h;
+        seg[i].height = h; seg[i].n_sides = 10; seg[i].phase_rad = 0;
+        seg[i].r_bottom = 0.5 * (1.65 - 0.37 * z / 9.38);
+        seg[i].r_top = 0.5 * (1.65 - 0.37 * (z + h) / 9.38);
+        nseg[i] = 1;
+    }
+    seg[12].height = 0.4; seg[12].r_bottom = 0.64; seg[12].r_top = 0.83; seg[12].n_sides = 10; seg[12].phase_rad = 0;
+    seg[13].height = 0.3; seg[13].r_bottom = seg[13].r_top = 1.73 / sqrt(2.0); seg[13].n_sides = 4;
+    seg[13].phase_rad = CF_PI / 4; nseg[12] = 2;
+}
+
+/* Whole-stack limit of the default column with vertex contacts: issue 2 measured
+ * about 1.0 ms (per-block estimates give 1.3 ms). 5 % covers "about". */
+static void test_dt_crit_default_column(void)
+{
+    cf_geometry_segment seg[14]; int nseg[13];
+    cf_solver_def d;
+    cf_solver *s = cf_solver_create();
+    parthenon(seg, nseg);
+    cf_solver_def_default(&d);
+    CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, tan(37 * CF_PI / 180)) == CF_OK);
+    CF_CHECK_REL(cf_solver_dt_crit(s), 1.0e-3, 0.05);
+    CF_CHECK_REL(cf_solver_dt(s), 0.8 * cf_solver_dt_crit(s), 1e-15);
+    cf_solver_free(s);
+}
+
+/* At rest under zero ground motion: nothing moves (the start is exact equilibrium). */
+static void test_statics(void)
+{
+    cf_geometry_segment seg[14]; int nseg[13], i;
+    cf_solver_def d;
+    cf_solver_result r;
+    double acc[101] = {0}, pos[3 * 13 * 40], res[13];
+    cf_solver *s = cf_solver_create();
+    parthenon(seg, nseg);
+    cf_solver_def_default(&d);
+    d.tail_s = 0.0; d.history_dt = 0.05; d.early_exit = 0;
+    CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, 0.75) == CF_OK);
+    CF_CHECK(cf_solver_history_capacity(s, 101, 0.01) <= 40);
+    CF_CHECK(cf_solver_set_history(s, 40, NULL, NULL, pos, NULL, NULL, NULL, NULL) == CF_OK);
+    CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 101, 0.01, res, &r) == CF_OK);
+    CF_CHECK(r.n_history >= 20);
+    for (i = 0; i < 3 * 13; i++) CF_CHECK_CLOSE(pos[3 * 13 * (r.n_history - 1) + i], pos[i], 1e-12);
+    CF_CHECK(r.u_top < 1e-12 && r.u_d < 1e-12 && !r.collapsed);
+    CF_CHECK(r.energy_error < 1e-6);
+    cf_solver_free(s);
+}
+
+static void test_bad_input(void)
+{
+    cf_geometry_segment seg[14]; int nseg[13];
+    cf_solver_def d;
+    cf_solver_result r;
+    double acc[3] = {0, NAN, 0};
+    cf_solver *s = cf_solver_create();
+    parthenon(seg, nseg);
+    cf_solver_def_default(&d);
+    CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 3, 0.01, NULL, &r) == CF_ESTATE);   /* before setup */
+    d.contact = 7;
+    CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, 0.75) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "contact") != NULL);
+    cf_solver_def_default(&d);
+    CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, -1.0, 1e9, 0.75) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "kn") != NULL);
+    seg[3].height = 0.0;
+    CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, 0.75) == CF_EINVAL);
+    seg[3].height = 0.5;
+    CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, 0.75) == CF_OK);
+    CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 3, 0.01, NULL, &r) == CF_EINVAL);       /* NaN */
+    acc[1] = 0.0;
+    CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 3, 0.0, NULL, &r) == CF_EINVAL);        /* dt */
+    CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 0, 0.01, NULL, &r) == CF_EINVAL);       /* empty */
+    cf_solver_free(s);
+    cf_solver_free(NULL);
+}
+
+/* Same input twice: bitwise identical results (no hidden state between runs). */
+static void test_determinism(void)
+{
+    cf_geometry_segment seg[14]; int nseg[13], i;
+    cf_solver_def d;
+    cf_solver_result r1, r2;
+    double acc[400], res1[13], res2[13];
+    cf_solver *s = cf_solver_create();
+    parthenon(seg, nseg);
+    for (i = 0; i < 400; i++) acc[i] = 0.3 * 9.81 * sin(2 * CF_PI * 2.0 * i * 0.005);
+    cf_solver_def_default(&d);
+    d.tail_s = 1.0;
+    CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, 0.75) == CF_OK);
+    CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 400, 0.005, res1, &r1) == CF_OK);
+    CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 400, 0.005, res2, &r2) == CF_OK);
+    CF_CHECK(memcmp(&r1, &r2, sizeof r1) == 0 || (r1.u_top == r2.u_top && r1.u_d == r2.u_d));
+    CF_CHECK(memcmp(res1, res2, sizeof res1) == 0);
+    CF_CHECK(r1.u_top > 0.0);
+    cf_solver_free(s);
+}
+
+int main(void)
+{
+    CF_RUN(test_dt_crit_default_column);
+    CF_RUN(test_statics);
+    CF_RUN(test_bad_input);
+    CF_RUN(test_determinism);
+    return CF_TEST_SUMMARY("test_solver");
+}
