@@ -35,6 +35,7 @@ import subprocess
 import sys
 import time
 import traceback
+import warnings
 from collections import OrderedDict, deque
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -262,7 +263,9 @@ def run_sample(ctx: SampleContext, row: int) -> dict:
                    arias_m_s=float(ims["arias_m_s"]), d5_95_s=float(ims["d5_95_s"]),
                    sa_g=np.asarray(ims["sa_g"], dtype=float), sv_cm_s=np.asarray(ims["sv_cm_s"], dtype=float))
         phase = _results.STATUS_SOLVER_FAILED
-        res = simulate(ctx.column, acc, dt, **spec.solver_options)
+        with warnings.catch_warnings():  # an energy warning is stored (energy_warning), not printed per run
+            warnings.simplefilter("ignore", UserWarning)
+            res = simulate(ctx.column, acc, dt, **spec.solver_options)
         phase = _results.STATUS_OTHER_FAILED
         collapsed = bool(res.collapsed)
         cb = getattr(res, "collapse_block", None)
@@ -274,12 +277,8 @@ def run_sample(ctx: SampleContext, row: int) -> dict:
                    energy_error=float(getattr(res, "energy_error", math.nan)),
                    energy_warning=int(bool(getattr(res, "energy_warning", False))),
                    solver_dt_s=float(getattr(res, "dt", math.nan)))
-        reason = getattr(res, "collapse_reason", None)
-        if collapsed and reason is not None:
-            try:
-                out["collapse_reason"] = int(getattr(reason, "value", reason))
-            except (TypeError, ValueError):  # a name rather than a code: keep the run, lose the code
-                out["collapse_reason"] = -1
+        if collapsed:
+            out["collapse_reason"] = str(getattr(res, "collapse_reason", "") or "")
     except Exception as exc:  # a failed sample is a result, not the end of the run (SPEC §9)
         out["status"] = phase
         out["message"] = f"{type(exc).__name__}: {exc}"
@@ -351,19 +350,43 @@ def _git_revision() -> str:
         return "unknown"
 
 
-def _resolved_solver_json(opts: dict) -> str:
-    """The solver options with the solver's defaults filled in when it can tell them."""
-    full = dict(opts)
+_NOT_SOLVER_OPTIONS = ("col", "acc_x", "dt", "acc_y", "acc_z", "history")
+
+
+def solver_defaults() -> dict:
+    """Keyword defaults of :func:`pycolfrag.simulate` (the solver options), from its signature."""
+    import inspect
+    from .solver import simulate
+    out = {}
+    for name, p in inspect.signature(simulate).parameters.items():
+        if name not in _NOT_SOLVER_OPTIONS and p.default is not inspect.Parameter.empty \
+                and p.kind is not inspect.Parameter.VAR_KEYWORD:
+            out[name] = p.default
+    return out
+
+
+def check_solver_options(column, opts: dict) -> None:
+    """Refuse unknown option names and values the solver rejects, before any file is touched
+    (one call of :func:`simulate` on a 3-sample zero record, ~20 ms)."""
+    from .solver import simulate
+    known = solver_defaults()
+    unknown = sorted(set(opts) - set(known))
+    if unknown:
+        raise ParameterError(f"unknown solver option(s) {unknown}; simulate() takes {sorted(known)}")
     try:
-        from . import solver
-        for name in ("resolve_options", "default_options"):
-            f = getattr(solver, name, None)
-            if callable(f):
-                d = f(**opts) if name == "resolve_options" else {**f(), **opts}
-                full = dict(d if isinstance(d, dict) else getattr(d, "__dict__", d))
-                break
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            simulate(column, np.zeros(3), DEFAULT_RECORD_DT_S, **opts)
+    except (ParameterError, TypeError) as exc:
+        raise ParameterError(f"solver options {opts}: {exc}") from None
+
+
+def _resolved_solver_json(opts: dict) -> str:
+    """The solver options with the solver's defaults filled in."""
+    try:
+        full = {**solver_defaults(), **opts}
     except Exception:
-        pass
+        full = dict(opts)
     return json.dumps(full, sort_keys=True, default=str)
 
 
@@ -703,6 +726,9 @@ def main(argv=None) -> int:
     log = (lambda s: print(s, flush=True)) if rank == 0 else (lambda s: None)
     try:
         spec = spec_from_args(args)
+        if spec.sample_function is None:
+            from .column import Column
+            check_solver_options(Column.from_dict(spec.column), spec.solver_options)
     except (ParameterError, FileNotFoundError) as exc:
         log(f"run_grid: {exc}")
         return 2

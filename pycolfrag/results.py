@@ -93,7 +93,7 @@ SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
     "t_end_s": ("f8", math.nan, "simulated time, s"),
     "energy_error": ("f8", math.nan, "relative energy balance error of the solver, -"),
     "energy_warning": ("u1", 0, "1 if energy_error exceeded the solver's tolerance"),
-    "collapse_reason": ("i4", -1, "solver's collapse criterion code (Response.collapse_reason), -1: none"),
+    "collapse_reason": ("S32", b"", "solver's collapse criterion (Response.collapse_reason), empty: none"),
     "solver_dt_s": ("f8", math.nan, "solver time step used, s"),
     # timing (the only fields that differ between runs with different rank counts)
     "wall_s": ("f8", math.nan, "wall time of the whole sample (record, IMs, solver), s"),
@@ -121,11 +121,11 @@ def _dtype(code: str):
     return np.dtype(code)
 
 
-def _encode_message(msg) -> bytes:
+def _encode_message(msg, limit: int = MESSAGE_BYTES) -> bytes:
     b = str(msg or "").encode("utf-8")
-    if len(b) <= MESSAGE_BYTES:
+    if len(b) <= limit:
         return b
-    return b[:MESSAGE_BYTES].decode("utf-8", errors="ignore").encode("utf-8")  # cut on a character boundary
+    return b[:limit].decode("utf-8", errors="ignore").encode("utf-8")  # cut on a character boundary
 
 
 # ---------------------------------------------------------------------------------------
@@ -145,8 +145,8 @@ def empty_columns(n_rows: int, n_periods: int) -> tuple[dict, dict]:
 def _put_row(samples: dict, spectra: dict, i: int, row: Mapping) -> None:
     for name, (code, fill, _) in SAMPLE_FIELDS.items():
         v = row.get(name, fill)
-        if code == "S":
-            samples[name][i] = _encode_message(v)
+        if code.startswith("S"):
+            samples[name][i] = _encode_message(v, samples[name].dtype.itemsize)
         elif v is None:
             samples[name][i] = fill
         else:
@@ -568,8 +568,10 @@ def load(path, pending: bool = False, journal: bool = True) -> Results:
             _put_row(samples, spectra, i, r)
         if new:
             attrs["n_done"] = int(np.count_nonzero(samples["status"] != STATUS_PENDING))
-    samples["message"] = np.array([m.decode("utf-8", errors="replace") if isinstance(m, bytes) else str(m)
-                                   for m in samples["message"]], dtype=object)
+    for name, (code, _, _) in SAMPLE_FIELDS.items():  # fixed-length UTF-8 -> str
+        if code.startswith("S") and name in samples:
+            samples[name] = np.array([m.decode("utf-8", errors="replace") if isinstance(m, bytes) else str(m)
+                                      for m in samples[name]], dtype=object)
     samples["collapsed"] = samples["collapsed"].astype(bool)
     rows = np.arange(len(samples["status"]))
     if not pending:

@@ -209,15 +209,14 @@ def test_failed_sample_is_recorded_and_the_others_complete(tmp_path):
     assert " 1 failed" in p.stdout
 
 
-def test_solver_failure_inside_the_default_sample_function(tmp_path):
-    # a bad solver option makes simulate raise: status 3 (solver phase) with the message, run goes on
+def test_bad_solver_options_are_refused_before_any_file_is_made(tmp_path):
     out = tmp_path / "bad.h5"
-    _ok(_serial(["--mw", "6", "--dist", "10", "--samples", "2", "--max-record-s", "2", "--no-figures",
-                 "--no-progress", "--solver", "no_such_option_xyz=1", "--out", str(out)]))
-    r = R.load(out)
-    assert len(r) == 2 and (r.samples["status"] == R.STATUS_SOLVER_FAILED).all()
-    assert all("no_such_option_xyz" in m for m in r.samples["message"])
-    assert np.isfinite(r.samples["pga_g"]).all()  # the record and IMs before the failure are kept
+    base = ["--mw", "6", "--dist", "10", "--samples", "1", "--no-figures", "--no-progress", "--out", str(out)]
+    p = _serial([*base, "--solver", "no_such_option_xyz=1"])
+    assert p.returncode == 2 and "unknown solver option(s) ['no_such_option_xyz']" in p.stdout, p.stdout + p.stderr
+    p = _serial([*base, "--contact", "glue"])
+    assert p.returncode == 2 and "contact" in p.stdout, p.stdout + p.stderr
+    assert not out.exists()
 
 
 def test_mismatched_arguments_are_refused(tmp_path):
