@@ -130,9 +130,12 @@ def main() -> int:
         files[n] = r
         rows.append((n, t, float(r.attrs["wall_s_last_session"])))
     print(f"\n== reduced grid: 35 scenarios x {a.samples} samples = {n_runs} runs ==")
-    print(f"{'ranks':>5} {'command s':>10} {'session s':>10} {'ms/run':>8} {'speed-up':>9}")
+    print("utilisation = summed sample wall times / (session time x ranks): the share of the ranks' time spent")
+    print("in samples (scheduling, I/O and the tail cost the rest; a busy machine slows the samples, not this)")
+    print(f"{'ranks':>5} {'command s':>10} {'session s':>10} {'ms/run':>8} {'speed-up':>9} {'utilisation':>12}")
     for n, t, s in rows:
-        print(f"{n:5d} {t:10.2f} {s:10.2f} {1e3 * s / n_runs:8.1f} {rows[0][2] / s:9.2f}")
+        util = float(np.nansum(files[n].samples["wall_s"])) / (s * n)
+        print(f"{n:5d} {t:10.2f} {s:10.2f} {1e3 * s / n_runs:8.1f} {rows[0][2] / s:9.2f} {util:12.2f}")
     a1, a2 = files[1], files[2]
     same = all(np.array_equal(a1.samples[k], a2.samples[k], equal_nan=a1.samples[k].dtype.kind == "f")
                for k in a1.samples if k not in R.TIMING_FIELDS)
