@@ -497,7 +497,7 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
     np = 0;
     if (mode != CF_SOLVER_CONTACT_EXACT)
         for (j = 0; j < nj; j++)
-            np += count_face_points(s->jt[j].fu.n, mode, mm) + count_face_points(s->jt[j].fl.n, mode, mm);
+            np += count_face_points(s->jt[j].fu.n, mode, mm) + (j == 0 ? 0 : count_face_points(s->jt[j].fl.n, mode, mm));
     s->np = np;
     ALLOC(s->p_side, int, np); ALLOC(s->p_loc, double, 3 * np); ALLOC(s->p_w, double, np);
     ALLOC(s->p_fs, double, 3 * np);
@@ -506,10 +506,11 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
         for (j = 0; j < nj; j++) {
             joint_t *J = &s->jt[j];
             J->p0 = c;
-            n1 = face_points(&J->fu, mode, mm, 0.5 * J->area, s->p_loc + 3 * c, s->p_w + c);
+            /* the ground (joint 0) is unbounded: the block's own points carry the whole area */
+            n1 = face_points(&J->fu, mode, mm, (j == 0 ? 1.0 : 0.5) * J->area, s->p_loc + 3 * c, s->p_w + c);
             for (k = 0; k < n1; k++) s->p_side[c + k] = 0;
             c += n1;
-            n2 = face_points(&J->fl, mode, mm, 0.5 * J->area, s->p_loc + 3 * c, s->p_w + c);
+            n2 = j == 0 ? 0 : face_points(&J->fl, mode, mm, 0.5 * J->area, s->p_loc + 3 * c, s->p_w + c);
             for (k = 0; k < n2; k++) s->p_side[c + k] = 1;
             c += n2;
             J->np = n1 + n2;
@@ -670,7 +671,7 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
             d[0] = p[0] - cL[0]; d[1] = p[1] - cL[1]; d[2] = p[2] - cL[2];
             mat_tvec(RL, d, X);
             pen = -X[2];
-            in = pen > 0.0 && face_inside(&J->fl, X[0], X[1], tolL);
+            in = pen > 0.0 && (bl == 0 || face_inside(&J->fl, X[0], X[1], tolL));
             n = nL;
         } else {
             mat_vec(RL, s->p_loc + 3 * k, p);
@@ -732,7 +733,9 @@ static void joint_exact(cf_solver *s, joint_t *J, const double *ww, double dt, s
         }
         px = m[0] / m[2]; py = m[1] / m[2];
         p0 = -X0[2] - px * X0[0] - py * X0[1];
-        nv = cf_contact_exact(J->fl.poly, J->fl.n, up, J->fu.n, p0, px, py, s->kn, &r);
+        /* the ground is unbounded: the overlap is the upper face itself */
+        if (bl == 0) nv = cf_contact_exact(up, J->fu.n, up, J->fu.n, p0, px, py, s->kn, &r);
+        else nv = cf_contact_exact(J->fl.poly, J->fl.n, up, J->fu.n, p0, px, py, s->kn, &r);
     }
     if (nv == 0 || !(r.force > 0.0)) {
         double st = J->fs[0] * J->fs[0] + J->fs[1] * J->fs[1] + J->fs[2] * J->fs[2];
@@ -827,20 +830,26 @@ static int collapse_check(const cf_solver *s, int *blk)
     for (j = 0; j < nj; j++) {
         const joint_t *J = &s->jt[j];
         double cL[3], nL[3], mx = 0, my = 0, mt = 0, dx, dy;
-        face_world(s, J->bl, &J->fl, cL, nL);
+        /* measured from the lower face's centre, or on the (unbounded) ground from the
+         * centre of the block's own bottom face */
+        if (J->bl == 0) face_world(s, J->bu, &J->fu, cL, nL);
+        else face_world(s, J->bl, &J->fl, cL, nL);
         for (i = J->bu; i < s->nbody; i++) {
             mx += s->m[i] * s->x[3 * i]; my += s->m[i] * s->x[3 * i + 1]; mt += s->m[i];
         }
         dx = mx / mt - cL[0]; dy = my / mt - cL[1];
         if (dx * dx + dy * dy > 4.0 * J->fl.rc * J->fl.rc) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
     }
-    /* off the footprint: a block's centre of mass outside the lower face polygon
-     * (in the lower face's plane) */
+    /* off the footprint: the centre of a block's bottom face has slid outside the
+     * polygon of the face below (in that face's plane): more than half of the
+     * joint overhangs. Rocking alone moves this centre by b (1 - cos tilt) only. */
     for (j = 0; j < nj; j++) {
         const joint_t *J = &s->jt[j];
-        double cL[3], nL[3], d[3], X[3];
+        double cL[3], nL[3], cU[3], nU[3], d[3], X[3];
+        if (J->bl == 0) continue;     /* the ground is unbounded */
         face_world(s, J->bl, &J->fl, cL, nL);
-        d[0] = s->x[3 * J->bu] - cL[0]; d[1] = s->x[3 * J->bu + 1] - cL[1]; d[2] = s->x[3 * J->bu + 2] - cL[2];
+        face_world(s, J->bu, &J->fu, cU, nU);
+        d[0] = cU[0] - cL[0]; d[1] = cU[1] - cL[1]; d[2] = cU[2] - cL[2];
         mat_tvec(s->R + 9 * J->bl, d, X);
         if (!face_inside(&J->fl, X[0], X[1], 0.0)) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OFF_FOOTPRINT; }
     }
