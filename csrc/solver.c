@@ -44,7 +44,7 @@ typedef struct {
     int logical;            /* index of the logical joint (= block above) */
     face_t fl, fu;          /* lower body's top face, upper body's bottom face */
     double area;            /* joint area, m^2 */
-    int p0, np;             /* its sub-contacts: [p0, p0 + np) */
+    int p0, np, n0;         /* its sub-contacts: [p0, p0 + np), the first n0 on the upper face */
     double fs[3], mt;       /* exact mode: joint shear force (N), torsional moment (N m) */
     double polar;           /* exact mode: polar moment of the joint area about its centre, m^4 */
 } joint_t;
@@ -69,8 +69,8 @@ struct cf_solver {
     joint_t *jt;
     /* sub-contacts */
     int np;
-    int *p_side;
-    double *p_loc, *p_w, *p_fs;
+    int *p_side, *p_hint;
+    double *p_loc, *p_w, *p_fs, *p_ihkw;   /* ..., 1 / (2 ks w) */
     double dt_crit, dt;
     /* history */
     int h_cap;
@@ -114,7 +114,7 @@ static void release(cf_solver *s)
     free(s->m); free(s->inertia); free(s->x); free(s->v); free(s->q); free(s->w); free(s->R);
     free(s->F); free(s->T); free(s->x0); free(s->q0); free(s->fext_prev); free(s->fdamp_prev);
     free(s->tdamp_prev); free(s->blk_body); free(s->blk_off); free(s->blk_top); free(s->blk_bot);
-    free(s->blk_h); free(s->blk_m); free(s->joint_diam); free(s->jt); free(s->p_side); free(s->p_loc);
+    free(s->blk_h); free(s->blk_m); free(s->joint_diam); free(s->jt); free(s->p_side); free(s->p_hint); free(s->p_ihkw); free(s->p_loc);
     free(s->p_w); free(s->p_fs); free(s->jfn);
     {
         char msg[CF_MSG_LEN];
@@ -499,10 +499,11 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
         for (j = 0; j < nj; j++)
             np += count_face_points(s->jt[j].fu.n, mode, mm) + (j == 0 ? 0 : count_face_points(s->jt[j].fl.n, mode, mm));
     s->np = np;
-    ALLOC(s->p_side, int, np); ALLOC(s->p_loc, double, 3 * np); ALLOC(s->p_w, double, np);
+    ALLOC(s->p_side, int, np); ALLOC(s->p_hint, int, np); ALLOC(s->p_ihkw, double, np); ALLOC(s->p_loc, double, 3 * np); ALLOC(s->p_w, double, np);
     ALLOC(s->p_fs, double, 3 * np);
     if (mode != CF_SOLVER_CONTACT_EXACT) {
         int c = 0, n1, n2;
+        /* filled below, then 1 / (2 ks w) per point */
         for (j = 0; j < nj; j++) {
             joint_t *J = &s->jt[j];
             J->p0 = c;
@@ -514,8 +515,10 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
             for (k = 0; k < n2; k++) s->p_side[c + k] = 1;
             c += n2;
             J->np = n1 + n2;
+            J->n0 = n1;
         }
     }
+    for (k = 0; k < np; k++) s->p_ihkw[k] = 0.5 / (ks * s->p_w[k]);
     /* initial state: exact static equilibrium, joint j pre-compressed by the weight
      * above it (uniform overlap W / (kn A) over the face), shear zero */
     {
@@ -651,52 +654,181 @@ static inline void rel_vel(const cf_solver *s, int bl, int bu, const double *wwl
     }
 }
 
+/* 2D sub-contact law in the frame of the face a point is tested against (normal +z):
+ * normal force kn w pen, incremental shear (fs, 2 components, turning with that
+ * face), Coulomb cap. Returns the slip dissipation: work done on the contact over
+ * the increment (trapezoidal) minus the change of its elastic shear energy. */
+static inline double law2d(double pen, double dux, double duy, double w, double kn, double ks, double mu,
+                           double *fs, double *fn)
+{
+    double kw = ks * w, f = kn * w * pen, lim = mu * f, fx0 = fs[0], fy0 = fs[1], fx, fy, m2;
+    *fn = f;
+    fx = fx0 - kw * dux; fy = fy0 - kw * duy;
+    m2 = fx * fx + fy * fy;
+    if (m2 > lim * lim) {
+        double sc = lim / sqrt(m2), diss;
+        fx *= sc; fy *= sc;
+        diss = -0.5 * ((fx0 + fx) * dux + (fy0 + fy) * duy)
+               - 0.5 * (fx * fx + fy * fy - fx0 * fx0 - fy0 * fy0) / kw;
+        fs[0] = fx; fs[1] = fy;
+        return diss;
+    }
+    fs[0] = fx; fs[1] = fy;
+    return 0.0;
+}
+
+/* Regular polygon test with a hint: the projection of (X, Y) on the edge normals is
+ * unimodal around the polygon, so walking from the last maximising edge finds the
+ * maximum in a few steps. Inside iff that maximum <= apothem + tol. */
+static inline int face_inside_hint(const face_t *f, double X, double Y, double tol, int *hint)
+{
+    int n = f->n, k = *hint, kp, km;
+    double best, pp, pm;
+    if (X * X + Y * Y <= f->apo * f->apo) return 1;
+    best = X * f->ec[k] + Y * f->es[k];
+    kp = k + 1 == n ? 0 : k + 1;
+    pp = X * f->ec[kp] + Y * f->es[kp];
+    if (pp > best) {
+        do { k = kp; best = pp; kp = k + 1 == n ? 0 : k + 1; pp = X * f->ec[kp] + Y * f->es[kp]; } while (pp > best);
+    } else {
+        km = k == 0 ? n - 1 : k - 1;
+        pm = X * f->ec[km] + Y * f->es[km];
+        while (pm > best) { k = km; best = pm; km = k == 0 ? n - 1 : k - 1; pm = X * f->ec[km] + Y * f->es[km]; }
+    }
+    *hint = k;
+    return best <= f->apo + tol;
+}
+
+/* The frame of one face: F maps body coordinates of body "o" (the other body of the
+ * joint) into the face frame (origin at the face centre, z along the face normal);
+ * the relative velocity of the upper body w.r.t. the lower one at face-frame point
+ * X is A + W x X. */
+typedef struct {
+    double M[9], t[3];      /* X = M loc_o + t */
+    double A[3], W[3];      /* relative velocity field */
+} face_frame;
+
+/* Relative velocity field (upper minus lower) in the frame whose rotation is Rf
+ * (world = Rf local) and origin cf; x_u, x_l: COMs; ww: world omegas. */
+static inline void rel_field(const cf_solver *s, int bl, int bu, const double *Rf, const double *cf,
+                             const double *ww, face_frame *F)
+{
+    double vU[3], vL[3], wU[3], wL[3], d[3], xu[3], xl[3], c1[3], c2[3];
+    mat_tvec(Rf, s->v + 3 * bu, vU);
+    mat_tvec(Rf, ww + 3 * bu, wU);
+    d[0] = s->x[3 * bu] - cf[0]; d[1] = s->x[3 * bu + 1] - cf[1]; d[2] = s->x[3 * bu + 2] - cf[2];
+    mat_tvec(Rf, d, xu);
+    v3_cross(wU, xu, c1);
+    if (bl != 0) {
+        mat_tvec(Rf, s->v + 3 * bl, vL);
+        mat_tvec(Rf, ww + 3 * bl, wL);
+        d[0] = s->x[3 * bl] - cf[0]; d[1] = s->x[3 * bl + 1] - cf[1]; d[2] = s->x[3 * bl + 2] - cf[2];
+        mat_tvec(Rf, d, xl);
+        v3_cross(wL, xl, c2);
+    } else {
+        vL[0] = vL[1] = vL[2] = 0; wL[0] = wL[1] = wL[2] = 0; c2[0] = c2[1] = c2[2] = 0;
+    }
+    F->A[0] = vU[0] - vL[0] - c1[0] + c2[0];
+    F->A[1] = vU[1] - vL[1] - c1[1] + c2[1];
+    F->A[2] = vU[2] - vL[2] - c1[2] + c2[2];
+    F->W[0] = wU[0] - wL[0]; F->W[1] = wU[1] - wL[1]; F->W[2] = wU[2] - wL[2];
+}
+
+/* Body "o" (COM xo, rotation Ro) into the frame (Rf, cf): M = Rf^T Ro, t = Rf^T (xo - cf). */
+static inline void frame_map(const double *Rf, const double *cf, const double *Ro, const double *xo, face_frame *F)
+{
+    int i, j;
+    double d[3];
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 3; j++)
+            F->M[3 * i + j] = Rf[i] * Ro[j] + Rf[3 + i] * Ro[3 + j] + Rf[6 + i] * Ro[6 + j];
+    d[0] = xo[0] - cf[0]; d[1] = xo[1] - cf[1]; d[2] = xo[2] - cf[2];
+    mat_tvec(Rf, d, F->t);
+}
+
+/* Sub-contacts of one joint. Points of the upper face (side 0) are handled in the
+ * lower face's frame, points of the lower face (side 1) in the upper face's frame;
+ * the forces are summed per side in that frame (force and moment about the face
+ * centre) and turned to world coordinates once per joint. */
 static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, step_energy *e)
 {
-    int bl = J->bl, bu = J->bu, k, sl;
+    int bl = J->bl, bu = J->bu, k, side;
     const double *RL = s->R + 9 * bl, *RU = s->R + 9 * bu;
-    double cL[3], nL[3], cU[3], nU[3];
-    double tolL = s->def.contact_tolerance * J->fl.rc, tolU = s->def.contact_tolerance * J->fu.rc;
-    double kn = s->kn, ks = s->ks, mu = s->mu, jfn = 0.0;
-    face_world(s, bl, &J->fl, cL, nL);
-    face_world(s, bu, &J->fu, cU, nU);
-    for (k = J->p0; k < J->p0 + J->np; k++) {
-        double p[3], d[3], X[3], pen, fn, du[3], Fw[3], w = s->p_w[k];
-        double *fs = s->p_fs + 3 * k;
-        const double *n;
-        int in;
-        if (s->p_side[k] == 0) {
-            mat_vec(RU, s->p_loc + 3 * k, p);
-            p[0] += s->x[3 * bu]; p[1] += s->x[3 * bu + 1]; p[2] += s->x[3 * bu + 2];
-            d[0] = p[0] - cL[0]; d[1] = p[1] - cL[1]; d[2] = p[2] - cL[2];
-            mat_tvec(RL, d, X);
-            pen = -X[2];
-            in = pen > 0.0 && (bl == 0 || face_inside(&J->fl, X[0], X[1], tolL));
-            n = nL;
-        } else {
-            mat_vec(RL, s->p_loc + 3 * k, p);
-            p[0] += s->x[3 * bl]; p[1] += s->x[3 * bl + 1]; p[2] += s->x[3 * bl + 2];
-            d[0] = p[0] - cU[0]; d[1] = p[1] - cU[1]; d[2] = p[2] - cU[2];
-            mat_tvec(RU, d, X);
-            pen = X[2];
-            in = pen > 0.0 && face_inside(&J->fu, X[0], X[1], tolU);
-            n = nU;
-        }
-        if (!in) {
-            if (fs[0] != 0.0 || fs[1] != 0.0 || fs[2] != 0.0) {
-                e->dslip += 0.5 * (fs[0] * fs[0] + fs[1] * fs[1] + fs[2] * fs[2]) / (ks * w);
-                fs[0] = fs[1] = fs[2] = 0.0;
+    double kn = s->kn, ks = s->ks, mu = s->mu, jfn = 0.0, vs = 0.0, dslip = 0.0;
+    double cF[2][3], Fs[2][3], Ms[2][3];
+    int end = J->p0 + J->np;
+    for (side = 0; side < 2; side++) {
+        const double *Rf = side == 0 ? RL : RU, *Ro = side == 0 ? RU : RL;
+        const face_t *ff = side == 0 ? &J->fl : &J->fu;
+        int bo = side == 0 ? bu : bl;
+        double tol = s->def.contact_tolerance * ff->rc;
+        int unbounded = side == 0 && bl == 0;
+        double sgn = side == 0 ? -1.0 : 1.0;     /* pen = sgn * X.z */
+        double fx = 0, fy = 0, fz = 0, mx = 0, my = 0, mz = 0;
+        face_frame F;
+        double *c = cF[side];
+        mat_vec(Rf, ff->c, c);
+        c[0] += s->x[3 * (side == 0 ? bl : bu)];
+        c[1] += s->x[3 * (side == 0 ? bl : bu) + 1];
+        c[2] += s->x[3 * (side == 0 ? bl : bu) + 2];
+        frame_map(Rf, c, Ro, s->x + 3 * bo, &F);
+        rel_field(s, bl, bu, Rf, c, ww, &F);
+        {
+            const double *restrict ploc = s->p_loc, *restrict pw = s->p_w, *restrict pik = s->p_ihkw;
+            double *restrict pfs = s->p_fs;
+            int *restrict phint = s->p_hint;
+            int k0 = side == 0 ? J->p0 : J->p0 + J->n0, k1 = side == 0 ? J->p0 + J->n0 : end;
+            for (k = k0; k < k1; k++) {
+                const double *loc = ploc + 3 * k;
+                double X, Y, Z, pen, dux, duy, fn, *fs = pfs + 3 * k, w = pw[k];
+                X = F.M[0] * loc[0] + F.M[1] * loc[1] + F.M[2] * loc[2] + F.t[0];
+                Y = F.M[3] * loc[0] + F.M[4] * loc[1] + F.M[5] * loc[2] + F.t[1];
+                Z = F.M[6] * loc[0] + F.M[7] * loc[1] + F.M[8] * loc[2] + F.t[2];
+                pen = sgn * Z;
+                if (!(pen > 0.0) || !(unbounded || face_inside_hint(ff, X, Y, tol, phint + k))) {
+                    if (fs[0] != 0.0 || fs[1] != 0.0) {
+                        dslip += (fs[0] * fs[0] + fs[1] * fs[1]) * pik[k];
+                        fs[0] = fs[1] = 0.0;
+                    }
+                    continue;
+                }
+                dux = (F.A[0] + F.W[1] * Z - F.W[2] * Y) * dt;
+                duy = (F.A[1] + F.W[2] * X - F.W[0] * Z) * dt;
+                dslip += law2d(pen, dux, duy, w, kn, ks, mu, fs, &fn);
+                jfn += fn;
+                /* on both sides the force on the upper body is +fn along the frame's z */
+                fx += fs[0]; fy += fs[1]; fz += fn;
+                mx += Y * fn - Z * fs[1];
+                my += Z * fs[0] - X * fn;
+                mz += X * fs[1] - Y * fs[0];
+                vs += 0.5 * fn * pen + (fs[0] * fs[0] + fs[1] * fs[1]) * pik[k];
             }
-            continue;
         }
-        rel_vel(s, bl, bu, ww + 3 * bl, ww + 3 * bu, p, du);
-        du[0] *= dt; du[1] *= dt; du[2] *= dt;
-        e->dslip += contact_point_law(pen, n, du, w, kn, ks, mu, fs, &fn, &sl);
-        jfn += fn;
-        Fw[0] = fn * n[0] + fs[0]; Fw[1] = fn * n[1] + fs[1]; Fw[2] = fn * n[2] + fs[2];
-        apply_pair(s, bl, bu, p, Fw);
-        e->vs += 0.5 * kn * w * pen * pen + 0.5 * (fs[0] * fs[0] + fs[1] * fs[1] + fs[2] * fs[2]) / (ks * w);
+        {
+            double fl[3], ml[3];
+            fl[0] = fx; fl[1] = fy; fl[2] = fz; ml[0] = mx; ml[1] = my; ml[2] = mz;
+            mat_vec(Rf, fl, Fs[side]);
+            mat_vec(Rf, ml, Ms[side]);
+        }
     }
+    /* apply: force F at face centre c with moment M about c, on the upper body; the
+     * opposite on the lower body */
+    for (side = 0; side < 2; side++) {
+        double r[3], tq[3];
+        const double *Fw = Fs[side], *Mw = Ms[side], *c = cF[side];
+        s->F[3 * bu] += Fw[0]; s->F[3 * bu + 1] += Fw[1]; s->F[3 * bu + 2] += Fw[2];
+        r[0] = c[0] - s->x[3 * bu]; r[1] = c[1] - s->x[3 * bu + 1]; r[2] = c[2] - s->x[3 * bu + 2];
+        v3_cross(r, Fw, tq);
+        s->T[3 * bu] += tq[0] + Mw[0]; s->T[3 * bu + 1] += tq[1] + Mw[1]; s->T[3 * bu + 2] += tq[2] + Mw[2];
+        if (bl != 0) {
+            s->F[3 * bl] -= Fw[0]; s->F[3 * bl + 1] -= Fw[1]; s->F[3 * bl + 2] -= Fw[2];
+            r[0] = c[0] - s->x[3 * bl]; r[1] = c[1] - s->x[3 * bl + 1]; r[2] = c[2] - s->x[3 * bl + 2];
+            v3_cross(r, Fw, tq);
+            s->T[3 * bl] -= tq[0] + Mw[0]; s->T[3 * bl + 1] -= tq[1] + Mw[1]; s->T[3 * bl + 2] -= tq[2] + Mw[2];
+        }
+    }
+    e->vs += vs;
+    e->dslip += dslip;
     s->jfn[J - s->jt] = jfn;
 }
 
@@ -1031,7 +1163,8 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
                 }
             }
         }
-        if (!collapsed) {
+        /* collapse criteria every 4th step (a few ms: far finer than any collapse) */
+        if (!collapsed && (n & 3) == 0) {
             creason = collapse_check(s, &cblk);
             if (creason) { collapsed = 1; ctime = t; if (s->def.early_exit) break; }
         }
