@@ -518,6 +518,46 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
             J->n0 = n1;
         }
     }
+    /* planar mode with faces symmetric about the x-z plane: the motion is symmetric, so
+     * a point at -y mirrors its twin at +y; keep one of each pair with twice its weight
+     * (the out-of-plane force and moments they would cancel are discarded anyway) */
+    if (def->planar && mode != CF_SOLVER_CONTACT_EXACT) {
+        int sym = 1;
+        for (j = 0; j < nj && sym; j++) {
+            const face_t *ff[2];
+            int t;
+            ff[0] = &s->jt[j].fl; ff[1] = &s->jt[j].fu;
+            for (t = 0; t < 2; t++) {
+                const face_t *f = ff[t];
+                int m2;
+                for (k = 0; k < f->n; k++) {   /* every vertex has a mirror vertex */
+                    for (m2 = 0; m2 < f->n; m2++)
+                        if (fabs(f->vx[m2] - f->vx[k]) < 1e-12 * f->rc && fabs(f->vy[m2] + f->vy[k]) < 1e-12 * f->rc) break;
+                    if (m2 == f->n) { sym = 0; break; }
+                }
+            }
+        }
+        if (sym) {
+            int c = 0;
+            for (j = 0; j < nj; j++) {
+                joint_t *J = &s->jt[j];
+                int start = c, n0 = 0;
+                for (k = J->p0; k < J->p0 + J->np; k++) {
+                    double y = s->p_loc[3 * k + 1], scale = 1.0;
+                    double r = J->fu.rc;
+                    if (y < -1e-9 * r) continue;
+                    if (y > 1e-9 * r) scale = 2.0;
+                    s->p_side[c] = s->p_side[k];
+                    memmove(s->p_loc + 3 * c, s->p_loc + 3 * k, 3 * sizeof(double));
+                    s->p_w[c] = scale * s->p_w[k];
+                    if (k < J->p0 + J->n0) n0++;
+                    c++;
+                }
+                J->p0 = start; J->np = c - start; J->n0 = n0;
+            }
+            s->np = np = c;
+        }
+    }
     for (k = 0; k < np; k++) s->p_ihkw[k] = 0.5 / (ks * s->p_w[k]);
     /* initial state: exact static equilibrium, joint j pre-compressed by the weight
      * above it (uniform overlap W / (kn A) over the face), shear zero */
