@@ -400,10 +400,15 @@ def _write_rows_h5(path: Path, rows: list, n_rows: int, n_periods: int, attrs: M
             for j, r in enumerate(rows):
                 _put_row(cols, spec, j, r)
             g = f["samples"]
-            for name in SAMPLE_FIELDS:
-                g[name][idx] = cols[name]
+            # status last: a kill part-way through this batch leaves its rows pending (status -1)
+            # in the HDF5 file, never marked done with half their fields
             for name in SPECTRA_FIELDS:
                 f["spectra"][name][idx, :] = spec[name]
+            for name in SAMPLE_FIELDS:
+                if name != "status":
+                    g[name][idx] = cols[name]
+            f.flush()
+            g["status"][idx] = cols["status"]
             f.attrs["n_done"] = int(np.count_nonzero(g["status"][...] != STATUS_PENDING))
         if attrs:
             for k, v in attrs.items():
@@ -561,13 +566,10 @@ def load(path, pending: bool = False, journal: bool = True) -> Results:
         periods = np.asarray(header["periods_s"], dtype=float)
         samples, spectra = empty_columns(int(header["n_rows"]), len(periods))
         attrs = dict(header["attrs"])
-    if jrows:
-        new = {i: r for i, r in jrows.items() if samples["status"][i] == STATUS_PENDING
-               or r.get("status", 0) != samples["status"][i]}
-        for i, r in new.items():
+    if jrows:  # the journal is authoritative for every row it holds
+        for i, r in jrows.items():
             _put_row(samples, spectra, i, r)
-        if new:
-            attrs["n_done"] = int(np.count_nonzero(samples["status"] != STATUS_PENDING))
+        attrs["n_done"] = int(np.count_nonzero(samples["status"] != STATUS_PENDING))
     for name, (code, _, _) in SAMPLE_FIELDS.items():  # fixed-length UTF-8 -> str
         if code.startswith("S") and name in samples:
             samples[name] = np.array([m.decode("utf-8", errors="replace") if isinstance(m, bytes) else str(m)

@@ -5,9 +5,11 @@ tests put this folder on PYTHONPATH).
   scheduling, resume and rank independence are tested without the solver. ``PCF_FAKE_SLEEP_S``
   makes each row take that long (to kill a run part-way); ``PCF_FAKE_BUSY_S`` burns CPU for
   about that long times (1 + 4 (Mw - 5.5)) (scheduler benchmarks without the solver).
-* ``failing``: the real :func:`pycolfrag.grid.run_sample`, except that the rows listed in
+* ``failing``: :func:`real_solver`, except that the rows listed in
   ``PCF_FAIL_ROWS`` (comma-separated) raise.
 * ``failing_fake``: ``fake`` with the same forced failures.
+* ``real_solver``: :func:`pycolfrag.grid.run_sample`; stand-in records and IMs are installed only
+  if ``pycolfrag.ground_motion.synthesize`` / ``pycolfrag.intensity.measures`` do not exist.
 """
 import os
 import time
@@ -42,7 +44,7 @@ def fake(ctx, row):
 def failing(ctx, row):
     if row in _fail_rows():
         raise RuntimeError(f"forced failure of row {row}")
-    return run_sample(ctx, row)
+    return real_solver(ctx, row)
 
 
 def failing_fake(ctx, row):

@@ -122,3 +122,19 @@ def test_other_run_and_foreign_files_are_refused(tmp_path):
         R.open_for_run(q, SIG, {}, 6, PERIODS)
     with pytest.raises(ResultsFileError):
         R.load(q)
+
+
+def test_journal_wins_over_a_half_written_hdf5_batch(tmp_path):
+    # a kill in the middle of an HDF5 batch can leave some fields of a row written and others not;
+    # readers and the resume take every journalled row from the journal
+    p = tmp_path / "r.h5"
+    w = _new(p)
+    w.add([_row(1, gamma=2.5)])
+    w.flush()
+    w.close()
+    with h5py.File(p, "r+") as f:
+        f["samples/gamma"][1] = np.nan
+    assert math.isnan(R.load(p, journal=False).samples["gamma"][0])
+    assert R.load(p).samples["gamma"][0] == 2.5
+    R.open_for_run(p, SIG, {}, 6, PERIODS).close()  # resume replays the journal into the file
+    assert R.load(p, journal=False).samples["gamma"][0] == 2.5
