@@ -236,3 +236,14 @@ def test_bad_input_is_valueerror_and_column_checked(col):
     big = pcf.Column.single_block(1.0, 2.0, n_sides=100)
     with pytest.raises(pcf.ParameterError, match="n_sides"):  # beyond the C solver's 64 sides
         pcf.simulate(big, np.zeros(10), 0.01)
+
+
+@pytest.mark.parametrize("contact", ["vertex", "exact"])
+def test_collapse_without_early_exit_runs_to_the_end(col, contact):
+    """With early_exit=False a collapsing column is followed to the end of the record plus
+    tail: tumbling blocks must not produce NaN or a spurious instability (issue 6 hard case)."""
+    t = np.arange(0.0, 6.0, 0.005)
+    res = pcf.simulate(col, 0.8 * G * np.sin(2 * np.pi * t), 0.005, early_exit=False, tail_s=1.0,
+                       contact=contact)
+    assert res.collapsed and res.t_end == pytest.approx(t[-1] + 1.0, abs=res.dt)
+    assert np.isfinite(res.u_top) and np.isfinite(res.u_d)
