@@ -69,7 +69,8 @@ struct cf_solver {
     joint_t *jt;
     /* sub-contacts */
     int np;
-    int *p_side, *p_hint;
+    int *p_side, *p_hint, *p_homein;
+    double *p_home;                 /* rest position in the other face's frame (x, y) */
     double *p_loc, *p_w, *p_fs, *p_ihkw;   /* ..., 1 / (2 ks w) */
     double dt_crit, dt;
     /* history */
@@ -114,7 +115,7 @@ static void release(cf_solver *s)
     free(s->m); free(s->inertia); free(s->x); free(s->v); free(s->q); free(s->w); free(s->R);
     free(s->F); free(s->T); free(s->x0); free(s->q0); free(s->fext_prev); free(s->fdamp_prev);
     free(s->tdamp_prev); free(s->blk_body); free(s->blk_off); free(s->blk_top); free(s->blk_bot);
-    free(s->blk_h); free(s->blk_m); free(s->joint_diam); free(s->jt); free(s->p_side); free(s->p_hint); free(s->p_ihkw); free(s->p_loc);
+    free(s->blk_h); free(s->blk_m); free(s->joint_diam); free(s->jt); free(s->p_side); free(s->p_hint); free(s->p_ihkw); free(s->p_homein); free(s->p_home); free(s->p_loc);
     free(s->p_w); free(s->p_fs); free(s->jfn);
     {
         char msg[CF_MSG_LEN];
@@ -499,7 +500,8 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
         for (j = 0; j < nj; j++)
             np += count_face_points(s->jt[j].fu.n, mode, mm) + (j == 0 ? 0 : count_face_points(s->jt[j].fl.n, mode, mm));
     s->np = np;
-    ALLOC(s->p_side, int, np); ALLOC(s->p_hint, int, np); ALLOC(s->p_ihkw, double, np); ALLOC(s->p_loc, double, 3 * np); ALLOC(s->p_w, double, np);
+    ALLOC(s->p_side, int, np); ALLOC(s->p_hint, int, np); ALLOC(s->p_ihkw, double, np);
+    ALLOC(s->p_homein, int, np); ALLOC(s->p_home, double, 2 * np); ALLOC(s->p_loc, double, 3 * np); ALLOC(s->p_w, double, np);
     ALLOC(s->p_fs, double, 3 * np);
     if (mode != CF_SOLVER_CONTACT_EXACT) {
         int c = 0, n1, n2;
@@ -559,6 +561,18 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
         }
     }
     for (k = 0; k < np; k++) s->p_ihkw[k] = 0.5 / (ks * s->p_w[k]);
+    /* rest position of each point in the frame of the face it touches (face centres
+     * aligned); a point within contact_tolerance of a home that lies inside that face
+     * is inside the grown polygon: the cheap test of the hot loop */
+    for (j = 0; j < nj; j++) {
+        joint_t *J = &s->jt[j];
+        for (k = J->p0; k < J->p0 + J->np; k++) {
+            const face_t *own = s->p_side[k] == 0 ? &J->fu : &J->fl, *oth = s->p_side[k] == 0 ? &J->fl : &J->fu;
+            double hx = s->p_loc[3 * k] - own->c[0], hy = s->p_loc[3 * k + 1] - own->c[1];
+            s->p_home[2 * k] = hx; s->p_home[2 * k + 1] = hy;
+            s->p_homein[k] = face_inside(oth, hx, hy, 1e-9 * oth->rc);
+        }
+    }
     /* initial state: exact static equilibrium, joint j pre-compressed by the weight
      * above it (uniform overlap W / (kn A) over the face), shear zero */
     {
@@ -659,8 +673,9 @@ static inline void face_world(const cf_solver *s, int b, const face_t *f, double
 }
 
 typedef struct {
-    double vs;       /* spring energy, J */
+    double vs;       /* spring energy, J (only when need) */
     double dslip;    /* slip dissipation this step, J */
+    int need;        /* 1: the energy balance is evaluated at this step */
 } step_energy;
 
 static inline void apply_pair(cf_solver *s, int bl, int bu, const double *p, const double *Fw)
@@ -802,6 +817,8 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
         const face_t *ff = side == 0 ? &J->fl : &J->fu;
         int bo = side == 0 ? bu : bl;
         double tol = s->def.contact_tolerance * ff->rc;
+        double fast = tol > 2e-9 * ff->rc ? (tol - 1e-9 * ff->rc) * (tol - 1e-9 * ff->rc) : -1.0;
+        int need = e->need;
         /* a point deeper than a tenth of the face's radius is not in contact with it: it
          * has passed beside or through the face (a tumbling block after a collapse) */
         double pmax = 0.1 * ff->rc;
@@ -818,6 +835,8 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
         rel_field(s, bl, bu, Rf, c, ww, &F);
         {
             const double *restrict ploc = s->p_loc, *restrict pw = s->p_w, *restrict pik = s->p_ihkw;
+            const double *restrict phome = s->p_home;
+            const int *restrict phin = s->p_homein;
             double *restrict pfs = s->p_fs;
             int *restrict phint = s->p_hint;
             int k0 = side == 0 ? J->p0 : J->p0 + J->n0, k1 = side == 0 ? J->p0 + J->n0 : end;
@@ -828,7 +847,10 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
                 Y = F.M[3] * loc[0] + F.M[4] * loc[1] + F.M[5] * loc[2] + F.t[1];
                 Z = F.M[6] * loc[0] + F.M[7] * loc[1] + F.M[8] * loc[2] + F.t[2];
                 pen = sgn * Z;
-                if (!(pen > 0.0) || pen > pmax || !(unbounded || face_inside_hint(ff, X, Y, tol, phint + k))) {
+                if (!(pen > 0.0) || pen > pmax
+                    || !(unbounded || (phin[k] && (X - phome[2 * k]) * (X - phome[2 * k])
+                                                  + (Y - phome[2 * k + 1]) * (Y - phome[2 * k + 1]) <= fast)
+                         || face_inside_hint(ff, X, Y, tol, phint + k))) {
                     if (fs[0] != 0.0 || fs[1] != 0.0) {
                         dslip += (fs[0] * fs[0] + fs[1] * fs[1]) * pik[k];
                         fs[0] = fs[1] = 0.0;
@@ -844,7 +866,7 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
                 mx += Y * fn - Z * fs[1];
                 my += Z * fs[0] - X * fn;
                 mz += X * fs[1] - Y * fs[0];
-                vs += 0.5 * fn * pen + (fs[0] * fs[0] + fs[1] * fs[1]) * pik[k];
+                if (need) vs += 0.5 * fn * pen + (fs[0] * fs[0] + fs[1] * fs[1]) * pik[k];
             }
         }
         {
@@ -1100,9 +1122,13 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
 
     for (n = 0; n <= nsteps; n++) {
         step_energy e;
-        double agx, agy, agz, ke = 0, vg = 0, err, scale;
-        int damp_on;
+        double agx, agy, agz, ke = 0, vg = 0, err = 0.0, scale;
+        int damp_on, hist_now;
         t = n * dt;
+        hist_now = s->h_cap > 0 && hcount < s->h_cap && t + 0.5 * dt > hcount * s->def.history_dt;
+        /* the spring energies (a sum over all sub-contacts) are evaluated every 4th step,
+         * at history samples and at the last step; the rest of the ledger every step */
+        e.need = (n & 3) == 0 || n == nsteps || hist_now;
         agx = ground_acc(ax, nrec, dtr, t);
         agy = ground_acc(ay, nrec, dtr, t);
         agz = ground_acc(az, nrec, dtr, t);
@@ -1167,11 +1193,13 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
             vg += mi * g * s->x[3 * i + 2];
         }
         if (n == 0) { vg0 = vg; vs0 = e.vs; }
-        err = ke + (vg - vg0) + (e.vs - vs0) + Dslip + Ddamp - W;
-        scale = ke + fabs(vg - vg0) + fabs(e.vs - vs0) + Dslip + Ddamp + fabs(W);
-        if (scale > scale_max) scale_max = scale;
-        if (fabs(err) > err_max) err_max = fabs(err);
-        if (!isfinite(err)) {
+        if (e.need) {
+            err = ke + (vg - vg0) + (e.vs - vs0) + Dslip + Ddamp - W;
+            scale = ke + fabs(vg - vg0) + fabs(e.vs - vs0) + Dslip + Ddamp + fabs(W);
+            if (scale > scale_max) scale_max = scale;
+            if (fabs(err) > err_max) err_max = fabs(err);
+        }
+        if (!isfinite(err) || !isfinite(ke)) {
             st = fail(s, CF_EUNSTABLE, "non-finite state at t = %.4f s (step %ld, dt = %.3g s, dt_crit = %.3g s)", t, n, dt, s->dt_crit);
             break;
         }
@@ -1195,7 +1223,7 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
                 ring_pos = (ring_pos + 1) % ring_len;
                 if (ring_count < ring_len) ring_count++;
             }
-            if (s->h_cap > 0 && hcount < s->h_cap && t + 0.5 * dt > hcount * s->def.history_dt) {
+            if (hist_now) {
                 int h = hcount++;
                 if (s->h_t) s->h_t[h] = t;
                 if (s->h_top) { s->h_top[2 * h] = dx; s->h_top[2 * h + 1] = dy; }
