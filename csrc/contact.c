@@ -72,9 +72,17 @@ int cf_contact_exact(const double *lo, int nl, const double *up, int nu, double 
     int n;
     memset(r, 0, sizeof *r);
     if (nl + nu + 1 > CF_CONTACT_MAXV) return 0;
-    n = cf_contact_clip_convex(lo, nl, up, nu, poly, work);
+    /* lo == up means an unbounded lower face: the overlap is the upper face itself */
+    if (lo == up) { memcpy(poly, up, sizeof(double) * 2 * (size_t)nu); n = nu; }
+    else n = cf_contact_clip_convex(lo, nl, up, nu, poly, work);
     if (n < 3) return 0;
-    n = cf_contact_clip_halfplane(poly, n, p0, px, py, comp);
+    {
+        /* compressed everywhere: no clipping by the zero-overlap line */
+        int i, all = 1;
+        for (i = 0; i < n && all; i++) all = p0 + px * poly[2 * i] + py * poly[2 * i + 1] >= 0.0;
+        if (all) memcpy(comp, poly, sizeof(double) * 2 * (size_t)n);
+        else n = cf_contact_clip_halfplane(poly, n, p0, px, py, comp);
+    }
     if (n < 3) return 0;
     cf_contact_polygon_moments(comp, n, m);
     if (!(m[0] > 0.0)) return 0;

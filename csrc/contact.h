@@ -48,7 +48,8 @@ typedef struct {
 } cf_contact_exact_result;
 
 /* Exact interface: lower face polygon (lo, nl) and the upper face projected on the
- * joint plane (up, nu), both CCW; overlap pen(X,Y) = p0 + px X + py Y. Returns the
+ * joint plane (up, nu), both CCW (pass lo == up for an unbounded lower face, e.g.
+ * the ground); overlap pen(X,Y) = p0 + px X + py Y. Returns the
  * number of vertices of the compressed region (0: no contact, result zeroed). */
 int cf_contact_exact(const double *lo, int nl, const double *up, int nu, double p0, double px, double py,
                      double kn, cf_contact_exact_result *res);
