@@ -713,10 +713,10 @@ static inline void rel_vel(const cf_solver *s, int bl, int bu, const double *wwl
  * normal force kn w pen, incremental shear (fs, 2 components, turning with that
  * face), Coulomb cap. Returns the slip dissipation: work done on the contact over
  * the increment (trapezoidal) minus the change of its elastic shear energy. */
-static inline double law2d(double pen, double dux, double duy, double w, double kn, double ks, double mu,
+static inline double law2d(double pen, double dux, double duy, double knw, double kw, double mu,
                            double *fs, double *fn)
 {
-    double kw = ks * w, f = kn * w * pen, lim = mu * f, fx0 = fs[0], fy0 = fs[1], fx, fy, m2;
+    double f = knw * pen, lim = mu * f, fx0 = fs[0], fy0 = fs[1], fx, fy, m2;
     *fn = f;
     fx = fx0 - kw * dux; fy = fy0 - kw * duy;
     m2 = fx * fx + fy * fy;
@@ -833,6 +833,8 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
         c[2] += s->x[3 * (side == 0 ? bl : bu) + 2];
         frame_map(Rf, c, Ro, s->x + 3 * bo, &F);
         rel_field(s, bl, bu, Rf, c, ww, &F);
+        /* relative displacement field over the step */
+        F.A[0] *= dt; F.A[1] *= dt; F.A[2] *= dt; F.W[0] *= dt; F.W[1] *= dt; F.W[2] *= dt;
         {
             const double *restrict ploc = s->p_loc, *restrict pw = s->p_w, *restrict pik = s->p_ihkw;
             const double *restrict phome = s->p_home;
@@ -857,9 +859,9 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
                     }
                     continue;
                 }
-                dux = (F.A[0] + F.W[1] * Z - F.W[2] * Y) * dt;
-                duy = (F.A[1] + F.W[2] * X - F.W[0] * Z) * dt;
-                dslip += law2d(pen, dux, duy, w, kn, ks, mu, fs, &fn);
+                dux = F.A[0] + F.W[1] * Z - F.W[2] * Y;
+                duy = F.A[1] + F.W[2] * X - F.W[0] * Z;
+                dslip += law2d(pen, dux, duy, kn * w, ks * w, mu, fs, &fn);
                 jfn += fn;
                 /* on both sides the force on the upper body is +fn along the frame's z */
                 fx += fs[0]; fy += fs[1]; fz += fn;
