@@ -675,6 +675,7 @@ static inline void face_world(const cf_solver *s, int b, const face_t *f, double
 typedef struct {
     double vs;       /* spring energy, J (only when need) */
     double dslip;    /* slip dissipation this step, J */
+    double dswitch;  /* spring energy removed by points leaving/entering a face polygon, J */
     int need;        /* 1: the energy balance is evaluated at this step */
 } step_energy;
 
@@ -809,7 +810,7 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
 {
     int bl = J->bl, bu = J->bu, k, side;
     const double *RL = s->R + 9 * bl, *RU = s->R + 9 * bu;
-    double kn = s->kn, ks = s->ks, mu = s->mu, jfn = 0.0, vs = 0.0, dslip = 0.0;
+    double kn = s->kn, ks = s->ks, mu = s->mu, jfn = 0.0, vs = 0.0, dslip = 0.0, dswitch = 0.0;
     double cF[2][3], Fs[2][3], Ms[2][3];
     int end = J->p0 + J->np;
     for (side = 0; side < 2; side++) {
@@ -849,16 +850,31 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
                 Y = F.M[3] * loc[0] + F.M[4] * loc[1] + F.M[5] * loc[2] + F.t[1];
                 Z = F.M[6] * loc[0] + F.M[7] * loc[1] + F.M[8] * loc[2] + F.t[2];
                 pen = sgn * Z;
-                if (!(pen > 0.0) || pen > pmax
-                    || !(unbounded || (phin[k] && (X - phome[2 * k]) * (X - phome[2 * k])
-                                                  + (Y - phome[2 * k + 1]) * (Y - phome[2 * k + 1]) <= fast)
-                         || face_inside_hint(ff, X, Y, tol, phint + k))) {
+                /* fs[2] holds the point's state: 0 open (or too deep), 1 in contact,
+                 * 2 overlapping the plane but outside the face polygon */
+                if (!(pen > 0.0) || pen > pmax) {
                     if (fs[0] != 0.0 || fs[1] != 0.0) {
                         dslip += (fs[0] * fs[0] + fs[1] * fs[1]) * pik[k];
                         fs[0] = fs[1] = 0.0;
                     }
+                    fs[2] = 0.0;
                     continue;
                 }
+                if (!(unbounded || (phin[k] && (X - phome[2 * k]) * (X - phome[2 * k])
+                                               + (Y - phome[2 * k + 1]) * (Y - phome[2 * k + 1]) <= fast)
+                      || face_inside_hint(ff, X, Y, tol, phint + k))) {
+                    /* slid off the face while compressed: its normal spring energy leaves
+                     * the model (booked as contact_switch, not as a balance error) */
+                    if (fs[2] == 1.0) dswitch += 0.5 * kn * w * pen * pen;
+                    if (fs[0] != 0.0 || fs[1] != 0.0) {
+                        dslip += (fs[0] * fs[0] + fs[1] * fs[1]) * pik[k];
+                        fs[0] = fs[1] = 0.0;
+                    }
+                    fs[2] = 2.0;
+                    continue;
+                }
+                if (fs[2] == 2.0) dswitch -= 0.5 * kn * w * pen * pen;   /* slid onto the face */
+                fs[2] = 1.0;
                 dux = F.A[0] + F.W[1] * Z - F.W[2] * Y;
                 duy = F.A[1] + F.W[2] * X - F.W[0] * Z;
                 dslip += law2d(pen, dux, duy, kn * w, ks * w, mu, fs, &fn);
@@ -896,6 +912,7 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
     }
     e->vs += vs;
     e->dslip += dslip;
+    e->dswitch += dswitch;
     s->jfn[J - s->jt] = jfn;
 }
 
@@ -1075,7 +1092,7 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
 {
     int i, j, nb, nj, nblk, collapsed = 0, cblk = -1, creason = 0, hcount = 0, planar, top;
     long n, nsteps, kres, ring_len, ring_count = 0, ring_pos = 0;
-    double dt, t_rec, t_final, vg0 = 0, vs0 = 0, W = 0, Dslip = 0, Ddamp = 0, err_max = 0, scale_max = 0;
+    double dt, t_rec, t_final, vg0 = 0, vs0 = 0, W = 0, Dslip = 0, Ddamp = 0, Dswitch = 0, err_max = 0, scale_max = 0;
     double scale_floor, top0[3], max_top = 0, ctime = NAN, t = 0, g, alpha, tdamp;
     double *ww, *ring, *vold, *wold;
     double ke_win = 0, rest_ke, next_rest;
@@ -1143,12 +1160,13 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
         memset(s->F, 0, sizeof(double) * 3 * (size_t)nb);
         memset(s->T, 0, sizeof(double) * 3 * (size_t)nb);
         /* 2. contacts */
-        e.vs = 0; e.dslip = 0;
+        e.vs = 0; e.dslip = 0; e.dswitch = 0;
         for (j = 0; j < nj; j++) {
             if (s->def.contact == CF_SOLVER_CONTACT_EXACT) joint_exact(s, &s->jt[j], ww, dt, &e);
             else joint_points(s, &s->jt[j], ww, dt, &e);
         }
         Dslip += e.dslip;
+        Dswitch += e.dswitch;
         /* 3.-4. external forces, velocity update, work of the external forces
          * (trapezoidal in time, which is what the leapfrog conserves exactly) */
         for (i = 1; i < nb; i++) {
@@ -1196,8 +1214,8 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
         }
         if (n == 0) { vg0 = vg; vs0 = e.vs; }
         if (e.need) {
-            err = ke + (vg - vg0) + (e.vs - vs0) + Dslip + Ddamp - W;
-            scale = ke + fabs(vg - vg0) + fabs(e.vs - vs0) + Dslip + Ddamp + fabs(W);
+            err = ke + (vg - vg0) + (e.vs - vs0) + Dslip + Ddamp + Dswitch - W;
+            scale = ke + fabs(vg - vg0) + fabs(e.vs - vs0) + Dslip + Ddamp + fabs(Dswitch) + fabs(W);
             if (scale > scale_max) scale_max = scale;
             if (fabs(err) > err_max) err_max = fabs(err);
         }
@@ -1238,8 +1256,9 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
                     if (s->h_slip) dislocation(s, j, s->h_slip + 2 * ((size_t)h * nblk + j), s->h_slip + 2 * ((size_t)h * nblk + j) + 1);
                 }
                 if (s->h_en) {
-                    double *en = s->h_en + 7 * (size_t)h;
+                    double *en = s->h_en + CF_SOLVER_N_ENERGY * (size_t)h;
                     en[0] = ke; en[1] = vg - vg0; en[2] = e.vs - vs0; en[3] = Dslip; en[4] = Ddamp; en[5] = W; en[6] = err;
+                    en[7] = Dswitch;
                 }
             }
         }

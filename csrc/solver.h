@@ -29,7 +29,7 @@
 #define CF_SOLVER_COLLAPSE_FALLING 3
 
 #define CF_SOLVER_MAX_SIDES 64
-#define CF_SOLVER_N_ENERGY 7
+#define CF_SOLVER_N_ENERGY 8
 
 typedef struct {
     int contact;               /* CF_SOLVER_CONTACT_*; default VERTEX */
@@ -92,8 +92,9 @@ int cf_solver_history_capacity(const cf_solver *s, int n, double dt_rec);
 
 /* Caller-owned history buffers (any may be NULL), capacity samples each:
  * t (cap), top_disp (cap x 2), block_pos (cap x nb x 3), block_quat (cap x nb x 4),
- * joint_opening (cap x nj), joint_slip (cap x nj x 2), energy (cap x 7: kinetic,
- * gravity, spring, slip_dissipated, damping_dissipated, ground_work, balance_error). */
+ * joint_opening (cap x nj), joint_slip (cap x nj x 2), energy (cap x CF_SOLVER_N_ENERGY:
+ * kinetic, gravity, spring, slip_dissipated, damping_dissipated, ground_work,
+ * balance_error, contact_switch -- J, see docs/solver.md). */
 int cf_solver_set_history(cf_solver *s, int capacity, double *t, double *top_disp, double *block_pos,
                           double *block_quat, double *joint_opening, double *joint_slip, double *energy);
 

@@ -39,7 +39,7 @@ _REASONS = {lib.CF_SOLVER_COLLAPSE_NONE: "",
 #: |acceleration| above this (m/s^2, about 10 g) is refused as a likely unit mistake
 MAX_ABS_ACC = 100.0
 _ENERGY_KEYS = ("kinetic", "gravity", "spring", "slip_dissipated", "damping_dissipated", "ground_work",
-                "balance_error")
+                "balance_error", "contact_switch")
 
 
 class EnergyWarning(UserWarning):
@@ -62,7 +62,9 @@ class History:
         joints of a monolithic column)
     energy : dict of (n,) arrays, J -- kinetic, gravity (change since the start), spring (change since
         the pre-compressed start), slip_dissipated, damping_dissipated, ground_work (work of the
-        inertial forces -m a_g), balance_error = kinetic + gravity + spring + dissipated - ground_work
+        inertial forces -m a_g), contact_switch (normal spring energy removed when compressed
+        sub-contacts slide off a face polygon, negative when they slide onto one),
+        balance_error = kinetic + gravity + spring + dissipated + contact_switch - ground_work
     """
 
     t: np.ndarray
@@ -258,7 +260,7 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, *, contact="
         cap = lib.cf_solver_history_capacity(solver, ax.size, dt)
         hist_arrays = dict(
             t=np.zeros(cap), top=np.zeros((cap, 2)), pos=np.zeros((cap, nb, 3)), quat=np.zeros((cap, nb, 4)),
-            open=np.zeros((cap, nb)), slip=np.zeros((cap, nb, 2)), en=np.zeros((cap, 7)), fn=np.zeros((cap, nb)))
+            open=np.zeros((cap, nb)), slip=np.zeros((cap, nb, 2)), en=np.zeros((cap, lib.CF_SOLVER_N_ENERGY)), fn=np.zeros((cap, nb)))
         h = hist_arrays
         check(lib.cf_solver_set_history(solver, cap, ptr(h["t"]), ptr(h["top"]), ptr(h["pos"]), ptr(h["quat"]),
                                         ptr(h["open"]), ptr(h["slip"]), ptr(h["en"])),

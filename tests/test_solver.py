@@ -67,16 +67,17 @@ def test_energy_balance_elastic_20s(col):
 
 def test_energy_balance_with_impacts_converges(col):
     """Rocking with impacts (0.25 g, 2 Hz, 3 s + 2 s): the balance error falls as the
-    step shrinks. Measured 1.1e-2, 7.4e-3, 5.0e-3, 3.0e-3, 3.6e-3, 2.1e-3 at dt_factor
-    0.8, 0.6, 0.4, 0.3, 0.2, 0.1: order about 0.8 in the step, noisy because each run is
-    a different chaotic trajectory with a different set of contact events (sub-contacts
-    entering and leaving the overlap with a kink in the force). Asserted: decreasing over
-    0.8 -> 0.4 -> 0.1 and at least 3x smaller at 0.1 than at 0.8."""
+    step shrinks. Measured 1.6e-2, 9.1e-3, 4.7e-3, 2.7e-3, 1.6e-3, 3.6e-4, 1.1e-4 at
+    dt_factor 0.8, 0.6, 0.4, 0.3, 0.2, 0.1, 0.05: order about 1.8 (the kink of the contact
+    force at zero overlap limits it below 2). The energy of compressed sub-contacts sliding
+    off / onto a face polygon is booked separately (energy["contact_switch"]), not as
+    error. Asserted: decreasing over 0.8 -> 0.4 -> 0.2 -> 0.1, and at 0.1 at least 10x
+    below 0.8 (order > 1.1)."""
     a, dt = sine(0.25, 2.0, 3.0)
-    errs = [pcf.simulate(col, a, dt, tail_s=2.0, dt_factor=f).energy_error for f in (0.8, 0.4, 0.1)]
+    errs = [pcf.simulate(col, a, dt, tail_s=2.0, dt_factor=f).energy_error for f in (0.8, 0.4, 0.2, 0.1)]
     assert errs[0] < 0.05
-    assert errs[1] < errs[0] and errs[2] < errs[1]
-    assert errs[2] < errs[0] / 3.0
+    assert all(e2 < e1 for e1, e2 in zip(errs, errs[1:]))
+    assert errs[-1] < errs[0] / 10.0
 
 
 def test_unstable_step_is_detected_not_hidden(col):
@@ -150,7 +151,11 @@ def test_no_collapse_response_fields(col):
     assert h.top_disp.shape == (n, 2) and h.block_pos.shape == (n, 13, 3) and h.block_quat.shape == (n, 13, 4)
     assert h.joint_opening.shape == (n, 13) and h.joint_slip.shape == (n, 13, 2)
     assert set(h.energy) == {"kinetic", "gravity", "spring", "slip_dissipated", "damping_dissipated",
-                             "ground_work", "balance_error"}
+                             "ground_work", "balance_error", "contact_switch"}
+    e = h.energy
+    np.testing.assert_allclose(e["kinetic"] + e["gravity"] + e["spring"] + e["slip_dissipated"]
+                               + e["damping_dissipated"] + e["contact_switch"] - e["ground_work"],
+                               e["balance_error"], atol=1e-9 * res.energy_scale)
     np.testing.assert_allclose(np.linalg.norm(h.block_quat, axis=2), 1.0, atol=1e-12)
     assert np.max(np.linalg.norm(h.top_disp, axis=1)) / col.base_diameter <= res.u_top + 1e-12
     assert (h.joint_opening >= 0).all() and h.joint_opening.max() > 0
