@@ -219,42 +219,66 @@ static int face_points(const face_t *f, int mode, int m, double wsum, double *lo
 
 /* ---- stability limit of the whole linearised stack ------------------------------ */
 
-/* Largest eigenvalue of a symmetric matrix (cyclic Jacobi; a is destroyed). */
-static double jacobi_max_eig(double *a, int n)
+/* Largest eigenvalue of a symmetric n x n matrix (row-major; a is destroyed):
+ * Householder reduction to tridiagonal form (eigenvalues only), then bisection on
+ * the Sturm sequence count to full double precision. O(n^3) with a small constant:
+ * about 1 ms for the 78 x 78 stack of the default column (cyclic Jacobi took ~20 ms). */
+double cf_solver_sym_max_eig(double *a, int n)
 {
-    int sweep, p, q, k;
-    double mx;
-    for (sweep = 0; sweep < 60; sweep++) {
-        double off = 0.0, dg = 0.0;
-        for (p = 0; p < n; p++) {
-            dg += a[p * n + p] * a[p * n + p];
-            for (q = p + 1; q < n; q++) off += a[p * n + q] * a[p * n + q];
+    int i, j, k, it;
+    double *d, *e, *v, *pq, lo, hi;
+    if (n < 1) return NAN;
+    if (n == 1) return a[0];
+    d = (double *)malloc(sizeof(double) * (size_t)n * 4);
+    if (!d) return NAN;
+    e = d + n; v = e + n; pq = v + n;
+    for (k = 0; k + 2 < n; k++) {
+        int m = n - k - 1;
+        double nx = 0.0, alpha, nv = 0.0, K = 0.0;
+        for (i = 0; i < m; i++) { v[i] = a[(k + 1 + i) * n + k]; nx += v[i] * v[i]; }
+        nx = sqrt(nx);
+        if (nx == 0.0) { e[k] = 0.0; continue; }
+        alpha = v[0] > 0 ? -nx : nx;
+        e[k] = alpha;
+        v[0] -= alpha;
+        for (i = 0; i < m; i++) nv += v[i] * v[i];
+        nv = sqrt(nv);
+        if (nv == 0.0) continue;
+        for (i = 0; i < m; i++) v[i] /= nv;
+        /* A22 <- H A22 H, H = I - 2 v v^T:  p = A22 v, q = p - (v.p) v, A22 -= 2 (v q^T + q v^T) */
+        for (i = 0; i < m; i++) {
+            double sum = 0.0;
+            for (j = 0; j < m; j++) sum += a[(k + 1 + i) * n + k + 1 + j] * v[j];
+            pq[i] = sum;
+            K += v[i] * sum;
         }
-        if (off <= 1e-26 * dg || off == 0.0) break;
-        for (p = 0; p < n; p++) {
-            for (q = p + 1; q < n; q++) {
-                double apq = a[p * n + q], th, t, c, sn, app, aqq;
-                if (fabs(apq) < 1e-300) continue;
-                app = a[p * n + p]; aqq = a[q * n + q];
-                th = (aqq - app) / (2.0 * apq);
-                t = (th >= 0 ? 1.0 : -1.0) / (fabs(th) + sqrt(th * th + 1.0));
-                c = 1.0 / sqrt(t * t + 1.0); sn = t * c;
-                for (k = 0; k < n; k++) {
-                    double akp, akq;
-                    if (k == p || k == q) continue;
-                    akp = a[k * n + p]; akq = a[k * n + q];
-                    a[k * n + p] = a[p * n + k] = c * akp - sn * akq;
-                    a[k * n + q] = a[q * n + k] = sn * akp + c * akq;
-                }
-                a[p * n + p] = app - t * apq;
-                a[q * n + q] = aqq + t * apq;
-                a[p * n + q] = a[q * n + p] = 0.0;
-            }
-        }
+        for (i = 0; i < m; i++) pq[i] -= K * v[i];
+        for (i = 0; i < m; i++)
+            for (j = 0; j < m; j++)
+                a[(k + 1 + i) * n + k + 1 + j] -= 2.0 * (v[i] * pq[j] + pq[i] * v[j]);
     }
-    mx = a[0];
-    for (p = 1; p < n; p++) if (a[p * n + p] > mx) mx = a[p * n + p];
-    return mx;
+    for (i = 0; i < n; i++) d[i] = a[i * n + i];
+    e[n - 2] = a[(n - 1) * n + n - 2];
+    /* Gershgorin bounds of the tridiagonal matrix */
+    lo = INFINITY; hi = -INFINITY;
+    for (i = 0; i < n; i++) {
+        double r = (i > 0 ? fabs(e[i - 1]) : 0.0) + (i < n - 1 ? fabs(e[i]) : 0.0);
+        if (d[i] + r > hi) hi = d[i] + r;
+        if (d[i] - r < lo) lo = d[i] - r;
+    }
+    /* bisection: the smallest x below which all n eigenvalues lie */
+    for (it = 0; it < 200 && hi - lo > 1e-15 * (fabs(hi) + fabs(lo)); it++) {
+        double x = 0.5 * (lo + hi), q = d[0] - x;
+        int below = q < 0.0;
+        for (i = 1; i < n; i++) {
+            if (q == 0.0) q = 1e-300;
+            q = d[i] - x - e[i - 1] * e[i - 1] / q;
+            below += q < 0.0;
+        }
+        if (below == n) hi = x; else lo = x;
+    }
+    free(d);
+    return hi;
 }
 
 /* Add a spring of stiffness k along e at world point p between bodies bl, bu (at rest). */
@@ -341,7 +365,7 @@ static int compute_dt_crit(cf_solver *s)
             A[i * nsel + j] = K[sel[i] * nd + sel[j]] / sqrt(mi * mj);
         }
     }
-    lam = jacobi_max_eig(A, nsel);
+    lam = cf_solver_sym_max_eig(A, nsel);
     free(K); free(sel); free(A);
     if (!(lam > 0.0) || !isfinite(lam)) return fail(s, CF_EINVAL, "stability limit: stiffness matrix has no positive eigenvalue");
     s->dt_crit = 2.0 / sqrt(lam);

@@ -110,8 +110,40 @@ static void test_determinism(void)
     cf_solver_free(s);
 }
 
+/* Largest eigenvalue (stability limit): the second-difference matrix tridiag(-1, 2, -1)
+ * of size n has eigenvalues 2 - 2 cos(k pi / (n + 1)); a dense matrix Q diag(l) Q^T with
+ * a Householder reflector Q = I - 2 u u^T has eigenvalues l. */
+static void test_max_eigenvalue(void)
+{
+    double a[36 * 36], u[36], l[36], nu = 0;
+    int n = 36, i, j;
+    memset(a, 0, sizeof a);
+    for (i = 0; i < n; i++) {
+        a[i * n + i] = 2.0;
+        if (i > 0) a[i * n + i - 1] = a[(i - 1) * n + i] = -1.0;
+    }
+    CF_CHECK_REL(cf_solver_sym_max_eig(a, n), 2.0 - 2.0 * cos(n * CF_PI / (n + 1)), 1e-13);
+    for (i = 0; i < n; i++) { u[i] = sin(1.0 + 0.7 * i); nu += u[i] * u[i]; l[i] = 1.0 + 0.25 * ((i * 7) % n); }
+    nu = sqrt(nu);
+    for (i = 0; i < n; i++) u[i] /= nu;
+    for (i = 0; i < n; i++)
+        for (j = 0; j < n; j++) {
+            int k;
+            double sum = 0;
+            for (k = 0; k < n; k++) {
+                double qik = (i == k) - 2 * u[i] * u[k], qjk = (j == k) - 2 * u[j] * u[k];
+                sum += qik * l[k] * qjk;
+            }
+            a[i * n + j] = sum;
+        }
+    CF_CHECK_REL(cf_solver_sym_max_eig(a, n), 1.0 + 0.25 * (n - 1), 1e-13);
+    a[0] = 3.5;
+    CF_CHECK(cf_solver_sym_max_eig(a, 1) == 3.5);
+}
+
 int main(void)
 {
+    CF_RUN(test_max_eigenvalue);
     CF_RUN(test_dt_crit_default_column);
     CF_RUN(test_statics);
     CF_RUN(test_bad_input);
