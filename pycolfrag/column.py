@@ -42,6 +42,37 @@ def _finite_positive(value, name: str, allow_zero: bool = False) -> float:
     return v
 
 
+def _check_keys(d, known, where: str) -> dict:
+    """``d`` must be a mapping whose keys are all in ``known`` (a typo must not fall back to a default)."""
+    if not isinstance(d, dict):
+        raise ParameterError(f"{where} must be a mapping (JSON object / TOML table), got {type(d).__name__}: {d!r}")
+    unknown = set(d) - set(known)
+    if unknown:
+        raise ParameterError(f"{where}: unknown keys {sorted(unknown)} (known: {sorted(known)})")
+    return d
+
+
+def _n_sides(value, where: str) -> int:
+    """An integral number of polygon sides (10 and 10.0 pass; 3.7 and "ten" do not)."""
+    msg = f"{where + ': ' if where else ''}n_sides must be an integer >= 3, got {value!r}"
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(msg) from None
+    if isinstance(value, bool) or not math.isfinite(v) or v != int(v) or v < 3:
+        raise ParameterError(msg)
+    return int(v)
+
+
+_SEGMENT_KEYS = ("height", "diameter_bottom", "diameter_top", "n_sides", "phase_deg")
+_BLOCK_KEYS = ("name", "segments")
+_SHAFT_KEYS = ("drum_heights", "diameter_bottom", "diameter_top", "n_sides", "phase_deg", "provenance")
+_CAPITAL_KEYS = ("echinus_height", "echinus_diameter_bottom", "echinus_diameter_top", "abacus_height",
+                 "abacus_side", "n_sides", "provenance")
+_COLUMN_KEYS = ("name", "provenance", "description", "units", "density", "n_sides", "phase_deg", "shaft",
+                "capital", "joints", "blocks")
+
+
 @dataclass(frozen=True)
 class Segment:
     """A regular ``n_sides``-gon frustum (prism when ``r_bottom == r_top``).
@@ -104,12 +135,13 @@ class Segment:
 
     @classmethod
     def from_dict(cls, d: dict, where: str = "segment") -> "Segment":
+        _check_keys(d, _SEGMENT_KEYS, where)
         try:
             return cls(
                 height=d["height"],
                 r_bottom=0.5 * float(d["diameter_bottom"]),
                 r_top=0.5 * float(d.get("diameter_top", d["diameter_bottom"])),
-                n_sides=int(d.get("n_sides", 10)),
+                n_sides=_n_sides(d.get("n_sides", 10), ""),  # where is prefixed below
                 phase_rad=math.radians(float(d.get("phase_deg", 0.0))),
             )
         except KeyError as exc:
@@ -189,7 +221,10 @@ class JointProperties:
     def __post_init__(self):
         _finite_positive(self.kn, "joint normal stiffness kn (Pa/m)")
         _finite_positive(self.ks, "joint shear stiffness ks (Pa/m)")
-        f = float(self.friction_deg)
+        try:
+            f = float(self.friction_deg)
+        except (TypeError, ValueError):
+            raise ParameterError(f"friction angle must be a number of degrees, got {self.friction_deg!r}") from None
         if not math.isfinite(f) or not (0.0 < f < 90.0):
             raise ParameterError(f"friction angle must be in (0, 90) degrees, got {self.friction_deg!r}")
         for name in ("cohesion", "tensile_strength"):
@@ -212,6 +247,8 @@ class JointProperties:
 
     @classmethod
     def from_dict(cls, d: dict) -> "JointProperties":
+        if not isinstance(d, dict):
+            raise ParameterError(f"joints must be a mapping (JSON object / TOML table), got {type(d).__name__}: {d!r}")
         known = {"kn", "ks", "friction_angle_deg", "friction_angle", "friction_deg", "cohesion", "tensile_strength", "provenance"}
         unknown = set(d) - known
         if unknown:
@@ -338,12 +375,27 @@ class Column:
         """Build from the file format of ``docs/column_format.md`` (``shaft``+``capital`` or ``blocks``)."""
         if not isinstance(d, dict):
             raise ParameterError(f"column description must be a mapping, got {type(d).__name__}")
+        _check_keys(d, _COLUMN_KEYS, "column description")
+        try:
+            return cls._from_dict(d)
+        except ParameterError:
+            raise
+        except (TypeError, ValueError, AttributeError) as exc:  # a wrong type deep inside: name it, never a raw error
+            raise ParameterError(f"bad column description: {exc}") from None
+
+    @classmethod
+    def _from_dict(cls, d: dict) -> "Column":
         density = d.get("density", 2700.0)
         joints = JointProperties.from_dict(d.get("joints", {}))
         name = d.get("name", "custom")
         if "blocks" in d:
+            if "shaft" in d or "capital" in d:
+                raise ParameterError("column description has both 'blocks' and 'shaft'/'capital': use one form")
+            if not isinstance(d["blocks"], list):
+                raise ParameterError(f"blocks must be a list, got {type(d['blocks']).__name__}: {d['blocks']!r}")
             blocks = []
             for i, bd in enumerate(d["blocks"]):
+                _check_keys(bd, _BLOCK_KEYS, f"blocks[{i}]")
                 segs = bd.get("segments")
                 if not segs:
                     raise ParameterError(f"blocks[{i}]: needs a non-empty 'segments' list")
@@ -352,8 +404,8 @@ class Column:
             return cls(blocks, density=density, joints=joints, name=name)
         if "shaft" not in d:
             raise ParameterError("column description needs 'shaft' (with optional 'capital') or 'blocks'")
-        sh = d["shaft"]
-        n_sides = int(d.get("n_sides", sh.get("n_sides", 10)))
+        sh = _check_keys(d["shaft"], _SHAFT_KEYS, "shaft")
+        n_sides = _n_sides(d.get("n_sides", sh.get("n_sides", 10)), "column")
         phase = float(d.get("phase_deg", sh.get("phase_deg", 0.0)))
         try:
             heights = sh["drum_heights"]
@@ -362,11 +414,12 @@ class Column:
             raise ParameterError(f"shaft: missing key {exc}") from None
         capital = None
         if d.get("capital"):
-            c = d["capital"]
+            c = _check_keys(d["capital"], _CAPITAL_KEYS, "capital")
             try:
                 capital = cls.doric_capital(c["echinus_height"], c["echinus_diameter_bottom"], c["echinus_diameter_top"],
-                                            c["abacus_height"], c["abacus_side"],
-                                            n_sides=int(c.get("n_sides", n_sides)), phase_deg=phase)
+                                            c["abacus_height"],
+                                            _finite_positive(c["abacus_side"], "capital abacus_side (m)"),
+                                            n_sides=_n_sides(c.get("n_sides", n_sides), "capital"), phase_deg=phase)
             except KeyError as exc:
                 raise ParameterError(f"capital: missing key {exc}") from None
         return cls.from_drums(heights, d0, sh.get("diameter_top", d0), n_sides=n_sides, capital=capital,
