@@ -356,7 +356,7 @@ def _draw_column(ax, col, pos, quat, alpha=0.9, collapse_block=None):
     for i, faces in enumerate(block_faces(col, pos, quat)):
         face_col = "tab:red" if collapse_block == i else _block_color(i, nb)
         pc = Poly3DCollection(faces, facecolors=face_col, edgecolors="0.25", linewidths=0.3, alpha=alpha)
-        ax.add_collection3d(pc)
+        _add3d(ax, pc)
 
 
 def _block_color(i, nb):
@@ -368,7 +368,15 @@ def _block_color(i, nb):
 def _ground(ax, half):
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
     sq = np.array([[-half, -half, 0.0], [half, -half, 0.0], [half, half, 0.0], [-half, half, 0.0]])
-    ax.add_collection3d(Poly3DCollection([sq], facecolors="0.6", edgecolors="0.4", alpha=0.5))
+    _add3d(ax, Poly3DCollection([sq], facecolors="0.6", edgecolors="0.4", alpha=0.5))
+
+
+def _add3d(ax, coll):
+    """Add without autoscaling (limits are set once for all panels; autoscaling a flat plate overflows)."""
+    try:
+        ax.add_collection3d(coll, autolim=False)
+    except TypeError:  # matplotlib < 3.9 has no autolim and does not autoscale here
+        ax.add_collection3d(coll)
 
 
 def _limits(col, h, idx):
