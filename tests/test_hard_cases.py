@@ -232,3 +232,25 @@ def test_collapse_part_way_early_exit():
     assert r.t_end == pytest.approx(r.collapse_time, abs=0.05)
     assert r.n_steps * r.dt < 8.0
     assert math.isfinite(r.u_top) and math.isfinite(r.u_d)
+
+
+def test_stiff_block_impacts_energy_error_falls_with_step():
+    """Stiff (kn = 1e11) square block rocking with impacts after a one-sine pulse at 0.9x its
+    Housner threshold (docs/accuracy.md, finding 4). Measured energy error with vertex contacts:
+    0.139 at dt_factor 0.8 (flagged), 0.026 at 0.4, 0.0058 at 0.1. Asserted: the flag matches the
+    tolerance (0.05), and the error falls as the step shrinks (issue 6: bound shrinking with the step)."""
+    col = pcf.Column.single_block(0.4, 2.0, n_sides=4,
+                                  joints=pcf.JointProperties(kn=1e11, ks=1e11, friction_deg=80.0))
+    t = np.arange(0, 2.0005, 0.001)
+    acc = 0.9 * 0.22852 * G * np.sin(np.pi * t)
+    errs = {}
+    for f in (0.8, 0.4, 0.1):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = pcf.simulate(col, acc, 0.001, tail_s=4.0, dt_factor=f)
+        assert finite(r) and not r.collapsed
+        assert r.energy_warning == (r.energy_error > 0.05)
+        errs[f] = r.energy_error
+    print(f"\nstiff block impacts, energy error by dt_factor: {errs}")
+    assert errs[0.1] < errs[0.4] < errs[0.8]
+    assert errs[0.1] < 0.05
