@@ -1,0 +1,136 @@
+/* spectra.c -- intensity measures: peaks, Arias, D5-95, Nigam-Jennings spectra. */
+#include <math.h>
+#include <stddef.h>
+
+#include "cf_common.h"
+#include "spectra.h"
+
+int cf_spectra_integrate(const double *acc, int n, double dt, double *vel, double *disp)
+{
+    double v = 0.0, d = 0.0;
+    int i;
+    if (acc == NULL || n < 1 || !(dt > 0.0) || !isfinite(dt))
+        return CF_EINVAL;
+    if (vel) vel[0] = 0.0;
+    if (disp) disp[0] = 0.0;
+    for (i = 1; i < n; i++) {
+        double v1 = v + 0.5 * dt * (acc[i - 1] + acc[i]);
+        d += 0.5 * dt * (v + v1);
+        v = v1;
+        if (vel) vel[i] = v;
+        if (disp) disp[i] = d;
+    }
+    return CF_OK;
+}
+
+/* Time (s) at which the cumulative trapezoidal integral of a^2, c[i] at t = i dt,
+ * first reaches level; c rises linearly between samples in this interpolation. */
+static double level_time(const double *acc, int n, double dt, double level)
+{
+    double c = 0.0;
+    int i;
+    for (i = 1; i < n; i++) {
+        double inc = 0.5 * dt * (acc[i - 1] * acc[i - 1] + acc[i] * acc[i]);
+        if (c + inc >= level && inc > 0.0)
+            return dt * ((i - 1) + (level - c) / inc);
+        c += inc;
+    }
+    return dt * (n - 1);
+}
+
+int cf_spectra_peaks(const double *acc, int n, double dt, double g, cf_spectra_ims *out)
+{
+    double v = 0.0, d = 0.0, pga = 0.0, pgv = 0.0, pgd = 0.0, ia = 0.0;
+    int i;
+    if (acc == NULL || out == NULL || n < 1 || !(dt > 0.0) || !isfinite(dt) || !(g > 0.0))
+        return CF_EINVAL;
+    pga = fabs(acc[0]);
+    for (i = 1; i < n; i++) {
+        double v1 = v + 0.5 * dt * (acc[i - 1] + acc[i]);
+        d += 0.5 * dt * (v + v1);
+        v = v1;
+        ia += 0.5 * dt * (acc[i - 1] * acc[i - 1] + acc[i] * acc[i]);
+        if (fabs(acc[i]) > pga) pga = fabs(acc[i]);
+        if (fabs(v) > pgv) pgv = fabs(v);
+        if (fabs(d) > pgd) pgd = fabs(d);
+    }
+    out->pga = pga;
+    out->pgv = pgv;
+    out->pgd = pgd;
+    out->arias = CF_PI / (2.0 * g) * ia;
+    if (ia > 0.0) {
+        out->t5 = level_time(acc, n, dt, 0.05 * ia);
+        out->t95 = level_time(acc, n, dt, 0.95 * ia);
+    } else {
+        out->t5 = out->t95 = 0.0;
+    }
+    out->d5_95 = out->t95 - out->t5;
+    return CF_OK;
+}
+
+/* Nigam & Jennings (1969), Eqs. for a piecewise-linear ground acceleration and
+ * x'' + 2 zeta w x' + w^2 x = -a_g. Written with E = exp(-zeta w dt),
+ * S = sin(wd dt), C = cos(wd dt), wd = w sqrt(1 - zeta^2). */
+int cf_spectra_nj_coefficients(double period, double damping, double dt, double *coef)
+{
+    double w, z, wd, sq, E, S, C, w2, w3, t1, t2, t3, c1, c2;
+    if (coef == NULL || !(period > 0.0) || !isfinite(period) || !(damping >= 0.0) || !(damping < 1.0)
+        || !(dt > 0.0) || !isfinite(dt))
+        return CF_EINVAL;
+    z = damping;
+    w = 2.0 * CF_PI / period;
+    sq = sqrt(1.0 - z * z);
+    wd = w * sq;
+    E = exp(-z * w * dt);
+    S = sin(wd * dt);
+    C = cos(wd * dt);
+    w2 = w * w;
+    w3 = w2 * w;
+    coef[0] = E * (z / sq * S + C);                 /* a11 */
+    coef[1] = E * S / wd;                           /* a12 */
+    coef[2] = -w / sq * E * S;                      /* a21 */
+    coef[3] = E * (C - z / sq * S);                 /* a22 */
+    t1 = (2.0 * z * z - 1.0) / (w2 * dt);
+    t2 = 2.0 * z / (w3 * dt);
+    t3 = z / w;
+    c1 = C - z / sq * S;                            /* = a22 / E */
+    c2 = wd * S + z * w * C;
+    coef[4] = E * ((t1 + t3) * S / wd + (t2 + 1.0 / w2) * C) - t2;            /* b11 */
+    coef[5] = -E * (t1 * S / wd + t2 * C) - 1.0 / w2 + t2;                    /* b12 */
+    coef[6] = E * ((t1 + t3) * c1 - (t2 + 1.0 / w2) * c2) + 1.0 / (w2 * dt);  /* b21 */
+    coef[7] = -E * (t1 * c1 - t2 * c2) - 1.0 / (w2 * dt);                     /* b22 */
+    return CF_OK;
+}
+
+int cf_spectra_response(const double *acc, int n, double dt, const double *periods, int n_periods,
+                        double damping, double *sd, double *sv, double *sa)
+{
+    int j, i;
+    if (acc == NULL || periods == NULL || n < 1 || n_periods < 0 || !(dt > 0.0) || !isfinite(dt)
+        || !(damping >= 0.0) || !(damping < 1.0))
+        return CF_EINVAL;
+    for (j = 0; j < n_periods; j++)
+        if (!(periods[j] > 0.0) || !isfinite(periods[j]))
+            return CF_EINVAL;
+    for (j = 0; j < n_periods; j++) {
+        double c[8], x = 0.0, v = 0.0, xm = 0.0, vm = 0.0, am = 0.0;
+        double w = 2.0 * CF_PI / periods[j], k2 = w * w, k1 = 2.0 * damping * w;
+        cf_spectra_nj_coefficients(periods[j], damping, dt, c);
+        for (i = 1; i < n; i++) {
+            double a0 = acc[i - 1], a1 = acc[i];
+            double x1 = c[0] * x + c[1] * v + c[4] * a0 + c[5] * a1;
+            double v1 = c[2] * x + c[3] * v + c[6] * a0 + c[7] * a1;
+            double aa;
+            x = x1;
+            v = v1;
+            aa = fabs(k1 * v + k2 * x);             /* |x'' + a_g| */
+            if (fabs(x) > xm) xm = fabs(x);
+            if (fabs(v) > vm) vm = fabs(v);
+            if (aa > am) am = aa;
+        }
+        if (sd) sd[j] = xm;
+        if (sv) sv[j] = vm;
+        if (sa) sa[j] = am;
+    }
+    return CF_OK;
+}
