@@ -1,0 +1,230 @@
+"""Atkinson & Silva (2000) stochastic point-source model, simulated in the time
+domain by Boore's SMSIM recipe (Boore 2003, PAGEOPH 160, 635-676).
+
+The numbers of the model are in ``pycolfrag/data/as00.json`` (loaded here as
+:data:`PARAMS`); the generator itself is C (``csrc/stochastic.c``): Gaussian white
+noise from a seeded xoshiro256** stream, Saragoni-Hart window over ``t_eta = 2
+T_gm``, FFT of the zero-padded power-of-two record, division by the RMS spectral
+amplitude (DC and Nyquist excluded), multiplication by the target Fourier
+amplitude ``A(f)``, inverse FFT and division by ``dt``. See ``docs/stochastic.md``
+for every choice (padding, window length, trimming, FFT) and the checks.
+
+Accepted scenario range: ``4.0 <= Mw <= 8.0`` and ``0 < dist_km <= 200``. AS00 was
+fitted to California data of about M 4-7.5 within 200 km (and its source spectrum to
+M 4-8); outside, :class:`~pycolfrag.errors.ModelRangeError` is raised.
+"""
+from __future__ import annotations
+
+import json
+import operator
+import threading
+from collections import OrderedDict
+from importlib import resources
+
+import numpy as np
+
+from .._ffi import check, ffi, lib, ptr
+from ..errors import ModelRangeError, ParameterError
+
+__all__ = ["PARAMS", "check_scenario", "fourier_amplitude", "duration_s", "simulate", "window"]
+
+#: The model's parameters (a copy of ``reference/as00.json`` shipped with the package).
+PARAMS: dict = json.loads(resources.files("pycolfrag").joinpath("data/as00.json").read_text("utf-8"))
+
+
+def _limits():
+    v = ffi.new("double[5]")
+    lib.cf_stochastic_limits(v, v + 1, v + 2, v + 3, v + 4)
+    return (v[0], v[1]), v[2], v[3], v[4]
+
+
+#: Accepted ranges (defined in csrc/stochastic.h): Mw, max distance (km), dt (s).
+MW_RANGE, DIST_MAX_KM, DT_MIN, DT_MAX = _limits()
+GENERATOR = "SMSIM time-domain recipe, Atkinson & Silva (2000), C (xoshiro256**, own radix-2 FFT)"
+
+
+def _number(value, name: str, exc) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise exc(f"{name} must be a number, got {value!r}") from None
+
+
+def check_scenario(Mw, dist_km) -> tuple[float, float]:
+    """Return ``(Mw, dist_km)`` as floats after checking the model's range.
+
+    Parameters
+    ----------
+    Mw : float
+        Moment magnitude, in [4.0, 8.0].
+    dist_km : float
+        Closest distance to the fault, km, in (0, 200].
+
+    Raises
+    ------
+    ModelRangeError
+        For a value outside the range or non-finite (the message names it).
+    """
+    mw = _number(Mw, "Mw", ModelRangeError)
+    d = _number(dist_km, "dist_km", ModelRangeError)
+    msg = ffi.new("char[]", lib.CF_MSG_LEN)
+    check(lib.cf_stochastic_check_scenario(mw, d, msg), msg)
+    return mw, d
+
+
+def _check_dt(dt) -> float:
+    v = _number(dt, "dt", ParameterError)
+    if not np.isfinite(v) or v <= 0 or v > DT_MAX or v < DT_MIN:
+        raise ParameterError(f"dt = {dt!r} s must be finite and in [{DT_MIN:g}, {DT_MAX:g}] s")
+    return v
+
+
+def _check_seed(seed) -> int:
+    try:
+        s = operator.index(seed)
+    except TypeError:
+        raise ParameterError(f"seed must be an integer in [0, 2**64), got {seed!r}") from None
+    if not 0 <= s < 2**64:
+        raise ParameterError(f"seed = {seed!r} must be in [0, 2**64)")
+    return int(s)
+
+
+def fourier_amplitude(f_hz, Mw, dist_km) -> np.ndarray:
+    """Target Fourier amplitude spectrum of acceleration, m/s (SI).
+
+    ``A(f) = C M0 S(f) G(R) exp(-pi f R / (Q(f) cQ)) amp(f) exp(-pi kappa f) /
+    sqrt(1 + (f/fmax)^8) (2 pi f)^2`` of ``as00.json`` (there in cm/s), with A(0) = 0.
+
+    Parameters
+    ----------
+    f_hz : array_like
+        Frequencies, Hz, finite and >= 0 (any shape).
+    Mw, dist_km : float
+        Scenario (see :func:`check_scenario`).
+    """
+    mw, d = check_scenario(Mw, dist_km)
+    f = np.ascontiguousarray(f_hz, dtype=np.float64)
+    flat = f.reshape(-1).copy()
+    out = np.empty_like(flat)
+    msg = ffi.new("char[]", lib.CF_MSG_LEN)
+    check(lib.cf_stochastic_fas(mw, d, ptr(flat), flat.size, ptr(out), msg), msg)
+    return out.reshape(f.shape)
+
+
+def duration_s(Mw, dist_km) -> float:
+    """Ground-motion duration ``T_gm = 0.5/fa + 0.05 R``, s (as00.json "duration")."""
+    mw, d = check_scenario(Mw, dist_km)
+    out = ffi.new("double *")
+    msg = ffi.new("char[]", lib.CF_MSG_LEN)
+    check(lib.cf_stochastic_duration(mw, d, out, msg), msg)
+    return float(out[0])
+
+
+def window(t_s, t_eta_s) -> np.ndarray:
+    """Saragoni-Hart window (peak 1 at ``eps*t_eta``, ``eta`` at ``t_eta``) at times ``t_s``."""
+    t = np.asarray(t_s, dtype=np.float64)
+    return np.vectorize(lambda x: lib.cf_stochastic_window(float(x), float(t_eta_s)), otypes=[float])(t)
+
+
+class _Generator:
+    """A C generator set up for one (Mw, dist_km, dt); owns its buffers."""
+
+    def __init__(self, mw: float, d: float, dt: float):
+        self.ptr = ffi.gc(lib.cf_stochastic_create(), lib.cf_stochastic_free)
+        if self.ptr == ffi.NULL:  # pragma: no cover
+            raise MemoryError("cf_stochastic_create failed")
+        self.lock = threading.Lock()
+        df = ffi.new("cf_stochastic_def *")
+        lib.cf_stochastic_def_default(df)
+        df.mw, df.dist_km, df.dt = mw, d, dt
+        check(lib.cf_stochastic_setup(self.ptr, df), lib.cf_stochastic_message(self.ptr))
+        info = ffi.new("cf_stochastic_info *")
+        check(lib.cf_stochastic_get_info(self.ptr, info))
+        self.info = {k: getattr(info, k) for k in dir(info)}
+        self.def_ = {"pre_s": df.pre_s, "tail_s": df.tail_s, "pad_min_s": df.pad_s}
+
+    def run(self, seed: int) -> np.ndarray:
+        acc = np.empty(self.info["n_out"], dtype=np.float64)
+        with self.lock:
+            check(lib.cf_stochastic_run(self.ptr, seed, ptr(acc), acc.size), lib.cf_stochastic_message(self.ptr))
+        return acc
+
+
+_CACHE: OrderedDict = OrderedDict()
+_CACHE_LOCK = threading.Lock()
+_CACHE_SIZE = 8
+
+
+def _generator(mw: float, d: float, dt: float) -> _Generator:
+    key = (mw, d, dt)
+    with _CACHE_LOCK:
+        gen = _CACHE.get(key)
+        if gen is not None:
+            _CACHE.move_to_end(key)
+            return gen
+    gen = _Generator(mw, d, dt)
+    with _CACHE_LOCK:
+        _CACHE[key] = gen
+        while len(_CACHE) > _CACHE_SIZE:
+            _CACHE.popitem(last=False)
+    return gen
+
+
+def simulate(Mw, dist_km, seed, dt=0.005):
+    """One high-frequency acceleration record of the scenario (C generator).
+
+    Parameters
+    ----------
+    Mw : float
+        Moment magnitude, [4.0, 8.0].
+    dist_km : float
+        Closest distance to the fault, km, (0, 200].
+    seed : int
+        0 <= seed < 2**64; the record depends only on (Mw, dist_km, seed, dt),
+        bit for bit, in any process.
+    dt : float
+        Time step, s, in [1e-4, 0.02] (default 0.005).
+
+    Returns
+    -------
+    acc : ndarray of float64
+        Acceleration, m/s^2, from ``pre_s`` = 1 s before the window start to 3 s
+        after the window end.
+    info : dict
+        ``duration_s`` (T_gm), ``window_s`` (t_eta = 2 T_gm), ``window_start_s`` (time
+        of the window start in ``acc``), ``nfft``, ``dt``, ``generator``, and the
+        source/path quantities ``fa_hz``, ``fb_hz``, ``eps_source``, ``m0_dyne_cm``,
+        ``h_km``, ``r_km``, ``pad_s``.
+
+    Raises
+    ------
+    ModelRangeError
+        Mw or dist_km outside the range or non-finite.
+    ParameterError
+        dt or seed invalid.
+    """
+    mw, d = check_scenario(Mw, dist_km)
+    step = _check_dt(dt)
+    s = _check_seed(seed)
+    gen = _generator(mw, d, step)
+    acc = gen.run(s)
+    i = gen.info
+    info = {
+        "duration_s": i["duration_s"],
+        "window_s": i["window_s"],
+        "window_start_s": i["window_start_s"],
+        "nfft": i["nfft"],
+        "n_window": i["n_window"],
+        "dt": step,
+        "pad_s": i["pad_s"],
+        "fa_hz": i["fa_hz"],
+        "fb_hz": i["fb_hz"],
+        "eps_source": i["eps_source"],
+        "m0_dyne_cm": i["m0_dyne_cm"],
+        "h_km": i["h_km"],
+        "r_km": i["r_km"],
+        "pre_s": gen.def_["pre_s"],
+        "tail_s": gen.def_["tail_s"],
+        "generator": GENERATOR,
+    }
+    return acc, info

@@ -1,0 +1,45 @@
+"""Combination of the stochastic high-frequency record with the velocity pulse
+(the paper's steps 3-6; C kernel ``csrc/combine.c``).
+
+The pulse must already be aligned in time with the HF record (step 2 is the
+caller's: :func:`pycolfrag.ground_motion.synthesize`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .._ffi import as_double_array, check, ffi, lib, ptr
+from ..errors import ParameterError
+
+__all__ = ["combine"]
+
+
+def combine(hf_acc, pulse_acc) -> np.ndarray:
+    """Combine a high-frequency record with an aligned pulse (same length, same dt).
+
+    Both records are zero padded to a power of two >= 2n and Fourier transformed;
+    the result's Fourier amplitude is ``max(|HF| - |P|, 0)`` with the phase of HF
+    (steps 3-5), transformed back, and the pulse is added (step 6).
+
+    Parameters
+    ----------
+    hf_acc, pulse_acc : array_like, 1-D, same length
+        Accelerations (any one unit, e.g. m/s^2) on the same time axis.
+
+    Returns
+    -------
+    ndarray of float64, same length and unit.
+
+    Raises
+    ------
+    ParameterError
+        Mismatched lengths, wrong shape, empty or non-finite input.
+    """
+    hf = as_double_array(hf_acc, "hf_acc")
+    p = as_double_array(pulse_acc, "pulse_acc")
+    if hf.size != p.size:
+        raise ParameterError(f"hf_acc has {hf.size} samples but pulse_acc has {p.size}: they must match")
+    out = np.empty_like(hf)
+    msg = ffi.new("char[]", lib.CF_MSG_LEN)
+    check(lib.cf_combine_subtract(ptr(hf), ptr(p), hf.size, ptr(out), msg), msg)
+    return out
