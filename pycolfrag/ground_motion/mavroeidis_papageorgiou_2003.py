@@ -1,0 +1,208 @@
+"""Mavroeidis & Papageorgiou (2003) near-fault velocity pulse (the paper's Eq. 5, SPEC §4.2),
+and the Latin-hypercube sampling of its parameters per scenario.
+
+Eq. (5), with tau = t - t0 and support |tau| <= gamma / (2 fp)::
+
+    V(t) = A/2 [1 + cos(2 pi fp tau / gamma)] cos(2 pi fp tau + nu)
+
+A (envelope amplitude), fp (Hz), nu (phase, rad), gamma (number of half cycles), t0 (epoch
+of the envelope peak, s). Acceleration (the analytic derivative) and displacement (the
+analytic integral: zero before the pulse, constant after it) come from the C kernel
+``csrc/pulse.c`` -- never from numerical differencing.
+
+The peak velocity Vp of the pulse is not A in general: ``envelope_amplitude`` returns the A
+for which max_t |V| = Vp given nu and gamma (the maximum of the unit pulse found on a grid of
+2001 points over the support, then polished by a bounded Brent search to 1e-12 in fp*tau).
+"""
+from __future__ import annotations
+
+import math
+import operator
+
+import numpy as np
+from scipy import optimize, stats
+from scipy.stats import qmc
+
+from .._ffi import as_double_array, check, ffi, lib, ptr
+from ..errors import ParameterError
+from . import rupakhety_2011 as _r11
+
+__all__ = ["GAMMA_MEAN", "GAMMA_SD", "GAMMA_MIN", "NU_RANGE_RAD", "pulse", "velocity", "acceleration",
+           "displacement", "support", "envelope_amplitude", "peak_velocity_time",
+           "sample_pulse_parameters"]
+
+#: gamma ~ N(1.8, 0.4) left-truncated at 1 (the paper, after MP03's data).
+GAMMA_MEAN, GAMMA_SD, GAMMA_MIN = 1.8, 0.4, 1.0
+#: nu ~ U[-pi/2, pi/2] (the paper).
+NU_RANGE_RAD = (-math.pi / 2, math.pi / 2)
+
+
+def _float(value, name, positive=False):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v) or (positive and v <= 0):
+        raise ParameterError(f"{name} must be finite{' and > 0' if positive else ''}, got {value!r}")
+    return v
+
+
+def _params(A, fp, nu, gamma, t0):
+    p = ffi.new("cf_pulse_params *")
+    p.amplitude = _float(A, "A")
+    p.fp = _float(fp, "fp", positive=True)
+    p.nu = _float(nu, "nu")
+    p.gamma = _float(gamma, "gamma", positive=True)
+    p.t0 = _float(t0, "t0")
+    return p
+
+
+def pulse(t, A, fp, nu, gamma, t0=0.0):
+    """Velocity, acceleration and displacement of the pulse at times ``t`` (s).
+
+    Parameters
+    ----------
+    t : array_like, s
+    A : float, envelope amplitude (any velocity unit; the outputs follow it: m/s -> m/s^2, m)
+    fp : float, Hz (> 0)
+    nu : float, rad
+    gamma : float (> 0; the model uses > 1)
+    t0 : float, s (epoch of the envelope's peak)
+
+    Returns
+    -------
+    (vel, acc, disp) : arrays shaped like ``t``
+    """
+    p = _params(A, fp, nu, gamma, t0)
+    tt = as_double_array(np.ravel(np.asarray(t, dtype=float)), "t", allow_empty=True)
+    vel, acc, disp = np.empty_like(tt), np.empty_like(tt), np.empty_like(tt)
+    check(lib.cf_pulse_eval(p, ptr(tt), tt.size, ptr(vel), ptr(acc), ptr(disp)), what="pulse")
+    shape = np.shape(t)
+    return vel.reshape(shape), acc.reshape(shape), disp.reshape(shape)
+
+
+def velocity(t, A, fp, nu, gamma, t0=0.0):
+    """Eq. (5) velocity at ``t`` (unit of ``A``)."""
+    return pulse(t, A, fp, nu, gamma, t0)[0]
+
+
+def acceleration(t, A, fp, nu, gamma, t0=0.0):
+    """Closed-form dV/dt at ``t`` (unit of ``A`` per s); zero outside the support."""
+    return pulse(t, A, fp, nu, gamma, t0)[1]
+
+
+def displacement(t, A, fp, nu, gamma, t0=0.0):
+    """Closed-form integral of V from the start of the support (unit of ``A`` times s)."""
+    return pulse(t, A, fp, nu, gamma, t0)[2]
+
+
+def support(fp, gamma, t0=0.0):
+    """First and last instant of the pulse, s: ``t0 -/+ gamma / (2 fp)``."""
+    fp = _float(fp, "fp", positive=True)
+    gamma = _float(gamma, "gamma", positive=True)
+    half = gamma / (2.0 * fp)
+    return t0 - half, t0 + half
+
+
+def _unit_peak(nu, gamma):
+    """(u*, |g(u*)|) for g(u) = 0.5 (1 + cos(2 pi u / gamma)) cos(2 pi u + nu), u = fp tau in
+    [-gamma/2, gamma/2]: the peak of the unit-amplitude pulse (independent of fp)."""
+    u = np.linspace(-gamma / 2, gamma / 2, 2001)
+
+    def g(x):
+        return 0.5 * (1.0 + np.cos(2 * np.pi * x / gamma)) * np.cos(2 * np.pi * x + nu)
+
+    k = int(np.argmax(np.abs(g(u))))
+    lo, hi = u[max(k - 1, 0)], u[min(k + 1, u.size - 1)]
+    res = optimize.minimize_scalar(lambda x: -abs(g(x)), bounds=(lo, hi), method="bounded",
+                                   options={"xatol": 1e-12})
+    ub = float(res.x) if -res.fun >= abs(g(u[k])) else float(u[k])
+    return ub, float(abs(g(ub)))
+
+
+def envelope_amplitude(Vp, fp, nu, gamma):
+    """Envelope amplitude A such that max_t |V(t)| = Vp for this nu and gamma.
+
+    Scalars or broadcastable arrays; the unit of A is that of Vp. ``fp`` only enters the
+    check (the peak of the unit pulse does not depend on fp).
+    """
+    Vp, fp, nu, gamma = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (Vp, fp, nu, gamma)))
+    out = np.empty(Vp.shape)
+    for idx in np.ndindex(Vp.shape):
+        _float(fp[idx], "fp", positive=True)
+        g = _float(gamma[idx], "gamma", positive=True)
+        _, peak = _unit_peak(_float(nu[idx], "nu"), g)
+        out[idx] = _float(Vp[idx], "Vp") / peak
+    return out if out.ndim else float(out)
+
+
+def peak_velocity_time(fp, nu, gamma, t0=0.0):
+    """Time of the peak |V| of the pulse, s (``t0`` + the offset of the unit pulse's peak)."""
+    fp = _float(fp, "fp", positive=True)
+    u, _ = _unit_peak(_float(nu, "nu"), _float(gamma, "gamma", positive=True))
+    return float(t0) + u / fp
+
+
+def _int_seed(seed):
+    try:
+        s = operator.index(seed)
+    except TypeError:
+        raise ParameterError(f"seed must be an integer, got {seed!r}") from None
+    if s < 0:
+        raise ParameterError(f"seed must be >= 0, got {seed!r}")
+    return int(s)
+
+
+def _lhs(d, n, seed):
+    gen = np.random.default_rng(seed)
+    try:
+        sampler = qmc.LatinHypercube(d=d, rng=gen)
+    except TypeError:  # scipy < 1.15 spells it seed=
+        sampler = qmc.LatinHypercube(d=d, seed=gen)
+    return sampler.random(n)
+
+
+def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0):
+    """Latin-hypercube sample of ``n`` pulses for the scenario (Mw, dist_km km).
+
+    One LHS of the unit 4-cube (``scipy.stats.qmc.LatinHypercube(d=4)`` seeded with
+    ``numpy.random.default_rng(seed)``; every one of the ``n`` strata of every dimension
+    holds exactly one point), mapped by inverse CDFs:
+
+    * column 0: log10 Vp ~ N(log10 of the Eq. (6) mean times ``vp_scale``, 0.16);
+    * column 1: log10 fp ~ N(log10 of the Eq. (7) mean, 0.18);
+    * column 2: nu ~ U[-pi/2, pi/2];
+    * column 3: gamma ~ N(1.8, 0.4) left-truncated at 1 (``scipy.stats.truncnorm``).
+
+    Vp and fp are log-normal, hence always > 0: the paper's truncation at 0 in linear units
+    is no truncation at all in log space, and none is applied.
+
+    Parameters
+    ----------
+    Mw : float
+    dist_km : float, km
+    n : int (>= 1), samples
+    seed : int (>= 0), e.g. a 32-bit integer from ``numpy.random.SeedSequence``
+    vp_scale : float (> 0), multiplies the Eq. (6) mean
+
+    Returns
+    -------
+    dict of 1-D float arrays of length n: ``Vp_cm_s``, ``fp_hz``, ``nu_rad``, ``gamma``,
+    ``A_cm_s`` (envelope amplitude giving peak |V| = Vp), ``Tp_s`` (= 1/fp).
+    """
+    log_vp, log_fp = _r11._log10_means(Mw, dist_km, vp_scale)
+    try:
+        n_ = operator.index(n)
+    except TypeError:
+        raise ParameterError(f"n must be an integer, got {n!r}") from None
+    if n_ < 1:
+        raise ParameterError(f"n must be >= 1, got {n!r}")
+    u = _lhs(4, n_, _int_seed(seed))
+    vp = 10.0 ** stats.norm.ppf(u[:, 0], loc=log_vp, scale=_r11.SIGMA_LOG10_VP)
+    fp = 10.0 ** stats.norm.ppf(u[:, 1], loc=log_fp, scale=_r11.SIGMA_LOG10_FP)
+    nu = NU_RANGE_RAD[0] + (NU_RANGE_RAD[1] - NU_RANGE_RAD[0]) * u[:, 2]
+    a = (GAMMA_MIN - GAMMA_MEAN) / GAMMA_SD
+    gamma = stats.truncnorm.ppf(u[:, 3], a, np.inf, loc=GAMMA_MEAN, scale=GAMMA_SD)
+    return {"Vp_cm_s": vp, "fp_hz": fp, "nu_rad": nu, "gamma": gamma,
+            "A_cm_s": np.asarray(envelope_amplitude(vp, fp, nu, gamma), dtype=float).reshape(n_),
+            "Tp_s": 1.0 / fp}

@@ -1,0 +1,98 @@
+"""Rupakhety, Sigurdsson, Papageorgiou & Sigbjörnsson (2011): mean pulse amplitude and period
+of near-fault forward-directivity pulses, as printed in the paper we reproduce (Psycharis et al.,
+Eqs. 6 and 7; SPEC §4.2).
+
+Eq. (6), base-10 logarithms, Vp in cm/s, R in km (the paper's fault distance)::
+
+    log10(Vp) = -5.17 + 1.98 M - 0.14 M^2 - 0.10 log10(R^2 + 0.562),   M = min(Mw, Msat), Msat = 7.0
+
+The constant 0.562 is used *as printed*; it may be a typesetting of 0.56^2 = 0.3136 (a
+fictitious depth of 0.56 km). The difference is below 0.0005 in log10(Vp) for R >= 5 km.
+
+Eq. (7): ``log10(1/fp) = -2.87 + 0.47 Mw`` (no magnitude cap), fp in Hz, Tp = 1/fp in s.
+
+Scatter (the paper, after Rupakhety et al.): sigma of log10(Vp) = 0.16, of log10(fp) = 0.18.
+
+``vp_scale`` multiplies the Eq. (6) mean (a sensitivity knob, not part of the published model;
+1 reproduces the paper).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import ModelRangeError, ParameterError
+
+__all__ = ["M_SAT", "SIGMA_LOG10_VP", "SIGMA_LOG10_FP", "MW_RANGE", "DIST_RANGE_KM",
+           "mean_vp_cm_s", "mean_fp_hz", "mean_tp_s", "check_scenario"]
+
+#: Saturation magnitude of Eq. (6).
+M_SAT = 7.0
+#: Standard deviation of log10(Vp) (the paper, after Rupakhety et al. 2011).
+SIGMA_LOG10_VP = 0.16
+#: Standard deviation of log10(fp).
+SIGMA_LOG10_FP = 0.18
+#: Magnitudes this module accepts (a validity guard around the paper's grid 5.5-7.5, not a
+#: calibrated range quoted from Rupakhety et al.).
+MW_RANGE = (5.0, 8.0)
+#: Fault distances this module accepts, km (the paper's grid is 5-20 km; near-fault only).
+DIST_RANGE_KM = (0.0, 60.0)
+
+
+def _number(value, name):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ParameterError(f"{name} must be finite, got {value!r}")
+    return v
+
+
+def check_scenario(Mw, dist_km):
+    """``(Mw, dist_km)`` as floats, or :class:`ModelRangeError` naming the value outside
+    ``MW_RANGE`` / ``DIST_RANGE_KM`` (``ParameterError`` for non-numbers and NaN/inf)."""
+    m = _number(Mw, "Mw")
+    r = _number(dist_km, "dist_km")
+    if not MW_RANGE[0] <= m <= MW_RANGE[1]:
+        raise ModelRangeError(f"Mw = {Mw!r} is outside the pulse model's range {MW_RANGE}")
+    if not DIST_RANGE_KM[0] <= r <= DIST_RANGE_KM[1]:
+        raise ModelRangeError(f"dist_km = {dist_km!r} is outside the pulse model's range {DIST_RANGE_KM} km")
+    return m, r
+
+
+def mean_vp_cm_s(Mw, dist_km, vp_scale=1.0):
+    """Mean (median) pulse peak velocity, cm/s: Eq. (6) with Mw capped at ``M_SAT``, times
+    ``vp_scale``.
+
+    Parameters
+    ----------
+    Mw : float, moment magnitude
+    dist_km : float, fault distance R, km
+    vp_scale : float (> 0), multiplies the mean (1 = the published model)
+    """
+    m, r = check_scenario(Mw, dist_km)
+    s = _number(vp_scale, "vp_scale")
+    if s <= 0:
+        raise ParameterError(f"vp_scale must be > 0, got {vp_scale!r}")
+    m = min(m, M_SAT)
+    log_vp = -5.17 + 1.98 * m - 0.14 * m * m - 0.10 * math.log10(r * r + 0.562)   # Eq. (6)
+    return s * 10.0 ** log_vp
+
+
+def mean_tp_s(Mw):
+    """Mean pulse period 1/fp, s: Eq. (7), ``log10(Tp) = -2.87 + 0.47 Mw`` (no cap)."""
+    m = _number(Mw, "Mw")
+    if not MW_RANGE[0] <= m <= MW_RANGE[1]:
+        raise ModelRangeError(f"Mw = {Mw!r} is outside the pulse model's range {MW_RANGE}")
+    return 10.0 ** (-2.87 + 0.47 * m)                                                # Eq. (7)
+
+
+def mean_fp_hz(Mw):
+    """Mean pulse frequency fp, Hz (Eq. 7)."""
+    return 1.0 / mean_tp_s(Mw)
+
+
+def _log10_means(Mw, dist_km, vp_scale=1.0):
+    return np.log10(mean_vp_cm_s(Mw, dist_km, vp_scale)), np.log10(mean_fp_hz(Mw))

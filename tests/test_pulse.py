@@ -1,0 +1,173 @@
+"""MP03 pulse (Eq. 5, closed forms from csrc/pulse.c), Rupakhety et al. Eqs. (6)-(7) and the
+Latin-hypercube sampling of the pulse parameters. Expected numbers: hand calculations of the
+printed equations, the distributions the paper states, and numerical derivatives/integrals."""
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+from scipy.integrate import trapezoid
+
+from pycolfrag.errors import ModelRangeError, ParameterError
+from pycolfrag.ground_motion import mavroeidis_papageorgiou_2003 as mp
+from pycolfrag.ground_motion import rupakhety_2011 as r11
+from pycolfrag.ground_motion import sample_pulse_parameters
+
+N = 100          # the paper's samples per scenario
+SEED = 2016
+
+
+@pytest.fixture(scope="module")
+def lhs():
+    return sample_pulse_parameters(7.0, 5.0, N, SEED)   # the paper's Fig. 4 scenario
+
+
+# ---------------------------------------------------------------- Eqs. (6) and (7)
+@pytest.mark.parametrize("mw, r, log_vp", [
+    # -5.17 + 1.98*6.5 - 0.14*6.5^2 - 0.10*log10(10^2 + 0.562)
+    #   = -5.17 + 12.87 - 5.915 - 0.10*2.0024343 = 1.5847566
+    (6.5, 10.0, 1.5847566),
+    # -5.17 + 10.89 - 4.235 - 0.10*log10(25.562) (= 0.10*1.4075955) = 1.3442405
+    (5.5, 5.0, 1.3442405),
+    # -5.17 + 13.86 - 6.86 - 0.10*log10(400.562) (= 0.10*2.6026697) = 1.5697330
+    (7.0, 20.0, 1.5697330),
+    # Mw 7.5 > Msat = 7.0: Eq. (6) uses 7.0, so the same as the line above
+    (7.5, 20.0, 1.5697330),
+])
+def test_eq6_mean_vp(mw, r, log_vp):
+    assert math.log10(r11.mean_vp_cm_s(mw, r)) == pytest.approx(log_vp, abs=1e-7)
+
+
+def test_eq6_saturation_and_scale():
+    assert r11.mean_vp_cm_s(7.5, 5.0) == r11.mean_vp_cm_s(7.0, 5.0)
+    assert r11.mean_vp_cm_s(7.0, 5.0) != r11.mean_vp_cm_s(6.9, 5.0)
+    assert r11.mean_vp_cm_s(6.0, 8.0, vp_scale=1.5) == pytest.approx(1.5 * r11.mean_vp_cm_s(6.0, 8.0), rel=1e-15)
+
+
+@pytest.mark.parametrize("mw, tp", [
+    (5.5, 10 ** -0.285),    # -2.87 + 0.47*5.5 = -0.285 -> Tp = 0.5188 s
+    (6.5, 10 ** 0.185),     # -2.87 + 3.055   =  0.185 -> 1.5311 s
+    (7.5, 10 ** 0.655),     # no cap in Eq. (7)       -> 4.5186 s
+])
+def test_eq7_mean_fp(mw, tp):
+    assert r11.mean_tp_s(mw) == pytest.approx(tp, rel=1e-12)
+    assert r11.mean_fp_hz(mw) == pytest.approx(1 / tp, rel=1e-12)
+
+
+# ---------------------------------------------------------------- closed forms
+PULSES = [(0.5, 0.4, 0.3, 1.8), (1.0, 1.2, -1.4, 1.05), (0.3, 0.25, 1.5, 3.0), (2.0, 0.7, 0.0, 1.0)]
+
+
+@pytest.mark.parametrize("A, fp, nu, gamma", PULSES)
+def test_acceleration_is_derivative_of_velocity(A, fp, nu, gamma):
+    # np.gradient (2nd-order central differences, h = 1e-4 s): error h^2/6 |V'''| <= h^2/6 A k^3
+    # with k = 2 pi fp (1 + 1/gamma) <= 15 rad/s here, i.e. <= 4e-7 of scale = A k; tolerance 1e-6 scale.
+    t0 = 3.0
+    ts, te = mp.support(fp, gamma, t0)
+    t = np.arange(ts + 1e-3, te - 1e-3, 1e-4)
+    v, a, d = mp.pulse(t, A, fp, nu, gamma, t0)
+    scale = A * 2 * np.pi * fp * (1 + 1 / gamma)
+    np.testing.assert_allclose(a[1:-1], np.gradient(v, t)[1:-1], rtol=0, atol=1e-6 * scale)
+    np.testing.assert_allclose(v[1:-1], np.gradient(d, t)[1:-1], rtol=0, atol=1e-6 * A)
+
+
+@pytest.mark.parametrize("A, fp, nu, gamma", PULSES)
+def test_displacement_is_integral_and_constant_after(A, fp, nu, gamma):
+    # trapezoid of V over the support with 2e5 intervals: error ~ L^3/(12 n^2) |V''| < 1e-9
+    ts, te = mp.support(fp, gamma, 0.0)
+    t = np.linspace(ts, te, 200001)
+    residual = trapezoid(mp.velocity(t, A, fp, nu, gamma), t)
+    after = mp.displacement(np.array([te + 0.01, te + 100.0]), A, fp, nu, gamma)
+    assert after[0] == pytest.approx(residual, abs=1e-8 * A / fp)
+    assert after[1] == after[0]
+    before = mp.pulse(np.array([ts - 1.0, ts - 1e-6]), A, fp, nu, gamma)
+    assert np.all(before[0] == 0) and np.all(before[1] == 0) and np.all(before[2] == 0)
+
+
+# ---------------------------------------------------------------- sampling
+def test_peak_velocity_equals_sampled_vp(lhs):
+    # The defining property of A (SPEC 4.2): max_t |V| = Vp. Checked on a grid of 1e-4 in fp*tau:
+    # a sampled peak is low by at most (2 pi)^2 (0.5e-4)^2 / 2 ~ 5e-8 relative; tolerance 1e-6.
+    for i in range(N):
+        vp, fp, nu, g, A = (lhs[k][i] for k in ("Vp_cm_s", "fp_hz", "nu_rad", "gamma", "A_cm_s"))
+        u = np.arange(-g / 2, g / 2, 1e-4)
+        v = mp.velocity(u / fp, A, fp, nu, g, 0.0)
+        assert np.abs(v).max() == pytest.approx(vp, rel=1e-6)
+        assert A >= vp * (1 - 1e-12)             # |V| <= A everywhere, so A >= Vp
+        tpk = mp.peak_velocity_time(fp, nu, g, 0.0)
+        assert abs(tpk - u[np.argmax(np.abs(v))] / fp) <= 2e-4 / fp   # within two grid steps
+    assert np.array_equal(lhs["Tp_s"], 1 / lhs["fp_hz"])
+
+
+def _cdfs(lhs, mw=7.0, r=5.0):
+    lv, lf = math.log10(r11.mean_vp_cm_s(mw, r)), math.log10(r11.mean_fp_hz(mw))
+    a = (1.0 - 1.8) / 0.4
+    return [
+        (np.log10(lhs["Vp_cm_s"]), stats.norm(lv, 0.16).cdf),          # paper: sigma log10 Vp 0.16
+        (np.log10(lhs["fp_hz"]), stats.norm(lf, 0.18).cdf),            # sigma log10 fp 0.18
+        (lhs["nu_rad"], stats.uniform(-np.pi / 2, np.pi).cdf),          # nu ~ U[-pi/2, pi/2]
+        (lhs["gamma"], stats.truncnorm(a, np.inf, loc=1.8, scale=0.4).cdf),  # N(1.8, 0.4) >= 1
+    ]
+
+
+def test_marginals_ks(lhs):
+    # KS against the stated distributions, n = 100. An LHS is more even than i.i.d. sampling, so
+    # the p-values sit near 1; 0.05 is the usual level. (Measured p-values: see docs/ground_motion.md.)
+    for x, cdf in _cdfs(lhs):
+        assert stats.kstest(x, cdf).pvalue > 0.05
+    assert lhs["gamma"].min() >= 1.0
+    assert np.all(np.abs(lhs["nu_rad"]) <= np.pi / 2)
+
+
+def test_each_stratum_holds_one_sample(lhs):
+    # mapped back through its CDF, each dimension occupies each of the N strata [k/N, (k+1)/N)
+    # exactly once (the Latin-hypercube property). 1e-9 guards the round trip through the CDFs.
+    for x, cdf in _cdfs(lhs):
+        k = np.floor(np.clip(cdf(x), 0, 1 - 1e-12) * N + 1e-9).astype(int)
+        assert sorted(k) == list(range(N))
+
+
+def test_sampling_is_reproducible(lhs):
+    again = sample_pulse_parameters(7.0, 5.0, N, SEED)
+    for key in ("Vp_cm_s", "fp_hz", "nu_rad", "gamma", "A_cm_s", "Tp_s"):
+        assert again[key].shape == (N,)
+        assert np.array_equal(again[key], lhs[key])
+    other = sample_pulse_parameters(7.0, 5.0, N, SEED + 1)
+    assert not np.array_equal(other["Vp_cm_s"], lhs["Vp_cm_s"])
+    big = sample_pulse_parameters(7.0, 5.0, N, np.uint32(2**32 - 1))   # 32-bit seeds from SeedSequence
+    assert big["gamma"].shape == (N,)
+
+
+def test_vp_scale_shifts_the_median():
+    a = sample_pulse_parameters(6.0, 10.0, 50, 3)
+    b = sample_pulse_parameters(6.0, 10.0, 50, 3, vp_scale=2.0)
+    np.testing.assert_allclose(b["Vp_cm_s"], 2 * a["Vp_cm_s"], rtol=1e-13)
+    np.testing.assert_array_equal(b["fp_hz"], a["fp_hz"])
+
+
+@pytest.mark.parametrize("kwargs, exc, word", [
+    ({"Mw": 9.0}, ModelRangeError, "9.0"),
+    ({"Mw": float("nan")}, ParameterError, "nan"),
+    ({"dist_km": -1.0}, ModelRangeError, "-1.0"),
+    ({"dist_km": "far"}, ParameterError, "'far'"),
+    ({"n": 0}, ParameterError, "0"),
+    ({"n": 2.5}, ParameterError, "2.5"),
+    ({"seed": -3}, ParameterError, "-3"),
+    ({"seed": 1.5}, ParameterError, "1.5"),
+    ({"vp_scale": 0.0}, ParameterError, "0.0"),
+])
+def test_bad_input(kwargs, exc, word):
+    args = {"Mw": 6.5, "dist_km": 10.0, "n": 10, "seed": 1, "vp_scale": 1.0}
+    args.update(kwargs)
+    with pytest.raises(exc) as ei:
+        sample_pulse_parameters(args["Mw"], args["dist_km"], args["n"], args["seed"], vp_scale=args["vp_scale"])
+    assert word in str(ei.value)
+
+
+def test_pulse_bad_parameters():
+    with pytest.raises(ParameterError, match="fp"):
+        mp.velocity([0.0], 1.0, 0.0, 0.0, 1.5)
+    with pytest.raises(ParameterError, match="gamma"):
+        mp.acceleration([0.0], 1.0, 1.0, 0.0, -1.0)
+    with pytest.raises(ParameterError, match="t"):
+        mp.velocity([np.nan], 1.0, 1.0, 0.0, 1.5)
