@@ -52,11 +52,11 @@ int cf_stochastic_check_scenario(double mw, double dist_km, char *msg)
     if (msg)
         msg[0] = 0;
     if (!isfinite(mw) || mw < CF_STOCHASTIC_MW_MIN || mw > CF_STOCHASTIC_MW_MAX) {
-        fmt(msg, "Mw = %.17g is outside the Atkinson & Silva (2000) range [4, 8] used here", mw);
+        fmt(msg, "Mw = %.15g is outside the Atkinson & Silva (2000) range [4, 8] used here", mw);
         return CF_ERANGE;
     }
     if (!isfinite(dist_km) || dist_km <= 0.0 || dist_km > CF_STOCHASTIC_DIST_MAX_KM) {
-        fmt(msg, "dist_km = %.17g is outside the Atkinson & Silva (2000) range (0, 200] km used here",
+        fmt(msg, "dist_km = %.15g is outside the Atkinson & Silva (2000) range (0, 200] km used here",
             dist_km);
         return CF_ERANGE;
     }
