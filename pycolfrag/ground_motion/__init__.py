@@ -123,7 +123,7 @@ def _pulse_row(Mw, dist_km, seed, vp_scale, pulse):
     return vp, fp, nu, gamma
 
 
-def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None) -> Record:
+def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_polarity=True) -> Record:
     """A near-fault record: stochastic HF part plus an MP03 pulse (the paper's steps 1-6).
 
     1. HF record: :func:`atkinson_silva_2000.simulate` with ``seed``.
@@ -138,6 +138,13 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None) -> Record:
        If the pulse's support starts before the record or ends after it, the record is padded
        with zeros there (whole samples), so the whole pulse is inside; times are then counted
        from the first padded sample (``pad_before_s``, ``pad_after_s`` in ``meta``).
+       Polarity (our choice; the paper aligns times only): with ``match_polarity`` the HF record
+       is multiplied by -1 when its peak velocity and the pulse's have opposite signs. The
+       stochastic record's sign is arbitrary (symmetric Gaussian noise: -HF is as likely as HF),
+       so this leaves both parts' distributions unchanged, and the pulse then adds to the HF
+       velocity peak instead of cancelling it: over 200 records (5 scenarios x 40 seeds) the
+       combined peak velocity was >= the pulse's in every case, against 0.71 of it at worst
+       without (docs/ground_motion.md). ``meta["hf_polarity"]`` is +1 or -1.
     3-6. :func:`combine.combine` (FAS subtraction clipped at 0, HF phase, plus the pulse).
 
     Parameters
@@ -145,6 +152,7 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None) -> Record:
     Mw : float; dist_km : float, km; seed : int (>= 0)
     dt : float, s; vp_scale : float (> 0), multiplies the Eq. (6) mean Vp
     pulse : dict or None
+    match_polarity : bool, flip the HF record's sign to match the pulse (default True)
 
     Returns
     -------
@@ -175,6 +183,12 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None) -> Record:
     t_peak = float(np.argmax(np.abs(vel_hf))) * dt
 
     offset = mp.peak_velocity_time(fp, nu, gamma, 0.0)                              # step 2
+    polarity = 1.0
+    if match_polarity:
+        v_peak_pulse = float(mp.velocity(offset, A, fp, nu, gamma, 0.0))
+        if v_peak_pulse * vel_hf[int(round(t_peak / dt))] < 0:
+            polarity = -1.0
+            hf = -hf
     t0 = t_peak - offset
     half = gamma / (2.0 * fp)
     n_pre = max(0, int(math.ceil((half - t0) / dt - 1e-9)))
@@ -194,7 +208,7 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None) -> Record:
             "vp_scale": float(vp_scale_f), "Vp_cm_s": vp, "fp_hz": fp, "nu_rad": nu, "gamma": gamma,
             "t0_s": t0, "A_cm_s": A, "Ap_g": float(np.abs(pulse_acc).max()) / _G, "Tp_s": 1.0 / fp,
             "t_peak_s": t_peak, "pad_before_s": n_pre * dt, "pad_after_s": n_post * dt,
-            "pulse_seeded_from": "seed" if pulse is None else "argument"}
+            "hf_polarity": int(polarity), "pulse_seeded_from": "seed" if pulse is None else "argument"}
     meta.update(_generator_meta(info))
     return Record(acc, dt, meta=meta,
                   components={"hf": hf, "pulse": pulse_acc, "hf_modified": acc - pulse_acc})
