@@ -28,6 +28,13 @@
 #include "solver.h"
 #include "solver_math_internal.h"
 
+/* SSE2 is part of every x86-64 CPU (no -m flag needed); elsewhere, or with
+ * -DCF_NO_SIMD, the same operations run one point at a time with identical results. */
+#if defined(__SSE2__) && !defined(CF_NO_SIMD)
+#define CF_SOLVER_SIMD 1
+#include <emmintrin.h>
+#endif
+
 #define MAXS CF_SOLVER_MAX_SIDES
 
 typedef struct {
@@ -37,6 +44,7 @@ typedef struct {
     double ec[MAXS], es[MAXS];   /* outward in-plane edge normals */
     double vx[MAXS], vy[MAXS];   /* vertices relative to the centre, CCW */
     double poly[2 * MAXS];       /* the same, interleaved (x, y) */
+    double ecw[MAXS + 2], esw[MAXS + 2];   /* edge normals with wrap-around: ecw[k + 1] = ec[k mod n] */
 } face_t;
 
 typedef struct {
@@ -47,6 +55,7 @@ typedef struct {
     int p0, np, n0;         /* its sub-contacts: [p0, p0 + np), the first n0 on the upper face */
     double fs[3], mt;       /* exact mode: joint shear force (N), torsional moment (N m) */
     double polar;           /* exact mode: polar moment of the joint area about its centre, m^4 */
+    double lz[2];           /* body-frame z of the points of side 0 (upper face) and side 1 (lower face) */
 } joint_t;
 
 struct cf_solver {
@@ -71,7 +80,14 @@ struct cf_solver {
     int np;
     int *p_side, *p_hint, *p_homein;
     double *p_home;                 /* rest position in the other face's frame (x, y) */
-    double *p_loc, *p_w, *p_fs, *p_ihkw;   /* ..., 1 / (2 ks w) */
+    double *p_loc, *p_w, *p_ihkw;   /* body-frame position (3), area share (m^2), 1 / (2 ks w) */
+    /* the hot loop's view of the same points, structure of arrays (one entry per point):
+     * body-frame x, y (z is that of the face, shared), rest position in the other
+     * face's frame, the squared radius of the cheap inside test around it (-1: none),
+     * kn w and ks w, and the persistent state: shear force (N, face frame) and contact
+     * state (0 open or too deep, 1 in contact, 2 over the plane but off the polygon) */
+    double *p_lx, *p_ly, *p_hx, *p_hy, *p_fast, *p_knw, *p_ksw;
+    double *p_fsx, *p_fsy, *p_state;
     double dt_crit, dt;
     /* history */
     int h_cap;
@@ -116,7 +132,9 @@ static void release(cf_solver *s)
     free(s->F); free(s->T); free(s->x0); free(s->q0); free(s->fext_prev); free(s->fdamp_prev);
     free(s->tdamp_prev); free(s->blk_body); free(s->blk_off); free(s->blk_top); free(s->blk_bot);
     free(s->blk_h); free(s->blk_m); free(s->joint_diam); free(s->jt); free(s->p_side); free(s->p_hint); free(s->p_ihkw); free(s->p_homein); free(s->p_home); free(s->p_loc);
-    free(s->p_w); free(s->p_fs); free(s->jfn);
+    free(s->p_w); free(s->jfn);
+    free(s->p_lx); free(s->p_ly); free(s->p_hx); free(s->p_hy); free(s->p_fast); free(s->p_knw); free(s->p_ksw);
+    free(s->p_fsx); free(s->p_fsy); free(s->p_state);
     {
         char msg[CF_MSG_LEN];
         memcpy(msg, s->msg, CF_MSG_LEN);
@@ -157,6 +175,10 @@ static void make_face(face_t *f, int n, double r, double phase, double cz)
         f->vx[k] = r * cos(ph); f->vy[k] = r * sin(ph);
         f->poly[2 * k] = f->vx[k]; f->poly[2 * k + 1] = f->vy[k];
         f->ec[k] = cos(ph + a); f->es[k] = sin(ph + a);
+    }
+    for (k = 0; k < n + 2; k++) {
+        int m = (k + n - 1) % n;
+        f->ecw[k] = f->ec[m]; f->esw[k] = f->es[m];
     }
 }
 
@@ -526,7 +548,6 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
     s->np = np;
     ALLOC(s->p_side, int, np); ALLOC(s->p_hint, int, np); ALLOC(s->p_ihkw, double, np);
     ALLOC(s->p_homein, int, np); ALLOC(s->p_home, double, 2 * np); ALLOC(s->p_loc, double, 3 * np); ALLOC(s->p_w, double, np);
-    ALLOC(s->p_fs, double, 3 * np);
     if (mode != CF_SOLVER_CONTACT_EXACT) {
         int c = 0, n1, n2;
         /* filled below, then 1 / (2 ks w) per point */
@@ -585,6 +606,10 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
         }
     }
     for (k = 0; k < np; k++) s->p_ihkw[k] = 0.5 / (ks * s->p_w[k]);
+    ALLOC(s->p_lx, double, np); ALLOC(s->p_ly, double, np); ALLOC(s->p_hx, double, np);
+    ALLOC(s->p_hy, double, np); ALLOC(s->p_fast, double, np); ALLOC(s->p_knw, double, np);
+    ALLOC(s->p_ksw, double, np); ALLOC(s->p_fsx, double, np); ALLOC(s->p_fsy, double, np);
+    ALLOC(s->p_state, double, np);
     /* rest position of each point in the frame of the face it touches (face centres
      * aligned); a point within contact_tolerance of a home that lies inside that face
      * is inside the grown polygon: the cheap test of the hot loop */
@@ -593,9 +618,19 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
         for (k = J->p0; k < J->p0 + J->np; k++) {
             const face_t *own = s->p_side[k] == 0 ? &J->fu : &J->fl, *oth = s->p_side[k] == 0 ? &J->fl : &J->fu;
             double hx = s->p_loc[3 * k] - own->c[0], hy = s->p_loc[3 * k + 1] - own->c[1];
+            double tol = def->contact_tolerance * oth->rc;
             s->p_home[2 * k] = hx; s->p_home[2 * k + 1] = hy;
             s->p_homein[k] = face_inside(oth, hx, hy, 1e-9 * oth->rc);
+            s->p_lx[k] = s->p_loc[3 * k]; s->p_ly[k] = s->p_loc[3 * k + 1];
+            s->p_hx[k] = hx; s->p_hy[k] = hy;
+            /* squared radius of the cheap test (-1: none; the point then takes the polygon test) */
+            s->p_fast[k] = (s->p_homein[k] && tol > 2e-9 * oth->rc) ? (tol - 1e-9 * oth->rc) * (tol - 1e-9 * oth->rc) : -1.0;
+            s->p_knw[k] = kn * s->p_w[k]; s->p_ksw[k] = ks * s->p_w[k];
         }
+        /* every point of a face lies in that face's plane: one body-frame z per face */
+        J->lz[0] = J->fu.c[2]; J->lz[1] = J->fl.c[2];
+        for (k = J->p0; k < J->p0 + J->np; k++)
+            if (s->p_loc[3 * k + 2] != J->lz[s->p_side[k]]) { release(s); return fail(s, CF_EINVAL, "internal: point off its face plane"); }
     }
     /* initial state: exact static equilibrium, joint j pre-compressed by the weight
      * above it (uniform overlap W / (kn A) over the face), shear zero */
@@ -826,32 +861,233 @@ static inline void frame_map(const double *Rf, const double *cf, const double *R
     mat_tvec(Rf, d, F->t);
 }
 
+/* The constants of one face's pass over the points that touch it: the frame map and
+ * the relative displacement field over the step (both in the face frame), the face's
+ * thresholds, and the solver's point arrays. */
+typedef struct {
+    double M[9], t[3], mz[3];   /* X = M loc + t; mz = M[., 2] * (the points' shared body z) */
+    double A[3], W[3];          /* relative displacement of the upper body over the step: A + W x X */
+    double sgn;                 /* pen = sgn * Z */
+    double pmax;                /* a point deeper than this has passed beside or through the face */
+    double tol;                 /* the polygon test's growth, m */
+    double kn, ks, mu;
+    int unbounded;              /* the face is the (unbounded) ground */
+    const face_t *ff;           /* the face the points are tested against */
+} face_pass;
+
+/* The sums of one face in the face frame, each component added in point order:
+ * force (fx, fy, fz), moment about the face centre (mx, my, mz), spring energy and
+ * normal force (vs, jfn; only at steps that evaluate the energy). */
+typedef struct {
+    double dslip, dswitch;      /* slip dissipation, contact_switch energy (J) */
+#ifdef CF_SOLVER_SIMD
+    __m128d s01, s23, s45, s67; /* (fx, fy) (fz, mx) (my, mz) (vs, jfn): two sums per instruction */
+#else
+    double sm[8];
+#endif
+} face_sums;
+
+/* add the terms t[0..7] of one point (same order as face_sums) */
+static inline void sums_add(face_sums *S, const double *t, int need)
+{
+#ifdef CF_SOLVER_SIMD
+    S->s01 = _mm_add_pd(S->s01, _mm_loadu_pd(t));
+    S->s23 = _mm_add_pd(S->s23, _mm_loadu_pd(t + 2));
+    S->s45 = _mm_add_pd(S->s45, _mm_loadu_pd(t + 4));
+    if (need) S->s67 = _mm_add_pd(S->s67, _mm_loadu_pd(t + 6));
+#else
+    S->sm[0] += t[0]; S->sm[1] += t[1]; S->sm[2] += t[2]; S->sm[3] += t[3]; S->sm[4] += t[4]; S->sm[5] += t[5];
+    if (need) { S->sm[6] += t[6]; S->sm[7] += t[7]; }
+#endif
+}
+
+/* One sub-contact k against the face of P, the full law (any state). Returns 1 and
+ * its terms in t when it carries force, 0 when it is open, too deep or off the face. */
+static inline int point_law(const cf_solver *s, const face_pass *P, int k, face_sums *S, int *hint, double *t)
+{
+    double *fsx = s->p_fsx + k, *fsy = s->p_fsy + k, *state = s->p_state + k;
+    double lx = s->p_lx[k], ly = s->p_ly[k], w = s->p_w[k], fs[2], fn, dux, duy;
+    double X = P->M[0] * lx + P->M[1] * ly + P->mz[0] + P->t[0];
+    double Y = P->M[3] * lx + P->M[4] * ly + P->mz[1] + P->t[1];
+    double Z = P->M[6] * lx + P->M[7] * ly + P->mz[2] + P->t[2];
+    double pen = P->sgn * Z;
+    /* state: 0 open (or too deep), 1 in contact, 2 overlapping the plane but outside the
+     * face polygon */
+    if (!(pen > 0.0) || pen > P->pmax) {
+        if (*fsx != 0.0 || *fsy != 0.0) {
+            S->dslip += (*fsx * *fsx + *fsy * *fsy) * s->p_ihkw[k];
+            *fsx = *fsy = 0.0;
+        }
+        *state = 0.0;
+        return 0;
+    }
+    if (!(P->unbounded || (X - s->p_hx[k]) * (X - s->p_hx[k]) + (Y - s->p_hy[k]) * (Y - s->p_hy[k]) <= s->p_fast[k]
+          || face_inside_hint(P->ff, X, Y, P->tol, hint))) {
+        /* slid off the face while compressed: its normal spring energy leaves the
+         * model (booked as contact_switch, not as a balance error) */
+        if (*state == 1.0) S->dswitch += 0.5 * P->kn * w * pen * pen;
+        if (*fsx != 0.0 || *fsy != 0.0) {
+            S->dslip += (*fsx * *fsx + *fsy * *fsy) * s->p_ihkw[k];
+            *fsx = *fsy = 0.0;
+        }
+        *state = 2.0;
+        return 0;
+    }
+    if (*state == 2.0) S->dswitch -= 0.5 * P->kn * w * pen * pen;   /* slid onto the face */
+    *state = 1.0;
+    dux = P->A[0] + P->W[1] * Z - P->W[2] * Y;
+    duy = P->A[1] + P->W[2] * X - P->W[0] * Z;
+    fs[0] = *fsx; fs[1] = *fsy;
+    S->dslip += law2d(pen, dux, duy, P->kn * w, P->ks * w, P->mu, fs, &fn);
+    *fsx = fs[0]; *fsy = fs[1];
+    /* on both sides the force on the upper body is +fn along the frame's z */
+    t[0] = fs[0]; t[1] = fs[1]; t[2] = fn;
+    t[3] = Y * fn - Z * fs[1]; t[4] = Z * fs[0] - X * fn; t[5] = X * fs[1] - Y * fs[0];
+    t[6] = 0.5 * fn * pen + (fs[0] * fs[0] + fs[1] * fs[1]) * s->p_ihkw[k]; t[7] = fn;
+    return 1;
+}
+
+/* The points [k0, k1) against the face of P, in point order. With SSE2 (part of every
+ * x86-64 CPU) two points go through each instruction on the common path -- in contact
+ * at the last step and now, inside the cheap polygon test, sticking -- with the very
+ * operations of point_law (each a correctly rounded IEEE operation, no contraction),
+ * and their terms join the sums in point order; a pair with any other point takes
+ * point_law one point at a time. So the results are bitwise those of the scalar code
+ * (build with -DCF_NO_SIMD to check: bench/solver_profile.c prints a result hash). */
+static void face_points_run(cf_solver *s, const face_pass *P, int k0, int k1, face_sums *S, int need)
+{
+    int k = k0;
+    double t[8];
+#ifdef CF_SOLVER_SIMD
+    const double *lx = s->p_lx, *ly = s->p_ly, *hx = s->p_hx, *hy = s->p_hy, *fast = s->p_fast;
+    const double *knw = s->p_knw, *ksw = s->p_ksw, *ihkw = s->p_ihkw, *state = s->p_state;
+    double *fsx = s->p_fsx, *fsy = s->p_fsy;
+    const __m128d M0 = _mm_set1_pd(P->M[0]), M1 = _mm_set1_pd(P->M[1]), M3 = _mm_set1_pd(P->M[3]);
+    const __m128d M4 = _mm_set1_pd(P->M[4]), M6 = _mm_set1_pd(P->M[6]), M7 = _mm_set1_pd(P->M[7]);
+    const __m128d z0 = _mm_set1_pd(P->mz[0]), z1 = _mm_set1_pd(P->mz[1]), z2 = _mm_set1_pd(P->mz[2]);
+    const __m128d t0 = _mm_set1_pd(P->t[0]), t1 = _mm_set1_pd(P->t[1]), t2 = _mm_set1_pd(P->t[2]);
+    const __m128d A0 = _mm_set1_pd(P->A[0]), A1 = _mm_set1_pd(P->A[1]);
+    const __m128d W0 = _mm_set1_pd(P->W[0]), W1 = _mm_set1_pd(P->W[1]), W2 = _mm_set1_pd(P->W[2]);
+    const __m128d sgn = _mm_set1_pd(P->sgn), pmax = _mm_set1_pd(P->pmax), mu = _mm_set1_pd(P->mu);
+    const __m128d one = _mm_set1_pd(1.0), half = _mm_set1_pd(0.5), apo2 = _mm_set1_pd(P->ff->apo * P->ff->apo);
+    const __m128d apotol = _mm_set1_pd(P->ff->apo + P->tol);
+    const __m128d unb = _mm_castsi128_pd(_mm_set1_epi32(P->unbounded ? -1 : 0));
+    for (; k + 1 < k1; k += 2) {
+        __m128d vlx = _mm_loadu_pd(lx + k), vly = _mm_loadu_pd(ly + k);
+        __m128d X = _mm_add_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(M0, vlx), _mm_mul_pd(M1, vly)), z0), t0);
+        __m128d Y = _mm_add_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(M3, vlx), _mm_mul_pd(M4, vly)), z1), t1);
+        __m128d Z = _mm_add_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(M6, vlx), _mm_mul_pd(M7, vly)), z2), t2);
+        __m128d pen = _mm_mul_pd(sgn, Z);
+        __m128d dhx = _mm_sub_pd(X, _mm_loadu_pd(hx + k)), dhy = _mm_sub_pd(Y, _mm_loadu_pd(hy + k));
+        __m128d d2 = _mm_add_pd(_mm_mul_pd(dhx, dhx), _mm_mul_pd(dhy, dhy));
+        __m128d dux = _mm_sub_pd(_mm_add_pd(A0, _mm_mul_pd(W1, Z)), _mm_mul_pd(W2, Y));
+        __m128d duy = _mm_sub_pd(_mm_add_pd(A1, _mm_mul_pd(W2, X)), _mm_mul_pd(W0, Z));
+        __m128d f = _mm_mul_pd(_mm_loadu_pd(knw + k), pen), lim = _mm_mul_pd(mu, f);
+        __m128d kw = _mm_loadu_pd(ksw + k);
+        __m128d fx = _mm_sub_pd(_mm_loadu_pd(fsx + k), _mm_mul_pd(kw, dux));
+        __m128d fy = _mm_sub_pd(_mm_loadu_pd(fsy + k), _mm_mul_pd(kw, duy));
+        __m128d m2 = _mm_add_pd(_mm_mul_pd(fx, fx), _mm_mul_pd(fy, fy));
+        __m128d act = _mm_and_pd(_mm_cmpgt_pd(pen, _mm_setzero_pd()), _mm_cmpngt_pd(pen, pmax));
+        __m128d st = _mm_loadu_pd(state + k), ok, mx, my, mz, vs;
+        int bits, open;
+        /* inside: the cheap test around the point's rest position, or the face's
+         * inscribed circle (face_inside_hint's first test, which leaves the hint alone) */
+        __m128d in = _mm_or_pd(_mm_cmple_pd(d2, _mm_loadu_pd(fast + k)),
+                               _mm_cmple_pd(_mm_add_pd(_mm_mul_pd(X, X), _mm_mul_pd(Y, Y)), apo2));
+        in = _mm_or_pd(unb, in);
+        if ((_mm_movemask_pd(_mm_andnot_pd(in, act)) & _mm_movemask_pd(_mm_cmpeq_pd(st, one))) != 0) {
+            /* the polygon test: if the point's hint edge is still its most distant edge
+             * (face_inside_hint's walk would stay there), inside iff within apo + tol of
+             * it; else (the walk moves) leave the point to point_law */
+            const face_t *ff = P->ff;
+            int h0 = s->p_hint[k], h1 = s->p_hint[k + 1];
+            __m128d ex = _mm_set_pd(ff->ecw[h1 + 1], ff->ecw[h0 + 1]), ey = _mm_set_pd(ff->esw[h1 + 1], ff->esw[h0 + 1]);
+            __m128d best = _mm_add_pd(_mm_mul_pd(X, ex), _mm_mul_pd(Y, ey));
+            __m128d pp, pm, stay;
+            ex = _mm_set_pd(ff->ecw[h1 + 2], ff->ecw[h0 + 2]); ey = _mm_set_pd(ff->esw[h1 + 2], ff->esw[h0 + 2]);
+            pp = _mm_add_pd(_mm_mul_pd(X, ex), _mm_mul_pd(Y, ey));
+            ex = _mm_set_pd(ff->ecw[h1], ff->ecw[h0]); ey = _mm_set_pd(ff->esw[h1], ff->esw[h0]);
+            pm = _mm_add_pd(_mm_mul_pd(X, ex), _mm_mul_pd(Y, ey));
+            stay = _mm_and_pd(_mm_cmpngt_pd(pp, best), _mm_cmpngt_pd(pm, best));
+            in = _mm_or_pd(in, _mm_and_pd(stay, _mm_cmple_pd(best, apotol)));
+        }
+        ok = _mm_and_pd(act, in);
+        ok = _mm_and_pd(ok, _mm_cmpeq_pd(st, one));
+        ok = _mm_and_pd(ok, _mm_cmpngt_pd(m2, _mm_mul_pd(lim, lim)));
+        bits = _mm_movemask_pd(ok);
+        /* open before and now (state 0 keeps no shear force): nothing to do */
+        open = _mm_movemask_pd(_mm_andnot_pd(act, _mm_cmpeq_pd(st, _mm_setzero_pd())));
+        if (open == 3) continue;
+        mx = _mm_sub_pd(_mm_mul_pd(Y, f), _mm_mul_pd(Z, fy));
+        my = _mm_sub_pd(_mm_mul_pd(Z, fx), _mm_mul_pd(X, f));
+        mz = _mm_sub_pd(_mm_mul_pd(X, fy), _mm_mul_pd(Y, fx));
+        if (bits == 3) {
+            _mm_storeu_pd(fsx + k, fx); _mm_storeu_pd(fsy + k, fy);
+            S->s01 = _mm_add_pd(_mm_add_pd(S->s01, _mm_unpacklo_pd(fx, fy)), _mm_unpackhi_pd(fx, fy));
+            S->s23 = _mm_add_pd(_mm_add_pd(S->s23, _mm_unpacklo_pd(f, mx)), _mm_unpackhi_pd(f, mx));
+            S->s45 = _mm_add_pd(_mm_add_pd(S->s45, _mm_unpacklo_pd(my, mz)), _mm_unpackhi_pd(my, mz));
+            if (need) {
+                vs = _mm_add_pd(_mm_mul_pd(_mm_mul_pd(half, f), pen), _mm_mul_pd(m2, _mm_loadu_pd(ihkw + k)));
+                S->s67 = _mm_add_pd(_mm_add_pd(S->s67, _mm_unpacklo_pd(vs, f)), _mm_unpackhi_pd(vs, f));
+            }
+        } else {
+            /* one point at a time, in order: the easy one from the vectors, the other
+             * through the full law */
+            double vx[2], vy[2], vf[2], vmx[2], vmy[2], vmz[2], vvs[2];
+            int l;
+            vs = _mm_add_pd(_mm_mul_pd(_mm_mul_pd(half, f), pen), _mm_mul_pd(m2, _mm_loadu_pd(ihkw + k)));
+            _mm_storeu_pd(vx, fx); _mm_storeu_pd(vy, fy); _mm_storeu_pd(vf, f); _mm_storeu_pd(vmx, mx);
+            _mm_storeu_pd(vmy, my); _mm_storeu_pd(vmz, mz); _mm_storeu_pd(vvs, vs);
+            for (l = 0; l < 2; l++) {
+                if (open & (1 << l)) continue;
+                if (bits & (1 << l)) {
+                    fsx[k + l] = vx[l]; fsy[k + l] = vy[l];
+                    t[0] = vx[l]; t[1] = vy[l]; t[2] = vf[l]; t[3] = vmx[l]; t[4] = vmy[l]; t[5] = vmz[l];
+                    t[6] = vvs[l]; t[7] = vf[l];
+                    sums_add(S, t, need);
+                } else if (point_law(s, P, k + l, S, s->p_hint + k + l, t)) {
+                    sums_add(S, t, need);
+                }
+            }
+        }
+    }
+#endif
+    for (; k < k1; k++)
+        if (point_law(s, P, k, S, s->p_hint + k, t)) sums_add(S, t, need);
+}
+
 /* Sub-contacts of one joint. Points of the upper face (side 0) are handled in the
  * lower face's frame, points of the lower face (side 1) in the upper face's frame;
  * the forces are summed per side in that frame (force and moment about the face
- * centre) and turned to world coordinates once per joint. */
+ * centre, in point order) and turned to world coordinates once per joint. */
 static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, step_energy *e)
 {
-    int bl = J->bl, bu = J->bu, k, side;
+    int bl = J->bl, bu = J->bu, side;
     const double *RL = s->R + 9 * bl, *RU = s->R + 9 * bu;
-    double kn = s->kn, ks = s->ks, mu = s->mu, jfn = 0.0, vs = 0.0, dslip = 0.0, dswitch = 0.0;
     double cF[2][3], Fs[2][3], Ms[2][3];
-    int end = J->p0 + J->np;
+    int end = J->p0 + J->np, need = e->need;
+    face_sums S;
+    S.dslip = 0.0; S.dswitch = 0.0;
+#ifdef CF_SOLVER_SIMD
+    S.s67 = _mm_setzero_pd();
+#else
+    S.sm[6] = S.sm[7] = 0.0;
+#endif
     for (side = 0; side < 2; side++) {
         const double *Rf = side == 0 ? RL : RU, *Ro = side == 0 ? RU : RL;
         const face_t *ff = side == 0 ? &J->fl : &J->fu;
         int bo = side == 0 ? bu : bl;
-        double tol = s->def.contact_tolerance * ff->rc;
-        double fast = tol > 2e-9 * ff->rc ? (tol - 1e-9 * ff->rc) * (tol - 1e-9 * ff->rc) : -1.0;
-        int need = e->need;
-        /* a point deeper than a tenth of the face's radius is not in contact with it: it
-         * has passed beside or through the face (a tumbling block after a collapse) */
-        double pmax = 0.1 * ff->rc;
-        int unbounded = side == 0 && bl == 0;
-        double sgn = side == 0 ? -1.0 : 1.0;     /* pen = sgn * X.z */
-        double fx = 0, fy = 0, fz = 0, mx = 0, my = 0, mz = 0;
+        int k0 = side == 0 ? J->p0 : J->p0 + J->n0, k1 = side == 0 ? J->p0 + J->n0 : end;
+        double lz = J->lz[side], sm[6];
         face_frame F;
+        face_pass P;
         double *c = cF[side];
+        if (k1 <= k0) {
+            Fs[side][0] = Fs[side][1] = Fs[side][2] = 0.0;
+            Ms[side][0] = Ms[side][1] = Ms[side][2] = 0.0;
+            c[0] = c[1] = c[2] = 0.0;
+            continue;
+        }
         mat_vec(Rf, ff->c, c);
         c[0] += s->x[3 * (side == 0 ? bl : bu)];
         c[1] += s->x[3 * (side == 0 ? bl : bu) + 1];
@@ -860,63 +1096,28 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
         rel_field(s, bl, bu, Rf, c, ww, &F);
         /* relative displacement field over the step */
         F.A[0] *= dt; F.A[1] *= dt; F.A[2] *= dt; F.W[0] *= dt; F.W[1] *= dt; F.W[2] *= dt;
-        {
-            const double *restrict ploc = s->p_loc, *restrict pw = s->p_w, *restrict pik = s->p_ihkw;
-            const double *restrict phome = s->p_home;
-            const int *restrict phin = s->p_homein;
-            double *restrict pfs = s->p_fs;
-            int *restrict phint = s->p_hint;
-            int k0 = side == 0 ? J->p0 : J->p0 + J->n0, k1 = side == 0 ? J->p0 + J->n0 : end;
-            for (k = k0; k < k1; k++) {
-                const double *loc = ploc + 3 * k;
-                double X, Y, Z, pen, dux, duy, fn, *fs = pfs + 3 * k, w = pw[k];
-                X = F.M[0] * loc[0] + F.M[1] * loc[1] + F.M[2] * loc[2] + F.t[0];
-                Y = F.M[3] * loc[0] + F.M[4] * loc[1] + F.M[5] * loc[2] + F.t[1];
-                Z = F.M[6] * loc[0] + F.M[7] * loc[1] + F.M[8] * loc[2] + F.t[2];
-                pen = sgn * Z;
-                /* fs[2] holds the point's state: 0 open (or too deep), 1 in contact,
-                 * 2 overlapping the plane but outside the face polygon */
-                if (!(pen > 0.0) || pen > pmax) {
-                    if (fs[0] != 0.0 || fs[1] != 0.0) {
-                        dslip += (fs[0] * fs[0] + fs[1] * fs[1]) * pik[k];
-                        fs[0] = fs[1] = 0.0;
-                    }
-                    fs[2] = 0.0;
-                    continue;
-                }
-                if (!(unbounded || (phin[k] && (X - phome[2 * k]) * (X - phome[2 * k])
-                                               + (Y - phome[2 * k + 1]) * (Y - phome[2 * k + 1]) <= fast)
-                      || face_inside_hint(ff, X, Y, tol, phint + k))) {
-                    /* slid off the face while compressed: its normal spring energy leaves
-                     * the model (booked as contact_switch, not as a balance error) */
-                    if (fs[2] == 1.0) dswitch += 0.5 * kn * w * pen * pen;
-                    if (fs[0] != 0.0 || fs[1] != 0.0) {
-                        dslip += (fs[0] * fs[0] + fs[1] * fs[1]) * pik[k];
-                        fs[0] = fs[1] = 0.0;
-                    }
-                    fs[2] = 2.0;
-                    continue;
-                }
-                if (fs[2] == 2.0) dswitch -= 0.5 * kn * w * pen * pen;   /* slid onto the face */
-                fs[2] = 1.0;
-                dux = F.A[0] + F.W[1] * Z - F.W[2] * Y;
-                duy = F.A[1] + F.W[2] * X - F.W[0] * Z;
-                dslip += law2d(pen, dux, duy, kn * w, ks * w, mu, fs, &fn);
-                jfn += fn;
-                /* on both sides the force on the upper body is +fn along the frame's z */
-                fx += fs[0]; fy += fs[1]; fz += fn;
-                mx += Y * fn - Z * fs[1];
-                my += Z * fs[0] - X * fn;
-                mz += X * fs[1] - Y * fs[0];
-                if (need) vs += 0.5 * fn * pen + (fs[0] * fs[0] + fs[1] * fs[1]) * pik[k];
-            }
-        }
-        {
-            double fl[3], ml[3];
-            fl[0] = fx; fl[1] = fy; fl[2] = fz; ml[0] = mx; ml[1] = my; ml[2] = mz;
-            mat_vec(Rf, fl, Fs[side]);
-            mat_vec(Rf, ml, Ms[side]);
-        }
+        memcpy(P.M, F.M, sizeof P.M); memcpy(P.t, F.t, sizeof P.t);
+        P.mz[0] = F.M[2] * lz; P.mz[1] = F.M[5] * lz; P.mz[2] = F.M[8] * lz;
+        memcpy(P.A, F.A, sizeof P.A); memcpy(P.W, F.W, sizeof P.W);
+        /* a point deeper than a tenth of the face's radius is not in contact with it: it
+         * has passed beside or through the face (a tumbling block after a collapse) */
+        P.pmax = 0.1 * ff->rc;
+        P.tol = s->def.contact_tolerance * ff->rc;
+        P.sgn = side == 0 ? -1.0 : 1.0;
+        P.kn = s->kn; P.ks = s->ks; P.mu = s->mu;
+        P.unbounded = side == 0 && bl == 0;
+        P.ff = ff;
+#ifdef CF_SOLVER_SIMD
+        S.s01 = S.s23 = S.s45 = _mm_setzero_pd();
+        face_points_run(s, &P, k0, k1, &S, need);
+        _mm_storeu_pd(sm, S.s01); _mm_storeu_pd(sm + 2, S.s23); _mm_storeu_pd(sm + 4, S.s45);
+#else
+        S.sm[0] = S.sm[1] = S.sm[2] = S.sm[3] = S.sm[4] = S.sm[5] = 0.0;
+        face_points_run(s, &P, k0, k1, &S, need);
+        memcpy(sm, S.sm, sizeof sm);
+#endif
+        mat_vec(Rf, sm, Fs[side]);
+        mat_vec(Rf, sm + 3, Ms[side]);
     }
     /* apply: force F at face centre c with moment M about c, on the upper body; the
      * opposite on the lower body */
@@ -934,10 +1135,19 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
             s->T[3 * bl] -= tq[0] + Mw[0]; s->T[3 * bl + 1] -= tq[1] + Mw[1]; s->T[3 * bl + 2] -= tq[2] + Mw[2];
         }
     }
-    e->vs += vs;
-    e->dslip += dslip;
-    e->dswitch += dswitch;
-    s->jfn[J - s->jt] = jfn;
+    {
+        double vj[2];
+#ifdef CF_SOLVER_SIMD
+        _mm_storeu_pd(vj, S.s67);
+#else
+        vj[0] = S.sm[6]; vj[1] = S.sm[7];
+#endif
+        e->vs += vj[0];
+        /* the joint's normal force: summed at energy/history steps only (read at history samples) */
+        s->jfn[J - s->jt] = vj[1];
+    }
+    e->dslip += S.dslip;
+    e->dswitch += S.dswitch;
 }
 
 /* Exact interface: normal pressure integrated over the compressed overlap polygon;
@@ -1151,7 +1361,11 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
     memcpy(s->q, s->q0, sizeof(double) * 4 * (size_t)nb);
     memset(s->v, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->w, 0, sizeof(double) * 3 * (size_t)nb);
-    memset(s->p_fs, 0, sizeof(double) * 3 * (size_t)(s->np > 0 ? s->np : 1));
+    if (s->np > 0) {
+        memset(s->p_fsx, 0, sizeof(double) * (size_t)s->np);
+        memset(s->p_fsy, 0, sizeof(double) * (size_t)s->np);
+        memset(s->p_state, 0, sizeof(double) * (size_t)s->np);
+    }
     memset(s->fext_prev, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->fdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->tdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);
