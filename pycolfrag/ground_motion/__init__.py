@@ -180,13 +180,14 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_pola
     hf, info = as00.simulate(Mw_f, dist_f, seed, dt=dt)                            # step 1
     hf = np.ascontiguousarray(hf, dtype=np.float64)
     vel_hf = integrate(hf, dt)[0]
-    t_peak = float(np.argmax(np.abs(vel_hf))) * dt
+    k_peak = int(np.argmax(np.abs(vel_hf)))
+    t_peak = k_peak * dt
 
     offset = mp.peak_velocity_time(fp, nu, gamma, 0.0)                              # step 2
     polarity = 1.0
     if match_polarity:
         v_peak_pulse = float(mp.velocity(offset, A, fp, nu, gamma, 0.0))
-        if v_peak_pulse * vel_hf[int(round(t_peak / dt))] < 0:
+        if v_peak_pulse * vel_hf[k_peak] < 0:
             polarity = -1.0
             hf = -hf
     t0 = t_peak - offset
