@@ -50,7 +50,8 @@ int cf_combine_subtract(const double *hf, const double *pulse, int n, double *ou
     /* steps 4-5: amplitude |HF| - |P| (not below 0) with the phase of HF */
     for (int k = 0; k <= nf / 2; k++) {
         const double hr = h[2 * k], hi = h[2 * k + 1];
-        const double ah = hypot(hr, hi), ap = hypot(p[2 * k], p[2 * k + 1]);
+        /* sqrt(x^2 + y^2), not hypot (5x slower in glibc); accelerations never overflow */
+        const double ah = sqrt(hr * hr + hi * hi), ap = sqrt(p[2 * k] * p[2 * k] + p[2 * k + 1] * p[2 * k + 1]);
         const double a = ah - ap;
         const double scale = (a > 0.0 && ah > 0.0) ? a / ah : 0.0;
         h[2 * k] = hr * scale;

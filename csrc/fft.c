@@ -7,15 +7,15 @@
  *    library cannot link; kissfft (BSD) would do, but it is one more system
  *    dependency for the ~150 lines below;
  *  - the lengths are always powers of two (we zero-pad), so radix-2 suffices;
- *  - speed, measured on this machine (2 shared cores, gcc 12 -O3
- *    -ffp-contract=off, median of 300 calls through cffi, noisy to ~30 %):
+ *  - speed, measured on this machine (AMD EPYC, 2 shared cores, gcc 12 -O3
+ *    -ffp-contract=off; best of 2000 calls through cffi, the medians are noisy):
  *      n       C forward / inverse     numpy.fft.rfft / irfft (pocketfft)
- *      4096    22 / 37 us              27 / 32 us
- *      8192    110 / 89 us             104 / 110 us
- *      16384   222 / 184 us            151 / 145 us
- *    i.e. on par with numpy (within 1.5x); a record at dt 0.005 needs two
- *    transforms of 8192-16384 points, a small part of its cost (the rest is
- *    noise, window and target spectrum), so a faster FFT would not pay for a
+ *      8192    46 / 47 us              49 / 53 us
+ *      16384   148 / 107 us            97 / 105 us
+ *    i.e. on par with numpy (within 1.5x). A record at dt 0.005 s needs two
+ *    transforms of 8192-16384 points, about half of its cost (the rest is the
+ *    polar-method normals), and the whole C record is not slower than the NumPy
+ *    twin (bench/ground_motion_speed.py), so a faster FFT would not pay for a
  *    dependency. Errors against numpy: < 1e-15 relative.
  *  - reproducibility: the same code and the same operation order on every
  *    machine, with the twiddles from cos/sin of exact arguments.
@@ -31,6 +31,9 @@ struct cf_fft_plan {
     int m;          /* complex length n/2 */
     int *bitrev;    /* m entries: bit-reversed index */
     double *tw;     /* m/2 complex: exp(-2 pi i k / m), k < m/2 (interleaved) */
+    double *twst;   /* per stage, contiguous: the stage with half-length h (len = 2h) holds
+                       exp(-2 pi i j / len), j < h, at complex offset h - 1 (m - 1 in all);
+                       the same values as tw, laid out for unit-stride access */
     double *tws;    /* m/2 + 1 complex: exp(-2 pi i k / n), k <= m/2 (split step) */
 };
 
@@ -51,6 +54,7 @@ void cf_fft_plan_free(cf_fft_plan *p)
         return;
     free(p->bitrev);
     free(p->tw);
+    free(p->twst);
     free(p->tws);
     free(p);
 }
@@ -73,7 +77,8 @@ int cf_fft_plan_create(int n, cf_fft_plan **plan)
     p->bitrev = malloc(sizeof(int) * (size_t)m);
     p->tw = malloc(sizeof(double) * 2 * (size_t)h);
     p->tws = malloc(sizeof(double) * 2 * (size_t)(m / 2 + 1));
-    if (!p->bitrev || !p->tw || !p->tws) {
+    p->twst = malloc(sizeof(double) * 2 * (size_t)m);
+    if (!p->bitrev || !p->tw || !p->tws || !p->twst) {
         cf_fft_plan_free(p);
         return CF_ENOMEM;
     }
@@ -93,6 +98,13 @@ int cf_fft_plan_create(int n, cf_fft_plan **plan)
         if (4 * k == m) {   /* exactly -i (cos(-pi/2) would leave 6e-17) */
             p->tw[2 * k] = 0.0;
             p->tw[2 * k + 1] = -1.0;
+        }
+    }
+    for (int half = 1; half < m; half <<= 1) {
+        const int step = m / (2 * half);
+        for (int j = 0; j < half; j++) {
+            p->twst[2 * (half - 1 + j)] = p->tw[2 * j * step];
+            p->twst[2 * (half - 1 + j) + 1] = p->tw[2 * j * step + 1];
         }
     }
     for (int k = 0; k <= m / 2; k++) {
@@ -133,12 +145,13 @@ static void complex_fft(const cf_fft_plan *p, double *z, int sign)
     }
     const double s = (double)sign;
     for (int len = 4; len <= m; len <<= 1) {
-        const int half = len >> 1, step = m / len;
+        const int half = len >> 1;
+        const double *w = p->twst + 2 * (half - 1);
         for (int i = 0; i < m; i += len) {
             double *a = z + 2 * i, *b = z + 2 * (i + half);
             for (int j = 0; j < half; j++) {
-                const double wr = p->tw[2 * j * step], wi = -s * p->tw[2 * j * step + 1];
-                /* forward: w = exp(-2 pi i j/len) (tw as stored); backward: conjugate */
+                /* forward: w = exp(-2 pi i j/len) as stored; backward: its conjugate */
+                const double wr = w[2 * j], wi = -s * w[2 * j + 1];
                 const double br = b[2 * j] * wr - b[2 * j + 1] * wi;
                 const double bi = b[2 * j] * wi + b[2 * j + 1] * wr;
                 const double ar = a[2 * j], ai = a[2 * j + 1];
