@@ -9,9 +9,9 @@ amplitude (DC and Nyquist excluded), multiplication by the target Fourier
 amplitude ``A(f)``, inverse FFT and division by ``dt``. See ``docs/stochastic.md``
 for every choice (padding, window length, trimming, FFT) and the checks.
 
-Accepted scenario range: ``4.0 <= Mw <= 8.0`` and ``0 < dist_km <= 200``. AS00 was
-fitted to California data of about M 4-7.5 within 200 km (and its source spectrum to
-M 4-8); outside, :class:`~pycolfrag.errors.ModelRangeError` is raised.
+Accepted scenario range (the limits this project adopted for AS00; the paper's scenarios,
+M 5.5-7.5 at 5-20 km, lie well inside): ``4.0 <= Mw <= 8.0`` and ``0 < dist_km <= 200``;
+outside, or non-finite, :class:`~pycolfrag.errors.ModelRangeError` is raised.
 """
 from __future__ import annotations
 
