@@ -63,12 +63,6 @@ def phase_split(extra_args: list[str]) -> dict:
     """Time record / IMs / solver / driver for one sample of every scenario, in this process."""
     import pycolfrag as pcf
     from pycolfrag import grid, intensity, ground_motion, solver
-    standin = not hasattr(ground_motion, "synthesize")
-    if standin:  # the ground-motion work has not landed: the real solver on stand-in records
-        sys.path.insert(0, str(ROOT / "tests"))
-        import grid_fakes
-        grid_fakes._standin_ground_motion()
-        print("(ground_motion.synthesize missing: stand-in records from tests/grid_fakes.py)")
     spec = grid.spec_from_args(grid.build_parser().parse_args(["--samples", "2", *extra_args]))
     ctx = grid.SampleContext(spec)
     acc_t = {"record": 0.0, "ims": 0.0, "solver": 0.0}

@@ -28,13 +28,7 @@ TESTS = Path(__file__).resolve().parent
 # a tiny grid: 2 Mw x 2 R x 3 samples = 12 rows, records cut to 4 s
 SMALL = ["--mw", "6.0", "7.5", "--dist", "5", "15", "--samples", "3", "--max-record-s", "4",
          "--no-figures", "--no-progress"]
-# The real pipeline; while the ground-motion package lacks synthesize (work landing concurrently)
-# the runs use stand-in records with the real solver (tests/grid_fakes.py:real_solver).
-import pycolfrag.ground_motion as _gm  # noqa: E402
-import pycolfrag.intensity as _im  # noqa: E402
-
-if not (hasattr(_gm, "synthesize") and hasattr(_im, "measures")):
-    SMALL += ["--sample-function", "grid_fakes:real_solver"]
+# (the default per-sample function: real records, IMs and solver)
 
 
 def _env(**extra):
