@@ -61,7 +61,6 @@ def run(n_ranks: int, args: list[str], timeout: float) -> float:
 
 def phase_split(extra_args: list[str]) -> dict:
     """Time record / IMs / solver / driver for one sample of every scenario, in this process."""
-    import pycolfrag as pcf
     from pycolfrag import grid, intensity, ground_motion, solver
     spec = grid.spec_from_args(grid.build_parser().parse_args(["--samples", "2", *extra_args]))
     ctx = grid.SampleContext(spec)
