@@ -15,7 +15,7 @@ GRID_ARGS ?=
 # Open MPI refuses root without these; set only for our own commands (TOOLCHAIN.md).
 MPIENV  := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 
-.PHONY: setup system build ctest ctest-asan pytest test grid figures validation bench clean
+.PHONY: setup system build ctest ctest-asan pytest test grid analysis figures validation bench clean
 
 setup: system .venv/.installed build
 
@@ -57,26 +57,37 @@ grid: setup
 	mkdir -p results
 	$(MPIENV) mpirun --allow-run-as-root -n $(NRANKS) $(PY) -m mpi4py scripts/run_grid.py $(GRID_ARGS)
 
-figures: setup
-	$(PY) scripts/make_figures.py results/grid.h5
+# Everything from one results file (issue 5): the paper's figures, the report and docs/validation.md,
+# with the sensitivity files of `make validation` when they exist. RESULTS=path for another file.
+RESULTS ?= results/grid.h5
+RESDIR  := $(patsubst %/,%,$(dir $(RESULTS)))
+SENS_vp2         := vp_scale=2
+SENS_kn1e10_dt04 := kn=ks=1e10(dt_factor=0.4)
+SENS_exact       := contact=exact
+sens_name = $(or $(SENS_$(basename $(notdir $(1)))),$(basename $(notdir $(1))))
+SENS_ARGS = $(foreach f,$(wildcard results/sensitivity/*.h5),--sensitivity '$(call sens_name,$(f))=$(f)')
+analysis: setup
+	$(PY) scripts/make_figures.py $(RESULTS) --out $(RESDIR)/figures
+	$(PY) -m pycolfrag.report $(RESULTS) $(RESDIR)/report.md
+	$(PY) scripts/make_validation.py $(RESULTS) --notes docs/validation_notes.md $(SENS_ARGS)
 
-# docs/validation.md: the paper's statements against the default grid, plus the sensitivity study
-# (issue 5) on the reduced grid Mw 6.5, 7.5 x R 5, 20 km with the default grid's 100 samples, so
-# every variant sees the same records as the default grid's rows (paired comparison).
+figures: analysis
+
+# The default grid (resumed if present) and the sensitivity study of docs/validation.md (issue 5) on
+# the reduced grid Mw 6.5, 7.5 x R 5, 20 km with the default grid's 100 samples, so every variant
+# sees the same records as the default grid's rows (a paired comparison); then `make analysis` and
+# the two README figures.
 SENS_GRID := --mw 6.5 7.5 --dist 5 20 --samples 100 --no-figures --no-progress
 RUN_GRID  := $(MPIENV) mpirun --allow-run-as-root -n $(NRANKS) $(PY) -m mpi4py scripts/run_grid.py
 validation: setup
 	mkdir -p results/sensitivity
-	$(RUN_GRID) --no-progress
+	$(RUN_GRID) --no-progress --no-figures
 	$(RUN_GRID) $(SENS_GRID) --vp-scale 2 --out results/sensitivity/vp2.h5
 	# stiff joints at half the default step: at 0.8, 2 of the 400 runs stop as unstable (docs/validation.md)
 	$(RUN_GRID) $(SENS_GRID) --column examples/column_parthenon_stiff_joints.toml --dt-factor 0.4 \
 	    --out results/sensitivity/kn1e10_dt04.h5
 	$(RUN_GRID) $(SENS_GRID) --contact exact --out results/sensitivity/exact.h5
-	$(PY) scripts/make_validation.py results/grid.h5 --notes docs/validation_notes.md \
-	    --sensitivity "vp_scale=2=results/sensitivity/vp2.h5" \
-	    --sensitivity "kn=ks=1e10, dt 0.4=results/sensitivity/kn1e10_dt04.h5" \
-	    --sensitivity "contact=exact=results/sensitivity/exact.h5"
+	$(MAKE) analysis RESULTS=results/grid.h5
 	mkdir -p docs/figures
 	cp results/figures/fig12_fragility_utop.png results/figures/fig16_im_fragility.png docs/figures/
 
