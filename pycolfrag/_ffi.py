@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import __version__
+from ._validate import positive_float  # noqa: F401  (re-exported: modules import it from here)
 from .errors import ModelRangeError, ParameterError, PycolfragError, SolverError
 
 try:
@@ -79,15 +80,3 @@ def ptr(arr: np.ndarray):
     """``double *`` view of a float64 C-contiguous array (no copy)."""
     assert arr.dtype == np.float64 and arr.flags.c_contiguous
     return ffi.from_buffer("double[]", arr)
-
-
-def positive_float(value, name: str, allow_zero: bool = False) -> float:
-    """``value`` as a finite float > 0 (or >= 0), else :class:`ParameterError` naming it."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number, got {value!r}") from None
-    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        rel = ">= 0" if allow_zero else "> 0"
-        raise ParameterError(f"{name} must be finite and {rel}, got {value!r}")
-    return v

@@ -27,19 +27,10 @@ from dataclasses import dataclass, field, replace
 from importlib import resources
 from typing import Iterable, Sequence
 
+from ._validate import positive_float
 from .errors import ParameterError
 
 __all__ = ["Segment", "Block", "JointProperties", "Column"]
-
-
-def _finite_positive(value, name: str, allow_zero: bool = False) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v) or v < 0.0 or (v == 0.0 and not allow_zero):
-        raise ParameterError(f"{name} must be finite and {'>= 0' if allow_zero else '> 0'}, got {value!r}")
-    return v
 
 
 def _check_keys(d, known, where: str) -> dict:
@@ -96,9 +87,9 @@ class Segment:
     phase_rad: float = 0.0
 
     def __post_init__(self):
-        _finite_positive(self.height, "segment height (m)")
-        _finite_positive(self.r_bottom, "segment bottom radius (m)")
-        _finite_positive(self.r_top, "segment top radius (m)")
+        positive_float(self.height, "segment height (m)")
+        positive_float(self.r_bottom, "segment bottom radius (m)")
+        positive_float(self.r_top, "segment top radius (m)")
         if int(self.n_sides) != self.n_sides or self.n_sides < 3:
             raise ParameterError(f"n_sides must be an integer >= 3, got {self.n_sides!r}")
         if not math.isfinite(float(self.phase_rad)):
@@ -219,8 +210,8 @@ class JointProperties:
     tensile_strength: float = 0.0
 
     def __post_init__(self):
-        _finite_positive(self.kn, "joint normal stiffness kn (Pa/m)")
-        _finite_positive(self.ks, "joint shear stiffness ks (Pa/m)")
+        positive_float(self.kn, "joint normal stiffness kn (Pa/m)")
+        positive_float(self.ks, "joint shear stiffness ks (Pa/m)")
         try:
             f = float(self.friction_deg)
         except (TypeError, ValueError):
@@ -287,7 +278,7 @@ class Column:
             if not isinstance(b, Block):
                 raise ParameterError(f"blocks[{i}] must be a Block, got {type(b).__name__}")
         self.blocks = blocks
-        self.density = _finite_positive(density, "density (kg/m^3)")
+        self.density = positive_float(density, "density (kg/m^3)")
         self.joints = joints if joints is not None else JointProperties()
         if not isinstance(self.joints, JointProperties):
             raise ParameterError(f"joints must be JointProperties, got {type(self.joints).__name__}")
@@ -307,9 +298,9 @@ class Column:
         if not heights:
             raise ParameterError("drum_heights is empty")
         for i, h in enumerate(heights):
-            _finite_positive(h, f"drum_heights[{i}] (m)")
-        d0 = _finite_positive(diameter_bottom, "diameter_bottom (m)")
-        d1 = d0 if diameter_top is None else _finite_positive(diameter_top, "diameter_top (m)")
+            positive_float(h, f"drum_heights[{i}] (m)")
+        d0 = positive_float(diameter_bottom, "diameter_bottom (m)")
+        d1 = d0 if diameter_top is None else positive_float(diameter_top, "diameter_top (m)")
         total = sum(heights)
         phase = math.radians(float(phase_deg))
         blocks, z = [], 0.0
@@ -341,8 +332,8 @@ class Column:
         ``width`` whose faces are normal to x and y: the 2D rocking block of Housner
         (1963) when excited along x (half-width b = width/2).
         """
-        w = _finite_positive(width, "width (m)")
-        _finite_positive(height, "height (m)")
+        w = positive_float(width, "width (m)")
+        positive_float(height, "height (m)")
         if int(n_sides) != n_sides or n_sides < 3:
             raise ParameterError(f"n_sides must be an integer >= 3, got {n_sides!r}")
         r = 0.5 * w / math.cos(math.pi / n_sides)  # circumradius from the inradius w/2
@@ -418,7 +409,7 @@ class Column:
             try:
                 capital = cls.doric_capital(c["echinus_height"], c["echinus_diameter_bottom"], c["echinus_diameter_top"],
                                             c["abacus_height"],
-                                            _finite_positive(c["abacus_side"], "capital abacus_side (m)"),
+                                            positive_float(c["abacus_side"], "capital abacus_side (m)"),
                                             n_sides=_n_sides(c.get("n_sides", n_sides), "capital"), phase_deg=phase)
             except KeyError as exc:
                 raise ParameterError(f"capital: missing key {exc}") from None

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._ffi import as_double_array, check, ffi, lib, ptr
+from ._validate import finite_float, positive_float
 from .column import Column
 from .errors import ParameterError
 
@@ -204,7 +205,7 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, *, contact="
     """
     if not isinstance(col, Column):
         raise ParameterError(f"col must be a Column, got {type(col).__name__}")
-    dt = float(_positive(dt, "dt (record sampling interval, s)"))
+    dt = float(positive_float(dt, "dt (record sampling interval, s)"))
     ax = _acc(acc_x, "acc_x")
     ay = _acc(acc_y, "acc_y", ax.size)
     az = _acc(acc_z, "acc_z", ax.size)
@@ -223,20 +224,20 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, *, contact="
     lib.cf_solver_def_default(d)
     d.contact = CONTACT_OPTIONS[contact]
     d.points_per_edge = int(points_per_edge)
-    d.dt = 0.0 if dt_solver is None else _positive(dt_solver, "dt_solver (s)")
-    d.dt_factor = _positive(dt_factor, "dt_factor")
-    d.tail_s = _positive(tail_s, "tail_s (s)", allow_zero=True)
-    d.residual_window_s = _positive(residual_window_s, "residual_window_s (s)")
+    d.dt = 0.0 if dt_solver is None else positive_float(dt_solver, "dt_solver (s)")
+    d.dt_factor = positive_float(dt_factor, "dt_factor")
+    d.tail_s = positive_float(tail_s, "tail_s (s)", allow_zero=True)
+    d.residual_window_s = positive_float(residual_window_s, "residual_window_s (s)")
     d.planar = int(planar)
     d.monolithic = int(monolithic)
     d.early_exit = int(early_exit)
-    d.damping_alpha = _positive(damping_alpha, "damping_alpha (1/s)", allow_zero=True)
-    d.damping_start_s = 0.0 if damping_start_s is None else _finite(damping_start_s, "damping_start_s (s)")
-    d.history_dt = _positive(history_dt, "history_dt (s)")
-    d.g = _positive(g, "g (m/s^2)")
-    d.energy_tolerance = _positive(energy_tolerance, "energy_tolerance")
-    d.initial_tilt_rad = _finite(initial_tilt_rad, "initial_tilt_rad")
-    d.contact_tolerance = _positive(contact_tolerance, "contact_tolerance", allow_zero=True)
+    d.damping_alpha = positive_float(damping_alpha, "damping_alpha (1/s)", allow_zero=True)
+    d.damping_start_s = 0.0 if damping_start_s is None else finite_float(damping_start_s, "damping_start_s (s)")
+    d.history_dt = positive_float(history_dt, "history_dt (s)")
+    d.g = positive_float(g, "g (m/s^2)")
+    d.energy_tolerance = positive_float(energy_tolerance, "energy_tolerance")
+    d.initial_tilt_rad = finite_float(initial_tilt_rad, "initial_tilt_rad")
+    d.contact_tolerance = positive_float(contact_tolerance, "contact_tolerance", allow_zero=True)
     options = {
         "contact": contact, "points_per_edge": int(points_per_edge), "dt_solver": dt_solver,
         "dt_factor": float(dt_factor), "tail_s": float(tail_s), "residual_window_s": float(residual_window_s),
@@ -293,25 +294,3 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, *, contact="
         energy_error=float(r.energy_error), energy_scale=float(r.energy_scale),
         energy_warning=bool(r.energy_warning), residual_dislocation=resid, options=options, history=hist,
         message=message, at_rest_exit=bool(r.at_rest_exit), max_top_disp=float(r.max_top_disp))
-
-
-def _positive(value, name, allow_zero=False):
-    if isinstance(value, bool):
-        raise ParameterError(f"{name} must be a number, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        raise ParameterError(f"{name} must be finite and {'>= 0' if allow_zero else '> 0'}, got {value!r}")
-    return v
-
-
-def _finite(value, name):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise ParameterError(f"{name} must be finite, got {value!r}")
-    return v
