@@ -814,19 +814,12 @@ static inline int face_inside_hint(const face_t *f, double X, double Y, double t
     return best <= f->apo + tol;
 }
 
-/* The frame of one face: F maps body coordinates of body "o" (the other body of the
- * joint) into the face frame (origin at the face centre, z along the face normal);
- * the relative velocity of the upper body w.r.t. the lower one at face-frame point
- * X is A + W x X. */
-typedef struct {
-    double M[9], t[3];      /* X = M loc_o + t */
-    double A[3], W[3];      /* relative velocity field */
-} face_frame;
-
-/* Relative velocity field (upper minus lower) in the frame whose rotation is Rf
- * (world = Rf local) and origin cf; x_u, x_l: COMs; ww: world omegas. */
-static inline void rel_field(const cf_solver *s, int bl, int bu, const double *Rf, const double *cf,
-                             const double *ww, face_frame *F)
+/* The frame constants of one face's pass: relative displacement field over the step
+ * (A, W, face frame) and the translation t of the other body into the face frame.
+ * The same operations as rel_field + frame_map (t is rel_field's position of the
+ * other body, computed once), so bitwise the same values. */
+static inline void face_field(const cf_solver *s, int bl, int bu, int side, const double *Rf, const double *cf,
+                              const double *ww, double dt, double *A, double *W, double *t)
 {
     double vU[3], vL[3], wU[3], wL[3], d[3], xu[3], xl[3], c1[3], c2[3];
     mat_tvec(Rf, s->v + 3 * bu, vU);
@@ -842,23 +835,14 @@ static inline void rel_field(const cf_solver *s, int bl, int bu, const double *R
         v3_cross(wL, xl, c2);
     } else {
         vL[0] = vL[1] = vL[2] = 0; wL[0] = wL[1] = wL[2] = 0; c2[0] = c2[1] = c2[2] = 0;
+        xl[0] = xl[1] = xl[2] = 0;   /* unused: the ground's face (side 1) has no points */
     }
-    F->A[0] = vU[0] - vL[0] - c1[0] + c2[0];
-    F->A[1] = vU[1] - vL[1] - c1[1] + c2[1];
-    F->A[2] = vU[2] - vL[2] - c1[2] + c2[2];
-    F->W[0] = wU[0] - wL[0]; F->W[1] = wU[1] - wL[1]; F->W[2] = wU[2] - wL[2];
-}
-
-/* Body "o" (COM xo, rotation Ro) into the frame (Rf, cf): M = Rf^T Ro, t = Rf^T (xo - cf). */
-static inline void frame_map(const double *Rf, const double *cf, const double *Ro, const double *xo, face_frame *F)
-{
-    int i, j;
-    double d[3];
-    for (i = 0; i < 3; i++)
-        for (j = 0; j < 3; j++)
-            F->M[3 * i + j] = Rf[i] * Ro[j] + Rf[3 + i] * Ro[3 + j] + Rf[6 + i] * Ro[6 + j];
-    d[0] = xo[0] - cf[0]; d[1] = xo[1] - cf[1]; d[2] = xo[2] - cf[2];
-    mat_tvec(Rf, d, F->t);
+    A[0] = (vU[0] - vL[0] - c1[0] + c2[0]) * dt;
+    A[1] = (vU[1] - vL[1] - c1[1] + c2[1]) * dt;
+    A[2] = (vU[2] - vL[2] - c1[2] + c2[2]) * dt;
+    W[0] = (wU[0] - wL[0]) * dt; W[1] = (wU[1] - wL[1]) * dt; W[2] = (wU[2] - wL[2]) * dt;
+    if (side == 0) { t[0] = xu[0]; t[1] = xu[1]; t[2] = xu[2]; }
+    else { t[0] = xl[0]; t[1] = xl[1]; t[2] = xl[2]; }
 }
 
 /* The constants of one face's pass over the points that touch it: the frame map and
@@ -1064,7 +1048,7 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
 {
     int bl = J->bl, bu = J->bu, side;
     const double *RL = s->R + 9 * bl, *RU = s->R + 9 * bu;
-    double cF[2][3], Fs[2][3], Ms[2][3];
+    double cF[2][3], Fs[2][3], Ms[2][3], M0[9];
     int end = J->p0 + J->np, need = e->need;
     face_sums S;
     S.dslip = 0.0; S.dswitch = 0.0;
@@ -1073,13 +1057,19 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
 #else
     S.sm[6] = S.sm[7] = 0.0;
 #endif
+    /* the upper body in the lower face's frame: M0 = RL^T RU; the lower body in the
+     * upper face's frame is its transpose (the same products and sums, bitwise) */
+    {
+        int i, j;
+        for (i = 0; i < 3; i++)
+            for (j = 0; j < 3; j++)
+                M0[3 * i + j] = RL[i] * RU[j] + RL[3 + i] * RU[3 + j] + RL[6 + i] * RU[6 + j];
+    }
     for (side = 0; side < 2; side++) {
-        const double *Rf = side == 0 ? RL : RU, *Ro = side == 0 ? RU : RL;
+        const double *Rf = side == 0 ? RL : RU;
         const face_t *ff = side == 0 ? &J->fl : &J->fu;
-        int bo = side == 0 ? bu : bl;
         int k0 = side == 0 ? J->p0 : J->p0 + J->n0, k1 = side == 0 ? J->p0 + J->n0 : end;
         double lz = J->lz[side], sm[6];
-        face_frame F;
         face_pass P;
         double *c = cF[side];
         if (k1 <= k0) {
@@ -1092,13 +1082,15 @@ static void joint_points(cf_solver *s, joint_t *J, const double *ww, double dt, 
         c[0] += s->x[3 * (side == 0 ? bl : bu)];
         c[1] += s->x[3 * (side == 0 ? bl : bu) + 1];
         c[2] += s->x[3 * (side == 0 ? bl : bu) + 2];
-        frame_map(Rf, c, Ro, s->x + 3 * bo, &F);
-        rel_field(s, bl, bu, Rf, c, ww, &F);
-        /* relative displacement field over the step */
-        F.A[0] *= dt; F.A[1] *= dt; F.A[2] *= dt; F.W[0] *= dt; F.W[1] *= dt; F.W[2] *= dt;
-        memcpy(P.M, F.M, sizeof P.M); memcpy(P.t, F.t, sizeof P.t);
-        P.mz[0] = F.M[2] * lz; P.mz[1] = F.M[5] * lz; P.mz[2] = F.M[8] * lz;
-        memcpy(P.A, F.A, sizeof P.A); memcpy(P.W, F.W, sizeof P.W);
+        if (side == 0) memcpy(P.M, M0, sizeof P.M);
+        else {
+            P.M[0] = M0[0]; P.M[1] = M0[3]; P.M[2] = M0[6];
+            P.M[3] = M0[1]; P.M[4] = M0[4]; P.M[5] = M0[7];
+            P.M[6] = M0[2]; P.M[7] = M0[5]; P.M[8] = M0[8];
+        }
+        /* relative displacement field over the step, and the other body's origin */
+        face_field(s, bl, bu, side, Rf, c, ww, dt, P.A, P.W, P.t);
+        P.mz[0] = P.M[2] * lz; P.mz[1] = P.M[5] * lz; P.mz[2] = P.M[8] * lz;
         /* a point deeper than a tenth of the face's radius is not in contact with it: it
          * has passed beside or through the face (a tumbling block after a collapse) */
         P.pmax = 0.1 * ff->rc;
@@ -1419,13 +1411,17 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
             dxv[0] = dt * v[0]; dxv[1] = dt * v[1]; dxv[2] = dt * v[2];
             W += 0.5 * ((s->fext_prev[3 * i] + fe[0]) * dxv[0] + (s->fext_prev[3 * i + 1] + fe[1]) * dxv[1]
                         + (s->fext_prev[3 * i + 2] + fe[2]) * dxv[2]);
-            Ddamp -= 0.5 * ((s->fdamp_prev[3 * i] + fd[0]) * dxv[0] + (s->fdamp_prev[3 * i + 1] + fd[1]) * dxv[1]
-                            + (s->fdamp_prev[3 * i + 2] + fd[2]) * dxv[2]);
-            Ddamp -= 0.5 * dt * ((s->tdamp_prev[3 * i] + td[0]) * w[0] + (s->tdamp_prev[3 * i + 1] + td[1]) * w[1]
-                                 + (s->tdamp_prev[3 * i + 2] + td[2]) * w[2]);
+            /* damping switches on once and stays on: before that its forces, now and at the
+             * last step, are zero and its ledger term is exactly zero (skipped) */
+            if (damp_on) {
+                Ddamp -= 0.5 * ((s->fdamp_prev[3 * i] + fd[0]) * dxv[0] + (s->fdamp_prev[3 * i + 1] + fd[1]) * dxv[1]
+                                + (s->fdamp_prev[3 * i + 2] + fd[2]) * dxv[2]);
+                Ddamp -= 0.5 * dt * ((s->tdamp_prev[3 * i] + td[0]) * w[0] + (s->tdamp_prev[3 * i + 1] + td[1]) * w[1]
+                                     + (s->tdamp_prev[3 * i + 2] + td[2]) * w[2]);
+                memcpy(s->fdamp_prev + 3 * i, fd, sizeof fd);
+                memcpy(s->tdamp_prev + 3 * i, td, sizeof td);
+            }
             memcpy(s->fext_prev + 3 * i, fe, sizeof fe);
-            memcpy(s->fdamp_prev + 3 * i, fd, sizeof fd);
-            memcpy(s->tdamp_prev + 3 * i, td, sizeof td);
             memcpy(vold + 3 * i, v, 3 * sizeof(double));
             memcpy(wold + 3 * i, w, 3 * sizeof(double));
             v[0] += dt * (s->F[3 * i] + fe[0] + fd[0]) / mi;
