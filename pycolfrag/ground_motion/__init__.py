@@ -175,7 +175,11 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_pola
     vp_scale_f = float(vp_scale)
     vp, fp, nu, gamma = _pulse_row(Mw_f, dist_f, seed, vp_scale_f, pulse)
     mp = mavroeidis_papageorgiou_2003
-    A = float(mp.envelope_amplitude(vp, fp, nu, gamma))
+    # One search for the unit pulse's peak gives A (peak |V| = Vp), the peak's offset from the
+    # envelope epoch and the sign of the pulse's peak velocity (A > 0): what envelope_amplitude,
+    # peak_velocity_time and velocity() would each recompute.
+    u_peak, g_peak = mp._unit_peak(nu, gamma)
+    A = vp / abs(g_peak)
 
     hf, info = as00.simulate(Mw_f, dist_f, seed, dt=dt)                            # step 1
     hf = np.ascontiguousarray(hf, dtype=np.float64)
@@ -183,13 +187,11 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_pola
     k_peak = int(np.argmax(np.abs(vel_hf)))
     t_peak = k_peak * dt
 
-    offset = mp.peak_velocity_time(fp, nu, gamma, 0.0)                              # step 2
+    offset = u_peak / fp                                                            # step 2
     polarity = 1.0
-    if match_polarity:
-        v_peak_pulse = float(mp.velocity(offset, A, fp, nu, gamma, 0.0))
-        if v_peak_pulse * vel_hf[k_peak] < 0:
-            polarity = -1.0
-            hf = -hf
+    if match_polarity and g_peak * vel_hf[k_peak] < 0:
+        polarity = -1.0
+        hf = -hf
     t0 = t_peak - offset
     half = gamma / (2.0 * fp)
     n_pre = max(0, int(math.ceil((half - t0) / dt - 1e-9)))

@@ -105,8 +105,9 @@ def support(fp, gamma, t0=0.0):
 
 
 def _unit_peak(nu, gamma):
-    """(u*, |g(u*)|) for g(u) = 0.5 (1 + cos(2 pi u / gamma)) cos(2 pi u + nu), u = fp tau in
-    [-gamma/2, gamma/2]: the peak of the unit-amplitude pulse (independent of fp)."""
+    """(u*, g(u*)) for g(u) = 0.5 (1 + cos(2 pi u / gamma)) cos(2 pi u + nu), u = fp tau in
+    [-gamma/2, gamma/2]: where the unit-amplitude pulse peaks in |g| (independent of fp), and
+    its signed value there (the sign is that of the pulse's peak velocity for A > 0)."""
     u = np.linspace(-gamma / 2, gamma / 2, 2001)
 
     def g(x):
@@ -117,7 +118,7 @@ def _unit_peak(nu, gamma):
     res = optimize.minimize_scalar(lambda x: -abs(g(x)), bounds=(lo, hi), method="bounded",
                                    options={"xatol": 1e-12})
     ub = float(res.x) if -res.fun >= abs(g(u[k])) else float(u[k])
-    return ub, float(abs(g(ub)))
+    return ub, float(g(ub))
 
 
 def envelope_amplitude(Vp, fp, nu, gamma):
@@ -132,7 +133,7 @@ def envelope_amplitude(Vp, fp, nu, gamma):
         _float(fp[idx], "fp", positive=True)
         g = _float(gamma[idx], "gamma", positive=True)
         _, peak = _unit_peak(_float(nu[idx], "nu"), g)
-        out[idx] = _float(Vp[idx], "Vp") / peak
+        out[idx] = _float(Vp[idx], "Vp") / abs(peak)
     return out if out.ndim else float(out)
 
 
