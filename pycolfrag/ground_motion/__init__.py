@@ -17,14 +17,15 @@ Modules, one per published model (docs/ground_motion.md):
 from __future__ import annotations
 
 import math
-import operator
 
 import numpy as np
 
 from .._ffi import positive_float
+from ..intensity import G
 from ..errors import ParameterError
 from . import mavroeidis_papageorgiou_2003, rupakhety_2011
 from .at2 import read_at2
+from .mavroeidis_papageorgiou_2003 import _int_seed as _seed
 from .mavroeidis_papageorgiou_2003 import sample_pulse_parameters
 from .record import Record
 
@@ -36,24 +37,12 @@ __all__ = ["Record", "stochastic", "synthesize", "sample_pulse_parameters", "rea
 #: ``SeedSequence([seed, PULSE_STREAM])``, so the pulse stream never equals the HF noise stream.
 PULSE_STREAM = 0x70756C73  # "puls"
 
-_G = 9.81  # m/s^2 (pycolfrag.intensity.G)
-
 
 def __getattr__(name):  # the stochastic model and the combination load on first use
     if name in ("atkinson_silva_2000", "combine"):
         import importlib
         return importlib.import_module(f"{__name__}.{name}")
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def _seed(seed):
-    try:
-        s = operator.index(seed)
-    except TypeError:
-        raise ParameterError(f"seed must be an integer, got {seed!r}") from None
-    if s < 0:
-        raise ParameterError(f"seed must be >= 0, got {seed!r}")
-    return int(s)
 
 
 def _scenario(Mw, dist_km):
@@ -106,13 +95,7 @@ def _pulse_row(Mw, dist_km, seed, vp_scale, pulse):
     for key in ("Vp_cm_s", "fp_hz", "nu_rad", "gamma"):
         if key not in pulse:
             raise ParameterError(f"pulse is missing {key!r} (needs Vp_cm_s, fp_hz, nu_rad, gamma)")
-        try:
-            v = float(pulse[key])
-        except (TypeError, ValueError):
-            raise ParameterError(f"pulse[{key!r}] must be a number, got {pulse[key]!r}") from None
-        if not math.isfinite(v):
-            raise ParameterError(f"pulse[{key!r}] must be finite, got {pulse[key]!r}")
-        vals.append(v)
+        vals.append(rupakhety_2011._number(pulse[key], f"pulse[{key!r}]"))
     vp, fp, nu, gamma = vals
     if vp <= 0:
         raise ParameterError(f"pulse['Vp_cm_s'] must be > 0, got {pulse['Vp_cm_s']!r}")
@@ -209,7 +192,7 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_pola
         raise RuntimeError(f"combine returned {acc.shape} samples for {hf.shape}")  # pragma: no cover
     meta = {"Mw": Mw_f, "dist_km": dist_f, "seed": seed, "dt_s": dt, "kind": "near-fault",
             "vp_scale": float(vp_scale_f), "Vp_cm_s": vp, "fp_hz": fp, "nu_rad": nu, "gamma": gamma,
-            "t0_s": t0, "A_cm_s": A, "Ap_g": float(np.abs(pulse_acc).max()) / _G, "Tp_s": 1.0 / fp,
+            "t0_s": t0, "A_cm_s": A, "Ap_g": float(np.abs(pulse_acc).max()) / G, "Tp_s": 1.0 / fp,
             "t_peak_s": t_peak, "pad_before_s": n_pre * dt, "pad_after_s": n_post * dt,
             "hf_polarity": int(polarity), "pulse_seeded_from": "seed" if pulse is None else "argument"}
     meta.update(_generator_meta(info))

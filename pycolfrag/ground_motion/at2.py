@@ -26,11 +26,11 @@ import re
 import numpy as np
 
 from ..errors import RecordFileError
+from ..intensity import G   # m/s^2, the package's g (re-exported: at2.G)
 from .record import Record
 
 __all__ = ["read_at2", "G"]
 
-G = 9.81  # m/s^2, the package's g (pycolfrag.intensity.G)
 
 _NEW = re.compile(r"NPTS\s*=\s*([^\s,]+)\s*,?\s*DT\s*=\s*([^\s,]+)", re.I)
 _OLD = re.compile(r"^\s*([^\s,]+)[\s,]+([^\s,]+)")

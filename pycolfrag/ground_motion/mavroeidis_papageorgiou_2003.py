@@ -23,7 +23,7 @@ import numpy as np
 from scipy import optimize, stats
 from scipy.stats import qmc
 
-from .._ffi import as_double_array, check, ffi, lib, ptr
+from .._ffi import as_double_array, check, ffi, lib, positive_float, ptr
 from ..errors import ParameterError
 from . import rupakhety_2011 as _r11
 
@@ -38,13 +38,7 @@ NU_RANGE_RAD = (-math.pi / 2, math.pi / 2)
 
 
 def _float(value, name, positive=False):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v) or (positive and v <= 0):
-        raise ParameterError(f"{name} must be finite{' and > 0' if positive else ''}, got {value!r}")
-    return v
+    return positive_float(value, name) if positive else _r11._number(value, name)
 
 
 def _params(A, fp, nu, gamma, t0):
