@@ -10,6 +10,8 @@ so that other processes on a shared machine inflate the figure as little as poss
 from __future__ import annotations
 
 import argparse
+import os
+import platform
 import time
 
 import numpy as np
@@ -39,6 +41,7 @@ def main(argv=None):
     acc = 0.25 * 9.81 * np.sin(2 * np.pi * 2.0 * t)
     tail = 20.0 - t[-1]
     print(f"default column, 0.25 g 2 Hz sine for 3 s, {20.0:.0f} s simulated; best of {args.repeat} runs")
+    print(f"machine: {_cpu_model()}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}")
     print(f"{'option':<24} {'steps':>7} {'dt ms':>7} {'us/step':>8} {'sim s/wall s':>13} {'wall s/20 s':>12} "
           f"{'u_top':>7} {'energy err':>10}")
     for name, opts in CASES:
@@ -49,6 +52,25 @@ def main(argv=None):
             best = min(best, time.perf_counter() - t0)
         print(f"{name:<24} {res.n_steps:>7d} {1e3 * res.dt:>7.3f} {1e6 * best / res.n_steps:>8.2f} "
               f"{res.t_end / best:>13.0f} {best * 20.0 / res.t_end:>12.3f} {res.u_top:>7.4f} {res.energy_error:>10.2e}")
+    # the fixed cost of one call (set-up incl. the whole-stack stability limit, Python
+    # checks and conversions): a record of two samples and no tail
+    best = float("inf")
+    for _ in range(20 * args.repeat):
+        t0 = time.perf_counter()
+        pcf.simulate(col, acc[:2], dt, tail_s=0.0)
+        best = min(best, time.perf_counter() - t0)
+    print(f"fixed cost per simulate() call (set-up, checks; 2-sample record): {1e3 * best:.2f} ms")
+
+
+def _cpu_model():
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
 
 
 if __name__ == "__main__":
