@@ -96,15 +96,19 @@ def response_spectrum(acc, dt, periods, damping=0.05):
     """
     a, d = _record(acc, dt)
     p = _periods(periods)
-    z = _damping(damping)
-    sd = np.empty_like(p)
-    sv = np.empty_like(p)
-    sa = np.empty_like(p)
-    check(lib.cf_spectra_response(ptr(a), a.size, d, ptr(p), p.size, z, ptr(sd), ptr(sv), ptr(sa)),
-          what="response_spectrum")
+    sd, sv, sa = _sdof_peaks(a, d, p, _damping(damping), "response_spectrum")
     w = 2.0 * np.pi / p
     return {"periods_s": p, "sd_m": sd, "sv_m_s": sv, "sa_abs_m_s2": sa, "psv_m_s": w * sd,
             "psa_m_s2": w * w * sd}
+
+
+def _sdof_peaks(a, d, p, z, what):
+    """(max |x|, max |x'|, max |x'' + a_g|) per period, SI, for arguments already checked."""
+    sd = np.empty_like(p)
+    sv = np.empty_like(p)
+    sa = np.empty_like(p)
+    check(lib.cf_spectra_response(ptr(a), a.size, d, ptr(p), p.size, z, ptr(sd), ptr(sv), ptr(sa)), what=what)
+    return sd, sv, sa
 
 
 def measures(acc, dt, periods=DEFAULT_PERIODS_S, damping=0.05):
@@ -130,11 +134,7 @@ def measures(acc, dt, periods=DEFAULT_PERIODS_S, damping=0.05):
     z = _damping(damping)
     out = ffi.new("cf_spectra_ims *")
     check(lib.cf_spectra_peaks(ptr(a), a.size, d, G, out), what="measures")
-    sd = np.empty_like(p)
-    sv = np.empty_like(p)
-    sa = np.empty_like(p)
-    check(lib.cf_spectra_response(ptr(a), a.size, d, ptr(p), p.size, z, ptr(sd), ptr(sv), ptr(sa)),
-          what="measures")
+    sd, sv, sa = _sdof_peaks(a, d, p, z, "measures")
     w = 2.0 * np.pi / p
     return {
         "pga_g": out.pga / G, "pgv_cm_s": 100.0 * out.pgv, "pgd_cm": 100.0 * out.pgd,

@@ -69,10 +69,12 @@ class Record:
         from ..intensity import integrate
         return integrate(self.acc, self.dt)[1]
 
-    def measures(self, periods=(0.2, 0.5, 1.0, 2.0, 3.0), damping=0.05) -> dict:
-        """:func:`pycolfrag.intensity.measures` of this record."""
-        from ..intensity import measures
-        return measures(self.acc, self.dt, periods=periods, damping=damping)
+    def measures(self, periods=None, damping=0.05) -> dict:
+        """:func:`pycolfrag.intensity.measures` of this record (``periods`` None: its
+        ``DEFAULT_PERIODS_S``)."""
+        from ..intensity import DEFAULT_PERIODS_S, measures
+        return measures(self.acc, self.dt, periods=DEFAULT_PERIODS_S if periods is None else periods,
+                        damping=damping)
 
     def __repr__(self) -> str:
         keys = ", ".join(sorted(self.meta)[:6])
