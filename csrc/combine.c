@@ -7,13 +7,47 @@
 #include "combine.h"
 #include "fft.h"
 
+int cf_combine_nfft(int n)
+{
+    if (n < 1 || n > (1 << 28))
+        return -1;
+    const int nfft = cf_fft_next_pow2(2 * n);
+    return nfft < 2 ? 2 : nfft;
+}
+
 int cf_combine_subtract(const double *hf, const double *pulse, int n, double *out, char *msg)
+{
+    const int nfft = cf_combine_nfft(n);
+    cf_fft_plan *plan = NULL;
+    if (nfft > 0) {
+        int st = cf_fft_plan_create(nfft, &plan);
+        if (st != CF_OK) {
+            if (msg)
+                snprintf(msg, CF_MSG_LEN, "FFT plan for n = %d failed (%s)", nfft, cf_common_status_name(st));
+            return st;
+        }
+    }
+    /* a bad n is reported by the call below (plan NULL only then) */
+    int st = cf_combine_subtract_plan(plan, hf, pulse, n, out, msg);
+    cf_fft_plan_free(plan);
+    return st;
+}
+
+int cf_combine_subtract_plan(const cf_fft_plan *plan, const double *hf, const double *pulse, int n,
+                             double *out, char *msg)
 {
     if (msg)
         msg[0] = 0;
     if (!hf || !pulse || !out || n < 1 || n > (1 << 28)) {
         if (msg)
             snprintf(msg, CF_MSG_LEN, "bad arguments (n = %d, or a NULL array)", n);
+        return CF_EINVAL;
+    }
+    const int nf = cf_combine_nfft(n);
+    if (!plan || cf_fft_plan_size(plan) != nf) {
+        if (msg)
+            snprintf(msg, CF_MSG_LEN, "FFT plan of length %d for n = %d samples, the combination needs %d",
+                     cf_fft_plan_size(plan), n, nf);
         return CF_EINVAL;
     }
     for (int i = 0; i < n; i++) {
@@ -23,21 +57,11 @@ int cf_combine_subtract(const double *hf, const double *pulse, int n, double *ou
             return CF_EINVAL;
         }
     }
-    const int nfft = cf_fft_next_pow2(2 * n);
-    cf_fft_plan *plan = NULL;
-    int st = cf_fft_plan_create(nfft < 2 ? 2 : nfft, &plan);
-    if (st != CF_OK) {
-        if (msg)
-            snprintf(msg, CF_MSG_LEN, "FFT plan for n = %d failed (%s)", nfft, cf_common_status_name(st));
-        return st;
-    }
-    const int nf = cf_fft_plan_size(plan);
     double *h = calloc((size_t)nf + 2, sizeof(double));
     double *p = calloc((size_t)nf + 2, sizeof(double));
     if (!h || !p) {
         free(h);
         free(p);
-        cf_fft_plan_free(plan);
         if (msg)
             snprintf(msg, CF_MSG_LEN, "out of memory (nfft = %d)", nf);
         return CF_ENOMEM;
@@ -63,6 +87,5 @@ int cf_combine_subtract(const double *hf, const double *pulse, int n, double *ou
         out[i] = p[i] + pulse[i];
     free(h);
     free(p);
-    cf_fft_plan_free(plan);
     return CF_OK;
 }

@@ -124,11 +124,37 @@ static void test_bad_input(void)
     CF_CHECK(cf_combine_subtract(hf + 1, hf, 1, out, msg) == CF_OK);
 }
 
+/* A caller's plan (what pycolfrag.ground_motion.combine caches per length) gives the
+ * same bits as the call that builds its own: same plan values, same operations. A plan of
+ * another length, or none, is refused. */
+static void test_shared_plan(void)
+{
+    static double hf[N], p[N], out1[N], out2[N];
+    char msg[CF_MSG_LEN];
+    cf_fft_plan *plan = NULL, *small = NULL;
+    noise(hf, N, 4);
+    noise(p, N, 5);
+    CF_CHECK(cf_combine_nfft(N) == 8192 && cf_combine_nfft(1) == 2 && cf_combine_nfft(0) == -1);
+    CF_CHECK(cf_fft_plan_create(cf_combine_nfft(N), &plan) == CF_OK);
+    CF_CHECK(cf_combine_subtract(hf, p, N, out1, msg) == CF_OK);
+    CF_CHECK(cf_combine_subtract_plan(plan, hf, p, N, out2, msg) == CF_OK);
+    CF_CHECK(memcmp(out1, out2, sizeof out1) == 0);
+    /* the same plan again (read-only): same bits */
+    CF_CHECK(cf_combine_subtract_plan(plan, hf, p, N, out2, msg) == CF_OK);
+    CF_CHECK(memcmp(out1, out2, sizeof out1) == 0);
+    CF_CHECK(cf_fft_plan_create(4096, &small) == CF_OK);
+    CF_CHECK(cf_combine_subtract_plan(small, hf, p, N, out2, msg) == CF_EINVAL && strstr(msg, "needs 8192"));
+    CF_CHECK(cf_combine_subtract_plan(NULL, hf, p, N, out2, msg) == CF_EINVAL);
+    cf_fft_plan_free(plan);
+    cf_fft_plan_free(small);
+}
+
 int main(void)
 {
     CF_RUN(test_zero_pulse);
     CF_RUN(test_proportional_pulse);
     CF_RUN(test_sine_burst);
     CF_RUN(test_bad_input);
+    CF_RUN(test_shared_plan);
     return CF_TEST_SUMMARY("test_combine");
 }
