@@ -30,10 +30,9 @@ struct cf_fft_plan {
     int n;          /* real length */
     int m;          /* complex length n/2 */
     int *bitrev;    /* m entries: bit-reversed index */
-    double *tw;     /* m/2 complex: exp(-2 pi i k / m), k < m/2 (interleaved) */
     double *twst;   /* per stage, contiguous: the stage with half-length h (len = 2h) holds
-                       exp(-2 pi i j / len), j < h, at complex offset h - 1 (m - 1 in all);
-                       the same values as tw, laid out for unit-stride access */
+                       exp(-2 pi i j / len), j < h, at complex offset h - 1 (m - 1 in all),
+                       for unit-stride access */
     double *tws;    /* m/2 + 1 complex: exp(-2 pi i k / n), k <= m/2 (split step) */
 };
 
@@ -53,7 +52,6 @@ void cf_fft_plan_free(cf_fft_plan *p)
     if (!p)
         return;
     free(p->bitrev);
-    free(p->tw);
     free(p->twst);
     free(p->tws);
     free(p);
@@ -73,12 +71,11 @@ int cf_fft_plan_create(int n, cf_fft_plan **plan)
         return CF_ENOMEM;
     p->n = n;
     p->m = n / 2;
-    int m = p->m, h = m / 2 > 0 ? m / 2 : 1;
+    int m = p->m;
     p->bitrev = malloc(sizeof(int) * (size_t)m);
-    p->tw = malloc(sizeof(double) * 2 * (size_t)h);
     p->tws = malloc(sizeof(double) * 2 * (size_t)(m / 2 + 1));
     p->twst = malloc(sizeof(double) * 2 * (size_t)m);
-    if (!p->bitrev || !p->tw || !p->tws || !p->twst) {
+    if (!p->bitrev || !p->tws || !p->twst) {
         cf_fft_plan_free(p);
         return CF_ENOMEM;
     }
@@ -91,20 +88,23 @@ int cf_fft_plan_create(int n, cf_fft_plan **plan)
             r |= ((i >> b) & 1) << (bits - 1 - b);
         p->bitrev[i] = r;
     }
+    /* the last stage (len = m) holds exp(-2 pi i k / m), k < m/2; every earlier stage
+     * reads it with stride m / len (the same bits at every stage) */
+    double *wl = p->twst + (m >= 2 ? 2 * (m / 2 - 1) : 0);   /* (m = 1: no stage) */
     for (int k = 0; k < m / 2; k++) {
         double a = -2.0 * CF_PI * (double)k / (double)m;
-        p->tw[2 * k] = cos(a);
-        p->tw[2 * k + 1] = sin(a);
+        wl[2 * k] = cos(a);
+        wl[2 * k + 1] = sin(a);
         if (4 * k == m) {   /* exactly -i (cos(-pi/2) would leave 6e-17) */
-            p->tw[2 * k] = 0.0;
-            p->tw[2 * k + 1] = -1.0;
+            wl[2 * k] = 0.0;
+            wl[2 * k + 1] = -1.0;
         }
     }
-    for (int half = 1; half < m; half <<= 1) {
+    for (int half = 1; half < m / 2; half <<= 1) {
         const int step = m / (2 * half);
         for (int j = 0; j < half; j++) {
-            p->twst[2 * (half - 1 + j)] = p->tw[2 * j * step];
-            p->twst[2 * (half - 1 + j) + 1] = p->tw[2 * j * step + 1];
+            p->twst[2 * (half - 1 + j)] = wl[2 * j * step];
+            p->twst[2 * (half - 1 + j) + 1] = wl[2 * j * step + 1];
         }
     }
     for (int k = 0; k <= m / 2; k++) {
