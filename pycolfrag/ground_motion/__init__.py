@@ -165,7 +165,6 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_pola
     A = vp / abs(g_peak)
 
     hf, info = as00.simulate(Mw_f, dist_f, seed, dt=dt)                            # step 1
-    hf = np.ascontiguousarray(hf, dtype=np.float64)
     vel_hf = integrate(hf, dt)[0]
     k_peak = int(np.argmax(np.abs(vel_hf)))
     t_peak = k_peak * dt
@@ -187,11 +186,9 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_pola
     t = np.arange(hf.size) * dt
     pulse_acc = mp.acceleration(t, A / 100.0, fp, nu, gamma, t0)                    # m/s^2, closed form
 
-    acc = np.ascontiguousarray(combine(hf, pulse_acc), dtype=np.float64)           # steps 3-6
-    if acc.shape != hf.shape:
-        raise RuntimeError(f"combine returned {acc.shape} samples for {hf.shape}")  # pragma: no cover
+    acc = combine(hf, pulse_acc)                                                    # steps 3-6
     meta = {"Mw": Mw_f, "dist_km": dist_f, "seed": seed, "dt_s": dt, "kind": "near-fault",
-            "vp_scale": float(vp_scale_f), "Vp_cm_s": vp, "fp_hz": fp, "nu_rad": nu, "gamma": gamma,
+            "vp_scale": vp_scale_f, "Vp_cm_s": vp, "fp_hz": fp, "nu_rad": nu, "gamma": gamma,
             "t0_s": t0, "A_cm_s": A, "Ap_g": float(np.abs(pulse_acc).max()) / G, "Tp_s": 1.0 / fp,
             "t_peak_s": t_peak, "pad_before_s": n_pre * dt, "pad_after_s": n_post * dt,
             "hf_polarity": int(polarity), "pulse_seeded_from": "seed" if pulse is None else "argument"}
