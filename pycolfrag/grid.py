@@ -618,21 +618,24 @@ def format_table(table: list[dict], samples: int) -> str:
 
 
 def make_outputs(out: Path, figures_dir: Path, report_path: Path, log) -> bool:
-    """Figures and report from the results file; a failure is reported, never raised."""
+    """Figures, then the report that links them, from the results file; a failure is reported, never raised."""
+    def figures():
+        from .figures import make_all
+        make_all(str(out), str(figures_dir))
+
+    def report():  # the report links the PNGs found in figures_dir, so it must be told where they are
+        from .report import write_report
+        write_report(str(out), str(report_path), figures_dir=str(figures_dir))
+
     ok = True
-    for modname, funcname, target in (("pycolfrag.figures", "make_all", figures_dir),
-                                      ("pycolfrag.report", "write_report", report_path)):
+    for name, step, target in (("pycolfrag.figures.make_all", figures, figures_dir),
+                               ("pycolfrag.report.write_report", report, report_path)):
         try:
-            mod = importlib.import_module(modname)
-        except ImportError as exc:
-            log(f"{modname} not available ({exc}); skipped")
-            continue
-        try:
-            getattr(mod, funcname)(str(out), str(target))
-            log(f"{modname}.{funcname} -> {target}")
+            step()
+            log(f"{name} -> {target}")
         except Exception:
             ok = False
-            log(f"WARNING: {modname}.{funcname} failed (the results in {out} are complete and safe):\n"
+            log(f"WARNING: {name} failed (the results in {out} are complete and safe):\n"
                 + traceback.format_exc())
     return ok
 

@@ -108,3 +108,24 @@ def test_in_process_run_writes_summary_and_collapse_fields(fake_physics, tmp_pat
     assert "collapses" in text and "7.5" in text
     assert sum(t["collapses"] for t in summary.table) == int(c.sum())
     assert math.isclose(summary.table[0]["cpu_s"], float(r.samples["wall_s"][:3].sum()))
+
+
+def test_report_links_figures_from_a_custom_figures_dir(tmp_path, monkeypatch):
+    # --figures-dir and --report in different folders: the report must link the PNGs where
+    # make_all wrote them (it used to look in <report folder>/figures and found none)
+    import functools
+
+    from pycolfrag import figures, report as rep
+    from test_figures import write_results
+
+    h5 = write_results(tmp_path / "grid.h5", mws=(6.5, 7.5), dists=(5.0,), n=10, n_failed=0)
+
+    def fake_make_all(results_path, out_dir, **kw):  # the figures themselves are tested in test_figures
+        (tmp_path / "figs").mkdir(exist_ok=True)
+        (tmp_path / "figs" / "fig07_ud_vs_utop.png").write_bytes(b"\x89PNG")
+
+    monkeypatch.setattr(figures, "make_all", fake_make_all)
+    monkeypatch.setattr(rep, "write_report", functools.partial(rep.write_report, n_boot=20))  # speed only
+    report = tmp_path / "rep" / "report.md"
+    assert grid.make_outputs(h5, tmp_path / "figs", report, log=lambda s: None)
+    assert "![fig07_ud_vs_utop](../figs/fig07_ud_vs_utop.png)" in report.read_text()
