@@ -312,14 +312,7 @@ def create(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_s: Seq
             p.unlink()
     all_attrs = dict(attrs)
     all_attrs["grid_signature"] = json.dumps(signature, sort_keys=True)
-    header = {"kind": "pycolfrag-grid-journal", "format_version": FORMAT_VERSION, "n_rows": int(n_rows),
-              "periods_s": [float(p) for p in periods_s], "signature": signature,
-              "attrs": {k: (list(map(float, v)) if isinstance(v, (list, tuple, np.ndarray)) else v)
-                        for k, v in all_attrs.items()}}
-    with open(jp, "w", encoding="utf-8") as fh:
-        fh.write(json.dumps(header, sort_keys=True) + "\n")
-        fh.flush()
-        os.fsync(fh.fileno())
+    _write_journal_header(jp, n_rows, periods_s, signature, all_attrs)
     _create_h5(path, n_rows, periods_s, all_attrs)
 
 
@@ -364,24 +357,28 @@ def open_for_run(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_
         _create_h5(path, int(header["n_rows"]), header["periods_s"], hattrs)
     if header is None:
         # a journal-less file (finished run, or journal deleted): start a new journal for this session
-        _write_header(jp, path, n_rows, periods_s, signature)
+        with _h5py().File(path, "r") as f:
+            attrs = dict(f.attrs)
+        _write_journal_header(jp, n_rows, periods_s, signature, attrs)
     if jrows:  # idempotent replay: rows the HDF5 file may have missed when the run was killed
         _write_rows_h5(path, list(jrows.values()), n_rows, len(periods_s))
     return ResultsWriter(path, n_rows, len(periods_s), resumed=True)
 
 
-def _write_header(jp: Path, path: Path, n_rows, periods_s, signature) -> None:
-    h5py = _h5py()
-    with h5py.File(path, "r") as f:
-        attrs = {k: (v.tolist() if isinstance(v, np.ndarray) else (v.item() if isinstance(v, np.generic) else v))
-                 for k, v in f.attrs.items()}
+def _write_journal_header(jp: Path, n_rows: int, periods_s, signature: Mapping, attrs: Mapping) -> None:
+    """Start a journal: its first line holds what rebuilding the HDF5 file needs (fsynced)."""
+    def plain(v):  # list/array attributes are float arrays in the HDF5 file (_attr_value)
+        if isinstance(v, (list, tuple, np.ndarray)):
+            return [float(x) for x in v]
+        return v.item() if isinstance(v, np.generic) else v
+
     header = {"kind": "pycolfrag-grid-journal", "format_version": FORMAT_VERSION, "n_rows": int(n_rows),
-              "periods_s": [float(p) for p in periods_s], "signature": signature, "attrs": attrs}
+              "periods_s": [float(p) for p in periods_s], "signature": signature,
+              "attrs": {k: plain(v) for k, v in attrs.items()}}
     with open(jp, "w", encoding="utf-8") as fh:
         fh.write(json.dumps(header, sort_keys=True, default=str) + "\n")
         fh.flush()
         os.fsync(fh.fileno())
-
 
 
 def _write_rows_h5(path: Path, rows: list, n_rows: int, n_periods: int, attrs: Mapping | None = None) -> None:
@@ -428,9 +425,12 @@ class ResultsWriter:
         self._journal = _Journal(journal_path(self.path))
         h5py = _h5py()
         with h5py.File(self.path, "r") as f:
-            status = f["samples/status"][...]
-        self.done = status != STATUS_PENDING
-        self.status = status.copy()
+            self.status = f["samples/status"][...]
+
+    @property
+    def done(self) -> np.ndarray:
+        """Rows finished (ok or failed): ``status != STATUS_PENDING``."""
+        return self.status != STATUS_PENDING
 
     def add(self, rows: Iterable[Mapping]) -> None:
         """Journal finished rows now; they reach the HDF5 file at the next :meth:`flush`."""
@@ -439,9 +439,7 @@ class ResultsWriter:
             return
         self._journal.append(rows)
         for r in rows:
-            i = int(r["row"])
-            self.done[i] = True
-            self.status[i] = int(r.get("status", STATUS_OK))
+            self.status[int(r["row"])] = int(r.get("status", STATUS_OK))
         self._pending.extend(rows)
 
     def flush(self, attrs: Mapping | None = None) -> None:
