@@ -23,19 +23,27 @@ int cf_spectra_integrate(const double *acc, int n, double dt, double *vel, doubl
     return CF_OK;
 }
 
-/* Time (s) at which the cumulative trapezoidal integral of a^2, c[i] at t = i dt,
- * first reaches level; c rises linearly between samples in this interpolation. */
-static double level_time(const double *acc, int n, double dt, double level)
+/* Times (s) at which the cumulative trapezoidal integral of a^2, c[i] at t = i dt,
+ * first reaches lo and hi (lo <= hi), in one pass; c rises linearly between samples
+ * in this interpolation. A level never reached gives the last sample's time. */
+static void level_times(const double *acc, int n, double dt, double lo, double hi, double *t_lo,
+                        double *t_hi)
 {
     double c = 0.0;
-    int i;
+    int i, found_lo = 0;
+    *t_lo = *t_hi = dt * (n - 1);
     for (i = 1; i < n; i++) {
         double inc = 0.5 * dt * (acc[i - 1] * acc[i - 1] + acc[i] * acc[i]);
-        if (c + inc >= level && inc > 0.0)
-            return dt * ((i - 1) + (level - c) / inc);
+        if (!found_lo && c + inc >= lo && inc > 0.0) {
+            *t_lo = dt * ((i - 1) + (lo - c) / inc);
+            found_lo = 1;
+        }
+        if (c + inc >= hi && inc > 0.0) {
+            *t_hi = dt * ((i - 1) + (hi - c) / inc);
+            return;
+        }
         c += inc;
     }
-    return dt * (n - 1);
 }
 
 int cf_spectra_peaks(const double *acc, int n, double dt, double g, cf_spectra_ims *out)
@@ -59,8 +67,7 @@ int cf_spectra_peaks(const double *acc, int n, double dt, double g, cf_spectra_i
     out->pgd = pgd;
     out->arias = CF_PI / (2.0 * g) * ia;
     if (ia > 0.0) {
-        out->t5 = level_time(acc, n, dt, 0.05 * ia);
-        out->t95 = level_time(acc, n, dt, 0.95 * ia);
+        level_times(acc, n, dt, 0.05 * ia, 0.95 * ia, &out->t5, &out->t95);
     } else {
         out->t5 = out->t95 = 0.0;
     }
