@@ -105,6 +105,16 @@ PERFORMANCE_LEVELS = U_TOP_LEVELS + U_D_LEVELS
 
 # --------------------------------------------------------------------------- input checks
 
+def _as_flags(collapsed) -> np.ndarray:
+    """Collapse flags as a bool array; 0/1 integers accepted, anything else refused."""
+    collapsed = np.asarray(collapsed)
+    if collapsed.dtype != bool:
+        if not np.all(np.isin(collapsed, (0, 1))):
+            raise ParameterError("collapsed must hold booleans (or 0/1)")
+        collapsed = collapsed.astype(bool)
+    return collapsed
+
+
 def _as_inputs(edp, collapsed, threshold=None):
     """Validate (edp, collapsed[, threshold]) and return float/bool arrays (and the threshold)."""
     edp = np.asarray(edp, dtype=float)
@@ -116,10 +126,7 @@ def _as_inputs(edp, collapsed, threshold=None):
             f"edp and collapsed have mismatched lengths {edp.size} and {collapsed.size}")
     if edp.size == 0:
         raise ParameterError("empty group: no samples to compute a probability from")
-    if collapsed.dtype != bool:
-        if not np.all(np.isin(collapsed, (0, 1))):
-            raise ParameterError("collapsed must hold booleans (or 0/1)")
-        collapsed = collapsed.astype(bool)
+    collapsed = _as_flags(collapsed)
     ok = edp[~collapsed]
     if not np.all(np.isfinite(ok)):
         raise ParameterError("non-collapsed EDPs must be finite (NaN/inf found)")
@@ -151,11 +158,7 @@ def collapse_probability(collapsed) -> float:
     c = np.asarray(collapsed)
     if c.ndim != 1 or c.size == 0:
         raise ParameterError("collapsed must be a non-empty 1-D array (empty group?)")
-    if c.dtype != bool:
-        if not np.all(np.isin(c, (0, 1))):
-            raise ParameterError("collapsed must hold booleans (or 0/1)")
-        c = c.astype(bool)
-    return float(np.mean(c))
+    return float(np.mean(_as_flags(c)))
 
 
 def lognormal_parameters(edp) -> tuple[float, float]:
@@ -530,11 +533,7 @@ def mean_edp_surface(mw, dist_km, edp, collapsed, *, n_boot=1000, confidence=0.9
                      label="") -> Surface:
     """Mean EDP of the non-collapsed samples over (Mw, R) (paper Fig. 8a, b); NaN if all collapsed."""
     g = _rng(rng)
-
-    def point(e, c):
-        return float(np.mean(e[~c])) if np.any(~c) else np.nan
-
-    return _surface(mw, dist_km, edp, collapsed, point,
+    return _surface(mw, dist_km, edp, collapsed, lambda e, c: float(_mean_ok_vectorised(e, c)),
                     lambda e, c: bootstrap_interval(e, c, statistic="mean", n_boot=n_boot,
                                                     confidence=confidence, rng=g),
                     label or "mean EDP (non-collapsed)")
