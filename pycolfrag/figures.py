@@ -18,6 +18,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from . import fragility as fr
+from . import results as _results
 from .errors import ParameterError, ResultsFileError
 
 __all__ = ["ResultsData", "read_results", "FIGURES", "make_all", "ROCKING_INITIATION_G"]
@@ -98,7 +99,8 @@ def _raw_h5(path):
 
 
 def read_results(path) -> ResultsData:
-    """Read a results file (``pycolfrag.results.load`` when available, else plain h5py).
+    """Read a results file: :func:`pycolfrag.results.load` (journal overlay of a killed run), or plain
+    h5py for a file in the documented layout that ``run_grid.py`` did not write (no ``grid_signature``).
 
     Rows not computed yet (status -1) are dropped; failed rows (status > 0) are counted and excluded.
     """
@@ -106,10 +108,9 @@ def read_results(path) -> ResultsData:
     if not os.path.exists(path):
         raise ResultsFileError(f"results file {path} does not exist")
     try:
-        from . import results as _results
         r = _results.load(path)
         samples, spectra, periods, attrs = r.samples, r.spectra, r.periods_s, r.attrs
-    except (ImportError, ResultsFileError, AttributeError):
+    except ResultsFileError:
         samples, spectra, periods, attrs = _raw_h5(path)
     missing = [k for k in ("mw", "dist_km", "u_top", "u_d", "collapsed", "status") if k not in samples]
     if missing:
