@@ -383,11 +383,7 @@ def check_solver_options(column, opts: dict) -> None:
 
 def _resolved_solver_json(opts: dict) -> str:
     """The solver options with the solver's defaults filled in."""
-    try:
-        full = {**solver_defaults(), **opts}
-    except Exception:
-        full = dict(opts)
-    return json.dumps(full, sort_keys=True, default=str)
+    return json.dumps({**solver_defaults(), **opts}, sort_keys=True, default=str)
 
 
 @dataclass
