@@ -155,6 +155,9 @@ def test_vp_scale_shifts_the_median():
     ({"seed": -3}, ParameterError, "-3"),
     ({"seed": 1.5}, ParameterError, "1.5"),
     ({"vp_scale": 0.0}, ParameterError, "0.0"),
+    # a bool is not a magnitude (float(True) would be 1.0; the package-wide rule of _validate)
+    ({"vp_scale": True}, ParameterError, "True"),
+    ({"dist_km": True}, ParameterError, "True"),
 ])
 def test_bad_input(kwargs, exc, word):
     args = {"Mw": 6.5, "dist_km": 10.0, "n": 10, "seed": 1, "vp_scale": 1.0}
@@ -171,3 +174,5 @@ def test_pulse_bad_parameters():
         mp.acceleration([0.0], 1.0, 1.0, 0.0, -1.0)
     with pytest.raises(ParameterError, match="t"):
         mp.velocity([np.nan], 1.0, 1.0, 0.0, 1.5)
+    with pytest.raises(ParameterError, match="nu"):
+        mp.velocity([0.0], 1.0, 1.0, False, 1.5)

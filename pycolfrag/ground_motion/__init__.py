@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from .._ffi import positive_float
+from .._validate import finite_float, positive_float
 from ..intensity import G
 from ..errors import ParameterError
 from . import mavroeidis_papageorgiou_2003, rupakhety_2011
@@ -95,7 +95,7 @@ def _pulse_row(Mw, dist_km, seed, vp_scale, pulse):
     for key in ("Vp_cm_s", "fp_hz", "nu_rad", "gamma"):
         if key not in pulse:
             raise ParameterError(f"pulse is missing {key!r} (needs Vp_cm_s, fp_hz, nu_rad, gamma)")
-        vals.append(rupakhety_2011._number(pulse[key], f"pulse[{key!r}]"))
+        vals.append(finite_float(pulse[key], f"pulse[{key!r}]"))
     vp, fp, nu, gamma = vals
     if vp <= 0:
         raise ParameterError(f"pulse['Vp_cm_s'] must be > 0, got {pulse['Vp_cm_s']!r}")

@@ -23,7 +23,8 @@ import numpy as np
 from scipy import optimize, stats
 from scipy.stats import qmc
 
-from .._ffi import as_double_array, check, ffi, lib, positive_float, ptr
+from .._ffi import as_double_array, check, ffi, lib, ptr
+from .._validate import finite_float, positive_float
 from ..errors import ParameterError
 from . import rupakhety_2011 as _r11
 
@@ -38,7 +39,7 @@ NU_RANGE_RAD = (-math.pi / 2, math.pi / 2)
 
 
 def _float(value, name, positive=False):
-    return positive_float(value, name) if positive else _r11._number(value, name)
+    return positive_float(value, name) if positive else finite_float(value, name)
 
 
 def _params(A, fp, nu, gamma, t0):

@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from .._validate import finite_float
 from ..errors import ModelRangeError, ParameterError
 
 __all__ = ["M_SAT", "SIGMA_LOG10_VP", "SIGMA_LOG10_FP", "MW_RANGE", "DIST_RANGE_KM",
@@ -40,21 +41,11 @@ MW_RANGE = (5.0, 8.0)
 DIST_RANGE_KM = (0.0, 60.0)
 
 
-def _number(value, name):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise ParameterError(f"{name} must be finite, got {value!r}")
-    return v
-
-
 def check_scenario(Mw, dist_km):
     """``(Mw, dist_km)`` as floats, or :class:`ModelRangeError` naming the value outside
     ``MW_RANGE`` / ``DIST_RANGE_KM`` (``ParameterError`` for non-numbers and NaN/inf)."""
-    m = _number(Mw, "Mw")
-    r = _number(dist_km, "dist_km")
+    m = finite_float(Mw, "Mw")
+    r = finite_float(dist_km, "dist_km")
     if not MW_RANGE[0] <= m <= MW_RANGE[1]:
         raise ModelRangeError(f"Mw = {Mw!r} is outside the pulse model's range {MW_RANGE}")
     if not DIST_RANGE_KM[0] <= r <= DIST_RANGE_KM[1]:
@@ -73,7 +64,7 @@ def mean_vp_cm_s(Mw, dist_km, vp_scale=1.0):
     vp_scale : float (> 0), multiplies the mean (1 = the published model)
     """
     m, r = check_scenario(Mw, dist_km)
-    s = _number(vp_scale, "vp_scale")
+    s = finite_float(vp_scale, "vp_scale")
     if s <= 0:
         raise ParameterError(f"vp_scale must be > 0, got {vp_scale!r}")
     m = min(m, M_SAT)
@@ -83,7 +74,7 @@ def mean_vp_cm_s(Mw, dist_km, vp_scale=1.0):
 
 def mean_tp_s(Mw):
     """Mean pulse period 1/fp, s: Eq. (7), ``log10(Tp) = -2.87 + 0.47 Mw`` (no cap)."""
-    m = _number(Mw, "Mw")
+    m = finite_float(Mw, "Mw")
     if not MW_RANGE[0] <= m <= MW_RANGE[1]:
         raise ModelRangeError(f"Mw = {Mw!r} is outside the pulse model's range {MW_RANGE}")
     return 10.0 ** (-2.87 + 0.47 * m)                                                # Eq. (7)
