@@ -139,14 +139,18 @@ def peak_velocity_time(fp, nu, gamma, t0=0.0):
     return float(t0) + u / fp
 
 
-def _int_seed(seed):
+def _integer(value, name, minimum):
     try:
-        s = operator.index(seed)
+        v = operator.index(value)
     except TypeError:
-        raise ParameterError(f"seed must be an integer, got {seed!r}") from None
-    if s < 0:
-        raise ParameterError(f"seed must be >= 0, got {seed!r}")
-    return int(s)
+        raise ParameterError(f"{name} must be an integer, got {value!r}") from None
+    if v < minimum:
+        raise ParameterError(f"{name} must be >= {minimum}, got {value!r}")
+    return int(v)
+
+
+def _int_seed(seed):
+    return _integer(seed, "seed", 0)
 
 
 def _lhs(d, n, seed):
@@ -187,12 +191,7 @@ def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0):
     ``A_cm_s`` (envelope amplitude giving peak |V| = Vp), ``Tp_s`` (= 1/fp).
     """
     log_vp, log_fp = _r11._log10_means(Mw, dist_km, vp_scale)
-    try:
-        n_ = operator.index(n)
-    except TypeError:
-        raise ParameterError(f"n must be an integer, got {n!r}") from None
-    if n_ < 1:
-        raise ParameterError(f"n must be >= 1, got {n!r}")
+    n_ = _integer(n, "n", 1)
     u = _lhs(4, n_, _int_seed(seed))
     vp = 10.0 ** stats.norm.ppf(u[:, 0], loc=log_vp, scale=_r11.SIGMA_LOG10_VP)
     fp = 10.0 ** stats.norm.ppf(u[:, 1], loc=log_fp, scale=_r11.SIGMA_LOG10_FP)
