@@ -130,20 +130,27 @@ def _journal_rows(path):
     return len(R.read_journal(R.journal_path(path))[1]) if R.journal_path(path).exists() else 0
 
 
+def _kill_after(cmd, env, out, rows, sig):
+    """Start ``cmd``, send ``sig`` once the journal of ``out`` holds ``rows`` rows (or after 60 s)."""
+    proc = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        t0 = time.time()
+        while _journal_rows(out) < rows and time.time() - t0 < 60:
+            time.sleep(0.05)
+    finally:
+        proc.send_signal(sig)
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
 def test_killed_run_resumes_and_keeps_finished_rows(tmp_path):
     out = tmp_path / "kill.h5"
     args = ["--mw", "6", "7", "--dist", "5", "10", "15", "--samples", "8", "--sample-function", "grid_fakes:fake",
             "--no-figures", "--no-progress", "--flush-s", "0.2", "--out", str(out)]
-    cmd = [sys.executable, str(SCRIPT), *args]
-    proc = subprocess.Popen(cmd, env=_env(PCF_FAKE_SLEEP_S="0.05"), cwd=ROOT,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        t0 = time.time()
-        while _journal_rows(out) < 12 and time.time() - t0 < 60:
-            time.sleep(0.05)
-    finally:
-        proc.send_signal(signal.SIGKILL)
-        proc.wait(timeout=30)
+    _kill_after([sys.executable, str(SCRIPT), *args], _env(PCF_FAKE_SLEEP_S="0.05"), out, 12, signal.SIGKILL)
     before = R.load(out)  # HDF5 + journal: every row that reached rank 0
     n_before = len(before)
     assert 12 <= n_before < 48, n_before
@@ -176,19 +183,7 @@ def test_sigterm_under_mpirun_then_resume(tmp_path):
         pytest.skip("mpirun not installed")
     cmd = ["timeout", "-k", "10", "120", "mpirun", "--allow-run-as-root", "-n", "2", sys.executable, "-m", "mpi4py",
            str(SCRIPT), *args]
-    proc = subprocess.Popen(cmd, env=_env(PCF_FAKE_SLEEP_S="0.1"), cwd=ROOT,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        t0 = time.time()
-        while _journal_rows(out) < 6 and time.time() - t0 < 60:
-            time.sleep(0.05)
-    finally:
-        proc.send_signal(signal.SIGTERM)
-        try:
-            proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+    _kill_after(cmd, _env(PCF_FAKE_SLEEP_S="0.1"), out, 6, signal.SIGTERM)
     before = R.load(out)
     assert 6 <= len(before) < 40
     _ok(_mpirun(2, args, PCF_FAKE_SLEEP_S="0"))
