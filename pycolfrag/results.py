@@ -23,7 +23,7 @@ header when it cannot be opened and replays every journalled row into it (row wr
 idempotent), and :func:`load` overlays journalled rows in memory, so readers see every finished
 sample even right after a kill. A truncated last journal line (killed mid-append) is ignored
 and cut off before appending again. When a run completes, the HDF5 file is final and the
-journal is deleted.
+journal is deleted; reopening such a file starts a journal that holds its finished rows.
 """
 from __future__ import annotations
 
@@ -174,6 +174,17 @@ def _row_to_json(row: Mapping) -> str:
             v = v.decode("utf-8", errors="replace")
         out[k] = v
     return json.dumps(out, separators=(",", ":"))
+
+
+def _rows_of(res: "Results") -> list[dict]:
+    """The rows of a loaded file as row dicts (the inverse of :func:`_put_row`)."""
+    out = []
+    for j, i in enumerate(res.rows):
+        row = {name: v[j] for name, v in res.samples.items()}
+        row.update({name: res.spectra[name][j] for name in SPECTRA_FIELDS if name in res.spectra})
+        row["row"] = int(i)
+        out.append(row)
+    return out
 
 
 # ---------------------------------------------------------------------------------------
@@ -356,10 +367,15 @@ def open_for_run(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_
         hattrs["rebuilt_from_journal"] = True
         _create_h5(path, int(header["n_rows"]), header["periods_s"], hattrs)
     if header is None:
-        # a journal-less file (finished run, or journal deleted): start a new journal for this session
-        with _h5py().File(path, "r") as f:
-            attrs = dict(f.attrs)
-        _write_journal_header(jp, n_rows, periods_s, signature, attrs)
+        # a journal-less file (finished run, or journal deleted): start a new journal for this
+        # session that also holds the file's finished rows, so that a kill during this session's
+        # HDF5 writes can rebuild the file from the journal without losing them
+        old = load(path, journal=False)
+        _write_journal_header(jp, n_rows, periods_s, signature, old.attrs)
+        journal = _Journal(jp)
+        journal.append(_rows_of(old))
+        journal.sync()
+        journal.close()
     if jrows:  # idempotent replay: rows the HDF5 file may have missed when the run was killed
         _write_rows_h5(path, list(jrows.values()), n_rows, len(periods_s))
     return ResultsWriter(path, n_rows, len(periods_s), resumed=True)

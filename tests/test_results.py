@@ -138,3 +138,25 @@ def test_journal_wins_over_a_half_written_hdf5_batch(tmp_path):
     assert R.load(p).samples["gamma"][0] == 2.5
     R.open_for_run(p, SIG, {}, 6, PERIODS).close()  # resume replays the journal into the file
     assert R.load(p, journal=False).samples["gamma"][0] == 2.5
+
+
+def test_resuming_a_finished_file_journals_its_rows_first(tmp_path):
+    # A finished run has no journal. Rerunning it (figures, --retry-failed) writes the HDF5 file
+    # again; a kill in that write must not cost the finished rows: the new journal holds them.
+    p = tmp_path / "r.h5"
+    w = _new(p, n=3)
+    w.add([_row(0), _row(1, status=3, message="SolverError: x"), _row(2, gamma=0.1 + 0.2)])
+    w.finish()
+    assert not R.journal_path(p).exists()
+    before = R.load(p)
+    R.open_for_run(p, SIG, {}, 3, PERIODS).close()  # resumed, then killed before finish()
+    p.write_bytes(p.read_bytes()[:300])  # ... in the middle of an HDF5 write
+    w = R.open_for_run(p, SIG, {}, 3, PERIODS)
+    assert w.done.all()
+    w.close()
+    after = R.load(p, journal=False)
+    assert after.attrs["rebuilt_from_journal"] and after.attrs["seed"] == 1
+    for name, v in before.samples.items():
+        assert np.array_equal(v, after.samples[name], equal_nan=v.dtype.kind == "f"), name
+    for name, v in before.spectra.items():
+        assert np.array_equal(v, after.spectra[name], equal_nan=True), name
