@@ -20,8 +20,11 @@ def test_claims_verdicts(tmp_path):
     cl = {c.key: c for c in validation.claims(d)}
     c1 = cl["collapse_75_5"]
     k = int(d["collapsed"][(d["mw"] == 7.5) & (d["dist_km"] == 5.0)].sum())
-    assert c1.n == f"{k}/25"
-    assert c1.verdict == ("differs" if k <= 4 else c1.verdict)   # 0.40 is outside CP(k<=4 of 25)
+    # synthetic law: median u_top = 0.004 PGV ~ 0.2 here, collapse needs u_top > 1.1 (about 2.7 sd
+    # of ln u_top above the median), so this seeded file has no collapse there; the 90 %
+    # Clopper-Pearson upper limit of 0/25 is 1 - 0.05**(1/25) = 0.113 < 0.40
+    assert k == 0 and c1.n == "0/25"
+    assert c1.verdict == "differs"
     assert all(c.verdict.split()[0] in ("agrees", "differs", "not") for c in cl.values())
     d2 = read_results(write_results(tmp_path / "b.h5", mws=(6.0, 6.5), dists=(5.0, 20.0), n=10, n_failed=0))
     assert {c.key: c for c in validation.claims(d2)}["collapse_75_5"].verdict.startswith("not testable")
