@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy import stats
 
 from . import fragility as fr
 from .figures import ROCKING_INITIATION_G, ResultsData, read_results
@@ -78,13 +79,14 @@ def _eq4(d, mask, edp, threshold, rng):
 
 
 def _ratio_ci(a, b, rng):
-    """Bootstrap CI of mean(b) / mean(a) (groups resampled independently)."""
+    """Percentile bootstrap CI of mean(b) / mean(a), the two groups resampled independently
+    (``scipy.stats.bootstrap`` with ``paired=False``)."""
     if a.size < 2 or b.size < 2:
         return (np.nan, np.nan)
-    ra = rng.choice(a, size=(N_BOOT, a.size)).mean(axis=1)
-    rb = rng.choice(b, size=(N_BOOT, b.size)).mean(axis=1)
-    q = 100 * (1 - CONF) / 2
-    return tuple(np.percentile(rb / ra, [q, 100 - q]))
+    res = stats.bootstrap((a, b), lambda x, y, axis=-1: np.mean(y, axis=axis) / np.mean(x, axis=axis),
+                          paired=False, vectorized=True, n_resamples=N_BOOT, confidence_level=CONF,
+                          method="percentile", random_state=rng)
+    return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
 # --------------------------------------------------------------------------- key numbers
