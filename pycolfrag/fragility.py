@@ -45,6 +45,7 @@ __all__ = [
     "U_TOP_LEVELS",
     "U_D_LEVELS",
     "collapse_probability",
+    "binomial_ci",
     "lognormal_parameters",
     "exceedance",
     "empirical_exceedance",
@@ -159,6 +160,18 @@ def collapse_probability(collapsed) -> float:
     if c.ndim != 1 or c.size == 0:
         raise ParameterError("collapsed must be a non-empty 1-D array (empty group?)")
     return float(np.mean(_as_flags(c)))
+
+
+def binomial_ci(k: int, n: int, confidence: float = 0.90) -> tuple[float, float]:
+    """Exact (Clopper-Pearson) interval of a proportion k/n, e.g. Eq. (3) (``scipy.stats.binomtest``).
+
+    Unlike the bootstrap it stays informative at 0 of n (upper limit ``1 - ((1 - confidence)/2)**(1/n)``).
+    (NaN, NaN) when ``n`` is 0.
+    """
+    if n <= 0:
+        return (np.nan, np.nan)
+    ci = stats.binomtest(int(k), int(n)).proportion_ci(confidence_level=confidence, method="exact")
+    return float(ci.low), float(ci.high)
 
 
 def lognormal_parameters(edp) -> tuple[float, float]:

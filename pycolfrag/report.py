@@ -17,22 +17,14 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
 
 from . import fragility as fr
+from .fragility import binomial_ci
 from .figures import FIGURES, im_curves, read_results
 
 __all__ = ["write_report", "binomial_ci", "fmt_ci"]
 
 CONFIDENCE = 0.90
-
-
-def binomial_ci(k: int, n: int, confidence: float = CONFIDENCE) -> tuple[float, float]:
-    """Exact (Clopper-Pearson) interval of a proportion k/n (``scipy.stats.binomtest``)."""
-    if n <= 0:
-        return (np.nan, np.nan)
-    ci = stats.binomtest(int(k), int(n)).proportion_ci(confidence_level=confidence, method="exact")
-    return float(ci.low), float(ci.high)
 
 
 def fmt_ci(v, ci=None, digits=2) -> str:

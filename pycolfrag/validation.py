@@ -23,7 +23,8 @@ from scipy import stats
 
 from . import fragility as fr
 from .figures import ROCKING_INITIATION_G, ResultsData, read_results
-from .report import binomial_ci, fmt_ci
+from .fragility import binomial_ci
+from .report import fmt_ci
 
 __all__ = ["Claim", "claims", "key_numbers", "write_validation"]
 
