@@ -286,16 +286,14 @@ def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mappi
 
 def signature_mismatch(old: Mapping, new: Mapping) -> list[str]:
     """Human-readable differences between two grid signatures (empty when they agree)."""
+    def short(v):
+        return v if len(v) <= 120 else v[:117] + "..."
+
     diffs = []
     for k in sorted(set(old) | set(new)):
-        a, b = old.get(k, "<absent>"), new.get(k, "<absent>")
-        if json.dumps(a, sort_keys=True) != json.dumps(b, sort_keys=True):
-            sa, sb = json.dumps(a, sort_keys=True), json.dumps(b, sort_keys=True)
-            if len(sa) > 120:
-                sa = sa[:117] + "..."
-            if len(sb) > 120:
-                sb = sb[:117] + "..."
-            diffs.append(f"{k}: file has {sa}, this run asks for {sb}")
+        sa, sb = (json.dumps(d.get(k, "<absent>"), sort_keys=True) for d in (old, new))
+        if sa != sb:
+            diffs.append(f"{k}: file has {short(sa)}, this run asks for {short(sb)}")
     return diffs
 
 
