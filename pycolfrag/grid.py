@@ -603,7 +603,8 @@ def summary_table(path) -> list[dict]:
     return table
 
 
-def format_table(table: list[dict], samples: int) -> str:
+def format_table(table: list[dict]) -> str:
+    """The closing summary table (one line per scenario) printed by rank 0."""
     lines = [f"{'Mw':>4} {'R km':>5} {'done':>5} {'failed':>6} {'collapses':>9} {'mean u_top*':>11} "
              f"{'mean u_d*':>10} {'cpu s':>8}"]
     for t in table:
@@ -744,7 +745,7 @@ def main(argv=None) -> int:
         return 2
     if summary is None:  # worker ranks
         return 0
-    log(format_table(summary.table, spec.samples))
+    log(format_table(summary.table))
     log(f"{summary.computed} runs computed in {summary.wall_s:.1f} s on {size} rank(s)"
         + (f" ({summary.wall_s / summary.computed * size:.3f} rank-s per run)" if summary.computed else "")
         + f"; {summary.failed} failed; results: {summary.path}")

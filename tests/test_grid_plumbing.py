@@ -104,7 +104,7 @@ def test_in_process_run_writes_summary_and_collapse_fields(fake_physics, tmp_pat
     c = r.samples["collapsed"]
     assert (r.samples["collapse_block"][c] == 4).all() and (r.samples["collapse_block"][~c] == -1).all()
     assert np.isnan(r.samples["collapse_time_s"][~c]).all()
-    text = grid.format_table(summary.table, 3)
+    text = grid.format_table(summary.table)
     assert "collapses" in text and "7.5" in text
     assert sum(t["collapses"] for t in summary.table) == int(c.sum())
     assert math.isclose(summary.table[0]["cpu_s"], float(r.samples["wall_s"][:3].sum()))
