@@ -2,6 +2,7 @@
 stochastic(), the debug plots, and an orientation check against NGA-West2 (BSSA14, pygmm)."""
 import hashlib
 import math
+import os
 import subprocess
 import sys
 
@@ -275,7 +276,19 @@ def test_plots_return_figures():
 def test_public_names():
     gm = pcf.ground_motion
     for name in ("Record", "stochastic", "synthesize", "sample_pulse_parameters", "read_at2",
-                 "atkinson_silva_2000", "mavroeidis_papageorgiou_2003", "rupakhety_2011"):
+                 "atkinson_silva_2000", "mavroeidis_papageorgiou_2003", "rupakhety_2011", "combine", "plots"):
         assert hasattr(gm, name)
     ims = pcf.intensity.measures(synthesize(6.5, 10.0, 1).acc, 0.005)
     assert ims["sa_g"].shape == (5,)
+
+
+def test_readme_three_line_example(tmp_path):
+    """The README's and docs/ground_motion.md's three-line example, in a fresh interpreter (so no
+    earlier test has imported the plots submodule for it): it must write the figure."""
+    code = ("import pycolfrag as pcf\n"
+            "rec = pcf.ground_motion.synthesize(6.5, 10.0, seed=1)\n"
+            "pcf.ground_motion.plots.plot_components(rec).savefig('record.png')\n")
+    env = dict(os.environ, MPLBACKEND="Agg")
+    p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "record.png").stat().st_size > 10_000

@@ -30,7 +30,7 @@ from .mavroeidis_papageorgiou_2003 import sample_pulse_parameters
 from .record import Record
 
 __all__ = ["Record", "stochastic", "synthesize", "sample_pulse_parameters", "read_at2",
-           "atkinson_silva_2000", "mavroeidis_papageorgiou_2003", "rupakhety_2011", "combine",
+           "atkinson_silva_2000", "mavroeidis_papageorgiou_2003", "rupakhety_2011", "combine", "plots",
            "PULSE_STREAM"]
 
 #: Second word of the SeedSequence that seeds the pulse draw of ``synthesize(pulse=None)``:
@@ -38,8 +38,8 @@ __all__ = ["Record", "stochastic", "synthesize", "sample_pulse_parameters", "rea
 PULSE_STREAM = 0x70756C73  # "puls"
 
 
-def __getattr__(name):  # the stochastic model and the combination load on first use
-    if name in ("atkinson_silva_2000", "combine"):
+def __getattr__(name):  # the stochastic model, the combination and the plots load on first use
+    if name in ("atkinson_silva_2000", "combine", "plots"):
         import importlib
         return importlib.import_module(f"{__name__}.{name}")
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
