@@ -200,11 +200,14 @@ def test_extreme_drum_sizes(diam):
 @pytest.mark.parametrize("kn", [1e8, 1e9, 1e10])
 def test_joint_stiffness_range(kn):
     """kn = ks from 0.1 to 10 GPa/m: the stability limit scales as 1/sqrt(kn) (within 10 % of it
-    from 1e9), the run is finite, and u_top under a 0.25 g, 2 Hz, 1 s sine (pre-impact response)
-    converges as the step halves (2 %)."""
+    from 1e9), the run is finite, and u_top under a 0.1 g, 2 Hz, 1 s sine converges as the step
+    halves (2 %). The amplitude keeps all three columns out of rocking impacts (largest joint opening
+    0.5 mm at 0.1 GPa/m): at 0.25 g the 0.1 GPa/m column rocks with impacts (opening 39 mm) and single
+    runs at dt 0.8/0.4/0.2/0.1 scatter chaotically (0.193, 0.189, 0.208, 0.195), which a two-run
+    comparison cannot judge; at 0.1 g they agree to 3e-4 (measured 2026-11-23)."""
     col = pcf.Column.parthenon().with_joints(kn=kn, ks=kn)
     t = np.arange(0, 1.5, 0.005)
-    acc = 0.25 * G * np.sin(2 * np.pi * 2 * t) * (t < 1.0)
+    acc = 0.1 * G * np.sin(2 * np.pi * 2 * t) * (t < 1.0)
     a = pcf.simulate(col, acc, 0.005, dt_factor=0.8, tail_s=1.0)
     b = pcf.simulate(col, acc, 0.005, dt_factor=0.4, tail_s=1.0)
     ref = pcf.simulate(pcf.Column.parthenon(), np.zeros(2), 0.01, tail_s=0.01).dt_crit
