@@ -679,6 +679,10 @@ class LognormalFragility:
         Maximised binomial log-likelihood.
     band_im, band_low, band_high : ndarray or None
         Bootstrap band of the curve on an IM grid (None without bootstrap).
+    n_boot_degenerate : int
+        Bootstrap resamples in which no sample or every sample exceeded. Their maximum-likelihood
+        curve is the limit 0 (median +inf) or 1 (median 0) everywhere and enters the band and the
+        median interval as such; their beta is undefined and is left out of ``beta_ci``.
     """
 
     median: float
@@ -691,6 +695,7 @@ class LognormalFragility:
     band_high: np.ndarray | None = None
     median_ci: tuple = (np.nan, np.nan)
     beta_ci: tuple = (np.nan, np.nan)
+    n_boot_degenerate: int = 0
 
     def __call__(self, im):
         """Probability of exceedance at ``im`` (array_like, IM units)."""
@@ -786,16 +791,22 @@ def fit_lognormal_fragility(im, edp, collapsed, threshold, *, groups=None, n_boo
         for _ in range(int(n_boot)):
             idx = np.concatenate([g.choice(m, size=m.size, replace=True) for m in members])
             yb = y[idx]
-            if yb.all() or not yb.any():
+            if yb.all() or not yb.any():  # the MLE's limit: a constant curve (see n_boot_degenerate)
+                fit.n_boot_degenerate += 1
+                meds.append(0.0 if yb.all() else np.inf)
+                curves.append(np.full(grid.shape, 1.0 if yb.all() else 0.0))
                 continue
             (a, b), _ll = _mle(ln_im[idx], yb, x0=np.array([ln_theta, ln_beta]))
             meds.append(np.exp(a))
             betas.append(np.exp(b))
             curves.append(stats.norm.cdf((np.log(grid) - a) / np.exp(b)))
-        if curves:
-            a = 100 * (1 - confidence) / 2
-            fit.band_im = grid
-            fit.band_low, fit.band_high = np.percentile(np.array(curves), [a, 100 - a], axis=0)
-            fit.median_ci = tuple(np.percentile(meds, [a, 100 - a]))
+        a = 100 * (1 - confidence) / 2
+        fit.band_im = grid
+        fit.band_low, fit.band_high = np.percentile(np.array(curves), [a, 100 - a], axis=0)
+        # an infinite median (resample without exceedance) makes linear interpolation inf - inf = nan:
+        # then take the empirical quantiles without interpolation
+        fit.median_ci = tuple(np.percentile(meds, [a, 100 - a],
+                                            method="inverted_cdf" if fit.n_boot_degenerate else "linear"))
+        if betas:
             fit.beta_ci = tuple(np.percentile(betas, [a, 100 - a]))
     return fit

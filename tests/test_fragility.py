@@ -153,6 +153,21 @@ def test_mle_recovers_median_and_beta():
     assert fit.median_ci[0] < fit.median < fit.median_ci[1]
 
 
+def test_mle_band_keeps_degenerate_resamples():
+    # 20 samples, one exceeding: a resample holds no exceedance with probability (19/20)^20 = 0.358,
+    # so about 36 % of the 200 bootstrap refits are degenerate (binomial sd 3.4 %: assert 20-50 %).
+    # Their MLE limit is the curve 0 everywhere (median +inf): with more than 5 % of them the lower
+    # limit of the 90 % band is 0 at every IM and the upper limit of the median interval is inf.
+    # Dropping them (as an earlier version did) would cut the band's lower tail off.
+    im = np.geomspace(0.1, 1.0, 20)
+    edp = np.where(np.arange(20) == 19, 2.0, 0.5)
+    fit = fr.fit_lognormal_fragility(im, edp, np.zeros(20, bool), 1.0, n_boot=200, rng=5)
+    assert 0.20 * 200 <= fit.n_boot_degenerate <= 0.50 * 200
+    assert np.all(fit.band_low == 0.0)
+    assert fit.median_ci[1] == np.inf and np.isfinite(fit.median_ci[0])
+    assert np.all(np.isfinite(fit.beta_ci))
+
+
 def test_bootstrap_coverage():
     # 90 % percentile intervals of Eq. (4) on repeated lognormal samples (n = 100, 10 % collapses)
     # must cover the true P = pc + (1 - pc) (1 - Phi(...)) in 85-95 % of 1000 draws.  The percentile
