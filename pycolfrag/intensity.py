@@ -22,11 +22,10 @@ All numbers come from the C kernels in ``csrc/spectra.c``:
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ._ffi import as_double_array, check, ffi, lib, positive_float, ptr
+from ._validate import finite_float
 from .errors import ParameterError
 
 __all__ = ["G", "DEFAULT_PERIODS_S", "measures", "response_spectrum", "integrate"]
@@ -58,11 +57,8 @@ def _periods(periods):
 
 
 def _damping(damping):
-    try:
-        z = float(damping)
-    except (TypeError, ValueError):
-        raise ParameterError(f"damping must be a number, got {damping!r}") from None
-    if not (math.isfinite(z) and 0.0 <= z < 1.0):
+    z = finite_float(damping, "damping")
+    if not 0.0 <= z < 1.0:
         raise ParameterError(f"damping must be a ratio in [0, 1), got {damping!r}")
     return z
 
