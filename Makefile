@@ -29,7 +29,7 @@ system:
 	touch $@
 
 build: .venv/.built
-.venv/.built: .venv/.installed $(CSRCS) $(CHDRS) pycolfrag/_build.py
+.venv/.built: .venv/.installed $(CSRCS) $(CHDRS) csrc/flags.mk pycolfrag/_build.py
 	$(PIP) install -q --no-build-isolation --no-deps -e .
 	touch $@
 

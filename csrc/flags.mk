@@ -1,5 +1,6 @@
-# Compiler flags for the C library and its C tests, in one place (mirrored by
-# pycolfrag/_build.py). -ffp-contract=off keeps results bitwise reproducible.
+# Compiler flags for the C library and its C tests, in one place: pycolfrag/_build.py
+# reads CSTD, CWARN and COPT from here for the Python extension. -ffp-contract=off keeps
+# results bitwise reproducible.
 CC      ?= gcc
 CSTD    := -std=c99
 CWARN   := -Wall -Wextra -Wpedantic

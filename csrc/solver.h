@@ -109,8 +109,6 @@ int cf_solver_run(cf_solver *s, const double *acc_x, const double *acc_y, const 
                   double dt_rec, double *residual_dislocation, cf_solver_result *res);
 /* cffi:end */
 
-/* Largest eigenvalue of a symmetric n x n matrix (row-major, destroyed); used for
- * the stability limit, exported for the C unit tests only (not in the cffi region). */
-double cf_solver_sym_max_eig(double *a, int n);
+
 
 #endif

@@ -21,10 +21,28 @@ from cffi import FFI
 HERE = os.path.dirname(os.path.abspath(__file__))
 CSRC = os.path.normpath(os.path.join(HERE, "..", "csrc"))
 
-# Kept in one place and mirrored by csrc/flags.mk: reproducibility first.
-# -ffp-contract=off: no fused multiply-add, so results do not depend on the CPU;
-# no -march=native for the same reason (see docs/accuracy.md for what it costs).
-CFLAGS = ["-std=c99", "-O3", "-ffp-contract=off", "-fno-math-errno", "-Wall", "-Wextra"]
+
+def _flags_mk() -> list[str]:
+    """The compiler flags of csrc/flags.mk (CSTD, CWARN, COPT): their one home.
+
+    -ffp-contract=off there keeps results independent of the CPU (no fused
+    multiply-add), and there is no -march=native for the same reason.
+    """
+    values: dict[str, str] = {}
+    with open(os.path.join(CSRC, "flags.mk"), encoding="utf-8") as fh:
+        for line in fh:
+            m = re.match(r"^\s*([A-Z]+)\s*[:?]?=\s*(.*?)\s*$", line.split("#", 1)[0])
+            if m:
+                values[m.group(1)] = m.group(2)
+    flags = []
+    for name in ("CSTD", "CWARN", "COPT"):
+        if name not in values:
+            raise RuntimeError(f"csrc/flags.mk defines no {name}")
+        flags += values[name].split()
+    return flags
+
+
+CFLAGS = _flags_mk()
 
 _REGION = re.compile(r"/\*\s*cffi:begin\s*\*/(.*?)/\*\s*cffi:end\s*\*/", re.S)
 

@@ -1,0 +1,183 @@
+/*
+ * solver_internal.h -- the solver's state and the functions its files share
+ * (never in a cffi region; see docs/architecture.md for the map of the files).
+ *
+ *   solver.c            public API: definition defaults and checks, set-up, the run loop
+ *   solver_stack.c      bodies, mass properties, joints, faces, contact points, equilibrium
+ *   solver_timestep.c   stability limit of the whole linearised stack -> time step
+ *   solver_step.c       the integrator step, as named phases
+ *   solver_points.c     contact model: sub-contact points (vertex / perimeter), scalar
+ *   solver_points_sse2.c  the same model, two points per instruction (SSE2)
+ *   solver_exact.c      contact model: exact interface integral
+ *   solver_monitor.c    energy ledger, EDPs, collapse criteria, histories
+ *   contact_law.h       the contact law itself, one text for every path above
+ *
+ * Bodies: index 0 is the ground (fixed in the frame that moves with the ground),
+ * 1.. are the moving rigid bodies (one per block, or one for a monolithic column).
+ * Joint j has a lower body and an upper body; its sub-contacts are kept in
+ * structure-of-arrays form with their persistent shear forces.
+ */
+#ifndef CF_SOLVER_INTERNAL_H
+#define CF_SOLVER_INTERNAL_H
+
+#include "cf_common.h"
+#include "geometry.h"
+#include "solver.h"
+#include "solver_math_internal.h"
+
+#define CF_MAXS CF_SOLVER_MAX_SIDES
+
+/* SSE2 is part of every x86-64 CPU (no -m flag needed); elsewhere, or with
+ * -DCF_NO_SIMD, the scalar point path runs, with identical results. */
+#if defined(__SSE2__) && !defined(CF_NO_SIMD)
+#define CF_SOLVER_SIMD 1
+#endif
+
+typedef struct {
+    double c[3];                 /* face centre in the body frame, m */
+    int n;                       /* sides */
+    double apo, rc, area;        /* apothem, circumradius (m), area (m^2) */
+    double ec[CF_MAXS], es[CF_MAXS];   /* outward in-plane edge normals */
+    double vx[CF_MAXS], vy[CF_MAXS];   /* vertices relative to the centre, CCW */
+    double poly[2 * CF_MAXS];          /* the same, interleaved (x, y) */
+    double ecw[CF_MAXS + 2], esw[CF_MAXS + 2];   /* edge normals with wrap-around: ecw[k + 1] = ec[k mod n] */
+} cf_face;
+
+typedef struct {
+    int bl, bu;             /* lower and upper body */
+    int logical;            /* index of the logical joint (= block above) */
+    cf_face fl, fu;         /* lower body's top face, upper body's bottom face */
+    double area;            /* joint area, m^2 */
+    int p0, np, n0;         /* its sub-contacts: [p0, p0 + np), the first n0 on the upper face */
+    double fs[3], mt;       /* exact mode: joint shear force (N, world), torsional moment (N m) */
+    double polar;           /* exact mode: polar moment of the joint area about its centre, m^4 */
+    double lz[2];           /* body-frame z of the points of side 0 (upper face) and side 1 (lower face) */
+} cf_joint;
+
+/* What the contacts of one step add to the energy ledger. */
+typedef struct {
+    double vs;       /* spring energy, J (only when need) */
+    double dslip;    /* slip dissipation this step, J */
+    double dswitch;  /* spring energy removed by points leaving/entering a face polygon, J */
+    int need;        /* 1: the energy balance is evaluated at this step */
+} cf_step_energy;
+
+struct cf_solver;
+
+/* A contact model: how the forces of one joint are computed (the way REBOUND keeps
+ * one integrator per file behind a table). */
+typedef struct {
+    const char *name;
+    const char *doc;
+    void (*joint)(struct cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e);
+} cf_solver_contact_model;
+
+extern const cf_solver_contact_model cf_solver_points_model;       /* solver_points.c */
+#ifdef CF_SOLVER_SIMD
+extern const cf_solver_contact_model cf_solver_points_sse2_model;  /* solver_points_sse2.c */
+#endif
+extern const cf_solver_contact_model cf_solver_exact_model;        /* solver_exact.c */
+
+struct cf_solver {
+    char msg[CF_MSG_LEN];
+    int ready;
+    cf_solver_def def;
+    const cf_solver_contact_model *model;
+    double kn, ks, mu, density;
+    int nblk, nbody, nj;
+    /* bodies (nbody) */
+    double *m, *inertia;            /* mass (kg), principal inertia (3 per body) */
+    double *x, *v, *q, *w, *R;      /* position, velocity (world), quaternion, omega (body), rotation */
+    double *F, *T;                  /* force, torque (world) */
+    double *x0, *q0;                /* initial state */
+    double *fext_prev, *fdamp_prev, *tdamp_prev;
+    /* logical blocks (nblk) */
+    int *blk_body;
+    double *blk_off, *blk_top, *blk_bot, *blk_h, *blk_m, *joint_diam;
+    double *blk_rc;                 /* largest circumradius of each block's faces, m */
+    double base_diam, total_mass, total_h, com_h;
+    /* joints */
+    cf_joint *jt;
+    /* sub-contacts */
+    int np;
+    int *p_side, *p_hint;
+    double *p_loc, *p_w, *p_ihkw;   /* body-frame position (3), area share (m^2), 1 / (2 ks w) */
+    /* the hot loop's view of the same points, structure of arrays (one entry per point):
+     * body-frame x, y (z is that of the face, shared), rest position in the other
+     * face's frame, the squared radius of the cheap inside test around it (-1: none),
+     * kn w and ks w, and the persistent state: shear force (N, face frame) and contact
+     * state (0 open or too deep, 1 in contact, 2 over the plane but off the polygon) */
+    double *p_lx, *p_ly, *p_hx, *p_hy, *p_fast, *p_knw, *p_ksw;
+    double *p_fsx, *p_fsy, *p_state;
+    double dt_crit, dt;
+    /* scratch of the time loop (nbody): world omegas, velocities of the last half step */
+    double *ww, *vold, *wold;
+    /* history (caller-owned buffers) */
+    long h_cap;
+    double *h_t, *h_top, *h_pos, *h_quat, *h_open, *h_slip, *h_en, *h_fn;
+    double *jfn;                    /* normal force of each joint this step, N */
+};
+
+int cf_solver_fail(struct cf_solver *s, int status, const char *fmt, ...);
+
+/* solver_stack.c */
+int cf_solver_stack_build(struct cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs);
+void cf_solver_stack_release(struct cf_solver *s);
+void cf_solver_stack_reset(struct cf_solver *s);
+
+/* solver_timestep.c */
+int cf_solver_timestep_limit(struct cf_solver *s);
+/* Largest eigenvalue of a symmetric n x n matrix (row-major, destroyed); exported for the C tests. */
+double cf_solver_timestep_sym_max_eig(double *a, int n);
+
+/* (X, Y) inside the face polygon grown by tol (m)? */
+static inline int cf_face_inside(const cf_face *f, double X, double Y, double tol)
+{
+    int k;
+    double lim = f->apo + tol;
+    if (X * X + Y * Y <= f->apo * f->apo) return 1;
+    for (k = 0; k < f->n; k++)
+        if (X * f->ec[k] + Y * f->es[k] > lim) return 0;
+    return 1;
+}
+
+/* The monitor of one run: energy ledger (J), EDP accumulators, history count, rest
+ * detection (solver_monitor.c). */
+typedef struct {
+    double vg0, vs0;                   /* gravity and spring energy at step 0 */
+    double W, Dslip, Ddamp, Dswitch;   /* ground work, slip, damping and contact_switch energy */
+    double err_max, scale_max, scale_floor;
+    double top0[3], max_top;           /* top-face centre at rest (world), max horizontal displacement (m) */
+    long kres, ring_len, ring_count, ring_pos;   /* residual window: every kres steps, ring of ring_len */
+    double *ring;                      /* (ring_len x nblk x 2) joint dislocations, m */
+    long hcount;                       /* history samples written */
+    double ke_win, rest_ke, next_rest; /* at-rest detection after the record */
+} cf_monitor;
+
+/* solver_monitor.c */
+int cf_solver_monitor_begin(struct cf_solver *s, cf_monitor *m, double t_rec);
+void cf_solver_monitor_end(cf_monitor *m);
+double cf_solver_monitor_energy(cf_monitor *m, long n, double ke, double vg, const cf_step_energy *e);
+void cf_solver_monitor_record(struct cf_solver *s, cf_monitor *m, long n, double t, double ke, double vg,
+                              const cf_step_energy *e, double err, int hist_now);
+int cf_solver_monitor_collapse(const struct cf_solver *s, int *blk);
+int cf_solver_monitor_at_rest(cf_monitor *m, double t, double ke);
+void cf_solver_monitor_finish(struct cf_solver *s, cf_monitor *m, double *resid, cf_solver_result *res);
+
+/* solver_step.c: the phases of one leapfrog step */
+void cf_solver_step_rotations(struct cf_solver *s);
+void cf_solver_step_contacts(struct cf_solver *s, double dt, cf_step_energy *e);
+void cf_solver_step_velocities(struct cf_solver *s, const double *ag, int damp_on, cf_monitor *m, double *ke,
+                               double *vg);
+void cf_solver_step_positions(struct cf_solver *s, double dt);
+
+/* face centre and normal (world) of face f of body b */
+static inline void cf_face_world(const struct cf_solver *s, int b, const cf_face *f, double *c, double *n)
+{
+    const double *R = s->R + 9 * b;
+    mat_vec(R, f->c, c);
+    c[0] += s->x[3 * b]; c[1] += s->x[3 * b + 1]; c[2] += s->x[3 * b + 2];
+    n[0] = R[2]; n[1] = R[5]; n[2] = R[8];
+}
+
+#endif

@@ -1,0 +1,212 @@
+/*
+ * solver_monitor.c -- what a run reports, read off the state after each step: the
+ * energy ledger, the EDPs (u_top, the residual joint dislocations of u_d), the
+ * collapse criteria, the histories and the at-rest detection. Nothing here changes
+ * the motion.
+ *
+ * Energy ledger (J), evaluated every 4th step, at history samples and at the last
+ * step: kinetic + (gravity - gravity_0) + (spring - spring_0) + slip + damping +
+ * contact_switch - ground_work = balance error; the error's maximum over the run,
+ * divided by the largest energy scale seen, is result.energy_error.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "solver_internal.h"
+
+/* world position of logical block i's top-face centre */
+static inline void block_point(const cf_solver *s, int i, const double *loc, double *out)
+{
+    int b = s->blk_body[i];
+    mat_vec(s->R + 9 * b, loc, out);
+    out[0] += s->x[3 * b]; out[1] += s->x[3 * b + 1]; out[2] += s->x[3 * b + 2];
+}
+
+/* horizontal dislocation of logical joint j: centre of the upper block's bottom face
+ * minus centre of the lower block's top face (ground face centre for j = 0) */
+static void dislocation(const cf_solver *s, int j, double *dx, double *dy)
+{
+    double cu[3], cl[3];
+    if (s->def.monolithic && j > 0) { *dx = 0; *dy = 0; return; }
+    block_point(s, j, s->blk_bot + 3 * j, cu);
+    if (j == 0) { cl[0] = 0; cl[1] = 0; }
+    else block_point(s, j - 1, s->blk_top + 3 * (j - 1), cl);
+    *dx = cu[0] - cl[0]; *dy = cu[1] - cl[1];
+}
+
+/* max normal gap (m) of the upper face's vertices over the lower face plane, >= 0 */
+static double opening(const cf_solver *s, int j)
+{
+    const cf_joint *J;
+    double cL[3], nL[3], mx = 0.0;
+    int k;
+    if (s->def.monolithic && j > 0) return 0.0;
+    J = &s->jt[s->def.monolithic ? 0 : j];
+    cf_face_world(s, J->bl, &J->fl, cL, nL);
+    for (k = 0; k < J->fu.n; k++) {
+        double loc[3], p[3], gap;
+        loc[0] = J->fu.c[0] + J->fu.vx[k]; loc[1] = J->fu.c[1] + J->fu.vy[k]; loc[2] = J->fu.c[2];
+        mat_vec(s->R + 9 * J->bu, loc, p);
+        p[0] += s->x[3 * J->bu] - cL[0]; p[1] += s->x[3 * J->bu + 1] - cL[1]; p[2] += s->x[3 * J->bu + 2] - cL[2];
+        gap = v3_dot(p, nL);
+        if (gap > mx) mx = gap;
+    }
+    return mx;
+}
+
+/* collapse criteria at the current state; returns the reason, sets *blk */
+int cf_solver_monitor_collapse(const cf_solver *s, int *blk)
+{
+    int j, i, nj = s->nj;
+    /* overturning: the centre of mass of everything above joint j lies horizontally
+     * more than two circumradii from the centre of the supporting face -- past the
+     * edge by a full radius, where no ground motion of the record can bring it back
+     * (for a slender block this is a tilt of about twice its slenderness angle) */
+    for (j = 0; j < nj; j++) {
+        const cf_joint *J = &s->jt[j];
+        double cL[3], nL[3], mx = 0, my = 0, mt = 0, dx, dy;
+        /* measured from the lower face's centre, or on the (unbounded) ground from the
+         * centre of the block's own bottom face */
+        if (J->bl == 0) cf_face_world(s, J->bu, &J->fu, cL, nL);
+        else cf_face_world(s, J->bl, &J->fl, cL, nL);
+        for (i = J->bu; i < s->nbody; i++) {
+            mx += s->m[i] * s->x[3 * i]; my += s->m[i] * s->x[3 * i + 1]; mt += s->m[i];
+        }
+        dx = mx / mt - cL[0]; dy = my / mt - cL[1];
+        if (dx * dx + dy * dy > 4.0 * J->fl.rc * J->fl.rc) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
+    }
+    /* off the footprint: the centre of a block's bottom face has slid outside the
+     * polygon of the face below (in that face's plane): more than half of the
+     * joint overhangs. Rocking alone moves this centre by b (1 - cos tilt) only. */
+    for (j = 0; j < nj; j++) {
+        const cf_joint *J = &s->jt[j];
+        double cL[3], nL[3], cU[3], nU[3], d[3], X[3];
+        if (J->bl == 0) continue;     /* the ground is unbounded */
+        cf_face_world(s, J->bl, &J->fl, cL, nL);
+        cf_face_world(s, J->bu, &J->fu, cU, nU);
+        d[0] = cU[0] - cL[0]; d[1] = cU[1] - cL[1]; d[2] = cU[2] - cL[2];
+        mat_tvec(s->R + 9 * J->bl, d, X);
+        if (!cf_face_inside(&J->fl, X[0], X[1], 0.0)) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OFF_FOOTPRINT; }
+    }
+    /* falling: a block's bottom-face centre a quarter of its height below the top
+     * face centre of the block that should carry it */
+    for (j = 0; j < nj; j++) {
+        const cf_joint *J = &s->jt[j];
+        double cL[3], nL[3], cU[3], nU[3];
+        cf_face_world(s, J->bl, &J->fl, cL, nL);
+        cf_face_world(s, J->bu, &J->fu, cU, nU);
+        if (cU[2] - cL[2] < -0.25 * s->blk_h[J->logical]) { *blk = J->logical; return CF_SOLVER_COLLAPSE_FALLING; }
+    }
+    *blk = -1;
+    return CF_SOLVER_COLLAPSE_NONE;
+}
+
+
+int cf_solver_monitor_begin(cf_solver *s, cf_monitor *m, double t_rec)
+{
+    double dt = s->dt, g = s->def.g;
+    int top = s->nblk - 1;
+    memset(m, 0, sizeof *m);
+    m->kres = (long)floor(0.005 / dt); if (m->kres < 1) m->kres = 1;
+    m->ring_len = (long)ceil(s->def.residual_window_s / (m->kres * dt)) + 1;
+    m->ring = (double *)calloc((size_t)m->ring_len * 2 * (size_t)s->nblk, sizeof(double));
+    if (!m->ring) return cf_solver_fail(s, CF_ENOMEM, "out of memory");
+    block_point(s, top, s->blk_top + 3 * top, m->top0);
+    m->scale_floor = 1e-6 * s->total_mass * g * s->total_h;
+    m->rest_ke = 1e-9 * s->total_mass * g * s->com_h;
+    m->next_rest = t_rec + 0.5;
+    return CF_OK;
+}
+
+void cf_solver_monitor_end(cf_monitor *m)
+{
+    free(m->ring);
+    m->ring = NULL;
+}
+
+/* The balance error at step n (0 when the ledger is not evaluated at this step). */
+double cf_solver_monitor_energy(cf_monitor *m, long n, double ke, double vg, const cf_step_energy *e)
+{
+    double err = 0.0, scale;
+    if (n == 0) { m->vg0 = vg; m->vs0 = e->vs; }
+    if (e->need) {
+        err = ke + (vg - m->vg0) + (e->vs - m->vs0) + m->Dslip + m->Ddamp + m->Dswitch - m->W;
+        scale = ke + fabs(vg - m->vg0) + fabs(e->vs - m->vs0) + m->Dslip + m->Ddamp + fabs(m->Dswitch) + fabs(m->W);
+        if (scale > m->scale_max) m->scale_max = scale;
+        if (fabs(err) > m->err_max) m->err_max = fabs(err);
+    }
+    return err;
+}
+
+/* EDP accumulators and history sample at step n. */
+void cf_solver_monitor_record(cf_solver *s, cf_monitor *m, long n, double t, double ke, double vg,
+                              const cf_step_energy *e, double err, int hist_now)
+{
+    int j, nblk = s->nblk, top = nblk - 1;
+    double p[3], dx, dy, d2;
+    block_point(s, top, s->blk_top + 3 * top, p);
+    dx = p[0] - m->top0[0]; dy = p[1] - m->top0[1];
+    d2 = sqrt(dx * dx + dy * dy);
+    if (d2 > m->max_top) m->max_top = d2;
+    if (n % m->kres == 0) {
+        double *slot = m->ring + 2 * nblk * m->ring_pos;
+        for (j = 0; j < nblk; j++) dislocation(s, j, slot + 2 * j, slot + 2 * j + 1);
+        m->ring_pos = (m->ring_pos + 1) % m->ring_len;
+        if (m->ring_count < m->ring_len) m->ring_count++;
+    }
+    if (hist_now) {
+        size_t h = (size_t)m->hcount++;
+        if (s->h_t) s->h_t[h] = t;
+        if (s->h_top) { s->h_top[2 * h] = dx; s->h_top[2 * h + 1] = dy; }
+        for (j = 0; j < nblk; j++) {
+            int b = s->blk_body[j];
+            if (s->h_pos) block_point(s, j, s->blk_off + 3 * j, s->h_pos + 3 * (h * nblk + j));
+            if (s->h_quat) memcpy(s->h_quat + 4 * (h * nblk + j), s->q + 4 * b, 4 * sizeof(double));
+            if (s->h_open) s->h_open[h * nblk + j] = opening(s, j);
+            if (s->h_fn) s->h_fn[h * nblk + j] = (s->def.monolithic && j > 0) ? NAN : s->jfn[j];
+            if (s->h_slip) dislocation(s, j, s->h_slip + 2 * (h * nblk + j), s->h_slip + 2 * (h * nblk + j) + 1);
+        }
+        if (s->h_en) {
+            double *en = s->h_en + CF_SOLVER_N_ENERGY * h;
+            en[0] = ke; en[1] = vg - m->vg0; en[2] = e->vs - m->vs0; en[3] = m->Dslip; en[4] = m->Ddamp; en[5] = m->W;
+            en[6] = err; en[7] = m->Dswitch;
+        }
+    }
+}
+
+/* After the record: at rest when the kinetic energy stayed below rest_ke over a whole
+ * half-second window. */
+int cf_solver_monitor_at_rest(cf_monitor *m, double t, double ke)
+{
+    if (ke > m->ke_win) m->ke_win = ke;
+    if (t >= m->next_rest) {
+        if (m->ke_win < m->rest_ke) return 1;
+        m->ke_win = 0; m->next_rest += 0.5;
+    }
+    return 0;
+}
+
+/* Residual dislocations (average of the ring over the last window), u_d, u_top. */
+void cf_solver_monitor_finish(cf_solver *s, cf_monitor *m, double *resid, cf_solver_result *res)
+{
+    int j, nblk = s->nblk;
+    double ud = 0.0;
+    for (j = 0; j < nblk; j++) {
+        double sx = 0, sy = 0, r;
+        long c;
+        for (c = 0; c < m->ring_count; c++) { sx += m->ring[2 * nblk * c + 2 * j]; sy += m->ring[2 * nblk * c + 2 * j + 1]; }
+        if (m->ring_count > 0) { sx /= m->ring_count; sy /= m->ring_count; }
+        r = sqrt(sx * sx + sy * sy);
+        if (resid) resid[j] = r;
+        if (r / s->joint_diam[j] > ud) ud = r / s->joint_diam[j];
+    }
+    res->u_d = ud;
+    if (m->scale_max < m->scale_floor) m->scale_max = m->scale_floor;
+    res->u_top = m->max_top / s->base_diam;
+    res->max_top_disp = m->max_top;
+    res->energy_error = m->err_max / m->scale_max;
+    res->energy_scale = m->scale_max;
+    res->energy_warning = res->energy_error > s->def.energy_tolerance;
+    res->n_history = (int)m->hcount;
+}

@@ -1,0 +1,117 @@
+/*
+ * solver_points_internal.h -- what the scalar and the SIMD point paths share: the
+ * constants of one face's pass, its sums, the polygon test with a hint, and the full
+ * per-point state logic around the contact law of contact_law.h (never in a cffi
+ * region).
+ */
+#ifndef CF_SOLVER_POINTS_INTERNAL_H
+#define CF_SOLVER_POINTS_INTERNAL_H
+
+#include "contact_law.h"
+#include "solver_internal.h"
+
+/* The constants of one face's pass over the points that touch it: the frame map and
+ * the relative displacement field over the step (both in the face frame), the face's
+ * thresholds. */
+typedef struct {
+    double M[9], t[3], mz[3];   /* X = M loc + t; mz = M[., 2] * (the points' shared body z) */
+    double A[3], W[3];          /* relative displacement of the upper body over the step: A + W x X */
+    double sgn;                 /* pen = sgn * Z */
+    double pmax;                /* a point deeper than this has passed beside or through the face */
+    double tol;                 /* the polygon test's growth, m */
+    double kn, mu;
+    int unbounded;              /* the face is the (unbounded) ground */
+    const cf_face *ff;          /* the face the points are tested against */
+} cf_face_pass;
+
+/* The sums of one face in the face frame, each component added in point order:
+ * force (fx, fy, fz), moment about the face centre (mx, my, mz), and over the whole
+ * joint the spring energy and normal force (vs, jfn; only at steps that evaluate the
+ * energy); the slip dissipation and contact_switch energy (J). */
+typedef struct {
+    double sm[8];
+    double dslip, dswitch;
+} cf_face_sums;
+
+/* Runs the points [k0, k1) against the face of P, adding to S in point order. */
+typedef void (*cf_points_run_fn)(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+
+/* solver_points.c: the forces of one joint's points, with the given face runner. */
+void cf_solver_points_joint(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e,
+                            cf_points_run_fn run);
+
+/* Regular polygon test with a hint: the projection of (X, Y) on the edge normals is
+ * unimodal around the polygon, so walking from the last maximising edge finds the
+ * maximum in a few steps. Inside iff that maximum <= apothem + tol. */
+static inline int cf_face_inside_hint(const cf_face *f, double X, double Y, double tol, int *hint)
+{
+    int n = f->n, k = *hint, kp, km;
+    double best, pp, pm;
+    if (X * X + Y * Y <= f->apo * f->apo) return 1;
+    best = X * f->ec[k] + Y * f->es[k];
+    kp = k + 1 == n ? 0 : k + 1;
+    pp = X * f->ec[kp] + Y * f->es[kp];
+    if (pp > best) {
+        do { k = kp; best = pp; kp = k + 1 == n ? 0 : k + 1; pp = X * f->ec[kp] + Y * f->es[kp]; } while (pp > best);
+    } else {
+        km = k == 0 ? n - 1 : k - 1;
+        pm = X * f->ec[km] + Y * f->es[km];
+        while (pm > best) { k = km; best = pm; km = k == 0 ? n - 1 : k - 1; pm = X * f->ec[km] + Y * f->es[km]; }
+    }
+    *hint = k;
+    return best <= f->apo + tol;
+}
+
+/* One sub-contact k against the face of P, any state: position in the face frame,
+ * open / off-the-face / in-contact transitions (with their energy bookkeeping), then
+ * the contact law. Returns 1 and its terms in t (fx, fy, fn, mx, my, mz, vs, fn) when
+ * it carries force, 0 when it is open, too deep or off the face. */
+static inline int cf_point_law(cf_solver *s, const cf_face_pass *P, int k, cf_face_sums *S, int *hint, double *t)
+{
+    double *fsx = s->p_fsx + k, *fsy = s->p_fsy + k, *state = s->p_state + k;
+    double lx = s->p_lx[k], ly = s->p_ly[k], w = s->p_w[k], fs[2], fn, dux, duy, fs2;
+    double X = P->M[0] * lx + P->M[1] * ly + P->mz[0] + P->t[0];
+    double Y = P->M[3] * lx + P->M[4] * ly + P->mz[1] + P->t[1];
+    double Z = P->M[6] * lx + P->M[7] * ly + P->mz[2] + P->t[2];
+    double pen = P->sgn * Z;
+    int slipping;
+    /* state: 0 open (or too deep), 1 in contact, 2 overlapping the plane but outside the
+     * face polygon */
+    if (!(pen > 0.0) || pen > P->pmax) {
+        S->dslip += cf_law_release(fsx, fsy, s->p_ihkw[k]);
+        *state = 0.0;
+        return 0;
+    }
+    if (!(P->unbounded || (X - s->p_hx[k]) * (X - s->p_hx[k]) + (Y - s->p_hy[k]) * (Y - s->p_hy[k]) <= s->p_fast[k]
+          || cf_face_inside_hint(P->ff, X, Y, P->tol, hint))) {
+        /* slid off the face while compressed: its normal spring energy leaves the
+         * model (booked as contact_switch, not as a balance error) */
+        if (*state == 1.0) S->dswitch += 0.5 * P->kn * w * pen * pen;
+        S->dslip += cf_law_release(fsx, fsy, s->p_ihkw[k]);
+        *state = 2.0;
+        return 0;
+    }
+    if (*state == 2.0) S->dswitch -= 0.5 * P->kn * w * pen * pen;   /* slid onto the face */
+    *state = 1.0;
+    dux = P->A[0] + P->W[1] * Z - P->W[2] * Y;
+    duy = P->A[1] + P->W[2] * X - P->W[0] * Z;
+    fs[0] = *fsx; fs[1] = *fsy;
+    S->dslip += cf_law_update(pen, dux, duy, s->p_knw[k], s->p_ksw[k], P->mu, fs, &fn, &slipping);
+    *fsx = fs[0]; *fsy = fs[1];
+    fs2 = fs[0] * fs[0] + fs[1] * fs[1];
+    /* on both sides the force on the upper body is +fn along the frame's z */
+    t[0] = fs[0]; t[1] = fs[1]; t[2] = fn;
+    CF_LAW_TERMS(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, 0.5, X, Y, Z, pen, fn, fs[0], fs[1], fs2, s->p_ihkw[k],
+                 t[3], t[4], t[5], t[6]);
+    t[7] = fn;
+    return 1;
+}
+
+/* add the terms t[0..7] of one point (same order as cf_face_sums) */
+static inline void cf_sums_add(cf_face_sums *S, const double *t, int need)
+{
+    S->sm[0] += t[0]; S->sm[1] += t[1]; S->sm[2] += t[2]; S->sm[3] += t[3]; S->sm[4] += t[4]; S->sm[5] += t[5];
+    if (need) { S->sm[6] += t[6]; S->sm[7] += t[7]; }
+}
+
+#endif

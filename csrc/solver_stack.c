@@ -1,0 +1,404 @@
+/*
+ * solver_stack.c -- the column as the solver sees it: rigid bodies and their mass
+ * properties, joints and their polygonal faces, the sub-contact points of each face,
+ * and the initial state (exact static equilibrium). Everything here runs once per
+ * cf_solver_setup; nothing here runs in the time loop except cf_solver_stack_reset.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "solver_internal.h"
+
+#define ALLOC(ptr, type, count) do { (ptr) = (type *)calloc((size_t)(count) > 0 ? (size_t)(count) : 1, sizeof(type)); \
+    if (!(ptr)) return cf_solver_fail(s, CF_ENOMEM, "out of memory"); } while (0)
+
+void cf_solver_stack_release(cf_solver *s)
+{
+    free(s->m); free(s->inertia); free(s->x); free(s->v); free(s->q); free(s->w); free(s->R);
+    free(s->F); free(s->T); free(s->x0); free(s->q0); free(s->fext_prev); free(s->fdamp_prev);
+    free(s->tdamp_prev); free(s->blk_body); free(s->blk_off); free(s->blk_top); free(s->blk_bot);
+    free(s->blk_h); free(s->blk_m); free(s->joint_diam); free(s->blk_rc); free(s->jt); free(s->p_side);
+    free(s->p_hint); free(s->p_ihkw); free(s->p_loc); free(s->p_w); free(s->jfn);
+    free(s->p_lx); free(s->p_ly); free(s->p_hx); free(s->p_hy); free(s->p_fast); free(s->p_knw); free(s->p_ksw);
+    free(s->p_fsx); free(s->p_fsy); free(s->p_state);
+    free(s->ww); free(s->vold); free(s->wold);
+    s->ww = s->vold = s->wold = NULL;
+    s->m = s->inertia = s->x = s->v = s->q = s->w = s->R = s->F = s->T = s->x0 = s->q0 = NULL;
+    s->fext_prev = s->fdamp_prev = s->tdamp_prev = NULL;
+    s->blk_body = NULL;
+    s->blk_off = s->blk_top = s->blk_bot = s->blk_h = s->blk_m = s->joint_diam = s->blk_rc = NULL;
+    s->jt = NULL; s->p_side = s->p_hint = NULL;
+    s->p_ihkw = s->p_loc = s->p_w = s->jfn = NULL;
+    s->p_lx = s->p_ly = s->p_hx = s->p_hy = s->p_fast = s->p_knw = s->p_ksw = NULL;
+    s->p_fsx = s->p_fsy = s->p_state = NULL;
+    s->np = s->nj = s->nbody = s->nblk = 0;
+}
+
+/* ---- faces and their sub-contact points ------------------------------------------ */
+
+static void make_face(cf_face *f, int n, double r, double phase, double cz)
+{
+    int k;
+    double a = CF_PI / n;
+    f->c[0] = 0; f->c[1] = 0; f->c[2] = cz;
+    f->n = n; f->rc = r; f->apo = r * cos(a);
+    f->area = cf_geometry_polygon_area(n, r);
+    for (k = 0; k < n; k++) {
+        double ph = phase + 2.0 * CF_PI * k / n;
+        f->vx[k] = r * cos(ph); f->vy[k] = r * sin(ph);
+        f->poly[2 * k] = f->vx[k]; f->poly[2 * k + 1] = f->vy[k];
+        f->ec[k] = cos(ph + a); f->es[k] = sin(ph + a);
+    }
+    for (k = 0; k < n + 2; k++) {
+        int m = (k + n - 1) % n;
+        f->ecw[k] = f->ec[m]; f->esw[k] = f->es[m];
+    }
+}
+
+/* Sub-contact points of one face (body frame), weights summing to wsum.
+ * mode VERTEX: the n vertices; PERIMETER: nodes of the fan triangulation refined
+ * m times (m points per polygon edge, interior nodes too), lumped (trapezoidal)
+ * area weights, which converge to the exact interface as m grows.
+ * Writes up to count_face_points() entries; returns the count. */
+static int count_face_points(int n, int mode, int m)
+{
+    if (mode == CF_SOLVER_CONTACT_VERTEX) return n;
+    return 1 + n * m * (m + 1) / 2;
+}
+
+static int face_points(const cf_face *f, int mode, int m, double wsum, double *loc, double *wt)
+{
+    int k, c = 0, ring, t;
+    if (mode == CF_SOLVER_CONTACT_VERTEX) {
+        for (k = 0; k < f->n; k++) {
+            loc[3 * c] = f->c[0] + f->vx[k]; loc[3 * c + 1] = f->c[1] + f->vy[k]; loc[3 * c + 2] = f->c[2];
+            wt[c++] = wsum / f->n;
+        }
+        return c;
+    }
+    {
+        double at = wsum / f->n / ((double)m * m) / 3.0;   /* one third of a sub-triangle */
+        loc[0] = f->c[0]; loc[1] = f->c[1]; loc[2] = f->c[2];
+        wt[0] = at * f->n;
+        c = 1;
+        for (ring = 1; ring <= m; ring++) {
+            double sc = (double)ring / m;
+            for (k = 0; k < f->n; k++) {
+                int k1 = (k + 1) % f->n;
+                for (t = 0; t < ring; t++) {
+                    double u = (double)t / ring;
+                    int cnt;
+                    loc[3 * c] = f->c[0] + sc * (f->vx[k] + u * (f->vx[k1] - f->vx[k]));
+                    loc[3 * c + 1] = f->c[1] + sc * (f->vy[k] + u * (f->vy[k1] - f->vy[k]));
+                    loc[3 * c + 2] = f->c[2];
+                    if (ring < m) cnt = 6;
+                    else cnt = (t == 0) ? 2 : 3;
+                    wt[c++] = at * cnt;
+                }
+            }
+        }
+    }
+    return c;
+}
+
+/* ---- bodies --------------------------------------------------------------------- */
+
+static int alloc_bodies(cf_solver *s, int nblk, int nbody, int nj)
+{
+    ALLOC(s->m, double, nbody); ALLOC(s->inertia, double, 3 * nbody);
+    ALLOC(s->x, double, 3 * nbody); ALLOC(s->v, double, 3 * nbody); ALLOC(s->q, double, 4 * nbody);
+    ALLOC(s->w, double, 3 * nbody); ALLOC(s->R, double, 9 * nbody); ALLOC(s->F, double, 3 * nbody);
+    ALLOC(s->T, double, 3 * nbody); ALLOC(s->x0, double, 3 * nbody); ALLOC(s->q0, double, 4 * nbody);
+    ALLOC(s->fext_prev, double, 3 * nbody); ALLOC(s->fdamp_prev, double, 3 * nbody);
+    ALLOC(s->tdamp_prev, double, 3 * nbody);
+    ALLOC(s->blk_body, int, nblk); ALLOC(s->blk_off, double, 3 * nblk); ALLOC(s->blk_top, double, 3 * nblk);
+    ALLOC(s->blk_bot, double, 3 * nblk); ALLOC(s->blk_h, double, nblk); ALLOC(s->blk_m, double, nblk);
+    ALLOC(s->joint_diam, double, nblk);
+    ALLOC(s->jt, cf_joint, nj);
+    ALLOC(s->jfn, double, nj);
+    ALLOC(s->ww, double, 3 * nbody); ALLOC(s->vold, double, 3 * nbody); ALLOC(s->wold, double, 3 * nbody);
+
+    ALLOC(s->blk_rc, double, nblk);
+    return CF_OK;
+}
+
+/* Mass properties of each logical block (bp), bottom heights (zbot), totals. */
+static void block_masses(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs,
+                         cf_geometry_massprops *bp, double *zbot)
+{
+    int i, k;
+    double density = s->density;
+    {
+        int off = 0;
+        double mz = 0;
+        s->total_mass = 0;
+        for (i = 0; i < nblk; i++) {
+            cf_geometry_block_props(segs + off, nseg[i], density, &bp[i]);
+            zbot[i + 1] = zbot[i] + bp[i].height;
+            s->blk_h[i] = bp[i].height; s->blk_m[i] = bp[i].mass;
+            s->joint_diam[i] = 2.0 * segs[off].r_bottom;
+            s->blk_rc[i] = 0.0;
+            for (k = off; k < off + nseg[i]; k++) {
+                if (segs[k].r_bottom > s->blk_rc[i]) s->blk_rc[i] = segs[k].r_bottom;
+                if (segs[k].r_top > s->blk_rc[i]) s->blk_rc[i] = segs[k].r_top;
+            }
+            s->total_mass += bp[i].mass;
+            mz += bp[i].mass * (zbot[i] + bp[i].com_z);
+            off += nseg[i];
+        }
+        s->total_h = zbot[nblk];
+        s->com_h = mz / s->total_mass;
+        s->base_diam = 2.0 * segs[0].r_bottom;
+    }
+}
+
+/* Bodies: frame origin at the body's centre of mass, axes along the column. */
+static void bodies_place(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs, int nseg_tot,
+                         const cf_geometry_massprops *bp, const double *zbot)
+{
+    int i;
+    const cf_solver_def *def = &s->def;
+    double density = s->density;
+    s->m[0] = INFINITY;
+    if (def->monolithic) {
+        cf_geometry_massprops all;
+        cf_geometry_block_props(segs, nseg_tot, density, &all);
+        s->m[1] = all.mass;
+        s->inertia[3] = all.ixx; s->inertia[4] = all.ixx; s->inertia[5] = all.izz;
+        for (i = 0; i < nblk; i++) {
+            s->blk_body[i] = 1;
+            s->blk_off[3 * i + 2] = zbot[i] + bp[i].com_z - all.com_z;
+            s->blk_bot[3 * i + 2] = zbot[i] - all.com_z;
+            s->blk_top[3 * i + 2] = zbot[i + 1] - all.com_z;
+        }
+    } else {
+        for (i = 0; i < nblk; i++) {
+            s->m[i + 1] = bp[i].mass;
+            s->inertia[3 * (i + 1)] = bp[i].ixx; s->inertia[3 * (i + 1) + 1] = bp[i].ixx;
+            s->inertia[3 * (i + 1) + 2] = bp[i].izz;
+            s->blk_body[i] = i + 1;
+            s->blk_bot[3 * i + 2] = -bp[i].com_z;
+            s->blk_top[3 * i + 2] = bp[i].height - bp[i].com_z;
+        }
+    }
+    (void)nseg;
+}
+
+/* Joints and their faces: joint j carries block j on block j - 1 (or on the ground). */
+static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs)
+{
+    int i, j, nj = s->nj;
+    const cf_solver_def *def = &s->def;
+    {
+        int off = 0;
+        int *first = (int *)calloc((size_t)nblk, sizeof(int)), *last = (int *)calloc((size_t)nblk, sizeof(int));
+        if (!first || !last) { free(first); free(last); return cf_solver_fail(s, CF_ENOMEM, "out of memory"); }
+        for (i = 0; i < nblk; i++) { first[i] = off; last[i] = off + nseg[i] - 1; off += nseg[i]; }
+        for (j = 0; j < nj; j++) {
+            cf_joint *J = &s->jt[j];
+            const cf_geometry_segment *bot = &segs[first[j]];
+            J->logical = j;
+            J->bl = def->monolithic ? 0 : j;
+            J->bu = def->monolithic ? 1 : j + 1;
+            make_face(&J->fu, bot->n_sides, bot->r_bottom, bot->phase_rad, s->blk_bot[3 * j + 2]);
+            if (j == 0) {
+                make_face(&J->fl, bot->n_sides, bot->r_bottom, bot->phase_rad, 0.0);
+            } else {
+                const cf_geometry_segment *top = &segs[last[j - 1]];
+                make_face(&J->fl, top->n_sides, top->r_top, top->phase_rad, s->blk_top[3 * (j - 1) + 2]);
+            }
+            J->area = J->fl.area < J->fu.area ? J->fl.area : J->fu.area;
+            {
+                const cf_face *fa = J->fl.area < J->fu.area ? &J->fl : &J->fu;
+                J->polar = fa->area * fa->rc * fa->rc * (2.0 + cos(2.0 * CF_PI / fa->n)) / 6.0;
+            }
+        }
+        free(first); free(last);
+    }
+    return CF_OK;
+}
+
+/* Sub-contacts: the upper face's points tested against the lower face (side 0) and
+ * the lower face's points tested against the upper face (side 1), each set carrying
+ * half of the joint area; then the hot loop's arrays. */
+static int points_make(cf_solver *s)
+{
+    int j, k, np, nj = s->nj, mode = s->def.contact, mm = s->def.points_per_edge;
+    const cf_solver_def *def = &s->def;
+    double kn = s->kn, ks = s->ks;
+    np = 0;
+    if (mode != CF_SOLVER_CONTACT_EXACT)
+        for (j = 0; j < nj; j++)
+            np += count_face_points(s->jt[j].fu.n, mode, mm) + (j == 0 ? 0 : count_face_points(s->jt[j].fl.n, mode, mm));
+    s->np = np;
+    ALLOC(s->p_side, int, np); ALLOC(s->p_hint, int, np); ALLOC(s->p_ihkw, double, np);
+    ALLOC(s->p_loc, double, 3 * np); ALLOC(s->p_w, double, np);
+    if (mode != CF_SOLVER_CONTACT_EXACT) {
+        int c = 0, n1, n2;
+        /* filled below, then 1 / (2 ks w) per point */
+        for (j = 0; j < nj; j++) {
+            cf_joint *J = &s->jt[j];
+            J->p0 = c;
+            /* the ground (joint 0) is unbounded: the block's own points carry the whole area */
+            n1 = face_points(&J->fu, mode, mm, (j == 0 ? 1.0 : 0.5) * J->area, s->p_loc + 3 * c, s->p_w + c);
+            for (k = 0; k < n1; k++) s->p_side[c + k] = 0;
+            c += n1;
+            n2 = j == 0 ? 0 : face_points(&J->fl, mode, mm, 0.5 * J->area, s->p_loc + 3 * c, s->p_w + c);
+            for (k = 0; k < n2; k++) s->p_side[c + k] = 1;
+            c += n2;
+            J->np = n1 + n2;
+            J->n0 = n1;
+        }
+    }
+    /* planar mode with faces symmetric about the x-z plane: the motion is symmetric, so
+     * a point at -y mirrors its twin at +y; keep one of each pair with twice its weight
+     * (the out-of-plane force and moments they would cancel are discarded anyway) */
+    if (def->planar && mode != CF_SOLVER_CONTACT_EXACT) {
+        int sym = 1;
+        for (j = 0; j < nj && sym; j++) {
+            const cf_face *ff[2];
+            int t;
+            ff[0] = &s->jt[j].fl; ff[1] = &s->jt[j].fu;
+            for (t = 0; t < 2; t++) {
+                const cf_face *f = ff[t];
+                int m2;
+                for (k = 0; k < f->n; k++) {   /* every vertex has a mirror vertex */
+                    for (m2 = 0; m2 < f->n; m2++)
+                        if (fabs(f->vx[m2] - f->vx[k]) < 1e-12 * f->rc && fabs(f->vy[m2] + f->vy[k]) < 1e-12 * f->rc) break;
+                    if (m2 == f->n) { sym = 0; break; }
+                }
+            }
+        }
+        if (sym) {
+            int c = 0;
+            for (j = 0; j < nj; j++) {
+                cf_joint *J = &s->jt[j];
+                int start = c, n0 = 0;
+                for (k = J->p0; k < J->p0 + J->np; k++) {
+                    double y = s->p_loc[3 * k + 1], scale = 1.0;
+                    double r = J->fu.rc;
+                    if (y < -1e-9 * r) continue;
+                    if (y > 1e-9 * r) scale = 2.0;
+                    s->p_side[c] = s->p_side[k];
+                    memmove(s->p_loc + 3 * c, s->p_loc + 3 * k, 3 * sizeof(double));
+                    s->p_w[c] = scale * s->p_w[k];
+                    if (k < J->p0 + J->n0) n0++;
+                    c++;
+                }
+                J->p0 = start; J->np = c - start; J->n0 = n0;
+            }
+            s->np = np = c;
+        }
+    }
+    for (k = 0; k < np; k++) s->p_ihkw[k] = 0.5 / (ks * s->p_w[k]);
+    ALLOC(s->p_lx, double, np); ALLOC(s->p_ly, double, np); ALLOC(s->p_hx, double, np);
+    ALLOC(s->p_hy, double, np); ALLOC(s->p_fast, double, np); ALLOC(s->p_knw, double, np);
+    ALLOC(s->p_ksw, double, np); ALLOC(s->p_fsx, double, np); ALLOC(s->p_fsy, double, np);
+    ALLOC(s->p_state, double, np);
+    /* rest position of each point in the frame of the face it touches (face centres
+     * aligned); a point within contact_tolerance of a home that lies inside that face
+     * is inside the grown polygon: the cheap test of the hot loop */
+    for (j = 0; j < nj; j++) {
+        cf_joint *J = &s->jt[j];
+        for (k = J->p0; k < J->p0 + J->np; k++) {
+            const cf_face *own = s->p_side[k] == 0 ? &J->fu : &J->fl, *oth = s->p_side[k] == 0 ? &J->fl : &J->fu;
+            double hx = s->p_loc[3 * k] - own->c[0], hy = s->p_loc[3 * k + 1] - own->c[1];
+            double tol = def->contact_tolerance * oth->rc;
+            int homein;
+            homein = cf_face_inside(oth, hx, hy, 1e-9 * oth->rc);
+            s->p_lx[k] = s->p_loc[3 * k]; s->p_ly[k] = s->p_loc[3 * k + 1];
+            s->p_hx[k] = hx; s->p_hy[k] = hy;
+            /* squared radius of the cheap test (-1: none; the point then takes the polygon test) */
+            s->p_fast[k] = (homein && tol > 2e-9 * oth->rc) ? (tol - 1e-9 * oth->rc) * (tol - 1e-9 * oth->rc) : -1.0;
+            s->p_knw[k] = kn * s->p_w[k]; s->p_ksw[k] = ks * s->p_w[k];
+        }
+        /* every point of a face lies in that face's plane: one body-frame z per face */
+        J->lz[0] = J->fu.c[2]; J->lz[1] = J->fl.c[2];
+        for (k = J->p0; k < J->p0 + J->np; k++)
+            if (s->p_loc[3 * k + 2] != J->lz[s->p_side[k]]) { return cf_solver_fail(s, CF_EINVAL, "internal: point off its face plane"); }
+    }
+    return CF_OK;
+}
+
+/* Initial state: exact static equilibrium, joint j pre-compressed by the weight above
+ * it (uniform overlap W / (kn A) over the face), shear zero; optionally tilted. */
+static void equilibrium(cf_solver *s, int nblk, const cf_geometry_segment *segs, int nseg_tot,
+                        const cf_geometry_massprops *bp, const double *zbot)
+{
+    int i, j, k, nj = s->nj, nbody = s->nbody;
+    const cf_solver_def *def = &s->def;
+    double kn = s->kn, density = s->density;
+    {
+        double settle = 0.0, wabove;
+        for (i = 0; i < 4 * nbody; i += 4) s->q0[i] = 1.0;
+        for (j = 0; j < nj; j++) {
+            wabove = 0;
+            for (k = (def->monolithic ? 0 : j); k < nblk; k++) wabove += s->blk_m[k] * def->g;
+            settle += wabove / (kn * s->jt[j].area);
+            if (def->monolithic) {
+                cf_geometry_massprops all;
+                cf_geometry_block_props(segs, nseg_tot, density, &all);
+                s->x0[3 * 1 + 2] = all.com_z - settle;
+            } else {
+                s->x0[3 * (j + 1) + 2] = zbot[j] + bp[j].com_z - settle;
+            }
+        }
+        if (def->initial_tilt_rad != 0.0) {
+            /* rigid rotation about the line through the outermost +x base vertex, parallel to y */
+            const cf_face *f = &s->jt[0].fu;
+            double xp = f->vx[0], th = def->initial_tilt_rad, c = cos(th), sn = sin(th);
+            double zp = s->x0[3 * 1 + 2] + f->c[2];
+            for (k = 1; k < f->n; k++) if (f->vx[k] > xp) xp = f->vx[k];
+            for (i = 1; i < nbody; i++) {
+                double dx = s->x0[3 * i] - xp, dz = s->x0[3 * i + 2] - zp;
+                s->x0[3 * i] = xp + c * dx + sn * dz;
+                s->x0[3 * i + 2] = zp - sn * dx + c * dz;
+                s->q0[4 * i] = cos(0.5 * th); s->q0[4 * i + 1] = 0; s->q0[4 * i + 2] = sin(0.5 * th);
+                s->q0[4 * i + 3] = 0;
+            }
+        }
+    }
+}
+
+int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs)
+{
+    int i, st, nseg_tot = 0;
+    cf_geometry_massprops *bp;
+    double *zbot;
+    for (i = 0; i < nblk; i++) nseg_tot += nseg[i];
+    s->nblk = nblk;
+    s->nbody = s->def.monolithic ? 2 : nblk + 1;
+    s->nj = s->def.monolithic ? 1 : nblk;
+    st = alloc_bodies(s, nblk, s->nbody, s->nj);
+    if (st) return st;
+    bp = (cf_geometry_massprops *)calloc((size_t)nblk, sizeof *bp);
+    zbot = (double *)calloc((size_t)nblk + 1, sizeof(double));
+    if (!bp || !zbot) { free(bp); free(zbot); return cf_solver_fail(s, CF_ENOMEM, "out of memory"); }
+    block_masses(s, nblk, nseg, segs, bp, zbot);
+    bodies_place(s, nblk, nseg, segs, nseg_tot, bp, zbot);
+    st = joints_make(s, nblk, nseg, segs);
+    if (!st) st = points_make(s);
+    if (!st) equilibrium(s, nblk, segs, nseg_tot, bp, zbot);
+    free(bp); free(zbot);
+    return st;
+}
+
+/* The state at the start of a run: the initial equilibrium, at rest, no stored shear. */
+void cf_solver_stack_reset(cf_solver *s)
+{
+    int j, nb = s->nbody;
+    memcpy(s->x, s->x0, sizeof(double) * 3 * (size_t)nb);
+    memcpy(s->q, s->q0, sizeof(double) * 4 * (size_t)nb);
+    memset(s->v, 0, sizeof(double) * 3 * (size_t)nb);
+    memset(s->w, 0, sizeof(double) * 3 * (size_t)nb);
+    if (s->np > 0) {
+        memset(s->p_fsx, 0, sizeof(double) * (size_t)s->np);
+        memset(s->p_fsy, 0, sizeof(double) * (size_t)s->np);
+        memset(s->p_state, 0, sizeof(double) * (size_t)s->np);
+    }
+    memset(s->fext_prev, 0, sizeof(double) * 3 * (size_t)nb);
+    memset(s->fdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);
+    memset(s->tdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);
+    for (j = 0; j < s->nj; j++) { s->jt[j].fs[0] = s->jt[j].fs[1] = s->jt[j].fs[2] = 0; s->jt[j].mt = 0; }
+}
