@@ -1,14 +1,14 @@
-/* contact.c -- sub-contact law (normal spring, incremental Coulomb shear) and the
+/* contact.c -- the sub-contact law's unit-test entry point (the law is contact_law.h) and the
  * exact-interface integration over clipped polygons. */
 #include <math.h>
 #include <string.h>
 #include "contact.h"
-#include "contact_internal.h"
+#include "contact_law.h"
 
-double cf_contact_point(double pen, const double n[3], const double du[3], double w, double kn, double ks,
-                        double mu, double fs[3], double *fn, int *slipping)
+double cf_contact_point(double pen, const double du[2], double w, double kn, double ks, double mu, double fs[2],
+                        double *fn, int *slipping)
 {
-    return contact_point_law(pen, n, du, w, kn, ks, mu, fs, fn, slipping);
+    return cf_law_update(pen, du[0], du[1], kn * w, ks * w, mu, fs, fn, slipping);
 }
 
 void cf_contact_polygon_moments(const double *p, int n, double m[6])

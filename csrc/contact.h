@@ -2,9 +2,9 @@
  * contact.h -- the joint contact laws of the solver, as small kernels that the C
  * unit tests call directly (exported cf_contact_*, not part of the Python API).
  *
- * Sub-contact (vertex / refined points, 3DEC-like): normal force kn*w*pen
- * (pen = overlap, no tension), incremental shear force updated by -ks*w*du and
- * capped by Coulomb mu*N. Exact interface: the normal pressure kn*pen(X,Y), pen
+ * Sub-contact (vertex / refined points, 3DEC-like; the law is contact_law.h):
+ * normal force kn*w*pen (pen = overlap, no tension), incremental shear force
+ * updated by -ks*w*du and capped by Coulomb mu*N. Exact interface: the normal pressure kn*pen(X,Y), pen
  * linear over the joint plane, integrated exactly over the compressed part of the
  * overlap polygon of the two faces.
  */
@@ -13,18 +13,19 @@
 
 #define CF_CONTACT_MAXV 256  /* largest clipped polygon handled (vertices) */
 
-/* One sub-contact update. pen: overlap along n (m, > 0 in contact); n: unit normal
- * (pointing into the body that receives +force); du: relative displacement
- * increment of that body w.r.t. the other over the step (m; its normal part is
- * ignored); w: area share (m^2); kn, ks: Pa/m; mu = tan(phi). fs (in/out): shear
- * force vector (N) -- first turned into the current tangent plane keeping its
- * magnitude, then incremented and capped. *fn gets the normal force (N, >= 0),
- * *slipping 1 when the cap was active. Returns the energy dissipated by slip in
- * this update (J): the elastic shear energy |fs|^2/(2 ks w) lost at the cap (the
- * trapezoidal friction work of the slip increment). With pen <= 0 the shear state
- * is released (fs = 0) and its stored energy is returned as dissipated. */
-double cf_contact_point(double pen, const double n[3], const double du[3], double w, double kn, double ks,
-                        double mu, double fs[3], double *fn, int *slipping);
+/* One sub-contact update: the law of contact_law.h (the one text the solver runs),
+ * exported for the C unit tests. In the frame of the face the contact presses on
+ * (normal +z): pen = overlap (m, > 0 in contact); du = tangential displacement
+ * increment (x, y) of the pressing body over the step (m); w = area share (m^2);
+ * kn, ks: Pa/m; mu = tan(phi). fs (in/out): the stored shear force (x, y) in that
+ * frame (N): incremented by -ks w du, capped at mu fn. *fn gets the normal force
+ * (N, >= 0), *slipping 1 when the cap was active. Returns the energy dissipated by
+ * slip in this update (J): the trapezoidal work on the contact minus the change of
+ * its elastic shear energy |fs|^2/(2 ks w). With pen <= 0 the shear is released
+ * (fs = 0) and its stored energy is returned as dissipated. Kept in the face frame,
+ * the shear force turns with the face exactly. */
+double cf_contact_point(double pen, const double du[2], double w, double kn, double ks, double mu, double fs[2],
+                        double *fn, int *slipping);
 
 /* Area moments of a simple polygon (x,y pairs, counter-clockwise, n vertices):
  * m[0] = A, m[1] = int x, m[2] = int y, m[3] = int x^2, m[4] = int xy, m[5] = int y^2. */

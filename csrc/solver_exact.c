@@ -2,12 +2,13 @@
  * solver_exact.c -- contact model "exact": the limit of infinitely many contact points.
  * The normal pressure kn * overlap is integrated exactly over the compressed part of
  * the overlap polygon of the two faces (cf_contact_exact, contact.c); shear and
- * torsion are joint-level springs (see joint_exact).
+ * torsion are joint-level springs (see joint_exact); the shear follows the contact
+ * law of contact_law.h, kept in the lower face's frame like every point's.
  */
 #include <math.h>
 
 #include "contact.h"
-#include "contact_internal.h"
+#include "contact_law.h"
 #include "solver_internal.h"
 #include "solver_math_internal.h"
 
@@ -85,27 +86,32 @@ static void joint_exact(cf_solver *s, cf_joint *J, const double *ww, double dt, 
         else nv = cf_contact_exact(J->fl.poly, J->fl.n, up, J->fu.n, p0, px, py, s->kn, &r);
     }
     if (nv == 0 || !(r.force > 0.0)) {
-        double st = J->fs[0] * J->fs[0] + J->fs[1] * J->fs[1] + J->fs[2] * J->fs[2];
-        if (st > 0.0 || J->mt != 0.0) {
-            /* released: stored shear energy counted as dissipated */
-            e->dslip += 0.5 * st / (ks * J->area) + 0.5 * J->mt * J->mt / (ks * J->polar);
-            J->fs[0] = J->fs[1] = J->fs[2] = 0.0; J->mt = 0.0;
+        /* released: stored shear and torsion energy counted as dissipated */
+        e->dslip += cf_law_release(&J->fs[0], &J->fs[1], 0.5 / (ks * J->area));
+        if (J->mt != 0.0) {
+            e->dslip += 0.5 * J->mt * J->mt / (ks * J->polar);
+            J->mt = 0.0;
         }
         return;
     }
     {
-        double P[3], loc[3], du[3], Fw[3], pen_eq, wr, mt_trial, lim, kt, req;
+        double P[3], loc[3], du[3], duf[3], fsf[3], Fs[3], Fw[3], pen_eq, wr, mt_trial, lim, kt, req;
         loc[0] = r.xc; loc[1] = r.yc; loc[2] = 0.0;
         mat_vec(RL, loc, P);
         P[0] += cL[0]; P[1] += cL[1]; P[2] += cL[2];
         rel_vel(s, bl, bu, ww + 3 * bl, ww + 3 * bu, cL, du);
         du[0] *= dt; du[1] *= dt; du[2] *= dt;
+        /* the joint as one contact of contact_law.h in the lower face's frame: the
+         * equivalent uniform overlap carries the integrated normal force */
+        mat_tvec(RL, du, duf);
         pen_eq = r.force / (s->kn * J->area);
-        e->dslip += contact_point_law(pen_eq, nL, du, J->area, s->kn, ks, s->mu, J->fs, &fn, &sl);
+        e->dslip += cf_law_update(pen_eq, duf[0], duf[1], s->kn * J->area, ks * J->area, s->mu, J->fs, &fn, &sl);
         s->jfn[J - s->jt] = fn;
         Fw[0] = fn * nL[0]; Fw[1] = fn * nL[1]; Fw[2] = fn * nL[2];
         apply_pair(s, bl, bu, P, Fw);
-        apply_pair(s, bl, bu, cL, J->fs);
+        fsf[0] = J->fs[0]; fsf[1] = J->fs[1]; fsf[2] = 0.0;
+        mat_vec(RL, fsf, Fs);
+        apply_pair(s, bl, bu, cL, Fs);
         /* torsion about the joint normal */
         kt = ks * J->polar;
         wr = v3_dot(ww + 3 * bu, nL) - (bl ? v3_dot(ww + 3 * bl, nL) : 0.0);
@@ -121,7 +127,7 @@ static void joint_exact(cf_solver *s, cf_joint *J, const double *ww, double dt, 
         J->mt = mt_trial;
         s->T[3 * bu] += J->mt * nL[0]; s->T[3 * bu + 1] += J->mt * nL[1]; s->T[3 * bu + 2] += J->mt * nL[2];
         if (bl) { s->T[3 * bl] -= J->mt * nL[0]; s->T[3 * bl + 1] -= J->mt * nL[1]; s->T[3 * bl + 2] -= J->mt * nL[2]; }
-        e->vs += r.energy + 0.5 * (J->fs[0] * J->fs[0] + J->fs[1] * J->fs[1] + J->fs[2] * J->fs[2]) / (ks * J->area)
+        e->vs += r.energy + 0.5 * (J->fs[0] * J->fs[0] + J->fs[1] * J->fs[1]) / (ks * J->area)
                + 0.5 * J->mt * J->mt / kt;
     }
 }

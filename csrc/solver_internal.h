@@ -49,7 +49,7 @@ typedef struct {
     cf_face fl, fu;         /* lower body's top face, upper body's bottom face */
     double area;            /* joint area, m^2 */
     int p0, np, n0;         /* its sub-contacts: [p0, p0 + np), the first n0 on the upper face */
-    double fs[3], mt;       /* exact mode: joint shear force (N, world), torsional moment (N m) */
+    double fs[2], mt;       /* exact mode: joint shear force (N, lower face frame), torsional moment (N m) */
     double polar;           /* exact mode: polar moment of the joint area about its centre, m^4 */
     double lz[2];           /* body-frame z of the points of side 0 (upper face) and side 1 (lower face) */
 } cf_joint;

@@ -400,5 +400,5 @@ void cf_solver_stack_reset(cf_solver *s)
     memset(s->fext_prev, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->fdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->tdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);
-    for (j = 0; j < s->nj; j++) { s->jt[j].fs[0] = s->jt[j].fs[1] = s->jt[j].fs[2] = 0; s->jt[j].mt = 0; }
+    for (j = 0; j < s->nj; j++) { s->jt[j].fs[0] = s->jt[j].fs[1] = 0; s->jt[j].mt = 0; }
 }
