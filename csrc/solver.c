@@ -72,8 +72,10 @@ double cf_solver_dt(const cf_solver *s) { return s && s->ready ? s->dt : NAN; }
 
 /* ---- set-up --------------------------------------------------------------------- */
 
-static int check_def(cf_solver *s, const cf_solver_def *d)
+int cf_solver_check_def(cf_solver *s, const cf_solver_def *d)
 {
+    if (!s) return CF_EINVAL;
+    if (!d) return cf_solver_fail(s, CF_EINVAL, "no solver definition");
     if (d->contact < 0 || d->contact > 2) return cf_solver_fail(s, CF_EINVAL, "contact must be 0 (vertex), 1 (perimeter) or 2 (exact), got %d", d->contact);
     if (d->points_per_edge < 1 || d->points_per_edge > 64) return cf_solver_fail(s, CF_EINVAL, "points_per_edge must be in [1, 64], got %d", d->points_per_edge);
     if (!(d->dt >= 0.0) || !isfinite(d->dt)) return cf_solver_fail(s, CF_EINVAL, "dt must be >= 0 (0 = automatic), got %g", d->dt);
@@ -110,7 +112,7 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
     release(s);
     s->msg[0] = 0;
     if (!def) return cf_solver_fail(s, CF_EINVAL, "no solver definition");
-    st = check_def(s, def);
+    st = cf_solver_check_def(s, def);
     if (st) return st;
     if (nblk < 1 || !nseg || !segs) return cf_solver_fail(s, CF_EINVAL, "a column needs at least one block, got %d", nblk);
     for (i = 0; i < nblk; i++) {
@@ -154,12 +156,14 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
     return CF_OK;
 }
 
-int cf_solver_history_capacity(const cf_solver *s, int n, double dt_rec)
+long cf_solver_history_capacity(const cf_solver *s, int n, double dt_rec)
 {
-    double t_final;
+    double t_final, cap;
     if (!s || !s->ready || n < 1 || !(dt_rec > 0)) return 0;
     t_final = (n - 1) * dt_rec + s->def.tail_s;
-    return (int)floor(t_final / s->def.history_dt + 1e-9) + 2;
+    cap = floor(t_final / s->def.history_dt + 1e-9) + 2;
+    if (!(cap <= CF_SOLVER_MAX_HISTORY)) return -1;
+    return (long)cap;
 }
 
 int cf_solver_set_history_normal(cf_solver *s, double *joint_normal)
@@ -169,11 +173,12 @@ int cf_solver_set_history_normal(cf_solver *s, double *joint_normal)
     return CF_OK;
 }
 
-int cf_solver_set_history(cf_solver *s, int cap, double *t, double *top, double *pos, double *quat,
+int cf_solver_set_history(cf_solver *s, long cap, double *t, double *top, double *pos, double *quat,
                           double *open, double *slip, double *en)
 {
     if (!s) return CF_EINVAL;
-    if (cap < 0) return cf_solver_fail(s, CF_EINVAL, "history capacity must be >= 0, got %d", cap);
+    if (cap < 0 || cap > CF_SOLVER_MAX_HISTORY)
+        return cf_solver_fail(s, CF_EINVAL, "history capacity must be in [0, %d], got %ld", CF_SOLVER_MAX_HISTORY, cap);
     s->h_cap = cap; s->h_t = t; s->h_top = top; s->h_pos = pos; s->h_quat = quat; s->h_open = open;
     s->h_slip = slip; s->h_en = en;
     return CF_OK;
@@ -216,7 +221,14 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
     dt = s->dt; alpha = s->def.damping_alpha; tdamp = s->def.damping_start_s;
     t_rec = (nrec - 1) * dtr;
     t_final = t_rec + s->def.tail_s;
-    nsteps = (long)ceil(t_final / dt - 1e-9);
+    {
+        /* in double first: a tiny dt must not overflow the step count */
+        double ns = ceil(t_final / dt - 1e-9);
+        if (!(ns <= CF_SOLVER_MAX_STEPS))
+            return cf_solver_fail(s, CF_EINVAL, "the run needs %.4g steps (%.4g s of response at dt = %.4g s), more "
+                                  "than the limit of %d: choose a longer solver step", ns, t_final, dt, CF_SOLVER_MAX_STEPS);
+        nsteps = (long)ns;
+    }
     s->msg[0] = 0;
     cf_solver_stack_reset(s);
     for (i = 0; i < s->nbody; i++) quat_to_mat(s->q + 4 * i, s->R + 9 * i);
@@ -264,7 +276,7 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
         cf_solver_step_positions(s, dt);
     }
     if (n > nsteps) n = nsteps;
-    cf_solver_monitor_finish(s, &m, resid, res);
+    cf_solver_monitor_finish(s, &m, collapsed, resid, res);
     cf_solver_monitor_end(&m);
     res->collapsed = collapsed;
     res->collapse_block = collapsed ? cblk : -1;

@@ -29,6 +29,8 @@
 #define CF_SOLVER_COLLAPSE_FALLING 3
 
 #define CF_SOLVER_MAX_SIDES 64
+#define CF_SOLVER_MAX_STEPS 1000000000      /* a run needing more steps is refused before it starts */
+#define CF_SOLVER_MAX_HISTORY 100000000     /* history samples at most */
 #define CF_SOLVER_N_ENERGY 8
 
 typedef struct {
@@ -54,7 +56,7 @@ typedef struct {
 
 typedef struct {
     double u_top;             /* max horizontal top displacement / base diameter */
-    double u_d;               /* max over joints of residual dislocation / joint diameter */
+    double u_d;               /* max over joints of residual dislocation / joint diameter; NaN after a collapse */
     int collapsed;            /* 1 when a collapse criterion fired */
     int collapse_block;       /* 0-based block, -1 if none */
     int collapse_reason;      /* CF_SOLVER_COLLAPSE_* */
@@ -74,6 +76,9 @@ typedef struct {
 typedef struct cf_solver cf_solver;
 
 void cf_solver_def_default(cf_solver_def *def);
+/* Check a definition without setting anything up: CF_OK, or CF_EINVAL with a message
+ * on s naming the bad field and value (cf_solver_setup runs the same check). */
+int cf_solver_check_def(cf_solver *s, const cf_solver_def *def);
 cf_solver *cf_solver_create(void);
 void cf_solver_free(cf_solver *s);
 const char *cf_solver_message(const cf_solver *s);
@@ -87,15 +92,16 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int n_blocks, const 
 double cf_solver_dt_crit(const cf_solver *s);
 /* Step the run will use, s (after setup). */
 double cf_solver_dt(const cf_solver *s);
-/* History samples needed for a record of n samples at dt_rec (after setup). */
-int cf_solver_history_capacity(const cf_solver *s, int n, double dt_rec);
+/* History samples needed for a record of n samples at dt_rec (after setup); -1 when
+ * that is more than CF_SOLVER_MAX_HISTORY (history_dt too small for the record). */
+long cf_solver_history_capacity(const cf_solver *s, int n, double dt_rec);
 
 /* Caller-owned history buffers (any may be NULL), capacity samples each:
  * t (cap), top_disp (cap x 2), block_pos (cap x nb x 3), block_quat (cap x nb x 4),
  * joint_opening (cap x nj), joint_slip (cap x nj x 2), energy (cap x CF_SOLVER_N_ENERGY:
  * kinetic, gravity, spring, slip_dissipated, damping_dissipated, ground_work,
  * balance_error, contact_switch -- J, see docs/solver.md). */
-int cf_solver_set_history(cf_solver *s, int capacity, double *t, double *top_disp, double *block_pos,
+int cf_solver_set_history(cf_solver *s, long capacity, double *t, double *top_disp, double *block_pos,
                           double *block_quat, double *joint_opening, double *joint_slip, double *energy);
 
 /* Optional extra history buffer (capacity x n_blocks): the normal force carried by
@@ -104,7 +110,9 @@ int cf_solver_set_history(cf_solver *s, int capacity, double *t, double *top_dis
 int cf_solver_set_history_normal(cf_solver *s, double *joint_normal);
 
 /* Run one record: acc_x (n samples, m/s^2) at dt_rec; acc_y, acc_z may be NULL.
- * residual_dislocation (n_blocks entries, m) may be NULL. */
+ * residual_dislocation (n_blocks entries, m) may be NULL; after a collapse it and
+ * result.u_d are NaN. A run that would need more than CF_SOLVER_MAX_STEPS steps is
+ * refused (CF_EINVAL) before it starts. */
 int cf_solver_run(cf_solver *s, const double *acc_x, const double *acc_y, const double *acc_z, int n,
                   double dt_rec, double *residual_dislocation, cf_solver_result *res);
 /* cffi:end */

@@ -162,7 +162,8 @@ void cf_solver_monitor_record(struct cf_solver *s, cf_monitor *m, long n, double
                               const cf_step_energy *e, double err, int hist_now);
 int cf_solver_monitor_collapse(const struct cf_solver *s, int *blk);
 int cf_solver_monitor_at_rest(cf_monitor *m, double t, double ke);
-void cf_solver_monitor_finish(struct cf_solver *s, cf_monitor *m, double *resid, cf_solver_result *res);
+void cf_solver_monitor_finish(struct cf_solver *s, cf_monitor *m, int collapsed, double *resid,
+                              cf_solver_result *res);
 
 /* solver_step.c: the phases of one leapfrog step */
 void cf_solver_step_rotations(struct cf_solver *s);

@@ -60,21 +60,27 @@ int cf_solver_monitor_collapse(const cf_solver *s, int *blk)
 {
     int j, i, nj = s->nj;
     /* overturning: the centre of mass of everything above joint j lies horizontally
-     * more than two circumradii from the centre of the supporting face -- past the
-     * edge by a full radius, where no ground motion of the record can bring it back
-     * (for a slender block this is a tilt of about twice its slenderness angle) */
+     * more than two circumradii from the centre of a face it rests on -- past that
+     * face's edge by a full radius, where no ground motion of the record can bring it
+     * back (for a slender block this is a tilt of about twice its slenderness angle).
+     * Measured both from the supporting (lower) face, with its radius, and from the
+     * moving block's own bottom face, with its own radius: a narrow block on a wide
+     * drum can tip over far inside the drum's face (on the unbounded ground the two
+     * faces are the same). */
     for (j = 0; j < nj; j++) {
         const cf_joint *J = &s->jt[j];
-        double cL[3], nL[3], mx = 0, my = 0, mt = 0, dx, dy;
-        /* measured from the lower face's centre, or on the (unbounded) ground from the
-         * centre of the block's own bottom face */
-        if (J->bl == 0) cf_face_world(s, J->bu, &J->fu, cL, nL);
-        else cf_face_world(s, J->bl, &J->fl, cL, nL);
+        double cL[3], nL[3], cU[3], nU[3], mx = 0, my = 0, mt = 0, gx, gy, dx, dy;
         for (i = J->bu; i < s->nbody; i++) {
             mx += s->m[i] * s->x[3 * i]; my += s->m[i] * s->x[3 * i + 1]; mt += s->m[i];
         }
-        dx = mx / mt - cL[0]; dy = my / mt - cL[1];
+        gx = mx / mt; gy = my / mt;
+        cf_face_world(s, J->bu, &J->fu, cU, nU);
+        if (J->bl == 0) { cL[0] = cU[0]; cL[1] = cU[1]; }
+        else cf_face_world(s, J->bl, &J->fl, cL, nL);
+        dx = gx - cL[0]; dy = gy - cL[1];
         if (dx * dx + dy * dy > 4.0 * J->fl.rc * J->fl.rc) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
+        dx = gx - cU[0]; dy = gy - cU[1];
+        if (dx * dx + dy * dy > 4.0 * J->fu.rc * J->fu.rc) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
     }
     /* off the footprint: the centre of a block's bottom face has slid outside the
      * polygon of the face below (in that face's plane): more than half of the
@@ -187,8 +193,11 @@ int cf_solver_monitor_at_rest(cf_monitor *m, double t, double ke)
     return 0;
 }
 
-/* Residual dislocations (average of the ring over the last window), u_d, u_top. */
-void cf_solver_monitor_finish(cf_solver *s, cf_monitor *m, double *resid, cf_solver_result *res)
+/* Residual dislocations (average of the ring over the last window), u_d, u_top.
+ * After a collapse the residual dislocations lose their meaning (the blocks are
+ * falling or lying elsewhere): they and u_d are NaN. u_top stays the largest top
+ * displacement reached up to the end of the run (the collapse, with early exit). */
+void cf_solver_monitor_finish(cf_solver *s, cf_monitor *m, int collapsed, double *resid, cf_solver_result *res)
 {
     int j, nblk = s->nblk;
     double ud = 0.0;
@@ -197,11 +206,11 @@ void cf_solver_monitor_finish(cf_solver *s, cf_monitor *m, double *resid, cf_sol
         long c;
         for (c = 0; c < m->ring_count; c++) { sx += m->ring[2 * nblk * c + 2 * j]; sy += m->ring[2 * nblk * c + 2 * j + 1]; }
         if (m->ring_count > 0) { sx /= m->ring_count; sy /= m->ring_count; }
-        r = sqrt(sx * sx + sy * sy);
+        r = collapsed ? NAN : sqrt(sx * sx + sy * sy);
         if (resid) resid[j] = r;
         if (r / s->joint_diam[j] > ud) ud = r / s->joint_diam[j];
     }
-    res->u_d = ud;
+    res->u_d = collapsed ? NAN : ud;
     if (m->scale_max < m->scale_floor) m->scale_max = m->scale_floor;
     res->u_top = m->max_top / s->base_diam;
     res->max_top_disp = m->max_top;

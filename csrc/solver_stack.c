@@ -219,6 +219,41 @@ static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometr
     return CF_OK;
 }
 
+/* A joint whose faces differ much in size (a narrow block on a wide drum): when none
+ * of one face's points lies on the other face at rest, those points would never bear
+ * and their half of the joint area would be lost (halving the joint's stiffness: a
+ * slender block then rocks on springs too soft to hold it up). They are dropped and
+ * the other face's points carry the whole area. When both faces have points on the
+ * other (every joint of the default column), nothing changes. Returns the new count. */
+static int drop_faces_off_the_other(cf_solver *s)
+{
+    int j, k, c = 0;
+    for (j = 0; j < s->nj; j++) {
+        cf_joint *J = &s->jt[j];
+        int in[2] = {0, 0}, drop = -1, start = c, n0 = 0;
+        for (k = J->p0; k < J->p0 + J->np; k++) {
+            int side = s->p_side[k];
+            const cf_face *own = side == 0 ? &J->fu : &J->fl, *oth = side == 0 ? &J->fl : &J->fu;
+            in[side] += cf_face_inside(oth, s->p_loc[3 * k] - own->c[0], s->p_loc[3 * k + 1] - own->c[1],
+                                       1e-9 * oth->rc);
+        }
+        if (J->bl != 0 && J->n0 > 0 && J->np > J->n0) {
+            if (in[1] == 0 && in[0] > 0) drop = 1;
+            else if (in[0] == 0 && in[1] > 0) drop = 0;
+        }
+        for (k = J->p0; k < J->p0 + J->np; k++) {
+            if (s->p_side[k] == drop) continue;
+            s->p_side[c] = s->p_side[k];
+            memmove(s->p_loc + 3 * c, s->p_loc + 3 * k, 3 * sizeof(double));
+            s->p_w[c] = drop >= 0 ? 2.0 * s->p_w[k] : s->p_w[k];
+            if (s->p_side[c] == 0) n0++;
+            c++;
+        }
+        J->p0 = start; J->np = c - start; J->n0 = n0;
+    }
+    return c;
+}
+
 /* Sub-contacts: the upper face's points tested against the lower face (side 0) and
  * the lower face's points tested against the upper face (side 1), each set carrying
  * half of the joint area; then the hot loop's arrays. */
@@ -291,6 +326,7 @@ static int points_make(cf_solver *s)
             s->np = np = c;
         }
     }
+    if (mode != CF_SOLVER_CONTACT_EXACT) s->np = np = drop_faces_off_the_other(s);
     for (k = 0; k < np; k++) s->p_ihkw[k] = 0.5 / (ks * s->p_w[k]);
     ALLOC(s->p_lx, double, np); ALLOC(s->p_ly, double, np); ALLOC(s->p_hx, double, np);
     ALLOC(s->p_hy, double, np); ALLOC(s->p_fast, double, np); ALLOC(s->p_knw, double, np);

@@ -19,5 +19,6 @@ from .errors import (  # noqa: E402,F401
     SolverError,
 )
 from .column import Block, Column, JointProperties, Segment  # noqa: E402,F401
+from .options import SolverOptions  # noqa: E402,F401
 from .solver import History, Response, simulate  # noqa: E402,F401
 from . import fragility, ground_motion, intensity, results  # noqa: E402,F401

@@ -56,9 +56,17 @@ def check(status: int, message=None, what: str = "") -> None:
 def as_double_array(x, name: str, ndim: int = 1, allow_empty: bool = False) -> np.ndarray:
     """Return ``x`` as a C-contiguous float64 array after checking it.
 
-    Raises :class:`ParameterError` naming ``name`` for a wrong number of dimensions,
-    an empty array (unless allowed) or a non-finite value (with its index).
+    Raises :class:`ParameterError` naming ``name`` for None, a string, a masked array (its mask
+    would be lost), complex values, a wrong number of dimensions, an empty array (unless allowed)
+    or a non-finite value (with its index).
     """
+    if x is None or isinstance(x, (str, bytes)):
+        raise ParameterError(f"{name} must be an array of numbers, got {type(x).__name__}")
+    if isinstance(x, np.ma.MaskedArray):
+        raise ParameterError(f"{name} is a masked array: fill or drop the masked samples first "
+                             "(e.g. x.filled(0.0)); a mask would be silently lost")
+    if np.iscomplexobj(x):
+        raise ParameterError(f"{name} has complex values: accelerations must be real")
     try:
         arr = np.ascontiguousarray(x, dtype=np.float64)
     except (TypeError, ValueError) as exc:

@@ -350,40 +350,26 @@ def _git_revision() -> str:
         return "unknown"
 
 
-_NOT_SOLVER_OPTIONS = ("col", "acc_x", "dt", "acc_y", "acc_z", "history")
-
-
 def solver_defaults() -> dict:
-    """Keyword defaults of :func:`pycolfrag.simulate` (the solver options), from its signature."""
-    import inspect
-    from .solver import simulate
-    out = {}
-    for name, p in inspect.signature(simulate).parameters.items():
-        if name not in _NOT_SOLVER_OPTIONS and p.default is not inspect.Parameter.empty \
-                and p.kind is not inspect.Parameter.VAR_KEYWORD:
-            out[name] = p.default
-    return out
+    """The solver options' defaults (:class:`pycolfrag.SolverOptions`, read from the C library)."""
+    from .options import SolverOptions
+    return SolverOptions().to_dict()
 
 
 def check_solver_options(column, opts: dict) -> None:
     """Refuse unknown option names and values the solver rejects, before any file is touched
-    (one call of :func:`simulate` on a 3-sample zero record, ~20 ms)."""
-    from .solver import simulate
-    known = solver_defaults()
-    unknown = sorted(set(opts) - set(known))
-    if unknown:
-        raise ParameterError(f"unknown solver option(s) {unknown}; simulate() takes {sorted(known)}")
+    (:class:`pycolfrag.SolverOptions` checks names, types and the C library's ranges)."""
+    from .options import SolverOptions
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            simulate(column, np.zeros(3), DEFAULT_RECORD_DT_S, **opts)
+        SolverOptions().replace(**opts)
     except (ParameterError, TypeError) as exc:
         raise ParameterError(f"solver options {opts}: {exc}") from None
 
 
 def _resolved_solver_json(opts: dict) -> str:
-    """The solver options with the solver's defaults filled in."""
-    return json.dumps({**solver_defaults(), **opts}, sort_keys=True, default=str)
+    """Every solver option (the defaults with ``opts`` applied), as stored in results files."""
+    from .options import SolverOptions
+    return json.dumps(SolverOptions().replace(**opts).to_dict(), sort_keys=True)
 
 
 @dataclass

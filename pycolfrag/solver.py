@@ -23,16 +23,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._ffi import as_double_array, check, ffi, lib, ptr
-from ._validate import finite_float, positive_float
+from ._validate import positive_float
 from .column import Column
 from .errors import ParameterError
+from .options import CONTACT_OPTIONS, SolverOptions
 
-__all__ = ["simulate", "Response", "History", "EnergyWarning", "CONTACT_OPTIONS", "MAX_ABS_ACC"]
-
-#: contact discretisations understood by :func:`simulate`
-CONTACT_OPTIONS = {"vertex": lib.CF_SOLVER_CONTACT_VERTEX,
-                   "perimeter": lib.CF_SOLVER_CONTACT_PERIMETER,
-                   "exact": lib.CF_SOLVER_CONTACT_EXACT}
+__all__ = ["simulate", "Response", "History", "EnergyWarning", "StepWarning", "CONTACT_OPTIONS", "MAX_ABS_ACC",
+           "SolverOptions"]
 _REASONS = {lib.CF_SOLVER_COLLAPSE_NONE: "",
             lib.CF_SOLVER_COLLAPSE_OVERTURNING: "overturning",
             lib.CF_SOLVER_COLLAPSE_OFF_FOOTPRINT: "off_footprint",
@@ -45,6 +42,13 @@ _ENERGY_KEYS = ("kinetic", "gravity", "spring", "slip_dissipated", "damping_diss
 
 class EnergyWarning(UserWarning):
     """The energy balance error of a run exceeded ``energy_tolerance``."""
+
+
+class StepWarning(UserWarning):
+    """An explicit solver step longer than the stability limit or than the record's own dt."""
+
+#: history buffers larger than this (bytes) are refused: history_dt too small for the record
+MAX_HISTORY_BYTES = 4 << 30
 
 
 @dataclass
@@ -83,7 +87,7 @@ class Response:
     """EDPs and diagnostics of one run (see :func:`simulate`)."""
 
     u_top: float
-    u_d: float
+    u_d: float          # NaN after a collapse (a residual dislocation then has no meaning)
     collapsed: bool
     collapse_block: int | None
     collapse_time: float
@@ -138,10 +142,7 @@ def _segments(col: Column, monolithic: bool):
     return arr, nseg
 
 
-def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, *, contact="vertex", points_per_edge=1,
-             dt_solver=None, dt_factor=0.8, tail_s=3.0, residual_window_s=2.0, planar=False, monolithic=False,
-             early_exit=True, damping_alpha=0.0, damping_start_s=None, history_dt=0.01, g=9.81,
-             energy_tolerance=0.05, initial_tilt_rad=0.0, contact_tolerance=0.01) -> Response:
+def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, options=None, **overrides) -> Response:
     """Simulate the column under one ground-motion record.
 
     Parameters
@@ -157,95 +158,49 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, *, contact="
         Second horizontal and vertical components, m/s^2, on the same time axis.
     history : bool
         Also return time histories (:class:`History`) sampled every ``history_dt``.
-    contact : {"vertex", "perimeter", "exact"}
-        Joint discretisation: sub-contacts at the polygon vertices of both faces (3DEC-like,
-        default); a refined face mesh with ``points_per_edge`` points per polygon edge plus interior
-        nodes (converges to "exact" as points are added); or the exact integral of the pressure over
-        the compressed part of the overlap polygon.
-    points_per_edge : int
-        Refinement of "perimeter" (>= 1). Default 1.
-    dt_solver : float, optional
-        Explicit solver step, s; default ``dt_factor`` times the whole-stack stability limit.
-    dt_factor : float
-        Fraction of the stability limit (default 0.8).
-    tail_s : float
-        Free response after the end of the record, s (default 3).
-    residual_window_s : float
-        The residual dislocation is the average over this last part of the response, s (default 2).
-    planar : bool
-        Restrict the motion to the x-z plane (only with acc_y None).
-    monolithic : bool
-        The whole column as one rigid body on the base joint.
-    early_exit : bool
-        Stop at collapse, or once the column is at rest after the record.
-    damping_alpha : float
-        Mass-proportional damping, 1/s (default 0: none, as in the paper).
-    damping_start_s : float, optional
-        Damping acts from this time, s (default: from the start).
-    history_dt : float
-        History sampling interval, s.
-    g : float
-        Gravity, m/s^2.
-    energy_tolerance : float
-        Relative energy balance error above which the run warns (:class:`EnergyWarning`) and sets
-        ``energy_warning`` (default 0.05). Above 0.5 the run fails with SolverError (unstable).
-    initial_tilt_rad : float
-        Rigid initial tilt of the whole column about its +x base edge (rad), for free rocking.
-    contact_tolerance : float
-        A sub-contact overhanging the other face by less than this fraction of its circumradius
-        still bears (default 0.01; see docs/solver.md).
+    options : SolverOptions, optional
+        The solver options (default ``SolverOptions()``, whose defaults are the C library's).
+    **overrides
+        Any :class:`SolverOptions` field by name (``contact="exact"``, ``dt_factor=0.4``,
+        ``dt_solver=1e-4``, ``damping_alpha=...``, ...), applied on top of ``options``; an unknown
+        name raises :class:`ParameterError`. See :class:`SolverOptions` for each option's unit,
+        meaning and default.
 
     Returns
     -------
     Response
-        ``u_top``, ``u_d`` (dimensionless), ``collapsed``, ``collapse_block`` (0-based or None),
-        ``collapse_time`` (s or nan), ``collapse_reason``, ``n_steps``, ``t_end`` (s), ``dt``,
-        ``dt_crit`` (s), ``energy_error``, ``residual_dislocation`` (m per joint), ``options``,
-        ``history``.
+        ``u_top``, ``u_d`` (dimensionless; ``u_d`` is NaN after a collapse), ``collapsed``,
+        ``collapse_block`` (0-based or None), ``collapse_time`` (s or nan), ``collapse_reason``,
+        ``n_steps``, ``t_end`` (s), ``dt``, ``dt_crit`` (s), ``energy_error``,
+        ``residual_dislocation`` (m per joint, NaN after a collapse), ``options`` (the
+        :class:`SolverOptions` as a dict), ``history``.
+
+    Warns
+    -----
+    EnergyWarning
+        The energy balance error exceeded ``energy_tolerance``.
+    StepWarning
+        An explicit ``dt_solver`` longer than the stability limit or than the record's dt.
     """
     if not isinstance(col, Column):
         raise ParameterError(f"col must be a Column, got {type(col).__name__}")
     dt = float(positive_float(dt, "dt (record sampling interval, s)"))
+    if acc_x is None:
+        raise ParameterError("acc_x must be an array of accelerations (m/s^2), got None")
     ax = _acc(acc_x, "acc_x")
     ay = _acc(acc_y, "acc_y", ax.size)
     az = _acc(acc_z, "acc_z", ax.size)
-    if contact not in CONTACT_OPTIONS:
-        raise ParameterError(f"contact must be one of {sorted(CONTACT_OPTIONS)}, got {contact!r}")
-    if isinstance(points_per_edge, bool) or int(points_per_edge) != points_per_edge or not 1 <= points_per_edge <= 64:
-        raise ParameterError(f"points_per_edge must be an integer in [1, 64], got {points_per_edge!r}")
-    planar = _flag(planar, "planar")
-    monolithic = _flag(monolithic, "monolithic")
-    early_exit = _flag(early_exit, "early_exit")
     history = _flag(history, "history")
-    if planar and ay is not None:
+    if options is None:
+        options = SolverOptions()
+    elif not isinstance(options, SolverOptions):
+        raise ParameterError(f"options must be a SolverOptions, got {type(options).__name__}")
+    if overrides:
+        options = options.replace(**overrides)
+    if options.planar and ay is not None:
         raise ParameterError("planar=True takes one horizontal component: acc_y must be None")
-
-    d = ffi.new("cf_solver_def *")
-    lib.cf_solver_def_default(d)
-    d.contact = CONTACT_OPTIONS[contact]
-    d.points_per_edge = int(points_per_edge)
-    d.dt = 0.0 if dt_solver is None else positive_float(dt_solver, "dt_solver (s)")
-    d.dt_factor = positive_float(dt_factor, "dt_factor")
-    d.tail_s = positive_float(tail_s, "tail_s (s)", allow_zero=True)
-    d.residual_window_s = positive_float(residual_window_s, "residual_window_s (s)")
-    d.planar = int(planar)
-    d.monolithic = int(monolithic)
-    d.early_exit = int(early_exit)
-    d.damping_alpha = positive_float(damping_alpha, "damping_alpha (1/s)", allow_zero=True)
-    d.damping_start_s = 0.0 if damping_start_s is None else finite_float(damping_start_s, "damping_start_s (s)")
-    d.history_dt = positive_float(history_dt, "history_dt (s)")
-    d.g = positive_float(g, "g (m/s^2)")
-    d.energy_tolerance = positive_float(energy_tolerance, "energy_tolerance")
-    d.initial_tilt_rad = finite_float(initial_tilt_rad, "initial_tilt_rad")
-    d.contact_tolerance = positive_float(contact_tolerance, "contact_tolerance", allow_zero=True)
-    options = {
-        "contact": contact, "points_per_edge": int(points_per_edge), "dt_solver": dt_solver,
-        "dt_factor": float(dt_factor), "tail_s": float(tail_s), "residual_window_s": float(residual_window_s),
-        "planar": planar, "monolithic": monolithic, "early_exit": early_exit,
-        "damping_alpha": float(damping_alpha), "damping_start_s": damping_start_s,
-        "history_dt": float(history_dt), "g": float(g), "energy_tolerance": float(energy_tolerance),
-        "initial_tilt_rad": float(initial_tilt_rad), "contact_tolerance": float(contact_tolerance),
-    }
+    d = options.to_c()
+    monolithic = options.monolithic
 
     solver = ffi.gc(lib.cf_solver_create(), lib.cf_solver_free)
     if solver == ffi.NULL:
@@ -254,11 +209,26 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, *, contact="
     j = col.joints
     st = lib.cf_solver_setup(solver, d, col.n_blocks, nseg, segs, col.density, j.kn, j.ks, j.mu)
     check(st, lib.cf_solver_message(solver), "simulate")
+    if options.dt_solver is not None:
+        crit = float(lib.cf_solver_dt_crit(solver))
+        if options.dt_solver > crit:
+            warnings.warn(f"simulate: dt_solver = {options.dt_solver:.4g} s exceeds the whole-stack stability limit "
+                          f"{crit:.4g} s: the run may go unstable (it stops with SolverError when the energy balance "
+                          "breaks)", StepWarning, stacklevel=2)
+        if options.dt_solver > dt:
+            warnings.warn(f"simulate: dt_solver = {options.dt_solver:.4g} s is longer than the record's dt = {dt:.4g} s: "
+                          "the solver skips record samples", StepWarning, stacklevel=2)
 
     nb = col.n_blocks
     hist_arrays = None
     if history:
-        cap = lib.cf_solver_history_capacity(solver, ax.size, dt)
+        cap = int(lib.cf_solver_history_capacity(solver, ax.size, dt))
+        nbytes = 8 * cap * (1 + 2 + 8 + 11 * nb)
+        if cap < 0 or nbytes > MAX_HISTORY_BYTES:
+            raise ParameterError(f"history_dt = {options.history_dt!r} s needs "
+                                 f"{'over %d' % lib.CF_SOLVER_MAX_HISTORY if cap < 0 else cap} history samples for "
+                                 f"this record ({'more than' if cap < 0 else f'{nbytes / 2**30:.1f} GiB,'} over the "
+                                 f"{MAX_HISTORY_BYTES / 2**30:.0f} GiB limit): choose a longer history_dt")
         hist_arrays = dict(
             t=np.zeros(cap), top=np.zeros((cap, 2)), pos=np.zeros((cap, nb, 3)), quat=np.zeros((cap, nb, 4)),
             open=np.zeros((cap, nb)), slip=np.zeros((cap, nb, 2)), en=np.zeros((cap, lib.CF_SOLVER_N_ENERGY)), fn=np.zeros((cap, nb)))
@@ -292,5 +262,5 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, *, contact="
         collapse_reason=_REASONS.get(r.collapse_reason, "unknown"),
         n_steps=int(r.n_steps), t_end=float(r.t_end), dt=float(r.dt), dt_crit=float(r.dt_crit),
         energy_error=float(r.energy_error), energy_scale=float(r.energy_scale),
-        energy_warning=bool(r.energy_warning), residual_dislocation=resid, options=options, history=hist,
+        energy_warning=bool(r.energy_warning), residual_dislocation=resid, options=options.to_dict(), history=hist,
         message=message, at_rest_exit=bool(r.at_rest_exit), max_top_disp=float(r.max_top_disp))
