@@ -162,38 +162,48 @@ def cases(quick=False):
         return pcf.Column.single_block(B, H, n_sides=n_sides, flat_side_along_x=flat,
                                        joints=pcf.JointProperties(kn=kn, ks=kn, friction_deg=fr))
     out = []
-    # (a) stiffness, 0.4 x 0.4 x 2 m square block (the xfail's block), friction 80 deg (no sliding)
+    # (a) stiffness, 0.4 x 0.4 x 2 m square block (the Tp = 0.5 s test's block), friction 80 deg (no
+    # sliding), in 3D and in the x-z plane (planar: Housner's 2D block)
     for kn in (1e8, 1e9, 1e10, 1e11):
         out.append(("a stiffness", f"square 0.4x2 kn={kn:.0e}", block(0.4, 2.0, kn), 0.5, 8.0, {}))
+        out.append(("a stiffness", f"square 0.4x2 kn={kn:.0e} planar", block(0.4, 2.0, kn), 0.5, 8.0,
+                    dict(planar=True)))
     # (b) contact discretisation, same block, kn = 1e9 and 1e11
     for kn in (1e9, 1e11):
         for c, p in (("perimeter", 1), ("perimeter", 2), ("perimeter", 4), ("exact", 1)):
             nm = f"{c}{p if c == 'perimeter' else ''} kn={kn:.0e}"
             out.append(("b contact", nm, block(0.4, 2.0, kn), 0.5, 8.0, dict(contact=c, points_per_edge=p)))
-    # (c) time step
-    for kn in (1e9, 1e11):
+    # (c) time step (dt_factor 0.8 is the default of (a))
+    for kn, pl in ((1e9, False), (1e11, False), (1e11, True)):
         for f in (0.4, 0.2):
-            out.append(("c step", f"vertex kn={kn:.0e} dt_factor {f}", block(0.4, 2.0, kn), 0.5, 8.0,
-                        dict(dt_factor=f)))
-    # (d) slenderness and section, kn = 1e11 (rigid limit) and the default friction
+            out.append(("c step", f"vertex kn={kn:.0e}{' planar' if pl else ''} dt_factor {f}", block(0.4, 2.0, kn),
+                        0.5, 8.0, dict(dt_factor=f, planar=pl)))
+    # (d) slenderness, section, shear stiffness, friction, amplitude; kn = 1e11 (rigid limit), planar
+    pl = dict(planar=True)
     for H in (1.0, 4.0):
-        out.append(("d slenderness", f"square 0.4x{H:g} kn=1e+11", block(0.4, H, 1e11), 0.5, 8.0, {}))
-    out.append(("d slenderness", "square 0.4x2 kn=1e+11 friction 37", block(0.4, 2.0, 1e11, fr=37.0), 0.5, 8.0, {}))
-    out.append(("d slenderness", "square 0.4x2 kn=1e+11 tilt 0.9 alpha", block(0.4, 2.0, 1e11), 0.9, 8.0, {}))
+        out.append(("d slenderness", f"square 0.4x{H:g} kn=1e+11 planar", block(0.4, H, 1e11), 0.5, 8.0, pl))
+    out.append(("d slenderness", "square 0.4x2 kn=1e+11 planar tilt 0.9 alpha", block(0.4, 2.0, 1e11), 0.9, 8.0, pl))
+    out.append(("d slenderness", "square 0.4x2 kn=1e+11 planar friction 37", block(0.4, 2.0, 1e11, fr=37.0), 0.5,
+                8.0, pl))
+    for ks in (3e10, 1e10):
+        c = pcf.Column.single_block(0.4, 2.0, n_sides=4, joints=pcf.JointProperties(kn=1e11, ks=ks, friction_deg=80.0))
+        out.append(("d slenderness", f"square 0.4x2 kn=1e+11 ks={ks:.0e} planar dt_factor 0.2", c, 0.5, 8.0,
+                    dict(planar=True, dt_factor=0.2)))
     out.append(("d slenderness", "10-gon D0.4x2 vertex pivot kn=1e+11", block(0.4, 2.0, 1e11, 10, flat=False),
                 0.5, 8.0, {}))
     out.append(("d slenderness", "10-gon D0.4x2 vertex pivot kn=1e+09", block(0.4, 2.0, 1e9, 10, flat=False),
                 0.5, 8.0, {}))
     # (e) the default column (kn = 1 GPa/m, friction 37 deg)
     col = pcf.Column.parthenon()
-    out.append(("e column", "Parthenon monolithic", col, 0.5, 20.0, dict(monolithic=True)))
-    out.append(("e column", "Parthenon multidrum", col, 0.5, 20.0, {}))
-    out.append(("e column", "Parthenon multidrum dt_factor 0.4", col, 0.5, 20.0, dict(dt_factor=0.4)))
+    for tf in (0.5, 0.12):
+        out.append(("e column", f"Parthenon monolithic tilt {tf} alpha", col, tf, 20.0, dict(monolithic=True)))
+        out.append(("e column", f"Parthenon multidrum tilt {tf} alpha", col, tf, 20.0, {}))
+    out.append(("e column", "Parthenon multidrum tilt 0.5 alpha dt_factor 0.4", col, 0.5, 20.0, dict(dt_factor=0.4)))
     out.append(("e column", "Parthenon monolithic kn=1e+10", col.with_joints(kn=1e10, ks=1e10), 0.5, 20.0,
                 dict(monolithic=True)))
     out.append(("e column", "Parthenon multidrum kn=1e+10", col.with_joints(kn=1e10, ks=1e10), 0.5, 20.0, {}))
     # the vertex default for the stiffness group is also the reference of (b), (c)
-    return out[:6] if quick else out
+    return out[:4] if quick else out
 
 
 HEADER = ("| case | alpha | I_O/MR² | r_H | r₁ | r̄ (5) | r range | lost | → vibration | → slip | → switch "
@@ -237,13 +247,17 @@ def plot(rows, path):
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(1, 2, figsize=(10, 4))
     st = [r for r in rows if r["group"] == "a stiffness"]
-    kn = [float(r["name"].split("kn=")[1]) for r in st]
-    ax[0].semilogx(kn, [r["rmean"] for r in st], "o-", label="vertex, r̄ over 5 impacts")
-    ax[0].semilogx(kn, [r["r1"] for r in st], "s--", label="vertex, first impact")
+    for pl, mk in ((False, "o-"), (True, "s--")):
+        sel = [r for r in st if r["name"].endswith("planar") == pl]
+        ax[0].semilogx([float(r["name"].split("kn=")[1].split()[0]) for r in sel], [r["rmean"] for r in sel], mk,
+                       label=f"vertex{' planar' if pl else ' 3D'}, r̄ over 5 impacts")
+    colours = {}
     for r in rows:
         if r["group"] == "b contact":
             k = float(r["name"].split("kn=")[1])
-            ax[0].semilogx([k], [r["rmean"]], "x", ms=8, label=r["name"].split(" kn")[0] if k == 1e9 else None)
+            c = r["name"].split(" kn")[0]
+            colours.setdefault(c, f"C{len(colours) + 2}")
+            ax[0].semilogx([k], [r["rmean"]], "x", ms=8, color=colours[c], label=c if k == 1e9 else None)
     ax[0].axhline(st[0]["rH"], color="k", lw=1, label="Housner r_H")
     ax[0].axhline(1.0, color="0.6", lw=0.8)
     ax[0].set_xlabel("kn (Pa/m)")
