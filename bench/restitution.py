@@ -24,7 +24,7 @@ energy), contact_switch and the integration error (balance_error), so the rockin
 over the impacts = energy left in vibration (E_mech - E_rock at the peak: vertical bouncing and
 the block's oscillation on its contact springs) + slip + switch - balance error.
 
-    nice .venv/bin/python bench/restitution.py            # ~1 CPU-minute; table to stdout,
+    nice .venv/bin/python bench/restitution.py            # a few CPU-seconds; table to stdout,
                                                           # docs/restitution.png
     nice .venv/bin/python bench/restitution.py --no-plot
 """
