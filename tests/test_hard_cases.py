@@ -112,19 +112,13 @@ def test_stick_slip_harmonic_vs_newmark():
 
 # ---- one-sine pulses at +-5 % of the rigid-block threshold -------------------------------------
 
-@pytest.mark.parametrize("Tp", [
-    1.0, 2.0,
-    pytest.param(0.5, marks=pytest.mark.xfail(strict=False, reason=(
-        "measured 2026-11-22: the soft vertex contacts lose less energy per impact than Housner's "
-        "r = 1 - 1.5 sin^2(alpha) (free-rocking amplitudes 0.500, 0.478, 0.435 alpha vs Housner 0.500, "
-        "0.422, 0.361), so at Tp = 0.5 s, where overturning comes after several impacts, the solver's "
-        "threshold lies between 0.90x and 0.95x Housner's (0.44 g); see docs/accuracy.md"))),
-])
+@pytest.mark.parametrize("Tp", [1.0, 2.0])
 def test_one_sine_pulse_threshold_two_periods(Tp):
     """Block 0.4 x 0.4 x 2 m (alpha = 0.197), kn = ks = 1e11 (rigid limit), friction 80 deg so it
     cannot slide (Housner's model). Threshold by bisection of Housner's equations with his
-    restitution (R.one_sine_threshold; 0.253 g at Tp = 1 s, 0.229 g at 2 s, 0.440 g at 0.5 s).
-    Survives at 0.95x, overturns at 1.05x (issue 6). Tp = 0.25 s is in tests/test_solver_physics.py."""
+    restitution (R.one_sine_threshold; 0.253 g at Tp = 1 s, 0.229 g at 2 s). Survives at 0.95x,
+    overturns at 1.05x (issue 6). Tp = 0.25 s is in tests/test_solver_physics.py; Tp = 0.5 s,
+    where overturning comes after several impacts, is test_one_sine_threshold_follows_soft_restitution."""
     b, H = 0.2, 2.0
     thr = R.one_sine_threshold(b, H / 2, Tp, lo_g=0.2, hi_g=20.0)
     col = pcf.Column.single_block(2 * b, H, n_sides=4,
@@ -135,6 +129,85 @@ def test_one_sine_pulse_threshold_two_periods(Tp):
     below = pcf.simulate(col, 0.95 * thr * pulse, dt, tail_s=4.0)
     above = pcf.simulate(col, 1.05 * thr * pulse, dt, tail_s=4.0)
     print(f"\nTp={Tp}: threshold {thr / G:.4f} g")
+    assert not below.collapsed
+    assert above.collapsed and above.collapse_block == 0
+
+
+def test_one_sine_threshold_follows_soft_restitution(monkeypatch):
+    """Impact dissipation of the soft vertex contacts (issue 10 item 5; docs/accuracy.md "Impact
+    dissipation", bench/restitution.py). Same block as above: 0.4 x 0.4 x 2 m, alpha = 0.197,
+    kn = ks = 1e11 (rigid limit), friction 80 deg.
+
+    1. Restitution. Released from alpha/2 in the x-z plane (planar: Housner's 2D block), no ground
+       motion. Between impacts a rigid block rocks without loss, so the rocking energy at the
+       peaks, E(theta) = M g R (cos(alpha - theta) - cos alpha), gives r = omega_after/omega_before
+       = sqrt(E_{n+1}/E_n); r_mean over 5 impacts = (E_5/E_0)^(1/10). Band:
+       * lower end Housner's r_H = 1 - 1.5 sin^2 alpha = 0.942: his impact is perfectly plastic at
+         the new corner (it destroys that corner's whole relative velocity, the largest loss an
+         impact there can have, Carnot's theorem); the model's contact springs are undamped and
+         return their normal energy, and lose only what the unloading corner's shear springs hold
+         when it lifts off (Coulomb release, booked as slip_dissipated) plus what stays in
+         vibration. This holds for ks = kn (the paper's Table I; bench: ks = 0.3 kn gives r = r_H,
+         ks = 0.1 kn r = 0.84). A damped or plastic contact law falls below it.
+       * upper end from the ledger, not tuned: the run starts at rest (all its energy is rocking
+         energy E_0) and has no source, so E_5 <= E_0 - (slip dissipated) - (contact_switch) +
+         |balance error| over the same window (the rest is vibration energy, >= 0).
+       * the loss must be resolved above the integration error (lost > 2 |balance error|):
+         otherwise r would be a property of the step, not of the contact.
+       Measured (2026-11-23): r_mean 0.987 (per impact 0.984-0.989), ledger bound 0.992, loss
+       0.124 E_0 of which slip 0.099 and integration error 0.025; Housner loses 1 - r_H^10 = 0.45 E_0
+       over 5 impacts.
+    2. Threshold, Tp = 0.5 s (overturning after several impacts: it was the xfail, the solver
+       overturning at 0.94x Housner's 0.440 g). Housner's equations with r_mean in place of r_H
+       (R.one_sine_threshold, restitution patched) must predict the solver's threshold to the
+       same +-5 % as Tp = 1 and 2 s above: stands at 0.95x, overturns at 1.05x (measured: 0.406 g
+       predicted, the solver's bisected threshold 0.412 g). r = 0.975-0.99 moves that prediction
+       by 1.2 % (0.413-0.404 g), so the 5 % bracket is the issue-6 tolerance, not room for the
+       restitution's scatter."""
+    b, H = 0.2, 2.0
+    col = pcf.Column.single_block(2 * b, H, n_sides=4,
+                                  joints=pcf.JointProperties(kn=1e11, ks=1e11, friction_deg=80.0))
+    alpha, Rr = math.atan(b / (H / 2)), math.hypot(b, H / 2)
+    r_h = R.housner_restitution(alpha)
+    res = pcf.simulate(col, np.zeros(2), 0.01, history=True, history_dt=5e-4, tail_s=7.0, early_exit=False,
+                       initial_tilt_rad=0.5 * alpha, planar=True)
+    h = res.history
+    q = h.block_quat[:, 0]
+    th = 2 * np.arctan2(q[:, 2], q[:, 0])                  # rotation about y
+    peaks, sgn, start = [], 1.0, 0                          # peak |theta| of each completed half-cycle
+    for i in range(1, th.size):
+        if np.sign(th[i]) == -sgn and abs(th[i]) > 0.01 * alpha:
+            peaks.append(start + int(np.argmax(np.abs(th[start:i]))))
+            sgn, start = -sgn, i
+    assert len(peaks) >= 6, f"only {len(peaks)} half-cycles"
+    i0, i5 = peaks[0], peaks[5]
+    E = col.mass * G * Rr * (np.cos(alpha - np.abs(th[peaks])) - math.cos(alpha))   # J
+    r_mean = (E[5] / E[0]) ** 0.1
+    e = h.energy
+    slip = e["slip_dissipated"][i5] - e["slip_dissipated"][i0]
+    switch = e["contact_switch"][i5] - e["contact_switch"][i0]
+    derr = e["balance_error"][i5] - e["balance_error"][i0]
+    lost = E[0] - E[5]
+    r_upper = ((E[0] - slip - switch + abs(derr)) / E[0]) ** 0.1
+    print(f"\nsoft restitution: r per impact {np.round(np.sqrt(E[1:6] / E[:5]), 4)}, r_mean {r_mean:.4f} "
+          f"(Housner {r_h:.4f}, ledger bound {r_upper:.4f}); loss {lost / E[0]:.3f} E0 = slip {slip / E[0]:.3f} "
+          f"+ switch {switch / E[0]:.3f} + vibration - balance error {derr / E[0]:+.4f}")
+    assert i0 == 0
+    assert r_h < r_mean <= r_upper
+    assert lost > 2 * abs(derr)
+
+    Tp = 0.5
+    thr_h = R.one_sine_threshold(b, H / 2, Tp, lo_g=0.2, hi_g=20.0)
+    monkeypatch.setattr(R, "housner_restitution", lambda a: r_mean)
+    thr = R.one_sine_threshold(b, H / 2, Tp, lo_g=0.2, hi_g=20.0)
+    dt = 0.001
+    t = np.arange(0.0, Tp + dt / 2, dt)
+    pulse = np.sin(2 * np.pi * t / Tp)
+    below = pcf.simulate(col, 0.95 * thr * pulse, dt, tail_s=4.0)
+    above = pcf.simulate(col, 1.05 * thr * pulse, dt, tail_s=4.0)
+    print(f"Tp=0.5: Housner threshold {thr_h / G:.4f} g with r_H, {thr / G:.4f} g with r_mean "
+          f"({thr / thr_h:.3f}x)")
+    assert thr < thr_h                                    # less loss per impact -> lower threshold
     assert not below.collapsed
     assert above.collapsed and above.collapse_block == 0
 
