@@ -18,6 +18,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from . import fragility as fr
+from . import names as _names
 from . import results as _results
 from .errors import ParameterError, ResultsFileError
 
@@ -26,14 +27,9 @@ __all__ = ["ResultsData", "read_results", "FIGURES", "make_all", "ROCKING_INITIA
 #: Minimum base acceleration initiating rocking of the column as a rigid block (paper Fig. 11c), g.
 ROCKING_INITIATION_G = 0.17
 
-EDP_LABELS = {
-    "u_top": "u_top = max top displacement / base diameter (-)",
-    "u_d": "u_d = residual drum dislocation / joint diameter (-)",
-}
-IM_LABELS = {
-    "pga_g": "PGA (g)",
-    "pgv_cm_s": "PGV (cm/s)",
-}
+#: Axis labels, from the one registry (:mod:`pycolfrag.names`).
+EDP_LABELS = {k: q.label for k, q in _names.EDPS.items()}
+IM_LABELS = {k: q.label for k, q in _names.IMS.items()}
 
 
 # --------------------------------------------------------------------------- reading
@@ -208,7 +204,7 @@ def _pulse_ap_g(d: ResultsData):
     if "ap_g" in d.samples and np.any(np.isfinite(d["ap_g"])):
         return d["ap_g"], "Ap = peak pulse acceleration (g)"
     amp = d["a_cm_s"] if "a_cm_s" in d.samples else d["vp_cm_s"]
-    return np.pi * d["fp_hz"] * amp / 981.0, "Ap ~ pi fp A (g, approximation)"
+    return np.pi * d["fp_hz"] * amp / (_names.CM_PER_M * _names.G), "Ap ~ pi fp A (g, approximation)"
 
 
 def fig_09(data, **_) -> Figure:
