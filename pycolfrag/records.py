@@ -619,7 +619,8 @@ def _records_from_rows(rows: list[_Row], table: Path, align: str) -> list[SuiteR
         arrays, changed = _align([comps[k][1] for k in keys], align)
         acc = dict(zip(keys, arrays))
         meta = dict(r.meta)
-        meta["padded_samples" if align == "pad" else "trimmed_samples"] = changed
+        if align != "error":
+            meta["padded_samples" if align == "pad" else "trimmed_samples"] = changed
         if not _finite(meta.get("azimuth_h1_deg")):
             meta["azimuth_h1_deg"] = _azimuth_from_name(r.files.get("h1", ""))
         out.append(SuiteRecord(r.record_id, comps["h1"][0], acc["h1"], acc.get("h2"), acc.get("v"), meta))
