@@ -237,3 +237,48 @@ def run_record_sample(record, *, column, component="h1", scale=1.0, vertical=Fal
                  solver_options=solver_options, out=out)
     out["wall_s"] = time.perf_counter() - t0
     return out
+
+
+def rows_to_table(rows) -> dict:
+    """Row dicts -> a suite table (dict of arrays, the ``/samples`` layout): numbers as float arrays
+    (ints for ``status``/``collapsed``), strings as lists, spectral IMs stacked (rows x periods, NaN
+    for a row without them)."""
+    rows = list(rows)
+    keys = []
+    for r in rows:
+        keys.extend(k for k in r if k not in keys)
+    table: dict = {}
+    for k in keys:
+        vals = [r.get(k) for r in rows]
+        if k in names.IMS and names.IMS[k].spectral:
+            width = max((np.size(v) for v in vals if v is not None), default=0)
+            table[k] = np.array([np.full(width, np.nan) if v is None else np.asarray(v, dtype=float) for v in vals])
+        elif all(isinstance(v, str) or v is None for v in vals):
+            table[k] = ["" if v is None else v for v in vals]
+        elif k in ("status", "collapsed", "collapse_block", "n_steps", "energy_warning"):
+            table[k] = np.array([(-1 if k == "collapse_block" else 0) if v is None else int(v) for v in vals])
+        else:
+            table[k] = np.array([math.nan if v is None else float(v) for v in vals])
+    return table
+
+
+def run_suite(records, *, column=None, components=("h1", "h2"), scales=(1.0,), periods_s=DEFAULT_PERIODS_S,
+              damping=DEFAULT_DAMPING, solver_options=None, max_record_s=None, progress=None) -> dict:
+    """Every record x component x scale, in one process (the MPI grid will do the same rows in
+    parallel): a suite table (:func:`rows_to_table`) with ``periods_s``. A component a record lacks
+    (``h2`` of a one-component record) is skipped. ``progress``: callable(done, total) or None."""
+    from .column import Column
+    from .records import load_records
+    suite = load_records(records)
+    col = Column.parthenon() if column is None else column
+    jobs = [(r, c, s) for r in suite for c in components for s in scales
+            if not (c in ("h2", "both") and r.h2 is None)]
+    rows = []
+    for i, (r, c, s) in enumerate(jobs):
+        rows.append(run_record_sample(r, column=col, component=c, scale=s, periods_s=periods_s, damping=damping,
+                                      solver_options=solver_options, max_record_s=max_record_s))
+        if progress is not None:
+            progress(i + 1, len(jobs))
+    table = rows_to_table(rows)
+    table["periods_s"] = np.asarray(periods_s, dtype=float)
+    return table
