@@ -250,7 +250,7 @@ def fig_11(data, **_) -> Figure:
     ax.set_title("(a) u_top vs pulse period")
     ax.legend(fontsize=7)
     big = d["mw"] >= 6.5
-    for k, (y, ylab, title) in enumerate(((d["pga_g"], "PGA (g)", "(b) PGA vs fp, Mw >= 6.5"),
+    for k, (y, ylab, title) in enumerate(((d["pga_g"], IM_LABELS["pga_g"], "(b) PGA vs fp, Mw >= 6.5"),
                                           (ap, ap_label, "(c) Ap vs fp, Mw >= 6.5")), start=2):
         ax = fig.add_subplot(1, 3, k)
         ax.scatter(d["fp_hz"][big & ~c], y[big & ~c], s=12, facecolors="none", edgecolors="C0",
@@ -374,7 +374,7 @@ def _fig_curves(d, ims, number, title, n_boot, rng):
 def fig_16(data, n_boot=200, rng=0, **_) -> Figure:
     """Fig. 16: fragility curves against PGA and PGV (stripe method and MLE lognormal curves)."""
     d = _as_data(data)
-    return _fig_curves(d, [("PGA", d["pga_g"], "PGA (g)"), ("PGV", d["pgv_cm_s"], "PGV (cm/s)")],
+    return _fig_curves(d, [("PGA", d["pga_g"], IM_LABELS["pga_g"]), ("PGV", d["pgv_cm_s"], IM_LABELS["pgv_cm_s"])],
                        16, "Fig. 16: fragility curves against PGA and PGV", n_boot, rng)
 
 
@@ -385,8 +385,8 @@ def fig_16_spectral(data, period_s=1.0, n_boot=200, rng=0, **_) -> Figure | None
         return None
     k = int(np.argmin(np.abs(d.periods_s - period_s)))
     t = d.periods_s[k]
-    return _fig_curves(d, [(f"SA({t:g} s)", d.sa_g[:, k], f"SA({t:g} s) (g)"),
-                           (f"SV({t:g} s)", d.sv_cm_s[:, k], f"SV({t:g} s) (cm/s)")],
+    return _fig_curves(d, [(f"SA({t:g} s)", d.sa_g[:, k], _names.label("sa_g", t)),
+                           (f"SV({t:g} s)", d.sv_cm_s[:, k], _names.label("sv_cm_s", t))],
                        16, f"Fig. 16 (spectral): fragility curves against SA and SV at T = {t:g} s", n_boot, rng)
 
 
