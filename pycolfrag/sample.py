@@ -114,7 +114,7 @@ def response_row(column, acc_x, dt, *, acc_y=None, acc_z=None, ims=None, periods
             res = simulate(column, acc_x, dt, acc_y=acc_y, acc_z=acc_z, **dict(solver_options or {}))
         phase = "other"
         out.update(_edp_row(res))
-    except Exception as exc:  # a failed sample is a result, not the end of the run (SPEC §9)
+    except Exception as exc:  # a failed sample is a result (status, message), not the end of the run
         out["status"] = STATUS[phase]
         out["message"] = f"{type(exc).__name__}: {exc}"
     return out

@@ -269,6 +269,10 @@ def test_record_validation():
         R.RecordSet([R.SuiteRecord("A", 0.01, np.zeros(4)), R.SuiteRecord("A", 0.01, np.zeros(4))])
     with pytest.raises(ParameterError, match="has no h2 component"):
         R.SuiteRecord("A", 0.01, np.zeros(4)).component("h2")
+    # records cross process boundaries (MPI ranks pickle what they send): metadata survive
+    import pickle
+    r = pickle.loads(pickle.dumps(R.SuiteRecord("A", 0.01, np.arange(4.0), meta={"mw": 6.5})))
+    assert r.mw == 6.5 and np.array_equal(r.h1, np.arange(4.0))
 
 
 # ------------------------------------------------------------------ FEMA P695 (optional extra)
