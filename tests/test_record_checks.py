@@ -120,3 +120,20 @@ def test_table_ii_passes_the_damping_switch(suite, monkeypatch):
     t95 = records.strong_motion_end(sub[0].h1, sub[0].dt)
     assert [("damping_alpha" in c) for c in calls] == [False, True]
     assert calls[1]["damping_alpha"] == 3.0 and calls[1]["damping_start_s"] == t95
+
+
+def test_record_checks_script(tmp_path, capsys):
+    """scripts/record_checks.py: fig10 writes the figure and the run table; table2 prints the table."""
+    import importlib.util
+    from pathlib import Path
+    path = Path(__file__).resolve().parents[1] / "scripts" / "record_checks.py"
+    spec = importlib.util.spec_from_file_location("record_checks", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    folder = rs.write_suite(tmp_path / "suite")
+    assert mod.main(["fig10", "--records", str(folder), "--out", str(tmp_path / "out"), "--max-record-s", "1"]) == 0
+    assert (tmp_path / "out" / "fig10_records.png").exists()
+    t = np.load(tmp_path / "out" / "fig10_suite.npz")
+    assert list(t["record_id"]) == ["RSN9001", "RSN9001", "RSN9002", "RSN9002"]   # RSN9003 (42 km) is out
+    assert mod.main(["table2", "--records", str(folder / "suite.csv"), "--ids", "RSN9002", "--ensemble", "1"]) == 0
+    assert "RSN9002" in capsys.readouterr().out
