@@ -628,12 +628,18 @@ def _records_from_rows(rows: list[_Row], table: Path, align: str) -> list[SuiteR
 
 
 def _azimuth_from_name(name: str) -> float:
-    """Azimuth of a component from a PEER file name when it ends in 3 digits (``..._JOS090.AT2`` -> 90)
-    or in ``-N``/``-E``/``-S``/``-W``; NaN otherwise (the name is a hint, not a guarantee)."""
+    """Azimuth of a component from a PEER file name when it ends in 3 digits (``..._JOS090.AT2`` -> 90),
+    in a quadrant bearing (``...S26W`` -> 206, ``...N73W`` -> 287) or in ``-N``/``-E``/``-S``/``-W``; NaN
+    otherwise (the name is a hint, not a guarantee)."""
     stem = Path(name).stem.upper()
     m = re.search(r"(\d{3})$", stem)
     if m and int(m.group(1)) < 360:
         return float(int(m.group(1)))
+    m = re.search(r"([NS])(\d{1,2})([EW])$", stem)
+    if m and int(m.group(2)) <= 90:
+        a = float(int(m.group(2)))
+        return {("N", "E"): a, ("N", "W"): (360.0 - a) % 360.0, ("S", "E"): 180.0 - a,
+                ("S", "W"): 180.0 + a}[(m.group(1), m.group(3))]
     m = re.search(r"[-_]([NESW])$", stem)
     return {"N": 0.0, "E": 90.0, "S": 180.0, "W": 270.0}[m.group(1)] if m else math.nan
 

@@ -95,6 +95,16 @@ def test_pairs_kept_together(suite):
     assert s["RSN9003"].h2[0] == pytest.approx(0.05 * G, rel=1e-7)   # the cosine is H2, not H1
 
 
+def test_azimuth_from_peer_file_names():
+    """Bearings as PEER file names write them (RSN864_LANDERS_JOS090, RSN6915_DARFIELD_HVSCS26W,
+    RSN1614_DUZCE_1061-N): azimuth clockwise from north; an unreadable name gives NaN."""
+    az = R._azimuth_from_name
+    assert az("RSN864_LANDERS_JOS090.AT2") == 90.0
+    assert (az("X_HVSCS26W.AT2"), az("X_SPFSN73W.AT2"), az("X_S64E.AT2"), az("X_N17E.AT2")) == (206.0, 287.0, 116.0, 17.0)
+    assert az("RSN1614_DUZCE_1061-E.AT2") == 90.0
+    assert math.isnan(az("RSN6915_DARFIELD_HVSCUP.AT2"))
+
+
 def test_select_and_table(suite):
     s = R.load_records(suite)
     assert s.select(rrup_km=(15, 25)).ids == ["RSN9001", "RSN9002"]
