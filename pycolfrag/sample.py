@@ -25,7 +25,7 @@ from . import names
 from .errors import ParameterError
 
 __all__ = ["DEFAULT_PERIODS_S", "DEFAULT_DAMPING", "COMPONENTS", "STATUS", "ims_row", "response_row",
-           "run_synthetic_sample", "run_record_sample"]
+           "run_synthetic_sample", "run_record_sample", "record_jobs", "run_suite", "rows_to_table"]
 
 #: Spectral periods of a row (``/spectra``), s -- the grid's default.
 DEFAULT_PERIODS_S = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0)
@@ -262,6 +262,23 @@ def rows_to_table(rows) -> dict:
     return table
 
 
+def record_jobs(suite, components=("h1", "h2"), scales=(1.0,)) -> list[tuple[int, str, float]]:
+    """The rows of a record-suite run, in order: (record index, component, scale) for every record x
+    component x scale, record-major; a component the record lacks (``h2``/``both`` of a
+    one-component record) is skipped. Depends on the suite and the choices only, so every rank of a
+    parallel run derives the same list and row ``i`` is the same run everywhere."""
+    for c in components:
+        if c not in COMPONENTS:
+            raise ParameterError(f"component must be one of {COMPONENTS}, got {c!r}")
+    if len(set(components)) != len(components):
+        raise ParameterError(f"repeated components in {components!r}")
+    scales = [float(f) for f in scales]
+    if not scales or any(not (math.isfinite(f) and f > 0) for f in scales) or len(set(scales)) != len(scales):
+        raise ParameterError(f"scales must be distinct finite numbers > 0, got {scales!r}")
+    return [(k, c, f) for k, r in enumerate(suite) for c in components for f in scales
+            if not (c in ("h2", "both") and r.h2 is None)]
+
+
 def run_suite(records, *, column=None, components=("h1", "h2"), scales=(1.0,), periods_s=DEFAULT_PERIODS_S,
               damping=DEFAULT_DAMPING, solver_options=None, max_record_s=None, progress=None) -> dict:
     """Every record x component x scale, in one process (the MPI grid will do the same rows in
@@ -271,12 +288,11 @@ def run_suite(records, *, column=None, components=("h1", "h2"), scales=(1.0,), p
     from .records import load_records
     suite = load_records(records)
     col = Column.parthenon() if column is None else column
-    jobs = [(r, c, s) for r in suite for c in components for s in scales
-            if not (c in ("h2", "both") and r.h2 is None)]
+    jobs = record_jobs(suite, components, scales)
     rows = []
-    for i, (r, c, s) in enumerate(jobs):
-        rows.append(run_record_sample(r, column=col, component=c, scale=s, periods_s=periods_s, damping=damping,
-                                      solver_options=solver_options, max_record_s=max_record_s))
+    for i, (k, c, s) in enumerate(jobs):
+        rows.append(run_record_sample(suite[k], column=col, component=c, scale=s, periods_s=periods_s,
+                                      damping=damping, solver_options=solver_options, max_record_s=max_record_s))
         if progress is not None:
             progress(i + 1, len(jobs))
     table = rows_to_table(rows)

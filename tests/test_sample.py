@@ -83,3 +83,15 @@ def test_record_sample_failures_are_rows(suite):
     bad = sample.run_record_sample(suite["RSN9002"], column=col, solver_options={"contact": "glue"})
     assert bad["status"] == sample.STATUS["solver"] and "contact must be one of" in bad["message"]
     assert bad["pga_g"] == pytest.approx(0.40, rel=1e-7)      # the IMs before the failure are kept
+
+
+def test_record_jobs_order_and_checks():
+    """Record-major, then component, then scale; a one-component record gets no h2/both rows."""
+    two = records.SuiteRecord("TWO", 0.01, np.zeros(5), np.zeros(5))
+    one = records.SuiteRecord("ONE", 0.01, np.zeros(5))
+    jobs = sample.record_jobs(records.RecordSet([two, one]), ("h1", "h2"), (0.5, 2.0))
+    assert jobs == [(0, "h1", 0.5), (0, "h1", 2.0), (0, "h2", 0.5), (0, "h2", 2.0), (1, "h1", 0.5), (1, "h1", 2.0)]
+    with pytest.raises(Exception, match="scales must be distinct"):
+        sample.record_jobs(records.RecordSet([two]), ("h1",), (1.0, 1.0))
+    with pytest.raises(Exception, match="component must be one of"):
+        sample.record_jobs(records.RecordSet([two]), ("x",), (1.0,))
