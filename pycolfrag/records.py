@@ -469,7 +469,7 @@ def _read_peer_table(path: Path) -> list[_Row]:
             first = cells[0].strip()
             if first and not re.match(r"^\d+$", first):  # a note ("These records were obtained ...")
                 break
-            if len([c for c in cells[: len(names)]]) < len(names):
+            if len(cells) < len(names):
                 raise RecordFileError(f"{path}, line {line}: {len(cells)} fields, the header (line {header_line}) "
                                       f"has {len(names)}")
             meta, files = {}, {}
