@@ -183,6 +183,20 @@ def test_duplicate_ids_refused(suite):
         R.load_records(suite)
 
 
+def test_malformed_peer_rows(suite):
+    """A row cut short, or a magnitude that is not a number: file, line (and column) named."""
+    q = suite / "_SearchResults.csv"
+    good = q.read_text()
+    lines = good.splitlines()
+    lines[13] = ",".join(lines[13].split(",")[:8])           # RSN9002's row, file line 14, cut after 8 fields
+    q.write_text("\n".join(lines) + "\n")
+    with pytest.raises(RecordFileError, match=r"_SearchResults\.csv, line 14: 8 fields, the header \(line 12\) has 22"):
+        R.load_records(suite)
+    q.write_text(good.replace(",7.0, Reverse", ",seven, Reverse"))
+    with pytest.raises(RecordFileError, match=r"line 14: column 'magnitude' = 'seven' is not a number"):
+        R.load_records(suite)
+
+
 def test_peer_table_without_marker_or_column(suite):
     q = suite / "_SearchResults.csv"
     q.write_text(q.read_text().replace("Horizontal-1 Acc. Filename", "H1 file"))
