@@ -24,6 +24,10 @@ Beyond the paper:
   (``fit_lognormal_fragility``): each sample contributes a Bernoulli outcome
   y = [collapsed or EDP >= edp] with P(y = 1 | IM) = Phi((ln IM - ln theta) / beta);
   the binomial log-likelihood is maximised over (ln theta, ln beta) with scipy.optimize;
+* for record suites (docs/records.md): stripe curves on every IM of a suite table
+  (``stripe_analysis``), a cloud analysis (ln EDP regressed on ln IM, collapse by logistic
+  regression: ``cloud_analysis``) and multiple-stripe fragility by the binomial likelihood of
+  Baker (2015) (``msa_fragility``, ``msa_from_table``);
 * percentile-bootstrap confidence intervals (``scipy.stats.bootstrap``, resampling within each
   scenario or stripe; stratified over scenarios for the MLE curve), with a seeded Generator.
 
@@ -61,6 +65,16 @@ __all__ = [
     "LognormalFragility",
     "fit_lognormal_fragility",
     "exceeded",
+    # record suites (docs/records.md)
+    "table_im",
+    "stripe_analysis",
+    "LogisticCollapse",
+    "fit_logistic_collapse",
+    "CloudFit",
+    "cloud_analysis",
+    "MSAFragility",
+    "msa_fragility",
+    "msa_from_table",
 ]
 
 
