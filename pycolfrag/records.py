@@ -312,9 +312,10 @@ class RecordSet(Sequence):
 
         ``which``: ``"far-field"`` (22 pairs), ``"near-field"`` (28 pairs: 14 with pulses, then 14
         without), ``"near-field-pulse"`` or ``"near-field-no-pulse"``. The P695 normalisation factor
-        is kept as ``meta["normalization_factor"]``, not applied. Two far-field pairs have
-        components of different length (e.g. Manjil, 2676 and 2300 samples): by default (``align="pad"``)
-        the shorter is padded with zeros, the number of padded samples is ``meta["padded_samples"]``.
+        is kept as ``meta["normalization_factor"]``, not applied. One far-field pair has components of
+        different length (FF15, Manjil: 2676 and 2300 samples): by default (``align="pad"``) the
+        shorter is padded with zeros, the number of padded samples is ``meta["padded_samples"]``.
+        The H1 azimuth is read from the component name (``NORTHR/MUL009`` -> 9) when it ends in one.
         """
         if which not in FEMA_P695_SETS:
             raise ParameterError(f"FEMA P695 set must be one of {sorted(FEMA_P695_SETS)}, got {which!r}")
@@ -345,7 +346,7 @@ class RecordSet(Sequence):
                     "rrup_km": float(row["SiteDistanceClosestToPlane"]), "vs30_m_s": float(row["SiteVs30"]),
                     "tp_s": math.nan, "pulse": part == "nearfield_pulse",
                     "normalization_factor": float(row["NormalizationFactor"]),
-                    "file_h1": n1, "file_h2": n2, "file_v": "", "azimuth_h1_deg": math.nan,
+                    "file_h1": n1, "file_h2": n2, "file_v": "", "azimuth_h1_deg": _azimuth_from_name(n1),
                     "padded_samples": padded,
                 }
                 records.append(SuiteRecord(f"{prefix}{int(rid):02d}", dt1, a1, a2, None, meta))
