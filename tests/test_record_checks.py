@@ -130,7 +130,8 @@ def test_record_checks_script(tmp_path, capsys):
     spec = importlib.util.spec_from_file_location("record_checks", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    folder = rs.write_suite(tmp_path / "suite")
+    assert mod.main(["demo-suite", str(tmp_path / "suite")]) == 0
+    folder = tmp_path / "suite"
     assert mod.main(["fig10", "--records", str(folder), "--out", str(tmp_path / "out"), "--max-record-s", "1"]) == 0
     assert (tmp_path / "out" / "fig10_records.png").exists()
     t = np.load(tmp_path / "out" / "fig10_suite.npz")
