@@ -1,6 +1,6 @@
 """pycolfrag.records: PEER folders, plain CSV, FEMA P695, units, pairs, errors, rotation, RotD.
 
-The suite is written by the test itself (tests/record_suite.py): closed-form sines and pulses in AT2
+The suite is written by the test itself (pycolfrag.demo_records): closed-form sines and pulses in AT2
 files of the PEER layout, a ``_SearchResults.csv`` laid out like a real NGA-West2 download (header
 block, metadata table with PEER's column names and quoting, notes, spectra) and our plain CSV.
 """
