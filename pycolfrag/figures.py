@@ -18,6 +18,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from . import fragility as fr
+from . import names as _names
 from . import results as _results
 from .errors import ParameterError, ResultsFileError
 
@@ -26,14 +27,9 @@ __all__ = ["ResultsData", "read_results", "FIGURES", "make_all", "ROCKING_INITIA
 #: Minimum base acceleration initiating rocking of the column as a rigid block (paper Fig. 11c), g.
 ROCKING_INITIATION_G = 0.17
 
-EDP_LABELS = {
-    "u_top": "u_top = max top displacement / base diameter (-)",
-    "u_d": "u_d = residual drum dislocation / joint diameter (-)",
-}
-IM_LABELS = {
-    "pga_g": "PGA (g)",
-    "pgv_cm_s": "PGV (cm/s)",
-}
+#: Axis labels, from the one registry (:mod:`pycolfrag.names`).
+EDP_LABELS = {k: q.label for k, q in _names.EDPS.items()}
+IM_LABELS = {k: q.label for k, q in _names.IMS.items()}
 
 
 # --------------------------------------------------------------------------- reading
@@ -208,7 +204,7 @@ def _pulse_ap_g(d: ResultsData):
     if "ap_g" in d.samples and np.any(np.isfinite(d["ap_g"])):
         return d["ap_g"], "Ap = peak pulse acceleration (g)"
     amp = d["a_cm_s"] if "a_cm_s" in d.samples else d["vp_cm_s"]
-    return np.pi * d["fp_hz"] * amp / 981.0, "Ap ~ pi fp A (g, approximation)"
+    return np.pi * d["fp_hz"] * amp / (_names.CM_PER_M * _names.G), "Ap ~ pi fp A (g, approximation)"
 
 
 def fig_09(data, **_) -> Figure:
@@ -254,7 +250,7 @@ def fig_11(data, **_) -> Figure:
     ax.set_title("(a) u_top vs pulse period")
     ax.legend(fontsize=7)
     big = d["mw"] >= 6.5
-    for k, (y, ylab, title) in enumerate(((d["pga_g"], "PGA (g)", "(b) PGA vs fp, Mw >= 6.5"),
+    for k, (y, ylab, title) in enumerate(((d["pga_g"], IM_LABELS["pga_g"], "(b) PGA vs fp, Mw >= 6.5"),
                                           (ap, ap_label, "(c) Ap vs fp, Mw >= 6.5")), start=2):
         ax = fig.add_subplot(1, 3, k)
         ax.scatter(d["fp_hz"][big & ~c], y[big & ~c], s=12, facecolors="none", edgecolors="C0",
@@ -378,7 +374,7 @@ def _fig_curves(d, ims, number, title, n_boot, rng):
 def fig_16(data, n_boot=200, rng=0, **_) -> Figure:
     """Fig. 16: fragility curves against PGA and PGV (stripe method and MLE lognormal curves)."""
     d = _as_data(data)
-    return _fig_curves(d, [("PGA", d["pga_g"], "PGA (g)"), ("PGV", d["pgv_cm_s"], "PGV (cm/s)")],
+    return _fig_curves(d, [("PGA", d["pga_g"], IM_LABELS["pga_g"]), ("PGV", d["pgv_cm_s"], IM_LABELS["pgv_cm_s"])],
                        16, "Fig. 16: fragility curves against PGA and PGV", n_boot, rng)
 
 
@@ -389,8 +385,8 @@ def fig_16_spectral(data, period_s=1.0, n_boot=200, rng=0, **_) -> Figure | None
         return None
     k = int(np.argmin(np.abs(d.periods_s - period_s)))
     t = d.periods_s[k]
-    return _fig_curves(d, [(f"SA({t:g} s)", d.sa_g[:, k], f"SA({t:g} s) (g)"),
-                           (f"SV({t:g} s)", d.sv_cm_s[:, k], f"SV({t:g} s) (cm/s)")],
+    return _fig_curves(d, [(f"SA({t:g} s)", d.sa_g[:, k], _names.label("sa_g", t)),
+                           (f"SV({t:g} s)", d.sv_cm_s[:, k], _names.label("sv_cm_s", t))],
                        16, f"Fig. 16 (spectral): fragility curves against SA and SV at T = {t:g} s", n_boot, rng)
 
 

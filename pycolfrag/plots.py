@@ -30,6 +30,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from .errors import ParameterError
+from .names import G as _G  # m/s^2, only to show accelerations in g
 
 __all__ = [
     "U_TOP_LEVELS", "U_D_LEVELS", "plot_top_displacement", "plot_joint_openings", "plot_joint_slips",
@@ -41,8 +42,6 @@ __all__ = [
 U_TOP_LEVELS = (0.15, 0.35, 1.0)
 #: Performance levels of u_d (paper Table IV), dimensionless.
 U_D_LEVELS = (0.005, 0.01, 0.02)
-
-_G = 9.81  # m/s^2, only to show accelerations in g
 
 
 # --------------------------------------------------------------------------- helpers

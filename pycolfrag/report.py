@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from . import fragility as fr
+from . import names
 from .fragility import binomial_ci
 from .figures import FIGURES, im_curves, read_results
 
@@ -114,11 +115,11 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
           "indicators (collapsed or EDP >= level) of all runs; 90 % intervals from a bootstrap stratified by "
           "scenario. The stripe-method curves (12 equal-width stripes, Eq. (4) inside each) are in Fig. 16.", "",
           "| IM | level | n exceeding | median [90 % CI] | beta [90 % CI] |", "|---|---|---:|---|---|"]
-    ims = [("PGA (g)", d["pga_g"]), ("PGV (cm/s)", d["pgv_cm_s"])]
+    ims = [(names.label("pga_g"), d["pga_g"]), (names.label("pgv_cm_s"), d["pgv_cm_s"])]
     if d.sa_g is not None and d.periods_s is not None and d.periods_s.size:
         k = int(np.argmin(np.abs(d.periods_s - 1.0)))
-        ims.append((f"SA({d.periods_s[k]:g} s) (g)", d.sa_g[:, k]))
-        ims.append((f"SV({d.periods_s[k]:g} s) (cm/s)", d.sv_cm_s[:, k]))
+        ims.append((names.label("sa_g", d.periods_s[k]), d.sa_g[:, k]))
+        ims.append((names.label("sv_cm_s", d.periods_s[k]), d.sv_cm_s[:, k]))
     for name, values in ims:
         if not np.all(np.isfinite(values)) or np.any(values <= 0):
             L.append(f"| {name} | all | - | IM not positive/finite in every run: not fitted | |")
