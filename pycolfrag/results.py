@@ -852,10 +852,12 @@ class ResultsWriter:
 
     def close(self) -> None:
         """Close the journal and release the lock (rows not flushed stay in the journal)."""
-        self._journal.close()
-        if self._lock is not None:
-            self._lock.release()
-            self._lock = None
+        try:
+            self._journal.close()
+        finally:
+            if self._lock is not None:
+                self._lock.release()
+                self._lock = None
 
 
 # ---------------------------------------------------------------------------------------
