@@ -372,7 +372,7 @@ def test_full_disk_is_one_clear_line_and_the_rerun_keeps_every_journalled_row(tm
     b = _start(args, PCF_FAKE_SLEEP_S="0.1")
     _wait_rows(out, 4, b)
     filler = mnt / "filler"
-    with open(filler, "wb") as fh:  # fill the disk while the run goes on
+    with open(filler, "wb", buffering=0) as fh:  # fill the disk while the run goes on
         try:
             while True:
                 fh.write(b"\0" * 4096)
