@@ -496,6 +496,7 @@ def run_grid(spec: GridSpec, out, *, overwrite: bool = False, retry_failed: bool
 
     # ---- rank 0 ----
     prev_sigterm = signal.getsignal(signal.SIGTERM)
+    prev_sigint = signal.getsignal(signal.SIGINT)
 
     def _on_sigterm(signum, frame):  # turn SIGTERM into an exception so the finally-block flushes
         raise SystemExit(128 + signum)
@@ -540,6 +541,11 @@ def run_grid(spec: GridSpec, out, *, overwrite: bool = False, retry_failed: bool
             pbar.close()
         wall = time.perf_counter() - t_start
         try:
+            for sig in (signal.SIGTERM, signal.SIGINT):  # a second signal must not cut the final write short
+                signal.signal(sig, signal.SIG_IGN)
+        except ValueError:  # not the main thread
+            pass
+        try:
             sessions = _previous_sessions(out)
             sessions.append({"started": started,
                              "n_ranks": size, "rows_computed": computed, "wall_s": round(wall, 3)})
@@ -554,7 +560,11 @@ def run_grid(spec: GridSpec, out, *, overwrite: bool = False, retry_failed: bool
                 raise
             # the first failure is the one to report; this one is its consequence (e.g. a full disk)
         finally:
-            signal.signal(signal.SIGTERM, prev_sigterm)
+            try:
+                signal.signal(signal.SIGTERM, prev_sigterm)
+                signal.signal(signal.SIGINT, prev_sigint)
+            except ValueError:
+                pass
     return RunSummary(path=out, n_rows=spec.n_rows, computed=computed, failed=failed, wall_s=wall, n_ranks=size,
                       table=summary_table(out))
 

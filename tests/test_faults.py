@@ -539,3 +539,44 @@ def test_column_constructors_refuse_strings_none_bools_and_too_many_sides():
         Column.single_block(1.0, 2.0, n_sides=65)
     j = JointProperties(friction_deg=np.float64(30.0), kn=np.int64(10**9))
     assert type(j.friction_deg) is float and type(j.kn) is float  # numpy numbers are fine, stored as float
+
+
+@pytest.mark.mpi
+def test_ctrl_c_under_mpirun_keeps_every_journalled_row(tmp_path):
+    # docs/grid.md says what happens: Ctrl-C signals the whole foreground process group. Measured
+    # (Open MPI 4.1.4): mpirun exits at once (exit 1); the ranks do not react to SIGINT, go on for a
+    # second or two, then are killed without any cleanup, so rank 0 makes no final HDF5 write (its
+    # finally-block never runs) and the HDF5 file lags by up to --flush-s seconds of rows; the
+    # journal holds every row that reached rank 0. A rerun while they linger is refused (exit 5).
+    if shutil.which("mpirun") is None:
+        pytest.skip("mpirun not installed (make system)")
+    out = tmp_path / "g.h5"
+    args = [*FAKE[:-2], "--flush-s", "60", "--out", str(out)]  # no HDF5 batch before the interrupt
+    cmd = ["timeout", "-k", "10", "120", "mpirun", "--allow-run-as-root", "-n", "2", sys.executable, "-m", "mpi4py",
+           str(SCRIPT), *args]
+    proc = subprocess.Popen(cmd, env=_env(PCF_FAKE_SLEEP_S="0.2"), cwd=ROOT, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        _wait_rows(out, 4, proc)
+        ranks = _rank_pids(out)
+        os.killpg(proc.pid, signal.SIGINT)  # what the terminal does on Ctrl-C
+        proc.wait(timeout=60)
+        t0 = time.time()
+        while any(Path(f"/proc/{r}").exists() for r in ranks):  # the lingering ranks
+            assert time.time() - t0 < 30, "ranks still alive 30 s after Ctrl-C"
+            time.sleep(0.1)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode != 0
+    n_journal = _journal_rows(out)
+    with h5py.File(out, "r") as f:
+        in_h5 = int((f["samples/status"][...] != R.STATUS_PENDING).sum())
+    before = R.load(out)
+    assert len(before) == max(n_journal, in_h5) >= 4, (n_journal, in_h5)  # readers see every finished row
+    p = _ok(_serial(args))
+    assert f"{len(before)} of 16 rows already done" in p.stdout, p.stdout
+    after = R.load(out)
+    assert after.complete and len(after) == 16
+    _same_rows(before, after, rows=before.rows)
