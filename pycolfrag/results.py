@@ -22,8 +22,24 @@ journalled row: :func:`open_for_run` (the resume path) recreates the HDF5 file f
 header when it cannot be opened and replays every journalled row into it (row writes are
 idempotent), and :func:`load` overlays journalled rows in memory, so readers see every finished
 sample even right after a kill. A truncated last journal line (killed mid-append) is ignored
-and cut off before appending again. When a run completes, the HDF5 file is final and the
-journal is deleted; reopening such a file starts a journal that holds its finished rows.
+and cut off before appending again. When a run completes, the HDF5 file is final (with CRC-32
+``checksums`` of its datasets) and the journal is deleted; reopening such a file starts a journal
+that holds its finished rows.
+
+Faults from outside a run
+-------------------------
+* Two runs on one path: the writer holds :class:`RunLock` (``<file>.lock``, ``flock`` + holder's
+  pid/host/start time); a second writer gets :class:`ResultsLockedError` naming the holder; a lock
+  whose holder died is taken over.
+* Rows of another run: the file and its journal carry the same ``run_id``; a journal is merged
+  only if its signature and ``run_id`` match the file's (:func:`journal_mismatch`), else it is
+  ignored (:func:`load`) or set aside (:func:`open_for_run`); every HDF5 write checks the file's
+  ``run_id``, and :meth:`ResultsWriter.finish` deletes only its own journal.
+* A damaged file: read in a forked child with a deadline and checked against its checksums
+  (:func:`_read_h5_bounded`), so a damaged file is reported (:class:`ResultsDamagedError`) instead
+  of hanging the HDF5 library, and rebuilt from the journal when there is one.
+* A journal whose header was cut (full disk) raises :class:`JournalHeaderError` in
+  :func:`read_journal`; callers set it aside or ignore it, never crash.
 """
 from __future__ import annotations
 
@@ -913,8 +929,7 @@ class Results:
         return out
 
 
-def _results_from_raw(raw: dict, pending: bool, header: Mapping | None = None, jrows: Mapping | None = None,
-                      ) -> Results:
+def _results_from_raw(raw, pending: bool, header: Mapping | None = None, jrows: Mapping | None = None) -> Results:
     """Build :class:`Results` from :func:`_read_h5`'s dict (or from a journal header alone when
     ``raw`` is None), overlaying journalled rows."""
     if raw is not None:

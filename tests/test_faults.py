@@ -1,4 +1,4 @@
-"""Fault injection: the grid and its results file under the faults a user meets (issue 13).
+"""Fault injection: the grid and its results file under the faults a hostile or unlucky user meets.
 
 Each case ends with no finished row lost and no row of another run kept: "finished" means the row
 reached rank 0's journal before the fault; "kept" rows are compared bit for bit (all fields but
@@ -6,7 +6,7 @@ reached rank 0's journal before the fault; "kept" rows are compared bit for bit 
 ``tests/grid_fakes.py`` (no physics: deterministic numbers from the row's seeds, optional sleep per
 row so a run can be hit part-way), so every case takes seconds.
 
-Cases: two runs on one path (the lock, and the issue's scenario 1: seed 1, then seed 2 with
+Cases: two runs on one path (the lock, and the silent-corruption scenario: seed 1, then seed 2 with
 --overwrite on the same path, killed and resumed), a stale lock, a stale journal of another run,
 a journal with a bad header, a damaged HDF5 file (hang and silent zeroes), kill -9 of each rank
 under ``mpirun -n 2``, a full disk and a read-only folder (tmpfs mounts, root only), arguments
@@ -114,9 +114,9 @@ def test_stale_lock_of_a_dead_process_is_taken_over(tmp_path):
 
 
 def test_scenario_1_two_seeds_on_one_path_overwrite_kill_resume(tmp_path):
-    # issue 13, fault 1: run seed 1; start seed 2 with --overwrite on the same path while it runs;
-    # kill -9 the seed-2 run; rerun seed 2. Before the fix the file ended "120 of 120 rows done",
-    # signed seed 2, with seed-1 rows in it.
+    # The silent-corruption report: run seed 1; start seed 2 with --overwrite on the same path while
+    # it runs; kill -9 the seed-2 run; rerun seed 2. Without the lock the file ended "120 of 120 rows
+    # done", signed seed 2, with 29 seed-1 rows in it (run 1 kept writing its batches into the new file).
     out = tmp_path / "g.h5"
     seed1 = [*FAKE, "--seed", "1", "--out", str(out)]
     seed2 = [*FAKE, "--seed", "2", "--out", str(out)]
@@ -444,6 +444,15 @@ def test_bad_grid_arguments_are_refused_before_any_file(tmp_path, capsys, change
     assert not out.parent.exists() or not any(out.parent.iterdir())  # no .h5, .journal, .tmp or .lock
 
 
+def test_a_failed_create_leaves_no_journal_or_tmp(tmp_path):
+    # a value HDF5 cannot store (here an int beyond int64) used to leave a .journal and a .tmp that
+    # made every later run refuse the path
+    p = tmp_path / "r.h5"
+    with pytest.raises(TypeError, match="no native HDF5 equivalent"):  # h5py's words for it
+        R.create(p, SIG_A, {"seed": 2**64}, 6, PERIODS)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_seed_beyond_int64_from_the_command_line_leaves_no_file(tmp_path):
     out = tmp_path / "g.h5"
     p = _serial([*FAKE, "--seed", str(2**64), "--out", str(out)])
@@ -459,8 +468,9 @@ def _at2_header(npts):
 
 
 def test_read_at2_stops_after_npts_values_of_a_huge_file(tmp_path):
-    # issue 13, fault 6: a 1 GB file with a valid header cost 13.4 GB and 43 s. 50 MB here: the
-    # reader must stop at value NPTS + 1, so time and memory do not grow with the file.
+    # A 1 GB file with a valid header cost 13.4 GB and 43 s when the reader took the whole file.
+    # 50 MB here: the reader must stop at value NPTS + 1, so time and memory do not grow with the file;
+    # line 130 is where value 1001 sits (8 values per line from line 5).
     from pycolfrag.ground_motion.at2 import read_at2
     p = tmp_path / "huge.AT2"
     with open(p, "w") as fh:
