@@ -807,7 +807,7 @@ def main(argv=None) -> int:
         if spec.sample_function is None:
             from .column import Column
             check_solver_options(Column.from_dict(spec.column), spec.solver_options)
-    except (ParameterError, FileNotFoundError) as exc:
+    except (ParameterError, OSError) as exc:  # OSError: a column file missing or unreadable
         log(f"run_grid: {exc}")
         return EXIT_ARGS
     if rank == 0:
