@@ -13,7 +13,6 @@ under ``mpirun -n 2``, a full disk and a read-only folder (tmpfs mounts, root on
 refused before any file is made, and the hostile inputs of ``read_at2`` and ``Column``.
 """
 import json
-import math
 import os
 import shutil
 import signal
@@ -105,7 +104,7 @@ def test_stale_lock_of_a_dead_process_is_taken_over(tmp_path):
                                             "started": "2026-01-01T00:00:00Z"}))
     msgs = []
     w = R.open_for_run(out, SIG_A, {}, 6, PERIODS, log=msgs.append)
-    assert any(f"stale lock" in m and f"pid {dead.pid}" in m and "no longer running" in m for m in msgs), msgs
+    assert any("stale lock" in m and f"pid {dead.pid}" in m and "no longer running" in m for m in msgs), msgs
     assert json.loads(R.lock_path(out).read_text())["pid"] == os.getpid()
     with pytest.raises(R.ResultsLockedError, match=f"pid {os.getpid()} on host"):
         R.open_for_run(out, SIG_A, {}, 6, PERIODS)  # a second writer, even in the same process
