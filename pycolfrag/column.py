@@ -22,13 +22,31 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import os
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from typing import Iterable, Sequence
 
+from ._ffi import lib as _lib
 from ._validate import positive_float
 from .errors import ParameterError
+
+#: Most polygon sides the solver handles (``CF_SOLVER_MAX_SIDES`` in csrc/solver.h).
+MAX_SIDES = int(_lib.CF_SOLVER_MAX_SIDES)
+
+
+def _real(value, name: str) -> float:
+    """A real number (int, float, numpy scalar) as float. Strings ("37"), None and bools are refused
+    where they enter, naming the value: a string that float() would accept still means the input
+    was written wrong (e.g. a quoted number in a column file)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or type(value).__name__ == "bool_":
+        raise ParameterError(f"{name} must be a number, got {type(value).__name__} {value!r}")
+    return float(value)
+
+
+def _positive(value, name: str) -> float:
+    return positive_float(_real(value, name), name)
 
 __all__ = ["Segment", "Block", "JointProperties", "Column"]
 
@@ -45,12 +63,11 @@ def _check_keys(d, known, where: str) -> dict:
 
 def _n_sides(value, where: str) -> int:
     """An integral number of polygon sides (10 and 10.0 pass; 3.7 and "ten" do not)."""
-    msg = f"{where + ': ' if where else ''}n_sides must be an integer >= 3, got {value!r}"
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(msg) from None
-    if isinstance(value, bool) or not math.isfinite(v) or v != int(v) or v < 3:
+    msg = f"{where + ': ' if where else ''}n_sides must be an integer in [3, {MAX_SIDES}], got {value!r}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ParameterError(msg)
+    v = float(value)
+    if not math.isfinite(v) or v != int(v) or not 3 <= v <= MAX_SIDES:
         raise ParameterError(msg)
     return int(v)
 
@@ -87,13 +104,14 @@ class Segment:
     phase_rad: float = 0.0
 
     def __post_init__(self):
-        positive_float(self.height, "segment height (m)")
-        positive_float(self.r_bottom, "segment bottom radius (m)")
-        positive_float(self.r_top, "segment top radius (m)")
-        if int(self.n_sides) != self.n_sides or self.n_sides < 3:
-            raise ParameterError(f"n_sides must be an integer >= 3, got {self.n_sides!r}")
-        if not math.isfinite(float(self.phase_rad)):
+        object.__setattr__(self, "height", _positive(self.height, "segment height (m)"))
+        object.__setattr__(self, "r_bottom", _positive(self.r_bottom, "segment bottom radius (m)"))
+        object.__setattr__(self, "r_top", _positive(self.r_top, "segment top radius (m)"))
+        object.__setattr__(self, "n_sides", _n_sides(self.n_sides, "segment"))
+        ph = _real(self.phase_rad, "phase_rad")
+        if not math.isfinite(ph):
             raise ParameterError(f"phase_rad must be finite, got {self.phase_rad!r}")
+        object.__setattr__(self, "phase_rad", ph)
 
     @property
     def _k(self) -> float:
@@ -130,10 +148,10 @@ class Segment:
         try:
             return cls(
                 height=d["height"],
-                r_bottom=0.5 * float(d["diameter_bottom"]),
-                r_top=0.5 * float(d.get("diameter_top", d["diameter_bottom"])),
+                r_bottom=0.5 * _real(d["diameter_bottom"], "diameter_bottom (m)"),
+                r_top=0.5 * _real(d.get("diameter_top", d["diameter_bottom"]), "diameter_top (m)"),
                 n_sides=_n_sides(d.get("n_sides", 10), ""),  # where is prefixed below
-                phase_rad=math.radians(float(d.get("phase_deg", 0.0))),
+                phase_rad=math.radians(_real(d.get("phase_deg", 0.0), "phase_deg")),
             )
         except KeyError as exc:
             raise ParameterError(f"{where}: missing key {exc}") from None
@@ -210,16 +228,15 @@ class JointProperties:
     tensile_strength: float = 0.0
 
     def __post_init__(self):
-        positive_float(self.kn, "joint normal stiffness kn (Pa/m)")
-        positive_float(self.ks, "joint shear stiffness ks (Pa/m)")
-        try:
-            f = float(self.friction_deg)
-        except (TypeError, ValueError):
-            raise ParameterError(f"friction angle must be a number of degrees, got {self.friction_deg!r}") from None
+        object.__setattr__(self, "kn", _positive(self.kn, "joint normal stiffness kn (Pa/m)"))
+        object.__setattr__(self, "ks", _positive(self.ks, "joint shear stiffness ks (Pa/m)"))
+        f = _real(self.friction_deg, "friction angle (degrees)")
         if not math.isfinite(f) or not (0.0 < f < 90.0):
             raise ParameterError(f"friction angle must be in (0, 90) degrees, got {self.friction_deg!r}")
+        object.__setattr__(self, "friction_deg", f)
         for name in ("cohesion", "tensile_strength"):
-            v = getattr(self, name)
+            v = _real(getattr(self, name), f"joint {name} (Pa)")
+            object.__setattr__(self, name, v)
             if v != 0.0:
                 raise ParameterError(f"joint {name} = {v!r} is not supported: dry joints have 0 (paper Table I)")
 
@@ -278,7 +295,7 @@ class Column:
             if not isinstance(b, Block):
                 raise ParameterError(f"blocks[{i}] must be a Block, got {type(b).__name__}")
         self.blocks = blocks
-        self.density = positive_float(density, "density (kg/m^3)")
+        self.density = _positive(density, "density (kg/m^3)")
         self.joints = joints if joints is not None else JointProperties()
         if not isinstance(self.joints, JointProperties):
             raise ParameterError(f"joints must be JointProperties, got {type(self.joints).__name__}")
@@ -291,18 +308,15 @@ class Column:
                    joints: JointProperties | None = None, phase_deg: float = 0.0, name: str = "custom") -> "Column":
         """A shaft of drums with linear taper from ``diameter_bottom`` to ``diameter_top`` (m)
         over the total shaft height, optionally topped by ``capital``."""
-        try:
-            heights = [float(h) for h in drum_heights]
-        except (TypeError, ValueError):
-            raise ParameterError(f"drum_heights must be numbers, got {drum_heights!r}") from None
+        if isinstance(drum_heights, (str, bytes)) or not isinstance(drum_heights, Iterable):
+            raise ParameterError(f"drum_heights must be a list of numbers, got {drum_heights!r}")
+        heights = [_positive(h, f"drum_heights[{i}] (m)") for i, h in enumerate(drum_heights)]
         if not heights:
             raise ParameterError("drum_heights is empty")
-        for i, h in enumerate(heights):
-            positive_float(h, f"drum_heights[{i}] (m)")
-        d0 = positive_float(diameter_bottom, "diameter_bottom (m)")
-        d1 = d0 if diameter_top is None else positive_float(diameter_top, "diameter_top (m)")
+        d0 = _positive(diameter_bottom, "diameter_bottom (m)")
+        d1 = d0 if diameter_top is None else _positive(diameter_top, "diameter_top (m)")
         total = sum(heights)
-        phase = math.radians(float(phase_deg))
+        phase = math.radians(_real(phase_deg, "phase_deg"))
         blocks, z = [], 0.0
         for i, h in enumerate(heights):
             rb = 0.5 * (d0 + (d1 - d0) * z / total)
@@ -317,9 +331,10 @@ class Column:
     def doric_capital(echinus_height: float, echinus_diameter_bottom: float, echinus_diameter_top: float,
                       abacus_height: float, abacus_side: float, n_sides: int = 10, phase_deg: float = 0.0) -> Block:
         """A Doric capital as one rigid block: polygonal echinus frustum + square abacus slab (m)."""
-        ech = Segment(echinus_height, 0.5 * echinus_diameter_bottom, 0.5 * echinus_diameter_top,
+        ech = Segment(echinus_height, 0.5 * _real(echinus_diameter_bottom, "echinus_diameter_bottom (m)"),
+                      0.5 * _real(echinus_diameter_top, "echinus_diameter_top (m)"),
                       n_sides, math.radians(phase_deg))
-        r_ab = abacus_side / math.sqrt(2.0)  # circumradius of the square; sides parallel to x and y
+        r_ab = _positive(abacus_side, "abacus_side (m)") / math.sqrt(2.0)  # circumradius of the square; sides parallel to x and y
         ab = Segment(abacus_height, r_ab, r_ab, 4, math.pi / 4.0)
         return Block((ech, ab), name="capital")
 
@@ -332,10 +347,9 @@ class Column:
         ``width`` whose faces are normal to x and y: the 2D rocking block of Housner
         (1963) when excited along x (half-width b = width/2).
         """
-        w = positive_float(width, "width (m)")
-        positive_float(height, "height (m)")
-        if int(n_sides) != n_sides or n_sides < 3:
-            raise ParameterError(f"n_sides must be an integer >= 3, got {n_sides!r}")
+        w = _positive(width, "width (m)")
+        _positive(height, "height (m)")
+        n_sides = _n_sides(n_sides, "single_block")
         r = 0.5 * w / math.cos(math.pi / n_sides)  # circumradius from the inradius w/2
         phase = math.pi / n_sides if flat_side_along_x else 0.0
         seg = Segment(height, r, r, n_sides, phase)
@@ -397,19 +411,24 @@ class Column:
             raise ParameterError("column description needs 'shaft' (with optional 'capital') or 'blocks'")
         sh = _check_keys(d["shaft"], _SHAFT_KEYS, "shaft")
         n_sides = _n_sides(d.get("n_sides", sh.get("n_sides", 10)), "column")
-        phase = float(d.get("phase_deg", sh.get("phase_deg", 0.0)))
+        phase = _real(d.get("phase_deg", sh.get("phase_deg", 0.0)), "phase_deg")
         try:
             heights = sh["drum_heights"]
             d0 = sh["diameter_bottom"]
         except KeyError as exc:
             raise ParameterError(f"shaft: missing key {exc}") from None
         capital = None
-        if d.get("capital"):
+        if "capital" in d:  # present but empty is an error, never a column without its capital
             c = _check_keys(d["capital"], _CAPITAL_KEYS, "capital")
+            if not c:
+                raise ParameterError("capital is empty: give its keys (docs/column_format.md) or remove the "
+                                     "[capital] table for a column without a capital")
             try:
-                capital = cls.doric_capital(c["echinus_height"], c["echinus_diameter_bottom"], c["echinus_diameter_top"],
+                capital = cls.doric_capital(c["echinus_height"],
+                                            _real(c["echinus_diameter_bottom"], "capital echinus_diameter_bottom (m)"),
+                                            _real(c["echinus_diameter_top"], "capital echinus_diameter_top (m)"),
                                             c["abacus_height"],
-                                            positive_float(c["abacus_side"], "capital abacus_side (m)"),
+                                            _positive(c["abacus_side"], "capital abacus_side (m)"),
                                             n_sides=_n_sides(c.get("n_sides", n_sides), "capital"), phase_deg=phase)
             except KeyError as exc:
                 raise ParameterError(f"capital: missing key {exc}") from None

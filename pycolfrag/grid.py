@@ -61,6 +61,13 @@ DEFAULT_SEED = 20160601
 DEFAULT_PERIODS_S = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0)
 DEFAULT_DAMPING = 0.05
 DEFAULT_RECORD_DT_S = 0.005
+#: Largest root seed: it is stored as a signed 64-bit HDF5 attribute.
+SEED_MAX = 2**63 - 1
+#: Largest grid (rows): the file allocates every row at creation (about 400 bytes per row).
+MAX_ROWS = 10**8
+
+#: Exit codes of :func:`main` (also in docs/grid.md).
+EXIT_OK, EXIT_ARGS, EXIT_OUTPUTS, EXIT_OS_ERROR, EXIT_LOCKED = 0, 2, 3, 4, 5
 
 # tags of the rank-0 <-> worker protocol
 _TAG_REQUEST = 11   # worker -> 0: "next chunk please" + rows finished since the last request
@@ -152,12 +159,20 @@ class GridSpec:
     sample_function: str | None = None
 
     def __post_init__(self):
-        if int(self.samples) != self.samples or self.samples < 1:
+        for name in ("samples", "seed"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+                raise ParameterError(f"{name} must be an integer, got {v!r}")
+        if self.samples < 1:
             raise ParameterError(f"samples must be an integer >= 1, got {self.samples!r}")
-        if int(self.seed) != self.seed or self.seed < 0:
-            raise ParameterError(f"seed must be a non-negative integer, got {self.seed!r}")
+        if not 0 <= self.seed <= SEED_MAX:
+            raise ParameterError(f"seed must be an integer in [0, 2**63 - 1], got {self.seed!r}")
         if not self.mw or not self.dist_km:
             raise ParameterError("the grid needs at least one Mw and one distance")
+        if len(self.mw) * len(self.dist_km) * self.samples > MAX_ROWS:
+            raise ParameterError(f"the grid has {len(self.mw) * len(self.dist_km) * self.samples} rows "
+                                 f"({len(self.mw)} Mw x {len(self.dist_km)} R x {self.samples} samples); "
+                                 f"at most {MAX_ROWS} fit one file")
         for name in ("vp_scale", "record_dt_s", "damping"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
@@ -357,13 +372,43 @@ def solver_defaults() -> dict:
 
 
 def check_solver_options(column, opts: dict) -> None:
-    """Refuse unknown option names and values the solver rejects, before any file is touched
-    (:class:`pycolfrag.SolverOptions` checks names, types and the C library's ranges)."""
+    """Refuse unknown option names and values the solver rejects (:class:`pycolfrag.SolverOptions`
+    checks names, types and the C library's ranges), and a column that collapses under gravity
+    alone, before any file is touched."""
     from .options import SolverOptions
+    from .solver import simulate
     try:
-        SolverOptions().replace(**opts)
+        options = SolverOptions().replace(**opts)
+        # a column that collapses under gravity alone (e.g. --kn 1) would report every row
+        # collapsed at t = 0: a 3-sample zero record (~20 ms) asks the solver's own criteria
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = simulate(column, np.zeros(3), DEFAULT_RECORD_DT_S, options=options)
     except (ParameterError, TypeError) as exc:
         raise ParameterError(f"solver options {opts}: {exc}") from None
+    if res.collapsed:  # with no ground motion at all: every row would report a collapse at t = 0
+        raise ParameterError(
+            f"the column collapses under gravity alone (no ground motion; block {res.collapse_block}, "
+            f"{res.collapse_reason} at t = {res.collapse_time:g} s) with joint kn = {column.joints.kn:g} Pa/m "
+            f"and solver options {opts}: every run would report a collapse; raise --kn")
+
+
+def check_models(spec: GridSpec) -> None:
+    """Refuse, before any run, a grid the ground-motion models cannot serve: every scenario within
+    both models' declared ranges (``atkinson_silva_2000.check_scenario``, ``rupakhety_2011.check_scenario``)
+    and the record step within the stochastic generator's range (``atkinson_silva_2000.DT_MIN/DT_MAX``).
+    Otherwise every row would fail the same way and the grid would exit 0 with a file of failures."""
+    from .ground_motion import atkinson_silva_2000 as as00, rupakhety_2011
+    for mw, dist in spec.scenarios:
+        try:
+            as00.check_scenario(mw, dist)
+            rupakhety_2011.check_scenario(mw, dist)
+        except ParameterError as exc:
+            raise ParameterError(f"--mw/--dist: scenario Mw {mw:g}, R {dist:g} km is refused: {exc}") from None
+    dt = spec.record_dt_s
+    if not as00.DT_MIN <= dt <= as00.DT_MAX:
+        raise ParameterError(f"--record-dt {dt!r} s is outside the record generator's range "
+                             f"[{as00.DT_MIN:g}, {as00.DT_MAX:g}] s")
 
 
 def _resolved_solver_json(opts: dict) -> str:
@@ -419,7 +464,7 @@ def run_grid(spec: GridSpec, out, *, overwrite: bool = False, retry_failed: bool
                 "command": command or " ".join(sys.argv),
             }
             writer = _results.open_for_run(out, spec.signature(), attrs, spec.n_rows, spec.periods_s,
-                                           overwrite=overwrite)
+                                           overwrite=overwrite, log=log, command=attrs["command"])
             need = ~writer.done
             if retry_failed:
                 need |= writer.status > 0
@@ -444,6 +489,7 @@ def run_grid(spec: GridSpec, out, *, overwrite: bool = False, retry_failed: bool
 
     # ---- rank 0 ----
     prev_sigterm = signal.getsignal(signal.SIGTERM)
+    prev_sigint = signal.getsignal(signal.SIGINT)
 
     def _on_sigterm(signum, frame):  # turn SIGTERM into an exception so the finally-block flushes
         raise SystemExit(128 + signum)
@@ -471,6 +517,7 @@ def run_grid(spec: GridSpec, out, *, overwrite: bool = False, retry_failed: bool
             writer.flush()
             last_flush = time.perf_counter()
 
+    failure = None
     try:
         if size == 1:
             for row in todo:
@@ -478,15 +525,39 @@ def run_grid(spec: GridSpec, out, *, overwrite: bool = False, retry_failed: bool
         else:
             works = rank0_works == "yes" or (rank0_works == "auto" and size <= 16)
             _serve(comm, ctx, fn, deque(todo), works, chunk_max, accept)
+    except BaseException as exc:
+        failure = exc
+        exc.pcf_during_run = True  # main() must abort the other ranks, which still wait for rank 0
+        raise
     finally:
         if pbar is not None:
             pbar.close()
         wall = time.perf_counter() - t_start
-        sessions = _previous_sessions(out)
-        sessions.append({"started": started,
-                         "n_ranks": size, "rows_computed": computed, "wall_s": round(wall, 3)})
-        writer.finish({"n_ranks": size, "sessions": json.dumps(sessions), "wall_s_last_session": wall})
-        signal.signal(signal.SIGTERM, prev_sigterm)
+        try:
+            for sig in (signal.SIGTERM, signal.SIGINT):  # a second signal must not cut the final write short
+                signal.signal(sig, signal.SIG_IGN)
+        except ValueError:  # not the main thread
+            pass
+        try:
+            sessions = _previous_sessions(out)
+            sessions.append({"started": started,
+                             "n_ranks": size, "rows_computed": computed, "wall_s": round(wall, 3)})
+            writer.finish({"n_ranks": size, "sessions": json.dumps(sessions), "wall_s_last_session": wall})
+        except Exception as exc:
+            try:
+                writer.close()  # journal closed (its rows stay), lock released
+            except OSError:
+                pass  # the same full disk again: the error reported is the one raised below or above
+            if failure is None:
+                exc.pcf_during_run = True
+                raise
+            # the first failure is the one to report; this one is its consequence (e.g. a full disk)
+        finally:
+            try:
+                signal.signal(signal.SIGTERM, prev_sigterm)
+                signal.signal(signal.SIGINT, prev_sigint)
+            except ValueError:
+                pass
     return RunSummary(path=out, n_rows=spec.n_rows, computed=computed, failed=failed, wall_s=wall, n_ranks=size,
                       table=summary_table(out))
 
@@ -702,22 +773,36 @@ def spec_from_args(args) -> GridSpec:
                     sample_function=args.sample_function)
 
 
+def _os_error_line(exc: OSError, out) -> str:
+    where = exc.filename or out
+    what = exc.strerror or str(exc)
+    return (f"run_grid: cannot write the results at {where}: {what} (errno {exc.errno}). "
+            "Rows finished so far are in the journal; fix the cause and rerun the same command to resume.")
+
+
 def main(argv=None) -> int:
-    """Command-line entry point (``scripts/run_grid.py``). Exit codes: 0 ok, 2 bad arguments or a
-    results file of another run, 3 figures/report failed (results are complete)."""
+    """Command-line entry point (``scripts/run_grid.py``). Exit codes: 0 ok; 2 bad arguments, a
+    results file of another run or a damaged one; 3 figures/report failed (results are complete);
+    4 an operating-system error on the output (read-only folder, full disk: one line with the path);
+    5 the results file is being written by another run (its lock is held)."""
     args = build_parser().parse_args(argv)
     comm = get_comm(args.mpi)
     rank = comm.Get_rank() if comm is not None else 0
     size = comm.Get_size() if comm is not None else 1
     log = (lambda s: print(s, flush=True)) if rank == 0 else (lambda s: None)
     try:
+        if args.chunk_max < 1:
+            raise ParameterError(f"--chunk-max must be >= 1, got {args.chunk_max}")
+        if not (math.isfinite(args.flush_s) and args.flush_s >= 0):
+            raise ParameterError(f"--flush-s must be finite and >= 0, got {args.flush_s}")
         spec = spec_from_args(args)
+        check_models(spec)
         if spec.sample_function is None:
             from .column import Column
             check_solver_options(Column.from_dict(spec.column), spec.solver_options)
-    except (ParameterError, FileNotFoundError) as exc:
+    except (ParameterError, OSError) as exc:  # OSError: a column file missing or unreadable
         log(f"run_grid: {exc}")
-        return 2
+        return EXIT_ARGS
     if rank == 0:
         log(f"grid: {len(spec.mw)} Mw x {len(spec.dist_km)} R x {spec.samples} samples = {spec.n_rows} runs "
             f"on {size} rank{'s' if size > 1 else ''} -> {args.out}")
@@ -726,9 +811,16 @@ def main(argv=None) -> int:
                            progress=args.progress, rank0_works=args.rank0_works, chunk_max=args.chunk_max,
                            flush_s=args.flush_s, command=" ".join([sys.argv[0]] + list(argv or sys.argv[1:])),
                            log=log)
-    except ResultsFileError as exc:
-        log(f"run_grid: {exc}")
-        return 2
+    except (ResultsFileError, OSError) as exc:
+        if isinstance(exc, ResultsFileError):
+            code = EXIT_LOCKED if isinstance(exc, _results.ResultsLockedError) else EXIT_ARGS
+            log(f"run_grid: {exc}")
+        else:
+            code = EXIT_OS_ERROR
+            log(_os_error_line(exc, args.out))
+        if comm is not None and size > 1 and getattr(exc, "pcf_during_run", False):
+            comm.Abort(code)  # the other ranks wait for rank 0: end them too
+        return code
     if summary is None:  # worker ranks
         return 0
     log(format_table(summary.table))

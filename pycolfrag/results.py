@@ -22,14 +22,39 @@ journalled row: :func:`open_for_run` (the resume path) recreates the HDF5 file f
 header when it cannot be opened and replays every journalled row into it (row writes are
 idempotent), and :func:`load` overlays journalled rows in memory, so readers see every finished
 sample even right after a kill. A truncated last journal line (killed mid-append) is ignored
-and cut off before appending again. When a run completes, the HDF5 file is final and the
-journal is deleted; reopening such a file starts a journal that holds its finished rows.
+and cut off before appending again. When a run completes, the HDF5 file is final (with CRC-32
+``checksums`` of its datasets) and the journal is deleted; reopening such a file starts a journal
+that holds its finished rows.
+
+Faults from outside a run
+-------------------------
+* Two runs on one path: the writer holds :class:`RunLock` (``<file>.lock``, ``flock`` + holder's
+  pid/host/start time); a second writer gets :class:`ResultsLockedError` naming the holder; a lock
+  whose holder died is taken over.
+* Rows of another run: the file and its journal carry the same ``run_id``; a journal is merged
+  only if its signature and ``run_id`` match the file's (:func:`journal_mismatch`), else it is
+  ignored (:func:`load`) or set aside (:func:`open_for_run`); every HDF5 write checks the file's
+  ``run_id``, and :meth:`ResultsWriter.finish` deletes only its own journal.
+* A damaged file: read in a forked child with a deadline and checked against its checksums
+  (:func:`_read_h5_bounded`), so a damaged file is reported (:class:`ResultsDamagedError`) instead
+  of hanging the HDF5 library, and rebuilt from the journal when there is one.
+* A journal whose header was cut (full disk) raises :class:`JournalHeaderError` in
+  :func:`read_journal`; callers set it aside or ignore it, never crash.
 """
 from __future__ import annotations
 
+import fcntl
 import json
 import math
 import os
+import pickle
+import select
+import signal
+import socket
+import time
+import uuid
+import warnings
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Mapping, Sequence
@@ -42,7 +67,8 @@ __all__ = [
     "FORMAT_VERSION", "SAMPLE_FIELDS", "STATUS_PENDING", "STATUS_OK", "STATUS_RECORD_FAILED",
     "STATUS_IM_FAILED", "STATUS_SOLVER_FAILED", "STATUS_OTHER_FAILED", "MESSAGE_BYTES",
     "Results", "ResultsWriter", "load", "create", "open_for_run", "journal_path", "read_journal",
-    "signature_mismatch",
+    "signature_mismatch", "lock_path", "RunLock", "ResultsLockedError", "ResultsDamagedError",
+    "OPEN_TIMEOUT_S", "JournalHeaderError", "journal_mismatch",
 ]
 
 FORMAT_VERSION = 1
@@ -101,6 +127,21 @@ SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
 
 #: Fields whose values depend on the machine/ranks rather than the inputs.
 TIMING_FIELDS = ("wall_s",)
+
+#: Seconds a results file may take to open and read fully before it is called damaged (a damaged
+#: HDF5 file can make the HDF5 library loop forever; the read runs in a forked child that is killed
+#: at the deadline). Environment variable ``PYCOLFRAG_OPEN_TIMEOUT_S`` overrides it; 1 s is added
+#: per 50 MB of file.
+OPEN_TIMEOUT_S = 30.0
+
+
+class ResultsLockedError(ResultsFileError):
+    """The results file is being written by another running grid (its lock is held)."""
+
+
+class ResultsDamagedError(ResultsFileError):
+    """The HDF5 file cannot be read (error, checksum mismatch or no answer within the time limit)."""
+
 
 SPECTRA_FIELDS = {"sa_g": "pseudo-spectral acceleration, g", "sv_cm_s": "pseudo-spectral velocity, cm/s"}
 
@@ -191,12 +232,30 @@ def _rows_of(res: "Results") -> list[dict]:
 # journal
 # ---------------------------------------------------------------------------------------
 
+class JournalHeaderError(ResultsFileError):
+    """A journal whose first line is not a complete pycolfrag journal header (e.g. cut by a full disk)."""
+
+
+_HEADER_KEYS = {"kind": str, "n_rows": int, "periods_s": list, "signature": dict, "attrs": dict}
+
+
+def _check_header(jp: Path, obj) -> dict:
+    if not isinstance(obj, dict) or obj.get("kind") != "pycolfrag-grid-journal":
+        raise JournalHeaderError(f"{jp} is not a pycolfrag journal (first line has no journal header)")
+    for k, t in _HEADER_KEYS.items():
+        if not isinstance(obj.get(k), t):
+            raise JournalHeaderError(f"{jp}: journal header has no valid {k!r}")
+    return obj
+
+
 def read_journal(path, truncate: bool = False):
     """Read a journal: ``(header dict or None, {row index: row dict})``.
 
     A last line without its newline (a kill in the middle of an append) or that does not
     parse is ignored; with ``truncate=True`` the file is cut back to the last good line so
-    that appending can go on.
+    that appending can go on. A journal whose first line is not a complete, valid header
+    (empty, cut, not JSON, keys missing) raises :class:`JournalHeaderError`; callers set such a
+    journal aside (:func:`open_for_run`) or ignore it with a warning (:func:`load`).
     """
     jp = Path(path)
     if not jp.exists():
@@ -214,18 +273,61 @@ def read_journal(path, truncate: bool = False):
         try:
             obj = json.loads(line.decode("utf-8"))
         except (ValueError, UnicodeDecodeError):
+            if header is None:
+                raise JournalHeaderError(f"{jp}: the journal header (line 1) is not valid JSON") from None
             break  # damaged line: everything after it is suspect
         if header is None:
-            if obj.get("kind") != "pycolfrag-grid-journal":
-                raise ResultsFileError(f"{jp} is not a pycolfrag journal (first line has no journal header)")
-            header = obj
+            header = _check_header(jp, obj)
         else:
-            rows[int(obj["row"])] = obj
+            try:
+                rows[int(obj["row"])] = obj
+            except (KeyError, TypeError, ValueError):
+                break  # a line without a row index: damaged, like an unparsable one
         pos = good_end = nl + 1
+    if header is None:
+        raise JournalHeaderError(f"{jp}: the journal header (line 1) is missing or cut "
+                                 f"({len(data)} bytes, no complete first line)")
     if truncate and good_end < len(data):
         with open(jp, "r+b") as fh:
             fh.truncate(good_end)
     return header, rows
+
+
+def _journal_run_id(jp: Path):
+    """The ``run_id`` in a journal's header (None if absent or unreadable); reads line 1 only."""
+    try:
+        with open(jp, "rb") as fh:
+            obj = json.loads(fh.readline(1 << 22).decode("utf-8"))
+        return obj["attrs"].get("run_id")
+    except (OSError, ValueError, UnicodeDecodeError, KeyError, TypeError, AttributeError):
+        return None
+
+
+def journal_mismatch(header: Mapping, h5_attrs: Mapping) -> list[str]:
+    """Why a journal does not belong to a results file (empty when it does): its signature
+    must equal the file's ``grid_signature`` and, when both carry one, its ``run_id`` the file's."""
+    try:
+        sig = json.loads(h5_attrs["grid_signature"])
+    except (KeyError, TypeError, ValueError):
+        return ["the results file has no readable grid_signature"]
+    diffs = signature_mismatch(sig, header.get("signature", {}), ("file", "journal"))
+    a, b = h5_attrs.get("run_id"), header.get("attrs", {}).get("run_id")
+    if a and b and a != b:
+        diffs.append(f"run_id: file {a}, journal {b}")
+    return diffs
+
+
+def _set_aside(p: Path, reason: str, log) -> Path:
+    """Rename a damaged or foreign sidecar/file out of the way (kept for inspection), say so."""
+    stamp = time.strftime("%Y%m%dT%H%M%S", time.gmtime())
+    dest = p.with_name(f"{p.name}.set-aside-{stamp}")
+    n = 1
+    while dest.exists():
+        n += 1
+        dest = p.with_name(f"{p.name}.set-aside-{stamp}-{n}")
+    os.replace(p, dest)
+    log(f"set aside {p} as {dest.name}: {reason}")
+    return dest
 
 
 class _Journal:
@@ -244,6 +346,224 @@ class _Journal:
     def close(self) -> None:
         if not self.fh.closed:
             self.fh.close()
+
+
+# ---------------------------------------------------------------------------------------
+# the run lock
+# ---------------------------------------------------------------------------------------
+
+def lock_path(path) -> Path:
+    """The lock sidecar of a results file: ``<path>.lock``."""
+    return Path(os.fspath(path) + ".lock")
+
+
+def _holder_text(info: Mapping) -> str:
+    return (f"pid {info.get('pid', '?')} on host {info.get('host', '?')}, started {info.get('started', '?')}"
+            + (f" ({info['command']})" if info.get("command") else ""))
+
+
+def _read_holder(fd: int) -> dict:
+    try:
+        os.lseek(fd, 0, os.SEEK_SET)
+        data = os.read(fd, 1 << 16)
+        return json.loads(data.decode("utf-8")) if data.strip() else {}
+    except (OSError, ValueError, UnicodeDecodeError):
+        return {}
+
+
+def _pid_alive(pid) -> bool:
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, TypeError, ValueError, OverflowError):
+        return True
+    return True
+
+
+class RunLock:
+    """Exclusive lock on a results path, held by the one process that writes it (rank 0).
+
+    ``<path>.lock`` is locked with ``flock(LOCK_EX | LOCK_NB)`` and holds JSON with the holder's
+    pid, host and start time. The kernel drops an flock when its process dies (also by SIGKILL),
+    so a lock file that can be locked is stale: its former holder is gone, and the new run takes
+    it over (and says so, with whether that pid still exists when it was on this host). A second
+    run while the holder lives is refused with :class:`ResultsLockedError` naming the holder.
+    flock does not protect across hosts on file systems without lock support (some NFS set-ups):
+    there the pid/host in the file is still shown, but only the kernel's lock is enforced.
+    """
+
+    def __init__(self, path: Path, fd: int, info: dict, stale: dict | None):
+        self.path, self._fd, self.info, self.stale = path, fd, info, stale
+
+    @classmethod
+    def acquire(cls, results_path, log=None, command: str | None = None) -> "RunLock":
+        log = log or (lambda s: warnings.warn(s, stacklevel=3))
+        lp = lock_path(results_path)
+        lp.parent.mkdir(parents=True, exist_ok=True)
+        for _ in range(10):
+            fd = os.open(lp, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = _read_holder(fd)
+                os.close(fd)
+                raise ResultsLockedError(
+                    f"{results_path} is being written by another run: {_holder_text(holder)}; lock file {lp}. "
+                    "Wait for that run to end, or use --out for another file.") from None
+            except BaseException:
+                os.close(fd)
+                raise
+            try:  # a run that releases unlinks the file: make sure we locked the one at the path
+                same = os.stat(lp).st_ino == os.fstat(fd).st_ino
+            except FileNotFoundError:
+                same = False
+            if not same:
+                os.close(fd)
+                continue
+            old = _read_holder(fd)
+            info = {"pid": os.getpid(), "host": socket.gethostname(),
+                    "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+            if command:
+                info["command"] = command[:300]
+            os.ftruncate(fd, 0)
+            os.lseek(fd, 0, os.SEEK_SET)
+            os.write(fd, (json.dumps(info) + "\n").encode("utf-8"))
+            os.fsync(fd)
+            stale = old or None
+            if stale:
+                same_host = stale.get("host") == info["host"]
+                state = ("no longer running" if not _pid_alive(stale.get("pid")) else "pid exists but does not hold "
+                         "the lock") if same_host else "on another host; its lock was released"
+                log(f"took over a stale lock on {results_path} left by {_holder_text(stale)}: {state}")
+            return cls(lp, fd, info, stale)
+        raise ResultsLockedError(f"could not take the lock {lp}: it keeps being replaced by other runs")
+
+    def release(self) -> None:
+        if self._fd is None:
+            return
+        try:
+            self.path.unlink(missing_ok=True)  # unlinked while still locked: no one can lock this inode after
+        except OSError:
+            pass
+        finally:
+            os.close(self._fd)
+            self._fd = None
+
+
+# ---------------------------------------------------------------------------------------
+# time-bounded, checksummed reading of the HDF5 file
+# ---------------------------------------------------------------------------------------
+
+def _checksums(f) -> dict:
+    """CRC-32 of every dataset's bytes (stored as the root attribute ``checksums`` when complete)."""
+    out = {}
+    for grp in ("samples", "spectra"):
+        for name in f[grp]:
+            out[f"{grp}/{name}"] = zlib.crc32(np.ascontiguousarray(f[grp][name][...]).tobytes())
+    return out
+
+
+def _read_h5(path: Path) -> dict:
+    """Read every dataset and attribute; verify the stored checksums. Raises on any damage."""
+    h5py = _h5py()
+    with h5py.File(path, "r") as f:
+        if "samples" not in f or "grid_signature" not in f.attrs:
+            raise ResultsFileError(f"{path} is not a pycolfrag grid results file (no grid_signature attribute); "
+                                   "use --overwrite to replace it or --out for another file")
+        samples = {name: f["samples"][name][...] for name in f["samples"]}
+        spectra = {name: f["spectra"][name][...] for name in f["spectra"]}
+        periods = np.asarray(f["spectra"].attrs["periods_s"], dtype=float)
+        attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+        if "checksums" in attrs:
+            stored = json.loads(attrs["checksums"])
+            now = _checksums(f)
+            bad = sorted(k for k in set(stored) | set(now) if stored.get(k) != now.get(k))
+            if bad:
+                raise ResultsDamagedError(f"{path}: checksum mismatch in {', '.join(bad)} (the file was damaged "
+                                          "after it was written)")
+    return {"samples": samples, "spectra": spectra, "periods": periods, "attrs": attrs}
+
+
+def _open_timeout(path: Path, timeout_s) -> float:
+    if timeout_s is None:
+        timeout_s = float(os.environ.get("PYCOLFRAG_OPEN_TIMEOUT_S", OPEN_TIMEOUT_S))
+        try:
+            timeout_s += os.path.getsize(path) / 50e6
+        except OSError:
+            pass
+    return float(timeout_s)
+
+
+def _read_h5_bounded(path: Path, timeout_s=None) -> dict:
+    """:func:`_read_h5` in a forked child, killed after ``timeout_s`` s.
+
+    Some damage (e.g. zeroed bytes in an HDF5 B-tree) makes the HDF5 library loop forever while
+    holding the GIL: neither a thread nor a signal can stop it in this process, but a child can be
+    killed. Raises :class:`ResultsDamagedError` for a file that errors, fails its checksums or does
+    not answer in time; ``FileNotFoundError`` if absent; other :class:`ResultsFileError` as is.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"results file not found: {path}")
+    timeout_s = _open_timeout(path, timeout_s)
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # child: read, send the result (or the error) back, exit without cleanup handlers
+        code = 0
+        try:
+            os.close(r)
+            try:
+                out = ("ok", _read_h5(path))
+            except BaseException as exc:  # noqa: BLE001 -- every failure is reported to the parent
+                try:
+                    pickle.dumps(exc)
+                    out = ("err", exc)
+                except Exception:
+                    out = ("err", ResultsDamagedError(f"{type(exc).__name__}: {exc}"))
+            data = pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
+            view = memoryview(data)
+            while view:
+                n = os.write(w, view)
+                view = view[n:]
+        except BaseException:
+            code = 1
+        finally:
+            os._exit(code)
+    os.close(w)
+    chunks, deadline, timed_out = [], time.monotonic() + timeout_s, False
+    try:
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                timed_out = True
+                break
+            ready, _, _ = select.select([r], [], [], min(left, 1.0))
+            if ready:
+                b = os.read(r, 1 << 20)
+                if not b:
+                    break
+                chunks.append(b)
+    finally:
+        os.close(r)
+        if timed_out:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        os.waitpid(pid, 0)
+    if timed_out:
+        raise ResultsDamagedError(f"{path} did not open within {timeout_s:.0f} s (the HDF5 library stalled on it: "
+                                  "the file is damaged)")
+    try:
+        kind, val = pickle.loads(b"".join(chunks))
+    except Exception:
+        raise ResultsDamagedError(f"{path}: reading it crashed the reading process (the file is damaged)") from None
+    if kind == "ok":
+        return val
+    if isinstance(val, ResultsFileError):
+        raise val
+    raise ResultsDamagedError(f"{path} cannot be read ({type(val).__name__}: {val}): the file is damaged")
 
 
 # ---------------------------------------------------------------------------------------
@@ -284,7 +604,7 @@ def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mappi
     os.replace(tmp, path)  # the file appears complete or not at all
 
 
-def signature_mismatch(old: Mapping, new: Mapping) -> list[str]:
+def signature_mismatch(old: Mapping, new: Mapping, names=("file has", "this run asks for")) -> list[str]:
     """Human-readable differences between two grid signatures (empty when they agree)."""
     def short(v):
         return v if len(v) <= 120 else v[:117] + "..."
@@ -293,90 +613,129 @@ def signature_mismatch(old: Mapping, new: Mapping) -> list[str]:
     for k in sorted(set(old) | set(new)):
         sa, sb = (json.dumps(d.get(k, "<absent>"), sort_keys=True) for d in (old, new))
         if sa != sb:
-            diffs.append(f"{k}: file has {short(sa)}, this run asks for {short(sb)}")
+            diffs.append(f"{k}: {names[0]} {short(sa)}, {names[1]} {short(sb)}")
     return diffs
 
 
-def _read_signature_h5(path: Path):
-    h5py = _h5py()
-    with h5py.File(path, "r") as f:
-        if "grid_signature" not in f.attrs:
-            raise ResultsFileError(f"{path} is not a pycolfrag grid results file (no grid_signature attribute); "
-                                   "use --overwrite to replace it or --out for another file")
-        return json.loads(f.attrs["grid_signature"])
-
-
-def create(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_s: Sequence[float]) -> None:
-    """Create a new results file and its journal (replacing both if present).
+def create(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_s: Sequence[float]) -> str:
+    """Create a new results file and its journal (replacing both if present); returns its ``run_id``.
 
     ``signature`` holds everything that fixes the results (grid, seed, column, solver options,
     periods...): it is stored as the root attribute ``grid_signature`` (JSON) and compared on resume.
-    ``attrs`` are further root attributes (lists become float arrays).
+    ``attrs`` are further root attributes (lists become float arrays). A fresh ``run_id`` (random)
+    names this file's lineage: its journal carries the same id, and a writer refuses to write a
+    file or delete a journal with another id. The caller holds the :class:`RunLock`.
+    If creating fails (full disk, values HDF5 cannot store) nothing is left behind.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     jp = journal_path(path)
-    for p in (jp, path):
+    tmp = path.with_name(path.name + ".tmp")
+    for p in (jp, path, tmp):
         if p.exists():
             p.unlink()
     all_attrs = dict(attrs)
     all_attrs["grid_signature"] = json.dumps(signature, sort_keys=True)
-    _write_journal_header(jp, n_rows, periods_s, signature, all_attrs)
-    _create_h5(path, n_rows, periods_s, all_attrs)
+    all_attrs["run_id"] = uuid.uuid4().hex
+    try:
+        _write_journal_header(jp, n_rows, periods_s, signature, all_attrs)
+        _create_h5(path, n_rows, periods_s, all_attrs)
+    except BaseException:
+        for p in (jp, tmp):
+            try:
+                p.unlink(missing_ok=True)
+            except OSError:
+                pass
+        raise
+    return all_attrs["run_id"]
 
 
 def open_for_run(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_s: Sequence[float],
-                 overwrite: bool = False) -> "ResultsWriter":
-    """Create ``path``, or resume it: returns a :class:`ResultsWriter` whose ``done`` mask says
+                 overwrite: bool = False, log=None, timeout_s=None, command: str | None = None) -> "ResultsWriter":
+    """Lock ``path`` (:class:`RunLock`), then create it or resume it: returns a :class:`ResultsWriter`
+    (which holds the lock until :meth:`ResultsWriter.finish`/``close``) whose ``done`` mask says
     which rows are already computed.
 
     On resume the stored ``grid_signature`` must equal ``signature``, else
-    :class:`~pycolfrag.errors.ResultsFileError` (unless ``overwrite``). A damaged HDF5 file is
-    rebuilt from its journal; journalled rows missing from the HDF5 file are written into it.
+    :class:`~pycolfrag.errors.ResultsFileError` (unless ``overwrite``). The journal must belong to
+    the file (same signature and ``run_id``): a journal of another run, or one whose header is bad,
+    is set aside (renamed ``<journal>.set-aside-<time>``, with a message through ``log``) and none
+    of its rows is used. A damaged HDF5 file (an error, a checksum mismatch, or no answer within
+    ``timeout_s``) is set aside and rebuilt from its journal; journalled rows missing from the HDF5
+    file are written into it. ``log`` (default: :func:`warnings.warn`) receives those messages.
     """
-    path = Path(path)
+    log = log or (lambda s: warnings.warn(s, stacklevel=3))
+    lock = RunLock.acquire(path, log, command)
+    try:
+        writer = _open_locked(Path(path), signature, attrs, n_rows, periods_s, overwrite, log, timeout_s)
+    except BaseException:
+        lock.release()
+        raise
+    writer._lock = lock
+    return writer
+
+
+def _open_locked(path: Path, signature, attrs, n_rows, periods_s, overwrite, log, timeout_s) -> "ResultsWriter":
     jp = journal_path(path)
     if overwrite or (not path.exists() and not jp.exists()):
-        create(path, signature, attrs, n_rows, periods_s)
-        return ResultsWriter(path, n_rows, len(periods_s), resumed=False)
+        run_id = create(path, signature, attrs, n_rows, periods_s)
+        return ResultsWriter(path, n_rows, len(periods_s), resumed=False, run_id=run_id)
 
-    header, jrows = read_journal(jp, truncate=True) if jp.exists() else (None, {})
-    h5_ok = False
+    header, jrows = None, {}
+    if jp.exists():
+        try:
+            header, jrows = read_journal(jp, truncate=True)
+        except JournalHeaderError as exc:
+            _set_aside(jp, f"{exc}; its rows cannot be trusted", log)
+    h5, damage = None, None
     if path.exists():
         try:
-            old_sig = _read_signature_h5(path)
-            h5_ok = True
-        except ResultsFileError:
-            raise
-        except Exception as exc:  # unreadable HDF5 (killed mid-write): the journal decides
+            h5 = _read_h5_bounded(path, timeout_s)
+        except ResultsDamagedError as exc:
             if header is None:
-                raise ResultsFileError(f"{path} cannot be opened ({exc}) and has no journal to rebuild it from; "
-                                       "use --overwrite to start again") from None
-            old_sig = header["signature"]
-    else:
+                raise ResultsDamagedError(f"{exc}; there is no journal to rebuild it from: use --overwrite to "
+                                          "start again") from None
+            damage = exc
+    if h5 is not None and header is not None:
+        diffs = journal_mismatch(header, h5["attrs"])
+        if diffs:
+            _set_aside(jp, "it belongs to another run (" + "; ".join(diffs) + "); none of its rows is used", log)
+            header, jrows = None, {}
+    if h5 is not None:
+        old_sig = json.loads(h5["attrs"]["grid_signature"])
+    elif header is not None:
         old_sig = header["signature"]
+    else:  # only a journal with a bad header was there (set aside above): nothing to resume
+        run_id = create(path, signature, attrs, n_rows, periods_s)
+        return ResultsWriter(path, n_rows, len(periods_s), resumed=False, run_id=run_id)
     diffs = signature_mismatch(old_sig, signature)
     if diffs:
         raise ResultsFileError(
             f"{path} holds a different run; it cannot be resumed with these arguments:\n  - "
             + "\n  - ".join(diffs) + "\nUse --overwrite to replace it, or --out for another file.")
-    if not h5_ok:  # rebuild from the journal header, then replay every row below
+    if h5 is None:  # rebuild from the journal header, then replay every row below
+        if damage is not None:
+            _set_aside(path, f"{damage}; rebuilding it from {jp.name}", log)
         hattrs = dict(header["attrs"])
         hattrs["rebuilt_from_journal"] = True
         _create_h5(path, int(header["n_rows"]), header["periods_s"], hattrs)
+        run_id = hattrs.get("run_id")
+    else:
+        run_id = h5["attrs"].get("run_id")
     if header is None:
         # a journal-less file (finished run, or journal deleted): start a new journal for this
         # session that also holds the file's finished rows, so that a kill during this session's
         # HDF5 writes can rebuild the file from the journal without losing them
-        old = load(path, journal=False)
-        _write_journal_header(jp, n_rows, periods_s, signature, old.attrs)
+        old = _results_from_raw(h5, pending=False)
+        old_attrs = {k: v for k, v in old.attrs.items() if k != "checksums"}
+        _write_journal_header(jp, n_rows, periods_s, signature, old_attrs)
         journal = _Journal(jp)
         journal.append(_rows_of(old))
         journal.sync()
         journal.close()
     if jrows:  # idempotent replay: rows the HDF5 file may have missed when the run was killed
-        _write_rows_h5(path, list(jrows.values()), n_rows, len(periods_s))
-    return ResultsWriter(path, n_rows, len(periods_s), resumed=True)
+        _write_rows_h5(path, list(jrows.values()), n_rows, len(periods_s), run_id=run_id)
+    return ResultsWriter(path, n_rows, len(periods_s), resumed=True, run_id=run_id)
 
 
 def _write_journal_header(jp: Path, n_rows: int, periods_s, signature: Mapping, attrs: Mapping) -> None:
@@ -395,10 +754,23 @@ def _write_journal_header(jp: Path, n_rows: int, periods_s, signature: Mapping, 
         os.fsync(fh.fileno())
 
 
-def _write_rows_h5(path: Path, rows: list, n_rows: int, n_periods: int, attrs: Mapping | None = None) -> None:
-    """Open, write rows (by their ``row`` index) and root attributes, flush, close."""
+def _write_rows_h5(path: Path, rows: list, n_rows: int, n_periods: int, attrs: Mapping | None = None,
+                   run_id: str | None = None, checksums: bool = False) -> None:
+    """Open, write rows (by their ``row`` index) and root attributes, flush, close.
+
+    With ``run_id``, the file must carry that ``run_id`` (else :class:`ResultsFileError`: another
+    run replaced the file, and nothing is written into it). Writing rows removes the stored
+    ``checksums``; ``checksums=True`` stores them afresh after the write (complete files).
+    """
     h5py = _h5py()
     with h5py.File(path, "r+") as f:
+        found = f.attrs.get("run_id")
+        found = found.decode() if isinstance(found, bytes) else found
+        if run_id is not None and found != run_id:
+            raise ResultsFileError(f"{path} was replaced by another run (run_id {found}, this run wrote "
+                                   f"{run_id}): nothing more is written into it")
+        if rows and "checksums" in f.attrs:
+            del f.attrs["checksums"]
         if rows:
             rows = sorted(rows, key=lambda r: int(r["row"]))
             idx = np.array([int(r["row"]) for r in rows])
@@ -424,17 +796,22 @@ def _write_rows_h5(path: Path, rows: list, n_rows: int, n_periods: int, attrs: M
         if attrs:
             for k, v in attrs.items():
                 f.attrs[k] = _attr_value(v)
+        if checksums:
+            f.flush()
+            f.attrs["checksums"] = json.dumps(_checksums(f), sort_keys=True)
         f.flush()
 
 
 class ResultsWriter:
     """Rank 0's writer: journal every row at once, HDF5 in batches (open, write, flush, close)."""
 
-    def __init__(self, path, n_rows: int, n_periods: int, resumed: bool):
+    def __init__(self, path, n_rows: int, n_periods: int, resumed: bool, run_id: str | None = None):
         self.path = Path(path)
         self.n_rows = int(n_rows)
         self.n_periods = int(n_periods)
         self.resumed = resumed
+        self.run_id = run_id
+        self._lock: RunLock | None = None
         self._pending: list[dict] = []
         self._journal = _Journal(journal_path(self.path))
         h5py = _h5py()
@@ -463,24 +840,40 @@ class ResultsWriter:
             self._write_h5(self._pending, attrs)
             self._pending = []
 
-    def _write_h5(self, rows: list, attrs: Mapping | None = None) -> None:
-        _write_rows_h5(self.path, rows, self.n_rows, self.n_periods, attrs)
+    def _write_h5(self, rows: list, attrs: Mapping | None = None, checksums: bool = False) -> None:
+        _write_rows_h5(self.path, rows, self.n_rows, self.n_periods, attrs, run_id=self.run_id, checksums=checksums)
 
     def finish(self, attrs: Mapping | None = None) -> None:
-        """Final flush; when every row is done mark the file complete and delete the journal."""
-        self.flush()
-        complete = bool(self.done.all())
-        a = dict(attrs or {})
-        a["complete"] = complete
-        self._write_h5([], a)
-        self._journal.close()
-        if complete:
-            with open(self.path, "rb+") as fh:
-                os.fsync(fh.fileno())
-            journal_path(self.path).unlink(missing_ok=True)
+        """Final flush; when every row is done mark the file complete, store its checksums and
+        delete the journal -- only if the journal at the path is this run's (same ``run_id``)."""
+        try:
+            self.flush()
+            complete = bool(self.done.all())
+            a = dict(attrs or {})
+            a["complete"] = complete
+            self._write_h5([], a, checksums=complete)
+            self._journal.close()
+            if complete:
+                with open(self.path, "rb+") as fh:
+                    os.fsync(fh.fileno())
+                jp = journal_path(self.path)
+                if jp.exists():
+                    other = _journal_run_id(jp)
+                    if self.run_id is None or other == self.run_id:
+                        jp.unlink(missing_ok=True)
+                    else:
+                        warnings.warn(f"{jp} belongs to another run (run_id {other}); left in place", stacklevel=2)
+        finally:
+            self.close()
 
     def close(self) -> None:
-        self._journal.close()
+        """Close the journal and release the lock (rows not flushed stay in the journal)."""
+        try:
+            self._journal.close()
+        finally:
+            if self._lock is not None:
+                self._lock.release()
+                self._lock = None
 
 
 # ---------------------------------------------------------------------------------------
@@ -536,45 +929,14 @@ class Results:
         return out
 
 
-def load(path, pending: bool = False, journal: bool = True) -> Results:
-    """Read a results file written by ``scripts/run_grid.py``.
-
-    Parameters
-    ----------
-    path : str or path-like
-        The HDF5 file (e.g. ``results/grid.h5``).
-    pending : bool
-        Keep rows not computed yet (``status == -1``). Default False: only finished rows
-        (ok or failed), so a partial file from a killed run reads like a smaller complete one.
-    journal : bool
-        Overlay rows from the journal sidecar (``<path>.journal``) that are not in the HDF5 file
-        yet (present only while a run is going on or after a kill). Nothing is written. If the HDF5
-        file cannot be opened (killed mid-write) the data come from the journal alone.
-
-    Returns
-    -------
-    Results
-        ``samples`` (dict of 1-D arrays), ``spectra`` (dict of 2-D arrays), ``periods_s``, ``attrs``,
-        ``rows`` (row indices kept). ``collapsed`` is returned as bool.
-    """
-    h5py = _h5py()
-    path = Path(path)
-    jp = journal_path(path)
-    header, jrows = (read_journal(jp) if (journal and jp.exists()) else (None, {}))
-    try:
-        with h5py.File(path, "r") as f:
-            if "samples" not in f or "grid_signature" not in f.attrs:
-                raise ResultsFileError(f"{path} is not a pycolfrag grid results file")
-            samples = {name: f["samples"][name][...] for name in SAMPLE_FIELDS if name in f["samples"]}
-            extra = [name for name in f["samples"] if name not in SAMPLE_FIELDS]
-            for name in extra:
-                samples[name] = f["samples"][name][...]
-            spectra = {name: f["spectra"][name][...] for name in f["spectra"]}
-            periods = np.asarray(f["spectra"].attrs["periods_s"], dtype=float)
-            attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
-    except (OSError, KeyError) as exc:
-        if header is None:
-            raise ResultsFileError(f"cannot read results file {path}: {exc}") from None
+def _results_from_raw(raw, pending: bool, header: Mapping | None = None, jrows: Mapping | None = None) -> Results:
+    """Build :class:`Results` from :func:`_read_h5`'s dict (or from a journal header alone when
+    ``raw`` is None), overlaying journalled rows."""
+    if raw is not None:
+        samples = {k: v.copy() for k, v in raw["samples"].items()}
+        spectra = {k: v.copy() for k, v in raw["spectra"].items()}
+        periods, attrs = raw["periods"], dict(raw["attrs"])
+    else:
         periods = np.asarray(header["periods_s"], dtype=float)
         samples, spectra = empty_columns(int(header["n_rows"]), len(periods))
         attrs = dict(header["attrs"])
@@ -594,3 +956,62 @@ def load(path, pending: bool = False, journal: bool = True) -> Results:
         spectra = {k: v[keep] for k, v in spectra.items()}
         rows = rows[keep]
     return Results(samples=samples, spectra=spectra, periods_s=periods, attrs=attrs, rows=rows)
+
+
+def load(path, pending: bool = False, journal: bool = True, timeout_s: float | None = None) -> Results:
+    """Read a results file written by ``scripts/run_grid.py``.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The HDF5 file (e.g. ``results/grid.h5``).
+    pending : bool
+        Keep rows not computed yet (``status == -1``). Default False: only finished rows
+        (ok or failed), so a partial file from a killed run reads like a smaller complete one.
+    journal : bool
+        Overlay rows from the journal sidecar (``<path>.journal``) that are not in the HDF5 file
+        yet (present only while a run is going on or after a kill). Nothing is written. The journal
+        is used only if it belongs to the file (same signature and ``run_id``); a journal of another
+        run or with a bad header is ignored with a warning. If the HDF5 file cannot be read (killed
+        mid-write, damaged) the data come from the journal alone, with a warning.
+    timeout_s : float or None
+        Time allowed to open and read the file (in a child process) before it is called damaged;
+        default :data:`OPEN_TIMEOUT_S` (env ``PYCOLFRAG_OPEN_TIMEOUT_S``) plus 1 s per 50 MB.
+
+    Returns
+    -------
+    Results
+        ``samples`` (dict of 1-D arrays), ``spectra`` (dict of 2-D arrays), ``periods_s``, ``attrs``,
+        ``rows`` (row indices kept). ``collapsed`` is returned as bool.
+
+    Raises
+    ------
+    ResultsDamagedError
+        The file is damaged (read error, checksum mismatch, no answer in time) and no journal of it exists.
+    ResultsFileError
+        Not a pycolfrag results file.
+    """
+    path = Path(path)
+    jp = journal_path(path)
+    header, jrows = None, {}
+    if journal and jp.exists():
+        try:
+            header, jrows = read_journal(jp)
+        except JournalHeaderError as exc:
+            warnings.warn(f"{exc}; the journal is ignored", stacklevel=2)
+    try:
+        raw = _read_h5_bounded(path, timeout_s)
+    except (ResultsDamagedError, FileNotFoundError) as exc:
+        if header is None:
+            if isinstance(exc, ResultsDamagedError):
+                raise
+            raise ResultsFileError(f"cannot read results file {path}: {exc}") from None
+        warnings.warn(f"{exc}; the rows come from the journal {jp} alone", stacklevel=2)
+        return _results_from_raw(None, pending, header, jrows)
+    if header is not None:
+        diffs = journal_mismatch(header, raw["attrs"])
+        if diffs:
+            warnings.warn(f"{jp} belongs to another run ({'; '.join(diffs)}): none of its rows is used",
+                          stacklevel=2)
+            jrows = {}
+    return _results_from_raw(raw, pending, header, jrows)

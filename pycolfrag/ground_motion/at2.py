@@ -15,7 +15,10 @@ with g = 9.81 m/s^2 (the package's g, :data:`pycolfrag.intensity.G`).
 
 Errors: :class:`~pycolfrag.errors.RecordFileError` (a ``ValueError``) naming the file and line
 for a malformed header, a value that is not a number or not finite, or a sample count that
-differs from NPTS; ``FileNotFoundError`` (an ``OSError``) for a missing file.
+differs from NPTS; ``FileNotFoundError`` (an ``OSError``) for a missing file. The file is read in
+chunks and the reading stops at the first value beyond NPTS, so memory and time are bounded by the
+header's NPTS, not by the file (a 1 GB file of values with NPTS = 1000 fails after 1001 values);
+messages quote at most 40 characters of a bad token or header line.
 """
 from __future__ import annotations
 
@@ -40,24 +43,66 @@ def _header(path, line):
     m = _NEW.search(line) or _OLD.match(line)
     if not m:
         raise RecordFileError(f"{path}, line 4: expected NPTS and DT (e.g. 'NPTS= 4000, DT= .0050 SEC'), "
-                              f"got {line.strip()!r}")
+                              f"got {_excerpt(line)}")
     try:
         npts = int(m.group(1))
     except ValueError:
-        raise RecordFileError(f"{path}, line 4: NPTS {m.group(1)!r} is not an integer") from None
+        raise RecordFileError(f"{path}, line 4: NPTS {_excerpt(m.group(1))} is not an integer") from None
     try:
         dt = float(m.group(2))
     except ValueError:
-        raise RecordFileError(f"{path}, line 4: DT {m.group(2)!r} is not a number") from None
+        raise RecordFileError(f"{path}, line 4: DT {_excerpt(m.group(2))} is not a number") from None
     if npts < 1:
         raise RecordFileError(f"{path}, line 4: NPTS must be >= 1, got {npts}")
     if not (math.isfinite(dt) and dt > 0):
-        raise RecordFileError(f"{path}, line 4: DT must be finite and > 0 s, got {m.group(2)!r}")
+        raise RecordFileError(f"{path}, line 4: DT must be finite and > 0 s, got {_excerpt(m.group(2))}")
     return npts, dt
+
+
+#: Longest header line read, characters; longest number token accepted, characters.
+_MAX_HEADER_LINE = 4096
+_MAX_TOKEN = 64
+#: Characters of a bad token or header line quoted in an error message.
+_EXCERPT = 40
+_CHUNK = 1 << 16
+
+
+def _excerpt(text: str) -> str:
+    text = text.strip()
+    return repr(text if len(text) <= _EXCERPT else text[:_EXCERPT] + "...")
+
+
+def _tokens(fh, first_line: int):
+    """``(line number, token)`` pairs, read in chunks of at most ``_CHUNK`` characters: a file
+    without newlines costs no more memory than one chunk, a token is cut off at ``_MAX_TOKEN``."""
+    lineno, carry = first_line, ""
+    while True:
+        chunk = fh.readline(_CHUNK)
+        if not chunk:
+            break
+        text = carry + chunk
+        ends = text.endswith("\n")
+        toks = text.split()
+        carry = ""
+        if toks and not ends and not text[-1].isspace():  # the last token may go on in the next chunk
+            carry = toks.pop()
+            if len(carry) > _MAX_TOKEN:
+                yield lineno, carry
+                return
+        for tok in toks:
+            yield lineno, tok
+        if ends:
+            lineno += 1
+    if carry:
+        yield lineno, carry
 
 
 def read_at2(path) -> Record:
     """Read a PEER NGA ``.AT2`` file.
+
+    The file is streamed: at most NPTS + 1 values are read (the header's NPTS bounds the work and
+    the memory), so a huge or runaway file fails fast; an error quotes at most a short excerpt of
+    the offending token or line.
 
     Parameters
     ----------
@@ -69,31 +114,43 @@ def read_at2(path) -> Record:
         ``acc`` in m/s^2; ``meta``: ``source`` ("AT2"), ``path``, ``header`` (the four lines),
         ``title`` (line 2), ``npts``, ``dt_s``.
     """
+    import array
+
     path = os.fspath(path)
     with open(path, encoding="utf-8", errors="replace") as fh:   # FileNotFoundError if missing
-        lines = fh.read().splitlines()
-    if len(lines) < 4:
-        raise RecordFileError(f"{path}: {len(lines)} lines, an AT2 file has a 4-line header")
-    units = lines[2].upper()
-    if "UNITS" in units and not re.search(r"\bG\b", units):
-        raise RecordFileError(f"{path}, line 3: expected acceleration in units of g, got {lines[2].strip()!r}")
-    npts, dt = _header(path, lines[3])
-    values = []
-    for lineno, line in enumerate(lines[4:], start=5):
-        for tok in line.split():
+        lines = []
+        for i in range(4):
+            line = fh.readline(_MAX_HEADER_LINE)
+            if not line:
+                break
+            if not line.endswith("\n") and len(line) >= _MAX_HEADER_LINE:
+                raise RecordFileError(f"{path}, line {i + 1}: header line longer than {_MAX_HEADER_LINE} "
+                                      f"characters (starts {_excerpt(line)})")
+            lines.append(line.rstrip("\r\n"))
+        if len(lines) < 4:
+            raise RecordFileError(f"{path}: {len(lines)} lines, an AT2 file has a 4-line header")
+        units = lines[2].upper()
+        if "UNITS" in units and not re.search(r"\bG\b", units):
+            raise RecordFileError(f"{path}, line 3: expected acceleration in units of g, got {_excerpt(lines[2])}")
+        npts, dt = _header(path, lines[3])
+        values = array.array("d")
+        lineno = 4
+        for lineno, tok in _tokens(fh, 5):
+            if len(tok) > _MAX_TOKEN:
+                raise RecordFileError(f"{path}, line {lineno}: {_excerpt(tok)} is not a number")
             try:
                 v = float(tok)
             except ValueError:
-                raise RecordFileError(f"{path}, line {lineno}: {tok!r} is not a number") from None
+                raise RecordFileError(f"{path}, line {lineno}: {_excerpt(tok)} is not a number") from None
             if not math.isfinite(v):
-                raise RecordFileError(f"{path}, line {lineno}: non-finite value {tok!r}")
-            values.append(v)
-            if len(values) > npts:
+                raise RecordFileError(f"{path}, line {lineno}: non-finite value {_excerpt(tok)}")
+            if len(values) == npts:
                 raise RecordFileError(f"{path}, line {lineno}: more values than NPTS = {npts}")
+            values.append(v)
     if len(values) != npts:
-        raise RecordFileError(f"{path}, line {len(lines)}: {len(values)} values, the header (line 4) "
+        raise RecordFileError(f"{path}, line {lineno}: {len(values)} values, the header (line 4) "
                               f"says NPTS = {npts}")
-    acc = np.asarray(values, dtype=np.float64) * G
+    acc = np.frombuffer(values, dtype=np.float64) * G
     meta = {"source": "AT2", "path": path, "header": lines[:4], "title": lines[1].strip(),
             "npts": npts, "dt_s": dt, "units": f"converted from g with g = {G} m/s^2"}
     return Record(acc, dt, meta=meta)
