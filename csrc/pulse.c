@@ -2,6 +2,7 @@
 #include <math.h>
 #include <stddef.h>
 
+#include "cf_math.h"
 #include "cf_common.h"
 #include "pulse.h"
 
@@ -27,14 +28,14 @@ static double sinc(double x)
 {
     if (fabs(x) < 1e-4)
         return 1.0 - x * x / 6.0;
-    return sin(x) / x;
+    return cf_math_sin(x) / x;
 }
 
 /* int_{s}^{tau} cos(k u + nu) du = (tau - s) cos(k (tau + s)/2 + nu) sinc(k (tau - s)/2),
  * which stays exact as k -> 0 (the gamma = 1 term of the displacement). */
 static double cos_integral(double k, double nu, double s, double tau)
 {
-    return (tau - s) * cos(0.5 * k * (tau + s) + nu) * sinc(0.5 * k * (tau - s));
+    return (tau - s) * cf_math_cos(0.5 * k * (tau + s) + nu) * sinc(0.5 * k * (tau - s));
 }
 
 /* Displacement at tau (inside the support, s = start of the support):
@@ -69,8 +70,8 @@ int cf_pulse_eval(const cf_pulse_params *p, const double *t, int n, double *vel,
             continue;
         }
         {
-            double ce = cos(We * tau), se = sin(We * tau);
-            double cc = cos(W * tau + p->nu), sc = sin(W * tau + p->nu);
+            double ce = cf_math_cos(We * tau), se = cf_math_sin(We * tau);
+            double cc = cf_math_cos(W * tau + p->nu), sc = cf_math_sin(W * tau + p->nu);
             if (vel) vel[i] = 0.5 * A * (1.0 + ce) * cc;
             if (acc) acc[i] = -0.5 * A * (We * se * cc + (1.0 + ce) * W * sc);
             if (disp) disp[i] = disp_at(A, W, We, p->nu, -half, tau);
