@@ -529,13 +529,9 @@ double cf_math_erfc(double x)
 {
     if (isnan(x))
         return x + x;
-    if (x < 0.0 && x > -1.0) {
-        /* fall through to the series below */
-    } else if (x < 0.0) {
-        return 2.0 - cf_math_erfc(-x);
-    }
-    double ax = fabs(x);
-    if (ax < 1.0) {
+    if (x <= -1.0)
+        return 2.0 - cf_math_erfc(-x);                    /* in [1.84, 2]: no cancellation */
+    if (x < 1.0) {
         /* erf(x) = 2x/sqrt(pi) exp(-x^2) sum_n (2x^2)^n / (1 3 5 ... (2n+1)), terms all > 0 */
         double t2 = 2.0 * x * x, term = 1.0, sum = 1.0;
         for (int n = 1; n < 200; n++) {
@@ -547,7 +543,7 @@ double cf_math_erfc(double x)
         double erf = 2.0 * ONE_OVER_SQRT_PI * x * exp_minus_sq(x) * sum;
         return 1.0 - erf;
     }
-    if (ax > 27.3)                                         /* erfc(27.3) < 2^-1075 */
+    if (x > 27.3)                                          /* erfc(27.3) < 2^-1075 */
         return 0.0;
     /* erfc(x) = exp(-x^2)/sqrt(pi) / (x + (1/2)/(x + 1/(x + (3/2)/(x + ...)))), Lentz */
     const double tiny = 0x1p-1000;
