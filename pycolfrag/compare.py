@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import results as _results
-from .errors import PycolfragError
+from .errors import ParameterError, PycolfragError
 
 __all__ = ["compare_results", "Comparison", "ScenarioStats", "main"]
 
@@ -197,7 +197,7 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
         differing row.
     """
     if not 0.0 < float(alpha) < 1.0:
-        raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
+        raise ParameterError(f"alpha must be in (0, 1), got {alpha!r}")
     ra, rb = _load(a), _load(b)
     sa, sb = ra.samples, rb.samples
     keys_a = {(int(s), int(k)): i for i, (s, k) in enumerate(zip(sa["scenario"], sa["sample"]))}

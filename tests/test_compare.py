@@ -137,3 +137,10 @@ def test_command_line(base):
     assert p.returncode == 1 and "1 of 80 matched rows differ" in p.stdout and "u_d (1)" in p.stdout
     p = subprocess.run(run + [str(a), str(tmp / "missing.h5")], capture_output=True, text=True)
     assert p.returncode == 3 and "missing.h5" in p.stderr
+
+
+def test_bad_alpha_is_refused(base):
+    from pycolfrag.errors import ParameterError
+    a = base[3]
+    with pytest.raises(ParameterError, match="alpha"):
+        compare_results(a, a, alpha=1.5)
