@@ -23,6 +23,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include "cf_math.h"
 #include "cf_common.h"
 #include "fft.h"
 
@@ -93,8 +94,8 @@ int cf_fft_plan_create(int n, cf_fft_plan **plan)
     double *wl = p->twst + (m >= 2 ? 2 * (m / 2 - 1) : 0);   /* (m = 1: no stage) */
     for (int k = 0; k < m / 2; k++) {
         double a = -2.0 * CF_PI * (double)k / (double)m;
-        wl[2 * k] = cos(a);
-        wl[2 * k + 1] = sin(a);
+        wl[2 * k] = cf_math_cos(a);
+        wl[2 * k + 1] = cf_math_sin(a);
         if (4 * k == m) {   /* exactly -i (cos(-pi/2) would leave 6e-17) */
             wl[2 * k] = 0.0;
             wl[2 * k + 1] = -1.0;
@@ -109,8 +110,8 @@ int cf_fft_plan_create(int n, cf_fft_plan **plan)
     }
     for (int k = 0; k <= m / 2; k++) {
         double a = -2.0 * CF_PI * (double)k / (double)n;
-        p->tws[2 * k] = cos(a);
-        p->tws[2 * k + 1] = sin(a);
+        p->tws[2 * k] = cf_math_cos(a);
+        p->tws[2 * k + 1] = cf_math_sin(a);
         if (4 * k == n) {
             p->tws[2 * k] = 0.0;
             p->tws[2 * k + 1] = -1.0;

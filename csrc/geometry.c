@@ -1,11 +1,12 @@
 /* geometry.c -- exact mass properties of polygonal frusta and stacks of them. */
 #include <math.h>
+#include "cf_math.h"
 #include "cf_common.h"
 #include "geometry.h"
 
 double cf_geometry_polygon_area(int n, double r)
 {
-    return 0.5 * n * sin(2.0 * CF_PI / n) * r * r;
+    return 0.5 * n * cf_math_sin(2.0 * CF_PI / n) * r * r;
 }
 
 /* int_0^h r(z)^p z^q dz with r = r0 + (r1 - r0) z / h, exactly (binomial expansion). */
@@ -14,10 +15,10 @@ static double poly_int(double r0, double r1, double h, int p, int q)
     double d = r1 - r0, sum = 0.0, binom = 1.0;
     int j;
     for (j = 0; j <= p; j++) {
-        sum += binom * pow(r0, p - j) * pow(d, j) / (double)(j + q + 1);
+        sum += binom * cf_math_pow(r0, p - j) * cf_math_pow(d, j) / (double)(j + q + 1);
         binom = binom * (p - j) / (j + 1);
     }
-    return sum * pow(h, q + 1);
+    return sum * cf_math_pow(h, q + 1);
 }
 
 static int seg_ok(const cf_geometry_segment *s)
@@ -30,8 +31,8 @@ int cf_geometry_segment_props(const cf_geometry_segment *s, double rho, cf_geome
 {
     double k, c, v, zc, i4, i22;
     if (!seg_ok(s) || !out || !(rho > 0) || !isfinite(rho)) return CF_EINVAL;
-    k = 0.5 * s->n_sides * sin(2.0 * CF_PI / s->n_sides);
-    c = (2.0 + cos(2.0 * CF_PI / s->n_sides)) / 12.0;
+    k = 0.5 * s->n_sides * cf_math_sin(2.0 * CF_PI / s->n_sides);
+    c = (2.0 + cf_math_cos(2.0 * CF_PI / s->n_sides)) / 12.0;
     v = k * poly_int(s->r_bottom, s->r_top, s->height, 2, 0);
     zc = k * poly_int(s->r_bottom, s->r_top, s->height, 2, 1) / v;
     i4 = poly_int(s->r_bottom, s->r_top, s->height, 4, 0);

@@ -2,6 +2,7 @@
 #include <math.h>
 #include <stddef.h>
 
+#include "cf_math.h"
 #include "cf_common.h"
 #include "pulse.h"
 
@@ -27,14 +28,14 @@ static double sinc(double x)
 {
     if (fabs(x) < 1e-4)
         return 1.0 - x * x / 6.0;
-    return sin(x) / x;
+    return cf_math_sin(x) / x;
 }
 
 /* int_{s}^{tau} cos(k u + nu) du = (tau - s) cos(k (tau + s)/2 + nu) sinc(k (tau - s)/2),
  * which stays exact as k -> 0 (the gamma = 1 term of the displacement). */
 static double cos_integral(double k, double nu, double s, double tau)
 {
-    return (tau - s) * cos(0.5 * k * (tau + s) + nu) * sinc(0.5 * k * (tau - s));
+    return (tau - s) * cf_math_cos(0.5 * k * (tau + s) + nu) * sinc(0.5 * k * (tau - s));
 }
 
 /* Displacement at tau (inside the support, s = start of the support):
@@ -69,12 +70,53 @@ int cf_pulse_eval(const cf_pulse_params *p, const double *t, int n, double *vel,
             continue;
         }
         {
-            double ce = cos(We * tau), se = sin(We * tau);
-            double cc = cos(W * tau + p->nu), sc = sin(W * tau + p->nu);
+            double ce = cf_math_cos(We * tau), se = cf_math_sin(We * tau);
+            double cc = cf_math_cos(W * tau + p->nu), sc = cf_math_sin(W * tau + p->nu);
             if (vel) vel[i] = 0.5 * A * (1.0 + ce) * cc;
             if (acc) acc[i] = -0.5 * A * (We * se * cc + (1.0 + ce) * W * sc);
             if (disp) disp[i] = disp_at(A, W, We, p->nu, -half, tau);
         }
+    }
+    return CF_OK;
+}
+
+int cf_pulse_unit_shape(double nu, double gamma, const double *u, int n, double *g)
+{
+    if (!isfinite(nu) || !(gamma > 0.0) || !isfinite(gamma) || n < 0 || (n > 0 && (u == NULL || g == NULL)))
+        return CF_EINVAL;
+    for (int i = 0; i < n; i++)
+        g[i] = 0.5 * (1.0 + cf_math_cos(2.0 * CF_PI * u[i] / gamma)) * cf_math_cos(2.0 * CF_PI * u[i] + nu);
+    return CF_OK;
+}
+
+int cf_pulse_sample_map(const cf_pulse_dist *d, const double *u, int n, double *vp_cm_s, double *fp_hz,
+                        double *nu_rad, double *gamma)
+{
+    if (d == NULL || n < 0 || (n > 0 && (u == NULL || vp_cm_s == NULL || fp_hz == NULL || nu_rad == NULL
+                                         || gamma == NULL)))
+        return CF_EINVAL;
+    if (!isfinite(d->log10_vp_mean) || !isfinite(d->log10_fp_mean) || !(d->log10_vp_sd >= 0.0)
+        || !(d->log10_fp_sd >= 0.0) || !isfinite(d->log10_vp_sd) || !isfinite(d->log10_fp_sd)
+        || !isfinite(d->nu_min) || !isfinite(d->nu_max) || !isfinite(d->gamma_mean)
+        || !(d->gamma_sd > 0.0) || !isfinite(d->gamma_sd) || !isfinite(d->gamma_min))
+        return CF_EINVAL;
+    for (int i = 0; i < 4 * n; i++)
+        if (!(u[i] >= 0.0 && u[i] <= 1.0))
+            return CF_EINVAL;
+    const double a = (d->gamma_min - d->gamma_mean) / d->gamma_sd;
+    const double phi_a = cf_math_norm_cdf(a), q_a = cf_math_norm_cdf(-a);   /* Phi(a), 1 - Phi(a) */
+    for (int i = 0; i < n; i++) {
+        const double *ui = u + 4 * i;
+        vp_cm_s[i] = cf_math_pow(10.0, d->log10_vp_mean + d->log10_vp_sd * cf_math_ndtri(ui[0]));
+        fp_hz[i] = cf_math_pow(10.0, d->log10_fp_mean + d->log10_fp_sd * cf_math_ndtri(ui[1]));
+        nu_rad[i] = d->nu_min + (d->nu_max - d->nu_min) * ui[2];
+        double p = phi_a + ui[3] * q_a, z;
+        if (p <= 0.5)
+            z = cf_math_ndtri(p);
+        else
+            z = -cf_math_ndtri((1.0 - ui[3]) * q_a);        /* 1 - u3: exact for u3 >= 1/2 */
+        double g = d->gamma_mean + d->gamma_sd * z;
+        gamma[i] = g < d->gamma_min ? d->gamma_min : g;   /* rounding at u3 = 0 */
     }
     return CF_OK;
 }

@@ -1,5 +1,6 @@
 /* rng.c -- xoshiro256** seeded by splitmix64, Marsaglia polar normals (rng.h). */
 #include <math.h>
+#include "cf_math.h"
 #include "rng.h"
 
 uint64_t cf_rng_splitmix64(uint64_t *x)
@@ -56,7 +57,7 @@ double cf_rng_normal(cf_rng *r)
         v = 2.0 * cf_rng_uniform(r) - 1.0;
         s = u * u + v * v;
     } while (s >= 1.0 || s == 0.0);
-    double m = sqrt(-2.0 * log(s) / s);
+    double m = sqrt(-2.0 * cf_math_log(s) / s);
     r->spare = v * m;
     r->has_spare = 1;
     return u * m;

@@ -2,6 +2,7 @@
 #include <math.h>
 #include <stddef.h>
 
+#include "cf_math.h"
 #include "cf_common.h"
 #include "spectra.h"
 
@@ -88,9 +89,9 @@ int cf_spectra_nj_coefficients(double period, double damping, double dt, double 
     w = 2.0 * CF_PI / period;
     sq = sqrt(1.0 - z * z);
     wd = w * sq;
-    E = exp(-z * w * dt);
-    S = sin(wd * dt);
-    C = cos(wd * dt);
+    E = cf_math_exp(-z * w * dt);
+    S = cf_math_sin(wd * dt);
+    C = cf_math_cos(wd * dt);
     w2 = w * w;
     w3 = w2 * w;
     coef[0] = E * (z / sq * S + C);                 /* a11 */

@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include "cf_math.h"
 #include "cf_common.h"
 #include "fft.h"
 #include "rng.h"
@@ -65,12 +66,12 @@ int cf_stochastic_check_scenario(double mw, double dist_km, char *msg)
 
 static void scenario_compute(double mw, double d, scenario *s)
 {
-    s->m0 = pow(10.0, 1.5 * mw + 16.05);                    /* dyne-cm */
-    s->fa = pow(10.0, 2.181 - 0.496 * mw);                  /* Hz */
-    s->fb = pow(10.0, 2.41 - 0.408 * mw);
-    s->eps = pow(10.0, 0.605 - 0.255 * mw);
+    s->m0 = cf_math_pow(10.0, 1.5 * mw + 16.05);            /* dyne-cm */
+    s->fa = cf_math_pow(10.0, 2.181 - 0.496 * mw);          /* Hz */
+    s->fb = cf_math_pow(10.0, 2.41 - 0.408 * mw);
+    s->eps = cf_math_pow(10.0, 0.605 - 0.255 * mw);
     /* (the small-M branch of AS00, M <= 2.4, is outside the accepted range) */
-    s->h = pow(10.0, -0.05 + 0.15 * mw);                    /* km */
+    s->h = cf_math_pow(10.0, -0.05 + 0.15 * mw);            /* km */
     s->r = sqrt(d * d + s->h * s->h);
     s->g = s->r < AS_R_CROSS ? 1.0 / s->r : (1.0 / AS_R_CROSS) * sqrt(AS_R_CROSS / s->r);
     s->tgm = 0.5 / s->fa + 0.05 * s->r;                     /* s */
@@ -88,7 +89,7 @@ static double bj97(double f)
     while (f > bj97_f[i + 1])
         i++;
     double w = (f - bj97_f[i]) / (bj97_f[i + 1] - bj97_f[i]);
-    return exp((1.0 - w) * log(bj97_amp[i]) + w * log(bj97_amp[i + 1]));
+    return cf_math_exp((1.0 - w) * cf_math_log(bj97_amp[i]) + w * cf_math_log(bj97_amp[i + 1]));
 }
 
 /* A(f) in cm/s (as00.json "fas_acceleration"). */
@@ -97,10 +98,10 @@ static double fas_cm_s(const scenario *s, double f)
     if (!(f > 0.0))
         return 0.0;
     double src = (1.0 - s->eps) / (1.0 + (f / s->fa) * (f / s->fa)) + s->eps / (1.0 + (f / s->fb) * (f / s->fb));
-    double q = AS_Q0 * pow(f, AS_QETA);
-    double anel = exp(-CF_PI * f * s->r / (q * AS_CQ));
+    double q = AS_Q0 * cf_math_pow(f, AS_QETA);
+    double anel = cf_math_exp(-CF_PI * f * s->r / (q * AS_CQ));
     double fr = f / AS_FMAX, fr2 = fr * fr, fr4 = fr2 * fr2;
-    double dim = exp(-CF_PI * AS_KAPPA * f) / sqrt(1.0 + fr4 * fr4);
+    double dim = cf_math_exp(-CF_PI * AS_KAPPA * f) / sqrt(1.0 + fr4 * fr4);
     double w = 2.0 * CF_PI * f;
     return s->c_const * s->m0 * src * s->g * anel * bj97(f) * dim * w * w;
 }
@@ -119,11 +120,11 @@ double cf_stochastic_window(double t, double t_eta)
     if (!(t > 0.0) || !(t_eta > 0.0))
         return 0.0;
     const double eps = AS_WIN_EPS, eta = AS_WIN_ETA;
-    const double b = -eps * log(eta) / (1.0 + eps * (log(eps) - 1.0));
+    const double b = -eps * cf_math_log(eta) / (1.0 + eps * (cf_math_log(eps) - 1.0));
     const double c = b / eps;
-    const double a = pow(exp(1.0) / eps, b);
+    const double a = cf_math_pow(cf_math_exp(1.0) / eps, b);
     const double x = t / t_eta;
-    return a * pow(x, b) * exp(-c * x);
+    return a * cf_math_pow(x, b) * cf_math_exp(-c * x);
 }
 
 int cf_stochastic_fas(double mw, double dist_km, const double *f_hz, int n, double *out_m_s, char *msg)

@@ -20,7 +20,7 @@ import math
 import operator
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
 from scipy.stats import qmc
 
 from .._ffi import as_double_array, check, ffi, lib, ptr
@@ -106,7 +106,11 @@ def _unit_peak(nu, gamma):
     u = np.linspace(-gamma / 2, gamma / 2, 2001)
 
     def g(x):
-        return 0.5 * (1.0 + np.cos(2 * np.pi * x / gamma)) * np.cos(2 * np.pi * x + nu)
+        # C (csrc/pulse.c, cf_math cos): the same bits on every CPU, unlike numpy's cos loops
+        xs = np.ascontiguousarray(np.atleast_1d(x), dtype=np.float64)
+        out = np.empty_like(xs)
+        check(lib.cf_pulse_unit_shape(nu, gamma, ptr(xs), xs.size, ptr(out)), what="unit pulse")
+        return out if np.ndim(x) else float(out[0])
 
     k = int(np.argmax(np.abs(g(u))))
     lo, hi = u[max(k - 1, 0)], u[min(k + 1, u.size - 1)]
@@ -162,17 +166,30 @@ def _lhs(d, n, seed):
     return sampler.random(n)
 
 
+def _distribution(log10_vp_mean, log10_fp_mean):
+    d = ffi.new("cf_pulse_dist *")
+    d.log10_vp_mean, d.log10_vp_sd = log10_vp_mean, _r11.SIGMA_LOG10_VP
+    d.log10_fp_mean, d.log10_fp_sd = log10_fp_mean, _r11.SIGMA_LOG10_FP
+    d.nu_min, d.nu_max = NU_RANGE_RAD
+    d.gamma_mean, d.gamma_sd, d.gamma_min = GAMMA_MEAN, GAMMA_SD, GAMMA_MIN
+    return d
+
+
 def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0):
     """Latin-hypercube sample of ``n`` pulses for the scenario (Mw, dist_km km).
 
     One LHS of the unit 4-cube (``scipy.stats.qmc.LatinHypercube(d=4)`` seeded with
     ``numpy.random.default_rng(seed)``; every one of the ``n`` strata of every dimension
-    holds exactly one point), mapped by inverse CDFs:
+    holds exactly one point), mapped by inverse CDFs in C (``cf_pulse_sample_map``, with the
+    library's own log, pow and inverse normal CDF, so the same seed gives the same bits on
+    every CPU; scipy's ``norm.ppf``/``truncnorm.ppf`` and numpy's ``power`` depend on the
+    CPU's SIMD features in their last bits):
 
     * column 0: log10 Vp ~ N(log10 of the Eq. (6) mean times ``vp_scale``, 0.16);
     * column 1: log10 fp ~ N(log10 of the Eq. (7) mean, 0.18);
     * column 2: nu ~ U[-pi/2, pi/2];
-    * column 3: gamma ~ N(1.8, 0.4) left-truncated at 1 (``scipy.stats.truncnorm``).
+    * column 3: gamma ~ N(1.8, 0.4) left-truncated at 1: ``ndtri(Phi(a) + u (1 - Phi(a)))``,
+      a = (1 - 1.8) / 0.4 (equal to ``scipy.stats.truncnorm.ppf`` to about 1e-15).
 
     Vp and fp are log-normal, hence always > 0: the paper's truncation at 0 in linear units
     is no truncation at all in log space, and none is applied.
@@ -192,12 +209,10 @@ def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0):
     """
     log_vp, log_fp = _r11._log10_means(Mw, dist_km, vp_scale)
     n_ = _integer(n, "n", 1)
-    u = _lhs(4, n_, _int_seed(seed))
-    vp = 10.0 ** stats.norm.ppf(u[:, 0], loc=log_vp, scale=_r11.SIGMA_LOG10_VP)
-    fp = 10.0 ** stats.norm.ppf(u[:, 1], loc=log_fp, scale=_r11.SIGMA_LOG10_FP)
-    nu = NU_RANGE_RAD[0] + (NU_RANGE_RAD[1] - NU_RANGE_RAD[0]) * u[:, 2]
-    a = (GAMMA_MIN - GAMMA_MEAN) / GAMMA_SD
-    gamma = stats.truncnorm.ppf(u[:, 3], a, np.inf, loc=GAMMA_MEAN, scale=GAMMA_SD)
+    u = np.ascontiguousarray(_lhs(4, n_, _int_seed(seed)), dtype=np.float64)
+    vp, fp, nu, gamma = (np.empty(n_) for _ in range(4))
+    check(lib.cf_pulse_sample_map(_distribution(log_vp, log_fp), ptr(u), n_, ptr(vp), ptr(fp), ptr(nu),
+                                  ptr(gamma)), what="pulse parameter sampling")
     return {"Vp_cm_s": vp, "fp_hz": fp, "nu_rad": nu, "gamma": gamma,
             "A_cm_s": np.asarray(envelope_amplitude(vp, fp, nu, gamma), dtype=float).reshape(n_),
             "Tp_s": 1.0 / fp}

@@ -18,10 +18,7 @@ Scatter (the paper, after Rupakhety et al.): sigma of log10(Vp) = 0.16, of log10
 """
 from __future__ import annotations
 
-import math
-
-import numpy as np
-
+from .._ffi import lib
 from .._validate import finite_float
 from ..errors import ModelRangeError, ParameterError
 
@@ -68,8 +65,10 @@ def mean_vp_cm_s(Mw, dist_km, vp_scale=1.0):
     if s <= 0:
         raise ParameterError(f"vp_scale must be > 0, got {vp_scale!r}")
     m = min(m, M_SAT)
-    log_vp = -5.17 + 1.98 * m - 0.14 * m * m - 0.10 * math.log10(r * r + 0.562)   # Eq. (6)
-    return s * 10.0 ** log_vp
+    # Eq. (6); log10 and 10** through the library's own functions (csrc/cf_math.c): Python's
+    # math module calls the C library, whose last bits depend on the CPU.
+    log_vp = -5.17 + 1.98 * m - 0.14 * m * m - 0.10 * lib.cf_math_log10(r * r + 0.562)
+    return s * lib.cf_math_pow(10.0, log_vp)
 
 
 def mean_tp_s(Mw):
@@ -77,7 +76,7 @@ def mean_tp_s(Mw):
     m = finite_float(Mw, "Mw")
     if not MW_RANGE[0] <= m <= MW_RANGE[1]:
         raise ModelRangeError(f"Mw = {Mw!r} is outside the pulse model's range {MW_RANGE}")
-    return 10.0 ** (-2.87 + 0.47 * m)                                                # Eq. (7)
+    return lib.cf_math_pow(10.0, -2.87 + 0.47 * m)                                   # Eq. (7)
 
 
 def mean_fp_hz(Mw):
@@ -86,4 +85,4 @@ def mean_fp_hz(Mw):
 
 
 def _log10_means(Mw, dist_km, vp_scale=1.0):
-    return np.log10(mean_vp_cm_s(Mw, dist_km, vp_scale)), np.log10(mean_fp_hz(Mw))
+    return lib.cf_math_log10(mean_vp_cm_s(Mw, dist_km, vp_scale)), lib.cf_math_log10(mean_fp_hz(Mw))

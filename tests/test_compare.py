@@ -1,0 +1,146 @@
+"""``pycolfrag.compare``: row-level equality of two results files and, where rows differ, the
+per-scenario statistics (collapse fraction: Fisher's exact test; mean u_top, u_d: Welch's t).
+
+The files are written by hand here in the layout of docs/results_format.md (h5py, every
+``/samples`` field of ``pycolfrag.results.SAMPLE_FIELDS``, ``/spectra``, the root attributes
+``load`` needs), so the tool is tested on the format, not on the grid driver.
+Expected numbers come from closed forms, not from the code under test:
+* Fisher's exact test of 0/40 against 40/40: the only tables as extreme are the two
+  corners, each with hypergeometric probability 1 / C(80, 40), so p = 2 / C(80, 40);
+* Clopper-Pearson 95 % upper limit of 0 in n: 1 - 0.025^(1/n) (the beta quantile in closed form);
+* Welch's t: t = (m1 - m2) / sqrt(v1/n1 + v2/n2) with the Welch-Satterthwaite degrees of
+  freedom, computed below from the data with NumPy.
+"""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from pycolfrag import results
+from pycolfrag.compare import compare_results
+
+h5py = pytest.importorskip("h5py")
+
+N_SC, N_S, PERIODS = 2, 40, np.array([0.5, 1.0])
+
+
+def _rows(seed=0):
+    """Plausible rows: scenario 0 rarely collapses, scenario 1 half the time."""
+    rng = np.random.default_rng(seed)
+    n = N_SC * N_S
+    cols = {}
+    for name, (code, fill, _) in results.SAMPLE_FIELDS.items():
+        cols[name] = np.full(n, fill, dtype=results._dtype(code))
+    sc = np.repeat(np.arange(N_SC), N_S)
+    cols["scenario"], cols["sample"] = sc.astype("i4"), np.tile(np.arange(N_S), N_SC).astype("i4")
+    cols["mw"] = np.where(sc == 0, 6.5, 7.5)
+    cols["dist_km"] = np.full(n, 10.0)
+    cols["status"] = np.zeros(n, dtype="i4")
+    cols["u_top"] = rng.lognormal(-3, 0.5, n)
+    cols["u_d"] = rng.lognormal(-6, 0.5, n)
+    cols["collapsed"] = ((sc == 1) & (rng.random(n) < 0.5)).astype("u1")
+    cols["wall_s"] = rng.random(n)
+    spectra = {"sa_g": rng.random((n, PERIODS.size)), "sv_cm_s": rng.random((n, PERIODS.size))}
+    return cols, spectra
+
+
+def _write(path, cols, spectra):
+    with h5py.File(path, "w") as f:
+        g = f.create_group("samples")
+        for name, v in cols.items():
+            g.create_dataset(name, data=v)
+        sp = f.create_group("spectra")
+        sp.attrs["periods_s"] = PERIODS
+        for name, v in spectra.items():
+            sp.create_dataset(name, data=v)
+        f.attrs["grid_signature"] = json.dumps({"seed": 1})
+        f.attrs["format_version"] = results.FORMAT_VERSION
+        f.attrs["complete"] = True
+    return path
+
+
+@pytest.fixture
+def base(tmp_path):
+    cols, spectra = _rows()
+    return tmp_path, cols, spectra, _write(tmp_path / "a.h5", cols, spectra)
+
+
+def test_identical_but_wall_time(base):
+    tmp, cols, spectra, a = base
+    cols = dict(cols, wall_s=cols["wall_s"] + 1.0)
+    b = _write(tmp / "b.h5", cols, spectra)
+    c = compare_results(a, b)
+    assert c.identical and c.exit_code == 0 and c.n_common == N_SC * N_S
+    assert c.differing_fields == {} and c.scenarios == []
+
+
+def test_last_bit_differences_agree_statistically(base):
+    tmp, cols, spectra, a = base
+    cols = {k: v.copy() for k, v in cols.items()}
+    cols["u_top"][[1, 5, 7]] = np.nextafter(cols["u_top"][[1, 5, 7]], 1.0)   # 1 ulp, scenario 0
+    spectra = {k: v.copy() for k, v in spectra.items()}
+    spectra["sa_g"][5, 1] = np.nextafter(spectra["sa_g"][5, 1], 0.0)
+    c = compare_results(a, _write(tmp / "b.h5", cols, spectra))
+    assert not c.identical and c.statistically_consistent and c.exit_code == 1
+    assert c.differing_fields == {"u_top": 3, "spectra/sa_g": 1} and c.n_rows_differing == 3
+    [s] = c.scenarios
+    assert s.scenario == 0 and s.n_rows_differing == 3 and s.agree
+    assert s.p_collapse == 1.0 and s.p_u_top > 0.9
+
+
+def test_different_statistics_are_flagged(base):
+    tmp, cols, spectra, a = base
+    cols = {k: v.copy() for k, v in cols.items()}
+    m0 = cols["scenario"] == 0
+    cols["collapsed"][m0] = 1                   # 0/40 -> 40/40 collapses in scenario 0
+    m1 = (cols["scenario"] == 1) & (cols["collapsed"] == 0)
+    cols["u_top"][m1] *= 3.0                    # scenario 1: three times the displacement
+    c = compare_results(a, _write(tmp / "b.h5", cols, spectra))
+    assert c.exit_code == 2 and not c.statistically_consistent
+    s0, s1 = c.scenarios
+    assert s0.collapses == (0, 40) and s0.p_collapse == pytest.approx(2 / math.comb(80, 40), rel=1e-9)
+    assert s0.collapse_ci95[0][1] == pytest.approx(1 - 0.025 ** (1 / 40), rel=1e-9)
+    assert not s0.agree and not s1.agree and s1.p_collapse == 1.0
+    x = base[1]["u_top"][m1]
+    y = cols["u_top"][m1]
+    vx, vy = x.var(ddof=1) / x.size, y.var(ddof=1) / y.size
+    t = (x.mean() - y.mean()) / math.sqrt(vx + vy)
+    df = (vx + vy) ** 2 / (vx ** 2 / (x.size - 1) + vy ** 2 / (y.size - 1))
+    from scipy import stats
+    assert s1.p_u_top == pytest.approx(2 * stats.t.sf(abs(t), df), rel=1e-9)
+    # 4 tests made: scenario 0 has no standing run left in B (no u_top/u_d test), scenario 1 all 3
+    assert s1.p_u_top < c.threshold and c.threshold == pytest.approx(0.05 / 4)
+
+
+def test_missing_rows_are_reported(base):
+    tmp, cols, spectra, a = base
+    cols = {k: v.copy() for k, v in cols.items()}
+    cols["status"][[3, 50]] = results.STATUS_PENDING     # not computed in B: load drops them
+    c = compare_results(a, _write(tmp / "b.h5", cols, spectra))
+    assert c.only_in_a == [(0, 3), (1, 10)] and c.only_in_b == [] and c.exit_code == 2
+
+
+def test_command_line(base):
+    tmp, cols, spectra, a = base
+    cols = {k: v.copy() for k, v in cols.items()}
+    cols["u_d"][0] = np.nextafter(cols["u_d"][0], 1.0)
+    b = _write(tmp / "b.h5", cols, spectra)
+    run = [sys.executable, "-m", "pycolfrag.compare"]
+    p = subprocess.run(run + [str(a), str(a)], capture_output=True, text=True)
+    assert p.returncode == 0 and "bitwise identical" in p.stdout
+    p = subprocess.run(run + [str(a), str(b)], capture_output=True, text=True)
+    assert p.returncode == 1 and "1 of 80 matched rows differ" in p.stdout and "u_d (1)" in p.stdout
+    p = subprocess.run(run + [str(a), str(tmp / "missing.h5")], capture_output=True, text=True)
+    assert p.returncode == 3 and "missing.h5" in p.stderr
+
+
+def test_bad_alpha_is_refused(base):
+    from pycolfrag.errors import ParameterError
+    a = base[3]
+    with pytest.raises(ParameterError, match="alpha"):
+        compare_results(a, a, alpha=1.5)
