@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cf_math.h"
 #include "solver_internal.h"
 
 #define ALLOC(ptr, type, count) do { (ptr) = (type *)calloc((size_t)(count) > 0 ? (size_t)(count) : 1, sizeof(type)); \
@@ -42,13 +43,13 @@ static void make_face(cf_face *f, int n, double r, double phase, double cz)
     int k;
     double a = CF_PI / n;
     f->c[0] = 0; f->c[1] = 0; f->c[2] = cz;
-    f->n = n; f->rc = r; f->apo = r * cos(a);
+    f->n = n; f->rc = r; f->apo = r * cf_math_cos(a);
     f->area = cf_geometry_polygon_area(n, r);
     for (k = 0; k < n; k++) {
         double ph = phase + 2.0 * CF_PI * k / n;
-        f->vx[k] = r * cos(ph); f->vy[k] = r * sin(ph);
+        f->vx[k] = r * cf_math_cos(ph); f->vy[k] = r * cf_math_sin(ph);
         f->poly[2 * k] = f->vx[k]; f->poly[2 * k + 1] = f->vy[k];
-        f->ec[k] = cos(ph + a); f->es[k] = sin(ph + a);
+        f->ec[k] = cf_math_cos(ph + a); f->es[k] = cf_math_sin(ph + a);
     }
     for (k = 0; k < n + 2; k++) {
         int m = (k + n - 1) % n;
@@ -211,7 +212,7 @@ static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometr
             J->area = J->fl.area < J->fu.area ? J->fl.area : J->fu.area;
             {
                 const cf_face *fa = J->fl.area < J->fu.area ? &J->fl : &J->fu;
-                J->polar = fa->area * fa->rc * fa->rc * (2.0 + cos(2.0 * CF_PI / fa->n)) / 6.0;
+                J->polar = fa->area * fa->rc * fa->rc * (2.0 + cf_math_cos(2.0 * CF_PI / fa->n)) / 6.0;
             }
         }
         free(first); free(last);
@@ -383,14 +384,14 @@ static void equilibrium(cf_solver *s, int nblk, const cf_geometry_segment *segs,
         if (def->initial_tilt_rad != 0.0) {
             /* rigid rotation about the line through the outermost +x base vertex, parallel to y */
             const cf_face *f = &s->jt[0].fu;
-            double xp = f->vx[0], th = def->initial_tilt_rad, c = cos(th), sn = sin(th);
+            double xp = f->vx[0], th = def->initial_tilt_rad, c = cf_math_cos(th), sn = cf_math_sin(th);
             double zp = s->x0[3 * 1 + 2] + f->c[2];
             for (k = 1; k < f->n; k++) if (f->vx[k] > xp) xp = f->vx[k];
             for (i = 1; i < nbody; i++) {
                 double dx = s->x0[3 * i] - xp, dz = s->x0[3 * i + 2] - zp;
                 s->x0[3 * i] = xp + c * dx + sn * dz;
                 s->x0[3 * i + 2] = zp - sn * dx + c * dz;
-                s->q0[4 * i] = cos(0.5 * th); s->q0[4 * i + 1] = 0; s->q0[4 * i + 2] = sin(0.5 * th);
+                s->q0[4 * i] = cf_math_cos(0.5 * th); s->q0[4 * i + 1] = 0; s->q0[4 * i + 2] = cf_math_sin(0.5 * th);
                 s->q0[4 * i + 3] = 0;
             }
         }

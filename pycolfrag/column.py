@@ -242,7 +242,10 @@ class JointProperties:
 
     @property
     def mu(self) -> float:
-        return math.tan(math.radians(self.friction_deg))
+        # tan as sin / cos of the library's own portable functions (csrc/cf_math.c): mu feeds the
+        # solver, and libm's tan differs in its last bit between CPUs (docs/reproducibility.md)
+        a = math.radians(self.friction_deg)
+        return _lib.cf_math_sin(a) / _lib.cf_math_cos(a)
 
     def to_dict(self) -> dict:
         return {
@@ -350,7 +353,7 @@ class Column:
         w = _positive(width, "width (m)")
         _positive(height, "height (m)")
         n_sides = _n_sides(n_sides, "single_block")
-        r = 0.5 * w / math.cos(math.pi / n_sides)  # circumradius from the inradius w/2
+        r = 0.5 * w / _lib.cf_math_cos(math.pi / n_sides)  # circumradius from the inradius w/2 (portable cos)
         phase = math.pi / n_sides if flat_side_along_x else 0.0
         seg = Segment(height, r, r, n_sides, phase)
         return cls((Block((seg,), name="block"),), density=density, joints=joints, name="single block")

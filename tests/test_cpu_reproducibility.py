@@ -19,8 +19,9 @@ equality, so the tolerance is zero (bit patterns compared through the raw bytes)
 c9942c1, before the library carried its own transcendental functions, the records differed
 under both masks (see docs/reproducibility.md for the counts).
 
-The column response (``pcf.simulate``) is compared too, but the solver's set-up still calls
-libm cos/sin (csrc/solver.c), so that comparison is allowed to fail (xfail, not strict).
+The column response (``pcf.simulate``) is compared too (the solver's set-up uses the library's
+own cos/sin since it stopped calling libm), and so are the rows of a small grid run through
+``scripts/run_grid.py``: every dataset of ``/samples`` and ``/spectra`` but the wall time.
 """
 from __future__ import annotations
 
@@ -154,6 +155,64 @@ def test_column_response_bitwise_equal(runs, emulation):
     if emulation not in runs:
         pytest.skip("numpy found no SIMD group beyond its baseline on this machine")
     diff = _differences(runs["plain"], runs[emulation], lambda k: k.startswith("sim/"))
-    if diff:
-        pytest.xfail("solver set-up still uses libm cos/sin (csrc/solver.c, ported by the lead): "
-                     f"{diff}")
+    assert not diff, f"the column response differs under {emulation}: {diff}"
+
+
+def _grid_rows(tmp_path, name, extra_env):
+    """A small grid (Mw 7.5 and 6.0 at 5 km, 3 samples each, seed 99) in a child process."""
+    import h5py
+    env = {k: v for k, v in os.environ.items() if k not in ("NPY_DISABLE_CPU_FEATURES", "GLIBC_TUNABLES")}
+    env.update(extra_env)
+    out = tmp_path / f"grid_{name}.h5"
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    proc = subprocess.run([sys.executable, os.path.join(root, "scripts", "run_grid.py"), "--mw", "6.0", "7.5",
+                           "--dist", "5", "--samples", "3", "--seed", "99", "--no-figures", "--no-progress",
+                           "--out", str(out)], env=env, capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    rows = {}
+    with h5py.File(out, "r") as f:
+        for group in ("samples", "spectra"):
+            for k, v in f[group].items():
+                if k != "wall_s" and v.dtype.kind == "f":
+                    rows[f"{group}/{k}"] = v[()]
+                elif k != "wall_s" and v.dtype.kind in "iub":
+                    rows[f"{group}/{k}"] = v[()].astype(np.float64)
+    return rows
+
+
+def test_grid_rows_bitwise_equal_under_every_emulation(tmp_path):
+    """The issue's check: the same grid rows on a machine without AVX2/AVX-512 in numpy's dispatch
+    and without glibc's FMA/AVX2 libm variants (bit patterns compared, tolerance zero)."""
+    plain = _grid_rows(tmp_path, "plain", {})
+    assert np.isfinite(plain["samples/u_top"]).all() and plain["samples/u_top"].size == 6
+    mask = _numpy_mask()
+    emulations = {"glibc": {"GLIBC_TUNABLES": GLIBC_MASK}}
+    if mask:
+        emulations["numpy"] = {"NPY_DISABLE_CPU_FEATURES": mask}
+    for name, env in emulations.items():
+        other = _grid_rows(tmp_path, name, env)
+        diff = _differences(plain, other, lambda k: True)
+        assert not diff, f"grid rows differ under {name}: {diff}"
+
+
+_LIBM_TRANSCENDENTALS = {"sin", "cos", "tan", "sincos", "exp", "exp2", "expm1", "log", "log2", "log10", "log1p",
+                         "pow", "atan", "atan2", "asin", "acos", "sinh", "cosh", "tanh", "erf", "erfc", "cbrt",
+                         "hypot"}
+
+
+def test_library_imports_no_libm_transcendental():
+    """The emulations above only see a libm call whose result differs between glibc's variants
+    for the arguments used (the default column's cos/sin of multiples of pi/10 happen to agree),
+    so the rule itself is checked statically: the extension must not import any libm
+    transcendental function (sqrt, floor, fabs, ... are correctly rounded or exact and allowed).
+    Fails, e.g., when make_face calls libm's cos instead of cf_math_cos."""
+    import shutil
+
+    import pycolfrag._libcolfrag as ext
+    if shutil.which("nm") is None:
+        pytest.skip("nm (binutils) not installed")
+    out = subprocess.run(["nm", "-D", "--undefined-only", ext.__file__], capture_output=True, text=True,
+                         check=True).stdout
+    imported = {line.split()[-1].split("@")[0] for line in out.splitlines() if line.strip()}
+    bad = sorted(imported & {n for f in _LIBM_TRANSCENDENTALS for n in (f, f + "f", f + "l")})
+    assert not bad, f"the C library calls libm's {bad}: use csrc/cf_math.h (docs/reproducibility.md)"
