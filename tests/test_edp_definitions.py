@@ -481,3 +481,175 @@ def test_collapsed_run_keeps_u_top_and_standing_run_has_finite_u_d():
     t = np.arange(0.0, 2.0 + dt / 2, dt)
     s = pcf.simulate(col, 0.38 * G * np.sin(np.pi * t), dt, tail_s=4.0)
     assert not s.collapsed and np.isfinite(s.u_d) and np.all(np.isfinite(s.residual_dislocation))
+
+
+# --------------------------------------------------------------------------- consumers of u_d
+#
+# A collapsed run's u_d is NaN (no residual state). Every consumer must give the same answer whether
+# the collapsed rows hold NaN or the finite numbers the solver returned before (their EDPs are never
+# used: collapse counts as exceeding every level; means, fits, plots and tables use the non-collapsed
+# runs). Reference: the same computation on a copy of the table with finite placeholders in the
+# collapsed rows (u_top 1.5, u_d 0.3: what today's solver returns after a collapse), compared exactly
+# (the collapsed rows are masked before any arithmetic, so not even round-off may differ).
+
+from pycolfrag import fragility as fr  # noqa: E402
+
+
+def _table(seed=1, n=24):
+    """Two magnitudes x two distances x n runs; about a third collapsed (more at Mw 7.5)."""
+    g = np.random.default_rng(seed)
+    mw = np.repeat([6.5, 7.5], 2 * n)
+    dist = np.tile(np.repeat([5.0, 20.0], n), 2)
+    pgv = 30 * np.exp(0.6 * g.standard_normal(mw.size)) * (mw - 5.5)
+    u_top = 0.008 * pgv * np.exp(0.5 * g.standard_normal(mw.size))
+    collapsed = u_top > 0.9
+    u_d = 0.02 * u_top * np.exp(0.7 * g.standard_normal(mw.size))
+    u_d[g.random(mw.size) < 0.1] = 0.0           # runs that never slid: exact zeros
+    finite = dict(mw=mw, dist_km=dist, pgv=pgv, u_top=u_top.copy(), u_d=u_d.copy(), collapsed=collapsed)
+    finite["u_top"][collapsed] = 1.5
+    finite["u_d"][collapsed] = 0.3
+    nan = dict(finite, u_top=finite["u_top"].copy(), u_d=finite["u_d"].copy())
+    nan["u_d"][collapsed] = np.nan
+    nan["u_top"][collapsed] = np.nan
+    assert 5 < collapsed.sum() < mw.size // 2
+    return finite, nan
+
+
+def _same(a, b):
+    """Exact equality of nested results (NaN == NaN), dataclasses and tuples included."""
+    if hasattr(a, "__dataclass_fields__"):
+        for k in a.__dataclass_fields__:
+            _same(getattr(a, k), getattr(b, k))
+    elif isinstance(a, dict):
+        assert a.keys() == b.keys()
+        for k in a:
+            _same(a[k], b[k])
+    elif isinstance(a, (list, tuple)) and not isinstance(a, str):
+        assert len(a) == len(b)
+        for x, y in zip(a, b):
+            _same(x, y)
+    elif isinstance(a, (str, type(None))):
+        assert a == b
+    else:
+        np.testing.assert_array_equal(a, b)
+
+
+def test_fragility_ignores_the_edps_of_collapsed_runs():
+    """Eqs. (1)-(4), bootstrap intervals, scenario tables, surfaces, stripe curves and the MLE curve
+    are identical with NaN or finite placeholders in the collapsed rows; and the mean u_d of a
+    scenario is the plain mean of its non-collapsed values (paper Fig. 8b)."""
+    A, B = _table()
+    for edp, thr in (("u_d", 0.01), ("u_top", 0.35)):
+        for fn in (fr.exceedance, fr.empirical_exceedance):
+            _same(fn(A[edp], A["collapsed"], thr), fn(B[edp], B["collapsed"], thr))
+        for stat in ("eq4", "empirical", "mean"):
+            kw = dict(statistic=stat, n_boot=100, rng=3)
+            t = None if stat == "mean" else thr
+            _same(fr.bootstrap_interval(A[edp], A["collapsed"], t, **kw),
+                  fr.bootstrap_interval(B[edp], B["collapsed"], t, **kw))
+        _same(fr.exceedance_surface(A["mw"], A["dist_km"], A[edp], A["collapsed"], thr, n_boot=50, rng=4),
+              fr.exceedance_surface(B["mw"], B["dist_km"], B[edp], B["collapsed"], thr, n_boot=50, rng=4))
+        _same(fr.mean_edp_surface(A["mw"], A["dist_km"], A[edp], A["collapsed"], n_boot=50, rng=5),
+              fr.mean_edp_surface(B["mw"], B["dist_km"], B[edp], B["collapsed"], n_boot=50, rng=5))
+        _same(fr.stripe_curve(A["pgv"], A[edp], A["collapsed"], thr, n_stripes=4, n_boot=50, rng=6),
+              fr.stripe_curve(B["pgv"], B[edp], B["collapsed"], thr, n_stripes=4, n_boot=50, rng=6))
+        _same(fr.fit_lognormal_fragility(A["pgv"], A[edp], A["collapsed"], thr, n_boot=10, rng=7),
+              fr.fit_lognormal_fragility(B["pgv"], B[edp], B["collapsed"], thr, n_boot=10, rng=7))
+    rows_a = fr.scenario_table(A["mw"], A["dist_km"], {"u_top": A["u_top"], "u_d": A["u_d"]}, A["collapsed"],
+                               n_boot=50, rng=8)
+    rows_b = fr.scenario_table(B["mw"], B["dist_km"], {"u_top": B["u_top"], "u_d": B["u_d"]}, B["collapsed"],
+                               n_boot=50, rng=8)
+    _same(rows_a, rows_b)
+    for row in rows_b:
+        sel = (B["mw"] == row.mw) & (B["dist_km"] == row.dist_km) & ~B["collapsed"]
+        assert row.mean["u_d"] == pytest.approx(np.mean(A["u_d"][sel]), rel=1e-12)
+        assert np.isfinite(row.mean["u_d"]) and np.isfinite(row.mu_ln["u_d"])
+
+
+def test_fragility_still_refuses_nan_edps_of_standing_runs():
+    """NaN is reserved to collapsed runs: a NaN u_d of a run that did not collapse is an error."""
+    _, B = _table()
+    e = B["u_d"].copy()
+    e[np.flatnonzero(~B["collapsed"])[0]] = np.nan
+    with pytest.raises(pcf.ParameterError, match="non-collapsed"):
+        fr.exceedance(e, B["collapsed"], 0.01)
+
+
+def _results_pair(tmp_path):
+    """The synthetic results file of tests/test_figures.py (NaN EDPs in collapsed rows) and a copy
+    with finite placeholders there."""
+    import h5py
+    from test_figures import write_results
+    nan_path = write_results(tmp_path / "nan.h5", mws=(6.5, 7.5), dists=(5.0, 20.0), n=20, n_failed=2, vp_scale=3.0)
+    fin_path = write_results(tmp_path / "finite.h5", mws=(6.5, 7.5), dists=(5.0, 20.0), n=20, n_failed=2, vp_scale=3.0)
+    with h5py.File(fin_path, "r+") as f:
+        c = f["samples/collapsed"][...].astype(bool)
+        assert c.sum() > 3
+        for k, v in (("u_top", 1.5), ("u_d", 0.3)):
+            x = f[f"samples/{k}"][...]
+            assert np.all(np.isnan(x[c]))
+            x[c] = v
+            f[f"samples/{k}"][...] = x
+    return nan_path, fin_path
+
+
+def test_report_and_validation_ignore_the_edps_of_collapsed_runs(tmp_path, monkeypatch):
+    """The Markdown report and the validation claims are the same text with NaN or finite EDPs in the
+    collapsed rows (the file names excepted), and print no "nan" for a mean u_d. Bootstrap sizes are
+    cut (fewer resamples, no MLE band) to keep the test at a few seconds: the comparison is between
+    two identical computations, so their size does not matter."""
+    from pycolfrag import figures, report, validation
+    orig_curves, orig_fit = report.im_curves, fr.fit_lognormal_fragility
+    monkeypatch.setattr(report, "im_curves", lambda d, v, **kw: orig_curves(d, v, **{**kw, "n_boot": 5, "n_boot_mle": 0}))
+    monkeypatch.setattr(fr, "fit_lognormal_fragility", lambda *a, **kw: orig_fit(*a, **{**kw, "n_boot": min(kw.get("n_boot", 0), 5)}))
+    monkeypatch.setattr(validation, "N_BOOT", 50)
+    nan_path, fin_path = _results_pair(tmp_path)
+    texts = []
+    for p in (nan_path, fin_path):
+        out = report.write_report(p, tmp_path / (p.stem + ".md"), n_boot=20, figures_dir=tmp_path / "none")
+        texts.append([ln.replace(str(p), "RESULTS") for ln in open(out).read().splitlines()])
+    assert texts[0] == texts[1]
+    table = [ln for ln in texts[0] if ln.startswith("| 7.5 |")][0]
+    assert "nan" not in table.lower()
+    d_nan, d_fin = figures.read_results(nan_path), figures.read_results(fin_path)
+    _same(validation.key_numbers(d_nan, rng=1), validation.key_numbers(d_fin, rng=1))
+    _same(validation.claims(d_nan, rng=1), validation.claims(d_fin, rng=1))
+
+
+def test_figures_ignore_the_edps_of_collapsed_runs(tmp_path):
+    """Figs. 7, 14 (scatter of the non-collapsed runs) show the same points, and Figs. 8, 13 (means
+    and fragility surfaces) the same surfaces, with NaN or finite EDPs in the collapsed rows."""
+    from pycolfrag import figures
+    nan_path, fin_path = _results_pair(tmp_path)
+    d = [figures.read_results(p) for p in (nan_path, fin_path)]
+    for fig_fn in (figures.fig_07, figures.fig_14):
+        f0, f1 = (fig_fn(x) for x in d)
+        for a0, a1 in zip(f0.axes, f1.axes):
+            for c0, c1 in zip(a0.collections, a1.collections):
+                np.testing.assert_array_equal(c0.get_offsets(), c1.get_offsets())
+            assert a0.get_title() == a1.get_title()
+    for fig_fn in (figures.fig_08, figures.fig_13):
+        f0, f1 = (fig_fn(x, n_boot=20, rng=2) for x in d)
+        for a0, a1 in zip(f0.axes, f1.axes):
+            for c0, c1 in zip(a0.collections, a1.collections):
+                v0 = getattr(c0, "_vec", None)
+                if v0 is not None:
+                    np.testing.assert_array_equal(v0, c1._vec)
+
+
+def test_plots_show_nan_u_d_of_a_collapsed_run_as_not_available():
+    """Debug plots of a collapsed run (u_d NaN) draw, and say "n/a (collapsed)" instead of "nan"."""
+    from types import SimpleNamespace
+    from pycolfrag import plots
+    col = pcf.Column.from_drums([1.0, 1.0], 1.0)
+    dt = 0.01
+    t = np.arange(0.0, 1.0, dt)
+    res = pcf.simulate(col, 0.3 * G * np.sin(2 * np.pi * t), dt, history=True, history_dt=0.02, tail_s=0.5)
+    res = SimpleNamespace(**{k: getattr(res, k) for k in res.__dataclass_fields__})
+    res.u_d, res.collapsed, res.collapse_time, res.collapse_block, res.collapse_reason = (
+        math.nan, True, 1.2, 1, "overturning")
+    fig = plots.plot_joint_slips(res, col)
+    title = fig.axes[0].get_title()
+    assert "n/a (collapsed)" in title and "nan" not in title
+    fig = plots.plot_record_response(col, 0.3 * G * np.sin(2 * np.pi * t), dt, res=res)
+    assert "u_d = n/a (collapsed)" in fig.get_suptitle()
