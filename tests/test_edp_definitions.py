@@ -132,7 +132,8 @@ def test_u_top_is_max_top_face_displacement_over_base_diameter(amp_g):
     from the Column's geometry), its horizontal distance from its t = 0 position, maximum over the
     history, divided by ``Column.base_diameter``. Tolerance 1e-9 relative: the same states, only the
     rotation arithmetic differs (round-off, about 1e-15 m on metres); a maximum taken every 4th step
-    only would miss the peak by (4 dt)^2 |u''| / 2 ~ 1e-6 relative and fail. Also checks the
+    only misses the peak by 1e-4 to 6e-4 relative (measured) whenever the peak step is not a
+    multiple of 4, and fails. Also checks the
     ``top_disp`` history against the same reconstruction.
 
     Guards against: dividing by the top diameter; measuring the centre of mass or the bottom of
@@ -210,8 +211,10 @@ def test_u_d_is_measured_from_the_drum_below_stack_slides_as_one():
     forbids it. If the lower block stuck to the ground while the upper one slid on it, the lower
     block would carry m1 A + mu m2 g horizontally against a capacity mu (m1 + m2) g, i.e. it needs
     A <= mu g, but the upper block slides only if A > mu g. Whatever the lower block's size or mass,
-    the stack slides as one on the ground (the upper joint sits exactly at its friction limit). A
-    fixed lower drum needs per-joint friction or a "fixed blocks" option (reported to the lead).
+    the stack slides as one on the ground (the upper joint sits exactly at its friction limit).
+    Measured: a 6 x 6 x 2 m lower block (194 t under 0.7 t) slides 1.828 m with the upper joint
+    at 3.9 mm, as here. A fixed lower drum needs per-joint friction or a "fixed blocks" option
+    (reported to the lead).
 
     Expected (Newmark, closed form as above): the base joint slips the single-block slip, the upper
     joint 0 relative to the drum below; so u_d = slip / D0. Tolerances: base joint as in the
@@ -301,8 +304,8 @@ def test_u_d_is_the_window_average_not_the_last_value():
 # --------------------------------------------------------------------------- collapse
 
 def _local_collapse_run(**kw):
-    """Shaft of a 2 m drum and a 2 m -> 0.8 m frustum (0.6 m each: cannot rock below about 1.5 g,
-    slides only above 0.75 g) carrying two 0.8 x 0.8 m drums (rock as one part above 0.5 g
+    """Shaft of a 2 m drum and a 2 m -> 0.8 m frustum (0.6 m each; the whole column cannot rock below
+    about 1.1 g and slides only above 0.75 g) carrying two 0.8 x 0.8 m drums (rock as one part above 0.5 g
     quasi-statically), 0.68 g one-sine pulse of 1 s: the top two drums overturn on the frustum."""
     col = pcf.Column([drum(2.0, 0.6), drum(2.0, 0.6, d_top=0.8), drum(0.8, 0.8), drum(0.8, 0.8)])
     dt = 0.005
