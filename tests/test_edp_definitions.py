@@ -80,9 +80,10 @@ def tilt_deg(hist, i):
 
 
 def rect_pulse(A, t0, dt, t_start=0.0, t_total=None):
-    """Samples of a rectangular pulse of A (m/s^2) on [t_start, t_start + t0]; the solver interpolates
-    linearly, so the edges are one-sample ramps: the pulse's impulse is A (t0 + dt) exactly
-    (half a sample at each edge), returned as the effective duration t0 + dt."""
+    """Samples (step dt) of a rectangular pulse of A (m/s^2) on [t_start, t_start + t0], and its
+    effective duration (impulse / A). The solver interpolates the record linearly, so each edge
+    is a one-sample ramp worth half a sample: t0 + dt for a pulse starting after t = 0, t0 + dt/2
+    for one starting at t = 0 (no ramp before the first sample)."""
     n = int(round((t_total if t_total is not None else t_start + t0 + dt) / dt)) + 1
     t = np.arange(n) * dt
     a = np.where((t >= t_start - 1e-12) & (t <= t_start + t0 + 1e-12), A, 0.0)
@@ -111,7 +112,7 @@ def elastic_velocity_bound(A, ks, area, mass):
     block at the onset of sliding under a step of A: during the loading of the spring up to
     mu N the block accelerates at up to A instead of A - mu g, for a time of order 1/omega,
     omega = sqrt(ks area / mass): at most A / omega (undamped step response). Rigid-plastic theory
-    (Newmark) has no such spring; this is the tolerance's main term (docs/solver.md: soft joints)."""
+    (Newmark) has no such spring; this is the tolerance's main term."""
     return A / math.sqrt(ks * area / mass)
 
 
