@@ -7,6 +7,10 @@ can inspect axes, labels and titles; :func:`make_all` writes all of them.
 Only successful runs (``status == 0``) enter the statistics; the number of failed runs is printed
 in each figure's title when non-zero.  Units: PGA, SA and Ap in g, PGV and Vp in cm/s, distances
 in km, periods in s; the EDPs u_top and u_d are dimensionless.
+
+Collapsed runs enter the collapse statistics only: every EDP plot, mean and fit uses the
+non-collapsed runs (or counts a collapse as exceeding every level), so the EDPs stored for collapsed
+rows are never read -- ``u_d`` of a collapsed run is NaN (no residual state), and so may be ``u_top``.
 """
 from __future__ import annotations
 

@@ -16,6 +16,11 @@ lognormal fit; they are counted as "below every positive threshold", so Eq. (4) 
 ``P(C) + (1 - P(C)) q (1 - Phi(...))`` with ``q`` the fraction of positive non-collapsed EDPs and
 the fit done on the positive ones (for data without zeros this is exactly Eq. (4)).
 
+Collapsed runs: their EDP values are never used (collapse counts as exceeding every level, and
+means and fits take the non-collapsed runs only), so they may be NaN -- ``u_d`` of a collapsed run
+is NaN by definition (it has no residual state). Every function here gives the same result whatever
+the collapsed rows hold; only the EDPs of non-collapsed runs must be finite and non-negative.
+
 Beyond the paper:
 
 * the empirical ratio of Eq. (1) (``empirical_exceedance``), reported next to Eq. (4);
@@ -332,6 +337,7 @@ def bootstrap_interval(edp, collapsed, threshold=None, *, statistic="eq4", n_boo
     ----------
     edp, collapsed : array_like
         The group's samples (one scenario or one stripe); rows are resampled with replacement.
+        EDPs of collapsed rows are ignored (may be NaN).
     threshold : float, optional
         Performance-level threshold (needed for ``"eq4"`` and ``"empirical"``).
     statistic : {"eq4", "empirical", "mean", "collapse"}
@@ -429,7 +435,8 @@ def scenario_table(mw, dist_km, edps: dict, collapsed, levels=PERFORMANCE_LEVELS
     mw, dist_km : array_like
         Scenario of each sample (magnitude, distance in km).
     edps : dict of str -> array_like
-        EDP arrays by name (``{"u_top": ..., "u_d": ...}``), one value per sample.
+        EDP arrays by name (``{"u_top": ..., "u_d": ...}``), one value per sample; values of
+        collapsed samples are ignored (may be NaN).
     collapsed : array_like of bool
         Collapse flag of each sample.
     levels : sequence of PerformanceLevel
@@ -537,7 +544,8 @@ def exceedance_surface(mw, dist_km, edp, collapsed, threshold, *, method="eq4", 
     Parameters
     ----------
     mw, dist_km, edp, collapsed : array_like
-        One value per sample (magnitude, km, dimensionless, bool).
+        One value per sample (magnitude, km, dimensionless, bool); EDPs of collapsed samples are
+        ignored (may be NaN).
     threshold : float
         Performance-level threshold (> 0).
     method : {"eq4", "empirical"}
@@ -558,7 +566,9 @@ def exceedance_surface(mw, dist_km, edp, collapsed, threshold, *, method="eq4", 
 
 def mean_edp_surface(mw, dist_km, edp, collapsed, *, n_boot=1000, confidence=0.90, rng=None,
                      label="") -> Surface:
-    """Mean EDP of the non-collapsed samples over (Mw, R) (paper Fig. 8a, b); NaN if all collapsed."""
+    """Mean EDP of the non-collapsed samples over (Mw, R) (paper Fig. 8a, b); NaN if all collapsed.
+
+    EDPs of collapsed samples are ignored (may be NaN)."""
     g = _rng(rng)
     return _surface(mw, dist_km, edp, collapsed, lambda e, c: float(_mean_ok_vectorised(e, c)),
                     lambda e, c: bootstrap_interval(e, c, statistic="mean", n_boot=n_boot,
@@ -632,7 +642,7 @@ def stripe_curve(im, edp, collapsed, threshold, *, n_stripes=12, stripes="equal-
     im : array_like
         Intensity measure of each sample (PGA in g, PGV in cm/s, SA(T) in g, SV(T) in cm/s), > 0.
     edp, collapsed : array_like
-        EDP and collapse flag of each sample.
+        EDP and collapse flag of each sample (EDPs of collapsed samples are ignored, may be NaN).
     threshold : float
         Performance-level threshold (> 0).
     n_stripes : int
@@ -765,7 +775,7 @@ def fit_lognormal_fragility(im, edp, collapsed, threshold, *, groups=None, n_boo
     im : array_like
         Intensity measure of each sample (> 0, IM units).
     edp, collapsed, threshold
-        As in :func:`exceedance`.
+        As in :func:`exceedance` (a collapsed sample counts as exceeding; its EDP is ignored, may be NaN).
     groups : array_like, optional
         Stratum of each sample (e.g. scenario index); the bootstrap resamples within each stratum
         (all samples form one stratum when omitted).

@@ -19,6 +19,8 @@ Typical use while debugging one record::
 The 3D drawings place each block's rest geometry (``Column`` segments as polygon frusta) by its
 history sample: vertex = ``block_pos`` + R(``block_quat``) (vertex at rest - centre of mass at rest),
 in the frame moving with the ground (the ground plate is drawn at z = 0).
+
+A collapsed run has no residual state: its ``u_d`` is NaN, shown as "n/a (collapsed)" in titles.
 """
 from __future__ import annotations
 
@@ -45,6 +47,13 @@ U_D_LEVELS = (0.005, 0.01, 0.02)
 
 
 # --------------------------------------------------------------------------- helpers
+def _edp_text(value) -> str:
+    """An EDP for a title: ``0.0123``, or ``n/a (collapsed)`` for the NaN of a collapsed run."""
+    if value is None or not math.isfinite(float(value)):
+        return "n/a (collapsed)"
+    return f"{float(value):.3g}"
+
+
 def _history(res):
     h = getattr(res, "history", None)
     if h is None:
@@ -211,7 +220,7 @@ def plot_joint_slips(res, col=None, ax=None, kind="lines"):
             a.axhline(lev, color=c, ls=":", lw=1.0)
         u_d = getattr(res, "u_d", None)
         if u_d is not None:
-            a.set_title(f"Joint dislocation / joint diameter (residual u_d = {u_d:.3g}; "
+            a.set_title(f"Joint dislocation / joint diameter (residual u_d = {_edp_text(u_d)}; "
                         f"dotted: Table IV levels {', '.join(f'{x:g}' for x in U_D_LEVELS)})")
     return fig
 
@@ -539,5 +548,5 @@ def plot_record_response(col, rec_or_acc, dt=None, res=None, **simulate_options)
     if getattr(res, "collapsed", False):
         status += (f" at t = {getattr(res, 'collapse_time', float('nan')):.2f} s "
                    f"(block {getattr(res, 'collapse_block', None)}, {getattr(res, 'collapse_reason', '')})")
-    fig.suptitle(f"{getattr(col, 'name', 'column')}: u_top = {res.u_top:.3g}, u_d = {res.u_d:.3g}, {status}")
+    fig.suptitle(f"{getattr(col, 'name', 'column')}: u_top = {res.u_top:.3g}, u_d = {_edp_text(res.u_d)}, {status}")
     return fig

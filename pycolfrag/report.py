@@ -8,6 +8,9 @@ Confidence intervals: Eq. (4) exceedances and mean EDPs carry percentile-bootstr
 (resampling within the scenario, :mod:`pycolfrag.fragility`); the collapse probability, a binomial
 proportion, carries the exact Clopper-Pearson interval (``scipy.stats.binomtest``), which stays
 informative when no run collapsed (the bootstrap interval of 0 of n is [0, 0]).
+
+EDPs of collapsed runs (``u_d`` is NaN for them) are not used: means and log-moments are over the
+non-collapsed runs, and Eq. (4) counts a collapse as exceeding every level.
 """
 from __future__ import annotations
 
@@ -91,7 +94,8 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
          "percentile bootstrap within the scenario for everything else.", "", "## Run", ""]
     L += _meta_lines(d)
     L += ["", "## Collapse and EDP statistics per scenario", "",
-          "Means and log-moments use the non-collapsed runs; mu and beta are the mean and dispersion of ln EDP "
+          "Means and log-moments use the non-collapsed runs (a collapsed run has no u_d: NaN in the results "
+          "file); mu and beta are the mean and dispersion of ln EDP "
           "(maximum likelihood, `scipy.stats.lognorm.fit` with loc = 0).", "",
           "| Mw | R (km) | n | collapsed | P(collapse) [90 % CI] | mean u_top | mu ln u_top | beta ln u_top "
           "| mean u_d | mu ln u_d | beta ln u_d |",

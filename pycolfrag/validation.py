@@ -10,6 +10,9 @@ sensitivity section recomputes a few key numbers on other results files (pulse a
 
 Paper values are read from the text of Psycharis, Fragiadakis & Stefanou (section and figure
 given for each); "about" values read off figures are compared with a stated tolerance band.
+
+EDP statistics use the non-collapsed runs only (a collapse counts as exceeding every level in
+Eq. (4)); the EDPs stored for collapsed rows are never read (``u_d`` is NaN for them).
 """
 from __future__ import annotations
 
