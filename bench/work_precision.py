@@ -108,7 +108,8 @@ def run_one(job):
         except pcf.errors.SolverError if hasattr(pcf, "errors") else Exception as e:  # noqa
             return (name, group, math.nan, math.nan, True, 0, time.perf_counter() - t0, str(e), idx)
         wall = time.perf_counter() - t0
-    bad = "" if (math.isfinite(r.u_top) and math.isfinite(r.u_d)) else "NaN"
+    # u_d is NaN by definition after a collapse (no residual): only a standing run's NaN is bad
+    bad = "" if (math.isfinite(r.u_top) and (r.collapsed or math.isfinite(r.u_d))) else "NaN"
     return (name, group, r.u_top, r.u_d, bool(r.collapsed), r.n_steps, wall, bad, idx)
 
 

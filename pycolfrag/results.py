@@ -111,7 +111,7 @@ SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
     "d5_95_s": ("f8", math.nan, "significant duration 5-95 % of Arias, s"),
     # response (EDPs)
     "u_top": ("f8", math.nan, "peak top displacement / base diameter, -"),
-    "u_d": ("f8", math.nan, "peak joint dislocation / joint diameter, -"),
+    "u_d": ("f8", math.nan, "residual joint dislocation (last 2 s average) / joint diameter, max over joints, -; NaN if collapsed"),
     "collapsed": ("u1", 0, "1 if the column collapsed, else 0"),
     "collapse_block": ("i4", -1, "lowest block that fell (-1: no collapse)"),
     "collapse_time_s": ("f8", math.nan, "time of collapse, s (NaN: no collapse)"),

@@ -458,7 +458,6 @@ def test_multidrum_column_reaching_u_top_about_1_recovers_and_is_not_collapsed(a
 
 # --------------------------------------------------------------------------- EDPs of a collapsed run
 
-@pytest.mark.xfail(strict=True, reason="u_d NaN on collapse: lead's C change pending")
 def test_collapsed_run_has_nan_u_d():
     """A collapsed run has no residual state: u_d is NaN (not the average of the last 2 s before
     the collapse was detected, which depends on when the criterion fired)."""
@@ -467,7 +466,6 @@ def test_collapsed_run_has_nan_u_d():
     assert math.isnan(r.u_d)
 
 
-@pytest.mark.xfail(strict=True, reason="u_d NaN on collapse: lead's C change pending")
 def test_collapsed_run_has_nan_residual_dislocations():
     """Likewise the per-joint residual dislocations of a collapsed run are NaN."""
     _, r = _local_collapse_run()
