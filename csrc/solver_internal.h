@@ -106,9 +106,11 @@ struct cf_solver {
      * body-frame x, y (z is that of the face, shared), rest position in the other
      * face's frame, the squared radius of the cheap inside test around it (-1: none),
      * kn w and ks w, and the persistent state: shear force (N, face frame) and contact
-     * state (0 open or too deep, 1 in contact, 2 over the plane but off the polygon) */
+     * state (0 open, 1 in contact, 2 over the plane but off the polygon, 3 too deep,
+     * 4 in contact with an offset; see cf_point_law) */
     double *p_lx, *p_ly, *p_hx, *p_hy, *p_fast, *p_knw, *p_ksw;
     double *p_fsx, *p_fsy, *p_state;
+    double *p_pen0;                 /* state 4: depth at which the point's normal spring is unstretched, m */
     double dt_crit, dt;
     /* scratch of the time loop (nbody): world omegas, velocities of the last half step */
     double *ww, *vold, *wold;

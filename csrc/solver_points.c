@@ -92,6 +92,8 @@ void cf_solver_points_joint(cf_solver *s, cf_joint *J, const double *ww, double 
         /* a point deeper than a tenth of the face's radius is not in contact with it: it
          * has passed beside or through the face (a tumbling block after a collapse) */
         P.pmax = 0.1 * ff->rc;
+        /* a point coming onto the face deeper than a hundredth of its radius starts unstretched */
+        P.pent = 0.01 * ff->rc;
         P.tol = s->def.contact_tolerance * ff->rc;
         P.sgn = side == 0 ? -1.0 : 1.0;
         P.kn = s->kn; P.mu = s->mu;

@@ -18,6 +18,7 @@ typedef struct {
     double A[3], W[3];          /* relative displacement of the upper body over the step: A + W x X */
     double sgn;                 /* pen = sgn * Z */
     double pmax;                /* a point deeper than this has passed beside or through the face */
+    double pent;                /* a point not in contact takes contact with its spring stretched only this deep or less */
     double tol;                 /* the polygon test's growth, m */
     double kn, mu;
     int unbounded;              /* the face is the (unbounded) ground */
@@ -69,39 +70,61 @@ static inline int cf_face_inside_hint(const cf_face *f, double X, double Y, doub
 static inline int cf_point_law(cf_solver *s, const cf_face_pass *P, int k, cf_face_sums *S, int *hint, double *t)
 {
     double *fsx = s->p_fsx + k, *fsy = s->p_fsy + k, *state = s->p_state + k;
-    double lx = s->p_lx[k], ly = s->p_ly[k], w = s->p_w[k], fs[2], fn, dux, duy, fs2;
+    double lx = s->p_lx[k], ly = s->p_ly[k], w = s->p_w[k], fs[2], fn, dux, duy, fs2, pe;
     double X = P->M[0] * lx + P->M[1] * ly + P->mz[0] + P->t[0];
     double Y = P->M[3] * lx + P->M[4] * ly + P->mz[1] + P->t[1];
     double Z = P->M[6] * lx + P->M[7] * ly + P->mz[2] + P->t[2];
     double pen = P->sgn * Z;
     int slipping;
-    /* state: 0 open (or too deep), 1 in contact, 2 overlapping the plane but outside the
-     * face polygon */
+    /* state: 0 open, 1 in contact, 2 overlapping the plane but outside the face polygon,
+     * 3 deeper than pmax (beside or through the face), 4 in contact with its normal spring
+     * unstretched at depth pen0 (it came onto the face from state 2 or 3 deeper than pent):
+     * force kn w (pen - pen0). Every transition keeps the energy ledger closed. */
     if (!(pen > 0.0) || pen > P->pmax) {
         S->dslip += cf_law_release(fsx, fsy, s->p_ihkw[k]);
-        *state = 0.0;
+        if (pen > 0.0) {
+            /* too deep while compressed: its normal spring energy leaves the model as when
+             * it slides off the face (contact_switch) */
+            pe = *state == 4.0 ? pen - s->p_pen0[k] : pen;
+            if (*state == 1.0 || *state == 4.0) S->dswitch += 0.5 * P->kn * w * pe * pe;
+            *state = 3.0;
+        } else *state = 0.0;
         return 0;
     }
     if (!(P->unbounded || (X - s->p_hx[k]) * (X - s->p_hx[k]) + (Y - s->p_hy[k]) * (Y - s->p_hy[k]) <= s->p_fast[k]
           || cf_face_inside_hint(P->ff, X, Y, P->tol, hint))) {
         /* slid off the face while compressed: its normal spring energy leaves the
          * model (booked as contact_switch, not as a balance error) */
-        if (*state == 1.0) S->dswitch += 0.5 * P->kn * w * pen * pen;
+        pe = *state == 4.0 ? pen - s->p_pen0[k] : pen;
+        if (*state == 1.0 || *state == 4.0) S->dswitch += 0.5 * P->kn * w * pe * pe;
         S->dslip += cf_law_release(fsx, fsy, s->p_ihkw[k]);
         *state = 2.0;
         return 0;
     }
-    if (*state == 2.0) S->dswitch -= 0.5 * P->kn * w * pen * pen;   /* slid onto the face */
-    *state = 1.0;
+    if (*state == 2.0 || *state == 3.0) {
+        /* slid onto the face (from 2) or back within pmax (from 3): deeper than pent, the
+         * point takes contact with its spring unstretched at that depth (state 4) -- a
+         * corner that went below the lower face beside it cannot bring a compressed spring
+         * back (that energy would come from nothing: it broke the ledger of two-component
+         * runs, docs/accuracy.md); shallower, with its spring energy booked as
+         * contact_switch */
+        if (pen > P->pent) { s->p_pen0[k] = pen; *state = 4.0; }
+        else { S->dswitch -= 0.5 * P->kn * w * pen * pen; *state = 1.0; }
+    } else if (*state == 0.0) *state = 1.0;
+    pe = pen;
+    if (*state == 4.0) {
+        if (pen < s->p_pen0[k]) s->p_pen0[k] = pen;   /* no tension: the offset follows the point up */
+        pe = pen - s->p_pen0[k];
+    }
     dux = P->A[0] + P->W[1] * Z - P->W[2] * Y;
     duy = P->A[1] + P->W[2] * X - P->W[0] * Z;
     fs[0] = *fsx; fs[1] = *fsy;
-    S->dslip += cf_law_update(pen, dux, duy, s->p_knw[k], s->p_ksw[k], P->mu, fs, &fn, &slipping);
+    S->dslip += cf_law_update(pe, dux, duy, s->p_knw[k], s->p_ksw[k], P->mu, fs, &fn, &slipping);
     *fsx = fs[0]; *fsy = fs[1];
     fs2 = fs[0] * fs[0] + fs[1] * fs[1];
     /* on both sides the force on the upper body is +fn along the frame's z */
     t[0] = fs[0]; t[1] = fs[1]; t[2] = fn;
-    CF_LAW_TERMS(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, 0.5, X, Y, Z, pen, fn, fs[0], fs[1], fs2, s->p_ihkw[k],
+    CF_LAW_TERMS(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, 0.5, X, Y, Z, pe, fn, fs[0], fs[1], fs2, s->p_ihkw[k],
                  t[3], t[4], t[5], t[6]);
     t[7] = fn;
     return 1;

@@ -22,7 +22,7 @@ void cf_solver_stack_release(cf_solver *s)
     free(s->blk_h); free(s->blk_m); free(s->joint_diam); free(s->blk_rc); free(s->jt); free(s->p_side);
     free(s->p_hint); free(s->p_ihkw); free(s->p_loc); free(s->p_w); free(s->jfn);
     free(s->p_lx); free(s->p_ly); free(s->p_hx); free(s->p_hy); free(s->p_fast); free(s->p_knw); free(s->p_ksw);
-    free(s->p_fsx); free(s->p_fsy); free(s->p_state);
+    free(s->p_fsx); free(s->p_fsy); free(s->p_state); free(s->p_pen0);
     free(s->ww); free(s->vold); free(s->wold);
     s->ww = s->vold = s->wold = NULL;
     s->m = s->inertia = s->x = s->v = s->q = s->w = s->R = s->F = s->T = s->x0 = s->q0 = NULL;
@@ -32,7 +32,7 @@ void cf_solver_stack_release(cf_solver *s)
     s->jt = NULL; s->p_side = s->p_hint = NULL;
     s->p_ihkw = s->p_loc = s->p_w = s->jfn = NULL;
     s->p_lx = s->p_ly = s->p_hx = s->p_hy = s->p_fast = s->p_knw = s->p_ksw = NULL;
-    s->p_fsx = s->p_fsy = s->p_state = NULL;
+    s->p_fsx = s->p_fsy = s->p_state = s->p_pen0 = NULL;
     s->np = s->nj = s->nbody = s->nblk = 0;
 }
 
@@ -332,7 +332,7 @@ static int points_make(cf_solver *s)
     ALLOC(s->p_lx, double, np); ALLOC(s->p_ly, double, np); ALLOC(s->p_hx, double, np);
     ALLOC(s->p_hy, double, np); ALLOC(s->p_fast, double, np); ALLOC(s->p_knw, double, np);
     ALLOC(s->p_ksw, double, np); ALLOC(s->p_fsx, double, np); ALLOC(s->p_fsy, double, np);
-    ALLOC(s->p_state, double, np);
+    ALLOC(s->p_state, double, np); ALLOC(s->p_pen0, double, np);
     /* rest position of each point in the frame of the face it touches (face centres
      * aligned); a point within contact_tolerance of a home that lies inside that face
      * is inside the grown polygon: the cheap test of the hot loop */
@@ -433,6 +433,7 @@ void cf_solver_stack_reset(cf_solver *s)
         memset(s->p_fsx, 0, sizeof(double) * (size_t)s->np);
         memset(s->p_fsy, 0, sizeof(double) * (size_t)s->np);
         memset(s->p_state, 0, sizeof(double) * (size_t)s->np);
+        memset(s->p_pen0, 0, sizeof(double) * (size_t)s->np);
     }
     memset(s->fext_prev, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->fdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);
