@@ -107,6 +107,22 @@ static const cf_solver_contact_model *model_of(const cf_solver_def *d)
 int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int *nseg,
                     const cf_geometry_segment *segs, double density, double kn, double ks, double mu)
 {
+    double *p;
+    int i, st;
+    if (!s) return CF_EINVAL;
+    if (nblk < 1) return cf_solver_fail(s, CF_EINVAL, "a column needs at least one block, got %d", nblk);
+    p = (double *)malloc(sizeof(double) * 3 * (size_t)nblk);
+    if (!p) return cf_solver_fail(s, CF_ENOMEM, "out of memory");
+    for (i = 0; i < nblk; i++) { p[i] = kn; p[nblk + i] = ks; p[2 * nblk + i] = mu; }
+    st = cf_solver_setup_joints(s, def, nblk, nseg, segs, density, p, p + nblk, p + 2 * nblk);
+    free(p);
+    return st;
+}
+
+int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int nblk, const int *nseg,
+                           const cf_geometry_segment *segs, double density, const double *kn, const double *ks,
+                           const double *mu)
+{
     int i, st, nseg_tot = 0;
     if (!s) return CF_EINVAL;
     release(s);
@@ -128,14 +144,17 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
         if (g->n_sides < 3 || g->n_sides > CF_MAXS) return cf_solver_fail(s, CF_EINVAL, "segment %d: n_sides must be in [3, %d], got %d", i, CF_MAXS, g->n_sides);
     }
     if (!(density > 0) || !isfinite(density)) return cf_solver_fail(s, CF_EINVAL, "density must be > 0, got %g", density);
-    if (!(kn > 0) || !isfinite(kn)) return cf_solver_fail(s, CF_EINVAL, "kn must be > 0, got %g", kn);
-    if (!(ks > 0) || !isfinite(ks)) return cf_solver_fail(s, CF_EINVAL, "ks must be > 0, got %g", ks);
-    if (!(mu > 0) || !isfinite(mu)) return cf_solver_fail(s, CF_EINVAL, "mu must be > 0, got %g", mu);
+    if (!kn || !ks || !mu) return cf_solver_fail(s, CF_EINVAL, "joint properties missing");
+    for (i = 0; i < nblk; i++) {
+        if (!(kn[i] > 0) || !isfinite(kn[i])) return cf_solver_fail(s, CF_EINVAL, "joint %d: kn must be > 0, got %g", i, kn[i]);
+        if (!(ks[i] > 0) || !isfinite(ks[i])) return cf_solver_fail(s, CF_EINVAL, "joint %d: ks must be > 0, got %g", i, ks[i]);
+        if (!(mu[i] > 0) || !isfinite(mu[i])) return cf_solver_fail(s, CF_EINVAL, "joint %d: mu must be > 0, got %g", i, mu[i]);
+    }
 
     s->def = *def;
     s->model = model_of(def);
-    s->kn = kn; s->ks = ks; s->mu = mu; s->density = density;
-    st = cf_solver_stack_build(s, nblk, nseg, segs);
+    s->density = density;
+    st = cf_solver_stack_build(s, nblk, nseg, segs, kn, ks, mu);
     if (!st) {
         /* the stiffness is assembled at the untilted rest state */
         double tilt = s->def.initial_tilt_rad;

@@ -88,6 +88,12 @@ const char *cf_solver_message(const cf_solver *s);
 int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int n_blocks, const int *n_segments,
                     const cf_geometry_segment *segments, double density, double kn, double ks, double mu);
 
+/* The same with properties per joint: kn[j], ks[j] (Pa/m) and mu[j] of joint j, the joint
+ * under block j (n_blocks entries each; a monolithic column uses joint 0's). */
+int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int n_blocks, const int *n_segments,
+                           const cf_geometry_segment *segments, double density, const double *kn,
+                           const double *ks, const double *mu);
+
 /* Whole-stack stability limit of the set-up column, s (after setup). */
 double cf_solver_dt_crit(const cf_solver *s);
 /* Step the run will use, s (after setup). */

@@ -56,7 +56,7 @@ static void joint_exact(cf_solver *s, cf_joint *J, const double *ww, double dt, 
     int bl = J->bl, bu = J->bu, k, sl, nv;
     const double *RL = s->R + 9 * bl, *RU = s->R + 9 * bu;
     double cL[3], nL[3], cU[3], nU[3], up[2 * CF_MAXS], m[3], X0[3], d[3];
-    double p0, px, py, fn, ks = s->ks;
+    double p0, px, py, fn, kn = J->kn, ks = J->ks, mu = J->mu;
     cf_contact_exact_result r;
     s->jfn[J - s->jt] = 0.0;
     cf_face_world(s, bl, &J->fl, cL, nL);
@@ -82,8 +82,8 @@ static void joint_exact(cf_solver *s, cf_joint *J, const double *ww, double dt, 
             if (p0 + px * up[2 * k] + py * up[2 * k + 1] > 0.1 * J->fl.rc) m[2] = -1.0;
         /* the ground is unbounded: the overlap is the upper face itself */
         if (m[2] <= 0.0) nv = 0;
-        else if (bl == 0) nv = cf_contact_exact(up, J->fu.n, up, J->fu.n, p0, px, py, s->kn, &r);
-        else nv = cf_contact_exact(J->fl.poly, J->fl.n, up, J->fu.n, p0, px, py, s->kn, &r);
+        else if (bl == 0) nv = cf_contact_exact(up, J->fu.n, up, J->fu.n, p0, px, py, kn, &r);
+        else nv = cf_contact_exact(J->fl.poly, J->fl.n, up, J->fu.n, p0, px, py, kn, &r);
     }
     if (nv == 0 || !(r.force > 0.0)) {
         /* released: stored shear and torsion energy counted as dissipated */
@@ -104,8 +104,8 @@ static void joint_exact(cf_solver *s, cf_joint *J, const double *ww, double dt, 
         /* the joint as one contact of contact_law.h in the lower face's frame: the
          * equivalent uniform overlap carries the integrated normal force */
         mat_tvec(RL, du, duf);
-        pen_eq = r.force / (s->kn * J->area);
-        e->dslip += cf_law_update(pen_eq, duf[0], duf[1], s->kn * J->area, ks * J->area, s->mu, J->fs, &fn, &sl);
+        pen_eq = r.force / (kn * J->area);
+        e->dslip += cf_law_update(pen_eq, duf[0], duf[1], kn * J->area, ks * J->area, mu, J->fs, &fn, &sl);
         s->jfn[J - s->jt] = fn;
         Fw[0] = fn * nL[0]; Fw[1] = fn * nL[1]; Fw[2] = fn * nL[2];
         apply_pair(s, bl, bu, P, Fw);
@@ -117,7 +117,7 @@ static void joint_exact(cf_solver *s, cf_joint *J, const double *ww, double dt, 
         wr = v3_dot(ww + 3 * bu, nL) - (bl ? v3_dot(ww + 3 * bl, nL) : 0.0);
         mt_trial = J->mt - kt * wr * dt;
         req = sqrt(r.area / CF_PI);
-        lim = s->mu * fn * (2.0 / 3.0) * req;
+        lim = mu * fn * (2.0 / 3.0) * req;
         if (fabs(mt_trial) > lim) {
             double capped = mt_trial > 0 ? lim : -lim;
             /* trapezoidal work on the torsional spring minus its elastic energy change */

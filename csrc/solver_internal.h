@@ -48,6 +48,7 @@ typedef struct {
     int logical;            /* index of the logical joint (= block above) */
     cf_face fl, fu;         /* lower body's top face, upper body's bottom face */
     double area;            /* joint area, m^2 */
+    double kn, ks, mu;      /* normal and shear stiffness (Pa/m), friction coefficient of this joint */
     int p0, np, n0;         /* its sub-contacts: [p0, p0 + np), the first n0 on the upper face */
     double fs[2], mt;       /* exact mode: joint shear force (N, lower face frame), torsional moment (N m) */
     double polar;           /* exact mode: polar moment of the joint area about its centre, m^4 */
@@ -83,7 +84,7 @@ struct cf_solver {
     int ready;
     cf_solver_def def;
     const cf_solver_contact_model *model;
-    double kn, ks, mu, density;
+    double density;
     int nblk, nbody, nj;
     /* bodies (nbody) */
     double *m, *inertia;            /* mass (kg), principal inertia (3 per body) */
@@ -123,7 +124,8 @@ struct cf_solver {
 int cf_solver_fail(struct cf_solver *s, int status, const char *fmt, ...);
 
 /* solver_stack.c */
-int cf_solver_stack_build(struct cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs);
+int cf_solver_stack_build(struct cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs,
+                          const double *kn, const double *ks, const double *mu);
 void cf_solver_stack_release(struct cf_solver *s);
 void cf_solver_stack_reset(struct cf_solver *s);
 

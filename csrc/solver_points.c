@@ -96,7 +96,7 @@ void cf_solver_points_joint(cf_solver *s, cf_joint *J, const double *ww, double 
         P.pent = 0.01 * ff->rc;
         P.tol = s->def.contact_tolerance * ff->rc;
         P.sgn = side == 0 ? -1.0 : 1.0;
-        P.kn = s->kn; P.mu = s->mu;
+        P.kn = J->kn; P.mu = J->mu;
         P.unbounded = side == 0 && bl == 0;
         P.ff = ff;
         S.sm[0] = S.sm[1] = S.sm[2] = S.sm[3] = S.sm[4] = S.sm[5] = 0.0;

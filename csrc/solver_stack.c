@@ -262,7 +262,6 @@ static int points_make(cf_solver *s)
 {
     int j, k, np, nj = s->nj, mode = s->def.contact, mm = s->def.points_per_edge;
     const cf_solver_def *def = &s->def;
-    double kn = s->kn, ks = s->ks;
     np = 0;
     if (mode != CF_SOLVER_CONTACT_EXACT)
         for (j = 0; j < nj; j++)
@@ -328,7 +327,6 @@ static int points_make(cf_solver *s)
         }
     }
     if (mode != CF_SOLVER_CONTACT_EXACT) s->np = np = drop_faces_off_the_other(s);
-    for (k = 0; k < np; k++) s->p_ihkw[k] = 0.5 / (ks * s->p_w[k]);
     ALLOC(s->p_lx, double, np); ALLOC(s->p_ly, double, np); ALLOC(s->p_hx, double, np);
     ALLOC(s->p_hy, double, np); ALLOC(s->p_fast, double, np); ALLOC(s->p_knw, double, np);
     ALLOC(s->p_ksw, double, np); ALLOC(s->p_fsx, double, np); ALLOC(s->p_fsy, double, np);
@@ -348,7 +346,8 @@ static int points_make(cf_solver *s)
             s->p_hx[k] = hx; s->p_hy[k] = hy;
             /* squared radius of the cheap test (-1: none; the point then takes the polygon test) */
             s->p_fast[k] = (homein && tol > 2e-9 * oth->rc) ? (tol - 1e-9 * oth->rc) * (tol - 1e-9 * oth->rc) : -1.0;
-            s->p_knw[k] = kn * s->p_w[k]; s->p_ksw[k] = ks * s->p_w[k];
+            s->p_knw[k] = J->kn * s->p_w[k]; s->p_ksw[k] = J->ks * s->p_w[k];
+            s->p_ihkw[k] = 0.5 / (J->ks * s->p_w[k]);
         }
         /* every point of a face lies in that face's plane: one body-frame z per face */
         J->lz[0] = J->fu.c[2]; J->lz[1] = J->fl.c[2];
@@ -365,14 +364,14 @@ static void equilibrium(cf_solver *s, int nblk, const cf_geometry_segment *segs,
 {
     int i, j, k, nj = s->nj, nbody = s->nbody;
     const cf_solver_def *def = &s->def;
-    double kn = s->kn, density = s->density;
+    double density = s->density;
     {
         double settle = 0.0, wabove;
         for (i = 0; i < 4 * nbody; i += 4) s->q0[i] = 1.0;
         for (j = 0; j < nj; j++) {
             wabove = 0;
             for (k = (def->monolithic ? 0 : j); k < nblk; k++) wabove += s->blk_m[k] * def->g;
-            settle += wabove / (kn * s->jt[j].area);
+            settle += wabove / (s->jt[j].kn * s->jt[j].area);
             if (def->monolithic) {
                 cf_geometry_massprops all;
                 cf_geometry_block_props(segs, nseg_tot, density, &all);
@@ -398,7 +397,8 @@ static void equilibrium(cf_solver *s, int nblk, const cf_geometry_segment *segs,
     }
 }
 
-int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs)
+int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs,
+                          const double *kn, const double *ks, const double *mu)
 {
     int i, st, nseg_tot = 0;
     cf_geometry_massprops *bp;
@@ -415,6 +415,11 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
     block_masses(s, nblk, nseg, segs, bp, zbot);
     bodies_place(s, nblk, nseg, segs, nseg_tot, bp, zbot);
     st = joints_make(s, nblk, nseg, segs);
+    if (!st) {
+        /* joint j (under block j) takes the j-th properties; a monolithic column has joint 0 only */
+        int j;
+        for (j = 0; j < s->nj; j++) { s->jt[j].kn = kn[j]; s->jt[j].ks = ks[j]; s->jt[j].mu = mu[j]; }
+    }
     if (!st) st = points_make(s);
     if (!st) equilibrium(s, nblk, segs, nseg_tot, bp, zbot);
     free(bp); free(zbot);

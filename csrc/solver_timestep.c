@@ -123,9 +123,9 @@ int cf_solver_timestep_limit(cf_solver *s)
                     p[0] = s->x0[3 * J->bu] + f->c[0] + mids[t][0];
                     p[1] = s->x0[3 * J->bu + 1] + f->c[1] + mids[t][1];
                     p[2] = s->x0[3 * J->bu + 2] + f->c[2];
-                    add_spring(s, K, nd, J->bl, J->bu, p, ez, s->kn * wq);
-                    add_spring(s, K, nd, J->bl, J->bu, p, ex, s->ks * wq);
-                    add_spring(s, K, nd, J->bl, J->bu, p, ey, s->ks * wq);
+                    add_spring(s, K, nd, J->bl, J->bu, p, ez, J->kn * wq);
+                    add_spring(s, K, nd, J->bl, J->bu, p, ex, J->ks * wq);
+                    add_spring(s, K, nd, J->bl, J->bu, p, ey, J->ks * wq);
                 }
             }
         } else {
@@ -135,9 +135,9 @@ int cf_solver_timestep_limit(cf_solver *s)
                 p[0] = s->x0[3 * b] + s->p_loc[3 * k];
                 p[1] = s->x0[3 * b + 1] + s->p_loc[3 * k + 1];
                 p[2] = s->x0[3 * b + 2] + s->p_loc[3 * k + 2];
-                add_spring(s, K, nd, J->bl, J->bu, p, ez, s->kn * s->p_w[k]);
-                add_spring(s, K, nd, J->bl, J->bu, p, ex, s->ks * s->p_w[k]);
-                add_spring(s, K, nd, J->bl, J->bu, p, ey, s->ks * s->p_w[k]);
+                add_spring(s, K, nd, J->bl, J->bu, p, ez, J->kn * s->p_w[k]);
+                add_spring(s, K, nd, J->bl, J->bu, p, ex, J->ks * s->p_w[k]);
+                add_spring(s, K, nd, J->bl, J->bu, p, ey, J->ks * s->p_w[k]);
             }
         }
     }

@@ -78,7 +78,7 @@ _SHAFT_KEYS = ("drum_heights", "diameter_bottom", "diameter_top", "n_sides", "ph
 _CAPITAL_KEYS = ("echinus_height", "echinus_diameter_bottom", "echinus_diameter_top", "abacus_height",
                  "abacus_side", "n_sides", "provenance")
 _COLUMN_KEYS = ("name", "provenance", "description", "units", "density", "n_sides", "phase_deg", "shaft",
-                "capital", "joints", "blocks")
+                "capital", "joints", "joint_overrides", "blocks")
 
 
 @dataclass(frozen=True)
@@ -287,10 +287,13 @@ class Column:
         Joint properties for every joint, including the base joint.
     name : str
         A label stored with results.
+    joint_overrides : mapping {joint index: JointProperties}, optional
+        Other properties for some joints (joint j lies under block j; 0 is the base joint on the
+        ground), e.g. a mortar bed at the base or a weathered joint. Other joints take ``joints``.
     """
 
     def __init__(self, blocks: Sequence[Block], density: float = 2700.0,
-                 joints: JointProperties | None = None, name: str = "custom"):
+                 joints: JointProperties | None = None, name: str = "custom", joint_overrides=None):
         blocks = tuple(blocks)
         if not blocks:
             raise ParameterError("a column needs at least one block")
@@ -302,6 +305,19 @@ class Column:
         self.joints = joints if joints is not None else JointProperties()
         if not isinstance(self.joints, JointProperties):
             raise ParameterError(f"joints must be JointProperties, got {type(self.joints).__name__}")
+        over = {}
+        if joint_overrides is not None:
+            if not hasattr(joint_overrides, "items"):
+                raise ParameterError(f"joint_overrides must be a mapping {{joint index: JointProperties}}, got "
+                                     f"{type(joint_overrides).__name__}")
+            for j, p in joint_overrides.items():
+                if isinstance(j, bool) or not isinstance(j, numbers.Integral) or not 0 <= j < len(blocks):
+                    raise ParameterError(f"joint_overrides: joint index must be an integer in [0, {len(blocks) - 1}], "
+                                         f"got {j!r}")
+                if not isinstance(p, JointProperties):
+                    raise ParameterError(f"joint_overrides[{j}] must be JointProperties, got {type(p).__name__}")
+                over[int(j)] = p
+        self.joint_overrides = dict(sorted(over.items()))
         self.name = str(name)
 
     # ---- constructors -------------------------------------------------------------
@@ -396,6 +412,26 @@ class Column:
         density = d.get("density", 2700.0)
         joints = JointProperties.from_dict(d.get("joints", {}))
         name = d.get("name", "custom")
+        col = cls._from_dict_blocks(d, density, joints, name)
+        over = d.get("joint_overrides")
+        if over is None:
+            return col
+        if not isinstance(over, dict):
+            raise ParameterError(f"joint_overrides must be a mapping (JSON object / TOML table) of joint index -> "
+                                 f"joint properties, got {type(over).__name__}")
+        parsed = {}
+        for k, v in over.items():
+            try:
+                j = int(k)
+            except (TypeError, ValueError):
+                raise ParameterError(f"joint_overrides: joint index must be an integer, got {k!r}") from None
+            if str(j) != str(k).strip():
+                raise ParameterError(f"joint_overrides: joint index must be an integer, got {k!r}")
+            parsed[j] = JointProperties.from_dict(v)
+        return Column(col.blocks, density=col.density, joints=col.joints, name=col.name, joint_overrides=parsed)
+
+    @classmethod
+    def _from_dict_blocks(cls, d: dict, density, joints, name) -> "Column":
         if "blocks" in d:
             if "shaft" in d or "capital" in d:
                 raise ParameterError("column description has both 'blocks' and 'shaft'/'capital': use one form")
@@ -458,20 +494,31 @@ class Column:
 
     def to_dict(self) -> dict:
         """Lossless description in the generic ``blocks`` form (what results files store)."""
-        return {
+        d = {
             "name": self.name,
             "density": self.density,
             "joints": self.joints.to_dict(),
             "blocks": [b.to_dict() for b in self.blocks],
         }
+        if self.joint_overrides:   # only when used: the default layout (and results signatures) unchanged
+            d["joint_overrides"] = {str(j): p.to_dict() for j, p in self.joint_overrides.items()}
+        return d
+
+    def joint(self, j: int) -> JointProperties:
+        """The properties of joint ``j`` (under block ``j``; 0 is the base joint)."""
+        if isinstance(j, bool) or not isinstance(j, numbers.Integral) or not 0 <= j < self.n_blocks:
+            raise ParameterError(f"joint index must be an integer in [0, {self.n_blocks - 1}], got {j!r}")
+        return self.joint_overrides.get(int(j), self.joints)
 
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), sort_keys=True)
 
     def with_joints(self, joints: JointProperties | None = None, **changes) -> "Column":
-        """A copy with other joint properties (``joints`` or field changes such as ``kn=1e10``)."""
+        """A copy with other default joint properties (``joints`` or field changes such as ``kn=1e10``);
+        ``joint_overrides`` are kept."""
         j = joints if joints is not None else replace(self.joints, **changes)
-        return Column(self.blocks, density=self.density, joints=j, name=self.name)
+        return Column(self.blocks, density=self.density, joints=j, name=self.name,
+                      joint_overrides=self.joint_overrides)
 
     # ---- derived quantities ----------------------------------------------------------
     @property

@@ -206,8 +206,9 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, options=None
     if solver == ffi.NULL:
         raise MemoryError("cf_solver_create failed")
     segs, nseg = _segments(col, monolithic)
-    j = col.joints
-    st = lib.cf_solver_setup(solver, d, col.n_blocks, nseg, segs, col.density, j.kn, j.ks, j.mu)
+    props = [col.joint(i) for i in range(col.n_blocks)]
+    kn = np.array([p.kn for p in props]); ks = np.array([p.ks for p in props]); mu = np.array([p.mu for p in props])
+    st = lib.cf_solver_setup_joints(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks), ptr(mu))
     check(st, lib.cf_solver_message(solver), "simulate")
     if options.dt_solver is not None:
         crit = float(lib.cf_solver_dt_crit(solver))

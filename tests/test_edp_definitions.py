@@ -201,6 +201,46 @@ def test_u_d_sliding_block_on_ground_is_newmark_slip_over_diameter():
     assert r.u_d == pytest.approx(slip / D, rel=tol)
 
 
+def test_u_d_squat_block_on_a_fixed_lower_drum_is_newmark_slip_over_that_joints_diameter():
+    """A squat block sliding on a lower drum that stays put: the residual of joint 1 is the Newmark
+    slip relative to the drum, u_d = slip / joint 1's diameter.
+
+    Lower drum 6 m x 6 m x 0.5 m (wide enough for the 1.82 m slip: the 2 m block's edge stays
+    1.8 m inside the drum's; a 3 m drum let it slide off and fall) on a base joint with friction
+    70 deg (mu = 2.75, a per-joint property): under A = 1.5 g it can neither slide (A < mu g) nor
+    rock (a_g > g b / h_cg, about 9 g, needed with the upper block on it). Upper block 2 m x 2 m x 0.5 m, joint 1 at the default
+    37 deg (mu = 0.754): it slides on the drum. kn = ks = 1e10 Pa/m everywhere; pulse and closed form
+    as in the block-on-the-ground test above (Newmark 1965).
+
+    Tolerance: the onset term 2 A / (omega V) of the upper block on joint 1, plus the same term
+    for the lower drum ringing on its base springs (it follows the ground elastically, its own
+    A / omega_0 feeding the upper block's relative velocity), plus 1e-3 for the time step. The
+    base joint's residual must stay elastic: its shear spring carries at most A (m_1 + m_2), a
+    displacement of A (m_1 + m_2) / (ks area_0) = 8e-6 m, asserted below 1e-4 m.
+
+    Guards against: u_d measured from the ground or normalised by the base diameter (the drum's
+    8.49 m against joint 1's 2.83 m); the base joint not taking its own friction."""
+    lower, upper = prism(6.0, 0.5), prism(2.0, 0.5)
+    base = pcf.JointProperties(kn=1e10, ks=1e10, friction_deg=70.0)
+    col = pcf.Column([lower, upper], joints=pcf.JointProperties(kn=1e10, ks=1e10), joint_overrides={0: base})
+    A, t0, dt = 1.5 * G, 0.5, 0.0005
+    a, t_eff = rect_pulse(A, t0, dt)
+    r = pcf.simulate(col, a, dt, tail_s=2.5, early_exit=False)
+    assert not r.collapsed
+    slip = newmark_rect(A, t_eff, MU37, [1e9])[0]
+    V = (A - MU37 * G) * t_eff
+    m1, m2 = col.block_masses
+    tol = (2 * elastic_velocity_bound(A, 1e10, face_area(upper), m2) / V
+           + 2 * elastic_velocity_bound(A, 1e10, face_area(lower), m1 + m2) / V + 1e-3)
+    D1 = col.joint_diameters[1]
+    assert D1 == pytest.approx(2 * math.sqrt(2.0)) and col.base_diameter == pytest.approx(6 * math.sqrt(2.0))
+    print(f"\nslip on the drum: solver {r.residual_dislocation[1]:.5f} m, Newmark {slip:.5f} m, tolerance {tol:.2%}; "
+          f"base joint {r.residual_dislocation[0]:.2e} m")
+    assert r.residual_dislocation[0] < 1e-4
+    assert r.residual_dislocation[1] == pytest.approx(slip, rel=tol)
+    assert r.u_d == pytest.approx(slip / D1, rel=tol)
+
+
 def test_u_d_is_measured_from_the_drum_below_stack_slides_as_one():
     """u_d of an upper joint is measured from the drum below, not from the ground.
 
