@@ -14,8 +14,8 @@ What it writes into the output folder (docs/records.md, "Analysing a record-suit
   regression on the IM);
 * ``msa.png`` -- with several ``--scale`` values, the multiple-stripe fragility by maximum likelihood
   (Baker 2015, :func:`pycolfrag.fragility.msa_from_table`), one stripe per scale factor;
-* ``fig10_records.png`` -- Fig. 10 (:func:`pycolfrag.record_figures.fig_10`), with the synthetic mean
-  line when a synthetic grid file is given;
+* ``fig10_records.png`` -- Fig. 10 (:func:`pycolfrag.record_figures.fig_10`) of the rows at scale 1,
+  with the synthetic mean line when a synthetic grid file is given;
 * ``report.md`` -- the run, the per-record table, the cloud and MSA fits, links to the figures.
 
 Numbers come from the file through :func:`pycolfrag.results.load` (the one reader). Figures need
@@ -290,13 +290,20 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
             kw["band_km"] = tuple(band_km)
         if dist_km is not None:
             kw["dist_km"] = float(dist_km)
-        try:
-            fig10 = rf.fig_10(t, syn, **kw)
-            note = f"against `{syn}`" if syn else "without a synthetic grid file (no mean line)"
-        except ParameterError as exc:
-            fig10 = rf.fig_10(t, None, **{k: v for k, v in kw.items() if k == "band_km"})
-            note = f"without the synthetic line ({exc})"
-        figs.append(("fig10_records.png", fig10))
+        # Fig. 10 is about the records as recorded: the rows at scale 1 only
+        unscaled = np.asarray(t["scale"], dtype=float) == 1.0
+        if unscaled.any():
+            t1 = {k: (np.asarray(v)[unscaled] if k not in ("periods_s", "attrs") and np.ndim(v) >= 1
+                      and len(v) == len(unscaled) else v) for k, v in t.items()}
+            try:
+                fig10 = rf.fig_10(t1, syn, **kw)
+                note = f"against `{syn}`" if syn else "without a synthetic grid file (no mean line)"
+            except ParameterError as exc:
+                fig10 = rf.fig_10(t1, None, **{k: v for k, v in kw.items() if k == "band_km"})
+                note = f"without the synthetic line ({exc})"
+            figs.append(("fig10_records.png", fig10))
+        else:
+            L += ["", "Fig. 10: no runs at scale 1 (it shows the records as recorded)."]
         for name, fig in figs:
             fig.savefig(out / name, dpi=110)
             drawn.append(name)
