@@ -159,3 +159,30 @@ def test_a_corrupt_record_is_recorded_and_the_others_run(suite, tmp_path):
     assert all("RSN9002_PULSE_B-N.AT2, line 7" in m and "'zz' is not a number" in m for m in s["message"][bad])
     assert (s["status"][~bad] == 0).all() and np.isfinite(s["u_top"][~bad]).all()
     assert s["mw"][bad][0] == 7.0 and s["event"][bad][0] == "Pulse Quake"  # metadata kept from the table
+
+
+def test_in_process_rows_equal_run_suite_and_a_raising_function_keeps_the_identity(suite, tmp_path):
+    """In process (grid.run_grid with a RecordGridSpec): the grid's rows are sample.run_suite's rows
+    (one definition of a record sample, bitwise); a sample function that raises on a row leaves that
+    row with status 9, the exception text, and the row's identity (record, component, scale)."""
+    from pycolfrag import sample
+    spec = grid.RecordGridSpec(records=str(suite), scales=(1.0,), periods_s=(0.5, 1.0))
+    out = tmp_path / "p.h5"
+    grid.run_grid(spec, out, progress=False, log=lambda s: None)
+    r = R.load(out)
+    t = sample.run_suite(spec.suite, periods_s=(0.5, 1.0))
+    for k in ("pga_g", "pgv_cm_s", "u_top", "u_d", "n_steps", "scale", "mw"):
+        np.testing.assert_array_equal(r.samples[k], t[k], err_msg=k)
+    np.testing.assert_array_equal(r.spectra["sa_g"], t["sa_g"])
+    assert list(r.samples["record_id"]) == t["record_id"]
+
+    def boom(ctx, row):
+        if row == 3:
+            raise RuntimeError("forced failure of row 3")
+        return grid.run_record_row(ctx, row)
+    out2 = tmp_path / "q.h5"
+    grid.run_grid(spec, out2, sample_fn=boom, progress=False, log=lambda s: None)
+    s = R.load(out2).samples
+    assert s["status"][3] == R.STATUS_OTHER_FAILED and "forced failure of row 3" in s["message"][3]
+    assert (s["record_id"][3], s["component"][3], s["scale"][3], s["record"][3]) == ("RSN9002", "h2", 1.0, 1)
+    assert s["mw"][3] == 7.0 and (np.delete(s["status"], 3) == 0).all()
