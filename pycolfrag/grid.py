@@ -279,7 +279,10 @@ class SampleContext:
 def _meta(meta: dict, *names, default=math.nan):
     for n in names:
         if n in meta and meta[n] is not None:
-            return float(meta[n])
+            try:
+                return float(meta[n])
+            except (TypeError, ValueError):  # a text value where a number was expected
+                return default
     return default
 
 
