@@ -907,6 +907,15 @@ def _solver_value(text: str):
         return text
 
 
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows defaults, except None ones (their help text states the default that applies)."""
+
+    def _get_help_string(self, action):
+        if action.default is None:
+            return action.help
+        return super()._get_help_string(action)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="run_grid.py",
@@ -914,7 +923,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "records (--records). Run as "
                     "'python scripts/run_grid.py' or 'mpirun -n N python -m mpi4py scripts/run_grid.py'. "
                     "Rerunning the same command resumes an interrupted run.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+        formatter_class=_HelpFormatter)
     g = p.add_argument_group("synthetic grid (the default; not with --records)")
     g.add_argument("--mw", nargs="+", default=None, metavar="MW",
                    help="magnitudes: numbers or start:stop:step (inclusive) (default: 5.5:7.5:0.5)")
