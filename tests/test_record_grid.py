@@ -186,3 +186,25 @@ def test_in_process_rows_equal_run_suite_and_a_raising_function_keeps_the_identi
     assert s["status"][3] == R.STATUS_OTHER_FAILED and "forced failure of row 3" in s["message"][3]
     assert (s["record_id"][3], s["component"][3], s["scale"][3], s["record"][3]) == ("RSN9002", "h2", 1.0, 1)
     assert s["mw"][3] == 7.0 and (np.delete(s["status"], 3) == 0).all()
+
+
+def test_record_file_rebuilt_from_its_journal(tmp_path):
+    """A record-suite file whose HDF5 part is lost (killed during its creation or deleted) is read
+    from the journal alone and rebuilt on resume in the records layout, string fields included:
+    the layout travels in the journal header's attributes."""
+    out = tmp_path / "j.h5"
+    sig = {"kind": "records", "suite": {"records": [["A", 0.01, 10, "x", ""]]}}
+    w = R.open_for_run(out, sig, {"layout": "records"}, 2, [1.0], log=lambda s: None)
+    w.add([{"row": 1, "record": 0, "record_id": "A", "event": "Événement", "component": "h2", "scale": 2.0,
+            "status": 0, "pga_g": 0.5, "sa_g": [1.5]}])
+    w.close()   # no finish: the journal holds the row
+    out.unlink()
+    with pytest.warns(UserWarning, match="from the journal"):
+        r = R.load(out)
+    assert r.attrs["layout"] == "records" and list(r.rows) == [1]
+    assert r.samples["event"][0] == "Événement" and r.samples["scale"][0] == 2.0
+    w = R.open_for_run(out, sig, {"layout": "records"}, 2, [1.0], log=lambda s: None)
+    w.close()
+    r = R.load(out)
+    assert set(r.samples) == set(R.RECORD_SAMPLE_FIELDS) and r.samples["component"][0] == "h2"
+    assert r.spectra["sa_g"][0, 0] == 1.5
