@@ -208,3 +208,26 @@ def test_record_file_rebuilt_from_its_journal(tmp_path):
     r = R.load(out)
     assert set(r.samples) == set(R.RECORD_SAMPLE_FIELDS) and r.samples["component"][0] == "h2"
     assert r.spectra["sa_g"][0, 0] == 1.5
+
+
+@pytest.mark.mpi
+def test_record_grid_sigterm_under_mpirun_then_resume_on_two_ranks(suite, tmp_path):
+    """SIGTERM to mpirun part-way (rows slowed to 0.15 s), then the same command on 2 ranks: the
+    rows kept from before are unchanged and the completed file equals a serial uninterrupted run."""
+    out = tmp_path / "term.h5"
+    args = ["--records", str(suite), "--scale", "0.5", "1", "2", "--sample-function", "record_grid_fakes:slow",
+            *QUIET, "--out", str(out)]
+    if shutil.which("mpirun") is None:
+        pytest.skip("mpirun not installed")
+    cmd = ["timeout", "-k", "10", "120", "mpirun", "--allow-run-as-root", "-n", "2", sys.executable, "-m", "mpi4py",
+           str(SCRIPT), *args]
+    _kill_after(cmd, _env(PCF_FAKE_SLEEP_S="0.15"), out, 4, signal.SIGTERM)
+    before = R.load(out)
+    assert 4 <= len(before) < 18, len(before)
+    _ok(_mpirun(2, args, PCF_FAKE_SLEEP_S="0"))
+    after = R.load(out)
+    assert after.complete and len(after) == 18 and (after.samples["status"] == 0).all()
+    _same_rows(before, after, rows=before.rows)
+    fresh = tmp_path / "fresh.h5"
+    _ok(_serial([*args[:-1], str(fresh)]))
+    _same_rows(R.load(fresh), after)
