@@ -600,8 +600,17 @@ def run_grid(spec: "GridSpec | RecordGridSpec", out, *, overwrite: bool = False,
     writer, todo, err = None, None, None
     t_start = time.perf_counter()
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    # every rank read the column and the record files itself: they must have read the same inputs
+    # (a suite folder changed while the job started would otherwise mix two suites in one file)
+    sigs = None
+    if comm is not None and size > 1:
+        sigs = comm.gather(json.dumps(spec.signature(), sort_keys=True, default=str), root=0)
     if rank == 0:
         try:
+            if sigs is not None and len(set(sigs)) > 1:
+                bad = [i for i, x in enumerate(sigs) if x != sigs[0]]
+                raise ParameterError(f"ranks {bad} read other inputs than rank 0 (the column or record files "
+                                     "changed while the job started); nothing was run")
             attrs = {
                 "version": __version__, "git_revision": _git_revision(),
                 "column": json.dumps(spec.column, sort_keys=True),
@@ -1067,8 +1076,8 @@ def main(argv=None) -> int:
                            progress=args.progress, rank0_works=args.rank0_works, chunk_max=args.chunk_max,
                            flush_s=args.flush_s, command=" ".join([sys.argv[0]] + list(argv or sys.argv[1:])),
                            log=log)
-    except (ResultsFileError, OSError) as exc:
-        if isinstance(exc, ResultsFileError):
+    except (ResultsFileError, ParameterError, OSError) as exc:
+        if isinstance(exc, (ResultsFileError, ParameterError)):
             code = EXIT_LOCKED if isinstance(exc, _results.ResultsLockedError) else EXIT_ARGS
             log(f"run_grid: {exc}")
         else:

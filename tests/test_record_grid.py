@@ -231,3 +231,28 @@ def test_record_grid_sigterm_under_mpirun_then_resume_on_two_ranks(suite, tmp_pa
     fresh = tmp_path / "fresh.h5"
     _ok(_serial([*args[:-1], str(fresh)]))
     _same_rows(R.load(fresh), after)
+
+
+def test_ranks_that_read_another_suite_are_refused(suite, tmp_path):
+    """Every rank reads the suite itself; rank 0 compares the ranks' signatures before touching the
+    file. A stand-in communicator (rank 0 of 2) whose other rank reports another signature: the run is
+    refused with ParameterError and no file is made."""
+    spec = grid.RecordGridSpec(records=str(suite))
+
+    class Comm:
+        def Get_rank(self):
+            return 0
+
+        def Get_size(self):
+            return 2
+
+        def gather(self, x, root=0):
+            return [x, x.replace("RSN9001", "RSN9999")]
+
+        def bcast(self, x, root=0):
+            return x
+
+    out = tmp_path / "x.h5"
+    with pytest.raises(grid.ParameterError, match=r"ranks \[1\] read other inputs"):
+        grid.run_grid(spec, out, comm=Comm(), progress=False, log=lambda s: None)
+    assert not out.exists()
