@@ -87,8 +87,7 @@ MESSAGE_BYTES = 256
 
 # name: (numpy dtype, fill value for rows not computed yet, unit/description)
 # The IM and EDP fields are not spelled here: they come from the one registry (pycolfrag.names),
-# "<description>, <unit>" plus how this file stores the value (_STORAGE_NOTES).
-_STORAGE_NOTES = {"u_d": "(residual: last 2 s average, max over joints); NaN if collapsed"}
+# "<description>, <unit>".
 
 
 def _quantity_fields(table) -> dict:
@@ -96,8 +95,6 @@ def _quantity_fields(table) -> dict:
     for name, q in table.items():
         if not q.spectral:
             desc = f"{q.description}, {q.unit}"
-            if name in _STORAGE_NOTES:
-                desc += f" {_STORAGE_NOTES[name]}"
             out[name] = ("f8", math.nan, desc)
     return out
 
