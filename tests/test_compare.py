@@ -144,3 +144,55 @@ def test_bad_alpha_is_refused(base):
     a = base[3]
     with pytest.raises(ParameterError, match="alpha"):
         compare_results(a, a, alpha=1.5)
+
+
+def _record_rows(seed=0, n_rec=20):
+    """A record-suite file: 20 records x h1/h2 x scales 1 and 2 (80 rows)."""
+    rng = np.random.default_rng(seed)
+    keys = [(f"RSN{i}", c, s) for s in (1.0, 2.0) for i in range(n_rec) for c in ("h1", "h2")]
+    n = len(keys)
+    cols = {}
+    for name, (code, fill, _) in results.RECORD_SAMPLE_FIELDS.items():
+        cols[name] = np.full(n, fill, dtype=results._dtype(code))
+    cols["record_id"] = np.array([k[0].encode() for k in keys], dtype=cols["record_id"].dtype)
+    cols["component"] = np.array([k[1].encode() for k in keys], dtype=cols["component"].dtype)
+    cols["scale"] = np.array([k[2] for k in keys])
+    cols["status"] = np.zeros(n, dtype=cols["status"].dtype)
+    cols["u_top"] = rng.lognormal(-3, 0.5, n) * cols["scale"]
+    cols["u_d"] = rng.lognormal(-6, 0.5, n)
+    cols["collapsed"] = ((cols["scale"] == 2.0) & (rng.random(n) < 0.3)).astype("u1")
+    spectra = {"sa_g": rng.random((n, PERIODS.size)), "sv_cm_s": rng.random((n, PERIODS.size))}
+    return cols, spectra
+
+
+def test_record_suite_files_match_by_record_component_scale(tmp_path):
+    """Record-suite rows have no (scenario, sample): they are matched by (record_id, component,
+    scale) whatever their order, and the statistics are made per scale (a stripe). Rows written
+    in reverse order match; one ulp of u_top in two scale-2 rows gives one group, 'scale 2',
+    with 2 differing rows and agreeing statistics; all u_top of scale 2 doubled disagree (Welch's
+    t on 40 lognormal values with sigma 0.5: |t| about 7, far beyond any Bonferroni threshold)."""
+    cols, spectra = _record_rows()
+    a = _write(tmp_path / "a.h5", cols, spectra)
+    with h5py.File(a, "a") as f:
+        f.attrs["layout"] = "records"
+    rev = {k: v[::-1].copy() for k, v in cols.items()}
+    b = _write(tmp_path / "b.h5", rev, {k: v[::-1].copy() for k, v in spectra.items()})
+    with h5py.File(b, "a") as f:
+        f.attrs["layout"] = "records"
+    c = compare_results(a, b)
+    assert c.identical and c.n_common == 80, c.summary()
+    one = {k: v.copy() for k, v in cols.items()}
+    i2 = np.flatnonzero(one["scale"] == 2.0)[:2]
+    one["u_top"][i2] = np.nextafter(one["u_top"][i2], 1.0)
+    d = _write(tmp_path / "d.h5", one, spectra)
+    with h5py.File(d, "a") as f:
+        f.attrs["layout"] = "records"
+    c = compare_results(a, d)
+    assert c.exit_code == 1 and c.n_rows_differing == 2 and [s.label for s in c.scenarios] == ["scale 2"]
+    two = {k: v.copy() for k, v in cols.items()}
+    two["u_top"] = np.where(two["scale"] == 2.0, 2 * two["u_top"], two["u_top"])
+    e = _write(tmp_path / "e.h5", two, spectra)
+    with h5py.File(e, "a") as f:
+        f.attrs["layout"] = "records"
+    c = compare_results(a, e)
+    assert c.exit_code == 2 and not c.scenarios[0].agree
