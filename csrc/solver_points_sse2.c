@@ -1,182 +1,159 @@
 /*
- * solver_points_sse2.c -- the "points" contact model on SIMD lanes (the file keeps
- * its name and model symbol, cf_solver_points_sse2_model, which solver.c selects on
- * every x86-64 build; the widest instruction set of the CPU is chosen at run time).
+ * solver_points_sse2.c -- the "points" contact model, two points per SSE2 instruction
+ * (SSE2 is part of every x86-64 CPU; no -m flag needed).
  *
- * A face's points run in two passes (chunks of CHUNK points):
- *   A. lanes: for every point, its position in the face frame, the elastic trial and
- *      the terms of CF_LAW_TRIAL / CF_LAW_TERMS (contact_law.h, scalar operators), and
- *      a code of its state (active, inside the cheap polygon tests, state 1 or 0,
- *      sticking). A plain C loop with no dependence between points: the compiler
- *      turns it into SSE2, AVX2 or AVX-512 code; each lane evaluates the very IEEE
- *      operations of the scalar law in the same order (the build has contraction off
- *      and no reassociation), so every width gives the same bits.
- *   B. in point order, one point at a time: a sticking point in contact stores its
- *      trial shear and adds its terms to the face sums; an open point stays open;
- *      any other point (opening, closing, slipping, near the polygon edge) takes the
- *      full law cf_point_law. The sums are sequential in point order, as the scalar
- *      runner's (solver_points.c), whose results are bitwise these;
- *      scripts/check_result_hashes.sh compares every width with a -DCF_NO_SIMD build.
- *
- * Width: AVX-512F, else AVX2, else SSE2, by __builtin_cpu_supports; -DCF_FORCE_SSE2
- * or -DCF_FORCE_AVX2 caps it (the hash check builds each). No FMA is enabled (and
- * contraction is off): a CPU without AVX2 computes the same numbers.
+ * The common path -- a point in contact at the last step and now, inside the cheap
+ * polygon test, sticking -- runs on two lanes with the very operations of the scalar
+ * law (CF_LAW_TRIAL and CF_LAW_TERMS of contact_law.h, instantiated with the SSE2
+ * operators; each a correctly rounded IEEE operation, no contraction), and the terms
+ * join the sums in point order; a pair with any other point takes cf_point_law one
+ * point at a time. So the results are bitwise those of the scalar runner
+ * (solver_points.c); scripts/check_result_hashes.sh checks it against a -DCF_NO_SIMD build.
  */
 #include "solver_internal.h"
 
 #ifdef CF_SOLVER_SIMD
+#include <emmintrin.h>
+
 #include "solver_points_internal.h"
 
-enum { CHUNK = 16 };
-
-/* the code of pass A */
-#define PA_ACT 1.0     /* 0 < pen <= pmax */
-#define PA_IN 2.0      /* inside: the unbounded ground, the cheap test around home or the inscribed circle (1-3 times) */
-#define PA_ST1 8.0     /* in contact at the last step */
-#define PA_ST0 16.0    /* open at the last step */
-#define PA_STICK 32.0  /* the trial shear lies within the Coulomb cone */
-
+/* The face sums on two lanes: (fx, fy) (fz, mx) (my, mz) (vs, jfn), each lane a
+ * sequential sum in point order, as the scalar cf_face_sums. */
 typedef struct {
-    double X[CHUNK], Y[CHUNK], Z[CHUNK], fn[CHUNK], fx[CHUNK], fy[CHUNK];
-    double mx[CHUNK], my[CHUNK], mz[CHUNK], vs[CHUNK];
-    double code[CHUNK];   /* the sum of the PA_ flags */
-} pass_buf;
+    __m128d s01, s23, s45, s67;
+} sse2_sums;
 
-/* Pass A over the points [k0, k0 + n), n <= CHUNK: the operations of cf_point_law's
- * in-contact path (position, increment, CF_LAW_TRIAL, CF_LAW_TERMS), in its order. */
-static inline __attribute__((always_inline)) void pass_a_body(const cf_solver *s, const cf_face_pass *P, int k0,
-                                                              int n, pass_buf *B)
+static inline void sse2_load(sse2_sums *V, const cf_face_sums *S)
 {
-    const double *restrict lx = s->p_lx + k0, *restrict ly = s->p_ly + k0, *restrict hx = s->p_hx + k0;
-    const double *restrict hy = s->p_hy + k0, *restrict fast = s->p_fast + k0, *restrict knw = s->p_knw + k0;
-    const double *restrict ksw = s->p_ksw + k0, *restrict ihkw = s->p_ihkw + k0, *restrict st = s->p_state + k0;
-    const double *restrict fsx = s->p_fsx + k0, *restrict fsy = s->p_fsy + k0;
-    const double M0 = P->M[0], M1 = P->M[1], M3 = P->M[3], M4 = P->M[4], M6 = P->M[6], M7 = P->M[7];
-    const double z0 = P->mz[0], z1 = P->mz[1], z2 = P->mz[2], t0 = P->t[0], t1 = P->t[1], t2 = P->t[2];
-    const double A0 = P->A[0], A1 = P->A[1], W0 = P->W[0], W1 = P->W[1], W2 = P->W[2];
-    const double sgn = P->sgn, pmax = P->pmax, mu = P->mu, apo2 = P->ff->apo * P->ff->apo;
-    const double unb = P->unbounded ? PA_IN : 0.0;
-    double *restrict oX = B->X, *restrict oY = B->Y, *restrict oZ = B->Z, *restrict ofn = B->fn;
-    double *restrict ofx = B->fx, *restrict ofy = B->fy, *restrict omx = B->mx, *restrict omy = B->my;
-    double *restrict omz = B->mz, *restrict ovs = B->vs;
-    double *restrict code = B->code;
-    int i;
-    /* the point arrays and the buffer never overlap (restrict is not enough once inlined) */
-#pragma GCC ivdep
-    for (i = 0; i < n; i++) {
-        double X = M0 * lx[i] + M1 * ly[i] + z0 + t0;
-        double Y = M3 * lx[i] + M4 * ly[i] + z1 + t1;
-        double Z = M6 * lx[i] + M7 * ly[i] + z2 + t2;
-        double pen = sgn * Z;
-        double dhx = X - hx[i], dhy = Y - hy[i];
-        double dux = A0 + W1 * Z - W2 * Y;
-        double duy = A1 + W2 * X - W0 * Z;
-        double f, lim, fx, fy, m2, mx, my, mz, vs;
-        double c;
-        CF_LAW_TRIAL(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, pen, dux, duy, knw[i], ksw[i], mu, fsx[i], fsy[i],
-                     f, lim, fx, fy, m2);
-        CF_LAW_TERMS(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, 0.5, X, Y, Z, pen, f, fx, fy, m2, ihkw[i],
-                     mx, my, mz, vs);
-        /* the code as a small integer held in a double (flags that select between
-         * constants): the loop then holds one element type and vectorizes */
-        c = (pen > 0.0 ? PA_ACT : 0.0) + (pen > pmax ? -PA_ACT : 0.0);
-        c += (dhx * dhx + dhy * dhy <= fast[i] ? PA_IN : 0.0);
-        c += (X * X + Y * Y <= apo2 ? PA_IN : 0.0);
-        c += unb;
-        c += (st[i] == 1.0 ? PA_ST1 : 0.0) + (st[i] == 0.0 ? PA_ST0 : 0.0) + (m2 > lim * lim ? 0.0 : PA_STICK);
-        oX[i] = X; oY[i] = Y; oZ[i] = Z; ofn[i] = f; ofx[i] = fx; ofy[i] = fy;
-        omx[i] = mx; omy[i] = my; omz[i] = mz; ovs[i] = vs;
-        code[i] = c;
-    }
+    V->s01 = _mm_loadu_pd(S->sm); V->s23 = _mm_loadu_pd(S->sm + 2);
+    V->s45 = _mm_loadu_pd(S->sm + 4); V->s67 = _mm_loadu_pd(S->sm + 6);
 }
 
-/* pass A over n points from k0; n < 0: a whole chunk (k0 + CHUNK <= np) */
-typedef void (*pass_a_fn)(const cf_solver *s, const cf_face_pass *P, int k0, int n, pass_buf *B);
-
-/* Each width in two forms: n points, or (when the arrays hold them) a whole chunk, a
- * fixed trip count the compiler vectorizes without a remainder loop; the lanes past
- * the face's points are computed and ignored. */
-static void pass_a_sse2(const cf_solver *s, const cf_face_pass *P, int k0, int n, pass_buf *B)
+static inline void sse2_store(const sse2_sums *V, cf_face_sums *S)
 {
-    if (n < 0) pass_a_body(s, P, k0, CHUNK, B);
-    else pass_a_body(s, P, k0, n, B);
+    _mm_storeu_pd(S->sm, V->s01); _mm_storeu_pd(S->sm + 2, V->s23);
+    _mm_storeu_pd(S->sm + 4, V->s45); _mm_storeu_pd(S->sm + 6, V->s67);
 }
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(CF_FORCE_SSE2)
-#define CF_HAVE_AVX2 1
-__attribute__((target("avx2")))
-static void pass_a_avx2(const cf_solver *s, const cf_face_pass *P, int k0, int n, pass_buf *B)
+/* add the terms t[0..7] of one point */
+static inline void sse2_add(sse2_sums *V, const double *t, int need)
 {
-    if (n < 0) pass_a_body(s, P, k0, CHUNK, B);
-    else pass_a_body(s, P, k0, n, B);
-}
-#if !defined(CF_FORCE_AVX2)
-#define CF_HAVE_AVX512 1
-__attribute__((target("avx512f")))
-static void pass_a_avx512(const cf_solver *s, const cf_face_pass *P, int k0, int n, pass_buf *B)
-{
-    if (n < 0) pass_a_body(s, P, k0, CHUNK, B);
-    else pass_a_body(s, P, k0, n, B);
-}
-#endif
-#endif
-
-/* The widest pass A this CPU runs (every one gives the same bits). */
-static pass_a_fn pass_a_select(void)
-{
-#ifdef CF_HAVE_AVX512
-    if (__builtin_cpu_supports("avx512f")) return pass_a_avx512;
-#endif
-#ifdef CF_HAVE_AVX2
-    if (__builtin_cpu_supports("avx2")) return pass_a_avx2;
-#endif
-    return pass_a_sse2;
+    V->s01 = _mm_add_pd(V->s01, _mm_loadu_pd(t));
+    V->s23 = _mm_add_pd(V->s23, _mm_loadu_pd(t + 2));
+    V->s45 = _mm_add_pd(V->s45, _mm_loadu_pd(t + 4));
+    if (need) V->s67 = _mm_add_pd(V->s67, _mm_loadu_pd(t + 6));
 }
 
 /* The points [k0, k1) against the face of P, in point order. */
-static void run_lanes(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
+static void run_sse2(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
 {
-    static pass_a_fn pass_a;   /* chosen once; a racing first call stores the same pointer */
-    double s0 = S->sm[0], s1 = S->sm[1], s2 = S->sm[2], s3 = S->sm[3], s4 = S->sm[4], s5 = S->sm[5];
-    double s6 = S->sm[6], s7 = S->sm[7], t[8];
+    int k = k0;
+    double t[8];
+    sse2_sums V;
+    const double *lx = s->p_lx, *ly = s->p_ly, *hx = s->p_hx, *hy = s->p_hy, *fast = s->p_fast;
+    const double *knw = s->p_knw, *ksw = s->p_ksw, *ihkw = s->p_ihkw, *state = s->p_state;
     double *fsx = s->p_fsx, *fsy = s->p_fsy;
-    pass_buf B;
-    int c0;
-    if (!pass_a) pass_a = pass_a_select();
-    for (c0 = k0; c0 < k1; c0 += CHUNK) {
-        int n = k1 - c0 < CHUNK ? k1 - c0 : CHUNK, i;
-        pass_a(s, P, c0, c0 + CHUNK <= s->np ? -1 : n, &B);
-        for (i = 0; i < n; i++) {
-            int c = (int)B.code[i], k = c0 + i;
-            /* active, in contact at the last step, sticking (1 + 8 + 32), and inside: one of the
-             * cheap tests (c & 6), or the polygon test (which may move the point's hint) */
-            if ((c & ~6) == 41 && ((c & 6) || cf_face_inside_hint(P->ff, B.X[i], B.Y[i], P->tol, s->p_hint + k))) {
-                /* in contact, inside the face, sticking: the trial is the new shear */
-                fsx[k] = B.fx[i]; fsy[k] = B.fy[i];
-                s0 += B.fx[i]; s1 += B.fy[i]; s2 += B.fn[i]; s3 += B.mx[i]; s4 += B.my[i]; s5 += B.mz[i];
-                if (need) { s6 += B.vs[i]; s7 += B.fn[i]; }
-            } else if ((c & 17) == 16) {
-                /* open before and now (state 0 keeps no shear force): nothing to do */
-            } else if (cf_point_law(s, P, k, S, s->p_hint + k, t)) {
-                s0 += t[0]; s1 += t[1]; s2 += t[2]; s3 += t[3]; s4 += t[4]; s5 += t[5];
-                if (need) { s6 += t[6]; s7 += t[7]; }
+    const __m128d M0 = _mm_set1_pd(P->M[0]), M1 = _mm_set1_pd(P->M[1]), M3 = _mm_set1_pd(P->M[3]);
+    const __m128d M4 = _mm_set1_pd(P->M[4]), M6 = _mm_set1_pd(P->M[6]), M7 = _mm_set1_pd(P->M[7]);
+    const __m128d z0 = _mm_set1_pd(P->mz[0]), z1 = _mm_set1_pd(P->mz[1]), z2 = _mm_set1_pd(P->mz[2]);
+    const __m128d t0 = _mm_set1_pd(P->t[0]), t1 = _mm_set1_pd(P->t[1]), t2 = _mm_set1_pd(P->t[2]);
+    const __m128d A0 = _mm_set1_pd(P->A[0]), A1 = _mm_set1_pd(P->A[1]);
+    const __m128d W0 = _mm_set1_pd(P->W[0]), W1 = _mm_set1_pd(P->W[1]), W2 = _mm_set1_pd(P->W[2]);
+    const __m128d sgn = _mm_set1_pd(P->sgn), pmax = _mm_set1_pd(P->pmax), mu = _mm_set1_pd(P->mu);
+    const __m128d one = _mm_set1_pd(1.0), half = _mm_set1_pd(0.5), apo2 = _mm_set1_pd(P->ff->apo * P->ff->apo);
+    const __m128d apotol = _mm_set1_pd(P->ff->apo + P->tol);
+    const __m128d unb = _mm_castsi128_pd(_mm_set1_epi32(P->unbounded ? -1 : 0));
+    sse2_load(&V, S);
+    for (; k + 1 < k1; k += 2) {
+        __m128d vlx = _mm_loadu_pd(lx + k), vly = _mm_loadu_pd(ly + k);
+        __m128d X = _mm_add_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(M0, vlx), _mm_mul_pd(M1, vly)), z0), t0);
+        __m128d Y = _mm_add_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(M3, vlx), _mm_mul_pd(M4, vly)), z1), t1);
+        __m128d Z = _mm_add_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(M6, vlx), _mm_mul_pd(M7, vly)), z2), t2);
+        __m128d pen = _mm_mul_pd(sgn, Z);
+        __m128d dhx = _mm_sub_pd(X, _mm_loadu_pd(hx + k)), dhy = _mm_sub_pd(Y, _mm_loadu_pd(hy + k));
+        __m128d d2 = _mm_add_pd(_mm_mul_pd(dhx, dhx), _mm_mul_pd(dhy, dhy));
+        __m128d dux = _mm_sub_pd(_mm_add_pd(A0, _mm_mul_pd(W1, Z)), _mm_mul_pd(W2, Y));
+        __m128d duy = _mm_sub_pd(_mm_add_pd(A1, _mm_mul_pd(W2, X)), _mm_mul_pd(W0, Z));
+        __m128d f, lim, fx, fy, m2;
+        __m128d act = _mm_and_pd(_mm_cmpgt_pd(pen, _mm_setzero_pd()), _mm_cmpngt_pd(pen, pmax));
+        __m128d st = _mm_loadu_pd(state + k), ok, mx, my, mz, vs;
+        int bits, open;
+        CF_LAW_TRIAL(_mm_add_pd, _mm_sub_pd, _mm_mul_pd, pen, dux, duy, _mm_loadu_pd(knw + k), _mm_loadu_pd(ksw + k),
+                     mu, _mm_loadu_pd(fsx + k), _mm_loadu_pd(fsy + k), f, lim, fx, fy, m2);
+        /* inside: the cheap test around the point's rest position, or the face's
+         * inscribed circle (face_inside_hint's first test, which leaves the hint alone) */
+        __m128d in = _mm_or_pd(_mm_cmple_pd(d2, _mm_loadu_pd(fast + k)),
+                               _mm_cmple_pd(_mm_add_pd(_mm_mul_pd(X, X), _mm_mul_pd(Y, Y)), apo2));
+        in = _mm_or_pd(unb, in);
+        if ((_mm_movemask_pd(_mm_andnot_pd(in, act)) & _mm_movemask_pd(_mm_cmpeq_pd(st, one))) != 0) {
+            /* the polygon test: if the point's hint edge is still its most distant edge
+             * (face_inside_hint's walk would stay there), inside iff within apo + tol of
+             * it; else (the walk moves) leave the point to cf_point_law */
+            const cf_face *ff = P->ff;
+            int h0 = s->p_hint[k], h1 = s->p_hint[k + 1];
+            __m128d ex = _mm_set_pd(ff->ecw[h1 + 1], ff->ecw[h0 + 1]), ey = _mm_set_pd(ff->esw[h1 + 1], ff->esw[h0 + 1]);
+            __m128d best = _mm_add_pd(_mm_mul_pd(X, ex), _mm_mul_pd(Y, ey));
+            __m128d pp, pm, stay;
+            ex = _mm_set_pd(ff->ecw[h1 + 2], ff->ecw[h0 + 2]); ey = _mm_set_pd(ff->esw[h1 + 2], ff->esw[h0 + 2]);
+            pp = _mm_add_pd(_mm_mul_pd(X, ex), _mm_mul_pd(Y, ey));
+            ex = _mm_set_pd(ff->ecw[h1], ff->ecw[h0]); ey = _mm_set_pd(ff->esw[h1], ff->esw[h0]);
+            pm = _mm_add_pd(_mm_mul_pd(X, ex), _mm_mul_pd(Y, ey));
+            stay = _mm_and_pd(_mm_cmpngt_pd(pp, best), _mm_cmpngt_pd(pm, best));
+            in = _mm_or_pd(in, _mm_and_pd(stay, _mm_cmple_pd(best, apotol)));
+        }
+        ok = _mm_and_pd(act, in);
+        ok = _mm_and_pd(ok, _mm_cmpeq_pd(st, one));
+        ok = _mm_and_pd(ok, _mm_cmpngt_pd(m2, _mm_mul_pd(lim, lim)));
+        bits = _mm_movemask_pd(ok);
+        /* open before and now (state 0 keeps no shear force): nothing to do */
+        open = _mm_movemask_pd(_mm_andnot_pd(act, _mm_cmpeq_pd(st, _mm_setzero_pd())));
+        if (open == 3) continue;
+        CF_LAW_TERMS(_mm_add_pd, _mm_sub_pd, _mm_mul_pd, half, X, Y, Z, pen, f, fx, fy, m2, _mm_loadu_pd(ihkw + k),
+                     mx, my, mz, vs);
+        if (bits == 3) {
+            _mm_storeu_pd(fsx + k, fx); _mm_storeu_pd(fsy + k, fy);
+            V.s01 = _mm_add_pd(_mm_add_pd(V.s01, _mm_unpacklo_pd(fx, fy)), _mm_unpackhi_pd(fx, fy));
+            V.s23 = _mm_add_pd(_mm_add_pd(V.s23, _mm_unpacklo_pd(f, mx)), _mm_unpackhi_pd(f, mx));
+            V.s45 = _mm_add_pd(_mm_add_pd(V.s45, _mm_unpacklo_pd(my, mz)), _mm_unpackhi_pd(my, mz));
+            if (need) {
+                V.s67 = _mm_add_pd(_mm_add_pd(V.s67, _mm_unpacklo_pd(vs, f)), _mm_unpackhi_pd(vs, f));
+            }
+        } else {
+            /* one point at a time, in order: the easy one from the vectors, the other
+             * through the full law */
+            double vx[2], vy[2], vf[2], vmx[2], vmy[2], vmz[2], vvs[2];
+            int l;
+            _mm_storeu_pd(vx, fx); _mm_storeu_pd(vy, fy); _mm_storeu_pd(vf, f); _mm_storeu_pd(vmx, mx);
+            _mm_storeu_pd(vmy, my); _mm_storeu_pd(vmz, mz); _mm_storeu_pd(vvs, vs);
+            for (l = 0; l < 2; l++) {
+                if (open & (1 << l)) continue;
+                if (bits & (1 << l)) {
+                    fsx[k + l] = vx[l]; fsy[k + l] = vy[l];
+                    t[0] = vx[l]; t[1] = vy[l]; t[2] = vf[l]; t[3] = vmx[l]; t[4] = vmy[l]; t[5] = vmz[l];
+                    t[6] = vvs[l]; t[7] = vf[l];
+                    sse2_add(&V, t, need);
+                } else if (cf_point_law(s, P, k + l, S, s->p_hint + k + l, t)) {
+                    sse2_add(&V, t, need);
+                }
             }
         }
     }
-    S->sm[0] = s0; S->sm[1] = s1; S->sm[2] = s2; S->sm[3] = s3; S->sm[4] = s4; S->sm[5] = s5;
-    S->sm[6] = s6; S->sm[7] = s7;
+    for (; k < k1; k++)
+        if (cf_point_law(s, P, k, S, s->p_hint + k, t)) sse2_add(&V, t, need);
+    sse2_store(&V, S);
 }
 
-static void joint_lanes(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
+
+static void joint_sse2(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
 {
-    cf_solver_points_joint(s, J, ww, dt, e, run_lanes);
+    cf_solver_points_joint(s, J, ww, dt, e, run_sse2);
 }
 
 const cf_solver_contact_model cf_solver_points_sse2_model = {
-    "points-simd",
-    "The points model with the per-point law on SIMD lanes (SSE2, AVX2 or AVX-512, chosen at "
-    "run time); bitwise the results of the scalar points model.",
-    joint_lanes,
+    "points-sse2",
+    "The points model with two sub-contacts per SSE2 instruction on the sticking path; "
+    "bitwise the results of the scalar points model.",
+    joint_sse2,
 };
 
 #else
