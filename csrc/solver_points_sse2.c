@@ -45,7 +45,7 @@ static inline void sse2_add(sse2_sums *V, const double *t, int need)
 }
 
 /* The points [k0, k1) against the face of P, in point order. */
-static void run_sse2(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
+void cf_solver_points_sse2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
 {
     int k = k0;
     double t[8];
@@ -146,7 +146,7 @@ static void run_sse2(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_fac
 
 static void joint_sse2(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
 {
-    cf_solver_points_joint(s, J, ww, dt, e, run_sse2);
+    cf_solver_points_joint(s, J, ww, dt, e, cf_solver_points_sse2_run);
 }
 
 const cf_solver_contact_model cf_solver_points_sse2_model = {
