@@ -47,6 +47,13 @@ void cf_solver_points_all(cf_solver *s, const double *ww, double dt, cf_step_ene
 void cf_solver_points_run_scalar(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
 #ifdef CF_SOLVER_SIMD
 void cf_solver_points_sse2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+void cf_solver_points_sse2_pairs(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+/* four points per AVX2 instruction (solver_points_avx2.c; GCC-compatible x86-64
+ * compilers, chosen at run time on CPUs with AVX2; -DCF_FORCE_SSE2 leaves it out) */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(CF_FORCE_SSE2)
+#define CF_SOLVER_AVX2 1
+void cf_solver_points_avx2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+#endif
 #endif
 
 /* Regular polygon test with a hint: the projection of (X, Y) on the edge normals is

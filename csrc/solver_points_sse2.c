@@ -44,8 +44,8 @@ static inline void sse2_add(sse2_sums *V, const double *t, int need)
     if (need) V->s67 = _mm_add_pd(V->s67, _mm_loadu_pd(t + 6));
 }
 
-/* The points [k0, k1) against the face of P, in point order. */
-void cf_solver_points_sse2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
+/* The points [k0, k1) against the face of P, in point order, two at a time. */
+void cf_solver_points_sse2_pairs(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
 {
     int k = k0;
     double t[8];
@@ -143,6 +143,19 @@ void cf_solver_points_sse2_run(cf_solver *s, const cf_face_pass *P, int k0, int 
     sse2_store(&V, S);
 }
 
+
+/* The face runner of the SIMD build: four points per AVX2 instruction where the CPU
+ * has AVX2 (solver_points_avx2.c, the pairs of this file for the rest), else two per
+ * SSE2 instruction; the same bits either way. -DCF_FORCE_SSE2 keeps SSE2. */
+void cf_solver_points_sse2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
+{
+#ifdef CF_SOLVER_AVX2
+    static int avx2 = -1;   /* chosen once; a racing first call stores the same value */
+    if (avx2 < 0) avx2 = __builtin_cpu_supports("avx2") ? 1 : 0;
+    if (avx2) { cf_solver_points_avx2_run(s, P, k0, k1, S, need); return; }
+#endif
+    cf_solver_points_sse2_pairs(s, P, k0, k1, S, need);
+}
 
 static void joint_sse2(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
 {
