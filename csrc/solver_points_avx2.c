@@ -122,6 +122,18 @@ AVX2 void cf_solver_points_avx2_run(cf_solver *s, const cf_face_pass *P, int k0,
             V.s23 = add4(V.s23, f, mx);
             V.s45 = add4(V.s45, my, mz);
             if (need) V.s67 = add4(V.s67, vs, f);
+        } else if ((bits | open) == 15) {
+            /* sticking points and points that stay open (a rocking face): the open ones
+             * keep their (zero) shear and add exact +0.0 terms, which leave the sums
+             * unchanged (a sum that starts at +0.0 is never -0.0) */
+            _mm256_storeu_pd(fsx + k, _mm256_blendv_pd(_mm256_loadu_pd(fsx + k), fx, ok));
+            _mm256_storeu_pd(fsy + k, _mm256_blendv_pd(_mm256_loadu_pd(fsy + k), fy, ok));
+            fx = _mm256_and_pd(fx, ok); fy = _mm256_and_pd(fy, ok); f = _mm256_and_pd(f, ok);
+            mx = _mm256_and_pd(mx, ok); my = _mm256_and_pd(my, ok); mz = _mm256_and_pd(mz, ok);
+            V.s01 = add4(V.s01, fx, fy);
+            V.s23 = add4(V.s23, f, mx);
+            V.s45 = add4(V.s45, my, mz);
+            if (need) V.s67 = add4(V.s67, _mm256_and_pd(vs, ok), f);
         } else {
             /* one point at a time, in order: the easy ones from the vectors, the others
              * through the full law */
