@@ -22,7 +22,7 @@
  * at run time). Each lane evaluates the scalar expressions written here, operation for
  * operation (contraction off, no reassociation), so every width gives the same bits;
  * the forces then join the bodies' sums in joint order, as before. */
-enum { JCH = 16 };   /* joints per chunk (the lanes past the last joint copy it and are ignored) */
+enum { JCH = 16 };   /* joints per chunk */
 
 typedef struct {
     /* in: the two bodies' rotations, positions, velocities and world omegas; the face
@@ -89,11 +89,11 @@ typedef struct {
 
 /* Lanes before the points: M0 = RL^T RU (the lower body in the upper face's frame is
  * its transpose), per side the face centre, the field and the points' z offset. */
-static inline __attribute__((always_inline)) void chunk_before_body(joint_chunk *restrict C, double dt)
+static inline __attribute__((always_inline)) void chunk_before_body(joint_chunk *restrict C, int n, double dt)
 {
     int j;
 #pragma GCC ivdep
-    for (j = 0; j < JCH; j++) {
+    for (j = 0; j < n; j++) {
         double a0, a1, a2;
         int i, k;
         for (i = 0; i < 3; i++)
@@ -135,29 +135,53 @@ static inline __attribute__((always_inline)) void chunk_before_body(joint_chunk 
 /* Lanes after the points: each side's sums (face frame) to world force F and moment M,
  * and the torques r x F + M about the upper and lower bodies' centres; a side without
  * points gives exact zeros. */
-static inline __attribute__((always_inline)) void chunk_after_body(joint_chunk *restrict C)
+static inline __attribute__((always_inline)) void chunk_after_body(joint_chunk *restrict C, int n)
 {
     int j;
 #pragma GCC ivdep
-    for (j = 0; j < JCH; j++) {
+    for (j = 0; j < n; j++) {
         SIDE_AFTER(C->RL, 0);
         SIDE_AFTER(C->RU, 1);
     }
 }
 
-typedef void (*chunk_before_fn)(joint_chunk *C, double dt);
-typedef void (*chunk_after_fn)(joint_chunk *C);
+typedef void (*chunk_before_fn)(joint_chunk *C, int n, double dt);
+typedef void (*chunk_after_fn)(joint_chunk *C, int n);
 
-static void chunk_before_base(joint_chunk *C, double dt) { chunk_before_body(C, dt); }
-static void chunk_after_base(joint_chunk *C) { chunk_after_body(C); }
+static void chunk_before_base(joint_chunk *C, int n, double dt)
+{
+    if (n == JCH) chunk_before_body(C, JCH, dt);
+    else chunk_before_body(C, n, dt);
+}
+static void chunk_after_base(joint_chunk *C, int n)
+{
+    if (n == JCH) chunk_after_body(C, JCH);
+    else chunk_after_body(C, n);
+}
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(CF_NO_SIMD) && !defined(CF_FORCE_SSE2)
 #define CF_HAVE_AVX2 1
-__attribute__((target("avx2"))) static void chunk_before_avx2(joint_chunk *C, double dt) { chunk_before_body(C, dt); }
-__attribute__((target("avx2"))) static void chunk_after_avx2(joint_chunk *C) { chunk_after_body(C); }
+__attribute__((target("avx2"))) static void chunk_before_avx2(joint_chunk *C, int n, double dt)
+{
+    if (n == JCH) chunk_before_body(C, JCH, dt);
+    else chunk_before_body(C, n, dt);
+}
+__attribute__((target("avx2"))) static void chunk_after_avx2(joint_chunk *C, int n)
+{
+    if (n == JCH) chunk_after_body(C, JCH);
+    else chunk_after_body(C, n);
+}
 #if !defined(CF_FORCE_AVX2)
 #define CF_HAVE_AVX512 1
-__attribute__((target("avx512f"))) static void chunk_before_avx512(joint_chunk *C, double dt) { chunk_before_body(C, dt); }
-__attribute__((target("avx512f"))) static void chunk_after_avx512(joint_chunk *C) { chunk_after_body(C); }
+__attribute__((target("avx512f"))) static void chunk_before_avx512(joint_chunk *C, int n, double dt)
+{
+    if (n == JCH) chunk_before_body(C, JCH, dt);
+    else chunk_before_body(C, n, dt);
+}
+__attribute__((target("avx512f"))) static void chunk_after_avx512(joint_chunk *C, int n)
+{
+    if (n == JCH) chunk_after_body(C, JCH);
+    else chunk_after_body(C, n);
+}
 #endif
 #endif
 
@@ -185,8 +209,10 @@ static void points_joints(cf_solver *s, int j0, int n, const double *ww, double 
     if (!before) chunk_select(&before, &after);
     for (c0 = j0; c0 < j0 + n; c0 += JCH) {
         int m = j0 + n - c0 < JCH ? j0 + n - c0 : JCH, l, i;
-        /* gather the chunk (the lanes past the last joint copy it) */
-        for (l = 0; l < JCH; l++) {
+        /* gather the chunk; from 8 joints on, a whole chunk (a fixed trip count, no
+         * remainder loop: the lanes past the last joint copy it and are ignored) */
+        int lanes = m >= 8 ? JCH : m;
+        for (l = 0; l < lanes; l++) {
             const cf_joint *J = &s->jt[c0 + (l < m ? l : m - 1)];
             int bl = J->bl, bu = J->bu;
             for (i = 0; i < 9; i++) { C.RL[i][l] = s->R[9 * bl + i]; C.RU[i][l] = s->R[9 * bu + i]; }
@@ -199,7 +225,7 @@ static void points_joints(cf_solver *s, int j0, int n, const double *ww, double 
             C.lz[0][l] = J->lz[0]; C.lz[1][l] = J->lz[1];
             C.gl[l] = bl != 0 ? 1.0 : 0.0;
         }
-        before(&C, dt);
+        before(&C, lanes, dt);
         /* the points, joint by joint, side by side, in order */
         for (l = 0; l < m; l++) {
             cf_joint *J = &s->jt[c0 + l];
@@ -242,11 +268,11 @@ static void points_joints(cf_solver *s, int j0, int n, const double *ww, double 
             e->dslip += S.dslip;
             e->dswitch += S.dswitch;
         }
-        for (l = m; l < JCH; l++) {   /* lanes past the last joint: defined values */
+        for (l = m; l < lanes; l++) {   /* lanes past the last joint: defined values */
             C.has[0][l] = C.has[1][l] = 0.0;
             for (i = 0; i < 6; i++) C.sm[0][i][l] = C.sm[1][i][l] = 0.0;
         }
-        after(&C);
+        after(&C, lanes);
         /* apply, in joint order: force F at the face centre with moment M, on the upper
          * body; the opposite on the lower body */
         for (l = 0; l < m; l++) {
