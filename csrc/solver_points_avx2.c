@@ -10,7 +10,8 @@
  * (each lane the operations of the scalar law, in its order), and the terms join the
  * face sums point by point in point order; a block with any other point takes its
  * points one at a time (cf_point_law for the hard ones). The last one to three points
- * of a face go to the SSE2 pairs. So the results are bitwise those of the scalar
+ * of a face run as a block whose extra lanes (the next points in the arrays) are never
+ * active; at the very end of the arrays they go to the SSE2 pairs. So the results are bitwise those of the scalar
  * runner; scripts/check_result_hashes.sh compares this build with the SSE2-only
  * (-DCF_FORCE_SSE2) and scalar (-DCF_NO_SIMD) builds.
  */
@@ -66,9 +67,20 @@ AVX2 void cf_solver_points_avx2_run(cf_solver *s, const cf_face_pass *P, int k0,
     const __m256d one = _mm256_set1_pd(1.0), half = _mm256_set1_pd(0.5), zero = _mm256_setzero_pd();
     const __m256d apo2 = _mm256_set1_pd(P->ff->apo * P->ff->apo), apotol = _mm256_set1_pd(P->ff->apo + P->tol);
     const __m256d unb = _mm256_castsi256_pd(_mm256_set1_epi64x(P->unbounded ? -1 : 0));
+    const __m256d all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
     V.s01 = _mm_loadu_pd(S->sm); V.s23 = _mm_loadu_pd(S->sm + 2);
     V.s45 = _mm_loadu_pd(S->sm + 4); V.s67 = _mm_loadu_pd(S->sm + 6);
-    for (; k + 3 < k1; k += 4) {
+    for (; k < k1; k += 4) {
+        /* the last one to three points of the face: a block whose extra lanes are the
+         * next points of the arrays (read, never active, counted open, their shear
+         * rewritten unchanged at most), unless the arrays end there */
+        __m256d valid = all;
+        int inval = 0;
+        if (k + 3 >= k1) {
+            if (k + 4 > s->np) break;
+            inval = 15 & ~((1 << (k1 - k)) - 1);
+            valid = _mm256_castsi256_pd(_mm256_set_epi64x(inval & 8 ? 0 : -1, inval & 4 ? 0 : -1, inval & 2 ? 0 : -1, -1));
+        }
         __m256d vlx = _mm256_loadu_pd(lx + k), vly = _mm256_loadu_pd(ly + k);
         __m256d X = _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(M0, vlx), _mm256_mul_pd(M1, vly)), z0), t0);
         __m256d Y = _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(M3, vlx), _mm256_mul_pd(M4, vly)), z1), t1);
@@ -82,6 +94,7 @@ AVX2 void cf_solver_points_avx2_run(cf_solver *s, const cf_face_pass *P, int k0,
         __m256d act = _mm256_and_pd(_mm256_cmp_pd(pen, zero, _CMP_GT_OQ), _mm256_cmp_pd(pen, pmax, _CMP_NGT_UQ));
         __m256d st = _mm256_loadu_pd(state + k), st1 = _mm256_cmp_pd(st, one, _CMP_EQ_OQ);
         int bits, open;
+        act = _mm256_and_pd(act, valid);
         CF_LAW_TRIAL(_mm256_add_pd, _mm256_sub_pd, _mm256_mul_pd, pen, dux, duy, _mm256_loadu_pd(knw + k),
                      _mm256_loadu_pd(ksw + k), mu, _mm256_loadu_pd(fsx + k), _mm256_loadu_pd(fsy + k),
                      f, lim, fx, fy, m2);
@@ -112,7 +125,7 @@ AVX2 void cf_solver_points_avx2_run(cf_solver *s, const cf_face_pass *P, int k0,
         ok = _mm256_and_pd(ok, _mm256_cmp_pd(m2, _mm256_mul_pd(lim, lim), _CMP_NGT_UQ));
         bits = _mm256_movemask_pd(ok);
         /* open before and now (state 0 keeps no shear force): nothing to do */
-        open = _mm256_movemask_pd(_mm256_andnot_pd(act, _mm256_cmp_pd(st, zero, _CMP_EQ_OQ)));
+        open = _mm256_movemask_pd(_mm256_andnot_pd(act, _mm256_cmp_pd(st, zero, _CMP_EQ_OQ))) | inval;
         if (open == 15) continue;
         CF_LAW_TERMS(_mm256_add_pd, _mm256_sub_pd, _mm256_mul_pd, half, X, Y, Z, pen, f, fx, fy, m2,
                      _mm256_loadu_pd(ihkw + k), mx, my, mz, vs);
@@ -157,7 +170,7 @@ AVX2 void cf_solver_points_avx2_run(cf_solver *s, const cf_face_pass *P, int k0,
     }
     _mm_storeu_pd(S->sm, V.s01); _mm_storeu_pd(S->sm + 2, V.s23);
     _mm_storeu_pd(S->sm + 4, V.s45); _mm_storeu_pd(S->sm + 6, V.s67);
-    /* the last one to three points: two at a time */
+    /* the last one to three points of the arrays: two at a time */
     if (k < k1) cf_solver_points_sse2_pairs(s, P, k, k1, S, need);
 }
 
