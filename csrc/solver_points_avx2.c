@@ -124,8 +124,10 @@ AVX2 void cf_solver_points_avx2_run(cf_solver *s, const cf_face_pass *P, int k0,
         ok = _mm256_and_pd(_mm256_and_pd(act, in), st1);
         ok = _mm256_and_pd(ok, _mm256_cmp_pd(m2, _mm256_mul_pd(lim, lim), _CMP_NGT_UQ));
         bits = _mm256_movemask_pd(ok);
-        /* open before and now (state 0 keeps no shear force): nothing to do */
-        open = _mm256_movemask_pd(_mm256_andnot_pd(act, _mm256_cmp_pd(st, zero, _CMP_EQ_OQ))) | inval;
+        /* open before and now, not overlapping the plane (state 0 keeps no shear force; a
+         * point of state 0 deeper than pmax goes to state 3 in cf_point_law): nothing to do */
+        open = _mm256_movemask_pd(_mm256_andnot_pd(_mm256_cmp_pd(pen, zero, _CMP_GT_OQ),
+                                                   _mm256_cmp_pd(st, zero, _CMP_EQ_OQ))) | inval;
         if (open == 15) continue;
         CF_LAW_TERMS(_mm256_add_pd, _mm256_sub_pd, _mm256_mul_pd, half, X, Y, Z, pen, f, fx, fy, m2,
                      _mm256_loadu_pd(ihkw + k), mx, my, mz, vs);

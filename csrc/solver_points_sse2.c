@@ -105,8 +105,9 @@ void cf_solver_points_sse2_pairs(cf_solver *s, const cf_face_pass *P, int k0, in
         ok = _mm_and_pd(ok, _mm_cmpeq_pd(st, one));
         ok = _mm_and_pd(ok, _mm_cmpngt_pd(m2, _mm_mul_pd(lim, lim)));
         bits = _mm_movemask_pd(ok);
-        /* open before and now (state 0 keeps no shear force): nothing to do */
-        open = _mm_movemask_pd(_mm_andnot_pd(act, _mm_cmpeq_pd(st, _mm_setzero_pd())));
+        /* open before and now, not overlapping the plane (state 0 keeps no shear force; a
+         * point of state 0 deeper than pmax goes to state 3 in cf_point_law): nothing to do */
+        open = _mm_movemask_pd(_mm_andnot_pd(_mm_cmpgt_pd(pen, _mm_setzero_pd()), _mm_cmpeq_pd(st, _mm_setzero_pd())));
         if (open == 3) continue;
         CF_LAW_TERMS(_mm_add_pd, _mm_sub_pd, _mm_mul_pd, half, X, Y, Z, pen, f, fx, fy, m2, _mm_loadu_pd(ihkw + k),
                      mx, my, mz, vs);
