@@ -53,6 +53,12 @@ void cf_solver_points_sse2_pairs(cf_solver *s, const cf_face_pass *P, int k0, in
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(CF_FORCE_SSE2)
 #define CF_SOLVER_AVX2 1
 void cf_solver_points_avx2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+/* eight points per AVX-512F instruction (solver_points_avx512.c; on CPUs with AVX-512F;
+ * -DCF_FORCE_AVX2 leaves it out) */
+#if !defined(CF_FORCE_AVX2)
+#define CF_SOLVER_AVX512 1
+void cf_solver_points_avx512_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+#endif
 #endif
 #endif
 
