@@ -8,9 +8,12 @@
  * best and median wall time of the runs, microseconds per step, u_top, u_d and a
  * hash of the result bits (to check that a code change kept results bit-identical).
  *
- * Build (from the repository root; the same flags as csrc/flags.mk):
- *   gcc -std=c99 -O3 -ffp-contract=off -fno-math-errno -g -Icsrc -o build/solver_profile \
- *       bench/solver_profile.c csrc/solver.c csrc/contact.c csrc/geometry.c csrc/cf_common.c -lm
+ * Build (from the repository root; the same flags as csrc/flags.mk): compile this file
+ * with the csrc/ sources, e.g.
+ *   gcc -std=c99 -O3 -ffp-contract=off -fno-math-errno -g -Icsrc -o build/solver_profile
+ *       bench/solver_profile.c $(ls csrc/[a-z]*.c) -lm
+ * (bench/solver_compare.py builds it against this tree and a baseline tree and times both
+ * alternately in one run.)
  * Run:
  *   build/solver_profile [vertex|perimeter1|perimeter2|exact] [planar] [mono] [dtf=0.8] [repeat=7] [setup]
  *   perf record -g build/solver_profile vertex repeat=20 && perf report

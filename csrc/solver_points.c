@@ -14,122 +14,299 @@
 #include "solver_math_internal.h"
 #include "solver_points_internal.h"
 
-/* The frame constants of one face's pass: relative displacement field over the step
- * (A, W, face frame) and the translation t of the other body into the face frame.
- * The same operations as rel_field + frame_map (t is rel_field's position of the
- * other body, computed once), so bitwise the same values. */
-static inline void face_field(const cf_solver *s, int bl, int bu, int side, const double *Rf, const double *cf,
-                              const double *ww, double dt, double *A, double *W, double *t)
+/* The joints in lanes. The per-joint work around the points -- the frame map of the
+ * upper body in the lower face's frame, the relative displacement field over the step
+ * in each face's frame, and at the end each face's sums turned to world force and
+ * torque -- runs for a chunk of joints at a time in structure-of-arrays form: plain
+ * loops over the joints that the compiler vectorizes (SSE2, or AVX2 / AVX-512 chosen
+ * at run time). Each lane evaluates the scalar expressions written here, operation for
+ * operation (contraction off, no reassociation), so every width gives the same bits;
+ * the forces then join the bodies' sums in joint order, as before. */
+enum { JCH = 16 };   /* joints per chunk */
+
+typedef struct {
+    /* in: the two bodies' rotations, positions, velocities and world omegas; the face
+     * centres (body frame) and the points' shared body z of each side; has a lower body */
+    double RL[9][JCH], RU[9][JCH], xl[3][JCH], xu[3][JCH], vl[3][JCH], vu[3][JCH], wl[3][JCH], wu[3][JCH];
+    double fcl[3][JCH], fcu[3][JCH], lz[2][JCH], gl[JCH];
+    /* out: M0 = RL^T RU; per side: face centre (world), A, W, t, mz (cf_face_pass) */
+    double M0[9][JCH], c[2][3][JCH], A[2][3][JCH], W[2][3][JCH], t[2][3][JCH], mz[2][3][JCH];
+    /* in: per side the face sums (force, moment; face frame), has points; out: force
+     * (world) and the torques about the upper and lower body's centres, moment included */
+    double sm[2][6][JCH], has[2][JCH], Fw[2][3][JCH], Tu[2][3][JCH], Tl[2][3][JCH];
+} joint_chunk;
+
+/* mat_tvec, mat_vec and v3_cross of solver_math_internal.h, lane j of the chunk */
+#define TVEC(R, a0, a1, a2, o0, o1, o2)                                        \
+    do {                                                                       \
+        o0 = R[0][j] * (a0) + R[3][j] * (a1) + R[6][j] * (a2);                 \
+        o1 = R[1][j] * (a0) + R[4][j] * (a1) + R[7][j] * (a2);                 \
+        o2 = R[2][j] * (a0) + R[5][j] * (a1) + R[8][j] * (a2);                 \
+    } while (0)
+#define MVEC(R, a0, a1, a2, o0, o1, o2)                                        \
+    do {                                                                       \
+        o0 = R[0][j] * (a0) + R[1][j] * (a1) + R[2][j] * (a2);                 \
+        o1 = R[3][j] * (a0) + R[4][j] * (a1) + R[5][j] * (a2);                 \
+        o2 = R[6][j] * (a0) + R[7][j] * (a1) + R[8][j] * (a2);                 \
+    } while (0)
+#define CROSS(a0, a1, a2, b0, b1, b2, o0, o1, o2)                              \
+    do {                                                                       \
+        o0 = (a1) * (b2) - (a2) * (b1);                                        \
+        o1 = (a2) * (b0) - (a0) * (b2);                                        \
+        o2 = (a0) * (b1) - (a1) * (b0);                                        \
+    } while (0)
+
+/* The relative displacement field over the step (A, W) in the frame Rf of the face
+ * centred at c (world), and the translation t of the other body into that frame
+ * (the upper body's origin for side 0, the lower body's for side 1): the relative
+ * velocity of the upper body at the face centre, in the face frame, times dt. With no
+ * lower body (the ground) its terms are exact zeros. */
+#define FACE_FIELD(Rf, side)                                                                          \
+    do {                                                                                              \
+        double vU0, vU1, vU2, wU0, wU1, wU2, xu0, xu1, xu2, c10, c11, c12;                              \
+        double vL0, vL1, vL2, wL0, wL1, wL2, xl0, xl1, xl2, c20, c21, c22, g = C->gl[j];                \
+        const double cf0 = C->c[side][0][j], cf1 = C->c[side][1][j], cf2 = C->c[side][2][j];          \
+        TVEC(Rf, C->vu[0][j], C->vu[1][j], C->vu[2][j], vU0, vU1, vU2);                              \
+        TVEC(Rf, C->wu[0][j], C->wu[1][j], C->wu[2][j], wU0, wU1, wU2);                              \
+        TVEC(Rf, C->xu[0][j] - cf0, C->xu[1][j] - cf1, C->xu[2][j] - cf2, xu0, xu1, xu2);             \
+        CROSS(wU0, wU1, wU2, xu0, xu1, xu2, c10, c11, c12);                                          \
+        TVEC(Rf, C->vl[0][j], C->vl[1][j], C->vl[2][j], vL0, vL1, vL2);                              \
+        TVEC(Rf, C->wl[0][j], C->wl[1][j], C->wl[2][j], wL0, wL1, wL2);                              \
+        TVEC(Rf, C->xl[0][j] - cf0, C->xl[1][j] - cf1, C->xl[2][j] - cf2, xl0, xl1, xl2);             \
+        CROSS(wL0, wL1, wL2, xl0, xl1, xl2, c20, c21, c22);                                          \
+        vL0 = g != 0.0 ? vL0 : 0.0; vL1 = g != 0.0 ? vL1 : 0.0; vL2 = g != 0.0 ? vL2 : 0.0;            \
+        wL0 = g != 0.0 ? wL0 : 0.0; wL1 = g != 0.0 ? wL1 : 0.0; wL2 = g != 0.0 ? wL2 : 0.0;            \
+        xl0 = g != 0.0 ? xl0 : 0.0; xl1 = g != 0.0 ? xl1 : 0.0; xl2 = g != 0.0 ? xl2 : 0.0;            \
+        c20 = g != 0.0 ? c20 : 0.0; c21 = g != 0.0 ? c21 : 0.0; c22 = g != 0.0 ? c22 : 0.0;            \
+        C->A[side][0][j] = (vU0 - vL0 - c10 + c20) * dt;                                              \
+        C->A[side][1][j] = (vU1 - vL1 - c11 + c21) * dt;                                              \
+        C->A[side][2][j] = (vU2 - vL2 - c12 + c22) * dt;                                              \
+        C->W[side][0][j] = (wU0 - wL0) * dt; C->W[side][1][j] = (wU1 - wL1) * dt;                     \
+        C->W[side][2][j] = (wU2 - wL2) * dt;                                                          \
+        if (side == 0) { C->t[side][0][j] = xu0; C->t[side][1][j] = xu1; C->t[side][2][j] = xu2; }   \
+        else { C->t[side][0][j] = xl0; C->t[side][1][j] = xl1; C->t[side][2][j] = xl2; }              \
+    } while (0)
+
+/* Lanes before the points: M0 = RL^T RU (the lower body in the upper face's frame is
+ * its transpose), per side the face centre, the field and the points' z offset. */
+static inline __attribute__((always_inline)) void chunk_before_body(joint_chunk *restrict C, int n, double dt)
 {
-    double vU[3], vL[3], wU[3], wL[3], d[3], xu[3], xl[3], c1[3], c2[3];
-    mat_tvec(Rf, s->v + 3 * bu, vU);
-    mat_tvec(Rf, ww + 3 * bu, wU);
-    d[0] = s->x[3 * bu] - cf[0]; d[1] = s->x[3 * bu + 1] - cf[1]; d[2] = s->x[3 * bu + 2] - cf[2];
-    mat_tvec(Rf, d, xu);
-    v3_cross(wU, xu, c1);
-    if (bl != 0) {
-        mat_tvec(Rf, s->v + 3 * bl, vL);
-        mat_tvec(Rf, ww + 3 * bl, wL);
-        d[0] = s->x[3 * bl] - cf[0]; d[1] = s->x[3 * bl + 1] - cf[1]; d[2] = s->x[3 * bl + 2] - cf[2];
-        mat_tvec(Rf, d, xl);
-        v3_cross(wL, xl, c2);
-    } else {
-        vL[0] = vL[1] = vL[2] = 0; wL[0] = wL[1] = wL[2] = 0; c2[0] = c2[1] = c2[2] = 0;
-        xl[0] = xl[1] = xl[2] = 0;   /* unused: the ground's face (side 1) has no points */
+    int j;
+#pragma GCC ivdep
+    for (j = 0; j < n; j++) {
+        double a0, a1, a2;
+        int i, k;
+        for (i = 0; i < 3; i++)
+            for (k = 0; k < 3; k++)
+                C->M0[3 * i + k][j] = C->RL[i][j] * C->RU[k][j] + C->RL[3 + i][j] * C->RU[3 + k][j]
+                                      + C->RL[6 + i][j] * C->RU[6 + k][j];
+        MVEC(C->RL, C->fcl[0][j], C->fcl[1][j], C->fcl[2][j], a0, a1, a2);
+        C->c[0][0][j] = a0 + C->xl[0][j]; C->c[0][1][j] = a1 + C->xl[1][j]; C->c[0][2][j] = a2 + C->xl[2][j];
+        MVEC(C->RU, C->fcu[0][j], C->fcu[1][j], C->fcu[2][j], a0, a1, a2);
+        C->c[1][0][j] = a0 + C->xu[0][j]; C->c[1][1][j] = a1 + C->xu[1][j]; C->c[1][2][j] = a2 + C->xu[2][j];
+        FACE_FIELD(C->RL, 0);
+        FACE_FIELD(C->RU, 1);
+        /* side 0 in the lower face's frame: M0; side 1 in the upper face's: M0^T */
+        C->mz[0][0][j] = C->M0[2][j] * C->lz[0][j]; C->mz[0][1][j] = C->M0[5][j] * C->lz[0][j];
+        C->mz[0][2][j] = C->M0[8][j] * C->lz[0][j];
+        C->mz[1][0][j] = C->M0[6][j] * C->lz[1][j]; C->mz[1][1][j] = C->M0[7][j] * C->lz[1][j];
+        C->mz[1][2][j] = C->M0[8][j] * C->lz[1][j];
     }
-    A[0] = (vU[0] - vL[0] - c1[0] + c2[0]) * dt;
-    A[1] = (vU[1] - vL[1] - c1[1] + c2[1]) * dt;
-    A[2] = (vU[2] - vL[2] - c1[2] + c2[2]) * dt;
-    W[0] = (wU[0] - wL[0]) * dt; W[1] = (wU[1] - wL[1]) * dt; W[2] = (wU[2] - wL[2]) * dt;
-    if (side == 0) { t[0] = xu[0]; t[1] = xu[1]; t[2] = xu[2]; }
-    else { t[0] = xl[0]; t[1] = xl[1]; t[2] = xl[2]; }
+}
+
+#define SIDE_AFTER(Rf, side)                                                                        \
+    do {                                                                                            \
+        double F0, F1, F2, M0, M1, M2, c0, c1, c2, r0, r1, r2, q0, q1, q2, h = C->has[side][j];      \
+        MVEC(Rf, C->sm[side][0][j], C->sm[side][1][j], C->sm[side][2][j], F0, F1, F2);              \
+        MVEC(Rf, C->sm[side][3][j], C->sm[side][4][j], C->sm[side][5][j], M0, M1, M2);              \
+        F0 = h != 0.0 ? F0 : 0.0; F1 = h != 0.0 ? F1 : 0.0; F2 = h != 0.0 ? F2 : 0.0;                \
+        M0 = h != 0.0 ? M0 : 0.0; M1 = h != 0.0 ? M1 : 0.0; M2 = h != 0.0 ? M2 : 0.0;                \
+        c0 = h != 0.0 ? C->c[side][0][j] : 0.0; c1 = h != 0.0 ? C->c[side][1][j] : 0.0;              \
+        c2 = h != 0.0 ? C->c[side][2][j] : 0.0;                                                     \
+        C->Fw[side][0][j] = F0; C->Fw[side][1][j] = F1; C->Fw[side][2][j] = F2;                     \
+        r0 = c0 - C->xu[0][j]; r1 = c1 - C->xu[1][j]; r2 = c2 - C->xu[2][j];                        \
+        CROSS(r0, r1, r2, F0, F1, F2, q0, q1, q2);                                                  \
+        C->Tu[side][0][j] = q0 + M0; C->Tu[side][1][j] = q1 + M1; C->Tu[side][2][j] = q2 + M2;      \
+        r0 = c0 - C->xl[0][j]; r1 = c1 - C->xl[1][j]; r2 = c2 - C->xl[2][j];                        \
+        CROSS(r0, r1, r2, F0, F1, F2, q0, q1, q2);                                                  \
+        C->Tl[side][0][j] = q0 + M0; C->Tl[side][1][j] = q1 + M1; C->Tl[side][2][j] = q2 + M2;      \
+    } while (0)
+
+/* Lanes after the points: each side's sums (face frame) to world force F and moment M,
+ * and the torques r x F + M about the upper and lower bodies' centres; a side without
+ * points gives exact zeros. */
+static inline __attribute__((always_inline)) void chunk_after_body(joint_chunk *restrict C, int n)
+{
+    int j;
+#pragma GCC ivdep
+    for (j = 0; j < n; j++) {
+        SIDE_AFTER(C->RL, 0);
+        SIDE_AFTER(C->RU, 1);
+    }
+}
+
+typedef void (*chunk_before_fn)(joint_chunk *C, int n, double dt);
+typedef void (*chunk_after_fn)(joint_chunk *C, int n);
+
+static void chunk_before_base(joint_chunk *C, int n, double dt)
+{
+    if (n == JCH) chunk_before_body(C, JCH, dt);
+    else chunk_before_body(C, n, dt);
+}
+static void chunk_after_base(joint_chunk *C, int n)
+{
+    if (n == JCH) chunk_after_body(C, JCH);
+    else chunk_after_body(C, n);
+}
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(CF_NO_SIMD) && !defined(CF_FORCE_SSE2)
+#define CF_HAVE_AVX2 1
+__attribute__((target("avx2"))) static void chunk_before_avx2(joint_chunk *C, int n, double dt)
+{
+    if (n == JCH) chunk_before_body(C, JCH, dt);
+    else chunk_before_body(C, n, dt);
+}
+__attribute__((target("avx2"))) static void chunk_after_avx2(joint_chunk *C, int n)
+{
+    if (n == JCH) chunk_after_body(C, JCH);
+    else chunk_after_body(C, n);
+}
+#if !defined(CF_FORCE_AVX2)
+#define CF_HAVE_AVX512 1
+__attribute__((target("avx512f"))) static void chunk_before_avx512(joint_chunk *C, int n, double dt)
+{
+    if (n == JCH) chunk_before_body(C, JCH, dt);
+    else chunk_before_body(C, n, dt);
+}
+__attribute__((target("avx512f"))) static void chunk_after_avx512(joint_chunk *C, int n)
+{
+    if (n == JCH) chunk_after_body(C, JCH);
+    else chunk_after_body(C, n);
+}
+#endif
+#endif
+
+/* The widest lanes this CPU runs (every width gives the same bits). -DCF_FORCE_SSE2 /
+ * -DCF_FORCE_AVX2 cap the width (scripts/check_result_hashes.sh builds each). */
+static void chunk_select(chunk_before_fn *before, chunk_after_fn *after)
+{
+#ifdef CF_HAVE_AVX512
+    if (__builtin_cpu_supports("avx512f")) { *before = chunk_before_avx512; *after = chunk_after_avx512; return; }
+#endif
+#ifdef CF_HAVE_AVX2
+    if (__builtin_cpu_supports("avx2")) { *before = chunk_before_avx2; *after = chunk_after_avx2; return; }
+#endif
+    *before = chunk_before_base; *after = chunk_after_base;
+}
+
+/* Joints [j0, j0 + n) through the face runner, in chunks of JCH. */
+static void points_joints(cf_solver *s, int j0, int n, const double *ww, double dt, cf_step_energy *e,
+                          cf_points_run_fn run)
+{
+    static chunk_before_fn before;   /* chosen once; a racing first call stores the same pointers */
+    static chunk_after_fn after;
+    joint_chunk C;
+    int need = e->need, c0;
+    if (!before) chunk_select(&before, &after);
+    for (c0 = j0; c0 < j0 + n; c0 += JCH) {
+        int m = j0 + n - c0 < JCH ? j0 + n - c0 : JCH, l, i;
+        /* gather the chunk; from 8 joints on, a whole chunk (a fixed trip count, no
+         * remainder loop: the lanes past the last joint copy it and are ignored) */
+        int lanes = m >= 8 ? JCH : m;
+        for (l = 0; l < lanes; l++) {
+            const cf_joint *J = &s->jt[c0 + (l < m ? l : m - 1)];
+            int bl = J->bl, bu = J->bu;
+            for (i = 0; i < 9; i++) { C.RL[i][l] = s->R[9 * bl + i]; C.RU[i][l] = s->R[9 * bu + i]; }
+            for (i = 0; i < 3; i++) {
+                C.xl[i][l] = s->x[3 * bl + i]; C.xu[i][l] = s->x[3 * bu + i];
+                C.vl[i][l] = s->v[3 * bl + i]; C.vu[i][l] = s->v[3 * bu + i];
+                C.wl[i][l] = ww[3 * bl + i]; C.wu[i][l] = ww[3 * bu + i];
+                C.fcl[i][l] = J->fl.c[i]; C.fcu[i][l] = J->fu.c[i];
+            }
+            C.lz[0][l] = J->lz[0]; C.lz[1][l] = J->lz[1];
+            C.gl[l] = bl != 0 ? 1.0 : 0.0;
+        }
+        before(&C, lanes, dt);
+        /* the points, joint by joint, side by side, in order */
+        for (l = 0; l < m; l++) {
+            cf_joint *J = &s->jt[c0 + l];
+            int side, end = J->p0 + J->np;
+            cf_face_sums S;
+            S.dslip = 0.0; S.dswitch = 0.0;
+            S.sm[6] = S.sm[7] = 0.0;
+            for (side = 0; side < 2; side++) {
+                const cf_face *ff = side == 0 ? &J->fl : &J->fu;
+                int k0 = side == 0 ? J->p0 : J->p0 + J->n0, k1 = side == 0 ? J->p0 + J->n0 : end;
+                cf_face_pass P;
+                C.has[side][l] = k1 > k0 ? 1.0 : 0.0;
+                if (k1 <= k0) {
+                    for (i = 0; i < 6; i++) C.sm[side][i][l] = 0.0;
+                    continue;
+                }
+                for (i = 0; i < 3; i++) {
+                    int r;
+                    for (r = 0; r < 3; r++) P.M[3 * i + r] = side == 0 ? C.M0[3 * i + r][l] : C.M0[3 * r + i][l];
+                    P.A[i] = C.A[side][i][l]; P.W[i] = C.W[side][i][l]; P.t[i] = C.t[side][i][l];
+                    P.mz[i] = C.mz[side][i][l];
+                }
+                /* a point deeper than a tenth of the face's radius is not in contact with it:
+                 * it has passed beside or through the face (a tumbling block after a collapse) */
+                P.pmax = 0.1 * ff->rc;
+                /* a point coming onto the face deeper than a hundredth of its radius starts unstretched */
+                P.pent = 0.01 * ff->rc;
+                P.tol = s->def.contact_tolerance * ff->rc;
+                P.sgn = side == 0 ? -1.0 : 1.0;
+                P.kn = J->kn; P.mu = J->mu;
+                P.unbounded = side == 0 && J->bl == 0;
+                P.ff = ff;
+                S.sm[0] = S.sm[1] = S.sm[2] = S.sm[3] = S.sm[4] = S.sm[5] = 0.0;
+                run(s, &P, k0, k1, &S, need);
+                for (i = 0; i < 6; i++) C.sm[side][i][l] = S.sm[i];
+            }
+            e->vs += S.sm[6];
+            /* the joint's normal force: summed at energy/history steps only (read at history samples) */
+            s->jfn[J - s->jt] = S.sm[7];
+            e->dslip += S.dslip;
+            e->dswitch += S.dswitch;
+        }
+        for (l = m; l < lanes; l++) {   /* lanes past the last joint: defined values */
+            C.has[0][l] = C.has[1][l] = 0.0;
+            for (i = 0; i < 6; i++) C.sm[0][i][l] = C.sm[1][i][l] = 0.0;
+        }
+        after(&C, lanes);
+        /* apply, in joint order: force F at the face centre with moment M, on the upper
+         * body; the opposite on the lower body */
+        for (l = 0; l < m; l++) {
+            const cf_joint *J = &s->jt[c0 + l];
+            int bl = J->bl, bu = J->bu, side;
+            for (side = 0; side < 2; side++) {
+                s->F[3 * bu] += C.Fw[side][0][l]; s->F[3 * bu + 1] += C.Fw[side][1][l];
+                s->F[3 * bu + 2] += C.Fw[side][2][l];
+                s->T[3 * bu] += C.Tu[side][0][l]; s->T[3 * bu + 1] += C.Tu[side][1][l];
+                s->T[3 * bu + 2] += C.Tu[side][2][l];
+                if (bl != 0) {
+                    s->F[3 * bl] -= C.Fw[side][0][l]; s->F[3 * bl + 1] -= C.Fw[side][1][l];
+                    s->F[3 * bl + 2] -= C.Fw[side][2][l];
+                    s->T[3 * bl] -= C.Tl[side][0][l]; s->T[3 * bl + 1] -= C.Tl[side][1][l];
+                    s->T[3 * bl + 2] -= C.Tl[side][2][l];
+                }
+            }
+        }
+    }
 }
 
 void cf_solver_points_joint(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e,
                             cf_points_run_fn run)
 {
-    int bl = J->bl, bu = J->bu, side;
-    const double *RL = s->R + 9 * bl, *RU = s->R + 9 * bu;
-    double cF[2][3], Fs[2][3], Ms[2][3], M0[9];
-    int end = J->p0 + J->np, need = e->need;
-    cf_face_sums S;
-    S.dslip = 0.0; S.dswitch = 0.0;
-    S.sm[6] = S.sm[7] = 0.0;
-    /* the upper body in the lower face's frame: M0 = RL^T RU; the lower body in the
-     * upper face's frame is its transpose (the same products and sums, bitwise) */
-    {
-        int i, j;
-        for (i = 0; i < 3; i++)
-            for (j = 0; j < 3; j++)
-                M0[3 * i + j] = RL[i] * RU[j] + RL[3 + i] * RU[3 + j] + RL[6 + i] * RU[6 + j];
-    }
-    for (side = 0; side < 2; side++) {
-        const double *Rf = side == 0 ? RL : RU;
-        const cf_face *ff = side == 0 ? &J->fl : &J->fu;
-        int k0 = side == 0 ? J->p0 : J->p0 + J->n0, k1 = side == 0 ? J->p0 + J->n0 : end;
-        double lz = J->lz[side], sm[6];
-        cf_face_pass P;
-        double *c = cF[side];
-        if (k1 <= k0) {
-            Fs[side][0] = Fs[side][1] = Fs[side][2] = 0.0;
-            Ms[side][0] = Ms[side][1] = Ms[side][2] = 0.0;
-            c[0] = c[1] = c[2] = 0.0;
-            continue;
-        }
-        mat_vec(Rf, ff->c, c);
-        c[0] += s->x[3 * (side == 0 ? bl : bu)];
-        c[1] += s->x[3 * (side == 0 ? bl : bu) + 1];
-        c[2] += s->x[3 * (side == 0 ? bl : bu) + 2];
-        if (side == 0) memcpy(P.M, M0, sizeof P.M);
-        else {
-            P.M[0] = M0[0]; P.M[1] = M0[3]; P.M[2] = M0[6];
-            P.M[3] = M0[1]; P.M[4] = M0[4]; P.M[5] = M0[7];
-            P.M[6] = M0[2]; P.M[7] = M0[5]; P.M[8] = M0[8];
-        }
-        /* relative displacement field over the step, and the other body's origin */
-        face_field(s, bl, bu, side, Rf, c, ww, dt, P.A, P.W, P.t);
-        P.mz[0] = P.M[2] * lz; P.mz[1] = P.M[5] * lz; P.mz[2] = P.M[8] * lz;
-        /* a point deeper than a tenth of the face's radius is not in contact with it: it
-         * has passed beside or through the face (a tumbling block after a collapse) */
-        P.pmax = 0.1 * ff->rc;
-        /* a point coming onto the face deeper than a hundredth of its radius starts unstretched */
-        P.pent = 0.01 * ff->rc;
-        P.tol = s->def.contact_tolerance * ff->rc;
-        P.sgn = side == 0 ? -1.0 : 1.0;
-        P.kn = J->kn; P.mu = J->mu;
-        P.unbounded = side == 0 && bl == 0;
-        P.ff = ff;
-        S.sm[0] = S.sm[1] = S.sm[2] = S.sm[3] = S.sm[4] = S.sm[5] = 0.0;
-        run(s, &P, k0, k1, &S, need);
-        memcpy(sm, S.sm, sizeof sm);
-        mat_vec(Rf, sm, Fs[side]);
-        mat_vec(Rf, sm + 3, Ms[side]);
-    }
-    /* apply: force F at face centre c with moment M about c, on the upper body; the
-     * opposite on the lower body */
-    for (side = 0; side < 2; side++) {
-        double r[3], tq[3];
-        const double *Fw = Fs[side], *Mw = Ms[side], *c = cF[side];
-        s->F[3 * bu] += Fw[0]; s->F[3 * bu + 1] += Fw[1]; s->F[3 * bu + 2] += Fw[2];
-        r[0] = c[0] - s->x[3 * bu]; r[1] = c[1] - s->x[3 * bu + 1]; r[2] = c[2] - s->x[3 * bu + 2];
-        v3_cross(r, Fw, tq);
-        s->T[3 * bu] += tq[0] + Mw[0]; s->T[3 * bu + 1] += tq[1] + Mw[1]; s->T[3 * bu + 2] += tq[2] + Mw[2];
-        if (bl != 0) {
-            s->F[3 * bl] -= Fw[0]; s->F[3 * bl + 1] -= Fw[1]; s->F[3 * bl + 2] -= Fw[2];
-            r[0] = c[0] - s->x[3 * bl]; r[1] = c[1] - s->x[3 * bl + 1]; r[2] = c[2] - s->x[3 * bl + 2];
-            v3_cross(r, Fw, tq);
-            s->T[3 * bl] -= tq[0] + Mw[0]; s->T[3 * bl + 1] -= tq[1] + Mw[1]; s->T[3 * bl + 2] -= tq[2] + Mw[2];
-        }
-    }
-    e->vs += S.sm[6];
-    /* the joint's normal force: summed at energy/history steps only (read at history samples) */
-    s->jfn[J - s->jt] = S.sm[7];
-    e->dslip += S.dslip;
-    e->dswitch += S.dswitch;
+    points_joints(s, (int)(J - s->jt), 1, ww, dt, e, run);
+}
+
+void cf_solver_points_all(cf_solver *s, const double *ww, double dt, cf_step_energy *e, cf_points_run_fn run)
+{
+    points_joints(s, 0, s->nj, ww, dt, e, run);
 }
 
 /* The scalar runner: every point through the full law, in order. */
-static void run_scalar(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
+void cf_solver_points_run_scalar(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
 {
     int k;
     double t[8];
@@ -139,7 +316,7 @@ static void run_scalar(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_f
 
 static void joint_scalar(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
 {
-    cf_solver_points_joint(s, J, ww, dt, e, run_scalar);
+    cf_solver_points_joint(s, J, ww, dt, e, cf_solver_points_run_scalar);
 }
 
 const cf_solver_contact_model cf_solver_points_model = {

@@ -37,9 +37,30 @@ typedef struct {
 /* Runs the points [k0, k1) against the face of P, adding to S in point order. */
 typedef void (*cf_points_run_fn)(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
 
-/* solver_points.c: the forces of one joint's points, with the given face runner. */
+/* solver_points.c: the forces of one joint's points, or of every joint (in joint
+ * order; the per-joint work in lanes across joints), with the given face runner. */
 void cf_solver_points_joint(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e,
                             cf_points_run_fn run);
+void cf_solver_points_all(cf_solver *s, const double *ww, double dt, cf_step_energy *e, cf_points_run_fn run);
+
+/* the face runners: scalar (solver_points.c), SSE2 (solver_points_sse2.c) */
+void cf_solver_points_run_scalar(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+#ifdef CF_SOLVER_SIMD
+void cf_solver_points_sse2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+void cf_solver_points_sse2_pairs(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+/* four points per AVX2 instruction (solver_points_avx2.c; GCC-compatible x86-64
+ * compilers, chosen at run time on CPUs with AVX2; -DCF_FORCE_SSE2 leaves it out) */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(CF_FORCE_SSE2)
+#define CF_SOLVER_AVX2 1
+void cf_solver_points_avx2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+/* eight points per AVX-512F instruction (solver_points_avx512.c; on CPUs with AVX-512F;
+ * -DCF_FORCE_AVX2 leaves it out) */
+#if !defined(CF_FORCE_AVX2)
+#define CF_SOLVER_AVX512 1
+void cf_solver_points_avx512_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+#endif
+#endif
+#endif
 
 /* Regular polygon test with a hint: the projection of (X, Y) on the edge normals is
  * unimodal around the polygon, so walking from the last maximising edge finds the

@@ -44,8 +44,8 @@ static inline void sse2_add(sse2_sums *V, const double *t, int need)
     if (need) V->s67 = _mm_add_pd(V->s67, _mm_loadu_pd(t + 6));
 }
 
-/* The points [k0, k1) against the face of P, in point order. */
-static void run_sse2(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
+/* The points [k0, k1) against the face of P, in point order, two at a time. */
+void cf_solver_points_sse2_pairs(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
 {
     int k = k0;
     double t[8];
@@ -105,8 +105,9 @@ static void run_sse2(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_fac
         ok = _mm_and_pd(ok, _mm_cmpeq_pd(st, one));
         ok = _mm_and_pd(ok, _mm_cmpngt_pd(m2, _mm_mul_pd(lim, lim)));
         bits = _mm_movemask_pd(ok);
-        /* open before and now (state 0 keeps no shear force): nothing to do */
-        open = _mm_movemask_pd(_mm_andnot_pd(act, _mm_cmpeq_pd(st, _mm_setzero_pd())));
+        /* open before and now, not overlapping the plane (state 0 keeps no shear force; a
+         * point of state 0 deeper than pmax goes to state 3 in cf_point_law): nothing to do */
+        open = _mm_movemask_pd(_mm_andnot_pd(_mm_cmpgt_pd(pen, _mm_setzero_pd()), _mm_cmpeq_pd(st, _mm_setzero_pd())));
         if (open == 3) continue;
         CF_LAW_TERMS(_mm_add_pd, _mm_sub_pd, _mm_mul_pd, half, X, Y, Z, pen, f, fx, fy, m2, _mm_loadu_pd(ihkw + k),
                      mx, my, mz, vs);
@@ -144,9 +145,34 @@ static void run_sse2(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_fac
 }
 
 
+/* The face runner of the SIMD build: four points per AVX2 instruction where the CPU
+ * has AVX2 (solver_points_avx2.c, the pairs of this file for the rest), else two per
+ * SSE2 instruction; the same bits either way. -DCF_FORCE_SSE2 keeps SSE2. */
+void cf_solver_points_sse2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
+{
+#ifdef CF_SOLVER_AVX2
+    static int width = -1;   /* chosen once; a racing first call stores the same value */
+    if (width < 0) {
+        width = __builtin_cpu_supports("avx2") ? 4 : 2;
+#ifdef CF_SOLVER_AVX512
+        if (__builtin_cpu_supports("avx512f")) width = 8;
+#endif
+    }
+#ifdef CF_SOLVER_AVX512
+    /* eight lanes pay off on long faces only: a 10-point face runs 8 + 2 lanes as two
+     * 512-bit blocks, slower than three 256-bit ones where AVX-512 executes as two
+     * halves (measured on an AMD EPYC, Zen 4) */
+    if (width == 8 && k1 - k0 >= 16) { cf_solver_points_avx512_run(s, P, k0, k1, S, need); return; }
+    if (width == 8) { cf_solver_points_avx2_run(s, P, k0, k1, S, need); return; }
+#endif
+    if (width == 4) { cf_solver_points_avx2_run(s, P, k0, k1, S, need); return; }
+#endif
+    cf_solver_points_sse2_pairs(s, P, k0, k1, S, need);
+}
+
 static void joint_sse2(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
 {
-    cf_solver_points_joint(s, J, ww, dt, e, run_sse2);
+    cf_solver_points_joint(s, J, ww, dt, e, cf_solver_points_sse2_run);
 }
 
 const cf_solver_contact_model cf_solver_points_sse2_model = {

@@ -1,7 +1,14 @@
 #!/usr/bin/env bash
-# The SIMD build and the scalar build (-DCF_NO_SIMD) must give bitwise the same
-# results: tests/c/result_hashes.c hashes every bit of 12 solver configurations
-# (each contact model, planar, monolithic, two components, damping, a collapse).
+# Every SIMD width and the scalar build must give bitwise the same results:
+# tests/c/result_hashes.c hashes every bit of 12 solver configurations (each contact
+# model, planar, monolithic, two components, damping, a collapse), built four times:
+#   default          the widest the CPU runs, chosen at run time (AVX-512 lanes across
+#                    joints, AVX2 lanes across points, on a CPU that has them)
+#   -DCF_FORCE_AVX2  at most AVX2 (what an AVX2 CPU without AVX-512 runs)
+#   -DCF_FORCE_SSE2  SSE2 only (what any x86-64 CPU runs)
+#   -DCF_NO_SIMD     the scalar reference
+# and the four outputs must be identical. The builds use the flags of csrc/flags.mk
+# (no -march: the wider paths are compiled by function attributes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cflags=$(make -s -f csrc/flags.mk -f - print-cflags <<'MK'
@@ -9,12 +16,20 @@ print-cflags: ; @echo $(CFLAGS)
 MK
 )
 mkdir -p build
-${CC:-gcc} $cflags -Icsrc -o build/result_hashes tests/c/result_hashes.c csrc/*.c -lm
-${CC:-gcc} $cflags -DCF_NO_SIMD -Icsrc -o build/result_hashes_scalar tests/c/result_hashes.c csrc/*.c -lm
-build/result_hashes > build/result_hashes.txt
-build/result_hashes_scalar > build/result_hashes_scalar.txt
-if diff build/result_hashes.txt build/result_hashes_scalar.txt; then
-    echo "check_result_hashes: SIMD and scalar builds give identical results ($(wc -l < build/result_hashes.txt) configurations)"
-else
-    echo "check_result_hashes: SIMD and scalar builds differ (lines above)"; exit 1
+declare -A variants=([simd]="" [avx2]="-DCF_FORCE_AVX2" [sse2]="-DCF_FORCE_SSE2" [scalar]="-DCF_NO_SIMD")
+for v in simd avx2 sse2 scalar; do
+    # shellcheck disable=SC2086
+    ${CC:-gcc} $cflags ${variants[$v]} -Icsrc -o "build/result_hashes_$v" tests/c/result_hashes.c csrc/*.c -lm
+    "build/result_hashes_$v" > "build/result_hashes_$v.txt"
+done
+status=0
+for v in avx2 sse2 scalar; do
+    if ! diff build/result_hashes_simd.txt "build/result_hashes_$v.txt"; then
+        echo "check_result_hashes: the default (widest SIMD) and the $v builds differ (lines above)"; status=1
+    fi
+done
+if [ $status -eq 0 ]; then
+    echo "check_result_hashes: default SIMD, AVX2, SSE2 and scalar builds give identical results" \
+         "($(wc -l < build/result_hashes_simd.txt) configurations)"
 fi
+exit $status
