@@ -41,6 +41,10 @@
         (m2) = ADD(MUL((fx), (fx)), MUL((fy), (fy)));                                         \
     } while (0)
 
+/* The squared Coulomb cap of a trial: the contact sticks while m2 <= CF_LAW_CAP2(MUL, lim) and
+ * slips (is scaled back onto the cone by cf_law_update) when m2 is greater. */
+#define CF_LAW_CAP2(MUL, lim) MUL((lim), (lim))
+
 /* What one loaded contact at (X, Y, Z) of the face frame adds to its face's sums:
  * moment about the face centre (mx, my, mz) of the force (fx, fy, fn), and its
  * spring energy vs = fn pen / 2 + |fs|^2 / (2 ks w) (ihkw = 1 / (2 ks w)). */
@@ -82,7 +86,7 @@ static inline double cf_law_update(double pen, double dux, double duy, double kn
     }
     CF_LAW_TRIAL(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, pen, dux, duy, knw, ksw, mu, fs[0], fs[1], f, lim, fx, fy, m2);
     *fn = f;
-    if (m2 > lim * lim) {
+    if (m2 > CF_LAW_CAP2(CF_LAW_SMUL, lim)) {
         double sc = lim / sqrt(m2), diss, fx0 = fs[0], fy0 = fs[1];
         fx *= sc; fy *= sc;
         diss = -0.5 * ((fx0 + fx) * dux + (fy0 + fy) * duy)

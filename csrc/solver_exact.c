@@ -6,6 +6,7 @@
  * law of contact_law.h, kept in the lower face's frame like every point's.
  */
 #include <math.h>
+#include <stddef.h>
 
 #include "contact.h"
 #include "contact_law.h"
@@ -138,4 +139,5 @@ const cf_solver_contact_model cf_solver_exact_model = {
     "polygon; one joint-level shear spring with the law of contact_law.h and a torsional "
     "spring, both capped by Coulomb friction.",
     joint_exact,
+    NULL,
 };

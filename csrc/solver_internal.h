@@ -7,7 +7,9 @@
  *   solver_timestep.c   stability limit of the whole linearised stack -> time step
  *   solver_step.c       the integrator step, as named phases
  *   solver_points.c     contact model: sub-contact points (vertex / perimeter), scalar
- *   solver_points_sse2.c  the same model, two points per instruction (SSE2)
+ *   solver_points_sse2.c  the same model, two points per instruction (SSE2); with
+ *   solver_points_avx2.c, solver_points_avx512.c  four / eight points per instruction, the
+ *                       widest the CPU has chosen at run time; every width gives the same bits
  *   solver_exact.c      contact model: exact interface integral
  *   solver_monitor.c    energy ledger, EDPs, collapse criteria, histories
  *   contact_law.h       the contact law itself, one text for every path above
@@ -70,7 +72,10 @@ struct cf_solver;
 typedef struct {
     const char *name;
     const char *doc;
+    /* the forces of one joint */
     void (*joint)(struct cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e);
+    /* optional: the forces of every joint at once (NULL: joint by joint); the same bits */
+    void (*all)(struct cf_solver *s, const double *ww, double dt, cf_step_energy *e);
 } cf_solver_contact_model;
 
 extern const cf_solver_contact_model cf_solver_points_model;       /* solver_points.c */

@@ -314,6 +314,11 @@ void cf_solver_points_run_scalar(cf_solver *s, const cf_face_pass *P, int k0, in
         if (cf_point_law(s, P, k, S, s->p_hint + k, t)) cf_sums_add(S, t, need);
 }
 
+static void all_scalar(cf_solver *s, const double *ww, double dt, cf_step_energy *e)
+{
+    cf_solver_points_all(s, ww, dt, e, cf_solver_points_run_scalar);
+}
+
 static void joint_scalar(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
 {
     cf_solver_points_joint(s, J, ww, dt, e, cf_solver_points_run_scalar);
@@ -324,4 +329,5 @@ const cf_solver_contact_model cf_solver_points_model = {
     "Sub-contact points (polygon vertices, or a refined face mesh with lumped area "
     "weights), each with the soft Coulomb law of contact_law.h; scalar, one point at a time.",
     joint_scalar,
+    all_scalar,
 };

@@ -122,7 +122,7 @@ AVX2 void cf_solver_points_avx2_run(cf_solver *s, const cf_face_pass *P, int k0,
             in = _mm256_or_pd(in, _mm256_and_pd(stay, _mm256_cmp_pd(best, apotol, _CMP_LE_OQ)));
         }
         ok = _mm256_and_pd(_mm256_and_pd(act, in), st1);
-        ok = _mm256_and_pd(ok, _mm256_cmp_pd(m2, _mm256_mul_pd(lim, lim), _CMP_NGT_UQ));
+        ok = _mm256_and_pd(ok, _mm256_cmp_pd(m2, CF_LAW_CAP2(_mm256_mul_pd, lim), _CMP_NGT_UQ));
         bits = _mm256_movemask_pd(ok);
         /* open before and now, not overlapping the plane (state 0 keeps no shear force; a
          * point of state 0 deeper than pmax goes to state 3 in cf_point_law): nothing to do */

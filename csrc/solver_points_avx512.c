@@ -131,7 +131,7 @@ AVX512 void cf_solver_points_avx512_run(cf_solver *s, const cf_face_pass *P, int
             stay = (__mmask8)(CMP(pp, best, _CMP_NGT_UQ) & CMP(pm, best, _CMP_NGT_UQ));
             in = (__mmask8)(in | (stay & CMP(best, apotol, _CMP_LE_OQ)));
         }
-        ok = (__mmask8)(act & in & st1 & CMP(m2, _mm512_mul_pd(lim, lim), _CMP_NGT_UQ));
+        ok = (__mmask8)(act & in & st1 & CMP(m2, CF_LAW_CAP2(_mm512_mul_pd, lim), _CMP_NGT_UQ));
         bits = ok;
         /* open before and now, not overlapping the plane (state 0 keeps no shear force; a
          * point of state 0 deeper than pmax goes to state 3 in cf_point_law): nothing to do */

@@ -103,7 +103,7 @@ void cf_solver_points_sse2_pairs(cf_solver *s, const cf_face_pass *P, int k0, in
         }
         ok = _mm_and_pd(act, in);
         ok = _mm_and_pd(ok, _mm_cmpeq_pd(st, one));
-        ok = _mm_and_pd(ok, _mm_cmpngt_pd(m2, _mm_mul_pd(lim, lim)));
+        ok = _mm_and_pd(ok, _mm_cmpngt_pd(m2, CF_LAW_CAP2(_mm_mul_pd, lim)));
         bits = _mm_movemask_pd(ok);
         /* open before and now, not overlapping the plane (state 0 keeps no shear force; a
          * point of state 0 deeper than pmax goes to state 3 in cf_point_law): nothing to do */
@@ -170,16 +170,23 @@ void cf_solver_points_sse2_run(cf_solver *s, const cf_face_pass *P, int k0, int 
     cf_solver_points_sse2_pairs(s, P, k0, k1, S, need);
 }
 
+static void all_simd(cf_solver *s, const double *ww, double dt, cf_step_energy *e)
+{
+    cf_solver_points_all(s, ww, dt, e, cf_solver_points_sse2_run);
+}
+
 static void joint_sse2(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
 {
     cf_solver_points_joint(s, J, ww, dt, e, cf_solver_points_sse2_run);
 }
 
 const cf_solver_contact_model cf_solver_points_sse2_model = {
-    "points-sse2",
-    "The points model with two sub-contacts per SSE2 instruction on the sticking path; "
-    "bitwise the results of the scalar points model.",
+    "points-simd",
+    "The points model with two, four or eight sub-contacts per SSE2, AVX2 or AVX-512 "
+    "instruction on the sticking path (the widest the CPU has); bitwise the results of the "
+    "scalar points model.",
     joint_sse2,
+    all_simd,
 };
 
 #else

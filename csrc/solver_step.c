@@ -15,7 +15,6 @@
 #include <string.h>
 
 #include "solver_internal.h"
-#include "solver_points_internal.h"
 
 /* 1. rotations */
 void cf_solver_step_rotations(cf_solver *s)
@@ -36,10 +35,7 @@ void cf_solver_step_contacts(cf_solver *s, double dt, cf_step_energy *e)
     memset(s->F, 0, sizeof(double) * 3 * (size_t)s->nbody);
     memset(s->T, 0, sizeof(double) * 3 * (size_t)s->nbody);
     e->vs = 0; e->dslip = 0; e->dswitch = 0;
-#ifdef CF_SOLVER_SIMD
-    if (s->model == &cf_solver_points_sse2_model) { cf_solver_points_all(s, s->ww, dt, e, cf_solver_points_sse2_run); return; }
-#endif
-    if (s->model == &cf_solver_points_model) { cf_solver_points_all(s, s->ww, dt, e, cf_solver_points_run_scalar); return; }
+    if (s->model->all) { s->model->all(s, s->ww, dt, e); return; }
     for (j = 0; j < s->nj; j++) s->model->joint(s, &s->jt[j], s->ww, dt, e);
 }
 
