@@ -24,9 +24,6 @@
 
 #define AVX512 __attribute__((target("avx512f")))
 
-typedef struct {
-    __m128d s01, s23, s45, s67;
-} avx512_sums;
 
 /* add the terms of four points, (a, b) pair by pair, in point order */
 static inline AVX512 __m128d add4(__m128d acc, __m256d a, __m256d b)
@@ -45,21 +42,12 @@ static inline AVX512 __m128d add8(__m128d acc, __m512d a, __m512d b)
     return add4(acc, _mm512_extractf64x4_pd(a, 1), _mm512_extractf64x4_pd(b, 1));
 }
 
-static inline AVX512 void add1(avx512_sums *V, const double *t, int need)
-{
-    V->s01 = _mm_add_pd(V->s01, _mm_loadu_pd(t));
-    V->s23 = _mm_add_pd(V->s23, _mm_loadu_pd(t + 2));
-    V->s45 = _mm_add_pd(V->s45, _mm_loadu_pd(t + 4));
-    if (need) V->s67 = _mm_add_pd(V->s67, _mm_loadu_pd(t + 6));
-}
-
 #define CMP(a, b, op) _mm512_cmp_pd_mask((a), (b), (op))
 
 AVX512 void cf_solver_points_avx512_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
 {
     int k = k0;
-    double t[8];
-    avx512_sums V;
+    cf_simd_sums V;
     const double *lx = s->p_lx, *ly = s->p_ly, *hx = s->p_hx, *hy = s->p_hy, *fast = s->p_fast;
     const double *knw = s->p_knw, *ksw = s->p_ksw, *ihkw = s->p_ihkw, *state = s->p_state;
     double *fsx = s->p_fsx, *fsy = s->p_fsy;
@@ -157,21 +145,10 @@ AVX512 void cf_solver_points_avx512_run(cf_solver *s, const cf_face_pass *P, int
             /* one point at a time, in order: the easy ones from the vectors, the others
              * through the full law */
             double vx[8], vy[8], vf[8], vmx[8], vmy[8], vmz[8], vvs[8];
-            int l;
             _mm512_storeu_pd(vx, fx); _mm512_storeu_pd(vy, fy); _mm512_storeu_pd(vf, f);
             _mm512_storeu_pd(vmx, mx); _mm512_storeu_pd(vmy, my); _mm512_storeu_pd(vmz, mz);
             _mm512_storeu_pd(vvs, vs);
-            for (l = 0; l < 8; l++) {
-                if (open & (1 << l)) continue;
-                if (bits & (1 << l)) {
-                    fsx[k + l] = vx[l]; fsy[k + l] = vy[l];
-                    t[0] = vx[l]; t[1] = vy[l]; t[2] = vf[l]; t[3] = vmx[l]; t[4] = vmy[l]; t[5] = vmz[l];
-                    t[6] = vvs[l]; t[7] = vf[l];
-                    add1(&V, t, need);
-                } else if (cf_point_law(s, P, k + l, S, s->p_hint + k + l, t)) {
-                    add1(&V, t, need);
-                }
-            }
+            cf_simd_lanes_in_order(s, P, S, &V, k, 8, open, bits, vx, vy, vf, vmx, vmy, vmz, vvs, need);
         }
     }
     _mm_storeu_pd(S->sm, V.s01); _mm_storeu_pd(S->sm + 2, V.s23);

@@ -158,4 +158,62 @@ static inline void cf_sums_add(cf_face_sums *S, const double *t, int need)
     if (need) { S->sm[6] += t[6]; S->sm[7] += t[7]; }
 }
 
+#ifdef CF_SOLVER_SIMD
+#include <emmintrin.h>
+
+/* What every SIMD width of the points runner shares (SSE2 is part of every x86-64 CPU; these
+ * inline functions are inlined into the AVX2 and AVX-512 runners, whose targets include it). */
+
+/* The face sums on two lanes: (fx, fy) (fz, mx) (my, mz) (vs, jfn), each lane a sequential sum
+ * in point order, as the scalar cf_face_sums. */
+typedef struct {
+    __m128d s01, s23, s45, s67;
+} cf_simd_sums;
+
+static inline void cf_simd_sums_load(cf_simd_sums *V, const cf_face_sums *S)
+{
+    V->s01 = _mm_loadu_pd(S->sm); V->s23 = _mm_loadu_pd(S->sm + 2);
+    V->s45 = _mm_loadu_pd(S->sm + 4); V->s67 = _mm_loadu_pd(S->sm + 6);
+}
+
+static inline void cf_simd_sums_store(const cf_simd_sums *V, cf_face_sums *S)
+{
+    _mm_storeu_pd(S->sm, V->s01); _mm_storeu_pd(S->sm + 2, V->s23);
+    _mm_storeu_pd(S->sm + 4, V->s45); _mm_storeu_pd(S->sm + 6, V->s67);
+}
+
+/* add the terms t[0..7] of one point */
+static inline void cf_simd_sums_add(cf_simd_sums *V, const double *t, int need)
+{
+    V->s01 = _mm_add_pd(V->s01, _mm_loadu_pd(t));
+    V->s23 = _mm_add_pd(V->s23, _mm_loadu_pd(t + 2));
+    V->s45 = _mm_add_pd(V->s45, _mm_loadu_pd(t + 4));
+    if (need) V->s67 = _mm_add_pd(V->s67, _mm_loadu_pd(t + 6));
+}
+
+/* A block of nl lanes (points k .. k + nl - 1) that cannot take the vector sums: one point at a
+ * time, in order -- a sticking lane (bit set in bits) from its vector results (vx ... vvs, the
+ * lanes stored to memory), an open lane (bit set in open) skipped, any other through the full
+ * law. */
+static inline void cf_simd_lanes_in_order(cf_solver *s, const cf_face_pass *P, cf_face_sums *S, cf_simd_sums *V,
+                                          int k, int nl, int open, int bits, const double *vx, const double *vy,
+                                          const double *vf, const double *vmx, const double *vmy,
+                                          const double *vmz, const double *vvs, int need)
+{
+    double t[8];
+    int l;
+    for (l = 0; l < nl; l++) {
+        if (open & (1 << l)) continue;
+        if (bits & (1 << l)) {
+            s->p_fsx[k + l] = vx[l]; s->p_fsy[k + l] = vy[l];
+            t[0] = vx[l]; t[1] = vy[l]; t[2] = vf[l]; t[3] = vmx[l]; t[4] = vmy[l]; t[5] = vmz[l];
+            t[6] = vvs[l]; t[7] = vf[l];
+            cf_simd_sums_add(V, t, need);
+        } else if (cf_point_law(s, P, k + l, S, s->p_hint + k + l, t)) {
+            cf_simd_sums_add(V, t, need);
+        }
+    }
+}
+#endif
+
 #endif

@@ -17,39 +17,12 @@
 
 #include "solver_points_internal.h"
 
-/* The face sums on two lanes: (fx, fy) (fz, mx) (my, mz) (vs, jfn), each lane a
- * sequential sum in point order, as the scalar cf_face_sums. */
-typedef struct {
-    __m128d s01, s23, s45, s67;
-} sse2_sums;
-
-static inline void sse2_load(sse2_sums *V, const cf_face_sums *S)
-{
-    V->s01 = _mm_loadu_pd(S->sm); V->s23 = _mm_loadu_pd(S->sm + 2);
-    V->s45 = _mm_loadu_pd(S->sm + 4); V->s67 = _mm_loadu_pd(S->sm + 6);
-}
-
-static inline void sse2_store(const sse2_sums *V, cf_face_sums *S)
-{
-    _mm_storeu_pd(S->sm, V->s01); _mm_storeu_pd(S->sm + 2, V->s23);
-    _mm_storeu_pd(S->sm + 4, V->s45); _mm_storeu_pd(S->sm + 6, V->s67);
-}
-
-/* add the terms t[0..7] of one point */
-static inline void sse2_add(sse2_sums *V, const double *t, int need)
-{
-    V->s01 = _mm_add_pd(V->s01, _mm_loadu_pd(t));
-    V->s23 = _mm_add_pd(V->s23, _mm_loadu_pd(t + 2));
-    V->s45 = _mm_add_pd(V->s45, _mm_loadu_pd(t + 4));
-    if (need) V->s67 = _mm_add_pd(V->s67, _mm_loadu_pd(t + 6));
-}
-
 /* The points [k0, k1) against the face of P, in point order, two at a time. */
 void cf_solver_points_sse2_pairs(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
 {
     int k = k0;
     double t[8];
-    sse2_sums V;
+    cf_simd_sums V;
     const double *lx = s->p_lx, *ly = s->p_ly, *hx = s->p_hx, *hy = s->p_hy, *fast = s->p_fast;
     const double *knw = s->p_knw, *ksw = s->p_ksw, *ihkw = s->p_ihkw, *state = s->p_state;
     double *fsx = s->p_fsx, *fsy = s->p_fsy;
@@ -63,7 +36,7 @@ void cf_solver_points_sse2_pairs(cf_solver *s, const cf_face_pass *P, int k0, in
     const __m128d one = _mm_set1_pd(1.0), half = _mm_set1_pd(0.5), apo2 = _mm_set1_pd(P->ff->apo * P->ff->apo);
     const __m128d apotol = _mm_set1_pd(P->ff->apo + P->tol);
     const __m128d unb = _mm_castsi128_pd(_mm_set1_epi32(P->unbounded ? -1 : 0));
-    sse2_load(&V, S);
+    cf_simd_sums_load(&V, S);
     for (; k + 1 < k1; k += 2) {
         __m128d vlx = _mm_loadu_pd(lx + k), vly = _mm_loadu_pd(ly + k);
         __m128d X = _mm_add_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(M0, vlx), _mm_mul_pd(M1, vly)), z0), t0);
@@ -123,25 +96,14 @@ void cf_solver_points_sse2_pairs(cf_solver *s, const cf_face_pass *P, int k0, in
             /* one point at a time, in order: the easy one from the vectors, the other
              * through the full law */
             double vx[2], vy[2], vf[2], vmx[2], vmy[2], vmz[2], vvs[2];
-            int l;
             _mm_storeu_pd(vx, fx); _mm_storeu_pd(vy, fy); _mm_storeu_pd(vf, f); _mm_storeu_pd(vmx, mx);
             _mm_storeu_pd(vmy, my); _mm_storeu_pd(vmz, mz); _mm_storeu_pd(vvs, vs);
-            for (l = 0; l < 2; l++) {
-                if (open & (1 << l)) continue;
-                if (bits & (1 << l)) {
-                    fsx[k + l] = vx[l]; fsy[k + l] = vy[l];
-                    t[0] = vx[l]; t[1] = vy[l]; t[2] = vf[l]; t[3] = vmx[l]; t[4] = vmy[l]; t[5] = vmz[l];
-                    t[6] = vvs[l]; t[7] = vf[l];
-                    sse2_add(&V, t, need);
-                } else if (cf_point_law(s, P, k + l, S, s->p_hint + k + l, t)) {
-                    sse2_add(&V, t, need);
-                }
-            }
+            cf_simd_lanes_in_order(s, P, S, &V, k, 2, open, bits, vx, vy, vf, vmx, vmy, vmz, vvs, need);
         }
     }
     for (; k < k1; k++)
-        if (cf_point_law(s, P, k, S, s->p_hint + k, t)) sse2_add(&V, t, need);
-    sse2_store(&V, S);
+        if (cf_point_law(s, P, k, S, s->p_hint + k, t)) cf_simd_sums_add(&V, t, need);
+    cf_simd_sums_store(&V, S);
 }
 
 
