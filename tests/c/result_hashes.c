@@ -11,7 +11,7 @@
  * drums and the capital) under a 2 Hz sine burst strong enough to rock, slide and
  * impact, run to 8 s with histories at every 10 ms; configurations cover each contact
  * model, planar, monolithic, two horizontal components plus a vertical one, damping,
- * and a collapse.
+ * a collapse and stiff joints (kn = ks = 1e10).
  */
 #include <math.h>
 #include <stdio.h>
@@ -56,6 +56,7 @@ typedef struct {
     const char *name;
     int contact, ppe, planar, mono, two, damp;
     double amp_g, dtf;
+    double kn;             /* joint stiffness kn = ks, Pa/m; 0 = the default 1e9 */
 } config;
 
 static int run(const config *c)
@@ -84,7 +85,10 @@ static int run(const config *c)
     def.monolithic = c->mono; def.dt_factor = c->dtf; def.early_exit = 0;
     def.tail_s = 2.0;
     if (c->damp) { def.damping_alpha = 0.5; def.damping_start_s = 3.0; }
-    st = cf_solver_setup(s, &def, NB, nseg, seg, 2700.0, 1e9, 1e9, 0.7535540501027942);
+    {
+        double kn = c->kn > 0 ? c->kn : 1e9;
+        st = cf_solver_setup(s, &def, NB, nseg, seg, 2700.0, kn, kn, 0.7535540501027942);
+    }
     if (st) { printf("%-14s setup failed: %s\n", c->name, cf_solver_message(s)); cf_solver_free(s); return 1; }
     cap = cf_solver_history_capacity(s, NREC, dtr);
     /* t, top (2), pos (3 NB), quat (4 NB), open (NB), slip (2 NB), energy (8), normal (NB) */
@@ -122,18 +126,21 @@ static int run(const config *c)
 int main(void)
 {
     static const config cs[] = {
-        {"vertex", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 0, 0, 0.25, 0.8},
-        {"vertex-2c", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.25, 0.8},
-        {"vertex-damp", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 0, 1, 0.25, 0.8},
-        {"vertex-strong", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.6, 0.8},
-        {"perimeter2", CF_SOLVER_CONTACT_PERIMETER, 2, 0, 0, 0, 0, 0.25, 0.8},
-        {"perimeter3-2c", CF_SOLVER_CONTACT_PERIMETER, 3, 0, 0, 1, 0, 0.25, 0.8},
-        {"exact", CF_SOLVER_CONTACT_EXACT, 1, 0, 0, 0, 0, 0.25, 0.8},
-        {"exact-2c", CF_SOLVER_CONTACT_EXACT, 1, 0, 0, 1, 0, 0.4, 0.8},
-        {"planar", CF_SOLVER_CONTACT_VERTEX, 1, 1, 0, 0, 0, 0.25, 0.8},
-        {"mono", CF_SOLVER_CONTACT_VERTEX, 1, 0, 1, 0, 0, 0.25, 0.8},
-        {"collapse", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 1.6, 0.8},
-        {"vertex-dt04", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.3, 0.4},
+        {"vertex", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 0, 0, 0.25, 0.8, 0},
+        {"vertex-2c", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.25, 0.8, 0},
+        {"vertex-damp", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 0, 1, 0.25, 0.8, 0},
+        {"vertex-strong", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.6, 0.8, 0},
+        {"perimeter2", CF_SOLVER_CONTACT_PERIMETER, 2, 0, 0, 0, 0, 0.25, 0.8, 0},
+        {"perimeter3-2c", CF_SOLVER_CONTACT_PERIMETER, 3, 0, 0, 1, 0, 0.25, 0.8, 0},
+        {"exact", CF_SOLVER_CONTACT_EXACT, 1, 0, 0, 0, 0, 0.25, 0.8, 0},
+        {"exact-2c", CF_SOLVER_CONTACT_EXACT, 1, 0, 0, 1, 0, 0.4, 0.8, 0},
+        {"planar", CF_SOLVER_CONTACT_VERTEX, 1, 1, 0, 0, 0, 0.25, 0.8, 0},
+        {"mono", CF_SOLVER_CONTACT_VERTEX, 1, 0, 1, 0, 0, 0.25, 0.8, 0},
+        {"collapse", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 1.6, 0.8, 0},
+        {"vertex-dt04", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.3, 0.4, 0},
+        /* stiff joints: impacts last fewer steps (the hard case of docs/accuracy.md) */
+        {"stiff-2c", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.5, 0.8, 1e10},
+        {"stiff-exact", CF_SOLVER_CONTACT_EXACT, 1, 0, 0, 1, 0, 0.5, 0.8, 1e10},
     };
     size_t i;
     int bad = 0;
