@@ -48,10 +48,11 @@ static int count_below(const double *ab, int n, int b, double x, double *l, doub
 
 double cf_solver_band_max_eig(const double *ab, int n, int b)
 {
-    int i, it, w = b + 1;
+    int i, it, w;
     double lo = INFINITY, hi = -INFINITY, *l, *dg;
     if (n < 1 || b < 0) return NAN;
-    if (b > n - 1) b = n - 1;
+    if (b > n - 1) return NAN;   /* a band wider than the matrix: store it with b = n - 1 */
+    w = b + 1;
     /* Gershgorin bounds */
     for (i = 0; i < n; i++) {
         double r = 0.0, c = ab[(size_t)i * w];

@@ -139,8 +139,8 @@ int cf_solver_timestep_limit(struct cf_solver *s);
 /* Largest eigenvalue of a symmetric n x n matrix (row-major, destroyed); exported for the C tests. */
 double cf_solver_timestep_sym_max_eig(double *a, int n);
 
-/* solver_band.c: largest eigenvalue of a symmetric band matrix (n x n, half-bandwidth b;
- * ab[i * (b + 1) + d] = A[i][i - d]), O(n b^2) per bisection step; exported for the C tests. */
+/* solver_band.c: largest eigenvalue of a symmetric band matrix (n x n, half-bandwidth b <= n - 1,
+ * else NaN; ab[i * (b + 1) + d] = A[i][i - d]), O(n b^2) per bisection step; exported for the C tests. */
 double cf_solver_band_max_eig(const double *ab, int n, int b);
 
 /* (X, Y) inside the face polygon grown by tol (m)? */

@@ -427,7 +427,10 @@ class Column:
                 raise ParameterError(f"joint_overrides: joint index must be an integer, got {k!r}") from None
             if str(j) != str(k).strip():
                 raise ParameterError(f"joint_overrides: joint index must be an integer, got {k!r}")
-            parsed[j] = JointProperties.from_dict(v)
+            if not isinstance(v, dict):
+                raise ParameterError(f"joint_overrides.{k} must be a mapping of joint properties, got {v!r}")
+            # keys not given keep the column's own [joints] values (not the library defaults)
+            parsed[j] = JointProperties.from_dict({**joints.to_dict(), **v})
         return Column(col.blocks, density=col.density, joints=col.joints, name=col.name, joint_overrides=parsed)
 
     @classmethod

@@ -254,6 +254,8 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
         jb = np.flatnonzero(group_b == sc)
         n_diff = int(np.count_nonzero(diff_rows & (row_group == sc)))
         st = _scenario_stats(ra, rb, ja, jb, sc, n_diff)
+        if "scenario" not in sa:
+            st.scenario = gi    # a record suite: the index of the scale group
         stats_list.append(st)
     n_tests = sum(sum(1 for p in (s.p_collapse, s.p_u_top, s.p_u_d) if not math.isnan(p)) for s in stats_list)
     cmp.threshold = float(alpha) / max(n_tests, 1)
@@ -276,6 +278,9 @@ def main(argv=None) -> int:
         cmp = compare_results(args.a, args.b, alpha=args.alpha)
     except (PycolfragError, OSError, ValueError) as exc:
         print(f"compare: {exc}", file=sys.stderr)
+        return 3
+    except Exception as exc:  # noqa: BLE001 -- any other failure must not read as exit 1 ("consistent")
+        print(f"compare: could not compare the files: {type(exc).__name__}: {exc}", file=sys.stderr)
         return 3
     if not args.quiet:
         print(cmp.summary())

@@ -16,7 +16,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from dataclasses import dataclass, field
+
+import numpy as np
 
 from ._ffi import ffi, lib
 from ._validate import _number
@@ -151,11 +154,15 @@ class SolverOptions:
                 if not isinstance(v, str) or v not in CONTACT_OPTIONS:
                     raise ParameterError(f"contact must be one of {sorted(CONTACT_OPTIONS)}, got {v!r}")
             elif kind == "bool":
-                if not isinstance(v, bool) and v not in (0, 1):
+                # bool, numpy bool, or an integer 0 / 1 (not 1.0, not an array)
+                ok = isinstance(v, (bool, np.bool_)) or (isinstance(v, numbers.Integral) and v in (0, 1))
+                if not ok:
                     raise ParameterError(f"{name} must be True or False, got {v!r}")
                 object.__setattr__(self, name, bool(v))
             elif kind == "int":
-                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or int(v) != v:
+                # any integer type (numpy's too) or a whole real number, within C's int
+                if isinstance(v, (bool, np.bool_)) or not isinstance(v, (numbers.Integral, numbers.Real)) \
+                        or not math.isfinite(v) or int(v) != v or abs(int(v)) > 2**31 - 1:
                     raise ParameterError(f"{name} must be an integer, got {v!r}")
                 object.__setattr__(self, name, int(v))
             elif kind == "dt":
@@ -169,6 +176,8 @@ class SolverOptions:
             else:
                 if isinstance(v, (str, bytes)):
                     raise ParameterError(f"{name} must be a number, got the string {v!r}")
+                if v is None and name == "damping_start_s":
+                    v = 0.0   # simulate()'s documented None: damping from the start
                 x = _number(v, name)
                 if not math.isfinite(x):
                     raise ParameterError(f"{name} must be finite, got {v!r}")

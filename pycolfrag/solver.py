@@ -206,6 +206,9 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, options=None
     if solver == ffi.NULL:
         raise MemoryError("cf_solver_create failed")
     segs, nseg = _segments(col, monolithic)
+    if monolithic and any(j > 0 for j in col.joint_overrides):
+        warnings.warn(f"simulate: monolithic=True has the base joint only; joint_overrides of joints "
+                      f"{sorted(j for j in col.joint_overrides if j > 0)} do not act", UserWarning, stacklevel=2)
     props = [col.joint(i) for i in range(col.n_blocks)]
     kn = np.array([p.kn for p in props]); ks = np.array([p.ks for p in props]); mu = np.array([p.mu for p in props])
     st = lib.cf_solver_setup_joints(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks), ptr(mu))

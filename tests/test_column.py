@@ -495,3 +495,15 @@ def test_joint_overrides_reach_the_solver():
     rough = pcf.Column(col.blocks, joints=col.joints, joint_overrides={0: pcf.JointProperties(friction_deg=60.0)})
     c = pcf.simulate(rough, acc, 0.005)
     assert a.u_d > 0.05 and c.u_d < 0.2 * a.u_d   # 0.5 g slides a mu 0.75 base, not a mu 1.73 one
+
+
+def test_partial_joint_override_keeps_the_columns_joints():
+    """In a file, an override names only what differs: joint 0 of this column keeps ks = 3e9 and
+    30 deg from [joints] (before: the library defaults 1e9 and 37 deg came back silently)."""
+    d = pcf.Column.parthenon().to_dict()
+    d["joints"] = {"kn": 2e9, "ks": 3e9, "friction_angle_deg": 30.0}
+    d["joint_overrides"] = {"0": {"kn": 5e8}}
+    j0 = pcf.Column.from_dict(d).joint(0)
+    assert (j0.kn, j0.ks, j0.friction_deg) == (5e8, 3e9, 30.0)
+    with pytest.raises(pcf.ParameterError, match="joint_overrides.0"):
+        pcf.Column.from_dict({**d, "joint_overrides": {"0": 5e8}})

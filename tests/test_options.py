@@ -113,3 +113,16 @@ def test_runs_too_long_or_histories_too_large_are_refused_before_they_start(col)
 def test_bad_record_arrays_are_refused(col, bad, word):
     with pytest.raises(pcf.ParameterError, match=word):
         pcf.simulate(col, bad, 0.01)
+
+
+def test_numpy_scalars_and_ranges():
+    """Options read from numpy (a sweep over np.arange, HDF5 attributes) are accepted as their
+    Python values; an int beyond C's int range and a float bool are refused with a ParameterError
+    (before: a numpy integer was refused, 2**40 became a cffi OverflowError, planar=1.0 was True);
+    damping_start_s=None keeps its old meaning, from the start."""
+    o = SolverOptions(points_per_edge=np.int64(2), planar=np.bool_(True), dt_factor=np.float32(0.5))
+    assert o.points_per_edge == 2 and type(o.points_per_edge) is int and o.planar is True and o.dt_factor == 0.5
+    for bad in (dict(points_per_edge=2**40), dict(planar=1.0), dict(planar=np.array([1]))):
+        with pytest.raises(pcf.ParameterError):
+            SolverOptions(**bad)
+    assert SolverOptions(damping_start_s=None).damping_start_s == 0.0

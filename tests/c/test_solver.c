@@ -162,6 +162,15 @@ static void test_band_max_eigenvalue(void)
             if (i - d >= 0) dense[i * NB + i - d] = dense[(i - d) * NB + i] = v;
         }
     CF_CHECK_REL(cf_solver_band_max_eig(band, NB, B), cf_solver_timestep_sym_max_eig(dense, NB), 1e-12);
+    /* a band wider than the matrix is refused (NaN): diag(1, 2, 3) stored with b = 5 once gave 2
+     * (the stride of the wider band), and with b = 2 gives 3 */
+    {
+        double d3[3 * 6] = {0}, d3b[3 * 3] = {0};
+        d3[0] = 1; d3[6] = 2; d3[12] = 3;
+        d3b[0] = 1; d3b[3] = 2; d3b[6] = 3;
+        CF_CHECK(isnan(cf_solver_band_max_eig(d3, 3, 5)));
+        CF_CHECK_REL(cf_solver_band_max_eig(d3b, 3, 2), 3.0, 1e-14);
+    }
 }
 
 int main(void)
