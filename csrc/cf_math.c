@@ -231,18 +231,23 @@ static void log_dd(double x, double *hi, double *lo)
     fast_two_sum(h, e, hi, lo);
 }
 
+/* The special values shared by log and log10 (C99 Annex F): 1 and the result in *r when x is
+ * NaN, negative, zero, +inf or exactly 1; else 0. */
+static int log_special(double x, double *r)
+{
+    if (isnan(x)) { *r = x + x; return 1; }
+    if (x < 0.0) { *r = NAN; return 1; }
+    if (x == 0.0) { *r = -INFINITY; return 1; }
+    if (isinf(x)) { *r = x; return 1; }
+    if (x == 1.0) { *r = 0.0; return 1; }
+    return 0;
+}
+
 double cf_math_log(double x)
 {
-    if (isnan(x))
-        return x + x;
-    if (x < 0.0)
-        return NAN;
-    if (x == 0.0)
-        return -INFINITY;
-    if (isinf(x))
-        return x;
-    if (x == 1.0)
-        return 0.0;
+    double r;
+    if (log_special(x, &r))
+        return r;
     double hi, lo;
     log_dd(x, &hi, &lo);
     return hi;                                            /* hi = round(hi + lo) */
@@ -250,16 +255,9 @@ double cf_math_log(double x)
 
 double cf_math_log10(double x)
 {
-    if (isnan(x))
-        return x + x;
-    if (x < 0.0)
-        return NAN;
-    if (x == 0.0)
-        return -INFINITY;
-    if (isinf(x))
-        return x;
-    if (x == 1.0)
-        return 0.0;
+    double r;
+    if (log_special(x, &r))
+        return r;
     double hi, lo, p, pe;
     log_dd(x, &hi, &lo);
     two_prod(hi, INV_LN10_HI, &p, &pe);

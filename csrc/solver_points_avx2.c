@@ -55,8 +55,7 @@ AVX2 void cf_solver_points_avx2_run(cf_solver *s, const cf_face_pass *P, int k0,
     const __m256d apo2 = _mm256_set1_pd(P->ff->apo * P->ff->apo), apotol = _mm256_set1_pd(P->ff->apo + P->tol);
     const __m256d unb = _mm256_castsi256_pd(_mm256_set1_epi64x(P->unbounded ? -1 : 0));
     const __m256d all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
-    V.s01 = _mm_loadu_pd(S->sm); V.s23 = _mm_loadu_pd(S->sm + 2);
-    V.s45 = _mm_loadu_pd(S->sm + 4); V.s67 = _mm_loadu_pd(S->sm + 6);
+    cf_simd_sums_load(&V, S);
     for (; k < k1; k += 4) {
         /* the last one to three points of the face: a block whose extra lanes are the
          * next points of the arrays (read, never active, counted open, their shear
@@ -146,8 +145,7 @@ AVX2 void cf_solver_points_avx2_run(cf_solver *s, const cf_face_pass *P, int k0,
             cf_simd_lanes_in_order(s, P, S, &V, k, 4, open, bits, vx, vy, vf, vmx, vmy, vmz, vvs, need);
         }
     }
-    _mm_storeu_pd(S->sm, V.s01); _mm_storeu_pd(S->sm + 2, V.s23);
-    _mm_storeu_pd(S->sm + 4, V.s45); _mm_storeu_pd(S->sm + 6, V.s67);
+    cf_simd_sums_store(&V, S);
     /* the last one to three points of the arrays: two at a time */
     if (k < k1) cf_solver_points_sse2_pairs(s, P, k, k1, S, need);
 }

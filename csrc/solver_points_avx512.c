@@ -61,8 +61,7 @@ AVX512 void cf_solver_points_avx512_run(cf_solver *s, const cf_face_pass *P, int
     const __m512d one = _mm512_set1_pd(1.0), half = _mm512_set1_pd(0.5), zero = _mm512_setzero_pd();
     const __m512d apo2 = _mm512_set1_pd(P->ff->apo * P->ff->apo), apotol = _mm512_set1_pd(P->ff->apo + P->tol);
     const __mmask8 unb = P->unbounded ? 0xFF : 0;
-    V.s01 = _mm_loadu_pd(S->sm); V.s23 = _mm_loadu_pd(S->sm + 2);
-    V.s45 = _mm_loadu_pd(S->sm + 4); V.s67 = _mm_loadu_pd(S->sm + 6);
+    cf_simd_sums_load(&V, S);
     for (; k < k1; k += 8) {
         /* the last one to seven points of the face: a block whose extra lanes are the
          * next points of the arrays (read, never active, counted open, never written),
@@ -151,8 +150,7 @@ AVX512 void cf_solver_points_avx512_run(cf_solver *s, const cf_face_pass *P, int
             cf_simd_lanes_in_order(s, P, S, &V, k, 8, open, bits, vx, vy, vf, vmx, vmy, vmz, vvs, need);
         }
     }
-    _mm_storeu_pd(S->sm, V.s01); _mm_storeu_pd(S->sm + 2, V.s23);
-    _mm_storeu_pd(S->sm + 4, V.s45); _mm_storeu_pd(S->sm + 6, V.s67);
+    cf_simd_sums_store(&V, S);
     /* the last points of the arrays: four (then two) at a time */
     if (k < k1) cf_solver_points_avx2_run(s, P, k, k1, S, need);
 }

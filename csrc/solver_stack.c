@@ -155,7 +155,7 @@ static void block_masses(cf_solver *s, int nblk, const int *nseg, const cf_geome
 }
 
 /* Bodies: frame origin at the body's centre of mass, axes along the column. */
-static void bodies_place(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs, int nseg_tot,
+static void bodies_place(cf_solver *s, int nblk, const cf_geometry_segment *segs, int nseg_tot,
                          const cf_geometry_massprops *bp, const double *zbot)
 {
     int i;
@@ -183,7 +183,6 @@ static void bodies_place(cf_solver *s, int nblk, const int *nseg, const cf_geome
             s->blk_top[3 * i + 2] = bp[i].height - bp[i].com_z;
         }
     }
-    (void)nseg;
 }
 
 /* Joints and their faces: joint j carries block j on block j - 1 (or on the ground). */
@@ -413,7 +412,7 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
     zbot = (double *)calloc((size_t)nblk + 1, sizeof(double));
     if (!bp || !zbot) { free(bp); free(zbot); return cf_solver_fail(s, CF_ENOMEM, "out of memory"); }
     block_masses(s, nblk, nseg, segs, bp, zbot);
-    bodies_place(s, nblk, nseg, segs, nseg_tot, bp, zbot);
+    bodies_place(s, nblk, segs, nseg_tot, bp, zbot);
     st = joints_make(s, nblk, nseg, segs);
     if (!st) {
         /* joint j (under block j) takes the j-th properties; a monolithic column has joint 0 only */

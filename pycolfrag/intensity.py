@@ -18,7 +18,7 @@ All numbers come from the C kernels in ``csrc/spectra.c``:
 * ``d5_95_s``: time between 5 % and 95 % of the Husid integral, interpolated linearly
   between samples, s.
 
-``g`` = 9.81 m/s², as in :mod:`pycolfrag.solver` and :mod:`pycolfrag.plots`.
+``g`` = :data:`pycolfrag.names.G` (9.81 m/s², the solver's default).
 """
 from __future__ import annotations
 
@@ -27,11 +27,10 @@ import numpy as np
 from ._ffi import as_double_array, check, ffi, lib, positive_float, ptr
 from ._validate import finite_float
 from .errors import ParameterError
+from .names import G
 
 __all__ = ["G", "DEFAULT_PERIODS_S", "measures", "response_spectrum", "integrate"]
 
-#: Gravity used to express accelerations in g, m/s^2 (same as the solver's default).
-G = 9.81
 #: Periods of :func:`measures` by default, s (the paper's).
 DEFAULT_PERIODS_S = (0.2, 0.5, 1.0, 2.0, 3.0)
 

@@ -7,15 +7,13 @@ iterate over these tables instead of spelling the names again.
 
 Constants
 ---------
-``G = 9.81`` m/s^2 is the package's gravity. It is the value the solver uses by default
-(``csrc/solver.c``: ``d->g = 9.81``; :func:`pycolfrag.simulate` ``g=9.81``), the one
-:mod:`pycolfrag.intensity` divides by to express PGA and SA in g, and the one
-:func:`pycolfrag.ground_motion.read_at2` multiplies by to turn an AT2 file's g into m/s^2.
-Keeping 9.81 rather than the standard 9.80665 leaves every stored result unchanged: a record
-read from AT2 and expressed back in g gives exactly the file's numbers (the factor cancels),
-and the difference to 9.80665 (0.035 %) is far below the scatter of any fragility estimate.
-``intensity.G`` and ``ground_motion`` still hold their own copy of 9.81 (owned by another
-module; they should import :data:`G` from here).
+``G`` = 9.81 m/s^2 is the package's gravity, read from the C library's default solver definition
+(``cf_solver_def_default`` in ``csrc/solver.c``), so the solver, :mod:`pycolfrag.intensity`
+(PGA and SA in g) and :func:`pycolfrag.ground_motion.read_at2` (an AT2 file's g to m/s^2) share
+one value. Keeping 9.81 rather than the standard 9.80665 leaves every stored result unchanged: a
+record read from AT2 and expressed back in g gives exactly the file's numbers (the factor
+cancels), and the difference to 9.80665 (0.035 %) is far below the scatter of any fragility
+estimate.
 """
 from __future__ import annotations
 
@@ -24,8 +22,15 @@ from dataclasses import dataclass
 __all__ = ["G", "CM_PER_M", "Quantity", "IMS", "EDPS", "SCALAR_IMS", "SPECTRAL_IMS", "RECORD_FIELDS",
            "im", "edp", "label"]
 
-#: Gravity, m/s^2 (see the module docstring for why 9.81).
-G = 9.81
+def _solver_default_g() -> float:
+    from ._ffi import ffi, lib
+    d = ffi.new("cf_solver_def *")
+    lib.cf_solver_def_default(d)
+    return float(d.g)
+
+
+#: Gravity, m/s^2: the C library's default (see the module docstring for why 9.81).
+G = _solver_default_g()
 #: Centimetres per metre (PGV in cm/s, PGD in cm).
 CM_PER_M = 100.0
 
