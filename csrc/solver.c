@@ -110,8 +110,8 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
     double *p;
     int i, st;
     if (!s) return CF_EINVAL;
-    if (nblk < 1) return cf_solver_fail(s, CF_EINVAL, "a column needs at least one block, got %d", nblk);
-    p = (double *)malloc(sizeof(double) * 3 * (size_t)nblk);
+    /* nblk is checked by cf_solver_setup_joints; a buffer of one keeps nblk < 1 to that check */
+    p = (double *)malloc(sizeof(double) * 3 * (size_t)(nblk > 0 ? nblk : 1));
     if (!p) return cf_solver_fail(s, CF_ENOMEM, "out of memory");
     for (i = 0; i < nblk; i++) { p[i] = kn; p[nblk + i] = ks; p[2 * nblk + i] = mu; }
     st = cf_solver_setup_joints(s, def, nblk, nseg, segs, density, p, p + nblk, p + 2 * nblk);

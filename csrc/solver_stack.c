@@ -358,12 +358,10 @@ static int points_make(cf_solver *s)
 
 /* Initial state: exact static equilibrium, joint j pre-compressed by the weight above
  * it (uniform overlap W / (kn A) over the face), shear zero; optionally tilted. */
-static void equilibrium(cf_solver *s, int nblk, const cf_geometry_segment *segs, int nseg_tot,
-                        const cf_geometry_massprops *bp, const double *zbot)
+static void equilibrium(cf_solver *s, int nblk, const cf_geometry_massprops *bp, const double *zbot)
 {
     int i, j, k, nj = s->nj, nbody = s->nbody;
     const cf_solver_def *def = &s->def;
-    double density = s->density;
     {
         double settle = 0.0, wabove;
         for (i = 0; i < 4 * nbody; i += 4) s->q0[i] = 1.0;
@@ -372,9 +370,8 @@ static void equilibrium(cf_solver *s, int nblk, const cf_geometry_segment *segs,
             for (k = (def->monolithic ? 0 : j); k < nblk; k++) wabove += s->blk_m[k] * def->g;
             settle += wabove / (s->jt[j].kn * s->jt[j].area);
             if (def->monolithic) {
-                cf_geometry_massprops all;
-                cf_geometry_block_props(segs, nseg_tot, density, &all);
-                s->x0[3 * 1 + 2] = all.com_z - settle;
+                /* the column's centre-of-mass height: bodies_place set blk_bot[2] = 0 - com_z */
+                s->x0[3 * 1 + 2] = -s->blk_bot[2] - settle;
             } else {
                 s->x0[3 * (j + 1) + 2] = zbot[j] + bp[j].com_z - settle;
             }
@@ -420,7 +417,7 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
         for (j = 0; j < s->nj; j++) { s->jt[j].kn = kn[j]; s->jt[j].ks = ks[j]; s->jt[j].mu = mu[j]; }
     }
     if (!st) st = points_make(s);
-    if (!st) equilibrium(s, nblk, segs, nseg_tot, bp, zbot);
+    if (!st) equilibrium(s, nblk, bp, zbot);
     free(bp); free(zbot);
     return st;
 }
