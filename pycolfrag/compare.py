@@ -35,7 +35,7 @@ from .errors import ParameterError, PycolfragError
 
 __all__ = ["compare_results", "Comparison", "ScenarioStats", "main"]
 
-IGNORED_FIELDS = ("wall_s",)
+IGNORED_FIELDS = _results.TIMING_FIELDS
 
 
 @dataclass
@@ -169,7 +169,7 @@ def _row_keys(s) -> tuple:
     raise ParameterError("a results file without (scenario, sample) or (record_id, component, scale) rows")
 
 
-def _scenario_stats(ra, rb, ia, ib, sc, n_diff) -> ScenarioStats:
+def _scenario_stats(ra, rb, ia, ib, sc, n_diff, index=0) -> ScenarioStats:
     from scipy import stats
     sa, sb = ra.samples, rb.samples
     out = {}
@@ -193,7 +193,7 @@ def _scenario_stats(ra, rb, ia, ib, sc, n_diff) -> ScenarioStats:
         mw = dist = math.nan
         label = f"scale {float(sc):g}"
     return ScenarioStats(
-        scenario=int(sc) if "scenario" in s0 else 0, mw=mw, dist_km=dist, label=label, n_rows_differing=n_diff,
+        scenario=int(sc) if "scenario" in s0 else index, mw=mw, dist_km=dist, label=label, n_rows_differing=n_diff,
         n_ok=(na, nb), collapses=(ka, kb), collapse_ci95=(_clopper_pearson(ka, na), _clopper_pearson(kb, nb)),
         p_collapse=p_col,
         mean_u_top=(float(np.mean(uta)) if len(uta) else math.nan, float(np.mean(utb)) if len(utb) else math.nan),
@@ -253,9 +253,7 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
         ja = np.flatnonzero(group_a == sc)
         jb = np.flatnonzero(group_b == sc)
         n_diff = int(np.count_nonzero(diff_rows & (row_group == sc)))
-        st = _scenario_stats(ra, rb, ja, jb, sc, n_diff)
-        if "scenario" not in sa:
-            st.scenario = gi    # a record suite: the index of the scale group
+        st = _scenario_stats(ra, rb, ja, jb, sc, n_diff, index=gi)   # record suite: scenario = scale group index
         stats_list.append(st)
     n_tests = sum(sum(1 for p in (s.p_collapse, s.p_u_top, s.p_u_d) if not math.isnan(p)) for s in stats_list)
     cmp.threshold = float(alpha) / max(n_tests, 1)

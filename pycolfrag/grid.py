@@ -54,6 +54,7 @@ import numpy as np
 from . import __version__
 from . import results as _results
 from . import sample as _sample
+from .sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S  # /spectra periods (s) and damping: a sample's
 from .errors import ParameterError, RecordFileError, ResultsFileError
 
 __all__ = [
@@ -66,9 +67,6 @@ DEFAULT_MW = (5.5, 6.0, 6.5, 7.0, 7.5)
 DEFAULT_DIST_KM = (5.0, 7.5, 10.0, 12.5, 15.0, 17.5, 20.0)
 DEFAULT_SAMPLES = 100
 DEFAULT_SEED = 20160601
-#: Spectral periods stored in /spectra, s.
-DEFAULT_PERIODS_S = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0)
-DEFAULT_DAMPING = 0.05
 DEFAULT_RECORD_DT_S = 0.005
 #: Largest root seed: it is stored as a signed 64-bit HDF5 attribute.
 SEED_MAX = 2**63 - 1
@@ -124,6 +122,18 @@ def _parse_values(tokens: Sequence[str], name: str) -> tuple[float, ...]:
     if len(set(_key(v) for v in out)) != len(out):
         raise ParameterError(f"{name}: repeated values in {out}")
     return tuple(out)
+
+
+def _check_im_options(spec) -> None:
+    """The options of a row's IMs and record length, shared by both kinds of grid: damping > 0,
+    periods finite and > 0, max_record_s None or > 0."""
+    v = spec.damping
+    if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+        raise ParameterError(f"damping must be finite and > 0, got {v!r}")
+    if not spec.periods_s or any(not (math.isfinite(p) and p > 0) for p in spec.periods_s):
+        raise ParameterError(f"periods must be finite and > 0, got {spec.periods_s!r}")
+    if spec.max_record_s is not None and not (math.isfinite(spec.max_record_s) and spec.max_record_s > 0):
+        raise ParameterError(f"max_record_s must be > 0, got {spec.max_record_s!r}")
 
 
 @dataclass(frozen=True)
@@ -182,14 +192,11 @@ class GridSpec:
             raise ParameterError(f"the grid has {len(self.mw) * len(self.dist_km) * self.samples} rows "
                                  f"({len(self.mw)} Mw x {len(self.dist_km)} R x {self.samples} samples); "
                                  f"at most {MAX_ROWS} fit one file")
-        for name in ("vp_scale", "record_dt_s", "damping"):
+        for name in ("vp_scale", "record_dt_s"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ParameterError(f"{name} must be finite and > 0, got {v!r}")
-        if not self.periods_s or any(not (math.isfinite(p) and p > 0) for p in self.periods_s):
-            raise ParameterError(f"periods must be finite and > 0, got {self.periods_s!r}")
-        if self.max_record_s is not None and not (math.isfinite(self.max_record_s) and self.max_record_s > 0):
-            raise ParameterError(f"max_record_s must be > 0, got {self.max_record_s!r}")
+        _check_im_options(self)
 
     @property
     def scenarios(self) -> list[tuple[float, float]]:
@@ -363,12 +370,7 @@ class RecordGridSpec:
         if len(jobs) > MAX_ROWS:
             raise ParameterError(f"the record suite gives {len(jobs)} runs; at most {MAX_ROWS} fit one file")
         object.__setattr__(self, "_jobs", jobs)
-        if not (isinstance(self.damping, (int, float)) and math.isfinite(self.damping) and self.damping > 0):
-            raise ParameterError(f"damping must be finite and > 0, got {self.damping!r}")
-        if not self.periods_s or any(not (math.isfinite(p) and p > 0) for p in self.periods_s):
-            raise ParameterError(f"periods must be finite and > 0, got {self.periods_s!r}")
-        if self.max_record_s is not None and not (math.isfinite(self.max_record_s) and self.max_record_s > 0):
-            raise ParameterError(f"max_record_s must be > 0, got {self.max_record_s!r}")
+        _check_im_options(self)
 
     @property
     def jobs(self) -> list:
@@ -866,11 +868,15 @@ def format_table(table: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def make_outputs(out: Path, figures_dir: Path, report_path: Path, log, synthetic=None) -> bool:
+def make_outputs(out: Path, figures_dir: Path, report_path: Path, log, synthetic=None, layout="read") -> bool:
     """Figures, then the report that links them, from the results file; a failure is reported, never raised.
     A record-suite file gets :func:`pycolfrag.record_report.write_record_report` instead (stripes,
-    cloud, MSA with several scales, Fig. 10 against ``synthetic`` when given)."""
-    if _layout_of(out) == "records":
+    cloud, MSA with several scales, Fig. 10 against ``synthetic`` when given). ``layout``: the
+    file's layout when the caller knows it (None = synthetic, "records"); "read" reads it from
+    the file."""
+    if layout == "read":
+        layout = _layout_of(out)
+    if layout == "records":
         try:
             from .record_report import write_record_report
             write_record_report(str(out), str(figures_dir), report_path=str(report_path), synthetic=synthetic)
@@ -1103,7 +1109,7 @@ def main(argv=None) -> int:
         synthetic = args.synthetic
         if synthetic is None and spec.layout == "records" and Path("results/grid.h5").exists():
             synthetic = "results/grid.h5"
-        if not make_outputs(out, figdir, report, log, synthetic=synthetic):
+        if not make_outputs(out, figdir, report, log, synthetic=synthetic, layout=spec.layout):
             return 3
     return 0
 

@@ -520,12 +520,13 @@ class RunLock:
 # time-bounded, checksummed reading of the HDF5 file
 # ---------------------------------------------------------------------------------------
 
-def _checksums(f) -> dict:
-    """CRC-32 of every dataset's bytes (stored as the root attribute ``checksums`` when complete)."""
+def _checksums(groups) -> dict:
+    """CRC-32 of every dataset's bytes (stored as the root attribute ``checksums`` when complete).
+    ``groups``: an open file, or {"samples": {name: array}, "spectra": {...}} already read from one."""
     out = {}
     for grp in ("samples", "spectra"):
-        for name in (f[grp] if grp in f else ()):
-            out[f"{grp}/{name}"] = zlib.crc32(np.ascontiguousarray(f[grp][name][...]).tobytes())
+        for name in (groups[grp] if grp in groups else ()):
+            out[f"{grp}/{name}"] = zlib.crc32(np.ascontiguousarray(groups[grp][name][...]).tobytes())
     return out
 
 
@@ -546,7 +547,7 @@ def _read_h5(path: Path, any_layout: bool = False) -> dict:
         attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
         if "checksums" in attrs:
             stored = json.loads(attrs["checksums"])
-            now = _checksums(f)
+            now = _checksums({"samples": samples, "spectra": spectra})   # the arrays just read
             bad = sorted(k for k in set(stored) | set(now) if stored.get(k) != now.get(k))
             if bad:
                 raise ResultsDamagedError(f"{path}: checksum mismatch in {', '.join(bad)} (the file was damaged "
