@@ -283,16 +283,6 @@ class SampleContext:
         return {k: (v[sample].item() if v.ndim else v.item()) for k, v in self._lhs[scenario].items()}
 
 
-def _meta(meta: dict, *names, default=math.nan):
-    for n in names:
-        if n in meta and meta[n] is not None:
-            try:
-                return float(meta[n])
-            except (TypeError, ValueError):  # a text value where a number was expected
-                return default
-    return default
-
-
 def run_sample(ctx: SampleContext, row: int) -> dict:
     """Compute one row of the synthetic grid: the grid's seeds and pulse parameters for the row, then
     :func:`pycolfrag.sample.run_synthetic_sample` (the one definition of a sample). Never raises for
@@ -434,11 +424,7 @@ class RecordContext:
 
     def identity(self, row: int) -> dict:
         k, c, f = self.locate(row)
-        rec = self.spec.suite[k]
-        meta = dict(getattr(rec, "meta", {}) or {})
-        return {"record": k, "record_id": rec.record_id, "event": str(meta.get("event", "")),
-                "station": str(meta.get("station", "")), "component": c, "scale": f,
-                "mw": _meta(meta, "mw"), "rrup_km": _meta(meta, "rrup_km"), "dist_km": _meta(meta, "rrup_km")}
+        return {"record": k, **_sample.record_identity(self.spec.suite[k], c, f)}
 
 
 def run_record_row(ctx: RecordContext, row: int) -> dict:

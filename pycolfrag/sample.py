@@ -24,7 +24,7 @@ import numpy as np
 from . import names
 from .errors import ParameterError
 
-__all__ = ["DEFAULT_PERIODS_S", "DEFAULT_DAMPING", "COMPONENTS", "STATUS", "ims_row", "response_row",
+__all__ = ["DEFAULT_PERIODS_S", "DEFAULT_DAMPING", "COMPONENTS", "STATUS", "record_identity", "ims_row", "response_row",
            "run_synthetic_sample", "run_record_sample", "record_jobs", "run_suite", "rows_to_table"]
 
 #: Spectral periods of a row (``/spectra``), s -- the grid's default.
@@ -53,6 +53,16 @@ def _meta(meta: dict, *keys, default=math.nan) -> float:
             except (TypeError, ValueError):
                 return default
     return default
+
+
+def record_identity(record, component, scale) -> dict:
+    """The fields that name a record row: record_id, event, station, component, mw, rrup_km (also as
+    dist_km, the synthetic grid's distance) and scale. Kept in a row whose run failed."""
+    meta = dict(getattr(record, "meta", {}) or {})
+    rrup = _meta(meta, "rrup_km")
+    return {"record_id": str(getattr(record, "record_id", "")), "event": str(meta.get("event", "")),
+            "station": str(meta.get("station", "")), "component": str(component), "mw": _meta(meta, "mw"),
+            "rrup_km": rrup, "dist_km": rrup, "scale": scale}
 
 
 def ims_row(acc, dt, periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_DAMPING) -> dict:
@@ -198,10 +208,7 @@ def run_record_sample(record, *, column, component="h1", scale=1.0, vertical=Fal
     """
     t0 = time.perf_counter()
     meta = dict(getattr(record, "meta", {}) or {})
-    rrup = _meta(meta, "rrup_km")
-    out = {"record_id": str(getattr(record, "record_id", "")), "event": str(meta.get("event", "")),
-           "station": str(meta.get("station", "")), "component": str(component), "mw": _meta(meta, "mw"),
-           "rrup_km": rrup, "dist_km": rrup, "scale": math.nan, "rjb_km": _meta(meta, "rjb_km"),
+    out = {**record_identity(record, component, math.nan), "rjb_km": _meta(meta, "rjb_km"),
            "vs30_m_s": _meta(meta, "vs30_m_s"), "tp_s": _meta(meta, "tp_s"), "year": _meta(meta, "year"),
            "mechanism": str(meta.get("mechanism", "")), "rotation_deg": math.nan if rotation_deg is None
            else float(rotation_deg), "status": STATUS["ok"], "message": ""}
