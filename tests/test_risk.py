@@ -393,3 +393,13 @@ def test_command_writes_markdown_json_and_figures(tmp_path):
     assert js["probability"]["50"]["collapse"][0] == pytest.approx(1 - math.exp(-50 * lam), rel=1e-14)
     for stem in ("risk_curves", "risk_deaggregation", "risk_probability"):
         assert (out / f"{stem}.png").stat().st_size > 10_000
+
+
+def test_report_carries_the_risk_section(tmp_path):
+    from test_figures import write_results
+    from pycolfrag import report
+    h5 = write_results(tmp_path / "g.h5")
+    res = risk.site_risk(site([char_source(7.0, 10.0)]), h5, n_draws=20, curves=False)
+    text = open(report.write_report(h5, tmp_path / "r.md", n_boot=20, risk=res)).read()
+    assert "## Site risk: test site" in text and "PULSE-ONLY" in text
+    assert text.index("## Site risk") < text.index("## Figures")
