@@ -1,4 +1,4 @@
-"""Site risk by the Mw-R route (pycolfrag.risk) and the pulse-occurrence model of Shahi & Baker (2014).
+"""Site risk by the Mw-R route (pycolfrag.risk, pycolfrag.site) and the pulse-occurrence model of Shahi & Baker (2014).
 
 Every expected number is computed here from a closed form (the truncated Gutenberg-Richter pdf,
 bilinear interpolation, binomial and beta quantiles from scipy) or from the cells of a small results
@@ -14,6 +14,7 @@ from scipy import stats
 
 from pycolfrag import fragility as fr
 from pycolfrag import risk
+from pycolfrag import site as site_file
 from pycolfrag.errors import ParameterError
 from pycolfrag.ground_motion import shahi_baker_2014 as sb14
 
@@ -59,7 +60,7 @@ def site(sources, pulse={"model": "pulse-only"}, **kw):
     d = {"name": "test site", "sources": sources, **kw}
     if pulse is not None:
         d["pulse"] = pulse
-    return risk.site_from_dict(d)
+    return site_file.site_from_dict(d)
 
 
 def char_source(mw, r_km, rate=0.002, **kw):
@@ -116,8 +117,8 @@ def test_truncated_gutenberg_richter_against_closed_form():
         return (F(bb) - F(a)) / C
 
     expected = nu * (seg(5.5, 6.5, 0.0, 0.2) + seg(6.5, 7.5, 0.2, 1.0))
-    src = risk.Source("gr", nu, risk.GutenbergRichter(b, m0, m1), risk.Distance("fixed", (10.0,), (1.0,)),
-                      risk.PulseModel("pulse-only"))
+    src = site_file.Source("gr", nu, site_file.GutenbergRichter(b, m0, m1), site_file.Distance("fixed", (10.0,), (1.0,)),
+                      site_file.PulseModel("pulse-only"))
     W, _, rep = risk.node_weights([src], mws, ds)
     assert np.sum(W * P) == pytest.approx(expected, rel=1e-12)
     assert np.sum(W) == pytest.approx(nu, rel=1e-12)          # the pdf integrates to 1
@@ -152,8 +153,8 @@ def test_uniform_distance_integral_against_closed_form():
     mws, ds = np.array([6.0, 7.0]), np.array([5.0, 10.0, 20.0])
     a, c, nu = 0.4, -0.1, 0.01
     P = np.tile(a + c * np.log(ds), (2, 1))
-    src = risk.Source("u", nu, risk.Characteristic(6.0), risk.Distance("uniform", min_km=5.0, max_km=20.0),
-                      risk.PulseModel("pulse-only"))
+    src = site_file.Source("u", nu, site_file.Characteristic(6.0), site_file.Distance("uniform", min_km=5.0, max_km=20.0),
+                      site_file.PulseModel("pulse-only"))
     W, _, _ = risk.node_weights([src], mws, ds)
     e_ln = ((20 * math.log(20) - 20) - (5 * math.log(5) - 5)) / 15
     assert np.sum(W * P) == pytest.approx(nu * (a + c * e_ln), rel=1e-12)
@@ -360,18 +361,18 @@ def test_bad_site_level_values_and_file_name(tmp_path):
     with pytest.raises(ParameterError, match=r"outside must be one of refuse, clamp, zero, got 'drop'"):
         site([GOOD], outside="drop")
     with pytest.raises(ParameterError, match=r"unknown key\(s\) 'sites'"):
-        risk.site_from_dict({"sites": [], "pulse": {"probability": 0.5}})
+        site_file.site_from_dict({"sites": [], "pulse": {"probability": 0.5}})
     with pytest.raises(ParameterError, match=r"years must be > 0, got -50"):
         site([GOOD], years=[-50])
     p = tmp_path / "bad_site.toml"
     p.write_text('[pulse]\nprobability = 0.5\n[[sources]]\nname = "x"\nrate = -1\n'
                  'magnitude = { type = "characteristic", mw = 6.0 }\ndistance = { type = "fixed", r_km = 10 }\n')
     with pytest.raises(ParameterError, match=r"bad_site\.toml: sources\[0\]\.rate must be >= 0, got -1"):
-        risk.load_site(p)
+        site_file.load_site(p)
 
 
 def test_example_site_file_reads():
-    s = risk.load_site("examples/site_athens.toml")
+    s = site_file.load_site("examples/site_athens.toml")
     assert len(s.sources) >= 2 and all(src.rate > 0 for src in s.sources)
 
 
