@@ -372,7 +372,8 @@ def test_bad_site_level_values_and_file_name(tmp_path):
 
 
 def test_example_site_file_reads():
-    s = site_file.load_site("examples/site_athens.toml")
+    from pathlib import Path
+    s = site_file.load_site(Path(__file__).resolve().parents[1] / "examples" / "site_athens.toml")
     assert len(s.sources) >= 2 and all(src.rate > 0 for src in s.sources)
 
 
