@@ -91,7 +91,8 @@ def _axis(nodes, x, log):
     return i, i + 1, t
 
 
-def _inside(nodes, x, log):
+def _beyond(nodes, x, log):
+    """Masks of the points below the first node and above the last (in x, or in ln x)."""
     u, x = (np.log(nodes), np.log(x)) if log else (np.asarray(nodes, float), np.asarray(x, float))
     return x < u[0] - _EDGE_TOL, x > u[-1] + _EDGE_TOL
 
@@ -110,8 +111,8 @@ def interpolate(values, mws, ds, m, r):
     """
     values = np.asarray(values, dtype=float)
     m, r = np.broadcast_arrays(np.asarray(m, float), np.asarray(r, float))
-    lo_m, hi_m = _inside(mws, m, False)
-    lo_r, hi_r = _inside(ds, r, True)
+    lo_m, hi_m = _beyond(mws, m, False)
+    lo_r, hi_r = _beyond(ds, r, True)
     if np.any(lo_m | hi_m | lo_r | hi_r):
         raise ParameterError(f"points outside the grid Mw {mws[0]:g}-{mws[-1]:g}, R {ds[0]:g}-{ds[-1]:g} km")
     out = np.zeros(m.shape)
@@ -170,11 +171,11 @@ def node_weights(sources, mws, ds, *, outside="refuse", branch="all"):
         rr, wr = s.distance.points(ds)
         M, R = (a.ravel() for a in np.meshgrid(mm, rr, indexing="ij"))
         w = (s.rate * np.outer(wm, wr)).ravel()
-        lo_m, hi_m = _inside(mws, M, False)
-        lo_r, hi_r = _inside(ds, R, True)
+        lo_m, hi_m = _beyond(mws, M, False)
+        lo_r, hi_r = _beyond(ds, R, True)
         out = lo_m | hi_m | lo_r | hi_r
-        frac = (lambda mask: float(np.sum(w[mask]) / s.rate) if s.rate > 0 else 0.0)
-        rep = OutsideReport(s.name, s.rate, frac(lo_m), frac(hi_m), frac(lo_r), frac(hi_r), frac(out), outside)
+        shares = [float(np.sum(w[mask]) / s.rate) if s.rate > 0 else 0.0 for mask in (lo_m, hi_m, lo_r, hi_r, out)]
+        rep = OutsideReport(s.name, s.rate, *shares, outside)
         reports.append(rep)
         if outside == "refuse" and np.any(out & (w > 0)):
             raise ParameterError(
