@@ -41,14 +41,14 @@ import argparse
 import json
 import math
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from . import fragility as fr
 from .errors import ParameterError, ResultsFileError
-from .site import OUTSIDE_CHOICES, PulseModel, Site, Source, load_site
+from .site import OUTSIDE_CHOICES, PulseModel, Site, load_site
 
 __all__ = ["RiskQuantity", "QUANTITIES", "node_weights", "interpolate", "OutsideReport", "SiteRisk",
            "declared_pulse", "site_risk", "report_section", "write_outputs", "main"]
@@ -390,10 +390,9 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
     if int(n_draws) < 10:
         raise ParameterError(f"n_draws must be >= 10, got {n_draws!r}")
     if pulse_only:
-        site = Site(site.name, tuple(Source(s.name, s.rate, s.magnitude, s.distance, PulseModel("pulse-only"))
-                                     for s in site.sources), site.outside, site.years, site.description, site.path)
+        site = replace(site, sources=tuple(replace(s, pulse=PulseModel("pulse-only")) for s in site.sources))
     if outside is not None:
-        site = Site(site.name, site.sources, outside, site.years, site.description, site.path)
+        site = replace(site, outside=outside)
     extra = [float(y) for y in years]
     if any(not (math.isfinite(y) and y > 0) for y in extra):
         raise ParameterError(f"years must be positive, got {list(years)!r}")
@@ -412,9 +411,7 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
                              "drop one of the two")
     _check_branches(pulse, no_pulse)
     branches = {"pulse": pulse} if no_pulse is None else {"pulse": pulse, "no-pulse": no_pulse}
-    grids = {}
-    for b, data in branches.items():
-        grids[b] = _cells(data)
+    grids = {b: _cells(data) for b, data in branches.items()}
     mws, ds, _ = grids["pulse"]
     for b, (m2, d2, _) in grids.items():
         if not (np.array_equal(m2, mws) and np.array_equal(d2, ds)):
@@ -452,8 +449,8 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
         rr, wr = s.distance.points(ds)
         pulse_share[s.name] = float(np.sum(wr * s.pulse.probability(rr)) / np.sum(wr)) if np.sum(wr) > 0 else 1.0
     out = SiteRisk(site, {b: str(d.path) for b, d in branches.items()}, tuple(branches), estimator, uncertainty,
-                   confidence,
-                   int(n_draws), mws, ds, QUANTITIES, rate, prob, source_rate, deagg, reports, weights, pulse_share)
+                   confidence, int(n_draws), mws, ds, QUANTITIES, rate, prob, source_rate, deagg, reports, weights,
+                   pulse_share)
     if curves:
         out.curves = _curves(branches, grids, weights, estimator, uncertainty, int(curve_draws), confidence, g)
     return out
