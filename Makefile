@@ -3,6 +3,7 @@
 #   make grid    set up, run the paper's scenario grid on 2 MPI ranks, write figures
 #   make build   rebuild the C extension after editing csrc/ (editable installs do not)
 #   make records a record-suite grid on 2 MPI ranks, its analysis and Fig. 10 (docs/records.md)
+#   make risk    site risk (annual rates, 50-year probabilities) of an example site (docs/risk.md)
 include csrc/flags.mk
 
 PY      := .venv/bin/python
@@ -16,7 +17,7 @@ GRID_ARGS ?=
 # Open MPI refuses root without these; set only for our own commands (TOOLCHAIN.md).
 MPIENV  := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 
-.PHONY: setup system build ctest ctest-asan pytest test grid analysis figures validation records bench clean
+.PHONY: setup system build ctest ctest-asan pytest test grid analysis figures validation records risk bench clean
 
 setup: system .venv/.installed build
 
@@ -107,6 +108,26 @@ records: setup
 	mkdir -p results
 	@if [ "$(RECORDS)" = "results/demo_suite" ]; then $(PY) scripts/record_checks.py demo-suite results/demo_suite; fi
 	$(RUN_GRID) --records $(RECORDS) $(RECORDS_ARGS) --out $(RECORDS_OUT)
+
+# Site risk (docs/risk.md) of the example site: a small grid with pulses and the same grid without
+# them (run_grid.py --pulse none, paired seeds), then the risk with both branches mixed by the site's
+# pulse-occurrence model. A version of run_grid.py without --pulse none gives the pulse branch alone,
+# asked for explicitly (--pulse-only) and stated in every output. Rerunning resumes the grids.
+# SITE=file.toml, RISK_DIR=folder, RISK_GRID=... (run_grid.py options) for others.
+SITE      ?= examples/site_athens.toml
+RISK_DIR  ?= results/risk
+RISK_GRID ?= --mw 5.5 6 6.5 7 7.5 --dist 5 10 15 20 --samples 20 --no-figures --no-progress
+HAVE_NOPULSE := $(shell grep -q -e '"--pulse"' pycolfrag/grid.py scripts/run_grid.py && echo yes)
+risk: setup
+	mkdir -p $(RISK_DIR)
+	$(RUN_GRID) $(RISK_GRID) --out $(RISK_DIR)/pulse.h5
+ifeq ($(HAVE_NOPULSE),yes)
+	$(RUN_GRID) $(RISK_GRID) --pulse none --out $(RISK_DIR)/nopulse.h5
+	$(PY) -m pycolfrag.risk $(SITE) $(RISK_DIR)/pulse.h5 $(RISK_DIR) --no-pulse $(RISK_DIR)/nopulse.h5
+else
+	@echo "run_grid.py has no --pulse none in this version: risk of the pulse branch alone (it overstates the risk)"
+	$(PY) -m pycolfrag.risk $(SITE) $(RISK_DIR)/pulse.h5 $(RISK_DIR) --pulse-only
+endif
 
 bench: setup
 	$(PY) bench/solver_speed.py

@@ -64,7 +64,7 @@ def _meta_lines(d):
     return out
 
 
-def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, rng=0) -> str:
+def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, rng=0, risk=None) -> str:
     """Write a Markdown report of a results file; return its path.
 
     Parameters
@@ -80,6 +80,9 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
         Bootstrap resamples per interval.
     rng : int
         Seed of the bootstrap (reports are reproducible).
+    risk : pycolfrag.risk.SiteRisk, optional
+        A site risk computed from this results file (:func:`pycolfrag.risk.site_risk`): its section
+        is added before the figures.
     """
     d = read_results(results_path)
     out_path = Path(out_path) if out_path else Path(os.fspath(results_path)).with_name("report.md")
@@ -136,6 +139,9 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
                 flag = " (beyond the largest IM: extrapolated)" if mle.median > np.max(values) else ""
                 L.append(f"| {name} | {lev.label} | {mle.n_exceed}/{mle.n} | {fmt_ci(mle.median, mle.median_ci, 3)}"
                          f"{flag} | {fmt_ci(mle.beta, mle.beta_ci)} |")
+    if risk is not None:
+        from .risk import report_section
+        L += ["", report_section(risk)]
     L += ["", "## Figures", ""]
     found = False
     for stem in FIGURES:

@@ -1,0 +1,80 @@
+"""Shahi & Baker (2014): probability that a near-fault ground motion carries a velocity pulse.
+
+Shahi, S. K., and Baker, J. W. (2014). "An efficient algorithm to identify strong-velocity pulses
+in multicomponent ground motions." Bulletin of the Seismological Society of America 104(5),
+2456-2466, doi:10.1785/0120130191. The paper classifies the NGA-West2 records with its
+multicomponent algorithm and refits the logistic pulse-occurrence models of Shahi & Baker (2011)
+to them, one for strike-slip and one for non-strike-slip (normal, reverse, oblique) ruptures::
+
+    strike-slip:      P(pulse | r, s, theta) = 1 / (1 + exp(c0 + c1 r - c2 sqrt(s) + c3 theta))
+    non-strike-slip:  P(pulse | r, d, phi)   = 1 / (1 + exp(c0 + c1 r - c2 sqrt(d) + c3 phi))
+
+with r the closest distance to the rupture (km), s (d) the length of rupture between the
+epicentre (hypocentre) and the site measured along strike (up dip), km, and theta (phi) the angle
+between the strike (dip) direction and the path to the site, degrees, in [0, 90] -- the
+directivity geometry of Somerville et al. (1997). Coefficients (:data:`COEFFICIENTS`):
+
+================  =====  =====  =====  =====
+mechanism          c0     c1     c2     c3
+================  =====  =====  =====  =====
+strike-slip       0.457  0.126  0.244  0.013
+non-strike-slip   0.304  0.072  0.208  0.021
+================  =====  =====  =====  =====
+
+Provenance: transcribed from the paper as implemented in NHERI SimCenter's ground-motion
+simulator smelt (``src/dabaghi_der_kiureghian.cc``, ``simulate_pulse_type``, which cites this
+paper for its pulse/no-pulse proportion); the paper's own page could not be read here, so the test
+checks values against that independent implementation's formula (``tests/test_risk.py``).
+
+pycolfrag uses the model to weight the pulse and no-pulse branches of a site's risk
+(:mod:`pycolfrag.risk`, ``docs/risk.md``).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ParameterError
+
+__all__ = ["COEFFICIENTS", "MECHANISMS", "pulse_probability"]
+
+#: (c0, c1, c2, c3) of the logistic model by mechanism (see the module docstring).
+COEFFICIENTS = {
+    "strike-slip": (0.457, 0.126, 0.244, 0.013),
+    "non-strike-slip": (0.304, 0.072, 0.208, 0.021),
+}
+MECHANISMS = tuple(COEFFICIENTS)
+
+
+def pulse_probability(r_km, s_km, angle_deg, mechanism="strike-slip"):
+    """Probability of a pulse-like ground motion at a site (Shahi & Baker 2014).
+
+    Parameters
+    ----------
+    r_km : float or array_like
+        Closest distance from the site to the rupture, km (>= 0).
+    s_km : float or array_like
+        Directivity length, km (>= 0): ``s`` along strike for strike-slip ruptures, ``d`` up dip
+        for the others.
+    angle_deg : float or array_like
+        Directivity angle, degrees in [0, 90]: ``theta`` (strike-slip) or ``phi`` (others).
+    mechanism : {"strike-slip", "non-strike-slip"}
+
+    Returns
+    -------
+    float or ndarray
+        P(pulse) in (0, 1), broadcast over the inputs.
+    """
+    try:
+        c0, c1, c2, c3 = COEFFICIENTS[mechanism]
+    except (KeyError, TypeError):
+        raise ParameterError(f"mechanism must be one of {', '.join(MECHANISMS)}, got {mechanism!r}") from None
+    r, s, a = (np.asarray(v, dtype=float) for v in (r_km, s_km, angle_deg))
+    for name, v in (("r_km", r), ("s_km", s), ("angle_deg", a)):
+        if not np.all(np.isfinite(v)):
+            raise ParameterError(f"{name} must be finite, got {v!r}")
+        if np.any(v < 0):
+            raise ParameterError(f"{name} must be >= 0, got {v!r}")
+    if np.any(a > 90):
+        raise ParameterError(f"angle_deg must be in [0, 90] degrees, got {a!r}")
+    p = 1.0 / (1.0 + np.exp(c0 + c1 * r - c2 * np.sqrt(s) + c3 * a))
+    return float(p) if p.ndim == 0 else p
