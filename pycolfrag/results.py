@@ -780,9 +780,14 @@ def _open_locked(path: Path, signature, attrs, n_rows, periods_s, overwrite, log
         return ResultsWriter(path, n_rows, len(periods_s), resumed=False, run_id=run_id)
     diffs = signature_mismatch(old_sig, signature)
     if diffs:
+        why = ""
+        if any(d.startswith(("build:", "solver:")) for d in diffs):
+            why = ("\nIts rows were computed by another build of pycolfrag or with other solver options (the code or "
+                   "a default changed since): resuming would mix rows of two versions in one file.")
         raise ResultsFileError(
             f"{path} holds a different run; it cannot be resumed with these arguments:\n  - "
-            + "\n  - ".join(diffs) + "\nUse --overwrite to replace it, or --out for another file.")
+            + "\n  - ".join(diffs) + why
+            + "\nUse --overwrite to replace it (every row is recomputed), or --out for another file.")
     if h5 is None:  # rebuild from the journal header, then replay every row below
         if damage is not None:
             _set_aside(path, f"{damage}; rebuilding it from {jp.name}", log)

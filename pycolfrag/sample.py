@@ -119,11 +119,20 @@ def response_row(column, acc_x, dt, *, acc_y=None, acc_z=None, ims=None, periods
     try:
         out.update(ims_row(acc_x, dt, periods_s, damping) if ims is None else ims)
         phase = "solver"
-        with warnings.catch_warnings():  # an energy warning is stored (energy_warning), not printed per run
-            warnings.simplefilter("ignore", UserWarning)
-            res = simulate(column, acc_x, dt, acc_y=acc_y, acc_z=acc_z, **dict(solver_options or {}))
+        from .options import SolverOptions
+        from .solver import EnergyWarning, StepWarning
+        kw = {"options": solver_options} if isinstance(solver_options, SolverOptions) else dict(solver_options or {})
+        with warnings.catch_warnings(record=True) as caught:
+            # an energy warning is stored (energy_warning), not printed per run; a step warning
+            # (dt_solver above the stability limit or the record's dt) is kept in the row's message
+            warnings.simplefilter("ignore", EnergyWarning)
+            warnings.simplefilter("always", StepWarning)
+            res = simulate(column, acc_x, dt, acc_y=acc_y, acc_z=acc_z, **kw)
         phase = "other"
         out.update(_edp_row(res))
+        steps = [str(w.message) for w in caught if issubclass(w.category, StepWarning)]
+        if steps:
+            out["message"] = "StepWarning: " + "; ".join(steps)
     except Exception as exc:  # a failed sample is a result (status, message), not the end of the run
         out["status"] = STATUS[phase]
         out["message"] = f"{type(exc).__name__}: {exc}"
