@@ -600,7 +600,8 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
     if failure is not None and not steps:
         raise ParameterError(f"solver options {changed}: {type(failure).__name__}: {failure}") from None
     if steps:
-        crit = res.dt_crit if res is not None else math.nan
+        crit = res.dt_crit if res is not None else simulate(column, np.zeros(3), record_dt_s,
+                                                             options=options.replace(dt_solver=None)).dt_crit
         raise ParameterError(f"solver options {changed}: {str(steps[0].message).removeprefix('simulate: ')}; "
                              f"every row would be computed that way: choose dt_solver <= {min(crit, record_dt_s):.4g} s "
                              "or leave it automatic (dt_factor)")

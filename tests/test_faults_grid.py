@@ -117,3 +117,50 @@ def test_resume_across_a_code_change_is_refused(tmp_path, patch, named):
     # the same build resumes it
     p = _ok(_serial([*FAKE, "--out", str(out)]))
     assert f"{len(before)} of 16 rows already done" in p.stdout
+
+
+# ------------------------------------------------------------------------------ 4: StepWarning
+
+def _refused(argv, capsys, tmp_path):
+    """main(argv) in process: exit code 2, one line, no file made; returns the line."""
+    from pycolfrag.grid import main
+    out = tmp_path / "o" / "g.h5"
+    code = main([*argv, "--no-figures", "--no-progress", "--mpi", "no", "--out", str(out)])
+    text = capsys.readouterr().out.strip()
+    assert code == 2, text
+    assert len(text.splitlines()) == 1, text
+    assert not out.parent.exists() or not any(out.parent.iterdir())
+    return text
+
+
+@pytest.mark.parametrize("dt_solver", ["0.0011", "0.0012", "1"])
+def test_a_step_above_the_stability_limit_is_refused_before_the_run(tmp_path, capsys, dt_solver):
+    # Reported: --solver dt_solver=0.0011 (1.1x the limit) exited 0 with every row stored as OK,
+    # the StepWarning swallowed; 0.0012 gave a SolverError traceback. The limit is the solver's own
+    # whole-stack stability limit (Response.dt_crit), asked here independently of the grid.
+    import pycolfrag as pcf
+    crit = pcf.simulate(pcf.Column.parthenon(), np.zeros(3), 0.005).dt_crit
+    assert 0.0009 < crit < 0.0011  # the Parthenon column's limit (docs/solver.md): 1.1 and 1.2x are above it
+    line = _refused(["--mw", "6", "--dist", "5", "--samples", "1", "--solver", f"dt_solver={dt_solver}"],
+                    capsys, tmp_path)
+    assert f"dt_solver = {float(dt_solver):.4g} s exceeds the whole-stack stability limit {crit:.4g} s" in line, line
+    assert f"choose dt_solver <= {crit:.4g} s" in line and "Traceback" not in line
+
+
+def test_a_step_longer_than_the_records_dt_is_refused(tmp_path, capsys):
+    line = _refused(["--mw", "6", "--dist", "5", "--samples", "1", "--record-dt", "0.0005",
+                     "--solver", "dt_solver=0.0008"], capsys, tmp_path)
+    assert "is longer than the record's dt = 0.0005 s" in line, line
+
+
+def test_a_row_keeps_the_step_warning_in_its_message():
+    # outside the grid (run_suite, run_record_sample) a row computed with such a step says so
+    from pycolfrag import Column, sample
+    row = sample.response_row(Column.parthenon(), np.zeros(40), 0.01, solver_options={"dt_solver": 0.00102})
+    assert row["status"] == 0 and row["message"].startswith("StepWarning: simulate: dt_solver = 0.00102 s exceeds"), row
+
+
+def test_history_dt_zero_is_reported_under_its_own_name():
+    from pycolfrag import SolverOptions
+    with pytest.raises(ParameterError, match=r"^solver options: history_dt must be > 0, got 0$"):
+        SolverOptions(history_dt=0)
