@@ -164,3 +164,99 @@ def test_history_dt_zero_is_reported_under_its_own_name():
     from pycolfrag import SolverOptions
     with pytest.raises(ParameterError, match=r"^solver options: history_dt must be > 0, got 0$"):
         SolverOptions(history_dt=0)
+
+
+# ------------------------------------------------------------------------------ 5: integrity
+
+def _flip_in_file(path, text: bytes, at: int, new: bytes):
+    """Change the file's bytes where ``text`` occurs: byte ``at`` of it becomes ``new`` (in every
+    copy: HDF5 may keep the heap object of an attribute rewritten later)."""
+    data = Path(path).read_bytes()
+    start = data.find(text)
+    assert start >= 0
+    with open(path, "r+b") as fh:
+        while start >= 0:
+            fh.seek(start + at)
+            fh.write(new)
+            start = data.find(text, start + 1)
+
+
+def _fresh(tmp_path, name="fresh.h5"):
+    out = tmp_path / name
+    _ok(_serial([*FAKE, "--out", str(out)]))
+    return R.load(out)
+
+
+@pytest.mark.parametrize("attr, key", [("grid_signature", b'"seed": 2016060'), ("column", b'"density": '),
+                                       ("solver", b'"dt_factor": 0.')])
+def test_a_changed_root_attribute_of_a_complete_file_is_damage_not_another_run(tmp_path, attr, key):
+    # Reported: 140 of 3000 bit flips changed grid_signature, column or solver silently; a flipped
+    # signature made the next run advise --overwrite, which deletes every row.
+    out = tmp_path / "g.h5"
+    _ok(_serial([*FAKE, "--out", str(out)]))
+    good = R.load(out)
+    with h5py.File(out, "r") as f:
+        value = f.attrs[attr].encode()
+    i = value.index(key) + len(key)
+    assert value[i:i + 1].isdigit()
+    _flip_in_file(out, value, i, b"9" if value[i:i + 1] != b"9" else b"8")  # still valid JSON, another value
+    with pytest.raises(R.ResultsDamagedError, match=f"checksum mismatch in .*attribute {attr}\\b"):
+        R.load(out)
+    p = _serial([*FAKE, "--out", str(out)])
+    assert p.returncode == 2, p.stdout + p.stderr
+    line = p.stdout.strip().splitlines()[-1]
+    assert "damaged" in line and f"attribute {attr}" in line and "holds a different run" not in line, line
+    assert "its rows are intact" in line and f"mv {out} {out}.damaged" in line and "--overwrite would delete" in line
+    _same_rows(good, R.load(out, verify=False))  # the salvage path the line names
+    assert out.exists()
+
+
+def test_a_changed_signature_of_an_interrupted_file_is_rebuilt_from_its_journal(tmp_path):
+    out = _partial(tmp_path, n=4)
+    before = R.load(out)
+    with h5py.File(out, "r") as f:
+        value = f.attrs["grid_signature"].encode()
+    key = b'"seed": 2016060'
+    _flip_in_file(out, value, value.index(key) + len(key), b"9")
+    p = _ok(_serial([*FAKE, "--out", str(out)]))
+    assert "checksum mismatch in attribute grid_signature" in p.stdout and "rebuilding it from" in p.stdout, p.stdout
+    after = R.load(out)
+    assert after.complete and len(after) == 16
+    _same_rows(before, after, rows=before.rows)
+    _same_rows(_fresh(tmp_path), after)
+
+
+def test_an_edited_journal_value_is_detected_and_not_used(tmp_path):
+    out = _partial(tmp_path, n=4, extra=["--flush-s", "60"])  # the rows are in the journal only
+    jp = R.journal_path(out)
+    lines = jp.read_bytes().split(b"\n")
+    row = json.loads(lines[2].rsplit(b"\t", 1)[0])
+    edited = dict(row, u_top=123.0)
+    lines[2] = json.dumps(edited, separators=(",", ":")).encode() + b"\t" + lines[2].rsplit(b"\t", 1)[1]
+    jp.write_bytes(b"\n".join(lines))
+    with pytest.warns(UserWarning, match=r"line\(s\) 3 fail their checksum"):
+        r = R.load(out)
+    assert row["row"] not in r.rows.tolist() and not (r.samples["u_top"] == 123.0).any()
+    p = _ok(_serial([*FAKE, "--out", str(out)]))
+    assert "fail their checksum" in p.stdout, p.stdout
+    after = R.load(out)
+    assert after.complete and not (after.samples["u_top"] == 123.0).any()
+    _same_rows(_fresh(tmp_path), after)  # the edited row was recomputed
+
+
+def test_zeroed_status_bytes_of_an_interrupted_file_are_recomputed(tmp_path):
+    # Reported: zeroed status bytes gave OK rows of NaN that were never recomputed.
+    out = _partial(tmp_path, n=4)
+    before = R.load(out)
+    with h5py.File(out, "r") as f:
+        off, n = f["samples/status"].id.get_offset(), f["samples/status"].size
+    with open(out, "r+b") as fh:
+        fh.seek(off)
+        fh.write(b"\0" * 4 * n)  # every status 0 = "ok", pending rows included
+    with pytest.warns(UserWarning, match="marked done but carry no identity"):
+        r = R.load(out)
+    assert r.rows.tolist() == before.rows.tolist()  # the journal's rows, and no "ok" row of NaN
+    p = _ok(_serial([*FAKE, "--out", str(out)]))
+    after = R.load(out)
+    assert after.complete and len(after) == 16 and np.isfinite(after.samples["u_top"]).all()
+    _same_rows(_fresh(tmp_path), after)
