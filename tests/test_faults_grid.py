@@ -341,3 +341,43 @@ def test_an_os_error_before_any_row_does_not_claim_rows_in_the_journal(tmp_path)
     w.add([{"row": 0, "scenario": 0, "status": 0}, {"row": 1, "scenario": 0, "status": 0}])
     w.close()
     assert f"the 2 row(s) finished so far are in the journal {R.journal_path(out)}" in _os_error_line(err, out)
+
+
+# ------------------------------------------------------------------------------ 12: natural records
+
+def test_a_pair_of_unequal_lengths_runs_as_recorded_and_a_failing_record_says_why(tmp_path):
+    # Reported: the 22 FEMA P695 far-field records written as AT2 files plus a CSV gave 2 of 44
+    # failed rows: FF15 (Manjil) has components of 2676 and 2300 samples, and the CSV reader refused
+    # the pair (align="error") where simulate() runs either component. Here a pair of 601 and 451
+    # samples, and a record whose H1 file is not an AT2: its rows fail and the summary says why.
+    import pycolfrag as pcf
+    from pycolfrag.demo_records import pulse, write_at2
+    from pycolfrag.ground_motion import read_at2
+    dt = 0.01
+    h1, h2 = pulse(0.30, 1.0, 6.0, dt), pulse(0.25, 0.8, 4.5, dt)
+    assert (h1.size, h2.size) == (601, 451)
+    write_at2(tmp_path / "U_H1.AT2", h1, dt, title="UNEVEN")
+    write_at2(tmp_path / "U_H2.AT2", h2, dt, title="UNEVEN")
+    (tmp_path / "B_H1.AT2").write_text("not an AT2 file\n")
+    (tmp_path / "suite.csv").write_text("record_id,file_h1,file_h2,mw,rrup_km,event\n"
+                                        "UNEVEN,U_H1.AT2,U_H2.AT2,7.4,12.6,Manjil-like\n"
+                                        "BROKEN,B_H1.AT2,,6.5,10,Broken\n")
+    out = tmp_path / "r.h5"
+    p = _ok(_serial(["--records", str(tmp_path / "suite.csv"), "--no-figures", "--no-progress", "--out", str(out)]))
+    r = R.load(out)
+    s = r.samples
+    uneven = {s["component"][i]: i for i in range(len(r)) if s["record_id"][i] == "UNEVEN"}
+    assert set(uneven) == {"h1", "h2"} and all(s["status"][i] == 0 for i in uneven.values()), s["message"]
+    for comp, name in (("h1", "U_H1.AT2"), ("h2", "U_H2.AT2")):
+        rec = read_at2(tmp_path / name)  # the component as recorded, straight into simulate()
+        direct = pcf.simulate(pcf.Column.parthenon(), rec.acc, rec.dt)
+        i = uneven[comp]
+        assert s["u_top"][i] == direct.u_top and s["n_steps"][i] == direct.n_steps, comp  # the same run, bit for bit
+        assert s["record_s"][i] == rec.acc.size * dt
+    broken = [i for i in range(len(r)) if s["record_id"][i] == "BROKEN"]
+    assert len(broken) == 1 and s["status"][broken[0]] == R.STATUS_RECORD_FAILED
+    msg = s["message"][broken[0]]
+    assert "B_H1.AT2" in msg and msg.startswith("RecordFileError"), msg
+    lines = p.stdout.splitlines()
+    k = lines.index("failed rows (status > 0; the message is stored in each row):")
+    assert lines[k + 1] == f"  1 failed [BROKEN h1]: {msg}", lines[k:k + 3]
