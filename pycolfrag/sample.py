@@ -119,11 +119,20 @@ def response_row(column, acc_x, dt, *, acc_y=None, acc_z=None, ims=None, periods
     try:
         out.update(ims_row(acc_x, dt, periods_s, damping) if ims is None else ims)
         phase = "solver"
-        with warnings.catch_warnings():  # an energy warning is stored (energy_warning), not printed per run
-            warnings.simplefilter("ignore", UserWarning)
-            res = simulate(column, acc_x, dt, acc_y=acc_y, acc_z=acc_z, **dict(solver_options or {}))
+        from .options import SolverOptions
+        from .solver import EnergyWarning, StepWarning
+        kw = {"options": solver_options} if isinstance(solver_options, SolverOptions) else dict(solver_options or {})
+        with warnings.catch_warnings(record=True) as caught:
+            # an energy warning is stored (energy_warning), not printed per run; a step warning
+            # (dt_solver above the stability limit or the record's dt) is kept in the row's message
+            warnings.simplefilter("ignore", EnergyWarning)
+            warnings.simplefilter("always", StepWarning)
+            res = simulate(column, acc_x, dt, acc_y=acc_y, acc_z=acc_z, **kw)
         phase = "other"
         out.update(_edp_row(res))
+        steps = [str(w.message) for w in caught if issubclass(w.category, StepWarning)]
+        if steps:
+            out["message"] = "StepWarning: " + "; ".join(steps)
     except Exception as exc:  # a failed sample is a result (status, message), not the end of the run
         out["status"] = STATUS[phase]
         out["message"] = f"{type(exc).__name__}: {exc}"
@@ -221,14 +230,17 @@ def run_record_sample(record, *, column, component="h1", scale=1.0, vertical=Fal
         out["scale"] = f
         rec = record.rotated(rotation_deg) if rotation_deg is not None else record
         dt = float(rec.dt)
-        n = rec.n if max_record_s is None else min(rec.n, int(round(max_record_s / dt)) + 1)
+        # one component alone runs as recorded (without the zeros that padded it to its pair's length)
+        n = rec.n if component == "both" else rec.recorded(component).size
+        n = n if max_record_s is None else min(n, int(round(max_record_s / dt)) + 1)
         x = f * rec.component("h2" if component == "h2" else "h1")[:n]
         y = f * rec.component("h2")[:n] if component == "both" else None
         z = f * rec.v[:n] if (vertical and rec.v is not None) else None
         out.update(record_s=n * dt, dt_s=dt)
     except Exception as exc:
         out["status"] = STATUS["record"]
-        out["message"] = f"{type(exc).__name__}: {exc}"
+        text = str(exc)  # an unreadable record's error already names its type
+        out["message"] = text if text.startswith(f"{type(exc).__name__}: ") else f"{type(exc).__name__}: {text}"
         out["wall_s"] = time.perf_counter() - t0
         return out
     ims = None

@@ -16,6 +16,7 @@ from pycolfrag import grid, results as R
 
 @pytest.fixture
 def fake_physics(monkeypatch):
+    grid.build_identity()  # the build's result hash comes from the real physics (computed once per process)
     calls = {"lhs": [], "synth": []}
 
     def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0):
@@ -35,7 +36,8 @@ def fake_physics(monkeypatch):
         return {"pga_g": float(np.abs(acc).max() / 9.81), "pgv_cm_s": 11.0, "pgd_cm": 3.0, "arias_m_s": 0.2,
                 "d5_95_s": 7.0, "sa_g": p * 2, "sv_cm_s": p * 3, "periods_s": p}
 
-    def simulate(col, acc_x, dt, **opts):
+    def simulate(col, acc_x, dt, options=None, **opts):
+        opts = {**(options.to_dict() if options is not None else {}), **opts}
         if opts.get("unstable_tolerance", 0.5) < 1e-6:   # the real solver would stop such runs as unstable
             raise pcf.SolverError("instability at t = 1.2 s")
         big = float(np.abs(acc_x).max()) > 3.5

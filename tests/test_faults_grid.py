@@ -1,0 +1,383 @@
+"""Hostile but fair use of the grid, its results file and record suites: runs that must not mix
+versions, stored values that must not change unnoticed, options that must be refused before a
+run, readers and signals that must not break a run, suites that must not reach outside their folder.
+
+Grids use the fake sample function of ``tests/grid_fakes.py`` where the physics does not matter
+(seconds per case); the few cases about the physics (step limits, the pre-run probes) run the
+solver on a 3-sample zero record or one short record.
+"""
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from pycolfrag import results as R
+from pycolfrag.errors import ParameterError
+
+from test_grid import ROOT, SCRIPT, _env, _journal_rows, _ok, _same_rows, _serial
+
+FAKE = ["--mw", "6", "7", "--dist", "5", "10", "--samples", "4", "--sample-function", "grid_fakes:fake",
+        "--no-figures", "--no-progress", "--flush-s", "0.2"]
+
+
+def _start(args, **env):
+    return subprocess.Popen([sys.executable, str(SCRIPT), *args], env=_env(**env), cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+
+def _wait_rows(out, n, proc=None, limit=60):
+    t0 = time.time()
+    while _journal_rows(out) < n:
+        assert time.time() - t0 < limit, f"journal of {out} never reached {n} rows"
+        assert proc is None or proc.poll() is None, f"run ended early: {proc.stdout.read()}"
+        time.sleep(0.02)
+
+
+def _kill9(proc):
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=30)
+
+
+def _partial(tmp_path, n=3, name="g.h5", extra=()):
+    """A fake grid killed (SIGKILL) after ``n`` journalled rows: the state a resume starts from."""
+    out = tmp_path / name
+    p = _start([*FAKE, *extra, "--out", str(out)], PCF_FAKE_SLEEP_S="0.2")
+    _wait_rows(out, n, p)
+    _kill9(p)
+    return out
+
+
+def _main_patched(patch, args, **env):
+    """``grid.main(args)`` in a child process after ``patch`` (Python source) has run: another build."""
+    code = textwrap.dedent(patch) + "\nimport sys\nfrom pycolfrag.grid import main\nsys.exit(main(sys.argv[1:]))\n"
+    return subprocess.run(["timeout", "-k", "10", "120", sys.executable, "-c", code, *args], capture_output=True,
+                          text=True, env=_env(**env), cwd=ROOT)
+
+
+# ------------------------------------------------------------------------------ 1: no version mixing
+
+def test_specs_of_the_same_physics_have_one_signature():
+    # the raw options dict used to be signed: {} and {"dt_factor": <its default>} are the same
+    # physics but refused each other's files; the resolved SolverOptions is signed now
+    from pycolfrag import SolverOptions
+    from pycolfrag.grid import GridSpec
+    d = SolverOptions().to_dict()
+    a = GridSpec(mw=(6.0,), dist_km=(5.0,), samples=2)
+    b = GridSpec(mw=(6.0,), dist_km=(5.0,), samples=2, solver_options={"dt_factor": d["dt_factor"],
+                                                                       "contact": d["contact"]})
+    c = GridSpec(mw=(6.0,), dist_km=(5.0,), samples=2, solver_options=SolverOptions())
+    assert a.signature() == b.signature() == c.signature()
+    assert a.signature()["solver"] == d  # every option, defaults filled in
+    assert isinstance(b.solver_options, SolverOptions)
+    other = GridSpec(mw=(6.0,), dist_km=(5.0,), samples=2, solver_options={"dt_factor": d["dt_factor"] / 2})
+    assert other.signature() != a.signature()
+
+
+# a build whose C default dt_factor is 0.7 instead of the library's (what a rebuild after editing
+# cf_solver_def_default gives): Python reads its defaults from C, so this is the same change
+_PATCH_DEFAULT = """
+import dataclasses
+import pycolfrag.options as o, pycolfrag.solver as so
+@dataclasses.dataclass(frozen=True)
+class Rebuilt(o.SolverOptions):
+    dt_factor: float = 0.7
+o.SolverOptions = so.SolverOptions = Rebuilt
+"""
+# a build that computes other numbers with the same options (a changed formula in the C library)
+_PATCH_PHYSICS = """
+import pycolfrag.solver as so
+_orig = so.simulate
+def simulate(col, acc_x, dt, *a, **k):
+    return _orig(col, acc_x * (1 + 1e-12), dt, *a, **k)
+so.simulate = simulate
+"""
+
+
+@pytest.mark.parametrize("patch, named", [(_PATCH_DEFAULT, "dt_factor"), (_PATCH_PHYSICS, "result_hash")])
+def test_resume_across_a_code_change_is_refused(tmp_path, patch, named):
+    # Reported: kill a grid, change a C default (dt_factor 0.8 -> 0.7), rebuild, rerun the same
+    # command: 121 rows with the old step and 39 with the new in one file.
+    out = _partial(tmp_path)
+    before = R.load(out)
+    p = _main_patched(patch, [*FAKE, "--out", str(out)])
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert "holds a different run" in p.stdout and named in p.stdout, p.stdout
+    assert "another build of pycolfrag" in p.stdout and "mix rows of two versions" in p.stdout, p.stdout
+    _same_rows(before, R.load(out))  # untouched
+    sig = json.loads(R.load(out).attrs["grid_signature"])
+    assert set(sig["build"]) == {"version", "result_hash"}
+    # the same build resumes it
+    p = _ok(_serial([*FAKE, "--out", str(out)]))
+    assert f"{len(before)} of 16 rows already done" in p.stdout
+
+
+# ------------------------------------------------------------------------------ 4: StepWarning
+
+def _refused(argv, capsys, tmp_path):
+    """main(argv) in process: exit code 2, one line, no file made; returns the line."""
+    from pycolfrag.grid import main
+    out = tmp_path / "o" / "g.h5"
+    code = main([*argv, "--no-figures", "--no-progress", "--mpi", "no", "--out", str(out)])
+    text = capsys.readouterr().out.strip()
+    assert code == 2, text
+    assert len(text.splitlines()) == 1, text
+    assert not out.parent.exists() or not any(out.parent.iterdir())
+    return text
+
+
+@pytest.mark.parametrize("dt_solver", ["0.0011", "0.0012", "1"])
+def test_a_step_above_the_stability_limit_is_refused_before_the_run(tmp_path, capsys, dt_solver):
+    # Reported: --solver dt_solver=0.0011 (1.1x the limit) exited 0 with every row stored as OK,
+    # the StepWarning swallowed; 0.0012 gave a SolverError traceback. The limit is the solver's own
+    # whole-stack stability limit (Response.dt_crit), asked here independently of the grid.
+    import pycolfrag as pcf
+    crit = pcf.simulate(pcf.Column.parthenon(), np.zeros(3), 0.005).dt_crit
+    assert 0.0009 < crit < 0.0011  # the Parthenon column's limit (docs/solver.md): 1.1 and 1.2x are above it
+    line = _refused(["--mw", "6", "--dist", "5", "--samples", "1", "--solver", f"dt_solver={dt_solver}"],
+                    capsys, tmp_path)
+    assert f"dt_solver = {float(dt_solver):.4g} s exceeds the whole-stack stability limit {crit:.4g} s" in line, line
+    assert f"choose dt_solver <= {crit:.4g} s" in line and "Traceback" not in line
+
+
+def test_a_step_longer_than_the_records_dt_is_refused(tmp_path, capsys):
+    line = _refused(["--mw", "6", "--dist", "5", "--samples", "1", "--record-dt", "0.0005",
+                     "--solver", "dt_solver=0.0008"], capsys, tmp_path)
+    assert "is longer than the record's dt = 0.0005 s" in line, line
+
+
+def test_a_row_keeps_the_step_warning_in_its_message():
+    # outside the grid (run_suite, run_record_sample) a row computed with such a step says so
+    from pycolfrag import Column, sample
+    row = sample.response_row(Column.parthenon(), np.zeros(40), 0.01, solver_options={"dt_solver": 0.00102})
+    assert row["status"] == 0 and row["message"].startswith("StepWarning: simulate: dt_solver = 0.00102 s exceeds"), row
+
+
+def test_history_dt_zero_is_reported_under_its_own_name():
+    from pycolfrag import SolverOptions
+    with pytest.raises(ParameterError, match=r"^solver options: history_dt must be > 0, got 0$"):
+        SolverOptions(history_dt=0)
+
+
+# ------------------------------------------------------------------------------ 5: integrity
+
+def _flip_in_file(path, text: bytes, at: int, new: bytes):
+    """Change the file's bytes where ``text`` occurs: byte ``at`` of it becomes ``new`` (in every
+    copy: HDF5 may keep the heap object of an attribute rewritten later)."""
+    data = Path(path).read_bytes()
+    start = data.find(text)
+    assert start >= 0
+    with open(path, "r+b") as fh:
+        while start >= 0:
+            fh.seek(start + at)
+            fh.write(new)
+            start = data.find(text, start + 1)
+
+
+def _fresh(tmp_path, name="fresh.h5"):
+    out = tmp_path / name
+    _ok(_serial([*FAKE, "--out", str(out)]))
+    return R.load(out)
+
+
+@pytest.mark.parametrize("attr, key", [("grid_signature", b'"seed": 2016060'), ("column", b'"density": '),
+                                       ("solver", b'"dt_factor": 0.')])
+def test_a_changed_root_attribute_of_a_complete_file_is_damage_not_another_run(tmp_path, attr, key):
+    # Reported: 140 of 3000 bit flips changed grid_signature, column or solver silently; a flipped
+    # signature made the next run advise --overwrite, which deletes every row.
+    out = tmp_path / "g.h5"
+    _ok(_serial([*FAKE, "--out", str(out)]))
+    good = R.load(out)
+    with h5py.File(out, "r") as f:
+        value = f.attrs[attr].encode()
+    i = value.index(key) + len(key)
+    assert value[i:i + 1].isdigit()
+    _flip_in_file(out, value, i, b"9" if value[i:i + 1] != b"9" else b"8")  # still valid JSON, another value
+    with pytest.raises(R.ResultsDamagedError, match=f"checksum mismatch in .*attribute {attr}\\b"):
+        R.load(out)
+    p = _serial([*FAKE, "--out", str(out)])
+    assert p.returncode == 2, p.stdout + p.stderr
+    line = p.stdout.strip().splitlines()[-1]
+    assert "damaged" in line and f"attribute {attr}" in line and "holds a different run" not in line, line
+    assert "its rows are intact" in line and f"mv {out} {out}.damaged" in line and "--overwrite would delete" in line
+    _same_rows(good, R.load(out, verify=False))  # the salvage path the line names
+    assert out.exists()
+
+
+def test_a_changed_signature_of_an_interrupted_file_is_rebuilt_from_its_journal(tmp_path):
+    out = _partial(tmp_path, n=4)
+    before = R.load(out)
+    with h5py.File(out, "r") as f:
+        value = f.attrs["grid_signature"].encode()
+    key = b'"seed": 2016060'
+    _flip_in_file(out, value, value.index(key) + len(key), b"9")
+    p = _ok(_serial([*FAKE, "--out", str(out)]))
+    assert "checksum mismatch in attribute grid_signature" in p.stdout and "rebuilding it from" in p.stdout, p.stdout
+    after = R.load(out)
+    assert after.complete and len(after) == 16
+    _same_rows(before, after, rows=before.rows)
+    _same_rows(_fresh(tmp_path), after)
+
+
+def test_an_edited_journal_value_is_detected_and_not_used(tmp_path):
+    out = _partial(tmp_path, n=4, extra=["--flush-s", "60"])  # the rows are in the journal only
+    jp = R.journal_path(out)
+    lines = jp.read_bytes().split(b"\n")
+    row = json.loads(lines[2].rsplit(b"\t", 1)[0])
+    edited = dict(row, u_top=123.0)
+    lines[2] = json.dumps(edited, separators=(",", ":")).encode() + b"\t" + lines[2].rsplit(b"\t", 1)[1]
+    jp.write_bytes(b"\n".join(lines))
+    with pytest.warns(UserWarning, match=r"line\(s\) 3 fail their checksum"):
+        r = R.load(out)
+    assert row["row"] not in r.rows.tolist() and not (r.samples["u_top"] == 123.0).any()
+    p = _ok(_serial([*FAKE, "--out", str(out)]))
+    assert "fail their checksum" in p.stdout, p.stdout
+    after = R.load(out)
+    assert after.complete and not (after.samples["u_top"] == 123.0).any()
+    _same_rows(_fresh(tmp_path), after)  # the edited row was recomputed
+
+
+def test_zeroed_status_bytes_of_an_interrupted_file_are_recomputed(tmp_path):
+    # Reported: zeroed status bytes gave OK rows of NaN that were never recomputed.
+    out = _partial(tmp_path, n=4)
+    before = R.load(out)
+    with h5py.File(out, "r") as f:
+        off, n = f["samples/status"].id.get_offset(), f["samples/status"].size
+    with open(out, "r+b") as fh:
+        fh.seek(off)
+        fh.write(b"\0" * 4 * n)  # every status 0 = "ok", pending rows included
+    with pytest.warns(UserWarning, match="marked done but carry no identity"):
+        r = R.load(out)
+    assert r.rows.tolist() == before.rows.tolist()  # the journal's rows, and no "ok" row of NaN
+    p = _ok(_serial([*FAKE, "--out", str(out)]))
+    after = R.load(out)
+    assert after.complete and len(after) == 16 and np.isfinite(after.samples["u_top"]).all()
+    _same_rows(_fresh(tmp_path), after)
+
+
+# ------------------------------------------------------------------------------ 10: options that fail every row
+
+BASE = ["--mw", "6", "--dist", "5", "--samples", "1"]
+
+
+@pytest.mark.parametrize("change, expect", [
+    # the weakest scenario's record at 1e300 x Vp is ~1e300 m/s^2: simulate() refuses |a| > MAX_ABS_ACC
+    (["--vp-scale", "1e300"], "--vp-scale: the record of Mw 6, R 5 km, sample 0 reaches |a| = "),
+    # intensity.measures: a damping ratio must be in [0, 1)
+    (["--damping", "1.5"], "the IMs of the record of Mw 6, R 5 km, sample 0 fail (damping must be a ratio in [0, 1), "
+                           "got 1.5)"),
+    (["--samples", "10000000"], "samples must be at most 1e+06 per scenario, got 10000000"),
+])
+def test_options_that_fail_every_row_are_refused_before_the_run(tmp_path, capsys, change, expect):
+    # Reported: exit 0 with every row failed (--vp-scale 1e300, --damping 1.5); --samples 1e7 built a
+    # 6.6 GB file and computed nothing for an hour (the scenario's Latin hypercube, ~0.3 ms a sample)
+    line = _refused(BASE + change, capsys, tmp_path)
+    assert expect in line and "Traceback" not in line, line
+
+
+def test_a_tiny_solver_step_is_refused_before_it_runs_for_minutes(tmp_path, capsys):
+    # Reported: --solver dt_solver=1e-8 was silent for minutes (the pre-run check itself ran 3e8 steps).
+    # Steps of the check: (3 samples x 0.005 s + the solver's tail) / 1e-8.
+    from pycolfrag import SolverOptions
+    from pycolfrag.grid import MAX_CHECK_STEPS
+    steps = (3 * 0.005 + SolverOptions().tail_s) / 1e-8
+    assert steps > MAX_CHECK_STEPS
+    t0 = time.perf_counter()
+    line = _refused(BASE + ["--solver", "dt_solver=1e-8"], capsys, tmp_path)
+    assert f"a step of 1e-08 s needs {steps:.3g} steps" in line, line
+    assert time.perf_counter() - t0 < 30  # not the minutes of the 3e8 steps (a bound, not a timing)
+
+
+def test_a_long_grid_says_its_expected_work_and_a_long_record_is_named():
+    # The estimate: solver steps (record + tail) / dt times the measured time per step.
+    from pycolfrag import records
+    from pycolfrag.grid import GridSpec, RecordGridSpec, check_work
+    from record_suite import write_suite
+    import tempfile
+    said = []
+    spec = GridSpec(mw=(6.0,), dist_km=(5.0,), samples=10000)
+    tail = spec.solver_options.tail_s
+    check_work(spec, [("Mw 6, R 5 km", 40.0)], {"dt_s": 8e-4, "step_s": 3e-6}, said.append)
+    per_row = (40.0 + tail) / 8e-4 * 3e-6
+    assert said == [f"run_grid: expected work about {10000 * per_row / 60:.3g} min of CPU time (10000 rows; the longest "
+                    "records, 3 us per solver step as measured now)"]
+    with pytest.raises(ParameterError, match=r"needs 5\.1e\+07 solver steps"):  # (40 + 3) s / 8.43e-7 s
+        check_work(spec, [("Mw 6, R 5 km", 40.0)], {"dt_s": (40.0 + tail) / 5.1e7, "step_s": 3e-6}, said.append)
+    with tempfile.TemporaryDirectory() as d:
+        suite = records.load_records(write_suite(Path(d)) / "suite.csv")
+        rspec = RecordGridSpec(records="demo", suite=suite)
+    said.clear()
+    check_work(rspec, [("RSN9001", 1e6)], {"dt_s": 8e-4, "step_s": 3e-6}, said.append)  # a 1e8-sample record at 0.01 s
+    assert said[0] == (f"run_grid: record RSN9001 is 1e+06 s long: about {(1e6 + tail) / 8e-4:.3g} solver steps, "
+                       f"{(1e6 + tail) / 8e-4 * 3e-6 / 3600:.3g} h per row (2 rows)"), said
+
+
+# ------------------------------------------------------------------------------ misleading messages
+
+def test_out_naming_a_folder_is_refused_as_such_not_called_damaged(tmp_path, capsys):
+    from pycolfrag.grid import main
+    code = main([*FAKE, "--mpi", "no", "--out", str(tmp_path)])
+    line = capsys.readouterr().out.strip()
+    assert code == 2 and line == f"run_grid: --out {tmp_path} is a folder: give the results file's path, e.g. " \
+                                 f"{tmp_path / 'grid.h5'}", line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_os_error_before_any_row_does_not_claim_rows_in_the_journal(tmp_path):
+    # Reported: "Rows finished so far are in the journal" when none were.
+    from pycolfrag.grid import _os_error_line
+    out = tmp_path / "g.h5"
+    err = OSError(30, "Read-only file system", str(out))
+    assert _os_error_line(err, out) == (f"run_grid: cannot write the results at {out}: Read-only file system (errno 30); "
+                                        "no row was computed; fix the cause and rerun the same command.")
+    w = R.open_for_run(out, {"a": 1}, {}, 4, [1.0])
+    w.add([{"row": 0, "scenario": 0, "status": 0}, {"row": 1, "scenario": 0, "status": 0}])
+    w.close()
+    assert f"the 2 row(s) finished so far are in the journal {R.journal_path(out)}" in _os_error_line(err, out)
+
+
+# ------------------------------------------------------------------------------ 12: natural records
+
+def test_a_pair_of_unequal_lengths_runs_as_recorded_and_a_failing_record_says_why(tmp_path):
+    # Reported: the 22 FEMA P695 far-field records written as AT2 files plus a CSV gave 2 of 44
+    # failed rows: FF15 (Manjil) has components of 2676 and 2300 samples, and the CSV reader refused
+    # the pair (align="error") where simulate() runs either component. Here a pair of 601 and 451
+    # samples, and a record whose H1 file is not an AT2: its rows fail and the summary says why.
+    import pycolfrag as pcf
+    from pycolfrag.demo_records import pulse, write_at2
+    from pycolfrag.ground_motion import read_at2
+    dt = 0.01
+    h1, h2 = pulse(0.30, 1.0, 6.0, dt), pulse(0.25, 0.8, 4.5, dt)
+    assert (h1.size, h2.size) == (601, 451)
+    write_at2(tmp_path / "U_H1.AT2", h1, dt, title="UNEVEN")
+    write_at2(tmp_path / "U_H2.AT2", h2, dt, title="UNEVEN")
+    (tmp_path / "B_H1.AT2").write_text("not an AT2 file\n")
+    (tmp_path / "suite.csv").write_text("record_id,file_h1,file_h2,mw,rrup_km,event\n"
+                                        "UNEVEN,U_H1.AT2,U_H2.AT2,7.4,12.6,Manjil-like\n"
+                                        "BROKEN,B_H1.AT2,,6.5,10,Broken\n")
+    out = tmp_path / "r.h5"
+    p = _ok(_serial(["--records", str(tmp_path / "suite.csv"), "--no-figures", "--no-progress", "--out", str(out)]))
+    r = R.load(out)
+    s = r.samples
+    uneven = {s["component"][i]: i for i in range(len(r)) if s["record_id"][i] == "UNEVEN"}
+    assert set(uneven) == {"h1", "h2"} and all(s["status"][i] == 0 for i in uneven.values()), s["message"]
+    for comp, name in (("h1", "U_H1.AT2"), ("h2", "U_H2.AT2")):
+        rec = read_at2(tmp_path / name)  # the component as recorded, straight into simulate()
+        direct = pcf.simulate(pcf.Column.parthenon(), rec.acc, rec.dt)
+        i = uneven[comp]
+        assert s["u_top"][i] == direct.u_top and s["n_steps"][i] == direct.n_steps, comp  # the same run, bit for bit
+        assert s["record_s"][i] == rec.acc.size * dt
+    broken = [i for i in range(len(r)) if s["record_id"][i] == "BROKEN"]
+    assert len(broken) == 1 and s["status"][broken[0]] == R.STATUS_RECORD_FAILED
+    msg = s["message"][broken[0]]
+    assert "B_H1.AT2" in msg and msg.startswith("RecordFileError"), msg
+    lines = p.stdout.splitlines()
+    k = lines.index("failed rows (status > 0; the message is stored in each row):")
+    assert lines[k + 1] == f"  1 failed [BROKEN h1]: {msg}", lines[k:k + 3]
