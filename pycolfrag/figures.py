@@ -103,6 +103,11 @@ def read_results(path) -> ResultsData:
         raise ResultsFileError(f"results file {path} does not exist")
     r = _results.load(path, any_layout=True)
     samples, spectra, attrs = r.samples, r.spectra, r.attrs
+    if attrs.get("layout") == "records":
+        # a suite's rows are records x components x scales, not (Mw, R) scenarios of one distribution:
+        # pooling them as scenarios would mix scale factors into one probability
+        raise ResultsFileError(f"{path} is a record-suite results file (run_grid.py --records), not a synthetic "
+                               f"grid: analyse it with python -m pycolfrag.record_report {path} OUT_DIR")
     periods = r.periods_s if len(r.periods_s) else None
     missing = [k for k in ("mw", "dist_km", "u_top", "u_d", "collapsed", "status") if k not in samples]
     if missing:

@@ -24,6 +24,7 @@ import numpy as np
 from . import fragility as fr
 from . import names
 from .fragility import binomial_ci
+from .errors import PycolfragError
 from .figures import FIGURES, im_curves, read_results
 
 __all__ = ["write_report", "binomial_ci", "fmt_ci"]
@@ -157,7 +158,11 @@ def main(argv=None):
     if not argv or argv[0] in ("-h", "--help"):
         print("usage: python -m pycolfrag.report RESULTS.h5 [OUT.md]")
         return 0 if argv else 2
-    print(write_report(argv[0], argv[1] if len(argv) > 1 else None))
+    try:
+        print(write_report(argv[0], argv[1] if len(argv) > 1 else None))
+    except PycolfragError as exc:
+        print(f"report: {exc}", file=sys.stderr)
+        return 2
     return 0
 
 

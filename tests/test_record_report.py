@@ -66,3 +66,18 @@ def test_analysis_refuses_a_synthetic_file(tmp_path):
     with pytest.raises(R.ResultsFileError, match="not a record-suite results file"):
         record_report.suite_table(syn)
     assert record_report.main([str(syn), str(tmp_path / "x")]) == 2
+
+
+def test_synthetic_grid_outputs_refuse_a_record_suite_file(suite_file, tmp_path, capsys):
+    """The converse: the scenario report and the paper's figures pool rows by (Mw, R) scenario, which
+    for a suite would mix the four scale factors into one probability. Each refuses the file and names
+    the command that analyses it; the command line exits 2 with that message, not a traceback."""
+    from pycolfrag import figures, report
+    out, _, _ = suite_file
+    with pytest.raises(R.ResultsFileError, match="record-suite results file.*pycolfrag.record_report"):
+        report.write_report(out, tmp_path / "report.md")
+    assert not (tmp_path / "report.md").exists()
+    assert report.main([str(out), str(tmp_path / "report.md")]) == 2
+    assert "python -m pycolfrag.record_report" in capsys.readouterr().err
+    with pytest.raises(R.ResultsFileError, match="record-suite"):
+        figures.make_all(out, tmp_path / "figs")
