@@ -80,7 +80,11 @@ class ResultsData:
         return int(self.samples["mw"].size)
 
     def __getitem__(self, name):
-        return self.samples[name]
+        try:
+            return self.samples[name]
+        except KeyError:
+            raise ResultsFileError(f"{self.path}: /samples has no field {name!r}, which this output needs "
+                                   f"(fields: {', '.join(sorted(self.samples))})") from None
 
     def scenario_index(self) -> np.ndarray:
         """Integer stratum of each sample: its (Mw, R) scenario (for stratified bootstraps)."""

@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize, special, stats
 
+from ._validate import float_array, positive_float
 from .errors import ParameterError
 
 __all__ = [
@@ -129,15 +130,18 @@ def _as_flags(collapsed) -> np.ndarray:
     """Collapse flags as a bool array; 0/1 integers accepted, anything else refused."""
     collapsed = np.asarray(collapsed)
     if collapsed.dtype != bool:
-        if not np.all(np.isin(collapsed, (0, 1))):
-            raise ParameterError("collapsed must hold booleans (or 0/1)")
+        if collapsed.dtype.kind not in "iuf" or not np.all(np.isin(collapsed, (0, 1))):
+            bad = collapsed.ravel()[~np.isin(collapsed.ravel(), (0, 1))] if collapsed.dtype.kind in "iuf" \
+                else collapsed.ravel()
+            raise ParameterError(f"collapsed must hold booleans (or 0/1), got {bad[0]!r}" if bad.size
+                                 else "collapsed must hold booleans (or 0/1)")
         collapsed = collapsed.astype(bool)
     return collapsed
 
 
 def _as_inputs(edp, collapsed, threshold=None):
     """Validate (edp, collapsed[, threshold]) and return float/bool arrays (and the threshold)."""
-    edp = np.asarray(edp, dtype=float)
+    edp = float_array(edp, "edp", ndim=None, allow_empty=True, finite=False)
     collapsed = np.asarray(collapsed)
     if edp.ndim != 1 or collapsed.ndim != 1:
         raise ParameterError(f"edp and collapsed must be 1-D, got shapes {edp.shape} and {collapsed.shape}")
@@ -154,10 +158,7 @@ def _as_inputs(edp, collapsed, threshold=None):
         raise ParameterError(f"EDPs must be non-negative, got min {ok.min()!r}")
     if threshold is None:
         return edp, collapsed
-    threshold = float(threshold)
-    if not np.isfinite(threshold) or threshold <= 0:
-        raise ParameterError(f"threshold must be a positive finite number, got {threshold!r}")
-    return edp, collapsed, threshold
+    return edp, collapsed, positive_float(threshold, "threshold")
 
 
 # --------------------------------------------------------------------------- Eqs. (1)-(4)
@@ -207,7 +208,7 @@ def lognormal_parameters(edp) -> tuple[float, float]:
         Mean and dispersion of ``ln EDP`` (``scipy.stats.lognorm.fit(edp, floc=0)``:
         ``beta = s``, ``mu = ln(scale)``; equal to ``mean(ln x)`` and ``std(ln x, ddof=0)``).
     """
-    x = np.asarray(edp, dtype=float)
+    x = float_array(edp, "edp", ndim=None, allow_empty=True, finite=False)
     if x.ndim != 1 or x.size == 0:
         raise ParameterError("lognormal_parameters needs a non-empty 1-D array (empty group?)")
     if not np.all(np.isfinite(x)) or np.any(x <= 0):
@@ -267,8 +268,9 @@ def empirical_exceedance(edp, collapsed, threshold) -> float:
 
 def exceeded(edp, collapsed, threshold) -> np.ndarray:
     """Bernoulli outcome of each simulation: collapsed or EDP >= threshold (bool array)."""
-    edp = np.asarray(edp, dtype=float)
-    collapsed = np.asarray(collapsed, dtype=bool)
+    edp = float_array(edp, "edp", ndim=None, allow_empty=True, finite=False)
+    collapsed = _as_flags(collapsed)
+    threshold = positive_float(threshold, "threshold")
     with np.errstate(invalid="ignore"):
         return collapsed | (np.nan_to_num(edp, nan=-np.inf) >= threshold)
 
@@ -417,8 +419,8 @@ class ScenarioRow:
 
 
 def _groups(mw, dist_km):
-    mw = np.asarray(mw, dtype=float)
-    dist_km = np.asarray(dist_km, dtype=float)
+    mw = float_array(mw, "mw", ndim=None)
+    dist_km = float_array(dist_km, "dist_km", ndim=None)
     if mw.shape != dist_km.shape or mw.ndim != 1:
         raise ParameterError(f"mw and dist_km must be 1-D of equal length, got {mw.shape} and {dist_km.shape}")
     mws = np.unique(mw)
@@ -449,7 +451,7 @@ def scenario_table(mw, dist_km, edps: dict, collapsed, levels=PERFORMANCE_LEVELS
     """
     mw, dist_km, mws, ds = _groups(mw, dist_km)
     collapsed = np.asarray(collapsed).astype(bool)
-    edps = {k: np.asarray(v, dtype=float) for k, v in edps.items()}
+    edps = {k: float_array(v, k, ndim=None, finite=False) for k, v in edps.items()}
     for k, v in edps.items():
         if v.shape != mw.shape:
             raise ParameterError(f"{k} has length {v.size}, expected {mw.size}")
@@ -618,7 +620,7 @@ class StripeCurve:
 
 def stripe_edges(im, n_stripes=12, stripes="equal-width", im_range=None) -> np.ndarray:
     """Stripe limits: ``n_stripes`` equal-width intervals (paper: 12) or equal-count quantiles."""
-    im = np.asarray(im, dtype=float)
+    im = float_array(im, "im", ndim=None, allow_empty=True, finite=False)
     if int(n_stripes) < 1:
         raise ParameterError(f"n_stripes must be >= 1, got {n_stripes!r}")
     if im.size == 0:
@@ -656,7 +658,7 @@ def stripe_curve(im, edp, collapsed, threshold, *, n_stripes=12, stripes="equal-
         Bootstrap within each stripe.
     """
     edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
-    im = np.asarray(im, dtype=float)
+    im = float_array(im, "im", ndim=None, finite=False)
     if im.shape != edp.shape:
         raise ParameterError(f"im has length {im.size}, edp has {edp.size}")
     if not np.all(np.isfinite(im)):
@@ -788,7 +790,7 @@ def fit_lognormal_fragility(im, edp, collapsed, threshold, *, groups=None, n_boo
         IM grid of the band (default: 100 points log-spaced over the data).
     """
     edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
-    im = np.asarray(im, dtype=float)
+    im = float_array(im, "im", ndim=None, finite=False)
     if im.shape != edp.shape:
         raise ParameterError(f"im has length {im.size}, edp has {edp.size}")
     if not np.all(np.isfinite(im)) or np.any(im <= 0):
@@ -940,7 +942,7 @@ def fit_logistic_collapse(im, collapsed) -> LogisticCollapse:
 
 
 def _positive_im(im) -> np.ndarray:
-    im = np.asarray(im, dtype=float)
+    im = float_array(im, "IM", ndim=None, allow_empty=True, finite=False)
     if im.ndim != 1 or im.size == 0:
         raise ParameterError("IM must be a non-empty 1-D array")
     if not np.all(np.isfinite(im)) or np.any(im <= 0):
@@ -1004,7 +1006,7 @@ def cloud_analysis(im, edp, collapsed=None) -> CloudFit:
     collapsed : array_like of bool, optional (default: nothing collapsed)
     """
     x = _positive_im(im)
-    e = np.asarray(edp, dtype=float)
+    e = float_array(edp, "edp", ndim=None, finite=False)
     c = np.zeros(x.size, dtype=bool) if collapsed is None else _as_flags(collapsed)
     if e.shape != x.shape or c.shape != x.shape:
         raise ParameterError(f"im, edp and collapsed must have one value per run ({x.size}, {e.size}, {c.size})")
