@@ -158,7 +158,7 @@ def fig_10(records, synthetic=None, *, band_km=FIG10_BAND_KM, dist_km=FIG10_DIST
     from matplotlib.figure import Figure
     sets = _sets(records)
     lo, hi = map(float, band_km)
-    fig = Figure(figsize=(8.5, 5.5))
+    fig = Figure(figsize=(12, 5.5))
     ax = fig.add_subplot(1, 1, 1)
     tops = [np.nanmax(np.where(_in_band(t, band_km) & ~np.asarray(t["collapsed"]).astype(bool),
                                np.asarray(t["u_top"], dtype=float), np.nan))
@@ -204,7 +204,7 @@ def fig_10(records, synthetic=None, *, band_km=FIG10_BAND_KM, dist_km=FIG10_DIST
     if paper:
         pm = np.array(sorted(PAPER_FIG10_MEAN_U_TOP))
         ax.plot(pm, [PAPER_FIG10_MEAN_U_TOP[m] for m in pm], "*--", color="0.4", ms=11,
-                label="the paper's synthetic mean at R = 20 km (read from its Fig. 10 / 8a: about)")
+                label="the paper's synthetic mean at R = 20 km (approximate, read from its Fig. 10)")
     ax.set_xlabel(names.label("mw"))
     ax.set_ylabel(names.label("u_top"))
     ax.set_title(f"Natural records with Rrup {lo:g}-{hi:g} km against the synthetic mean (after the paper's "
@@ -212,5 +212,6 @@ def fig_10(records, synthetic=None, *, band_km=FIG10_BAND_KM, dist_km=FIG10_DIST
     if notes:
         ax.text(0.01, 0.01, "\n".join(notes), transform=ax.transAxes, fontsize=7, va="bottom")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    fig.subplots_adjust(left=0.07, right=0.62)
     return fig
