@@ -119,3 +119,15 @@ def test_a_results_file_lacking_a_field_an_output_needs_names_it(tmp_path):
         del f["samples/pga_g"]
     with pytest.raises(ResultsFileError, match="/samples has no field 'pga_g'"):
         report.write_report(path, tmp_path / "r.md", n_boot=20)
+
+
+def test_plot_arguments_follow_the_same_policy(tmp_path):
+    from pycolfrag import plots
+    res = pcf.simulate(COL, ACC, DT, history=True)
+    for kw, needle in (({"fps": "20"}, "fps must be a real number, got str '20'"),
+                       ({"max_frames": True}, "max_frames must be an integer, got the bool True"),
+                       ({"max_frames": 4.0}, "max_frames must be an integer, got float 4.0"),
+                       ({"t_start": "0.5"}, "t_start (s) must be a real number, got str '0.5'")):
+        with pytest.raises(ParameterError) as info:
+            plots.animate(COL, res, tmp_path / "x.gif", **kw)
+        assert needle in str(info.value)
