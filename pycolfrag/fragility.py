@@ -47,7 +47,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize, special, stats
 
-from ._validate import float_array, positive_float
+from ._validate import float_array, integer, positive_float, real
 from .errors import ParameterError
 
 __all__ = [
@@ -430,10 +430,9 @@ def bootstrap_interval(edp, collapsed, threshold=None, *, statistic="eq4", n_boo
             return np.mean(np.asarray(c, dtype=float), axis=axis)
     else:
         raise ParameterError(f"unknown statistic {statistic!r}")
-    if not 0 < confidence < 1:
+    if not 0 < real(confidence, "confidence") < 1:
         raise ParameterError(f"confidence must be in (0, 1), got {confidence!r}")
-    if int(n_boot) < 2:
-        raise ParameterError(f"n_boot must be >= 2, got {n_boot!r}")
+    n_boot = integer(n_boot, "n_boot", 2)
     if edp.size < 2:
         return (np.nan, np.nan)
     if statistic == "mean":
@@ -688,8 +687,7 @@ class StripeCurve:
 def stripe_edges(im, n_stripes=12, stripes="equal-width", im_range=None) -> np.ndarray:
     """Stripe limits: ``n_stripes`` equal-width intervals (paper: 12) or equal-count quantiles."""
     im = float_array(im, "im", ndim=None, allow_empty=True, finite=False)
-    if int(n_stripes) < 1:
-        raise ParameterError(f"n_stripes must be >= 1, got {n_stripes!r}")
+    n_stripes = integer(n_stripes, "n_stripes", 1)
     if im.size == 0:
         raise ParameterError("empty IM array")
     if stripes == "equal-width":

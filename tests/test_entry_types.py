@@ -56,6 +56,11 @@ SYN = pcf.ground_motion.synthesize
      "im must be an array of numbers"),
     (lambda: fr.cloud_analysis([0.1, 0.2, 0.3], ["1", "2", "3"]), "edp must be an array of numbers"),
     (lambda: pcf.Column.from_drums([1.0, 1.0], "1.0"), "must be a real number, got str '1.0'"),
+    (lambda: fr.bootstrap_interval([0.1, 0.2], [False, False], 0.15, n_boot="100"),
+     "n_boot must be an integer, got str '100'"),
+    (lambda: fr.bootstrap_interval([0.1, 0.2], [False, False], 0.15, confidence="0.9"),
+     "confidence must be a real number, got str '0.9'"),
+    (lambda: fr.stripe_edges([0.1, 0.2], n_stripes=12.0), "n_stripes must be an integer, got float 12.0"),
 ])
 def test_wrong_entry_types_are_refused_naming_the_argument(call, needle):
     with pytest.raises(ParameterError) as info:
