@@ -29,24 +29,11 @@ from importlib import resources
 from typing import Iterable, Sequence
 
 from ._ffi import lib as _lib
-from ._validate import positive_float
+from ._validate import positive_float, real
 from .errors import ParameterError
 
 #: Most polygon sides the solver handles (``CF_SOLVER_MAX_SIDES`` in csrc/solver.h).
 MAX_SIDES = int(_lib.CF_SOLVER_MAX_SIDES)
-
-
-def _real(value, name: str) -> float:
-    """A real number (int, float, numpy scalar) as float. Strings ("37"), None and bools are refused
-    where they enter, naming the value: a string that float() would accept still means the input
-    was written wrong (e.g. a quoted number in a column file)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or type(value).__name__ == "bool_":
-        raise ParameterError(f"{name} must be a number, got {type(value).__name__} {value!r}")
-    return float(value)
-
-
-def _positive(value, name: str) -> float:
-    return positive_float(_real(value, name), name)
 
 __all__ = ["Segment", "Block", "JointProperties", "Column"]
 
@@ -104,11 +91,11 @@ class Segment:
     phase_rad: float = 0.0
 
     def __post_init__(self):
-        object.__setattr__(self, "height", _positive(self.height, "segment height (m)"))
-        object.__setattr__(self, "r_bottom", _positive(self.r_bottom, "segment bottom radius (m)"))
-        object.__setattr__(self, "r_top", _positive(self.r_top, "segment top radius (m)"))
+        object.__setattr__(self, "height", positive_float(self.height, "segment height (m)"))
+        object.__setattr__(self, "r_bottom", positive_float(self.r_bottom, "segment bottom radius (m)"))
+        object.__setattr__(self, "r_top", positive_float(self.r_top, "segment top radius (m)"))
         object.__setattr__(self, "n_sides", _n_sides(self.n_sides, "segment"))
-        ph = _real(self.phase_rad, "phase_rad")
+        ph = real(self.phase_rad, "phase_rad")
         if not math.isfinite(ph):
             raise ParameterError(f"phase_rad must be finite, got {self.phase_rad!r}")
         object.__setattr__(self, "phase_rad", ph)
@@ -148,10 +135,10 @@ class Segment:
         try:
             return cls(
                 height=d["height"],
-                r_bottom=0.5 * _real(d["diameter_bottom"], "diameter_bottom (m)"),
-                r_top=0.5 * _real(d.get("diameter_top", d["diameter_bottom"]), "diameter_top (m)"),
+                r_bottom=0.5 * real(d["diameter_bottom"], "diameter_bottom (m)"),
+                r_top=0.5 * real(d.get("diameter_top", d["diameter_bottom"]), "diameter_top (m)"),
                 n_sides=_n_sides(d.get("n_sides", 10), ""),  # where is prefixed below
-                phase_rad=math.radians(_real(d.get("phase_deg", 0.0), "phase_deg")),
+                phase_rad=math.radians(real(d.get("phase_deg", 0.0), "phase_deg")),
             )
         except KeyError as exc:
             raise ParameterError(f"{where}: missing key {exc}") from None
@@ -228,14 +215,14 @@ class JointProperties:
     tensile_strength: float = 0.0
 
     def __post_init__(self):
-        object.__setattr__(self, "kn", _positive(self.kn, "joint normal stiffness kn (Pa/m)"))
-        object.__setattr__(self, "ks", _positive(self.ks, "joint shear stiffness ks (Pa/m)"))
-        f = _real(self.friction_deg, "friction angle (degrees)")
+        object.__setattr__(self, "kn", positive_float(self.kn, "joint normal stiffness kn (Pa/m)"))
+        object.__setattr__(self, "ks", positive_float(self.ks, "joint shear stiffness ks (Pa/m)"))
+        f = real(self.friction_deg, "friction angle (degrees)")
         if not math.isfinite(f) or not (0.0 < f < 90.0):
             raise ParameterError(f"friction angle must be in (0, 90) degrees, got {self.friction_deg!r}")
         object.__setattr__(self, "friction_deg", f)
         for name in ("cohesion", "tensile_strength"):
-            v = _real(getattr(self, name), f"joint {name} (Pa)")
+            v = real(getattr(self, name), f"joint {name} (Pa)")
             object.__setattr__(self, name, v)
             if v != 0.0:
                 raise ParameterError(f"joint {name} = {v!r} is not supported: dry joints have 0 (paper Table I)")
@@ -301,7 +288,7 @@ class Column:
             if not isinstance(b, Block):
                 raise ParameterError(f"blocks[{i}] must be a Block, got {type(b).__name__}")
         self.blocks = blocks
-        self.density = _positive(density, "density (kg/m^3)")
+        self.density = positive_float(density, "density (kg/m^3)")
         self.joints = joints if joints is not None else JointProperties()
         if not isinstance(self.joints, JointProperties):
             raise ParameterError(f"joints must be JointProperties, got {type(self.joints).__name__}")
@@ -329,13 +316,13 @@ class Column:
         over the total shaft height, optionally topped by ``capital``."""
         if isinstance(drum_heights, (str, bytes)) or not isinstance(drum_heights, Iterable):
             raise ParameterError(f"drum_heights must be a list of numbers, got {drum_heights!r}")
-        heights = [_positive(h, f"drum_heights[{i}] (m)") for i, h in enumerate(drum_heights)]
+        heights = [positive_float(h, f"drum_heights[{i}] (m)") for i, h in enumerate(drum_heights)]
         if not heights:
             raise ParameterError("drum_heights is empty")
-        d0 = _positive(diameter_bottom, "diameter_bottom (m)")
-        d1 = d0 if diameter_top is None else _positive(diameter_top, "diameter_top (m)")
+        d0 = positive_float(diameter_bottom, "diameter_bottom (m)")
+        d1 = d0 if diameter_top is None else positive_float(diameter_top, "diameter_top (m)")
         total = sum(heights)
-        phase = math.radians(_real(phase_deg, "phase_deg"))
+        phase = math.radians(real(phase_deg, "phase_deg"))
         blocks, z = [], 0.0
         for i, h in enumerate(heights):
             rb = 0.5 * (d0 + (d1 - d0) * z / total)
@@ -350,10 +337,10 @@ class Column:
     def doric_capital(echinus_height: float, echinus_diameter_bottom: float, echinus_diameter_top: float,
                       abacus_height: float, abacus_side: float, n_sides: int = 10, phase_deg: float = 0.0) -> Block:
         """A Doric capital as one rigid block: polygonal echinus frustum + square abacus slab (m)."""
-        ech = Segment(echinus_height, 0.5 * _real(echinus_diameter_bottom, "echinus_diameter_bottom (m)"),
-                      0.5 * _real(echinus_diameter_top, "echinus_diameter_top (m)"),
+        ech = Segment(echinus_height, 0.5 * real(echinus_diameter_bottom, "echinus_diameter_bottom (m)"),
+                      0.5 * real(echinus_diameter_top, "echinus_diameter_top (m)"),
                       n_sides, math.radians(phase_deg))
-        r_ab = _positive(abacus_side, "abacus_side (m)") / math.sqrt(2.0)  # circumradius of the square; sides parallel to x and y
+        r_ab = positive_float(abacus_side, "abacus_side (m)") / math.sqrt(2.0)  # circumradius of the square; sides parallel to x and y
         ab = Segment(abacus_height, r_ab, r_ab, 4, math.pi / 4.0)
         return Block((ech, ab), name="capital")
 
@@ -366,8 +353,8 @@ class Column:
         ``width`` whose faces are normal to x and y: the 2D rocking block of Housner
         (1963) when excited along x (half-width b = width/2).
         """
-        w = _positive(width, "width (m)")
-        _positive(height, "height (m)")
+        w = positive_float(width, "width (m)")
+        positive_float(height, "height (m)")
         n_sides = _n_sides(n_sides, "single_block")
         r = 0.5 * w / _lib.cf_math_cos(math.pi / n_sides)  # circumradius from the inradius w/2 (portable cos)
         phase = math.pi / n_sides if flat_side_along_x else 0.0
@@ -453,7 +440,7 @@ class Column:
             raise ParameterError("column description needs 'shaft' (with optional 'capital') or 'blocks'")
         sh = _check_keys(d["shaft"], _SHAFT_KEYS, "shaft")
         n_sides = _n_sides(d.get("n_sides", sh.get("n_sides", 10)), "column")
-        phase = _real(d.get("phase_deg", sh.get("phase_deg", 0.0)), "phase_deg")
+        phase = real(d.get("phase_deg", sh.get("phase_deg", 0.0)), "phase_deg")
         try:
             heights = sh["drum_heights"]
             d0 = sh["diameter_bottom"]
@@ -467,10 +454,10 @@ class Column:
                                      "[capital] table for a column without a capital")
             try:
                 capital = cls.doric_capital(c["echinus_height"],
-                                            _real(c["echinus_diameter_bottom"], "capital echinus_diameter_bottom (m)"),
-                                            _real(c["echinus_diameter_top"], "capital echinus_diameter_top (m)"),
+                                            real(c["echinus_diameter_bottom"], "capital echinus_diameter_bottom (m)"),
+                                            real(c["echinus_diameter_top"], "capital echinus_diameter_top (m)"),
                                             c["abacus_height"],
-                                            _positive(c["abacus_side"], "capital abacus_side (m)"),
+                                            positive_float(c["abacus_side"], "capital abacus_side (m)"),
                                             n_sides=_n_sides(c.get("n_sides", n_sides), "capital"), phase_deg=phase)
             except KeyError as exc:
                 raise ParameterError(f"capital: missing key {exc}") from None

@@ -15,6 +15,7 @@ rows are never read -- ``u_d`` of a collapsed run is NaN (no residual state), an
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -80,7 +81,11 @@ class ResultsData:
         return int(self.samples["mw"].size)
 
     def __getitem__(self, name):
-        return self.samples[name]
+        try:
+            return self.samples[name]
+        except KeyError:
+            raise ResultsFileError(f"{self.path}: /samples has no field {name!r}, which this output needs "
+                                   f"(fields: {', '.join(sorted(self.samples))})") from None
 
     def scenario_index(self) -> np.ndarray:
         """Integer stratum of each sample: its (Mw, R) scenario (for stratified bootstraps)."""
@@ -103,6 +108,11 @@ def read_results(path) -> ResultsData:
         raise ResultsFileError(f"results file {path} does not exist")
     r = _results.load(path, any_layout=True)
     samples, spectra, attrs = r.samples, r.spectra, r.attrs
+    if attrs.get("layout") == "records":
+        # a suite's rows are records x components x scales, not (Mw, R) scenarios of one distribution:
+        # pooling them as scenarios would mix scale factors into one probability
+        raise ResultsFileError(f"{path} is a record-suite results file (run_grid.py --records), not a synthetic "
+                               f"grid: analyse it with python -m pycolfrag.record_report {path} OUT_DIR")
     periods = r.periods_s if len(r.periods_s) else None
     missing = [k for k in ("mw", "dist_km", "u_top", "u_d", "collapsed", "status") if k not in samples]
     if missing:
@@ -353,7 +363,8 @@ def _fig_curves(d, ims, number, title, n_boot, rng):
                 if mle is not None:
                     x = np.linspace(0, np.nanmax(im_values), 200)[1:]
                     ax.plot(x, mle(x), "-", color=col, lw=1,
-                            label=f"MLE: median {mle.median:.3g}, beta {mle.beta:.2f}")
+                            label=f"MLE: median {mle.median:.3g}, beta {mle.beta:.2f}"
+                                  + (" (degenerate fit)" if mle.degenerate else ""))
                     if mle.band_im is not None:
                         ax.fill_between(mle.band_im, mle.band_low, mle.band_high, color=col, alpha=0.15)
             ax.set_ylim(-0.02, 1.02)
@@ -421,7 +432,9 @@ def make_all(results_path, out_dir, *, n_boot=500, rng=0, formats=("png", "pdf")
     written = []
     for stem, builder in FIGURES.items():
         kw = {"n_boot": n_boot // 2 if stem.startswith("fig16") else n_boot, "rng": rng}
-        fig = builder(d, **kw)
+        with warnings.catch_warnings():   # the curve legends say "degenerate fit" themselves
+            warnings.simplefilter("ignore", fr.DegenerateFitWarning)
+            fig = builder(d, **kw)
         if fig is None:
             continue
         fig.tight_layout() if not any(a.name == "3d" for a in fig.axes) else None

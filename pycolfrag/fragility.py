@@ -41,11 +41,13 @@ file (PGA in g, PGV in cm/s, SA in g, SV in cm/s).
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import optimize, special, stats
 
+from ._validate import float_array, integer, positive_float, real
 from .errors import ParameterError
 
 __all__ = [
@@ -70,6 +72,9 @@ __all__ = [
     "LognormalFragility",
     "fit_lognormal_fragility",
     "exceeded",
+    "DegenerateFitWarning",
+    "MIN_FIT_POINTS",
+    "eq4_degenerate",
     # record suites (docs/records.md)
     "table_im",
     "stripe_analysis",
@@ -122,6 +127,16 @@ U_D_LEVELS = (
 )
 PERFORMANCE_LEVELS = U_TOP_LEVELS + U_D_LEVELS
 
+#: Fewest values a fit is called well-posed on: the standing runs with EDP > 0 behind the lognormal
+#: part of Eq. (4), or the runs of a maximum-likelihood fragility curve (two parameters). The stripe
+#: curves' ``min_count`` default is the same number.
+MIN_FIT_POINTS = 5
+
+
+class DegenerateFitWarning(UserWarning):
+    """A fit that rests on too few values, sits on a bound of its optimiser, or has no interior
+    maximum: the number is returned (it is what the formula gives) but it is not an estimate."""
+
 
 # --------------------------------------------------------------------------- input checks
 
@@ -129,15 +144,18 @@ def _as_flags(collapsed) -> np.ndarray:
     """Collapse flags as a bool array; 0/1 integers accepted, anything else refused."""
     collapsed = np.asarray(collapsed)
     if collapsed.dtype != bool:
-        if not np.all(np.isin(collapsed, (0, 1))):
-            raise ParameterError("collapsed must hold booleans (or 0/1)")
+        if collapsed.dtype.kind not in "iuf" or not np.all(np.isin(collapsed, (0, 1))):
+            bad = collapsed.ravel()[~np.isin(collapsed.ravel(), (0, 1))] if collapsed.dtype.kind in "iuf" \
+                else collapsed.ravel()
+            raise ParameterError(f"collapsed must hold booleans (or 0/1), got {bad[0]!r}" if bad.size
+                                 else "collapsed must hold booleans (or 0/1)")
         collapsed = collapsed.astype(bool)
     return collapsed
 
 
 def _as_inputs(edp, collapsed, threshold=None):
     """Validate (edp, collapsed[, threshold]) and return float/bool arrays (and the threshold)."""
-    edp = np.asarray(edp, dtype=float)
+    edp = float_array(edp, "edp", ndim=None, allow_empty=True, finite=False)
     collapsed = np.asarray(collapsed)
     if edp.ndim != 1 or collapsed.ndim != 1:
         raise ParameterError(f"edp and collapsed must be 1-D, got shapes {edp.shape} and {collapsed.shape}")
@@ -154,10 +172,7 @@ def _as_inputs(edp, collapsed, threshold=None):
         raise ParameterError(f"EDPs must be non-negative, got min {ok.min()!r}")
     if threshold is None:
         return edp, collapsed
-    threshold = float(threshold)
-    if not np.isfinite(threshold) or threshold <= 0:
-        raise ParameterError(f"threshold must be a positive finite number, got {threshold!r}")
-    return edp, collapsed, threshold
+    return edp, collapsed, positive_float(threshold, "threshold")
 
 
 # --------------------------------------------------------------------------- Eqs. (1)-(4)
@@ -207,7 +222,7 @@ def lognormal_parameters(edp) -> tuple[float, float]:
         Mean and dispersion of ``ln EDP`` (``scipy.stats.lognorm.fit(edp, floc=0)``:
         ``beta = s``, ``mu = ln(scale)``; equal to ``mean(ln x)`` and ``std(ln x, ddof=0)``).
     """
-    x = np.asarray(edp, dtype=float)
+    x = float_array(edp, "edp", ndim=None, allow_empty=True, finite=False)
     if x.ndim != 1 or x.size == 0:
         raise ParameterError("lognormal_parameters needs a non-empty 1-D array (empty group?)")
     if not np.all(np.isfinite(x)) or np.any(x <= 0):
@@ -242,8 +257,53 @@ def exceedance(edp, collapsed, threshold) -> float:
     float
         ``P(C) + (1 - P(C)) * (1 - Phi((ln threshold - mu) / beta))`` with ``mu``, ``beta`` the
         lognormal parameters of the non-collapsed data (see the module docstring for zeros).
+
+    Warns
+    -----
+    DegenerateFitWarning
+        When :func:`eq4_degenerate` finds the group too small for the number to be an estimate
+        (fewer than :data:`MIN_FIT_POINTS` runs, or standing runs with EDP > 0, or all of them
+        equal); the formula's value is still returned.
     """
     edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
+    p = _exceedance(edp, collapsed, threshold)
+    why = _eq4_why(edp, collapsed)
+    if why:
+        warnings.warn(f"exceedance: {why}; Eq. (4) gives {p:.3g}, which is not an estimate",
+                      DegenerateFitWarning, stacklevel=2)
+    return p
+
+
+def eq4_degenerate(edp, collapsed) -> str:
+    """Why Eq. (4) of a group is not an estimate, or ``""`` when it is.
+
+    The group has fewer than :data:`MIN_FIT_POINTS` runs (one run gives P = 0 or 1 whatever the
+    column's fragility), or its lognormal part rests on fewer than :data:`MIN_FIT_POINTS` standing
+    runs with EDP > 0, or on values that are all equal (beta = 0: the lognormal part is a step at
+    that value). A group whose runs all collapsed, or whose standing runs are all at EDP = 0, has
+    no lognormal part and is judged by its size alone. Same arguments as :func:`exceedance`.
+    """
+    edp, collapsed = _as_inputs(edp, collapsed)
+    return _eq4_why(edp, collapsed)
+
+
+def _eq4_why(edp, collapsed) -> str:
+    ok = edp[~collapsed]
+    pos = ok[ok > 0]
+    few = []
+    if edp.size < MIN_FIT_POINTS:
+        few.append(f"{edp.size} run{'s' if edp.size != 1 else ''} in the group")
+    if 0 < pos.size < MIN_FIT_POINTS:
+        few.append(f"{pos.size} standing run{'s' if pos.size != 1 else ''} with EDP > 0 behind the lognormal part")
+    if few:
+        return f"only {' and '.join(few)} (fewer than {MIN_FIT_POINTS})"
+    if pos.size and np.all(pos == pos[0]):
+        return f"the {pos.size} standing EDPs are all equal (beta = 0: the lognormal part is a step)"
+    return ""
+
+
+def _exceedance(edp, collapsed, threshold) -> float:
+    """Eq. (4) of arrays already checked by :func:`_as_inputs`."""
     pc = float(np.mean(collapsed))
     ok = edp[~collapsed]
     if ok.size == 0:
@@ -267,8 +327,9 @@ def empirical_exceedance(edp, collapsed, threshold) -> float:
 
 def exceeded(edp, collapsed, threshold) -> np.ndarray:
     """Bernoulli outcome of each simulation: collapsed or EDP >= threshold (bool array)."""
-    edp = np.asarray(edp, dtype=float)
-    collapsed = np.asarray(collapsed, dtype=bool)
+    edp = float_array(edp, "edp", ndim=None, allow_empty=True, finite=False)
+    collapsed = _as_flags(collapsed)
+    threshold = positive_float(threshold, "threshold")
     with np.errstate(invalid="ignore"):
         return collapsed | (np.nan_to_num(edp, nan=-np.inf) >= threshold)
 
@@ -369,10 +430,9 @@ def bootstrap_interval(edp, collapsed, threshold=None, *, statistic="eq4", n_boo
             return np.mean(np.asarray(c, dtype=float), axis=axis)
     else:
         raise ParameterError(f"unknown statistic {statistic!r}")
-    if not 0 < confidence < 1:
+    if not 0 < real(confidence, "confidence") < 1:
         raise ParameterError(f"confidence must be in (0, 1), got {confidence!r}")
-    if int(n_boot) < 2:
-        raise ParameterError(f"n_boot must be >= 2, got {n_boot!r}")
+    n_boot = integer(n_boot, "n_boot", 2)
     if edp.size < 2:
         return (np.nan, np.nan)
     if statistic == "mean":
@@ -399,7 +459,9 @@ class ScenarioRow:
 
     ``exceedance``, ``empirical`` and ``ci`` are keyed by the level label (``"u_top > 0.35"``);
     ``ci`` holds the bootstrap interval of Eq. (4).  ``mu_ln``/``beta_ln`` are keyed by EDP name
-    (lognormal parameters of the positive non-collapsed values).
+    (lognormal parameters of the positive non-collapsed values); ``degenerate``, keyed by EDP name,
+    says why that EDP's Eq. (4) values of the scenario are not estimates (:func:`eq4_degenerate`;
+    ``""`` when they are).
     """
 
     mw: float
@@ -414,11 +476,12 @@ class ScenarioRow:
     exceedance: dict = field(default_factory=dict)
     empirical: dict = field(default_factory=dict)
     ci: dict = field(default_factory=dict)
+    degenerate: dict = field(default_factory=dict)
 
 
 def _groups(mw, dist_km):
-    mw = np.asarray(mw, dtype=float)
-    dist_km = np.asarray(dist_km, dtype=float)
+    mw = float_array(mw, "mw", ndim=None)
+    dist_km = float_array(dist_km, "dist_km", ndim=None)
     if mw.shape != dist_km.shape or mw.ndim != 1:
         raise ParameterError(f"mw and dist_km must be 1-D of equal length, got {mw.shape} and {dist_km.shape}")
     mws = np.unique(mw)
@@ -449,7 +512,7 @@ def scenario_table(mw, dist_km, edps: dict, collapsed, levels=PERFORMANCE_LEVELS
     """
     mw, dist_km, mws, ds = _groups(mw, dist_km)
     collapsed = np.asarray(collapsed).astype(bool)
-    edps = {k: np.asarray(v, dtype=float) for k, v in edps.items()}
+    edps = {k: float_array(v, k, ndim=None, finite=False) for k, v in edps.items()}
     for k, v in edps.items():
         if v.shape != mw.shape:
             raise ParameterError(f"{k} has length {v.size}, expected {mw.size}")
@@ -474,9 +537,10 @@ def scenario_table(mw, dist_km, edps: dict, collapsed, levels=PERFORMANCE_LEVELS
                     row.mu_ln[name], row.beta_ln[name] = lognormal_parameters(pos)
                 else:
                     row.mu_ln[name] = row.beta_ln[name] = np.nan
+                row.degenerate[name] = eq4_degenerate(e[sel], c)
             for lev in levels:
                 e = edps[lev.edp][sel]
-                row.exceedance[lev.label] = exceedance(e, c, lev.threshold)
+                row.exceedance[lev.label] = _exceedance(*_as_inputs(e, c, lev.threshold))
                 row.empirical[lev.label] = empirical_exceedance(e, c, lev.threshold)
                 row.ci[lev.label] = bootstrap_interval(e, c, lev.threshold, n_boot=n_boot,
                                                        confidence=confidence, rng=g)
@@ -602,6 +666,9 @@ class StripeCurve:
     p, p_empirical, low, high : ndarray
         Eq. (4) inside each stripe, the empirical ratio, and the bootstrap interval of Eq. (4);
         NaN where a stripe holds fewer than ``min_count`` samples.
+    degenerate : ndarray of bool
+        Stripes whose Eq. (4) value is not an estimate (:func:`eq4_degenerate`: with a ``min_count``
+        below :data:`MIN_FIT_POINTS`, or too few standing runs with EDP > 0).
     """
 
     edges: np.ndarray
@@ -614,13 +681,13 @@ class StripeCurve:
     high: np.ndarray
     threshold: float
     stripes: str
+    degenerate: np.ndarray | None = None
 
 
 def stripe_edges(im, n_stripes=12, stripes="equal-width", im_range=None) -> np.ndarray:
     """Stripe limits: ``n_stripes`` equal-width intervals (paper: 12) or equal-count quantiles."""
-    im = np.asarray(im, dtype=float)
-    if int(n_stripes) < 1:
-        raise ParameterError(f"n_stripes must be >= 1, got {n_stripes!r}")
+    im = float_array(im, "im", ndim=None, allow_empty=True, finite=False)
+    n_stripes = integer(n_stripes, "n_stripes", 1)
     if im.size == 0:
         raise ParameterError("empty IM array")
     if stripes == "equal-width":
@@ -656,7 +723,7 @@ def stripe_curve(im, edp, collapsed, threshold, *, n_stripes=12, stripes="equal-
         Bootstrap within each stripe.
     """
     edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
-    im = np.asarray(im, dtype=float)
+    im = float_array(im, "im", ndim=None, finite=False)
     if im.shape != edp.shape:
         raise ParameterError(f"im has length {im.size}, edp has {edp.size}")
     if not np.all(np.isfinite(im)):
@@ -670,6 +737,7 @@ def stripe_curve(im, edp, collapsed, threshold, *, n_stripes=12, stripes="equal-
     out = {name: np.full(k, np.nan) for name in ("im", "p", "pe", "lo", "hi")}
     n = np.zeros(k, dtype=int)
     nc = np.zeros(k, dtype=int)
+    degenerate = np.zeros(k, dtype=bool)
     for s in range(k):
         sel = inside & (idx == s)
         n[s] = sel.sum()
@@ -678,11 +746,13 @@ def stripe_curve(im, edp, collapsed, threshold, *, n_stripes=12, stripes="equal-
             np.median(im[sel]) if n[s] else np.nan)
         if n[s] < max(int(min_count), 1):
             continue
-        out["p"][s] = exceedance(edp[sel], collapsed[sel], threshold)
+        out["p"][s] = _exceedance(edp[sel], collapsed[sel], threshold)
+        degenerate[s] = bool(_eq4_why(edp[sel], collapsed[sel]))
         out["pe"][s] = empirical_exceedance(edp[sel], collapsed[sel], threshold)
         out["lo"][s], out["hi"][s] = bootstrap_interval(edp[sel], collapsed[sel], threshold, n_boot=n_boot,
                                                         confidence=confidence, rng=g)
-    return StripeCurve(edges, out["im"], n, nc, out["p"], out["pe"], out["lo"], out["hi"], threshold, stripes)
+    return StripeCurve(edges, out["im"], n, nc, out["p"], out["pe"], out["lo"], out["hi"], threshold, stripes,
+                       degenerate)
 
 
 # --------------------------------------------------------------------------- MLE lognormal curve
@@ -707,6 +777,11 @@ class LognormalFragility:
         Bootstrap resamples in which no sample or every sample exceeded. Their maximum-likelihood
         curve is the limit 0 (median +inf) or 1 (median 0) everywhere and enters the band and the
         median interval as such; their beta is undefined and is left out of ``beta_ci``.
+    degenerate : str
+        Why the fit is not an estimate, ``""`` when it is: fewer than :data:`MIN_FIT_POINTS` runs,
+        outcomes separated by the IM (no finite maximum: beta runs to its bound), a parameter on
+        the optimiser's bound, or a bootstrap that cannot vary (one run per stratum: the intervals
+        are then NaN, not the zero width the resamples would give).
     """
 
     median: float
@@ -720,6 +795,7 @@ class LognormalFragility:
     median_ci: tuple = (np.nan, np.nan)
     beta_ci: tuple = (np.nan, np.nan)
     n_boot_degenerate: int = 0
+    degenerate: str = ""
 
     def __call__(self, im):
         """Probability of exceedance at ``im`` (array_like, IM units)."""
@@ -753,11 +829,33 @@ def _mle(ln_im, y, x0=None):
     if x0 is None:
         # start: halfway between the median ln IM of the two outcomes, dispersion 0.5
         x0 = np.array([0.5 * (np.median(ln_im[y]) + np.median(ln_im[~y])), np.log(0.5)])
-    bounds = [(ln_im.min() - 5.0, ln_im.max() + 5.0), (np.log(BETA_MIN), np.log(BETA_MAX))]
+    bounds = _mle_bounds(ln_im)
     x0 = np.clip(x0, [b[0] for b in bounds], [b[1] for b in bounds])
     res = optimize.minimize(nll, x0, jac=True, method="L-BFGS-B", bounds=bounds,
                             options={"gtol": 1e-9, "ftol": 1e-13})
     return res.x, -res.fun
+
+
+def _mle_bounds(ln_im):
+    """Bounds of (ln theta, ln beta) in the maximum-likelihood fits: beta in [BETA_MIN, BETA_MAX], ln theta
+    within 5 of the data's ln IM range (so that separable samples stay finite)."""
+    return [(ln_im.min() - 5.0, ln_im.max() + 5.0), (np.log(BETA_MIN), np.log(BETA_MAX))]
+
+
+def _fit_degenerate(ln_im, y, p, bounds) -> str:
+    """Why a maximum-likelihood fragility fit (parameters ``p`` = (ln theta, ln beta)) is not an
+    estimate, ``""`` when it is (see :class:`LognormalFragility`)."""
+    why = []
+    if y.size < MIN_FIT_POINTS:
+        why.append(f"only {y.size} runs (fewer than {MIN_FIT_POINTS})")
+    lo_y, hi_y = ln_im[y], ln_im[~y]
+    if lo_y.min() > hi_y.max() or lo_y.max() < hi_y.min():
+        why.append("every exceeding run lies on one side of every other in IM: the likelihood has no finite "
+                   "maximum")
+    for value, (lo, hi), what in ((p[0], bounds[0], "median"), (p[1], bounds[1], "beta")):
+        if min(value - lo, hi - value) < 1e-6:
+            why.append(f"{what} = {np.exp(value):.3g} is on the optimiser's bound [{np.exp(lo):.3g}, {np.exp(hi):.3g}]")
+    return "; ".join(why)
 
 
 def fit_lognormal_fragility(im, edp, collapsed, threshold, *, groups=None, n_boot=0, confidence=0.90,
@@ -788,7 +886,7 @@ def fit_lognormal_fragility(im, edp, collapsed, threshold, *, groups=None, n_boo
         IM grid of the band (default: 100 points log-spaced over the data).
     """
     edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
-    im = np.asarray(im, dtype=float)
+    im = float_array(im, "im", ndim=None, finite=False)
     if im.shape != edp.shape:
         raise ParameterError(f"im has length {im.size}, edp has {edp.size}")
     if not np.all(np.isfinite(im)) or np.any(im <= 0):
@@ -802,13 +900,24 @@ def fit_lognormal_fragility(im, edp, collapsed, threshold, *, groups=None, n_boo
     (ln_theta, ln_beta), ll = _mle(ln_im, y)
     fit = LognormalFragility(float(np.exp(ln_theta)), float(np.exp(ln_beta)), int(y.size), int(y.sum()),
                              float(ll))
+    why = [_fit_degenerate(ln_im, y, (ln_theta, ln_beta), _mle_bounds(ln_im))]
+    members = None
     if n_boot:
-        g = _rng(rng)
         strata = np.zeros(y.size, dtype=int) if groups is None else np.unique(
             np.asarray(groups), return_inverse=True)[1].ravel()
         if strata.size != y.size:
             raise ParameterError(f"groups has length {strata.size}, expected {y.size}")
         members = [np.flatnonzero(strata == s) for s in np.unique(strata)]
+        if all(m.size == 1 for m in members):
+            # every resample is the data itself: a zero-width band would claim certainty
+            why.append("one run per bootstrap stratum: the resamples cannot vary, no interval")
+            members = None
+    fit.degenerate = "; ".join(w for w in why if w)
+    if fit.degenerate:
+        warnings.warn(f"fit_lognormal_fragility ({threshold:g}): {fit.degenerate}", DegenerateFitWarning,
+                      stacklevel=2)
+    if members is not None:
+        g = _rng(rng)
         grid = (np.geomspace(im.min(), im.max(), 100) if band_im is None
                 else np.asarray(band_im, dtype=float))
         curves, meds, betas = [], [], []
@@ -940,7 +1049,7 @@ def fit_logistic_collapse(im, collapsed) -> LogisticCollapse:
 
 
 def _positive_im(im) -> np.ndarray:
-    im = np.asarray(im, dtype=float)
+    im = float_array(im, "IM", ndim=None, allow_empty=True, finite=False)
     if im.ndim != 1 or im.size == 0:
         raise ParameterError("IM must be a non-empty 1-D array")
     if not np.all(np.isfinite(im)) or np.any(im <= 0):
@@ -1004,7 +1113,7 @@ def cloud_analysis(im, edp, collapsed=None) -> CloudFit:
     collapsed : array_like of bool, optional (default: nothing collapsed)
     """
     x = _positive_im(im)
-    e = np.asarray(edp, dtype=float)
+    e = float_array(edp, "edp", ndim=None, finite=False)
     c = np.zeros(x.size, dtype=bool) if collapsed is None else _as_flags(collapsed)
     if e.shape != x.shape or c.shape != x.shape:
         raise ParameterError(f"im, edp and collapsed must have one value per run ({x.size}, {e.size}, {c.size})")
@@ -1068,8 +1177,8 @@ def msa_fragility(im_levels, n_trials, n_exceed) -> MSAFragility:
     frac = z / n
     x0 = np.array([lx[np.argmin(np.abs(frac - 0.5))], np.log(0.4)])
     res = optimize.minimize(nll, x0, method="Nelder-Mead", options={"xatol": 1e-10, "fatol": 1e-12, "maxiter": 4000})
-    res = optimize.minimize(nll, res.x, method="L-BFGS-B",
-                            bounds=[(lx.min() - 5, lx.max() + 5), (np.log(BETA_MIN), np.log(BETA_MAX))])
+    bounds = _mle_bounds(lx)
+    res = optimize.minimize(nll, res.x, method="L-BFGS-B", bounds=bounds)
     ln_theta, ln_beta = res.x
     beta = float(np.exp(ln_beta))
     zz = (lx - ln_theta) / beta
@@ -1081,8 +1190,13 @@ def msa_fragility(im_levels, n_trials, n_exceed) -> MSAFragility:
         cov = np.linalg.inv(info)
     except np.linalg.LinAlgError:
         cov = np.full((2, 2), np.nan)
+    runs_y = np.concatenate([np.arange(int(nj)) < int(zj) for nj, zj in zip(n, z)])
+    why = _fit_degenerate(np.repeat(lx, n.astype(int)), runs_y, res.x, bounds)
+    if why:
+        warnings.warn(f"msa_fragility: {why}", DegenerateFitWarning, stacklevel=2)
     return MSAFragility(float(np.exp(ln_theta)), beta, int(n.sum()), int(z.sum()), float(-res.fun),
-                        im_levels=x, n_trials=n.astype(int), n_exceed_stripe=z.astype(int), cov_ln=cov)
+                        im_levels=x, n_trials=n.astype(int), n_exceed_stripe=z.astype(int), cov_ln=cov,
+                        degenerate=why)
 
 
 def msa_from_table(table, im: str, level: PerformanceLevel, *, stripe_key="scale", period_s=None) -> MSAFragility:

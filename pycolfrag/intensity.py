@@ -24,8 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._ffi import as_double_array, check, ffi, lib, positive_float, ptr
-from ._validate import finite_float
+from ._ffi import check, ffi, lib, ptr
+from ._validate import finite_float, float_array, positive_float
 from .errors import ParameterError
 from .names import G
 
@@ -36,7 +36,7 @@ DEFAULT_PERIODS_S = (0.2, 0.5, 1.0, 2.0, 3.0)
 
 
 def _record(acc, dt):
-    a = as_double_array(acc, "acc")
+    a = float_array(acc, "acc")
     d = positive_float(dt, "dt")
     if a.size > 2**31 - 1:
         raise ParameterError(f"acc has {a.size} samples, more than the C kernels take (2^31 - 1)")
@@ -44,11 +44,9 @@ def _record(acc, dt):
 
 
 def _periods(periods):
-    try:
-        p = np.atleast_1d(np.asarray(periods, dtype=np.float64))
-    except (TypeError, ValueError):
-        raise ParameterError(f"periods must be numbers in s, got {periods!r}") from None
-    p = as_double_array(p, "periods")
+    p = np.atleast_1d(float_array(periods, "periods (s)", ndim=None))
+    if p.ndim != 1:
+        raise ParameterError(f"periods must be a number or a 1-D array of numbers, got shape {p.shape}")
     bad = np.flatnonzero(p <= 0)
     if bad.size:
         raise ParameterError(f"periods must be > 0 s, got {p[bad[0]]!r} at index {int(bad[0])}")

@@ -17,13 +17,12 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
-import re
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ._ffi import ffi, lib
-from ._validate import _number
+from ._validate import flag, real
 from .errors import ParameterError
 
 __all__ = ["SolverOptions", "CONTACT_OPTIONS"]
@@ -155,11 +154,7 @@ class SolverOptions:
                 if not isinstance(v, str) or v not in CONTACT_OPTIONS:
                     raise ParameterError(f"contact must be one of {sorted(CONTACT_OPTIONS)}, got {v!r}")
             elif kind == "bool":
-                # bool, numpy bool, or an integer 0 / 1 (not 1.0, not an array)
-                ok = isinstance(v, (bool, np.bool_)) or (isinstance(v, numbers.Integral) and v in (0, 1))
-                if not ok:
-                    raise ParameterError(f"{name} must be True or False, got {v!r}")
-                object.__setattr__(self, name, bool(v))
+                object.__setattr__(self, name, flag(v, name))
             elif kind == "int":
                 # any integer type (numpy's too) or a whole real number, within C's int
                 if isinstance(v, (bool, np.bool_)) or not isinstance(v, (numbers.Integral, numbers.Real)) \
@@ -168,18 +163,14 @@ class SolverOptions:
                 object.__setattr__(self, name, int(v))
             elif kind == "dt":
                 if v is not None:
-                    if isinstance(v, (str, bytes)):
-                        raise ParameterError(f"{name} must be a number, got the string {v!r}")
-                    x = _number(v, name)
+                    x = real(v, name)
                     if not (math.isfinite(x) and x > 0):
                         raise ParameterError(f"{name} must be None (automatic) or a finite step > 0 s, got {v!r}")
                     object.__setattr__(self, name, x)
             else:
-                if isinstance(v, (str, bytes)):
-                    raise ParameterError(f"{name} must be a number, got the string {v!r}")
                 if v is None and name == "damping_start_s":
                     v = 0.0   # simulate()'s documented None: damping from the start
-                x = _number(v, name)
+                x = real(v, name)
                 if not math.isfinite(x):
                     raise ParameterError(f"{name} must be finite, got {v!r}")
                 object.__setattr__(self, name, x)
@@ -188,8 +179,12 @@ class SolverOptions:
             raise MemoryError("cf_solver_create failed")
         if lib.cf_solver_check_def(s, self.to_c()) != lib.CF_OK:
             msg = ffi.string(lib.cf_solver_message(s)).decode(errors="replace")
-            # name the Python option where the C name differs
-            raise ParameterError(f"solver options: {re.sub(r'^dt must', 'dt_solver must', msg)}")
+            # name the Python option where the C name differs (the C message starts with the field's name)
+            for name, (cname, _) in _FIELDS.items():
+                if cname != name and msg.startswith(f"{cname} "):
+                    msg = name + msg[len(cname):]
+                    break
+            raise ParameterError(f"solver options: {msg}")
 
     def to_c(self):
         """A new ``cf_solver_def *`` holding these options."""

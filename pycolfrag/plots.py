@@ -31,6 +31,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from ._validate import finite_float, integer, positive_float, real
 from .errors import ParameterError
 from .names import G as _G  # m/s^2, only to show accelerations in g
 
@@ -348,10 +349,7 @@ def block_faces(col, block_pos=None, block_quat=None):
 
 def _sample_index(h, time):
     t = np.asarray(h.t)
-    try:
-        tt = float(time)
-    except (TypeError, ValueError):
-        raise ParameterError(f"snapshot time must be a number of seconds, got {time!r}") from None
+    tt = real(time, "snapshot time (s)")
     step = t[1] - t[0] if t.size > 1 else 0.0
     if not math.isfinite(tt) or tt < t[0] - step or tt > t[-1] + step:
         raise ParameterError(f"snapshot time {time!r} s is outside the history ({t[0]:g} to {t[-1]:g} s)")
@@ -467,13 +465,11 @@ def animate(col, res, path, fps=20, t_start=None, t_end=None, max_frames=300, dp
     h = _history(res)
     if np.shape(h.block_pos)[1] != col.n_blocks:
         raise ParameterError(f"the history has {np.shape(h.block_pos)[1]} blocks but the column has {col.n_blocks}")
-    if not (isinstance(fps, (int, float)) and math.isfinite(fps) and fps > 0):
-        raise ParameterError(f"fps must be > 0, got {fps!r}")
-    if isinstance(max_frames, bool) or int(max_frames) != max_frames or max_frames < 1:
-        raise ParameterError(f"max_frames must be an integer >= 1, got {max_frames!r}")
+    fps = positive_float(fps, "fps")
+    max_frames = integer(max_frames, "max_frames", 1)
     t = np.asarray(h.t)
-    lo = t[0] if t_start is None else float(t_start)
-    hi = t[-1] if t_end is None else float(t_end)
+    lo = t[0] if t_start is None else finite_float(t_start, "t_start (s)")
+    hi = t[-1] if t_end is None else finite_float(t_end, "t_end (s)")
     frames = np.flatnonzero((t >= lo - 1e-12) & (t <= hi + 1e-12))
     if frames.size == 0:
         raise ParameterError(f"no history samples between t_start = {lo!r} s and t_end = {hi!r} s")

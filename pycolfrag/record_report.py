@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import csv
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -185,14 +186,15 @@ def _fig_msa(a, levels):
 def _write_stripes_csv(path, a, levels):
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["im", "period_s", "level", "stripe_im", "n", "n_collapsed", "p_eq4", "p_empirical", "low", "high"])
+        w.writerow(["im", "period_s", "level", "stripe_im", "n", "n_collapsed", "p_eq4", "p_empirical", "low", "high",
+                    "degenerate"])
         for im in STRIPE_IMS:
             for lev in levels:
                 c = a["stripes"][(im, lev.label)]
                 for i in range(len(c.im)):
                     w.writerow([im, a["period_s"] if names.IMS[im].spectral else "", lev.label, f"{c.im[i]:.6g}",
                                 int(c.n[i]), int(c.n_collapsed[i]), f"{c.p[i]:.4g}", f"{c.p_empirical[i]:.4g}",
-                                f"{c.low[i]:.4g}", f"{c.high[i]:.4g}"])
+                                f"{c.low[i]:.4g}", f"{c.high[i]:.4g}", int(bool(c.degenerate[i]))])
 
 
 # --------------------------------------------------------------------------------- report
@@ -216,7 +218,9 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
     report = Path(report_path) if report_path else out / "report.md"
     report.parent.mkdir(parents=True, exist_ok=True)
     t = suite_table(path)
-    a = analyse(t, period_s=period_s, levels=levels, n_boot=n_boot, rng=rng)
+    with warnings.catch_warnings():   # the tables below mark degenerate fits with their reasons
+        warnings.simplefilter("ignore", fr.DegenerateFitWarning)
+        a = analyse(t, period_s=period_s, levels=levels, n_boot=n_boot, rng=rng)
     attrs = t["attrs"]
     status = np.asarray(t["status"])
     L = [f"# Record-suite report: `{path}`", ""]
@@ -257,7 +261,8 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
             if isinstance(f, str):
                 L.append(f"| {_im_label(im, a['period_s'])} | {lab} | {f} | | | |")
             else:
-                L.append(f"| {_im_label(im, a['period_s'])} | {lab} | {_fmt(f.median)} | {_fmt(f.beta)} | "
+                mark = f" (degenerate: {f.degenerate})" if f.degenerate else ""
+                L.append(f"| {_im_label(im, a['period_s'])} | {lab} | {_fmt(f.median)}{mark} | {_fmt(f.beta)} | "
                          f"{int(f.n_trials.sum())} | {int(f.n_exceed_stripe.sum())} |")
     elif len(a["scales"]) <= 1:
         L += ["", "Multiple-stripe fragility: needs runs at several `--scale` factors."]

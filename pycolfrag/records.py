@@ -28,7 +28,7 @@ clockwise from north; H2 is taken 90 degrees clockwise from H1 (the NGA conventi
 H2 points the other way, give its negative).
 
 The Table II procedure of the paper (residual dislocation without damping and with
-mass-proportional damping from the end of the strong motion) is :func:`table_ii`.
+mass-proportional damping from the end of the strong motion) is :mod:`pycolfrag.table_ii`.
 
 Errors: :class:`~pycolfrag.errors.RecordFileError` (a ``ValueError``) naming the file and line for
 a malformed CSV, a duplicate record id, components of different time step or length;
@@ -54,8 +54,8 @@ from .errors import ParameterError, RecordFileError
 from .names import CM_PER_M, G
 
 __all__ = ["UNITS", "SuiteRecord", "UnreadableRecord", "RecordSet", "MissingRecordFileError", "load_records", "rotate_pair",
-           "component_at", "fault_normal_parallel", "rotd", "sdof_displacement", "strong_motion_end",
-           "table_ii", "format_table_ii", "DEFAULT_TABLE_II_ALPHA", "FEMA_P695_SETS", "PEER_SEARCH_RESULTS"]
+           "component_at", "fault_normal_parallel", "rotd", "sdof_displacement", "FEMA_P695_SETS",
+           "PEER_SEARCH_RESULTS"]
 
 #: Units of every acceleration array of a :class:`SuiteRecord`.
 UNITS = "m/s^2"
@@ -872,121 +872,3 @@ def rotd(a1, a2, dt, measure="pga", percentiles=(50.0, 100.0), damping=0.05, ang
             raise ParameterError(f"percentile must be in [0, 100], got {p!r}")
         out[f"rotd{float(p):g}"] = float(np.percentile(peaks, float(p)))
     return out
-
-
-# ---------------------------------------------------------------------------------------- Table II
-
-#: Mass-proportional damping of the Table II check, 1/s (see :func:`table_ii`).
-DEFAULT_TABLE_II_ALPHA = 5.0
-
-
-def strong_motion_end(acc, dt) -> float:
-    """End of the strong motion, s: the time at which the Husid plot reaches 95 % of the Arias
-    intensity (the end of the D5-95 interval, :func:`pycolfrag.intensity.measures` ``t95_s``)."""
-    from .intensity import measures
-    return float(measures(acc, dt, periods=(1.0,))["t95_s"])
-
-
-def table_ii(records, column=None, *, component="h1", damping_alpha=DEFAULT_TABLE_II_ALPHA,
-             perturbation=1e-4, n_ensemble=3, solver_options=None) -> list[dict]:
-    """The paper's Table II check: residual drum dislocation u_d without damping and with
-    mass-proportional damping switched on at the end of the strong motion.
-
-    For each record (one horizontal component, ``component``), the column is run twice per
-    ensemble member: (i) without damping, u_d from the average of the last ``residual_window_s``
-    (2 s) of the response as in the paper's grid; (ii) with mass-proportional damping
-    ``damping_alpha`` (1/s) from ``damping_start_s`` = the end of D5-95 of the record
-    (:func:`strong_motion_end`). The ensemble is the record scaled by ``n_ensemble`` factors evenly
-    spaced in ``[1 - perturbation, 1 + perturbation]`` (default 1 - 1e-4, 1, 1 + 1e-4): rocking is
-    chaotic, so the difference between (i) and (ii) means something only against the spread these
-    imperceptible changes already cause.
-
-    Damping coefficient: mass-proportional damping ``-alpha m v`` (and ``-alpha I w``) gives a mode
-    of circular frequency ``omega`` the damping ratio ``alpha / (2 omega)``; free rocking of a column
-    after the shaking is slow (period of the order of 1 s at the amplitudes of interest, omega about
-    2 pi rad/s), so ``alpha = 5 /s`` damps it at about 40 % of critical and its amplitude by a factor
-    ``exp(-alpha t / 2)`` = 0.08 per second: the free oscillations are gone within the 3 s tail of
-    the run, which is what the paper's "significant mass-proportional damping" after the strong motion
-    is for, while the strong-motion part itself is undamped. Change it with ``damping_alpha``.
-
-    Parameters
-    ----------
-    records : RecordSet, sequence of SuiteRecord, or a source for :func:`load_records`
-    column : Column, optional (default ``Column.parthenon()``)
-    component : "h1" or "h2"
-    damping_alpha : float, 1/s
-    perturbation : float; n_ensemble : int (>= 1; 1 runs the record unscaled only)
-    solver_options : dict, extra :func:`pycolfrag.simulate` keywords (not ``damping_*``)
-
-    Returns
-    -------
-    list of dict, one per record: ``record_id``, ``event``, ``station``, ``component``,
-    ``t_strong_end_s``, ``damping_alpha``, ``u_d_damped`` and ``u_d_undamped`` (the unscaled
-    record's values; NaN if it collapsed), ``u_d_damped_min/max`` and ``u_d_undamped_min/max``
-    (ensemble spread), ``error_pct`` = 100 (undamped - damped) / damped as in the paper's table,
-    ``error_pct_min/max`` (over ensemble members, paired), ``collapsed`` (any run collapsed) and
-    ``scales``.
-    """
-    import warnings
-    from .column import Column
-    from .solver import simulate
-    recs = load_records(records) if isinstance(records, (str, os.PathLike)) else records
-    col = Column.parthenon() if column is None else column
-    opts = dict(solver_options or {})
-    for k in ("damping_alpha", "damping_start_s"):
-        if k in opts:
-            raise ParameterError(f"table_ii sets {k} itself; remove it from solver_options")
-    if int(n_ensemble) < 1:
-        raise ParameterError(f"n_ensemble must be >= 1, got {n_ensemble!r}")
-    scales = (np.array([1.0]) if int(n_ensemble) == 1
-              else 1.0 + float(perturbation) * np.linspace(-1.0, 1.0, int(n_ensemble)))
-    if int(n_ensemble) % 2 == 0:
-        scales = np.sort(np.append(scales, 1.0))      # the unscaled record is always a member
-    centre = int(np.argmin(np.abs(scales - 1.0)))
-    rows = []
-    for rec in recs:
-        acc = rec.component(component)
-        t_end = strong_motion_end(acc, rec.dt)
-        und, dam, coll = [], [], False
-        for f in scales:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", UserWarning)
-                r0 = simulate(col, f * acc, rec.dt, **opts)
-                r1 = simulate(col, f * acc, rec.dt, damping_alpha=float(damping_alpha), damping_start_s=t_end, **opts)
-            coll = coll or r0.collapsed or r1.collapsed
-            und.append(math.nan if r0.collapsed else r0.u_d)
-            dam.append(math.nan if r1.collapsed else r1.u_d)
-        und, dam = np.array(und), np.array(dam)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            err = 100.0 * (und - dam) / dam
-        rows.append({
-            "record_id": rec.record_id, "event": rec.meta.get("event", ""), "station": rec.meta.get("station", ""),
-            "component": component, "t_strong_end_s": t_end, "damping_alpha": float(damping_alpha),
-            "u_d_damped": float(dam[centre]), "u_d_undamped": float(und[centre]),
-            "u_d_damped_min": float(np.nanmin(dam)) if np.isfinite(dam).any() else math.nan,
-            "u_d_damped_max": float(np.nanmax(dam)) if np.isfinite(dam).any() else math.nan,
-            "u_d_undamped_min": float(np.nanmin(und)) if np.isfinite(und).any() else math.nan,
-            "u_d_undamped_max": float(np.nanmax(und)) if np.isfinite(und).any() else math.nan,
-            "error_pct": float(err[centre]),
-            "error_pct_min": float(np.nanmin(err)) if np.isfinite(err).any() else math.nan,
-            "error_pct_max": float(np.nanmax(err)) if np.isfinite(err).any() else math.nan,
-            "collapsed": bool(coll), "scales": scales.tolist(),
-        })
-    return rows
-
-
-def format_table_ii(rows: list[dict]) -> str:
-    """Table II as text: u_d with damping and without (x 1e-2) with the ensemble range, and the error."""
-    lines = [f"{'record':<14} {'event':<22} {'mass damping (x1e-2)':>24} {'no damping (x1e-2)':>24} "
-             f"{'error %':>22}"]
-    for r in rows:
-        def cell(key):
-            return (f"{100 * r[key]:.3f} [{100 * r[key + '_min']:.3f}, {100 * r[key + '_max']:.3f}]"
-                    if _finite(r[key]) else "collapsed")
-        err = (f"{r['error_pct']:.1f} [{r['error_pct_min']:.1f}, {r['error_pct_max']:.1f}]"
-               if _finite(r["error_pct"]) else "-")
-        lines.append(f"{r['record_id']:<14} {str(r['event'])[:22]:<22} {cell('u_d_damped'):>24} "
-                     f"{cell('u_d_undamped'):>24} {err:>22}")
-    lines.append("[a, b]: range over the ensemble (record scaled by 1 +/- perturbation); "
-                 "error = (no damping - damping) / damping, as in the paper's Table II")
-    return "\n".join(lines)

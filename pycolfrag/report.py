@@ -11,12 +11,17 @@ informative when no run collapsed (the bootstrap interval of 0 of n is [0, 0]).
 
 EDPs of collapsed runs (``u_d`` is NaN for them) are not used: means and log-moments are over the
 non-collapsed runs, and Eq. (4) counts a collapse as exceeding every level.
+
+Fits that are not estimates (:func:`pycolfrag.fragility.eq4_degenerate`, ``LognormalFragility.degenerate``:
+too few runs, a parameter on the optimiser's bound, a bootstrap that cannot vary) are marked in the
+tables and their reasons listed under them; their numbers are still printed, as the formula gives them.
 """
 from __future__ import annotations
 
 import json
 import os
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +29,7 @@ import numpy as np
 from . import fragility as fr
 from . import names
 from .fragility import binomial_ci
+from .errors import PycolfragError
 from .figures import FIGURES, im_curves, read_results
 
 __all__ = ["write_report", "binomial_ci", "fmt_ci"]
@@ -43,6 +49,19 @@ def fmt_ci(v, ci=None, digits=2) -> str:
 
 def _g(x, digits=3):
     return "n/a" if x is None or not np.isfinite(x) else f"{x:.{digits}g}"
+
+
+#: Marks a value whose fit is not an estimate; the reasons are listed under the table.
+DEGENERATE_MARK = " (degenerate)"
+
+
+def _degenerate_notes(items) -> list:
+    """Lines listing why the marked fits of a table are not estimates (none when all are)."""
+    bad = [(where, why) for where, why in items if why]
+    if not bad:
+        return []
+    return ["", "Degenerate fits (the numbers are what the formulas give, not estimates):", ""] + [
+        f"- {where}: {why}" for where, why in bad]
 
 
 def _meta_lines(d):
@@ -88,6 +107,13 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
     out_path = Path(out_path) if out_path else Path(os.fspath(results_path)).with_name("report.md")
     figures_dir = Path(figures_dir) if figures_dir else out_path.parent / "figures"
     g = np.random.default_rng(rng)
+    # the report marks degenerate fits itself (below), so their warnings would only repeat it
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fr.DegenerateFitWarning)
+        return _write(d, out_path, figures_dir, n_boot, g)
+
+
+def _write(d, out_path, figures_dir, n_boot, g) -> str:
     rows = fr.scenario_table(d["mw"], d["dist_km"], {"u_top": d["u_top"], "u_d": d["u_d"]}, d["collapsed"],
                              n_boot=n_boot, confidence=CONFIDENCE, rng=g)
     L = ["# pycolfrag results report", "",
@@ -104,17 +130,21 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
           "| mean u_d | mu ln u_d | beta ln u_d |",
           "|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
+        mark = {e: DEGENERATE_MARK if r.degenerate.get(e) else "" for e in ("u_top", "u_d")}
         L.append(f"| {r.mw:g} | {r.dist_km:g} | {r.n} | {r.n_collapsed} | "
                  f"{fmt_ci(r.p_collapse, binomial_ci(r.n_collapsed, r.n))} | {_g(r.mean['u_top'])} | "
-                 f"{_g(r.mu_ln['u_top'])} | {_g(r.beta_ln['u_top'])} | {_g(r.mean['u_d'])} | "
-                 f"{_g(r.mu_ln['u_d'])} | {_g(r.beta_ln['u_d'])} |")
+                 f"{_g(r.mu_ln['u_top'])}{mark['u_top']} | {_g(r.beta_ln['u_top'])}{mark['u_top']} | "
+                 f"{_g(r.mean['u_d'])} | {_g(r.mu_ln['u_d'])}{mark['u_d']} | {_g(r.beta_ln['u_d'])}{mark['u_d']} |")
+    L += _degenerate_notes([(f"Mw {r.mw:g}, R {r.dist_km:g} km, {e}", r.degenerate.get(e, ""))
+                            for r in rows for e in ("u_top", "u_d")])
     for title, levels in (("Table III levels (u_top)", fr.U_TOP_LEVELS), ("Table IV levels (u_d)", fr.U_D_LEVELS)):
         L += ["", f"## Exceedance probabilities per scenario: {title}", "",
               "Each cell: Eq. (4) [90 % bootstrap CI] (empirical ratio).", "",
               "| Mw | R (km) | n | " + " | ".join(f"{lv.label} ({lv.name})" for lv in levels) + " |",
               "|---:|---:|---:|" + "---|" * len(levels)]
         for r in rows:
-            cells = [f"{fmt_ci(r.exceedance[lv.label], r.ci[lv.label])} ({r.empirical[lv.label]:.2f})"
+            cells = [f"{fmt_ci(r.exceedance[lv.label], r.ci[lv.label])}"
+                     f"{DEGENERATE_MARK if r.degenerate.get(lv.edp) else ''} ({r.empirical[lv.label]:.2f})"
                      for lv in levels]
             L.append(f"| {r.mw:g} | {r.dist_km:g} | {r.n} | " + " | ".join(cells) + " |")
     L += ["", "## Fragility against intensity measures", "",
@@ -122,6 +152,7 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
           "indicators (collapsed or EDP >= level) of all runs; 90 % intervals from a bootstrap stratified by "
           "scenario. The stripe-method curves (12 equal-width stripes, Eq. (4) inside each) are in Fig. 16.", "",
           "| IM | level | n exceeding | median [90 % CI] | beta [90 % CI] |", "|---|---|---:|---|---|"]
+    notes = []
     ims = [(names.label("pga_g"), d["pga_g"]), (names.label("pgv_cm_s"), d["pgv_cm_s"])]
     if d.sa_g is not None and d.periods_s is not None and d.periods_s.size:
         k = int(np.argmin(np.abs(d.periods_s - 1.0)))
@@ -137,8 +168,11 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
                 L.append(f"| {name} | {lev.label} | - | no interior maximum (all or none exceed) | |")
             else:
                 flag = " (beyond the largest IM: extrapolated)" if mle.median > np.max(values) else ""
+                mark = DEGENERATE_MARK if mle.degenerate else ""
                 L.append(f"| {name} | {lev.label} | {mle.n_exceed}/{mle.n} | {fmt_ci(mle.median, mle.median_ci, 3)}"
-                         f"{flag} | {fmt_ci(mle.beta, mle.beta_ci)} |")
+                         f"{flag}{mark} | {fmt_ci(mle.beta, mle.beta_ci)}{mark} |")
+                notes.append((f"{name}, {lev.label}", mle.degenerate))
+    L += _degenerate_notes(notes)
     if risk is not None:
         from .risk import report_section
         L += ["", report_section(risk)]
@@ -163,7 +197,11 @@ def main(argv=None):
     if not argv or argv[0] in ("-h", "--help"):
         print("usage: python -m pycolfrag.report RESULTS.h5 [OUT.md]")
         return 0 if argv else 2
-    print(write_report(argv[0], argv[1] if len(argv) > 1 else None))
+    try:
+        print(write_report(argv[0], argv[1] if len(argv) > 1 else None))
+    except PycolfragError as exc:
+        print(f"report: {exc}", file=sys.stderr)
+        return 2
     return 0
 
 

@@ -1210,6 +1210,30 @@ def _results_from_raw(raw, pending: bool, header: Mapping | None = None, jrows: 
     return Results(samples=samples, spectra=spectra, periods_s=periods, attrs=attrs, rows=rows)
 
 
+def _refuse_non_hdf5(path: Path) -> None:
+    """A path that cannot hold results at all (a folder, a file of another kind) gets an error saying
+    what it is, instead of the reader's "damaged"."""
+    if path.is_dir():
+        raise ResultsFileError(f"{path} is a folder, not a results file")
+    if path.is_file() and not _has_hdf5_signature(path):
+        raise ResultsFileError(f"{path} is not an HDF5 file (no HDF5 signature at its start): not a results "
+                               "file, or one whose first bytes were overwritten")
+
+
+def _has_hdf5_signature(path: Path) -> bool:
+    """The HDF5 format signature at offset 0, 512, 1024, 2048, ... (after a user block); read directly,
+    since the HDF5 library's own probe opens the file, which a damaged file can make hang."""
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        off = 0
+        while off + 8 <= size:
+            fh.seek(off)
+            if fh.read(8) == b"\x89HDF\r\n\x1a\n":
+                return True
+            off = 512 if off == 0 else 2 * off
+    return False
+
+
 def load(path, pending: bool = False, journal: bool = True, timeout_s: float | None = None,
          any_layout: bool = False, verify: bool = True) -> Results:
     """Read a results file written by ``scripts/run_grid.py``.
@@ -1259,6 +1283,8 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
             header, jrows = read_journal(jp)
         except JournalHeaderError as exc:
             warnings.warn(f"{exc}; the journal is ignored", stacklevel=2)
+    if header is None:
+        _refuse_non_hdf5(path)
     try:
         raw = _read_h5_bounded(path, timeout_s, any_layout, verify)
     except (ResultsDamagedError, FileNotFoundError) as exc:

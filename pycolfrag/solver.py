@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._ffi import as_double_array, check, ffi, lib, ptr
-from ._validate import positive_float
+from ._ffi import check, ffi, lib, ptr
+from ._validate import flag, float_array, positive_float
 from .column import Column
 from .errors import ParameterError
 from .options import CONTACT_OPTIONS, SolverOptions
@@ -110,7 +110,7 @@ class Response:
 def _acc(a, name, n_expected=None):
     if a is None:
         return None
-    arr = as_double_array(a, name)
+    arr = float_array(a, name)
     if n_expected is not None and arr.size != n_expected:
         raise ParameterError(f"{name} has {arr.size} samples but acc_x has {n_expected}: components must "
                              "share one time axis")
@@ -121,12 +121,6 @@ def _acc(a, name, n_expected=None):
             f"{name}[{i}] = {arr[i]!r} m/s^2 exceeds {MAX_ABS_ACC:g} m/s^2 (about 10 g): accelerations must be in "
             "m/s^2 (a record in cm/s^2 or a g-factor applied twice?)")
     return arr
-
-
-def _flag(value, name):
-    if not isinstance(value, (bool, np.bool_)) and value not in (0, 1):
-        raise ParameterError(f"{name} must be True or False, got {value!r}")
-    return bool(value)
 
 
 def _segments(col: Column, monolithic: bool):
@@ -190,7 +184,7 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, options=None
     ax = _acc(acc_x, "acc_x")
     ay = _acc(acc_y, "acc_y", ax.size)
     az = _acc(acc_z, "acc_z", ax.size)
-    history = _flag(history, "history")
+    history = flag(history, "history")
     if options is None:
         options = SolverOptions()
     elif not isinstance(options, SolverOptions):

@@ -14,6 +14,7 @@ matplotlib.use("Agg")
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 from pycolfrag import figures  # noqa: E402
+from pycolfrag.errors import PycolfragError  # noqa: E402
 
 
 def main(argv=None):
@@ -24,9 +25,15 @@ def main(argv=None):
     p.add_argument("--seed", type=int, default=0, help="seed of the bootstrap")
     a = p.parse_args(argv)
     out = a.out or os.path.join(os.path.dirname(os.path.abspath(a.results)), "figures")
-    for path in figures.make_all(a.results, out, n_boot=a.n_boot, rng=a.seed):
+    try:
+        paths = figures.make_all(a.results, out, n_boot=a.n_boot, rng=a.seed)
+    except PycolfragError as exc:
+        print(f"make_figures: {exc}", file=sys.stderr)
+        return 2
+    for path in paths:
         print(path)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

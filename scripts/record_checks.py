@@ -1,8 +1,8 @@
 #!/usr/bin/env python
 """The paper's natural-record checks, one command each (docs/records.md).
 
-    python scripts/record_checks.py fig10  --records SOURCE [--synthetic results/grid.h5] [--out DIR]
-    python scripts/record_checks.py table2 --records SOURCE [--ids ID ...] [--alpha 5] [--ensemble 3]
+    python scripts/record_checks.py fig10  --records SOURCE [SOURCE ...] [--synthetic results/grid.h5] [--out DIR]
+    python scripts/record_checks.py table2 --records SOURCE [--ids ID ...] [--alpha 5] [--ensemble 5]
     python scripts/record_checks.py demo-suite DIR     # write the small closed-form demo suite (PEER layout)
     python scripts/record_checks.py analyse FILE [--out DIR] [--synthetic results/grid.h5]
                                                        # a record-suite grid file (run_grid.py --records):
@@ -21,41 +21,81 @@ from pathlib import Path
 import numpy as np
 
 
+def _fig10_table(suite, components, max_record_s, progress) -> dict:
+    """Rows of Fig. 10 for one record set: records whose strike and H1 azimuth are known are rotated
+    so that H1 lies along the strike (fault-parallel, FP) and H2 along strike + 90 (fault-normal, FN);
+    the others run their recorded components (``direction`` empty)."""
+    import math
+    from pycolfrag import Column, sample
+    col = Column.parthenon()
+    jobs = []
+    for rec in suite:
+        strike, az = rec.meta.get("strike_deg"), rec.meta.get("azimuth_h1_deg")
+        known = rec.h2 is not None and all(isinstance(v, (int, float)) and math.isfinite(v) for v in (strike, az))
+        if known:
+            jobs += [(rec, c, float(strike) - float(az), d) for c, d in (("h1", "FP"), ("h2", "FN"))]
+        else:
+            jobs += [(rec, c, None, "") for c in components if not (c in ("h2", "both") and rec.h2 is None)]
+    rows = []
+    for i, (rec, comp, theta, direction) in enumerate(jobs):
+        row = sample.run_record_sample(rec, column=col, component=comp, rotation_deg=theta, max_record_s=max_record_s)
+        row["direction"] = direction
+        rows.append(row)
+        progress(i + 1, len(jobs))
+    return sample.rows_to_table(rows)
+
+
 def _fig10(args) -> int:
-    from pycolfrag import record_figures, records, sample
-    suite = records.load_records(args.records)
+    from pycolfrag import record_figures, records
     band = tuple(args.band)
-    sel = suite.select(rrup_km=band)
-    print(f"{len(sel)} of {len(suite)} records with Rrup in {band[0]:g}-{band[1]:g} km", flush=True)
-    if not len(sel):
+    sets = {}
+    for source in args.records:
+        suite = records.load_records(source)
+        sel = suite.select(rrup_km=band)
+        print(f"{source}: {len(sel)} of {len(suite)} records with Rrup in {band[0]:g}-{band[1]:g} km", flush=True)
+        if len(sel):
+            sets[source] = sel
+    if not sets:
         print("record_checks: no record in the distance band", file=sys.stderr)
         return 2
 
     def progress(i, n):
         print(f"\r  run {i}/{n}", end="", flush=True)
 
-    table = sample.run_suite(sel, components=args.components, max_record_s=args.max_record_s, progress=progress)
-    print()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    np.savez(out / "fig10_suite.npz", **{k: np.asarray(v) for k, v in table.items()})
-    fig = record_figures.fig_10(table, args.synthetic, band_km=band, dist_km=args.dist)
+    tables, failed = {}, 0
+    for k, (source, sel) in enumerate(sets.items()):
+        table = _fig10_table(sel, args.components, args.max_record_s, progress)
+        print()
+        name = "fig10_suite.npz" if len(sets) == 1 else f"fig10_suite_{k + 1}.npz"
+        np.savez(out / name, **{key: np.asarray(v) for key, v in table.items()})
+        tables[source] = table
+        failed += int(np.sum(np.asarray(table["status"]) != 0))
+    fig = record_figures.fig_10(tables, args.synthetic, band_km=band, dist_km=args.dist)
     for ext in ("png", "pdf"):
         fig.savefig(out / f"fig10_records.{ext}", dpi=120)
-    failed = int(np.sum(np.asarray(table["status"]) != 0))
-    print(f"wrote {out / 'fig10_records.png'} and the run table {out / 'fig10_suite.npz'}"
+    lines = ["set,group,mw_bin,n_components,n_collapsed,mean_u_top,low_90,high_90"]
+    for source, table in tables.items():
+        for group, b in record_figures.binned_means(table, band_km=band).items():
+            for i in range(len(b["mw"])):
+                lines.append(f"{source},{group},{b['mw'][i]:g},{b['n'][i]},{b['n_collapsed'][i]},{b['mean'][i]:.4g},"
+                             f"{b['low'][i]:.4g},{b['high'][i]:.4g}")
+    (out / "fig10_means.csv").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    print(f"wrote {out / 'fig10_records.png'}, the binned means {out / 'fig10_means.csv'} and the run tables"
           + (f"; {failed} runs failed (status != 0)" if failed else ""))
     return 0
 
 
 def _table2(args) -> int:
-    from pycolfrag import records
+    from pycolfrag import records, table_ii
     suite = records.load_records(args.records)
     if args.ids:
         suite = records.RecordSet([suite[i] for i in args.ids], suite.source)
-    rows = records.table_ii(suite, component=args.component, damping_alpha=args.alpha,
-                            perturbation=args.perturbation, n_ensemble=args.ensemble)
-    print(records.format_table_ii(rows))
+    chosen = {k: v for k, v in (("damping_alpha", args.alpha), ("n_ensemble", args.ensemble)) if v is not None}
+    rows = table_ii.table_ii(suite, component=args.component, perturbation=args.perturbation, **chosen)
+    print(table_ii.format_table_ii(rows))
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
     return 0
@@ -66,7 +106,7 @@ def main(argv=None) -> int:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="cmd", required=True)
     f = sub.add_parser("fig10", help="Fig. 10: u_top of natural records in a distance band vs Mw")
-    f.add_argument("--records", required=True)
+    f.add_argument("--records", required=True, nargs="+", help="one or several record sets (SOURCE each)")
     f.add_argument("--synthetic", default=None, help="synthetic grid results file for the mean line at R = --dist")
     f.add_argument("--band", nargs=2, type=float, default=[15.0, 25.0], metavar=("LO", "HI"), help="Rrup band, km")
     f.add_argument("--dist", type=float, default=20.0, help="distance of the synthetic mean line, km")
@@ -77,9 +117,11 @@ def main(argv=None) -> int:
     t.add_argument("--records", required=True)
     t.add_argument("--ids", nargs="+", default=None, help="record ids (default: all)")
     t.add_argument("--component", default="h1", choices=["h1", "h2"])
-    t.add_argument("--alpha", type=float, default=5.0, help="mass-proportional damping, 1/s")
-    t.add_argument("--perturbation", type=float, default=1e-4)
-    t.add_argument("--ensemble", type=int, default=3)
+    t.add_argument("--alpha", type=float, default=None, help="mass-proportional damping, 1/s (default: "
+                   "pycolfrag.table_ii.DEFAULT_TABLE_II_ALPHA)")
+    t.add_argument("--perturbation", type=float, default=1e-4, help="ensemble: the record scaled by 1 +- this")
+    t.add_argument("--ensemble", type=int, default=None, help="ensemble members per record (default: "
+                   "pycolfrag.table_ii.DEFAULT_ENSEMBLE)")
     t.add_argument("--json", default=None, help="also write the rows as JSON")
     a = sub.add_parser("analyse", help="analyse a record-suite results file (pycolfrag.record_report)")
     a.add_argument("results")

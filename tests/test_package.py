@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag import _ffi
+from pycolfrag import _ffi, _validate
 
 
 def test_c_library_version_matches_package():
@@ -36,10 +36,10 @@ def test_status_codes_map_to_exceptions():
 
 def test_array_checks_name_the_bad_value():
     with pytest.raises(pcf.ParameterError, match=r"acc_x has a non-finite value nan at index \(2,\)"):
-        _ffi.as_double_array([0.0, 1.0, np.nan], "acc_x")
+        _validate.float_array([0.0, 1.0, np.nan], "acc_x")
     with pytest.raises(pcf.ParameterError, match="acc_x is empty"):
-        _ffi.as_double_array([], "acc_x")
+        _validate.float_array([], "acc_x")
     with pytest.raises(pcf.ParameterError, match="must be 1-D"):
-        _ffi.as_double_array(np.zeros((2, 2)), "acc_x")
-    out = _ffi.as_double_array(np.arange(4, dtype=np.float32), "acc_x")
+        _validate.float_array(np.zeros((2, 2)), "acc_x")
+    out = _validate.float_array(np.arange(4, dtype=np.float32), "acc_x")
     assert out.dtype == np.float64 and out.flags.c_contiguous

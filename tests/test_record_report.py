@@ -66,3 +66,41 @@ def test_analysis_refuses_a_synthetic_file(tmp_path):
     with pytest.raises(R.ResultsFileError, match="not a record-suite results file"):
         record_report.suite_table(syn)
     assert record_report.main([str(syn), str(tmp_path / "x")]) == 2
+
+
+def test_synthetic_grid_outputs_refuse_a_record_suite_file(suite_file, tmp_path, capsys):
+    """The converse: the scenario report and the paper's figures pool rows by (Mw, R) scenario, which
+    for a suite would mix the four scale factors into one probability. Each refuses the file and names
+    the command that analyses it; the command line exits 2 with that message, not a traceback."""
+    from pycolfrag import figures, report
+    out, _, _ = suite_file
+    with pytest.raises(R.ResultsFileError, match="record-suite results file.*pycolfrag.record_report"):
+        report.write_report(out, tmp_path / "report.md")
+    assert not (tmp_path / "report.md").exists()
+    assert report.main([str(out), str(tmp_path / "report.md")]) == 2
+    assert "python -m pycolfrag.record_report" in capsys.readouterr().err
+    with pytest.raises(R.ResultsFileError, match="record-suite"):
+        figures.make_all(out, tmp_path / "figs")
+
+
+def test_degenerate_msa_fits_are_marked_in_the_report(suite_file, tmp_path, monkeypatch):
+    """The report prints a fit's own degenerate reason beside its median, for exactly the fits that
+    carry one (the demo suite's stripes overlap, so one fit is made to carry one here), and the stripes
+    CSV has the stripes' flags."""
+    from pycolfrag import fragility as fr
+    out, _, _ = suite_file
+    real = fr.msa_fragility
+    seen = []
+
+    def flag_first(*a, **kw):
+        f = real(*a, **kw)
+        if not seen:
+            f.degenerate = "beta = 5 is on the optimiser's bound [0.02, 5]"
+        seen.append(f)
+        return f
+
+    monkeypatch.setattr(fr, "msa_fragility", flag_first)
+    text = open(record_report.write_record_report(out, tmp_path / "a", figures=False)).read()
+    assert text.count("(degenerate: beta = 5 is on the optimiser's bound [0.02, 5])") == 1
+    header = (tmp_path / "a" / "stripes.csv").read_text().splitlines()[0]
+    assert header.endswith(",degenerate")

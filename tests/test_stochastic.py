@@ -270,7 +270,7 @@ def test_same_record_in_another_process():
 @pytest.mark.parametrize("mw,d,needle", [
     (3.9, 10.0, "Mw = 3.9"), (8.2, 10.0, "Mw = 8.2"), (float("nan"), 10.0, "Mw = nan"),
     (6.5, 0.0, "dist_km = 0"), (6.5, -3.0, "dist_km = -3"), (6.5, 250.0, "dist_km = 250"),
-    (6.5, float("inf"), "dist_km = inf"), ("six", 10.0, "Mw"),
+    (6.5, float("inf"), "dist_km = inf"),
 ])
 def test_out_of_range_scenario(mw, d, needle):
     for call in (lambda: as00.simulate(mw, d, 1), lambda: as00.check_scenario(mw, d),
@@ -278,6 +278,17 @@ def test_out_of_range_scenario(mw, d, needle):
         with pytest.raises(ModelRangeError, match=needle):
             call()
     assert issubclass(ModelRangeError, ValueError)
+
+
+@pytest.mark.parametrize("mw,d,needle", [("six", 10.0, "Mw must be a real number, got str 'six'"),
+                                          (6.5, "10", "dist_km must be a real number, got str '10'"),
+                                          (True, 10.0, "Mw must be a real number, got bool True")])
+def test_scenario_of_the_wrong_type(mw, d, needle):
+    """Not a number at all is a wrong argument, not a value outside the model's calibrated range."""
+    for call in (lambda: as00.simulate(mw, d, 1), lambda: as00.check_scenario(mw, d)):
+        with pytest.raises(ParameterError, match=needle) as info:
+            call()
+        assert not isinstance(info.value, ModelRangeError)
 
 
 @pytest.mark.parametrize("dt", [0.0, -0.005, float("nan"), float("inf"), 0.021, 1e-6, "x"])

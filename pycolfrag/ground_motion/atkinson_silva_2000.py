@@ -16,7 +16,6 @@ outside, or non-finite, :class:`~pycolfrag.errors.ModelRangeError` is raised.
 from __future__ import annotations
 
 import json
-import operator
 import threading
 from collections import OrderedDict
 from importlib import resources
@@ -24,7 +23,8 @@ from importlib import resources
 import numpy as np
 
 from .._ffi import check, ffi, lib, ptr
-from ..errors import ModelRangeError, ParameterError
+from .._validate import integer, real
+from ..errors import ParameterError
 
 __all__ = ["PARAMS", "check_scenario", "fourier_amplitude", "duration_s", "simulate", "window"]
 
@@ -43,13 +43,6 @@ MW_RANGE, DIST_MAX_KM, DT_MIN, DT_MAX = _limits()
 GENERATOR = "SMSIM time-domain recipe, Atkinson & Silva (2000), C (xoshiro256**, own radix-2 FFT)"
 
 
-def _number(value, name: str, exc) -> float:
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise exc(f"{name} must be a number, got {value!r}") from None
-
-
 def check_scenario(Mw, dist_km) -> tuple[float, float]:
     """Return ``(Mw, dist_km)`` as floats after checking the model's range.
 
@@ -65,28 +58,22 @@ def check_scenario(Mw, dist_km) -> tuple[float, float]:
     ModelRangeError
         For a value outside the range or non-finite (the message names it).
     """
-    mw = _number(Mw, "Mw", ModelRangeError)
-    d = _number(dist_km, "dist_km", ModelRangeError)
+    mw = real(Mw, "Mw")
+    d = real(dist_km, "dist_km")
     msg = ffi.new("char[]", lib.CF_MSG_LEN)
     check(lib.cf_stochastic_check_scenario(mw, d, msg), msg)
     return mw, d
 
 
 def _check_dt(dt) -> float:
-    v = _number(dt, "dt", ParameterError)
+    v = real(dt, "dt")
     if not np.isfinite(v) or v <= 0 or v > DT_MAX or v < DT_MIN:
         raise ParameterError(f"dt = {dt!r} s must be finite and in [{DT_MIN:g}, {DT_MAX:g}] s")
     return v
 
 
 def _check_seed(seed) -> int:
-    try:
-        s = operator.index(seed)
-    except TypeError:
-        raise ParameterError(f"seed must be an integer in [0, 2**64), got {seed!r}") from None
-    if not 0 <= s < 2**64:
-        raise ParameterError(f"seed = {seed!r} must be in [0, 2**64)")
-    return int(s)
+    return integer(seed, "seed", 0, 2**64 - 1)
 
 
 def fourier_amplitude(f_hz, Mw, dist_km) -> np.ndarray:

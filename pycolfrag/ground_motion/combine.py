@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._ffi import as_double_array, check, ffi, lib, ptr
+from .._ffi import check, ffi, lib, ptr
+from .._validate import float_array
 from ..errors import ParameterError
 
 __all__ = ["combine"]
@@ -35,8 +36,8 @@ def combine(hf_acc, pulse_acc) -> np.ndarray:
     ParameterError
         Mismatched lengths, wrong shape, empty or non-finite input.
     """
-    hf = as_double_array(hf_acc, "hf_acc")
-    p = as_double_array(pulse_acc, "pulse_acc")
+    hf = float_array(hf_acc, "hf_acc")
+    p = float_array(pulse_acc, "pulse_acc")
     if hf.size != p.size:
         raise ParameterError(f"hf_acc has {hf.size} samples but pulse_acc has {p.size}: they must match")
     out = np.empty_like(hf)

@@ -17,15 +17,13 @@ for which max_t |V| = Vp given nu and gamma (the maximum of the unit pulse found
 from __future__ import annotations
 
 import math
-import operator
 
 import numpy as np
 from scipy import optimize
 from scipy.stats import qmc
 
-from .._ffi import as_double_array, check, ffi, lib, ptr
-from .._validate import finite_float, positive_float
-from ..errors import ParameterError
+from .._ffi import check, ffi, lib, ptr
+from .._validate import finite_float, float_array, integer, positive_float
 from . import rupakhety_2011 as _r11
 
 __all__ = ["GAMMA_MEAN", "GAMMA_SD", "GAMMA_MIN", "NU_RANGE_RAD", "pulse", "velocity", "acceleration",
@@ -69,7 +67,7 @@ def pulse(t, A, fp, nu, gamma, t0=0.0):
     (vel, acc, disp) : arrays shaped like ``t``
     """
     p = _params(A, fp, nu, gamma, t0)
-    tt = as_double_array(np.ravel(np.asarray(t, dtype=float)), "t", allow_empty=True)
+    tt = np.ravel(float_array(t, "t", ndim=None, allow_empty=True))
     vel, acc, disp = np.empty_like(tt), np.empty_like(tt), np.empty_like(tt)
     check(lib.cf_pulse_eval(p, ptr(tt), tt.size, ptr(vel), ptr(acc), ptr(disp)), what="pulse")
     shape = np.shape(t)
@@ -126,7 +124,8 @@ def envelope_amplitude(Vp, fp, nu, gamma):
     Scalars or broadcastable arrays; the unit of A is that of Vp. ``fp`` only enters the
     check (the peak of the unit pulse does not depend on fp).
     """
-    Vp, fp, nu, gamma = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (Vp, fp, nu, gamma)))
+    Vp, fp, nu, gamma = np.broadcast_arrays(*(float_array(x, name, ndim=None, finite=False)
+                                             for x, name in ((Vp, "Vp"), (fp, "fp"), (nu, "nu"), (gamma, "gamma"))))
     out = np.empty(Vp.shape)
     for idx in np.ndindex(Vp.shape):
         _float(fp[idx], "fp", positive=True)
@@ -140,21 +139,11 @@ def peak_velocity_time(fp, nu, gamma, t0=0.0):
     """Time of the peak |V| of the pulse, s (``t0`` + the offset of the unit pulse's peak)."""
     fp = _float(fp, "fp", positive=True)
     u, _ = _unit_peak(_float(nu, "nu"), _float(gamma, "gamma", positive=True))
-    return float(t0) + u / fp
-
-
-def _integer(value, name, minimum):
-    try:
-        v = operator.index(value)
-    except TypeError:
-        raise ParameterError(f"{name} must be an integer, got {value!r}") from None
-    if v < minimum:
-        raise ParameterError(f"{name} must be >= {minimum}, got {value!r}")
-    return int(v)
+    return _float(t0, "t0") + u / fp
 
 
 def _int_seed(seed):
-    return _integer(seed, "seed", 0)
+    return integer(seed, "seed", 0)
 
 
 def _lhs(d, n, seed):
@@ -208,7 +197,7 @@ def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0):
     ``A_cm_s`` (envelope amplitude giving peak |V| = Vp), ``Tp_s`` (= 1/fp).
     """
     log_vp, log_fp = _r11._log10_means(Mw, dist_km, vp_scale)
-    n_ = _integer(n, "n", 1)
+    n_ = integer(n, "n", 1)
     u = np.ascontiguousarray(_lhs(4, n_, _int_seed(seed)), dtype=np.float64)
     vp, fp, nu, gamma = (np.empty(n_) for _ in range(4))
     check(lib.cf_pulse_sample_map(_distribution(log_vp, log_fp), ptr(u), n_, ptr(vp), ptr(fp), ptr(nu),

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._ffi import as_double_array, positive_float
+from .._validate import float_array, positive_float
 from ..errors import ParameterError
 
 __all__ = ["Record"]
@@ -31,14 +31,14 @@ class Record:
     """
 
     def __init__(self, acc, dt, meta=None, components=None):
-        self.acc = np.array(as_double_array(acc, "acc"), dtype=np.float64, copy=True)
+        self.acc = np.array(float_array(acc, "acc"), dtype=np.float64, copy=True)
         self.dt = positive_float(dt, "dt")
         if meta is not None and not isinstance(meta, dict):
             raise ParameterError(f"meta must be a dict, got {type(meta).__name__}")
         self.meta = dict(meta) if meta else {}
         comps = {}
         for name, value in (components or {}).items():
-            arr = np.array(as_double_array(value, f"components[{name!r}]"), copy=True)
+            arr = np.array(float_array(value, f"components[{name!r}]"), copy=True)
             if arr.shape != self.acc.shape:
                 raise ParameterError(f"components[{name!r}] has {arr.size} samples, the record {self.acc.size}")
             comps[str(name)] = arr
