@@ -978,8 +978,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--record-dt", type=float, default=None,
                    help=f"time step of the synthetic records, s (default: {DEFAULT_RECORD_DT_S})")
     g.add_argument("--pulse", choices=PULSES, default=None,
-                   help="mp03: near-fault records with the Mavroeidis-Papageorgiou velocity pulse; none: the stochastic record alone, "
-                        f"same seeds, rows pair with the pulse grid (default: {DEFAULT_PULSE})")
+                   help="mp03: near-fault records with the Mavroeidis-Papageorgiou velocity pulse; none: the "
+                        f"stochastic record alone, same seeds, rows pair with the pulse grid (default: {DEFAULT_PULSE})")
     g.add_argument("--tp-model", default=None, choices=sorted(TP_MODELS),
                    help=f"pulse-period relation of the sampled pulses (default: {DEFAULT_TP_MODEL}, the paper's Eq. 7)")
     r = p.add_argument_group("record suite (docs/records.md)")

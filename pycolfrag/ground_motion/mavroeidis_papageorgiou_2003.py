@@ -230,8 +230,9 @@ def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=DEFAULT
     n_ = _integer(n, "n", 1)
     u = np.ascontiguousarray(_lhs(4, n_, _int_seed(seed)), dtype=np.float64)
     vp, fp, nu, gamma = (np.empty(n_) for _ in range(4))
-    check(lib.cf_pulse_sample_map(_distribution(log_vp, log_fp, model.SIGMA_LOG10_FP), ptr(u), n_, ptr(vp), ptr(fp), ptr(nu),
-                                  ptr(gamma)), what="pulse parameter sampling")
+    dist = _distribution(log_vp, log_fp, model.SIGMA_LOG10_FP)
+    check(lib.cf_pulse_sample_map(dist, ptr(u), n_, ptr(vp), ptr(fp), ptr(nu), ptr(gamma)),
+          what="pulse parameter sampling")
     return {"Vp_cm_s": vp, "fp_hz": fp, "nu_rad": nu, "gamma": gamma,
             "A_cm_s": np.asarray(envelope_amplitude(vp, fp, nu, gamma), dtype=float).reshape(n_),
             "Tp_s": 1.0 / fp}
