@@ -181,3 +181,19 @@ def test_report_links_figures_from_a_custom_figures_dir(tmp_path, monkeypatch):
     report = tmp_path / "rep" / "report.md"
     assert grid.make_outputs(h5, tmp_path / "figs", report, log=lambda s: None)
     assert "![fig07_ud_vs_utop](../figs/fig07_ud_vs_utop.png)" in report.read_text()
+
+
+def test_no_pulse_row_with_the_real_generator():
+    """Real physics, record cut to 3 s: the no-pulse row's PGA and PGV are those of
+    ground_motion.stochastic with the row's seed (bit for bit); the row carries no pulse field (the
+    results file fills them with NaN)."""
+    spec = grid.GridSpec(mw=(7.0,), dist_km=(5.0,), samples=2, seed=5, periods_s=(1.0,), max_record_s=3.0,
+                         pulse="none")
+    ctx = grid.SampleContext(spec)
+    row = grid.run_sample(ctx, 1)
+    assert row["status"] == 0, row["message"]
+    rec = pcf.ground_motion.stochastic(7.0, 5.0, ctx.hf_seed(0, 1))
+    acc = rec.acc[: int(round(3.0 / rec.dt)) + 1]
+    ims = pcf.intensity.measures(acc, rec.dt, periods=(1.0,))
+    assert (row["pga_g"], row["pgv_cm_s"]) == (ims["pga_g"], ims["pgv_cm_s"])
+    assert "vp_cm_s" not in row and "tp_s" not in row and row["record_s"] == pytest.approx(len(acc) * rec.dt)
