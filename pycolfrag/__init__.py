@@ -11,6 +11,7 @@ Quick tour (SPEC §10)::
 __version__ = "0.1.0"
 
 from .errors import (  # noqa: E402,F401
+    HazardFileError,
     ModelRangeError,
     ParameterError,
     PycolfragError,

@@ -29,3 +29,7 @@ class SolverError(PycolfragError, RuntimeError):
 
 class ResultsFileError(PycolfragError, ValueError):
     """A results file that does not match the run asked for (use --overwrite)."""
+
+
+class HazardFileError(PycolfragError, ValueError):
+    """A hazard-curve file (OpenQuake CSV) or fragility model file (NRML) that cannot be used as it is."""

@@ -213,9 +213,16 @@ def _pulse_ap_g(d: ResultsData):
     return np.pi * d["fp_hz"] * amp / (_names.CM_PER_M * _names.G), "Ap ~ pi fp A (g, approximation)"
 
 
-def fig_09(data, **_) -> Figure:
-    """Fig. 9: mean sampled Vp and mean pulse acceleration amplitude Ap per (Mw, R)."""
+def _has_pulses(d) -> bool:
+    """False for a grid without pulses (``run_grid.py --pulse none``: the pulse fields are all NaN)."""
+    return bool(np.any(np.isfinite(d["fp_hz"])))
+
+
+def fig_09(data, **_) -> Figure | None:
+    """Fig. 9: mean sampled Vp and mean pulse acceleration amplitude Ap per (Mw, R); None without pulses."""
     d = _as_data(data)
+    if not _has_pulses(d):
+        return None
     ap, ap_label = _pulse_ap_g(d)
     fig = Figure(figsize=(11, 4.5))
     axes = [fig.add_subplot(1, 2, k) for k in (1, 2)]
@@ -237,9 +244,11 @@ def fig_09(data, **_) -> Figure:
     return fig
 
 
-def fig_11(data, **_) -> Figure:
-    """Fig. 11: u_top vs Tp; safe/unsafe on the PGA-fp and Ap-fp planes (Mw >= 6.5)."""
+def fig_11(data, **_) -> Figure | None:
+    """Fig. 11: u_top vs Tp; safe/unsafe on the PGA-fp and Ap-fp planes (Mw >= 6.5); None without pulses."""
     d = _as_data(data)
+    if not _has_pulses(d):
+        return None
     ap, ap_label = _pulse_ap_g(d)
     c = d["collapsed"]
     fig = Figure(figsize=(15, 4.8))

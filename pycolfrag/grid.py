@@ -56,6 +56,7 @@ from . import results as _results
 from . import sample as _sample
 from .sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S  # /spectra periods (s) and damping: a sample's
 from .errors import ParameterError, RecordFileError, ResultsFileError
+from .ground_motion.mavroeidis_papageorgiou_2003 import DEFAULT_TP_MODEL, TP_MODELS, tp_model_of
 
 __all__ = [
     "DEFAULT_MW", "DEFAULT_DIST_KM", "DEFAULT_SAMPLES", "DEFAULT_SEED", "DEFAULT_PERIODS_S",
@@ -68,6 +69,10 @@ DEFAULT_DIST_KM = (5.0, 7.5, 10.0, 12.5, 15.0, 17.5, 20.0)
 DEFAULT_SAMPLES = 100
 DEFAULT_SEED = 20160601
 DEFAULT_RECORD_DT_S = 0.005
+#: Pulse choices of a synthetic grid: "mp03" adds the Mavroeidis-Papageorgiou pulse (the paper's
+#: records), "none" runs the high-frequency record alone with the same seeds (the no-pulse branch).
+PULSES = ("mp03", "none")
+DEFAULT_PULSE = "mp03"
 #: Largest root seed: it is stored as a signed 64-bit HDF5 attribute.
 SEED_MAX = 2**63 - 1
 #: Largest grid (rows): the file allocates every row at creation (about 700 bytes per row).
@@ -177,6 +182,11 @@ class GridSpec:
         Cut records to this length, s (tests and quick looks only: changes the physics).
     sample_function : str or None
         ``module:function`` replacing :func:`run_sample` (tests), None for the default.
+    pulse : str
+        ``"mp03"`` (the paper's near-fault records) or ``"none"`` (the stochastic record alone, same seeds).
+    tp_model : str
+        Pulse-period relation of the sampled pulses
+        (:data:`pycolfrag.ground_motion.mavroeidis_papageorgiou_2003.TP_MODELS`).
     """
 
     mw: tuple = DEFAULT_MW
@@ -191,8 +201,11 @@ class GridSpec:
     record_dt_s: float = DEFAULT_RECORD_DT_S
     max_record_s: float | None = None
     sample_function: str | None = None
+    pulse: str = DEFAULT_PULSE
+    tp_model: str = DEFAULT_TP_MODEL
 
     def __post_init__(self):
+        _check_pulse_options(self)
         object.__setattr__(self, "solver_options", resolve_solver_options(self.solver_options))
         for name in ("samples", "seed"):
             v = getattr(self, name)
@@ -235,6 +248,7 @@ class GridSpec:
             "record_dt_s": float(self.record_dt_s), "max_record_s": self.max_record_s,
             "sample_function": self.sample_function,
             "streams": "SeedSequence(seed, (stream, mw_key, dist_key[, sample])) -> uint32; v1",
+            **_pulse_signature(self),
         }
 
     def order(self, rows) -> list[int]:
@@ -255,14 +269,40 @@ class GridSpec:
         """Root attributes describing this grid (besides those every results file has)."""
         return {"mw": list(self.mw), "dist_km": list(self.dist_km), "samples": int(self.samples),
                 "vp_scale": float(self.vp_scale), "record_dt_s": float(self.record_dt_s),
-                "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s)}
+                "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s),
+                "pulse": self.pulse, "tp_model": self.tp_model if self.pulse != "none" else ""}
 
     def shortest_record_dt(self) -> float:
         """The records' time step, s (the solver step must not be longer)."""
         return float(self.record_dt_s)
 
     def describe(self) -> str:
-        return f"{len(self.mw)} Mw x {len(self.dist_km)} R x {self.samples} samples = {self.n_rows} runs"
+        branch = ("" if not _pulse_signature(self) else
+                  " (no pulse)" if self.pulse == "none" else f" (pulse period: {self.tp_model})")
+        return f"{len(self.mw)} Mw x {len(self.dist_km)} R x {self.samples} samples = {self.n_rows} runs{branch}"
+
+
+def _check_pulse_options(spec) -> None:
+    """``pulse`` one of :data:`PULSES`, ``tp_model`` a known relation; a no-pulse grid takes neither a
+    pulse-period model nor a pulse amplitude scale (they would change nothing and be recorded as if)."""
+    if spec.pulse not in PULSES:
+        raise ParameterError(f"pulse must be one of {PULSES}, got {spec.pulse!r}")
+    tp_model_of(spec.tp_model)
+    if spec.pulse == "none" and (spec.tp_model != DEFAULT_TP_MODEL or spec.vp_scale != 1.0):
+        raise ParameterError(f"a grid without pulse (pulse 'none') takes no pulse-period model or pulse scale, "
+                             f"got tp_model {spec.tp_model!r}, vp_scale {spec.vp_scale!r}")
+
+
+def _pulse_signature(spec) -> dict:
+    """The pulse choices in the run signature: present only when they differ from the paper's records,
+    so a default grid keeps the signature of files written before the choices existed (they resume),
+    while a no-pulse or other-Tp file never resumes into a default one, nor the reverse."""
+    out = {}
+    if spec.pulse != DEFAULT_PULSE:
+        out["pulse"] = spec.pulse
+    if spec.tp_model != DEFAULT_TP_MODEL:
+        out["tp_model"] = spec.tp_model
+    return out
 
 
 class SampleContext:
@@ -299,7 +339,7 @@ class SampleContext:
             from .ground_motion import sample_pulse_parameters
             mw, dist = self.spec.scenarios[scenario]
             table = sample_pulse_parameters(mw, dist, self.spec.samples, self.lhs_seed(scenario),
-                                            vp_scale=self.spec.vp_scale)
+                                            vp_scale=self.spec.vp_scale, tp_model=self.spec.tp_model)
             self._lhs[scenario] = {k: np.asarray(v) for k, v in table.items()}
             while len(self._lhs) > 8:
                 self._lhs.popitem(last=False)
@@ -313,8 +353,9 @@ def run_sample(ctx: SampleContext, row: int) -> dict:
     sc, k, mw, dist = ctx.locate(row)
     out = {"row": int(row), "scenario": sc, "sample": k}
     t0 = time.perf_counter()
+    with_pulse = ctx.spec.pulse != "none"
     try:
-        seed, pulse = ctx.hf_seed(sc, k), ctx.pulse(sc, k)
+        seed, pulse = ctx.hf_seed(sc, k), (ctx.pulse(sc, k) if with_pulse else None)
     except Exception as exc:  # the pulse parameters are part of the record: a record failure
         out.update(mw=mw, dist_km=dist, status=_results.STATUS_RECORD_FAILED,
                    message=f"{type(exc).__name__}: {exc}", wall_s=time.perf_counter() - t0)
@@ -323,7 +364,7 @@ def run_sample(ctx: SampleContext, row: int) -> dict:
     out.update(_sample.run_synthetic_sample(
         ctx.column, mw, dist, seed, pulse, record_dt_s=spec.record_dt_s, vp_scale=spec.vp_scale,
         periods_s=spec.periods_s, damping=spec.damping, solver_options=spec.solver_options,
-        max_record_s=spec.max_record_s))
+        max_record_s=spec.max_record_s, with_pulse=with_pulse))
     out["wall_s"] = time.perf_counter() - t0
     return out
 
@@ -782,7 +823,8 @@ def check_models(spec: GridSpec) -> None:
     for mw, dist in spec.scenarios:
         try:
             as00.check_scenario(mw, dist)
-            rupakhety_2011.check_scenario(mw, dist)
+            if spec.pulse != "none":
+                rupakhety_2011.check_scenario(mw, dist)
         except ParameterError as exc:
             raise ParameterError(f"--mw/--dist: scenario Mw {mw:g}, R {dist:g} km is refused: {exc}") from None
     dt = spec.record_dt_s
@@ -1194,6 +1236,11 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--vp-scale", type=float, default=None, help="scale of the pulse amplitude Vp (default: 1)")
     g.add_argument("--record-dt", type=float, default=None,
                    help=f"time step of the synthetic records, s (default: {DEFAULT_RECORD_DT_S})")
+    g.add_argument("--pulse", choices=PULSES, default=None,
+                   help="mp03: near-fault records with the Mavroeidis-Papageorgiou velocity pulse; none: the "
+                        f"stochastic record alone, same seeds, rows pair with the pulse grid (default: {DEFAULT_PULSE})")
+    g.add_argument("--tp-model", default=None, choices=sorted(TP_MODELS),
+                   help=f"pulse-period relation of the sampled pulses (default: {DEFAULT_TP_MODEL}, the paper's Eq. 7)")
     r = p.add_argument_group("record suite (docs/records.md)")
     r.add_argument("--records", default=None, metavar="SOURCE",
                    help="run a suite of natural records instead of the synthetic grid: a PEER NGA-West2 download "
@@ -1260,7 +1307,8 @@ def spec_from_args(args) -> "GridSpec | RecordGridSpec":
             raise ParameterError(f"--solver expects KEY=VALUE, got {kv!r}")
         opts[k.strip().replace("-", "_")] = _solver_value(v.strip())
     synthetic_only = {"--mw": args.mw, "--dist": args.dist, "--samples": args.samples, "--seed": args.seed,
-                      "--vp-scale": args.vp_scale, "--record-dt": args.record_dt}
+                      "--vp-scale": args.vp_scale, "--record-dt": args.record_dt, "--pulse": args.pulse,
+                      "--tp-model": args.tp_model}
     if args.records is not None:
         given = [k for k, v in synthetic_only.items() if v is not None]
         if given:
@@ -1282,7 +1330,8 @@ def spec_from_args(args) -> "GridSpec | RecordGridSpec":
                     vp_scale=1.0 if args.vp_scale is None else args.vp_scale,
                     periods_s=_parse_values(args.periods, "--periods"), damping=args.damping,
                     record_dt_s=DEFAULT_RECORD_DT_S if args.record_dt is None else args.record_dt,
-                    max_record_s=args.max_record_s, sample_function=args.sample_function)
+                    max_record_s=args.max_record_s, sample_function=args.sample_function,
+                    pulse=args.pulse or DEFAULT_PULSE, tp_model=args.tp_model or DEFAULT_TP_MODEL)
 
 
 def _default_out(args) -> str:

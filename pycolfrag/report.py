@@ -70,8 +70,8 @@ def _meta_lines(d):
            f"- finished runs: {d.n_total}; successful: {d.n}; failed (excluded from all statistics): {d.n_failed}"
            + (f" (by status code: {', '.join(f'{k}: {v}' for k, v in sorted(d.failures.items()))})"
               if d.failures else "")]
-    for key in ("version", "git_revision", "seed", "n_ranks", "created", "vp_scale", "contact"):
-        if key in a:
+    for key in ("version", "git_revision", "seed", "n_ranks", "created", "vp_scale", "pulse", "tp_model", "contact"):
+        if key in a and str(a[key]) != "":
             out.append(f"- {key}: `{a[key]}`")
     for key in ("column", "solver"):
         if key in a:

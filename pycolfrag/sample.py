@@ -141,7 +141,7 @@ def response_row(column, acc_x, dt, *, acc_y=None, acc_z=None, ims=None, periods
 
 def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.005, vp_scale=1.0,
                          periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_DAMPING, solver_options=None,
-                         max_record_s=None) -> dict:
+                         max_record_s=None, with_pulse=True) -> dict:
     """One synthetic sample of the paper's grid (what :func:`pycolfrag.grid.run_sample` computes).
 
     Parameters
@@ -154,6 +154,9 @@ def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.0
     periods_s, damping : spectral periods (s) and damping ratio of the IMs
     solver_options : dict of :func:`pycolfrag.simulate` keywords
     max_record_s : float or None -- cut the record (tests and quick looks only)
+    with_pulse : bool -- False: the high-frequency record alone (:func:`pycolfrag.ground_motion.stochastic`
+        with the same ``hf_seed``: the no-pulse branch of a site's motions); ``pulse`` and ``vp_scale``
+        are then unused and the pulse fields stay NaN
 
     Returns
     -------
@@ -166,15 +169,20 @@ def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.0
     t0 = time.perf_counter()
     out = {"mw": float(mw), "dist_km": float(dist_km), "status": STATUS["ok"], "message": ""}
     try:
-        rec = ground_motion.synthesize(mw, dist_km, hf_seed, dt=record_dt_s, vp_scale=vp_scale, pulse=pulse)
+        if with_pulse:
+            rec = ground_motion.synthesize(mw, dist_km, hf_seed, dt=record_dt_s, vp_scale=vp_scale, pulse=pulse)
+        else:
+            rec = ground_motion.stochastic(mw, dist_km, hf_seed, dt=record_dt_s)
         acc, dt, meta = np.asarray(rec.acc, dtype=float), float(rec.dt), dict(rec.meta)
         if max_record_s is not None:
             acc = acc[: int(round(max_record_s / dt)) + 1]
-        out.update(vp_cm_s=_meta(meta, "Vp_cm_s"), fp_hz=_meta(meta, "fp_hz"), nu_rad=_meta(meta, "nu_rad"),
-                   gamma=_meta(meta, "gamma"), t0_s=_meta(meta, "t0_s"), a_cm_s=_meta(meta, "A_cm_s"),
-                   ap_g=_meta(meta, "Ap_g"), record_s=len(acc) * dt)
-        fp = out["fp_hz"]
-        out["tp_s"] = _meta(meta, "Tp_s", default=(1.0 / fp if fp and math.isfinite(fp) else math.nan))
+        out["record_s"] = len(acc) * dt
+        if with_pulse:
+            out.update(vp_cm_s=_meta(meta, "Vp_cm_s"), fp_hz=_meta(meta, "fp_hz"), nu_rad=_meta(meta, "nu_rad"),
+                       gamma=_meta(meta, "gamma"), t0_s=_meta(meta, "t0_s"), a_cm_s=_meta(meta, "A_cm_s"),
+                       ap_g=_meta(meta, "Ap_g"))
+            fp = out["fp_hz"]
+            out["tp_s"] = _meta(meta, "Tp_s", default=(1.0 / fp if fp and math.isfinite(fp) else math.nan))
     except Exception as exc:
         out["status"] = STATUS["record"]
         out["message"] = f"{type(exc).__name__}: {exc}"

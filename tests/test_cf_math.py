@@ -105,11 +105,11 @@ def test_sample_map_matches_scipy_inverse_cdfs():
     rng = np.random.default_rng(5)
     u = rng.random((2000, 4))
     u[:4, 3] = [0.0, 1e-12, 0.5, 1.0 - 1e-12]            # the truncation point and the far tail
-    log_vp, log_fp = r11._log10_means(7.0, 10.0)
+    log_vp, log_fp = lib.cf_math_log10(r11.mean_vp_cm_s(7.0, 10.0)), r11.log10_fp_mean(7.0)
     vp, fp, nu, gamma = (np.empty(u.shape[0]) for _ in range(4))
     from pycolfrag._ffi import ptr
-    assert lib.cf_pulse_sample_map(mp._distribution(log_vp, log_fp), ptr(np.ascontiguousarray(u)), u.shape[0],
-                                   ptr(vp), ptr(fp), ptr(nu), ptr(gamma)) == 0
+    assert lib.cf_pulse_sample_map(mp._distribution(log_vp, log_fp, r11.SIGMA_LOG10_FP), ptr(np.ascontiguousarray(u)),
+                                   u.shape[0], ptr(vp), ptr(fp), ptr(nu), ptr(gamma)) == 0
     a = (mp.GAMMA_MIN - mp.GAMMA_MEAN) / mp.GAMMA_SD
     np.testing.assert_allclose(vp, 10.0 ** stats.norm.ppf(u[:, 0], log_vp, r11.SIGMA_LOG10_VP), rtol=1e-14)
     np.testing.assert_allclose(fp, 10.0 ** stats.norm.ppf(u[:, 1], log_fp, r11.SIGMA_LOG10_FP), rtol=1e-14)
@@ -130,7 +130,7 @@ def test_sample_map_refuses_bad_uniforms():
     u[0, 2] = 1.5
     from pycolfrag._ffi import ptr
     out = [np.empty(1) for _ in range(4)]
-    d = mp._distribution(1.0, -0.5)
+    d = mp._distribution(1.0, -0.5, r11.SIGMA_LOG10_FP)
     assert lib.cf_pulse_sample_map(d, ptr(u), 1, *(ptr(o) for o in out)) == lib.CF_EINVAL
     u[0, 2] = math.nan
     assert lib.cf_pulse_sample_map(d, ptr(u), 1, *(ptr(o) for o in out)) == lib.CF_EINVAL

@@ -116,6 +116,20 @@ def test_make_all_writes_png_and_pdf(results_file, tmp_path):
         assert head.startswith(b"\x89PNG") or head.startswith(b"%PDF")
 
 
+def test_no_pulse_file_has_no_pulse_figures(tmp_path):
+    """A no-pulse grid (run_grid.py --pulse none) has NaN pulse fields: Figs. 9 and 11 (pulse amplitude and
+    period) are left out instead of drawn empty; every other figure is written."""
+    import h5py
+    path = write_results(tmp_path / "none.h5", mws=(6.5, 7.5), dists=(5.0, 20.0), n=20, n_failed=0)
+    with h5py.File(path, "r+") as f:
+        for k in ("vp_cm_s", "fp_hz", "nu_rad", "gamma", "t0_s", "tp_s", "a_cm_s", "ap_g"):
+            f["samples"][k][...] = np.nan
+        f.attrs["pulse"] = "none"
+    paths = figures.make_all(path, tmp_path / "fig", n_boot=20, formats=("png",))
+    stems = {p.rsplit("/", 1)[-1][:-4] for p in paths}
+    assert stems == set(figures.FIGURES) - {"fig09_pulse_amplitudes", "fig11_pulse_period_collapse"}
+
+
 def test_missing_file(tmp_path):
     with pytest.raises(ValueError):
         figures.read_results(tmp_path / "nope.h5")

@@ -221,7 +221,8 @@ def test_mismatched_arguments_are_refused(tmp_path):
             "--no-figures", "--no-progress", "--out", str(out)]
     _ok(_serial(base))
     stamp = R.load(out).attrs["created"]
-    for change in (["--samples", "3"], ["--seed", "5"], ["--mw", "6.5"], ["--kn", "2e9"], ["--vp-scale", "1.2"]):
+    for change in (["--samples", "3"], ["--seed", "5"], ["--mw", "6.5"], ["--kn", "2e9"], ["--vp-scale", "1.2"],
+                   ["--pulse", "none"], ["--tp-model", "baker_2007"]):
         p = _serial([*base, *change])
         assert p.returncode == 2, (change, p.stdout, p.stderr)
         assert "holds a different run" in p.stdout and "--overwrite" in p.stdout, p.stdout

@@ -4,6 +4,7 @@ Checks that :func:`pycolfrag.grid.run_sample` passes the right seeds and pulse p
 ground-motion model and files every record/IM/EDP value in the documented field, whatever the
 solver and generator compute; the real physics is exercised by tests/test_grid.py.
 """
+import json
 import math
 from types import SimpleNamespace
 
@@ -19,8 +20,9 @@ def fake_physics(monkeypatch):
     grid.build_identity()  # the build's result hash comes from the real physics (computed once per process)
     calls = {"lhs": [], "synth": []}
 
-    def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0):
+    def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model="rupakhety_2011"):
         calls["lhs"].append((Mw, dist_km, n, seed, vp_scale))
+        calls.setdefault("tp_model", []).append(tp_model)
         rng = np.random.default_rng(seed)
         return {"Vp_cm_s": 30 + 10 * rng.random(n), "fp_hz": 0.5 + rng.random(n), "nu_rad": rng.random(n),
                 "gamma": 2 + rng.random(n), "t0_s": 5 + rng.random(n)}
@@ -30,6 +32,11 @@ def fake_physics(monkeypatch):
         acc = np.random.default_rng(seed).normal(size=2001)
         meta = dict(pulse, A_cm_s=12.0, Ap_g=0.3, Mw=Mw, dist_km=dist_km)
         return SimpleNamespace(acc=acc, dt=dt, meta=meta)
+
+    def stochastic(Mw, dist_km, seed, dt=0.005):
+        calls.setdefault("stochastic", []).append((Mw, dist_km, seed, dt))
+        return SimpleNamespace(acc=0.5 * np.random.default_rng(seed).normal(size=1501), dt=dt,
+                               meta={"Mw": Mw, "dist_km": dist_km})
 
     def measures(acc, dt, periods=(0.2, 0.5, 1.0, 2.0, 3.0), damping=0.05):
         p = np.asarray(periods)
@@ -47,6 +54,7 @@ def fake_physics(monkeypatch):
 
     monkeypatch.setattr(pcf.ground_motion, "sample_pulse_parameters", sample_pulse_parameters, raising=False)
     monkeypatch.setattr(pcf.ground_motion, "synthesize", synthesize, raising=False)
+    monkeypatch.setattr(pcf.ground_motion, "stochastic", stochastic, raising=False)
     monkeypatch.setattr(pcf.intensity, "measures", measures, raising=False)
     monkeypatch.setattr(pcf.solver, "simulate", simulate)
     return calls
@@ -70,6 +78,50 @@ def test_run_sample_files_every_value(fake_physics):
     assert out["pgv_cm_s"] == 11.0 and list(out["sa_g"]) == [1.0, 2.0] and list(out["sv_cm_s"]) == [1.5, 3.0]
     assert out["u_top"] == pytest.approx(0.01 * 1001 * 0.005) and out["n_steps"] == 10010
     assert out["wall_s"] > 0
+
+
+def test_no_pulse_row_is_the_stochastic_record_of_the_same_seed(fake_physics):
+    """``pulse="none"``: the row's record is the stochastic record alone with the high-frequency seed of
+    the same row of the pulse grid (so the two grids pair row by row), no pulse is drawn, the pulse
+    fields stay NaN; a Tp model reaches the pulse sampling."""
+    spec = grid.GridSpec(mw=(6.0, 7.0), dist_km=(10.0,), samples=4, seed=3, periods_s=(0.5, 1.0), pulse="none")
+    ctx = grid.SampleContext(spec)
+    out = grid.run_sample(ctx, 6)
+    assert out["status"] == 0, out["message"]
+    assert fake_physics["stochastic"] == [(7.0, 10.0, ctx.hf_seed(1, 2), 0.005)]
+    assert fake_physics["lhs"] == [] and fake_physics["synth"] == []
+    assert ctx.hf_seed(1, 2) == grid.SampleContext(grid.GridSpec(mw=(6.0, 7.0), dist_km=(10.0,), samples=4,
+                                                                  seed=3)).hf_seed(1, 2)
+    for k in ("vp_cm_s", "fp_hz", "nu_rad", "gamma", "t0_s", "tp_s", "a_cm_s", "ap_g"):
+        assert math.isnan(out.get(k, math.nan)), k
+    assert out["record_s"] == pytest.approx(1501 * 0.005) and out["u_top"] == pytest.approx(0.01 * 1501 * 0.005)
+    baker = grid.GridSpec(mw=(6.0,), dist_km=(10.0,), samples=2, seed=3, tp_model="baker_2007")
+    grid.run_sample(grid.SampleContext(baker), 0)
+    assert fake_physics["tp_model"] == ["baker_2007"]
+
+
+@pytest.mark.parametrize("kw, words", [
+    ({"pulse": "half"}, "'half'"),
+    ({"tp_model": "somerville"}, "'somerville'"),
+    ({"pulse": "none", "tp_model": "baker_2007"}, "'baker_2007'"),
+    ({"pulse": "none", "vp_scale": 2.0}, "2.0"),
+])
+def test_pulse_options_are_checked(kw, words):
+    with pytest.raises(pcf.ParameterError, match=words):
+        grid.GridSpec(mw=(6.0,), dist_km=(10.0,), samples=2, **kw)
+
+
+def test_pulse_choices_enter_signature_and_attributes():
+    """The default grid keeps the signature it had before the pulse options (old files resume); the
+    no-pulse and Baker grids differ from it and from each other; the file attributes always say which."""
+    base = dict(mw=(6.0,), dist_km=(10.0,), samples=2, seed=1)
+    d, n, b = (grid.GridSpec(**base, **kw) for kw in ({}, {"pulse": "none"}, {"tp_model": "baker_2007"}))
+    assert "pulse" not in d.signature() and "tp_model" not in d.signature()
+    assert n.signature()["pulse"] == "none" and b.signature()["tp_model"] == "baker_2007"
+    assert len({json.dumps(s.signature(), sort_keys=True) for s in (d, n, b)}) == 3
+    assert (d.file_attrs()["pulse"], d.file_attrs()["tp_model"]) == ("mp03", "rupakhety_2011")
+    assert (n.file_attrs()["pulse"], n.file_attrs()["tp_model"]) == ("none", "")
+    assert "no pulse" in n.describe() and "baker_2007" in b.describe()
 
 
 def test_streams_do_not_depend_on_order_or_process(fake_physics):
@@ -131,3 +183,19 @@ def test_report_links_figures_from_a_custom_figures_dir(tmp_path, monkeypatch):
     report = tmp_path / "rep" / "report.md"
     assert grid.make_outputs(h5, tmp_path / "figs", report, log=lambda s: None)
     assert "![fig07_ud_vs_utop](../figs/fig07_ud_vs_utop.png)" in report.read_text()
+
+
+def test_no_pulse_row_with_the_real_generator():
+    """Real physics, record cut to 3 s: the no-pulse row's PGA and PGV are those of
+    ground_motion.stochastic with the row's seed (bit for bit); the row carries no pulse field (the
+    results file fills them with NaN)."""
+    spec = grid.GridSpec(mw=(7.0,), dist_km=(5.0,), samples=2, seed=5, periods_s=(1.0,), max_record_s=3.0,
+                         pulse="none")
+    ctx = grid.SampleContext(spec)
+    row = grid.run_sample(ctx, 1)
+    assert row["status"] == 0, row["message"]
+    rec = pcf.ground_motion.stochastic(7.0, 5.0, ctx.hf_seed(0, 1))
+    acc = rec.acc[: int(round(3.0 / rec.dt)) + 1]
+    ims = pcf.intensity.measures(acc, rec.dt, periods=(1.0,))
+    assert (row["pga_g"], row["pgv_cm_s"]) == (ims["pga_g"], ims["pgv_cm_s"])
+    assert "vp_cm_s" not in row and "tp_s" not in row and row["record_s"] == pytest.approx(len(acc) * rec.dt)

@@ -176,3 +176,37 @@ def test_pulse_bad_parameters():
         mp.velocity([np.nan], 1.0, 1.0, 0.0, 1.5)
     with pytest.raises(ParameterError, match="nu"):
         mp.velocity([0.0], 1.0, 1.0, False, 1.5)
+
+
+# ---------------------------------------------------------------- alternative pulse period (Baker 2007)
+def test_baker_2007_median_period_by_hand():
+    """Baker (2007): ln Tp = -6.45 + 1.11 Mw. Mw 7: exp(1.32) = 3.7434 s; Mw 6: exp(0.21) = 1.2337 s
+    (hand values; 1e-12 relative: the library's pow and a literal ln 10 agree to a few ulp)."""
+    from pycolfrag.ground_motion import baker_2007 as b07
+    assert b07.mean_tp_s(7.0) == pytest.approx(math.exp(1.32), rel=1e-12)
+    assert b07.mean_tp_s(6.0) == pytest.approx(math.exp(0.21), rel=1e-12)
+    assert b07.SIGMA_LOG10_FP == pytest.approx(0.56 / math.log(10), rel=1e-15)
+    with pytest.raises(ModelRangeError, match="9.5"):
+        b07.mean_tp_s(9.5)
+
+
+def test_baker_2007_sampling_pairs_with_the_default_and_has_its_moments():
+    """Same seed, other Tp model: Vp, nu, gamma unchanged bit for bit and the standardised log fp the
+    same (one uniform column of the LHS for both relations), so grids with the two models pair row by
+    row; the sample of ln Tp has Baker's mean and spread. With n = 2000 LHS points the stratified
+    sample mean of ln Tp is within 1e-3 of -6.45 + 1.11 Mw (its error is far below the i.i.d.
+    0.56/sqrt(2000) = 0.0125) and the standard deviation within 1 % of 0.56."""
+    mw, n, seed = 6.5, 2000, 7
+    a = sample_pulse_parameters(mw, 10.0, n, seed)
+    b = sample_pulse_parameters(mw, 10.0, n, seed, tp_model="baker_2007")
+    for k in ("Vp_cm_s", "nu_rad", "gamma"):
+        np.testing.assert_array_equal(a[k], b[k])
+    za = (np.log10(a["fp_hz"]) - r11.log10_fp_mean(mw)) / r11.SIGMA_LOG10_FP
+    from pycolfrag.ground_motion import baker_2007 as b07
+    zb = (np.log10(b["fp_hz"]) - b07.log10_fp_mean(mw)) / b07.SIGMA_LOG10_FP
+    np.testing.assert_allclose(za, zb, atol=1e-9)
+    ln_tp = np.log(b["Tp_s"])
+    assert ln_tp.mean() == pytest.approx(-6.45 + 1.11 * mw, abs=1e-3)
+    assert ln_tp.std(ddof=1) == pytest.approx(0.56, rel=0.01)
+    with pytest.raises(ParameterError, match="'bogus'"):
+        sample_pulse_parameters(mw, 10.0, 5, seed, tp_model="bogus")

@@ -11,6 +11,7 @@ Modules, one per published model (docs/ground_motion.md):
 * :mod:`.atkinson_silva_2000` -- high-frequency part, Boore's stochastic method (C generator);
 * :mod:`.mavroeidis_papageorgiou_2003` -- the velocity pulse (Eq. 5) and its LHS sampling;
 * :mod:`.rupakhety_2011` -- mean pulse amplitude and frequency (Eqs. 6-7);
+* :mod:`.baker_2007` -- an alternative pulse-period relation (``--tp-model baker_2007``);
 * :mod:`.combine` -- Fourier-amplitude combination (steps 3-6);
 * :mod:`.at2` -- PEER NGA ``.AT2`` files; :mod:`.record` -- :class:`Record`; :mod:`.plots`.
 """
@@ -23,14 +24,14 @@ import numpy as np
 from .._validate import finite_float, positive_float
 from ..intensity import G
 from ..errors import ParameterError
-from . import mavroeidis_papageorgiou_2003, rupakhety_2011
+from . import baker_2007, mavroeidis_papageorgiou_2003, rupakhety_2011
 from .at2 import read_at2
 from .mavroeidis_papageorgiou_2003 import _int_seed as _seed
 from .mavroeidis_papageorgiou_2003 import sample_pulse_parameters
 from .record import Record
 
 __all__ = ["Record", "stochastic", "synthesize", "sample_pulse_parameters", "read_at2",
-           "atkinson_silva_2000", "mavroeidis_papageorgiou_2003", "rupakhety_2011", "combine", "plots",
+           "atkinson_silva_2000", "mavroeidis_papageorgiou_2003", "rupakhety_2011", "baker_2007", "combine", "plots",
            "PULSE_STREAM"]
 
 #: Second word of the SeedSequence that seeds the pulse draw of ``synthesize(pulse=None)``:

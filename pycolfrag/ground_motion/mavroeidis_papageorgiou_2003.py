@@ -24,16 +24,32 @@ from scipy.stats import qmc
 
 from .._ffi import check, ffi, lib, ptr
 from .._validate import finite_float, float_array, integer, positive_float
+from ..errors import ParameterError
+from . import baker_2007 as _b07
 from . import rupakhety_2011 as _r11
 
 __all__ = ["GAMMA_MEAN", "GAMMA_SD", "GAMMA_MIN", "NU_RANGE_RAD", "pulse", "velocity", "acceleration",
            "displacement", "support", "envelope_amplitude", "peak_velocity_time",
-           "sample_pulse_parameters"]
+           "sample_pulse_parameters", "TP_MODELS", "DEFAULT_TP_MODEL", "tp_model_of"]
 
 #: gamma ~ N(1.8, 0.4) left-truncated at 1 (the paper, after MP03's data).
 GAMMA_MEAN, GAMMA_SD, GAMMA_MIN = 1.8, 0.4, 1.0
 #: nu ~ U[-pi/2, pi/2] (the paper).
 NU_RANGE_RAD = (-math.pi / 2, math.pi / 2)
+
+
+#: Pulse-period relations the sampling can use (an epistemic branch of the grid): name -> module
+#: with ``log10_fp_mean(Mw)`` and ``SIGMA_LOG10_FP``. The paper's Eq. (7) is the default.
+TP_MODELS = {"rupakhety_2011": _r11, "baker_2007": _b07}
+DEFAULT_TP_MODEL = "rupakhety_2011"
+
+
+def tp_model_of(name):
+    """The module of a pulse-period relation of :data:`TP_MODELS`, or ParameterError naming ``name``."""
+    try:
+        return TP_MODELS[name]
+    except (KeyError, TypeError):
+        raise ParameterError(f"unknown pulse-period model {name!r} (known: {', '.join(TP_MODELS)})") from None
 
 
 def _float(value, name, positive=False):
@@ -155,16 +171,16 @@ def _lhs(d, n, seed):
     return sampler.random(n)
 
 
-def _distribution(log10_vp_mean, log10_fp_mean):
+def _distribution(log10_vp_mean, log10_fp_mean, log10_fp_sd):
     d = ffi.new("cf_pulse_dist *")
     d.log10_vp_mean, d.log10_vp_sd = log10_vp_mean, _r11.SIGMA_LOG10_VP
-    d.log10_fp_mean, d.log10_fp_sd = log10_fp_mean, _r11.SIGMA_LOG10_FP
+    d.log10_fp_mean, d.log10_fp_sd = log10_fp_mean, log10_fp_sd
     d.nu_min, d.nu_max = NU_RANGE_RAD
     d.gamma_mean, d.gamma_sd, d.gamma_min = GAMMA_MEAN, GAMMA_SD, GAMMA_MIN
     return d
 
 
-def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0):
+def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=DEFAULT_TP_MODEL):
     """Latin-hypercube sample of ``n`` pulses for the scenario (Mw, dist_km km).
 
     One LHS of the unit 4-cube (``scipy.stats.qmc.LatinHypercube(d=4)`` seeded with
@@ -175,7 +191,8 @@ def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0):
     CPU's SIMD features in their last bits):
 
     * column 0: log10 Vp ~ N(log10 of the Eq. (6) mean times ``vp_scale``, 0.16);
-    * column 1: log10 fp ~ N(log10 of the Eq. (7) mean, 0.18);
+    * column 1: log10 fp ~ N(log10 of the Eq. (7) mean, 0.18), or the mean and scatter of another
+      pulse-period relation (``tp_model``, :data:`TP_MODELS`) on the same uniform column;
     * column 2: nu ~ U[-pi/2, pi/2];
     * column 3: gamma ~ N(1.8, 0.4) left-truncated at 1: ``ndtri(Phi(a) + u (1 - Phi(a)))``,
       a = (1 - 1.8) / 0.4 (equal to ``scipy.stats.truncnorm.ppf`` to about 1e-15).
@@ -190,18 +207,22 @@ def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0):
     n : int (>= 1), samples
     seed : int (>= 0), e.g. a 32-bit integer from ``numpy.random.SeedSequence``
     vp_scale : float (> 0), multiplies the Eq. (6) mean
+    tp_model : str, a key of :data:`TP_MODELS` (default the paper's Eq. 7)
 
     Returns
     -------
     dict of 1-D float arrays of length n: ``Vp_cm_s``, ``fp_hz``, ``nu_rad``, ``gamma``,
     ``A_cm_s`` (envelope amplitude giving peak |V| = Vp), ``Tp_s`` (= 1/fp).
     """
-    log_vp, log_fp = _r11._log10_means(Mw, dist_km, vp_scale)
+    model = tp_model_of(tp_model)
+    log_vp = lib.cf_math_log10(_r11.mean_vp_cm_s(Mw, dist_km, vp_scale))
+    log_fp = model.log10_fp_mean(Mw)
     n_ = integer(n, "n", 1)
     u = np.ascontiguousarray(_lhs(4, n_, _int_seed(seed)), dtype=np.float64)
     vp, fp, nu, gamma = (np.empty(n_) for _ in range(4))
-    check(lib.cf_pulse_sample_map(_distribution(log_vp, log_fp), ptr(u), n_, ptr(vp), ptr(fp), ptr(nu),
-                                  ptr(gamma)), what="pulse parameter sampling")
+    dist = _distribution(log_vp, log_fp, model.SIGMA_LOG10_FP)
+    check(lib.cf_pulse_sample_map(dist, ptr(u), n_, ptr(vp), ptr(fp), ptr(nu), ptr(gamma)),
+          what="pulse parameter sampling")
     return {"Vp_cm_s": vp, "fp_hz": fp, "nu_rad": nu, "gamma": gamma,
             "A_cm_s": np.asarray(envelope_amplitude(vp, fp, nu, gamma), dtype=float).reshape(n_),
             "Tp_s": 1.0 / fp}

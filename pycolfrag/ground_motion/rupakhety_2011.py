@@ -23,7 +23,7 @@ from .._validate import finite_float
 from ..errors import ModelRangeError, ParameterError
 
 __all__ = ["M_SAT", "SIGMA_LOG10_VP", "SIGMA_LOG10_FP", "MW_RANGE", "DIST_RANGE_KM",
-           "mean_vp_cm_s", "mean_fp_hz", "mean_tp_s", "check_scenario"]
+           "mean_vp_cm_s", "mean_fp_hz", "mean_tp_s", "log10_fp_mean", "check_scenario"]
 
 #: Saturation magnitude of Eq. (6).
 M_SAT = 7.0
@@ -84,5 +84,7 @@ def mean_fp_hz(Mw):
     return 1.0 / mean_tp_s(Mw)
 
 
-def _log10_means(Mw, dist_km, vp_scale=1.0):
-    return lib.cf_math_log10(mean_vp_cm_s(Mw, dist_km, vp_scale)), lib.cf_math_log10(mean_fp_hz(Mw))
+def log10_fp_mean(Mw):
+    """Mean of log10(fp), the centre of the sampled fp (Eq. 7; the interface every pulse-period
+    model of :data:`pycolfrag.ground_motion.mavroeidis_papageorgiou_2003.TP_MODELS` offers)."""
+    return lib.cf_math_log10(mean_fp_hz(Mw))
