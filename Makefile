@@ -111,23 +111,16 @@ records: setup
 
 # Site risk (docs/risk.md) of the example site: a small grid with pulses and the same grid without
 # them (run_grid.py --pulse none, paired seeds), then the risk with both branches mixed by the site's
-# pulse-occurrence model. A version of run_grid.py without --pulse none gives the pulse branch alone,
-# asked for explicitly (--pulse-only) and stated in every output. Rerunning resumes the grids.
+# pulse-occurrence model. Rerunning resumes the grids.
 # SITE=file.toml, RISK_DIR=folder, RISK_GRID=... (run_grid.py options) for others.
 SITE      ?= examples/site_athens.toml
 RISK_DIR  ?= results/risk
 RISK_GRID ?= --mw 5.5 6 6.5 7 7.5 --dist 5 10 15 20 --samples 20 --no-figures --no-progress
-HAVE_NOPULSE := $(shell grep -q -e '"--pulse"' pycolfrag/grid.py scripts/run_grid.py && echo yes)
 risk: setup
 	mkdir -p $(RISK_DIR)
 	$(RUN_GRID) $(RISK_GRID) --out $(RISK_DIR)/pulse.h5
-ifeq ($(HAVE_NOPULSE),yes)
 	$(RUN_GRID) $(RISK_GRID) --pulse none --out $(RISK_DIR)/nopulse.h5
 	$(PY) -m pycolfrag.risk $(SITE) $(RISK_DIR)/pulse.h5 $(RISK_DIR) --no-pulse $(RISK_DIR)/nopulse.h5
-else
-	@echo "run_grid.py has no --pulse none in this version: risk of the pulse branch alone (it overstates the risk)"
-	$(PY) -m pycolfrag.risk $(SITE) $(RISK_DIR)/pulse.h5 $(RISK_DIR) --pulse-only
-endif
 
 bench: setup
 	$(PY) bench/solver_speed.py
