@@ -41,6 +41,7 @@ void cf_solver_def_default(cf_solver_def *d)
     d->unstable_tolerance = 0.5;
     d->initial_tilt_rad = 0.0;
     d->contact_tolerance = 1e-2;
+    d->reentry_depth = 0.0;
 }
 
 static void release(cf_solver *s)
@@ -90,6 +91,7 @@ int cf_solver_check_def(cf_solver *s, const cf_solver_def *d)
     if (!(d->unstable_tolerance > 0.0)) return cf_solver_fail(s, CF_EINVAL, "unstable_tolerance must be > 0, got %g", d->unstable_tolerance);
     if (!isfinite(d->initial_tilt_rad) || fabs(d->initial_tilt_rad) > 1.0) return cf_solver_fail(s, CF_EINVAL, "initial_tilt_rad must be in [-1, 1], got %g", d->initial_tilt_rad);
     if (!(d->contact_tolerance >= 0.0) || !(d->contact_tolerance < 0.1)) return cf_solver_fail(s, CF_EINVAL, "contact_tolerance must be in [0, 0.1), got %g", d->contact_tolerance);
+    if (!(d->reentry_depth >= 0.0) || !(d->reentry_depth <= 0.1)) return cf_solver_fail(s, CF_EINVAL, "reentry_depth must be in [0, 0.1], got %g", d->reentry_depth);
     return CF_OK;
 }
 

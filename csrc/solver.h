@@ -52,6 +52,10 @@ typedef struct {
     double initial_tilt_rad;   /* rigid initial tilt about the +x base edge (y axis), rad; default 0 */
     double contact_tolerance;  /* a point overhanging the other face by less than this fraction of its
                                   circumradius still counts as inside; default 1e-2 */
+    double reentry_depth;      /* a sub-contact not in contact that comes onto a face at most this fraction
+                                  of the face's circumradius deep takes contact with its spring stretched to
+                                  that depth (energy booked as contact_switch); deeper, unstretched;
+                                  in [0, 0.1]; default 0 (every re-entry unstretched) */
 } cf_solver_def;
 
 typedef struct {

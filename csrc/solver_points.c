@@ -251,8 +251,8 @@ static void points_joints(cf_solver *s, int j0, int n, const double *ww, double 
                 /* a point deeper than a tenth of the face's radius is not in contact with it:
                  * it has passed beside or through the face (a tumbling block after a collapse) */
                 P.pmax = 0.1 * ff->rc;
-                /* a point coming onto the face deeper than a hundredth of its radius starts unstretched */
-                P.pent = 0.01 * ff->rc;
+                /* a point coming onto the face deeper than this starts unstretched */
+                P.pent = s->def.reentry_depth * ff->rc;
                 P.tol = s->def.contact_tolerance * ff->rc;
                 P.sgn = side == 0 ? -1.0 : 1.0;
                 P.kn = J->kn; P.mu = J->mu;

@@ -61,6 +61,7 @@ _FIELDS = {
     "unstable_tolerance": ("unstable_tolerance", "float"),
     "initial_tilt_rad": ("initial_tilt_rad", "float"),
     "contact_tolerance": ("contact_tolerance", "float"),
+    "reentry_depth": ("reentry_depth", "float"),
 }
 
 
@@ -126,6 +127,12 @@ class SolverOptions:
     contact_tolerance : float
         A sub-contact overhanging the other face by less than this fraction of the face's
         circumradius still bears, in [0, 0.1).
+    reentry_depth : float
+        Sub-contact models ("vertex", "perimeter"): a point that was off the face (beside it, below
+        its plane) and comes back onto it at most this fraction of the face's circumradius deep
+        takes contact with its spring compressed to that depth (the energy it brings is booked as
+        ``contact_switch``); a deeper one takes contact with its spring unstretched. In [0, 0.1]; 0:
+        every re-entry unstretched. See docs/accuracy.md, "Two-component motion".
     """
 
     contact: str = _opt("contact", "contact model")
@@ -145,6 +152,7 @@ class SolverOptions:
     unstable_tolerance: float = _opt("unstable_tolerance", "balance error that stops the run")
     initial_tilt_rad: float = _opt("initial_tilt_rad", "initial tilt, rad")
     contact_tolerance: float = _opt("contact_tolerance", "overhang tolerance / circumradius")
+    reentry_depth: float = _opt("reentry_depth", "stretched re-entry depth / circumradius")
 
     def __post_init__(self):
         # types first (a clear message naming the option), then the C library's ranges

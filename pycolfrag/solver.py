@@ -68,7 +68,8 @@ class History:
     energy : dict of (n,) arrays, J -- kinetic, gravity (change since the start), spring (change since
         the pre-compressed start), slip_dissipated, damping_dissipated, ground_work (work of the
         inertial forces -m a_g), contact_switch (normal spring energy removed when compressed
-        sub-contacts slide off a face polygon, negative when they slide onto one),
+        sub-contacts slide off a face polygon; negative when they slide onto one, only with
+        ``reentry_depth`` > 0),
         balance_error = kinetic + gravity + spring + dissipated + contact_switch - ground_work
     """
 

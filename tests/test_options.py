@@ -44,6 +44,8 @@ def test_round_trip_through_a_results_attribute():
     (dict(dt_solver=0.0), "dt_solver"), (dict(dt_solver=-1e-3), "dt_solver"),
     (dict(unstable_tolerance=0.0), "unstable_tolerance"), (dict(history_dt=float("inf")), "history_dt"),
     (dict(contact_tolerance=0.5), "contact_tolerance"), (dict(bogus=1), "bogus"),
+    (dict(reentry_depth=0.11), "reentry_depth"), (dict(reentry_depth=-1e-3), "reentry_depth"),
+    (dict(reentry_depth=float("nan")), "reentry_depth"),
 ])
 def test_bad_options_fail_when_built_naming_the_option(changes, word):
     with pytest.raises(pcf.ParameterError, match=word):
