@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from . import fragility as fr
-from .errors import ParameterError, ResultsFileError
+from .errors import ParameterError, PycolfragError, ResultsFileError
 from .site import OUTSIDE_CHOICES, PulseModel, Site, load_site
 
 __all__ = ["RiskQuantity", "QUANTITIES", "node_weights", "interpolate", "OutsideReport", "SiteRisk",
@@ -656,8 +656,12 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--no-figures", action="store_true")
     a = ap.parse_args(argv)
-    risk = site_risk(a.site, a.results, a.no_pulse, pulse_only=a.pulse_only, estimator=a.estimator,
-                     uncertainty=a.uncertainty, outside=a.outside, years=a.years, n_draws=a.draws, rng=a.seed)
+    try:
+        risk = site_risk(a.site, a.results, a.no_pulse, pulse_only=a.pulse_only, estimator=a.estimator,
+                         uncertainty=a.uncertainty, outside=a.outside, years=a.years, n_draws=a.draws, rng=a.seed)
+    except PycolfragError as exc:       # a bad site file or results file: its message, not a traceback
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
+        return 2
     paths = write_outputs(risk, a.outdir, figures=not a.no_figures)
     if risk.pulse_only:
         print("PULSE-ONLY risk (asked for explicitly): it overstates the risk of a site")

@@ -273,6 +273,7 @@ def _pulse(d, origin, where):
         _check_keys(d, ("model",), origin, where)
         return PulseModel("pulse-only")
     if model == "shahi_baker_2014":
+        _check_keys(d, ("model", "mechanism", "s_km", "angle_deg"), origin, where)
         mech = d.get("mechanism")
         if mech not in shahi_baker_2014.MECHANISMS:
             raise ParameterError(f"{_where(origin, where)}.mechanism must be one of "

@@ -395,6 +395,8 @@ def _with(path, value):
     (_with(["pulse"], {"model": "shahi_baker_2014", "mechanism": "strike-slip", "s_km": 5, "angle_deg": 120}),
      r"angle_deg must be in \[0, 90\], got 120"),
     (_with(["rate"], "often"), r"rate must be a finite number, got 'often'"),
+    (_with(["pulse"], {"model": "shahi_baker_2014", "mechanism": "strike-slip", "s_km": 5, "angle_deg": 10,
+                       "probability": 0.3}), r"pulse: unknown key\(s\) 'probability'"),
 ])
 def test_bad_source_is_refused_naming_the_value(src, match):
     with pytest.raises(ParameterError, match=match):
@@ -439,6 +441,18 @@ def test_command_writes_markdown_json_and_figures(tmp_path):
     assert js["probability"]["50"]["collapse"][0] == pytest.approx(1 - math.exp(-50 * lam), rel=1e-14)
     for stem in ("risk_curves", "risk_deaggregation", "risk_probability"):
         assert (out / f"{stem}.png").stat().st_size > 10_000
+
+
+def test_command_refuses_a_bad_site_file_with_its_message(tmp_path, capsys):
+    """A bad value ends the command with exit status 2 and the message naming it, not a traceback."""
+    pulse, _ = _two_branches(tmp_path)
+    sf = tmp_path / "bad.toml"
+    sf.write_text('[pulse]\nprobability = 0.4\n[[sources]]\nname = "f"\nrate = -0.01\n'
+                  'magnitude = { type = "characteristic", mw = 7.0 }\ndistance = { type = "fixed", r_km = 10 }\n')
+    assert risk.main([str(sf), pulse, str(tmp_path / "out"), "--draws", "20", "--no-figures"]) == 2
+    err = capsys.readouterr().err
+    assert "error:" in err and "bad.toml: sources[0].rate must be >= 0, got -0.01" in err
+    assert not (tmp_path / "out").exists()
 
 
 def test_report_carries_the_risk_section(tmp_path):
