@@ -115,8 +115,11 @@ def interpolate(values, mws, ds, m, r):
     m, r = np.broadcast_arrays(np.asarray(m, float), np.asarray(r, float))
     lo_m, hi_m = _beyond(mws, m, False)
     lo_r, hi_r = _beyond(ds, r, True)
-    if np.any(lo_m | hi_m | lo_r | hi_r):
-        raise ParameterError(f"points outside the grid Mw {mws[0]:g}-{mws[-1]:g}, R {ds[0]:g}-{ds[-1]:g} km")
+    out = lo_m | hi_m | lo_r | hi_r
+    if np.any(out):
+        k = np.flatnonzero(out.ravel())
+        raise ParameterError(f"{k.size} of {out.size} points outside the grid Mw {mws[0]:g}-{mws[-1]:g}, R "
+                             f"{ds[0]:g}-{ds[-1]:g} km, the first at Mw {m.ravel()[k[0]]:g}, R {r.ravel()[k[0]]:g} km")
     out = np.zeros(m.shape)
     for i, j, w in _bilinear(mws, ds, m, r):
         out = out + w * values[i, j]

@@ -143,8 +143,9 @@ def test_interpolation_is_bilinear_in_mw_and_ln_r():
     assert risk.interpolate(g, mws, ds, mc, rc) == pytest.approx(corners, rel=1e-14)
     assert risk.interpolate(g, mws, ds, mc, rc) != pytest.approx((mc / 7.5) ** 2 * math.log(rc) / math.log(20),
                                                                 rel=1e-3)
-    with pytest.raises(ParameterError, match="outside the grid"):
-        risk.interpolate(g, mws, ds, 8.0, 10.0)
+    with pytest.raises(ParameterError, match=r"1 of 2 points outside the grid Mw 5\.5-7\.5, R 5-20 km, "
+                                             r"the first at Mw 6, R 25 km"):
+        risk.interpolate(g, mws, ds, [7.0, 6.0], [10.0, 25.0])
 
 
 def test_uniform_distance_integral_against_closed_form():
