@@ -360,6 +360,24 @@ def _check_branches(pulse, no_pulse):
     if cp is not None and cn is not None and json.loads(cp) != json.loads(cn):
         raise ParameterError(f"{pulse.path} and {no_pulse.path} are grids of different columns; the two "
                              "branches must describe the same column")
+    sp, sn = (_signature(d.attrs) for d in (pulse, no_pulse))
+    differ = [k for k in _SHARED_SETTINGS if k in sp and k in sn and sp[k] != sn[k]]
+    if differ:
+        raise ParameterError(f"{pulse.path} and {no_pulse.path} differ in {', '.join(differ)} ("
+                             + "; ".join(f"{k}: {sp[k]!r} against {sn[k]!r}" for k in differ)[:400]
+                             + "); the two branches must be the same column, solver and records but for the pulse")
+
+
+#: Grid settings the two branches must share (everything but the pulse and the scenarios' sample counts).
+_SHARED_SETTINGS = ("column", "solver", "damping", "record_dt_s", "max_record_s", "sample_function", "streams")
+
+
+def _signature(attrs) -> dict:
+    try:
+        v = json.loads(attrs.get("grid_signature", "{}") or "{}")
+    except (TypeError, ValueError):
+        return {}
+    return v if isinstance(v, dict) else {}
 
 
 # --------------------------------------------------------------------------- the risk

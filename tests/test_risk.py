@@ -338,6 +338,13 @@ def test_one_branch_is_refused_unless_pulse_only_is_asked(tmp_path):
         risk.site_risk(s, nopulse, pulse, curves=False)                     # branches swapped
     with pytest.raises(ParameterError, match="does not declare pulse = 'none'"):
         risk.site_risk(s, pulse, pulse, curves=False)
+    with h5py.File(nopulse, "r+") as f:                                       # another solver set-up
+        f.attrs["grid_signature"] = json.dumps({"synthetic": True, "solver": {"dt_s": 2e-4}, "pulse": "none"})
+    with h5py.File(pulse, "r+") as f:
+        f.attrs["grid_signature"] = json.dumps({"synthetic": True, "solver": {"dt_s": 1e-4}})
+    with pytest.raises(ParameterError, match=r"differ in solver \(solver: \{'dt_s': 0\.0001\} against "
+                                             r"\{'dt_s': 0\.0002\}\)"):
+        risk.site_risk(s, pulse, nopulse, curves=False)
     with pytest.raises(ParameterError, match="every source is pulse-only"):
         risk.site_risk(site([char_source(7.0, 10.0)]), pulse, nopulse, curves=False)
     with pytest.raises(ParameterError, match="no pulse model"):
