@@ -189,6 +189,30 @@ def test_outside_range_is_reported_and_treated_as_asked():
         assert np.sum(W * P) == pytest.approx(0.02 * 0.5 if how == "clamp" else inside, rel=1e-12)
 
 
+def test_clamp_gives_the_outside_part_to_the_edge_scenarios():
+    """Under clamp the part of a source below the grid's first Mw (or beyond its last R) takes the
+    probability of the edge scenarios. Rate weight on the Mw 5.5 row = nu [F(5.5) + int_5.5^6.5
+    (6.5 - m) f(m) dm] and on the R 20 km column = nu [P(R > 20) + int_10^20 (ln r - ln 10) /
+    ln 2 f(r) dr], both integrated here by scipy.integrate.quad on the closed-form pdfs (tolerance
+    1e-9 relative: quad's own error is below 1e-12, the module's Gauss-Legendre is exact to round-off
+    for these smooth integrands)."""
+    from scipy import integrate
+    b, m0, m1, nu = 1.0, 5.0, 7.5, 0.02
+    beta = b * math.log(10)
+    f_m = lambda m: beta * math.exp(-beta * (m - m0)) / (1 - math.exp(-beta * (m1 - m0)))
+    f_r = lambda r: 2 * r / (30 ** 2 - 5 ** 2)
+    spec = {"name": "bg", "rate": nu, "magnitude": {"type": "gutenberg-richter", "b": b, "m_min": m0, "m_max": m1},
+            "distance": {"type": "area", "min_km": 5.0, "max_km": 30.0}}
+    mws, ds = np.array([5.5, 6.5, 7.5]), np.array([5.0, 10.0, 20.0])
+    W, _, _ = risk.node_weights(site([spec]).sources, mws, ds, outside="clamp")
+    row = integrate.quad(f_m, m0, 5.5)[0] + integrate.quad(lambda m: (6.5 - m) * f_m(m), 5.5, 6.5)[0]
+    col = (integrate.quad(f_r, 20, 30)[0]
+           + integrate.quad(lambda r: math.log(r / 10) / math.log(2) * f_r(r), 10, 20)[0])
+    assert W[0].sum() == pytest.approx(nu * row, rel=1e-9)
+    assert W[:, 2].sum() == pytest.approx(nu * col, rel=1e-9)
+    assert W.sum() == pytest.approx(nu, rel=1e-12)                    # nothing dropped under clamp
+
+
 # --------------------------------------------------------------------------- sampling error
 
 def test_bootstrap_interval_of_a_proportion_is_the_binomial_one(tmp_path):
@@ -239,6 +263,8 @@ def test_intervals_of_independent_cells_add_up(tmp_path):
     _, lo, hi = res.rate["collapse"]
     assert (hi - lo) / (2 * stats.norm.ppf(0.95)) == pytest.approx(sd, rel=0.05)
     assert res.rate["collapse"][0] == pytest.approx(nu * 0.5 * (5 / 50 + 20 / 50), rel=1e-15)
+    # deaggregation: W_ij P_ij / lambda = (1/2 * 5/50, 1/2 * 20/50) / (1/2 * 25/50) = 0.2, 0.8
+    assert res.deagg["collapse"][:, 0] == pytest.approx([0.2, 0.8], rel=1e-14)
 
 
 def test_paired_branches_are_resampled_together(tmp_path):
@@ -447,6 +473,8 @@ def test_command_writes_markdown_json_and_figures(tmp_path):
     assert js["branches"] == ["pulse", "no-pulse"] and not js["pulse_only"]
     lam = js["rate_per_year"]["collapse"][0]
     assert js["probability"]["50"]["collapse"][0] == pytest.approx(1 - math.exp(-50 * lam), rel=1e-14)
+    for edp in ("u_top", "u_d"):                                    # a rate of exceeding x falls with x
+        assert np.all(np.diff(js["curves"][edp]["rate"]) <= 0)
     for stem in ("risk_curves", "risk_deaggregation", "risk_probability"):
         assert (out / f"{stem}.png").stat().st_size > 10_000
 
