@@ -1,8 +1,9 @@
 """Site risk by the Mw-R route (pycolfrag.risk, pycolfrag.site) and the pulse-occurrence model of Shahi & Baker (2014).
 
 Every expected number is computed here from a closed form (the truncated Gutenberg-Richter pdf,
-bilinear interpolation, binomial and beta quantiles from scipy) or from the cells of a small results
-file written by the test itself; tolerances are stated where they are not exact.
+bilinear interpolation, binomial and beta quantiles and the Dirichlet covariance from scipy or by
+hand), from scipy.integrate.quad of the closed-form pdfs, or from the cells of a small results file
+written by the test itself; tolerances are stated where they are not exact.
 """
 import json
 import math
