@@ -686,6 +686,11 @@ def main(argv=None):
     paths = write_outputs(risk, a.outdir, figures=not a.no_figures)
     if risk.pulse_only:
         print("PULSE-ONLY risk (asked for explicitly): it overstates the risk of a site")
+    for o in risk.outside:
+        if o.outside > 0:
+            print(f"{o.source}: {100 * o.outside:.1f} % of its rate lies outside the simulated range (Mw below "
+                  f"{100 * o.mw_below:.1f} %, above {100 * o.mw_above:.1f} %; R below {100 * o.r_below:.1f} %, above "
+                  f"{100 * o.r_above:.1f} %), treated as {o.treatment!r}")
     for q in risk.quantities:
         lam, lo, hi = risk.rate[q.label]
         p50 = risk.prob[50.0][q.label]

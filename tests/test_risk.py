@@ -492,6 +492,21 @@ def test_command_refuses_a_bad_site_file_with_its_message(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
+def test_command_says_what_lies_outside_the_grid(tmp_path, capsys):
+    """The part of a source outside the simulated range is printed, not only written to the files:
+    R uniform on [5, 20] km over a grid of R 10-20 km leaves (10 - 5) / 15 = 33.3 % below it."""
+    pulse, nopulse = _two_branches(tmp_path)
+    sf = tmp_path / "site.toml"
+    sf.write_text('outside = "zero"\n[pulse]\nprobability = 0.4\n[[sources]]\nname = "near"\nrate = 0.01\n'
+                  'magnitude = { type = "characteristic", mw = 7.0 }\n'
+                  'distance = { type = "uniform", min_km = 5, max_km = 20 }\n')
+    assert risk.main([str(sf), pulse, str(tmp_path / "out"), "--no-pulse", nopulse, "--draws", "20",
+                      "--no-figures"]) == 0
+    out = capsys.readouterr().out
+    assert "near: 33.3 % of its rate lies outside the simulated range" in out and "R below 33.3 %" in out
+    assert "treated as 'zero'" in out
+
+
 def test_report_carries_the_risk_section(tmp_path):
     from test_figures import write_results
     from pycolfrag import report
