@@ -308,6 +308,9 @@ def site_from_dict(d: dict, origin: str = "") -> Site:
         where = f"sources[{i}]"
         _check_keys(s, ("name", "rate", "magnitude", "distance", "pulse"), origin, where)
         name = str(s.get("name", f"source {i + 1}"))
+        if name in [src.name for src in sources]:     # the outputs list the sources by name
+            raise ParameterError(f"{_where(origin, where)}.name {name!r} is the name of an earlier source; "
+                                 "give every source its own name")
         rate = _num(s, "rate", origin, where, nonneg=True)
         for key in ("magnitude", "distance"):
             if key not in s:

@@ -445,6 +445,8 @@ def test_bad_site_level_values_and_file_name(tmp_path):
         site_file.site_from_dict({"sites": [], "pulse": {"probability": 0.5}})
     with pytest.raises(ParameterError, match=r"years must be > 0, got -50"):
         site([GOOD], years=[-50])
+    with pytest.raises(ParameterError, match=r"sources\[1\]\.name 'f' is the name of an earlier source"):
+        site([GOOD, GOOD])                     # the outputs are keyed by source name: one would vanish
     p = tmp_path / "bad_site.toml"
     p.write_text('[pulse]\nprobability = 0.5\n[[sources]]\nname = "x"\nrate = -1\n'
                  'magnitude = { type = "characteristic", mw = 6.0 }\ndistance = { type = "fixed", r_km = 10 }\n')
