@@ -414,7 +414,8 @@ class SiteRisk:
     def to_json(self) -> dict:
         return {"site": self.site.name, "site_file": self.site.path, "files": self.files,
                 "branches": list(self.branches), "pulse_only": self.pulse_only,
-                "estimator": self.estimator, "uncertainty": self.uncertainty, "confidence": self.confidence, "n_draws": self.n_draws,
+                "estimator": self.estimator, "uncertainty": self.uncertainty, "confidence": self.confidence,
+                "n_draws": self.n_draws,
                 "interpolation": "bilinear in (Mw, ln R) on the probability",
                 "grid": {"mw": self.mws.tolist(), "dist_km": self.ds.tolist()},
                 "rate_per_year": {k: list(v) for k, v in self.rate.items()},
@@ -694,7 +695,8 @@ def main(argv=None):
     for q in risk.quantities:
         lam, lo, hi = risk.rate[q.label]
         p50 = risk.prob[50.0][q.label]
-        print(f"{q.label:>14}: lambda {_e(lam)} [{_e(lo)}, {_e(hi)}] /yr, P50 {_p(p50[0])} [{_p(p50[1])}, {_p(p50[2])}]")
+        print(f"{q.label:>14}: lambda {_e(lam)} [{_e(lo)}, {_e(hi)}] /yr, "
+              f"P50 {_p(p50[0])} [{_p(p50[1])}, {_p(p50[2])}]")
     print(paths["markdown"])
     return 0
 

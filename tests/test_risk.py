@@ -118,8 +118,9 @@ def test_truncated_gutenberg_richter_against_closed_form():
         return (F(bb) - F(a)) / C
 
     expected = nu * (seg(5.5, 6.5, 0.0, 0.2) + seg(6.5, 7.5, 0.2, 1.0))
-    src = site_file.Source("gr", nu, site_file.GutenbergRichter(b, m0, m1), site_file.Distance("fixed", (10.0,), (1.0,)),
-                      site_file.PulseModel("pulse-only"))
+    src = site_file.Source("gr", nu, site_file.GutenbergRichter(b, m0, m1),
+                           site_file.Distance("fixed", (10.0,), (1.0,)),
+                           site_file.PulseModel("pulse-only"))
     W, _, rep = risk.node_weights([src], mws, ds)
     assert np.sum(W * P) == pytest.approx(expected, rel=1e-12)
     assert np.sum(W) == pytest.approx(nu, rel=1e-12)          # the pdf integrates to 1
@@ -155,8 +156,9 @@ def test_uniform_distance_integral_against_closed_form():
     mws, ds = np.array([6.0, 7.0]), np.array([5.0, 10.0, 20.0])
     a, c, nu = 0.4, -0.1, 0.01
     P = np.tile(a + c * np.log(ds), (2, 1))
-    src = site_file.Source("u", nu, site_file.Characteristic(6.0), site_file.Distance("uniform", min_km=5.0, max_km=20.0),
-                      site_file.PulseModel("pulse-only"))
+    src = site_file.Source("u", nu, site_file.Characteristic(6.0),
+                           site_file.Distance("uniform", min_km=5.0, max_km=20.0),
+                           site_file.PulseModel("pulse-only"))
     W, _, _ = risk.node_weights([src], mws, ds)
     e_ln = ((20 * math.log(20) - 20) - (5 * math.log(5) - 5)) / 15
     assert np.sum(W * P) == pytest.approx(nu * (a + c * e_ln), rel=1e-12)
