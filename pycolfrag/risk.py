@@ -222,20 +222,20 @@ def _cells(data):
     return mws, ds, rows
 
 
-def _pairs(ids):
+def _pairs(ids, n):
     """Rows of one cell in every branch, split into the rows paired across the branches and the rest.
 
     ``ids`` maps a branch to the sample numbers of its rows in the cell (None: the file has no sample
-    numbers). The branches of a site are the same grid run with and without pulses from the same
-    seeds, so row ``k`` of a cell in one branch and row ``k`` in the other share their random
-    stream: they are paired. Returns {branch: (positions of the paired rows, in a common order;
-    positions of the others)}.
+    numbers), ``n`` to its number of rows. The branches of a site are the same grid run with and
+    without pulses from the same seeds, so row ``k`` of a cell in one branch and row ``k`` in the
+    other share their random stream: they are paired. Returns {branch: (positions of the paired
+    rows, in a common order; positions of the others)}; one branch: all its rows count as paired.
     """
     branches = list(ids)
-    n = {b: (0 if ids[b] is None else len(ids[b])) for b in branches}
-    if len(branches) == 1 or any(ids[b] is None for b in branches):
-        return {b: (np.arange(n[b]) if len(branches) == 1 else np.zeros(0, int),
-                    np.zeros(0, int) if len(branches) == 1 else np.arange(n[b])) for b in branches}
+    if len(branches) == 1:
+        return {branches[0]: (np.arange(n[branches[0]]), np.zeros(0, dtype=int))}
+    if any(ids[b] is None for b in branches):         # nothing to pair them by (reported as unpaired)
+        return {b: (np.zeros(0, dtype=int), np.arange(n[b])) for b in branches}
     common = ids[branches[0]]
     for b in branches[1:]:
         common = np.intersect1d(common, ids[b])
@@ -258,7 +258,7 @@ def _cell_draws(cell, threshold, estimator, uncertainty, n_draws, rng):
     are drawn from Dirichlet(counts + 1/4) (the Perks prior), whose margins are exactly those Jeffreys
     posteriors. Returns {branch: (point, draws)} and whether the draws are paired.
     """
-    pairs = _pairs({b: v[2] for b, v in cell.items()})
+    pairs = _pairs({b: v[2] for b, v in cell.items()}, {b: np.size(v[1]) for b, v in cell.items()})
     prop = threshold is None or estimator == "empirical"
     x, point = {}, {}
     for b, (edp, c, _) in cell.items():
@@ -282,10 +282,8 @@ def _cell_draws(cell, threshold, estimator, uncertainty, n_draws, rng):
             k, n = int(np.sum(v)), v.size
             out[b] = (point[b], rng.beta(k + 0.5, n - k + 0.5, size=n_draws))
         return out, len(cell) == 1
-    shared = {}
     n_common = next(iter(pairs.values()))[0].size
-    if n_common:
-        shared = rng.integers(0, n_common, size=(n_draws, n_common))
+    shared = rng.integers(0, n_common, size=(n_draws, n_common)) if n_common else None
     out = {}
     for b, (edp, c, _) in cell.items():
         pos, rest = pairs[b]

@@ -273,13 +273,18 @@ def test_intervals_of_independent_cells_add_up(tmp_path):
 def test_paired_branches_are_resampled_together(tmp_path):
     """The no-pulse grid reuses the pulse grid's seeds, so row k of a cell in one branch and row k in
     the other are paired. Two branches with the same outcome in every pair (k = 20 of n = 100
-    collapses, rows 0-19 in both) mixed with p = 1/2 have P_mix = P in every joint resample: the 90 %
+    collapses, samples 0-19 in both; the no-pulse file's rows in reverse order) mixed with p = 1/2 have P_mix = P in every joint resample: the 90 %
     interval of lambda is nu times the binomial one, as for one branch (scipy.stats.binom: counts 14
     and 27; tolerance one count, as above). Drawn independently, the two halves would narrow it by
     about 1/sqrt(2), to about counts 15.3 and 24.7: 2.3 counts off at the top."""
     n, k, nu = 100, 20, 0.003
     pulse = write_cells(tmp_path / "p.h5", {(7.0, 10.0): (n, k, 0.2)})
     nopulse = write_cells(tmp_path / "n.h5", {(7.0, 10.0): (n, k, 0.2)}, pulse="none")
+    with h5py.File(nopulse, "r+") as f:              # rows in another order: pairs are found by sample number
+        for key in list(f["samples"]):
+            v = f["samples"][key][...][::-1]
+            del f["samples"][key]
+            f["samples"][key] = v
     res = risk.site_risk(site([char_source(7.0, 10.0, rate=nu)], pulse={"probability": 0.5}), pulse, nopulse,
                          n_draws=20000, curves=False, rng=1)
     lam, lo, hi = res.rate["collapse"]
