@@ -113,8 +113,11 @@ def fig_probability(risk) -> Figure:
         ax.text(y, 0.01, f"{y:g} yr", rotation=90, va="bottom", ha="right", fontsize=7, color="0.4",
                 transform=ax.get_xaxis_transform())
     ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_ylim(max(low / 2, 1e-7), 1)
+    if low < 1:                                       # some level has a positive rate
+        ax.set_yscale("log")
+        ax.set_ylim(max(low / 2, 1e-7), 1)
+    else:
+        ax.set_ylim(0, 1)
     ax.set_xlabel("T (years)")
     ax.set_ylabel("P(at least one exceedance in T years)")
     ax.grid(True, which="both", alpha=0.3)
