@@ -23,7 +23,8 @@ from .ground_motion import shahi_baker_2014
 __all__ = ["GutenbergRichter", "Characteristic", "Distance", "PulseModel", "Source", "Site",
            "DEFAULT_YEARS", "OUTSIDE_CHOICES", "QUAD_POINTS", "load_site", "site_from_dict"]
 
-#: Time horizons always reported, years (the 475-year one is the 10 %-in-50-years return period).
+#: Time horizons always reported, years (475: the return period of the 10 %-in-50-years design level,
+#: used here as a horizon like the others).
 DEFAULT_YEARS = (50.0, 100.0, 475.0)
 #: What the part of a source outside the simulated (Mw, R) range contributes (see docs/risk.md).
 OUTSIDE_CHOICES = ("refuse", "clamp", "zero")
