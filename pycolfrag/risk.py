@@ -22,10 +22,12 @@ combination of values in [0, 1] stays in [0, 1]. Because of that, lambda is a we
 grid cells' probabilities, ``lambda = sum_ij W_ij P_ij`` with ``W_ij`` the annual rate of events
 whose interpolation draws on scenario ij (:func:`node_weights`). The same weights give the
 deaggregation by scenario (W_ij P_ij / lambda) and carry the Monte Carlo error of every cell to
-lambda: independent draws of every cell's probability (by default the bootstrap over the cell's
-runs; optionally, for a proportion k of n -- collapse, the empirical ratio -- the Jeffreys beta
-posterior Beta(k + 1/2, n - k + 1/2)), summed with the weights, give lambda's distribution and its
-90 % interval.
+lambda: draws of every cell's probability (by default the bootstrap over the cell's runs;
+optionally, for a proportion k of n -- collapse, the empirical ratio -- the Jeffreys beta posterior
+Beta(k + 1/2, n - k + 1/2)), summed with the weights, give lambda's distribution and its 90 %
+interval. Cells are independent of each other (every scenario has its own seeds), but the pulse and
+no-pulse branches of one scenario share theirs (the no-pulse grid is the pulse grid's stochastic
+part), so a cell's two branches are drawn jointly, pairing the rows by sample number.
 
 Magnitudes and distances are integrated by Gauss-Legendre quadrature on the segments between the
 grid's nodes (the integrand is smooth inside each segment). The part of a source outside the
@@ -47,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from . import fragility as fr
-from .errors import ParameterError, ResultsFileError
+from .errors import ParameterError, PycolfragError, ResultsFileError
 from .site import OUTSIDE_CHOICES, PulseModel, Site, load_site
 
 __all__ = ["RiskQuantity", "QUANTITIES", "node_weights", "interpolate", "OutsideReport", "SiteRisk",
@@ -113,8 +115,11 @@ def interpolate(values, mws, ds, m, r):
     m, r = np.broadcast_arrays(np.asarray(m, float), np.asarray(r, float))
     lo_m, hi_m = _beyond(mws, m, False)
     lo_r, hi_r = _beyond(ds, r, True)
-    if np.any(lo_m | hi_m | lo_r | hi_r):
-        raise ParameterError(f"points outside the grid Mw {mws[0]:g}-{mws[-1]:g}, R {ds[0]:g}-{ds[-1]:g} km")
+    out = lo_m | hi_m | lo_r | hi_r
+    if np.any(out):
+        k = np.flatnonzero(out.ravel())
+        raise ParameterError(f"{k.size} of {out.size} points outside the grid Mw {mws[0]:g}-{mws[-1]:g}, R "
+                             f"{ds[0]:g}-{ds[-1]:g} km, the first at Mw {m.ravel()[k[0]]:g}, R {r.ravel()[k[0]]:g} km")
     out = np.zeros(m.shape)
     for i, j, w in _bilinear(mws, ds, m, r):
         out = out + w * values[i, j]
@@ -217,34 +222,103 @@ def _cells(data):
     return mws, ds, rows
 
 
-def _cell_draws(edp, collapsed, threshold, estimator, uncertainty, n_draws, rng):
-    """Point estimate and n_draws draws of one cell's exceedance probability (threshold None: collapse).
+def _pairs(ids, n):
+    """Rows of one cell in every branch, split into the rows paired across the branches and the rest.
 
-    Bootstrap: the runs of the cell resampled with replacement; for a proportion k of n that is
-    exactly a Binomial(n, k/n) count over n, drawn as such. Beta: the Jeffreys posterior
-    Beta(k + 1/2, n - k + 1/2) of a proportion (collapse, or every level with the empirical ratio).
+    ``ids`` maps a branch to the sample numbers of its rows in the cell (None: the file has no sample
+    numbers), ``n`` to its number of rows. The branches of a site are the same grid run with and
+    without pulses from the same seeds, so row ``k`` of a cell in one branch and row ``k`` in the
+    other share their random stream: they are paired. Returns {branch: (positions of the paired
+    rows, in a common order; positions of the others)}; one branch: all its rows count as paired.
     """
-    c = np.asarray(collapsed, dtype=bool)
-    n = c.size
-    if threshold is None or estimator == "empirical":
-        k = int(np.sum(c if threshold is None else fr.exceeded(edp, c, threshold)))
-        if uncertainty == "beta":
-            return k / n, rng.beta(k + 0.5, n - k + 0.5, size=n_draws)
-        return k / n, rng.binomial(n, k / n, size=n_draws) / n
-    point = fr.exceedance(edp, c, threshold)
-    idx = rng.integers(0, n, size=(n_draws, n))
-    e = np.nan_to_num(np.asarray(edp, dtype=float), nan=0.0)
-    return point, fr._eq4_vectorised(threshold)(e[idx], c[idx], axis=-1)
+    branches = list(ids)
+    if len(branches) == 1:
+        return {branches[0]: (np.arange(n[branches[0]]), np.zeros(0, dtype=int))}
+    if any(ids[b] is None for b in branches):         # nothing to pair them by (reported as unpaired)
+        return {b: (np.zeros(0, dtype=int), np.arange(n[b])) for b in branches}
+    common = ids[branches[0]]
+    for b in branches[1:]:
+        common = np.intersect1d(common, ids[b])
+    out = {}
+    for b in branches:
+        _, pos, _ = np.intersect1d(ids[b], common, return_indices=True)   # sorted by sample number
+        out[b] = (pos, np.setdiff1d(np.arange(n[b]), pos))
+    return out
 
 
-def _surface_draws(data, rows, shape, threshold, edp_name, estimator, uncertainty, n_draws, rng):
-    point = np.zeros(shape)
-    draws = np.zeros((n_draws,) + shape)
-    for (i, j), idx in rows.items():
-        edp = None if edp_name is None else np.asarray(data[edp_name])[idx]
-        point[i, j], draws[:, i, j] = _cell_draws(edp, np.asarray(data["collapsed"])[idx], threshold,
-                                                  estimator, uncertainty, n_draws, rng)
-    return point, draws
+def _cell_draws(cell, threshold, estimator, uncertainty, n_draws, rng):
+    """Point estimate and n_draws joint draws of one cell's exceedance probability in every branch.
+
+    ``cell`` maps a branch to (edp or None, collapsed, sample numbers or None); threshold None is
+    collapse. Bootstrap: the runs of the cell resampled with replacement, the paired rows of the
+    branches (:func:`_pairs`) resampled together, so the branches' draws keep the correlation their
+    shared seeds give them; rows without a partner are resampled within their branch. Beta (for a
+    proportion k of n: collapse, or every level with the empirical ratio): the Jeffreys posterior
+    Beta(k + 1/2, n - k + 1/2) of each branch; for two fully paired branches the four joint outcomes
+    are drawn from Dirichlet(counts + 1/4) (the Perks prior), whose margins are exactly those Jeffreys
+    posteriors. Returns {branch: (point, draws)} and whether the draws are paired.
+    """
+    pairs = _pairs({b: v[2] for b, v in cell.items()}, {b: np.size(v[1]) for b, v in cell.items()})
+    prop = threshold is None or estimator == "empirical"
+    x, point = {}, {}
+    for b, (edp, c, _) in cell.items():
+        c = np.asarray(c, dtype=bool)
+        if prop:
+            x[b] = c if threshold is None else fr.exceeded(edp, c, threshold)
+            point[b] = float(np.mean(x[b]))
+        else:
+            point[b] = fr.exceedance(edp, c, threshold)
+    paired = all(pos.size > 0 for pos, _ in pairs.values())
+    if prop and uncertainty == "beta":
+        full = paired and all(rest.size == 0 for _, rest in pairs.values())
+        if len(cell) == 2 and full:
+            (bp, (pp, _)), (bn, (pn, _)) = pairs.items()
+            a, b_ = x[bp][pp], x[bn][pn]
+            counts = [np.sum(a & b_), np.sum(a & ~b_), np.sum(~a & b_), np.sum(~a & ~b_)]
+            d = rng.dirichlet(np.asarray(counts, dtype=float) + 0.25, size=n_draws)
+            return {bp: (point[bp], d[:, 0] + d[:, 1]), bn: (point[bn], d[:, 0] + d[:, 2])}, True
+        out = {}
+        for b, v in x.items():
+            k, n = int(np.sum(v)), v.size
+            out[b] = (point[b], rng.beta(k + 0.5, n - k + 0.5, size=n_draws))
+        return out, len(cell) == 1
+    n_common = next(iter(pairs.values()))[0].size
+    shared = rng.integers(0, n_common, size=(n_draws, n_common)) if n_common else None
+    out = {}
+    for b, (edp, c, _) in cell.items():
+        pos, rest = pairs[b]
+        parts = [pos[shared]] if n_common else []
+        if rest.size:
+            parts.append(rest[rng.integers(0, rest.size, size=(n_draws, rest.size))])
+        idx = np.concatenate(parts, axis=1)
+        if prop:
+            draws = np.mean(x[b][idx], axis=1)
+        else:
+            e = np.nan_to_num(np.asarray(edp, dtype=float), nan=0.0)
+            c = np.asarray(c, dtype=bool)
+            draws = fr._eq4_vectorised(threshold)(e[idx], c[idx], axis=-1)
+        out[b] = (point[b], draws)
+    return out, len(cell) == 1 or paired
+
+
+def _surface_draws(branches, grids, shape, threshold, edp_name, estimator, uncertainty, n_draws, rng):
+    """{branch: (point surface, draws (n_draws, n_mw, n_dist))} and the number of cells drawn unpaired."""
+    point = {b: np.zeros(shape) for b in branches}
+    draws = {b: np.zeros((n_draws,) + shape) for b in branches}
+    unpaired = 0
+    for ij in grids[next(iter(branches))][2]:
+        cell = {}
+        for b, data in branches.items():
+            idx = grids[b][2][ij]
+            cell[b] = (None if edp_name is None else np.asarray(data[edp_name])[idx],
+                       np.asarray(data["collapsed"])[idx],
+                       np.asarray(data["sample"])[idx] if "sample" in data.samples else None)
+        res, paired = _cell_draws(cell, threshold, estimator, uncertainty, n_draws, rng)
+        unpaired += not paired
+        for b, (p, d) in res.items():
+            point[b][ij] = p
+            draws[b][(slice(None),) + ij] = d
+    return point, draws, unpaired
 
 
 # --------------------------------------------------------------------------- branches
@@ -284,6 +358,24 @@ def _check_branches(pulse, no_pulse):
     if cp is not None and cn is not None and json.loads(cp) != json.loads(cn):
         raise ParameterError(f"{pulse.path} and {no_pulse.path} are grids of different columns; the two "
                              "branches must describe the same column")
+    sp, sn = (_signature(d.attrs) for d in (pulse, no_pulse))
+    differ = [k for k in _SHARED_SETTINGS if k in sp and k in sn and sp[k] != sn[k]]
+    if differ:
+        raise ParameterError(f"{pulse.path} and {no_pulse.path} differ in {', '.join(differ)} ("
+                             + "; ".join(f"{k}: {sp[k]!r} against {sn[k]!r}" for k in differ)[:400]
+                             + "); the two branches must be the same column, solver and records but for the pulse")
+
+
+#: Grid settings the two branches must share (everything but the pulse and the scenarios' sample counts).
+_SHARED_SETTINGS = ("column", "solver", "damping", "record_dt_s", "max_record_s", "sample_function", "streams")
+
+
+def _signature(attrs) -> dict:
+    try:
+        v = json.loads(attrs.get("grid_signature", "{}") or "{}")
+    except (TypeError, ValueError):
+        return {}
+    return v if isinstance(v, dict) else {}
 
 
 # --------------------------------------------------------------------------- the risk
@@ -309,6 +401,7 @@ class SiteRisk:
     outside: list              # OutsideReport per source
     weights: dict              # branch -> W (n_mw, n_dist)
     pulse_share: dict          # source name -> rate-weighted mean p_pulse
+    unpaired_cells: int = 0    # cells whose two branches could not be drawn jointly (see _cell_draws)
     curves: dict = field(default_factory=dict)   # edp -> dict(x, rate, low, high)
 
     @property
@@ -319,13 +412,14 @@ class SiteRisk:
     def to_json(self) -> dict:
         return {"site": self.site.name, "site_file": self.site.path, "files": self.files,
                 "branches": list(self.branches), "pulse_only": self.pulse_only,
-                "estimator": self.estimator, "uncertainty": self.uncertainty, "confidence": self.confidence, "n_draws": self.n_draws,
+                "estimator": self.estimator, "uncertainty": self.uncertainty, "confidence": self.confidence,
+                "n_draws": self.n_draws,
                 "interpolation": "bilinear in (Mw, ln R) on the probability",
                 "grid": {"mw": self.mws.tolist(), "dist_km": self.ds.tolist()},
                 "rate_per_year": {k: list(v) for k, v in self.rate.items()},
                 "probability": {f"{t:g}": {k: list(v) for k, v in d.items()} for t, d in self.prob.items()},
                 "source_rate_per_year": self.source_rate,
-                "pulse_share": self.pulse_share,
+                "pulse_share": self.pulse_share, "unpaired_cells": self.unpaired_cells,
                 "outside": [o.as_dict() for o in self.outside],
                 "deaggregation": {k: v.tolist() for k, v in self.deagg.items()},
                 "curves": {k: {kk: np.asarray(vv).tolist() for kk, vv in v.items()} for k, v in self.curves.items()}}
@@ -425,18 +519,15 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
     shape = (mws.size, ds.size)
     rate, prob, deagg = {}, {t: {} for t in all_years}, {}
     source_rate = {s.name: {} for s in site.sources}
+    unpaired = 0
     for q in QUANTITIES:
         thr = None if q.level is None else q.level.threshold
-        lam_draws = np.zeros(int(n_draws))
-        lam = 0.0
-        contrib = np.zeros(shape)
-        src = np.zeros(len(site.sources))
-        for b, data in branches.items():
-            point, draws = _surface_draws(data, grids[b][2], shape, thr, q.edp, estimator, uncertainty, int(n_draws), g)
-            lam += float(np.sum(weights[b] * point))
-            contrib += weights[b] * point
-            lam_draws += np.tensordot(draws, weights[b], axes=([1, 2], [0, 1]))
-            src += [float(np.sum(W * point)) for W in per_source[b]]
+        point, draws, u = _surface_draws(branches, grids, shape, thr, q.edp, estimator, uncertainty, int(n_draws), g)
+        unpaired = max(unpaired, u)
+        lam = sum(float(np.sum(weights[b] * point[b])) for b in branches)
+        contrib = sum(weights[b] * point[b] for b in branches)
+        lam_draws = sum(np.tensordot(draws[b], weights[b], axes=([1, 2], [0, 1])) for b in branches)
+        src = [sum(float(np.sum(per_source[b][k] * point[b])) for b in branches) for k in range(len(site.sources))]
         lo, hi = _interval(lam_draws, confidence)
         rate[q.label] = (lam, lo, hi)
         for t in all_years:
@@ -450,7 +541,7 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
         pulse_share[s.name] = float(np.sum(wr * s.pulse.probability(rr)) / np.sum(wr)) if np.sum(wr) > 0 else 1.0
     out = SiteRisk(site, {b: str(d.path) for b, d in branches.items()}, tuple(branches), estimator, uncertainty,
                    confidence, int(n_draws), mws, ds, QUANTITIES, rate, prob, source_rate, deagg, reports, weights,
-                   pulse_share)
+                   pulse_share, unpaired)
     if curves:
         out.curves = _curves(branches, grids, weights, estimator, uncertainty, int(curve_draws), confidence, g)
     return out
@@ -462,14 +553,12 @@ def _curves(branches, grids, weights, estimator, uncertainty, n_draws, confidenc
         lam = np.zeros(xs.size)
         lo = np.zeros(xs.size)
         hi = np.zeros(xs.size)
+        shape = weights["pulse"].shape
         for k, x in enumerate(xs):
-            draws_total = np.zeros(n_draws)
-            for b, data in branches.items():
-                shape = weights[b].shape
-                point, draws = _surface_draws(data, grids[b][2], shape, float(x), edp, estimator, uncertainty, n_draws, g)
-                lam[k] += float(np.sum(weights[b] * point))
-                draws_total += np.tensordot(draws, weights[b], axes=([1, 2], [0, 1]))
-            lo[k], hi[k] = _interval(draws_total, confidence)
+            point, draws, _ = _surface_draws(branches, grids, shape, float(x), edp, estimator, uncertainty, n_draws, g)
+            lam[k] = sum(float(np.sum(weights[b] * point[b])) for b in branches)
+            lo[k], hi[k] = _interval(sum(np.tensordot(draws[b], weights[b], axes=([1, 2], [0, 1]))
+                                         for b in branches), confidence)
         res[edp] = {"x": xs, "rate": lam, "low": lo, "high": hi}
     return res
 
@@ -501,15 +590,19 @@ def report_section(risk: SiteRisk, figures: dict | None = None, heading: str = "
         unc = "percentile bootstrap over each cell's runs"
     else:
         unc = ("Jeffreys beta posterior of k of n for " + ("collapse, bootstrap over the runs for Eq. (4)"
-               if risk.estimator == "eq4" else "every level") + "; a Bayesian interval, which may lie above "
-               "the plug-in estimate where most cells have 0 of n")
+               if risk.estimator == "eq4" else "every level") + ("" if len(risk.branches) == 1 else
+               " (paired branches: Dirichlet(counts + 1/4) of the joint outcomes, Jeffreys margins)")
+               + "; a Bayesian interval, which may lie above the plug-in estimate where most cells have 0 of n")
     L += [f"- site file: `{s.path}`",
           *[f"- {b} branch: `{p}`" for b, p in risk.files.items()],
           f"- cell probability: {'Eq. (4)' if risk.estimator == 'eq4' else 'empirical ratio'}; "
           f"collapse: Eq. (3); interpolation: bilinear in (Mw, ln R) on the probability; "
           f"grid Mw {risk.mws[0]:g}-{risk.mws[-1]:g}, R {risk.ds[0]:g}-{risk.ds[-1]:g} km",
-          f"- intervals: two-sided {pct} from {risk.n_draws} independent draws of every grid cell "
-          f"({unc}) summed with the rate weights; P in T years = 1 - exp(-lambda T) (Poisson)",
+          f"- intervals: two-sided {pct} from {risk.n_draws} draws of every grid cell ({unc}) summed with "
+          "the rate weights; cells drawn independently" + ("" if len(risk.branches) == 1 else
+          ", a cell's pulse and no-pulse rows paired by sample (same seeds) and drawn together"
+          + (f" ({risk.unpaired_cells} cells without pairs drawn branch by branch)" if risk.unpaired_cells
+             else "")) + "; P in T years = 1 - exp(-lambda T) (Poisson)",
           f"- part of the sources outside the grid: treated as `{s.outside}` (table below)", "",
           f"| level | lambda (1/yr) [{pct}] | return period (yr) | "
           + " | ".join(f"P in {t:g} yr [{pct}]" for t in sorted(risk.prob)) + " | largest contribution |",
@@ -583,15 +676,25 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--no-figures", action="store_true")
     a = ap.parse_args(argv)
-    risk = site_risk(a.site, a.results, a.no_pulse, pulse_only=a.pulse_only, estimator=a.estimator,
-                     uncertainty=a.uncertainty, outside=a.outside, years=a.years, n_draws=a.draws, rng=a.seed)
+    try:
+        risk = site_risk(a.site, a.results, a.no_pulse, pulse_only=a.pulse_only, estimator=a.estimator,
+                         uncertainty=a.uncertainty, outside=a.outside, years=a.years, n_draws=a.draws, rng=a.seed)
+    except PycolfragError as exc:       # a bad site file or results file: its message, not a traceback
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
+        return 2
     paths = write_outputs(risk, a.outdir, figures=not a.no_figures)
     if risk.pulse_only:
         print("PULSE-ONLY risk (asked for explicitly): it overstates the risk of a site")
+    for o in risk.outside:
+        if o.outside > 0:
+            print(f"{o.source}: {100 * o.outside:.1f} % of its rate lies outside the simulated range (Mw below "
+                  f"{100 * o.mw_below:.1f} %, above {100 * o.mw_above:.1f} %; R below {100 * o.r_below:.1f} %, above "
+                  f"{100 * o.r_above:.1f} %), treated as {o.treatment!r}")
     for q in risk.quantities:
         lam, lo, hi = risk.rate[q.label]
         p50 = risk.prob[50.0][q.label]
-        print(f"{q.label:>14}: lambda {_e(lam)} [{_e(lo)}, {_e(hi)}] /yr, P50 {_p(p50[0])} [{_p(p50[1])}, {_p(p50[2])}]")
+        print(f"{q.label:>14}: lambda {_e(lam)} [{_e(lo)}, {_e(hi)}] /yr, "
+              f"P50 {_p(p50[0])} [{_p(p50[1])}, {_p(p50[2])}]")
     print(paths["markdown"])
     return 0
 

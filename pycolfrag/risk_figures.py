@@ -4,7 +4,7 @@
   Table III/IV levels marked, the probability in 50 years on the right axis;
 * ``risk_deaggregation``: the share of every grid scenario (Mw, R) in the rate of collapse and of
   three levels;
-* ``risk_probability``: probability of each level in T years, T from 1 to 2500 years.
+* ``risk_probability``: probability of each level in T years, T from 1 to 2500 years (log axes).
 
 Object-oriented matplotlib (no pyplot state); matplotlib is imported on the first figure.
 """
@@ -48,7 +48,7 @@ def fig_curves(risk) -> Figure:
                 ax.errorbar([q.level.threshold], [max(lam, 1e-12)],
                             yerr=[[max(lam - lo, 0)], [max(hi - lam, 0)]], fmt="o", color="C3", capsize=3)
                 ax.annotate(q.name, (q.level.threshold, max(lam, 1e-12)), textcoords="offset points",
-                            xytext=(4, 6), fontsize=8)
+                            xytext=(-6, -4), ha="right", va="top", fontsize=8)   # below-left: inside the axes
         if edp == "u_top":
             lam, lo, hi = risk.rate["collapse"]
             ax.axhline(max(lam, 1e-12), color="k", ls="--", lw=1, label=f"collapse {lam:.2e}/yr")
@@ -87,23 +87,37 @@ def fig_deaggregation(risk) -> Figure:
         lam = risk.rate[lab][0]
         ax.set_title(f"{lab}: {lam:.2e}/yr", fontsize=9)
         fig.colorbar(im, ax=ax, label="share of the rate (%)")
-    fig.suptitle(_title(risk), fontsize=10)
+    fig.suptitle(f"{_title(risk)}: share of the rate from each simulated scenario (Mw, R); part of the sources "
+                 f"outside the grid treated as '{risk.site.outside}'", fontsize=10)
     return fig
 
 
 def fig_probability(risk) -> Figure:
-    fig = Figure(figsize=(7, 4.5), layout="constrained")
+    """P(at least one exceedance in T years) on log axes, so that collapse and near collapse, orders of
+    magnitude below the light levels, stay readable; u_top levels solid, u_d levels dashed."""
+    fig = Figure(figsize=(7.5, 5), layout="constrained")
     ax = fig.add_subplot(1, 1, 1)
     t = np.geomspace(1, 2500, 200)
+    low = 1.0
     for k, q in enumerate(risk.quantities):
         lam, lo, hi = risk.rate[q.label]
         color = "k" if q.level is None else f"C{k}"
-        ax.plot(t, 1 - np.exp(-lam * t), color=color, label=q.label if q.level is None else f"{q.label} ({q.name})")
-        ax.fill_between(t, 1 - np.exp(-lo * t), 1 - np.exp(-hi * t), color=color, alpha=0.12)
+        ls = "-" if q.edp in (None, "u_top") else "--"
+        ax.plot(t, -np.expm1(-lam * t), color=color, ls=ls,
+                label=q.label if q.level is None else f"{q.label} ({q.name})")
+        ax.fill_between(t, -np.expm1(-lo * t), -np.expm1(-hi * t), color=color, alpha=0.12)
+        if lam > 0:
+            low = min(low, -np.expm1(-lam * t[0]))
     for y in sorted(risk.prob):
         ax.axvline(y, color="0.6", lw=0.8, ls=":")
+        ax.text(y, 0.01, f"{y:g} yr", rotation=90, va="bottom", ha="right", fontsize=7, color="0.4",
+                transform=ax.get_xaxis_transform())
     ax.set_xscale("log")
-    ax.set_ylim(0, 1)
+    if low < 1:                                       # some level has a positive rate
+        ax.set_yscale("log")
+        ax.set_ylim(max(low / 2, 1e-7), 1)
+    else:
+        ax.set_ylim(0, 1)
     ax.set_xlabel("T (years)")
     ax.set_ylabel("P(at least one exceedance in T years)")
     ax.grid(True, which="both", alpha=0.3)

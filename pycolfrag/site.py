@@ -23,7 +23,8 @@ from .ground_motion import shahi_baker_2014
 __all__ = ["GutenbergRichter", "Characteristic", "Distance", "PulseModel", "Source", "Site",
            "DEFAULT_YEARS", "OUTSIDE_CHOICES", "QUAD_POINTS", "load_site", "site_from_dict"]
 
-#: Time horizons always reported, years (the 475-year one is the 10 %-in-50-years return period).
+#: Time horizons always reported, years (475: the return period of the 10 %-in-50-years design level,
+#: used here as a horizon like the others).
 DEFAULT_YEARS = (50.0, 100.0, 475.0)
 #: What the part of a source outside the simulated (Mw, R) range contributes (see docs/risk.md).
 OUTSIDE_CHOICES = ("refuse", "clamp", "zero")
@@ -273,6 +274,7 @@ def _pulse(d, origin, where):
         _check_keys(d, ("model",), origin, where)
         return PulseModel("pulse-only")
     if model == "shahi_baker_2014":
+        _check_keys(d, ("model", "mechanism", "s_km", "angle_deg"), origin, where)
         mech = d.get("mechanism")
         if mech not in shahi_baker_2014.MECHANISMS:
             raise ParameterError(f"{_where(origin, where)}.mechanism must be one of "
@@ -307,6 +309,9 @@ def site_from_dict(d: dict, origin: str = "") -> Site:
         where = f"sources[{i}]"
         _check_keys(s, ("name", "rate", "magnitude", "distance", "pulse"), origin, where)
         name = str(s.get("name", f"source {i + 1}"))
+        if name in [src.name for src in sources]:     # the outputs list the sources by name
+            raise ParameterError(f"{_where(origin, where)}.name {name!r} is the name of an earlier source; "
+                                 "give every source its own name")
         rate = _num(s, "rate", origin, where, nonneg=True)
         for key in ("magnitude", "distance"):
             if key not in s:

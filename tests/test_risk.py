@@ -1,8 +1,9 @@
 """Site risk by the Mw-R route (pycolfrag.risk, pycolfrag.site) and the pulse-occurrence model of Shahi & Baker (2014).
 
 Every expected number is computed here from a closed form (the truncated Gutenberg-Richter pdf,
-bilinear interpolation, binomial and beta quantiles from scipy) or from the cells of a small results
-file written by the test itself; tolerances are stated where they are not exact.
+bilinear interpolation, binomial and beta quantiles and the Dirichlet covariance from scipy or by
+hand), from scipy.integrate.quad of the closed-form pdfs, or from the cells of a small results file
+written by the test itself; tolerances are stated where they are not exact.
 """
 import json
 import math
@@ -117,8 +118,9 @@ def test_truncated_gutenberg_richter_against_closed_form():
         return (F(bb) - F(a)) / C
 
     expected = nu * (seg(5.5, 6.5, 0.0, 0.2) + seg(6.5, 7.5, 0.2, 1.0))
-    src = site_file.Source("gr", nu, site_file.GutenbergRichter(b, m0, m1), site_file.Distance("fixed", (10.0,), (1.0,)),
-                      site_file.PulseModel("pulse-only"))
+    src = site_file.Source("gr", nu, site_file.GutenbergRichter(b, m0, m1),
+                           site_file.Distance("fixed", (10.0,), (1.0,)),
+                           site_file.PulseModel("pulse-only"))
     W, _, rep = risk.node_weights([src], mws, ds)
     assert np.sum(W * P) == pytest.approx(expected, rel=1e-12)
     assert np.sum(W) == pytest.approx(nu, rel=1e-12)          # the pdf integrates to 1
@@ -143,8 +145,9 @@ def test_interpolation_is_bilinear_in_mw_and_ln_r():
     assert risk.interpolate(g, mws, ds, mc, rc) == pytest.approx(corners, rel=1e-14)
     assert risk.interpolate(g, mws, ds, mc, rc) != pytest.approx((mc / 7.5) ** 2 * math.log(rc) / math.log(20),
                                                                 rel=1e-3)
-    with pytest.raises(ParameterError, match="outside the grid"):
-        risk.interpolate(g, mws, ds, 8.0, 10.0)
+    with pytest.raises(ParameterError, match=r"1 of 2 points outside the grid Mw 5\.5-7\.5, R 5-20 km, "
+                                             r"the first at Mw 6, R 25 km"):
+        risk.interpolate(g, mws, ds, [7.0, 6.0], [10.0, 25.0])
 
 
 def test_uniform_distance_integral_against_closed_form():
@@ -153,8 +156,9 @@ def test_uniform_distance_integral_against_closed_form():
     mws, ds = np.array([6.0, 7.0]), np.array([5.0, 10.0, 20.0])
     a, c, nu = 0.4, -0.1, 0.01
     P = np.tile(a + c * np.log(ds), (2, 1))
-    src = site_file.Source("u", nu, site_file.Characteristic(6.0), site_file.Distance("uniform", min_km=5.0, max_km=20.0),
-                      site_file.PulseModel("pulse-only"))
+    src = site_file.Source("u", nu, site_file.Characteristic(6.0),
+                           site_file.Distance("uniform", min_km=5.0, max_km=20.0),
+                           site_file.PulseModel("pulse-only"))
     W, _, _ = risk.node_weights([src], mws, ds)
     e_ln = ((20 * math.log(20) - 20) - (5 * math.log(5) - 5)) / 15
     assert np.sum(W * P) == pytest.approx(nu * (a + c * e_ln), rel=1e-12)
@@ -186,6 +190,30 @@ def test_outside_range_is_reported_and_treated_as_asked():
         assert o.treatment == how
         inside = 0.02 * 0.5 * (1 - below) * (1 - above)
         assert np.sum(W * P) == pytest.approx(0.02 * 0.5 if how == "clamp" else inside, rel=1e-12)
+
+
+def test_clamp_gives_the_outside_part_to_the_edge_scenarios():
+    """Under clamp the part of a source below the grid's first Mw (or beyond its last R) takes the
+    probability of the edge scenarios. Rate weight on the Mw 5.5 row = nu [F(5.5) + int_5.5^6.5
+    (6.5 - m) f(m) dm] and on the R 20 km column = nu [P(R > 20) + int_10^20 (ln r - ln 10) /
+    ln 2 f(r) dr], both integrated here by scipy.integrate.quad on the closed-form pdfs (tolerance
+    1e-9 relative: quad's own error is below 1e-12, the module's Gauss-Legendre is exact to round-off
+    for these smooth integrands)."""
+    from scipy import integrate
+    b, m0, m1, nu = 1.0, 5.0, 7.5, 0.02
+    beta = b * math.log(10)
+    f_m = lambda m: beta * math.exp(-beta * (m - m0)) / (1 - math.exp(-beta * (m1 - m0)))
+    f_r = lambda r: 2 * r / (30 ** 2 - 5 ** 2)
+    spec = {"name": "bg", "rate": nu, "magnitude": {"type": "gutenberg-richter", "b": b, "m_min": m0, "m_max": m1},
+            "distance": {"type": "area", "min_km": 5.0, "max_km": 30.0}}
+    mws, ds = np.array([5.5, 6.5, 7.5]), np.array([5.0, 10.0, 20.0])
+    W, _, _ = risk.node_weights(site([spec]).sources, mws, ds, outside="clamp")
+    row = integrate.quad(f_m, m0, 5.5)[0] + integrate.quad(lambda m: (6.5 - m) * f_m(m), 5.5, 6.5)[0]
+    col = (integrate.quad(f_r, 20, 30)[0]
+           + integrate.quad(lambda r: math.log(r / 10) / math.log(2) * f_r(r), 10, 20)[0])
+    assert W[0].sum() == pytest.approx(nu * row, rel=1e-9)
+    assert W[:, 2].sum() == pytest.approx(nu * col, rel=1e-9)
+    assert W.sum() == pytest.approx(nu, rel=1e-12)                    # nothing dropped under clamp
 
 
 # --------------------------------------------------------------------------- sampling error
@@ -238,6 +266,57 @@ def test_intervals_of_independent_cells_add_up(tmp_path):
     _, lo, hi = res.rate["collapse"]
     assert (hi - lo) / (2 * stats.norm.ppf(0.95)) == pytest.approx(sd, rel=0.05)
     assert res.rate["collapse"][0] == pytest.approx(nu * 0.5 * (5 / 50 + 20 / 50), rel=1e-15)
+    # deaggregation: W_ij P_ij / lambda = (1/2 * 5/50, 1/2 * 20/50) / (1/2 * 25/50) = 0.2, 0.8
+    assert res.deagg["collapse"][:, 0] == pytest.approx([0.2, 0.8], rel=1e-14)
+
+
+def test_paired_branches_are_resampled_together(tmp_path):
+    """The no-pulse grid reuses the pulse grid's seeds, so row k of a cell in one branch and row k in
+    the other are paired. Two branches with the same outcome in every pair (k = 20 of n = 100
+    collapses, samples 0-19 in both; the no-pulse file's rows in reverse order) mixed with p = 1/2 have P_mix = P in every joint resample: the 90 %
+    interval of lambda is nu times the binomial one, as for one branch (scipy.stats.binom: counts 14
+    and 27; tolerance one count, as above). Drawn independently, the two halves would narrow it by
+    about 1/sqrt(2), to about counts 15.3 and 24.7: 2.3 counts off at the top."""
+    n, k, nu = 100, 20, 0.003
+    pulse = write_cells(tmp_path / "p.h5", {(7.0, 10.0): (n, k, 0.2)})
+    nopulse = write_cells(tmp_path / "n.h5", {(7.0, 10.0): (n, k, 0.2)}, pulse="none")
+    with h5py.File(nopulse, "r+") as f:              # rows in another order: pairs are found by sample number
+        for key in list(f["samples"]):
+            v = f["samples"][key][...][::-1]
+            del f["samples"][key]
+            f["samples"][key] = v
+    res = risk.site_risk(site([char_source(7.0, 10.0, rate=nu)], pulse={"probability": 0.5}), pulse, nopulse,
+                         n_draws=20000, curves=False, rng=1)
+    lam, lo, hi = res.rate["collapse"]
+    assert lam == pytest.approx(nu * k / n, rel=1e-15)
+    q = stats.binom(n, k / n).ppf([0.05, 0.95]) / n
+    assert lo == pytest.approx(nu * q[0], abs=nu / n)
+    assert hi == pytest.approx(nu * q[1], abs=nu / n)
+    assert res.unpaired_cells == 0
+
+
+def test_paired_beta_draws_keep_jeffreys_margins_and_correlation(tmp_path):
+    """uncertainty='beta' with two paired branches: the joint outcomes (both, pulse only, no-pulse only,
+    neither) of the n pairs are drawn from Dirichlet(counts + 1/4), whose margins are the Jeffreys
+    Beta(k + 1/2, n - k + 1/2) of each branch. Pulse collapses in rows 0-9, no-pulse in rows 0-3:
+    counts (4, 6, 0, 30). With p = 0.3, lambda / nu = 0.3 P_p + 0.7 P_n has the variance
+    w' Sigma w of the Dirichlet's covariance (closed form); 40 000 draws: the interval's width
+    over 2 z_0.95 matches its square root within 5 %, while independent margins would give a
+    variance 0.3^2 var_p + 0.7^2 var_n, its sd 18 % smaller (0.0393 against 0.0480)."""
+    n, nu, p = 40, 0.003, 0.3
+    pulse = write_cells(tmp_path / "p.h5", {(7.0, 10.0): (n, 10, 0.2)})
+    nopulse = write_cells(tmp_path / "n.h5", {(7.0, 10.0): (n, 4, 0.2)}, pulse="none")
+    res = risk.site_risk(site([char_source(7.0, 10.0, rate=nu)], pulse={"probability": p}), pulse, nopulse,
+                         n_draws=40000, curves=False, uncertainty="beta", rng=5)
+    alpha = np.array([4, 6, 0, 30]) + 0.25
+    a0 = alpha.sum()
+    cov = (np.diag(alpha) * a0 - np.outer(alpha, alpha)) / (a0 ** 2 * (a0 + 1))
+    w = np.array([p + (1 - p), p, 1 - p, 0.0])           # lambda / nu = w . (D11, D10, D01, D00)
+    sd = nu * math.sqrt(w @ cov @ w)
+    _, lo, hi = res.rate["collapse"]
+    assert (hi - lo) / (2 * stats.norm.ppf(0.95)) == pytest.approx(sd, rel=0.05)
+    indep = nu * math.sqrt(p ** 2 * stats.beta(10.5, 30.5).var() + (1 - p) ** 2 * stats.beta(4.5, 36.5).var())
+    assert sd > 1.15 * indep
 
 
 # --------------------------------------------------------------------------- pulse branches
@@ -293,6 +372,13 @@ def test_one_branch_is_refused_unless_pulse_only_is_asked(tmp_path):
         risk.site_risk(s, nopulse, pulse, curves=False)                     # branches swapped
     with pytest.raises(ParameterError, match="does not declare pulse = 'none'"):
         risk.site_risk(s, pulse, pulse, curves=False)
+    with h5py.File(nopulse, "r+") as f:                                       # another solver set-up
+        f.attrs["grid_signature"] = json.dumps({"synthetic": True, "solver": {"dt_s": 2e-4}, "pulse": "none"})
+    with h5py.File(pulse, "r+") as f:
+        f.attrs["grid_signature"] = json.dumps({"synthetic": True, "solver": {"dt_s": 1e-4}})
+    with pytest.raises(ParameterError, match=r"differ in solver \(solver: \{'dt_s': 0\.0001\} against "
+                                             r"\{'dt_s': 0\.0002\}\)"):
+        risk.site_risk(s, pulse, nopulse, curves=False)
     with pytest.raises(ParameterError, match="every source is pulse-only"):
         risk.site_risk(site([char_source(7.0, 10.0)]), pulse, nopulse, curves=False)
     with pytest.raises(ParameterError, match="no pulse model"):
@@ -351,6 +437,8 @@ def _with(path, value):
     (_with(["pulse"], {"model": "shahi_baker_2014", "mechanism": "strike-slip", "s_km": 5, "angle_deg": 120}),
      r"angle_deg must be in \[0, 90\], got 120"),
     (_with(["rate"], "often"), r"rate must be a finite number, got 'often'"),
+    (_with(["pulse"], {"model": "shahi_baker_2014", "mechanism": "strike-slip", "s_km": 5, "angle_deg": 10,
+                       "probability": 0.3}), r"pulse: unknown key\(s\) 'probability'"),
 ])
 def test_bad_source_is_refused_naming_the_value(src, match):
     with pytest.raises(ParameterError, match=match):
@@ -364,6 +452,8 @@ def test_bad_site_level_values_and_file_name(tmp_path):
         site_file.site_from_dict({"sites": [], "pulse": {"probability": 0.5}})
     with pytest.raises(ParameterError, match=r"years must be > 0, got -50"):
         site([GOOD], years=[-50])
+    with pytest.raises(ParameterError, match=r"sources\[1\]\.name 'f' is the name of an earlier source"):
+        site([GOOD, GOOD])                     # the outputs are keyed by source name: one would vanish
     p = tmp_path / "bad_site.toml"
     p.write_text('[pulse]\nprobability = 0.5\n[[sources]]\nname = "x"\nrate = -1\n'
                  'magnitude = { type = "characteristic", mw = 6.0 }\ndistance = { type = "fixed", r_km = 10 }\n')
@@ -393,8 +483,37 @@ def test_command_writes_markdown_json_and_figures(tmp_path):
     assert js["branches"] == ["pulse", "no-pulse"] and not js["pulse_only"]
     lam = js["rate_per_year"]["collapse"][0]
     assert js["probability"]["50"]["collapse"][0] == pytest.approx(1 - math.exp(-50 * lam), rel=1e-14)
+    for edp in ("u_top", "u_d"):                                    # a rate of exceeding x falls with x
+        assert np.all(np.diff(js["curves"][edp]["rate"]) <= 0)
     for stem in ("risk_curves", "risk_deaggregation", "risk_probability"):
         assert (out / f"{stem}.png").stat().st_size > 10_000
+
+
+def test_command_refuses_a_bad_site_file_with_its_message(tmp_path, capsys):
+    """A bad value ends the command with exit status 2 and the message naming it, not a traceback."""
+    pulse, _ = _two_branches(tmp_path)
+    sf = tmp_path / "bad.toml"
+    sf.write_text('[pulse]\nprobability = 0.4\n[[sources]]\nname = "f"\nrate = -0.01\n'
+                  'magnitude = { type = "characteristic", mw = 7.0 }\ndistance = { type = "fixed", r_km = 10 }\n')
+    assert risk.main([str(sf), pulse, str(tmp_path / "out"), "--draws", "20", "--no-figures"]) == 2
+    err = capsys.readouterr().err
+    assert "error:" in err and "bad.toml: sources[0].rate must be >= 0, got -0.01" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_command_says_what_lies_outside_the_grid(tmp_path, capsys):
+    """The part of a source outside the simulated range is printed, not only written to the files:
+    R uniform on [5, 20] km over a grid of R 10-20 km leaves (10 - 5) / 15 = 33.3 % below it."""
+    pulse, nopulse = _two_branches(tmp_path)
+    sf = tmp_path / "site.toml"
+    sf.write_text('outside = "zero"\n[pulse]\nprobability = 0.4\n[[sources]]\nname = "near"\nrate = 0.01\n'
+                  'magnitude = { type = "characteristic", mw = 7.0 }\n'
+                  'distance = { type = "uniform", min_km = 5, max_km = 20 }\n')
+    assert risk.main([str(sf), pulse, str(tmp_path / "out"), "--no-pulse", nopulse, "--draws", "20",
+                      "--no-figures"]) == 0
+    out = capsys.readouterr().out
+    assert "near: 33.3 % of its rate lies outside the simulated range" in out and "R below 33.3 %" in out
+    assert "treated as 'zero'" in out
 
 
 def test_report_carries_the_risk_section(tmp_path):

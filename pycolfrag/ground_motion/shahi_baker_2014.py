@@ -21,10 +21,13 @@ strike-slip       0.457  0.126  0.244  0.013
 non-strike-slip   0.304  0.072  0.208  0.021
 ================  =====  =====  =====  =====
 
-Provenance: transcribed from the paper as implemented in NHERI SimCenter's ground-motion
-simulator smelt (``src/dabaghi_der_kiureghian.cc``, ``simulate_pulse_type``, which cites this
-paper for its pulse/no-pulse proportion); the paper's own page could not be read here, so the test
-checks values against that independent implementation's formula (``tests/test_risk.py``).
+Provenance: transcribed from NHERI SimCenter's ground-motion simulator smelt
+(``src/dabaghi_der_kiureghian.cc``, ``simulate_pulse_type``, documented in its header as following
+the pulse probability model of this paper). No second public copy of the numbers was found
+(OpenQuake's hazard library and Baker's own repositories, whose ``PulseClassification`` implements
+the paper's classification algorithm, not this model), and the paper itself could not be read
+here: the coefficients are checked against that one secondary implementation, not against the
+paper (``tests/test_risk.py``).
 
 pycolfrag uses the model to weight the pulse and no-pulse branches of a site's risk
 (:mod:`pycolfrag.risk`, ``docs/risk.md``).
