@@ -31,6 +31,7 @@ from . import names
 from .fragility import binomial_ci
 from .errors import PycolfragError
 from .figures import FIGURES, im_curves, read_results
+from .risk import report_section
 
 __all__ = ["write_report", "binomial_ci", "fmt_ci"]
 
@@ -110,10 +111,10 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
     # the report marks degenerate fits itself (below), so their warnings would only repeat it
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", fr.DegenerateFitWarning)
-        return _write(d, out_path, figures_dir, n_boot, g)
+        return _write(d, out_path, figures_dir, n_boot, g, risk)
 
 
-def _write(d, out_path, figures_dir, n_boot, g) -> str:
+def _write(d, out_path, figures_dir, n_boot, g, risk) -> str:
     rows = fr.scenario_table(d["mw"], d["dist_km"], {"u_top": d["u_top"], "u_d": d["u_d"]}, d["collapsed"],
                              n_boot=n_boot, confidence=CONFIDENCE, rng=g)
     L = ["# pycolfrag results report", "",
@@ -174,7 +175,6 @@ def _write(d, out_path, figures_dir, n_boot, g) -> str:
                 notes.append((f"{name}, {lev.label}", mle.degenerate))
     L += _degenerate_notes(notes)
     if risk is not None:
-        from .risk import report_section
         L += ["", report_section(risk)]
     L += ["", "## Figures", ""]
     found = False
