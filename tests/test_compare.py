@@ -157,6 +157,8 @@ def _record_rows(seed=0, n_rec=20):
     cols["record_id"] = np.array([k[0].encode() for k in keys], dtype=cols["record_id"].dtype)
     cols["component"] = np.array([k[1].encode() for k in keys], dtype=cols["component"].dtype)
     cols["scale"] = np.array([k[2] for k in keys])
+    # every row the grid writes carries its record's index (a done row without it reads as damaged)
+    cols["record"] = np.array([int(k[0][3:]) for k in keys], dtype=cols["record"].dtype)
     cols["status"] = np.zeros(n, dtype=cols["status"].dtype)
     cols["u_top"] = rng.lognormal(-3, 0.5, n) * cols["scale"]
     cols["u_d"] = rng.lognormal(-6, 0.5, n)
