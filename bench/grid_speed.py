@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Speed of the Monte Carlo grid (issue 4): 1 vs 2 ranks, per-sample cost split, full-grid estimate.
+"""Speed of the Monte Carlo grid: 1 vs 2 ranks, per-sample cost split, full-grid estimate.
 
     .venv/bin/python bench/grid_speed.py              # reduced grid: 35 scenarios x 2 samples
     .venv/bin/python bench/grid_speed.py --samples 4  # more samples per scenario, better estimate
@@ -15,7 +15,8 @@
 3. Full default grid (3500 runs) on 2 ranks, estimated as the 2-rank session time x 100 / samples
    (the reduced grid has the same scenario mix), plus process start-up; measured with ``--full``.
 
-The machine may be shared: the printed times are what this run saw. Never a test (STYLE.md rule 11).
+The machine may be shared: the printed times are what this run saw. Never a test (times depend on the
+machine and its load).
 """
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Speed of the ground-motion generator (issue 3): ms per record, C vs the NumPy twin.
+"""Speed of the ground-motion generator: ms per record, C vs the NumPy twin.
 
     .venv/bin/python bench/ground_motion_speed.py            # 200 repetitions per row
     .venv/bin/python bench/ground_motion_speed.py --n 1000

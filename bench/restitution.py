@@ -1,4 +1,4 @@
-"""Impact dissipation of the soft contacts: the coefficient of restitution of a rocking block (issue 10, item 5).
+"""Impact dissipation of the soft contacts: the coefficient of restitution of a rocking block.
 
 Free rocking, no ground motion, no damping: the column is tilted rigidly by ``tilt`` about its +x
 base edge/vertex (``simulate(initial_tilt_rad=...)``) and released. Between impacts a rigid block

@@ -1,6 +1,6 @@
 /*
  * solver_profile.c -- a plain C driver of the solver for profiling and timing the
- * hot loop without Python (issue 6 speed work; a benchmark, never a test).
+ * hot loop without Python (a benchmark, never a test).
  *
  * The default column (the numbers of Column.parthenon(): 12 ten-sided drums and the
  * capital), 0.25 g 2 Hz sine for 3 s sampled at 5 ms, free response to 20 s

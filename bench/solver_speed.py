@@ -1,4 +1,4 @@
-"""Speed of the rigid-drum solver (issue 2/6 benchmark; never a timed test).
+"""Speed of the rigid-drum solver (a benchmark, never a timed test; results in docs/solver.md).
 
 Default column (Column.parthenon()), 0.25 g 2 Hz sine for 3 s then free motion,
 20 s simulated in all. For each fidelity option: steps, solver step, microseconds per

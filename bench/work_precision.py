@@ -1,4 +1,4 @@
-"""Work-precision benchmark of the solver's fidelity options (issue 6).
+"""Work-precision benchmark of the solver's fidelity options (results in docs/accuracy.md).
 
 After the first impact a rocking column is chaotic, so the error of one setting is measured as
 (a) the deterministic error before the first impact against a much finer step, with its order;

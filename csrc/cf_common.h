@@ -1,7 +1,7 @@
 /*
  * cf_common.h -- status codes and version shared by every part of libcolfrag.
  *
- * Conventions for the whole library (see STYLE.md):
+ * Conventions for the whole library:
  *  - every exported symbol is prefixed cf_<concern>_ (this file: cf_common_);
  *  - every fallible function returns a cf_status (CF_OK == 0) and, where it
  *    works on an object, leaves a human-readable message on that object;

@@ -1,5 +1,5 @@
 /*
- * solver.h -- 3D rigid-drum soft-contact solver (SPEC section 3, docs/solver.md).
+ * solver.h -- 3D rigid-drum soft-contact solver (docs/solver.md).
  *
  * A column of rigid blocks (each a stack of cf_geometry_segment) stands on a base
  * block that moves with a prescribed ground acceleration. The column is

@@ -1,8 +1,8 @@
 /*
- * spectra.h -- intensity measures of an acceleration record (SPEC section 4.4,
- * docs/ground_motion.md): PGA, PGV, PGD, Arias intensity, significant duration
- * D5-95, and elastic SDOF response spectra by the exact piecewise-linear
- * recurrence of Nigam & Jennings (1969).
+ * spectra.h -- intensity measures of an acceleration record (docs/ground_motion.md):
+ * PGA, PGV, PGD, Arias intensity, significant duration D5-95, and elastic SDOF
+ * response spectra by the exact piecewise-linear recurrence of Nigam & Jennings
+ * (1969).
  *
  * Conventions: the record a[0..n-1] (m/s^2) is sampled at dt (s) and taken as
  * piecewise linear between samples. Velocity and displacement are trapezoidal

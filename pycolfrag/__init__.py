@@ -1,6 +1,6 @@
 """pycolfrag -- seismic fragility of free-standing multidrum classical columns.
 
-Quick tour (SPEC §10)::
+Quick tour (the public names the tests, scripts and README rely on)::
 
     import pycolfrag as pcf
     col = pcf.Column.parthenon()

@@ -8,7 +8,8 @@ and its cdef cannot drift apart, and API mode checks struct layouts against the
 real headers at build time.
 
 Built by ``pip install -e .`` through ``cffi_modules`` in ``setup.py``; there is no
-other build path for the extension (see TOOLCHAIN.md on stale ``.so`` files).
+other build path for the extension (a stale ``_libcolfrag.cpython-*.so`` left by
+``ffibuilder.compile()`` would shadow the ``.abi3.so`` pip builds).
 """
 from __future__ import annotations
 

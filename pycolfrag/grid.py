@@ -1,4 +1,4 @@
-"""The Monte Carlo grid driver behind ``scripts/run_grid.py`` (SPEC §5, issue 4).
+"""The Monte Carlo grid driver behind ``scripts/run_grid.py`` (docs/grid.md).
 
 For every scenario (Mw, R) of the grid and every sample ``k`` of that scenario:
 
@@ -1221,8 +1221,8 @@ class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="run_grid.py",
-        description="Monte Carlo fragility grid of a multidrum column (SPEC §5), or a suite of natural "
-                    "records (--records). Run as "
+        description="Monte Carlo fragility grid of a multidrum column (Mw x R scenarios of synthetic "
+                    "records), or a suite of natural records (--records). Run as "
                     "'python scripts/run_grid.py' or 'mpirun -n N python -m mpi4py scripts/run_grid.py'. "
                     "Rerunning the same command resumes an interrupted run.",
         formatter_class=_HelpFormatter)

@@ -1,4 +1,4 @@
-"""Intensity measures of an acceleration record (SPEC §4.4, docs/ground_motion.md).
+"""Intensity measures of an acceleration record (docs/ground_motion.md).
 
 All numbers come from the C kernels in ``csrc/spectra.c``:
 

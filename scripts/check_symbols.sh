@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Every symbol a csrc/<file>.c exports must start with cf_<file>_ (STYLE.md: names say
+# Every symbol a csrc/<file>.c exports must start with cf_<file>_ (docs/architecture.md: names say
 # where they live; REBOUND checks the same with nm). Private helpers are static.
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Monte Carlo fragility grid (SPEC §5): the paper's 35 scenarios x 100 samples by default, or a
+"""Monte Carlo fragility grid (docs/grid.md): the paper's 35 scenarios x 100 samples by default, or a
 suite of natural records (``--records``; docs/records.md).
 
     python scripts/run_grid.py                                        # one process
@@ -12,7 +12,7 @@ Rerunning the same command resumes an interrupted run. Options: ``--help``; guid
 import os
 import sys
 
-# One thread per rank: BLAS threads must not fight the MPI ranks for the cores (TOOLCHAIN.md).
+# One thread per rank: BLAS threads must not fight the MPI ranks for the cores.
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 

@@ -1,4 +1,4 @@
-"""Independent reference solutions for the hard-case tests (issue 6): closed forms and scipy
+"""Independent reference solutions for the hard-case tests (tests/test_hard_cases.py): closed forms and scipy
 solve_ivp integrations that share no code with the solver.
 
 * Housner (1963) rigid-block rocking with his restitution r = 1 - 1.5 sin^2(alpha).

@@ -3,12 +3,13 @@
 Where the expected numbers come from:
 - frustum volume and centroid: closed forms for a regular n-gon frustum (the cross-section area is
   k r(z)^2 with k = (n/2) sin(2 pi/n) and r linear in z), written out again here;
-- the Parthenon column: SPEC §2 and shared/reference/column_parthenon.json (heights, diameters, 10
-  sides, 2700 kg/m^3); its mass and centre of mass are recomputed here independently by Simpson's rule
+- the Parthenon column: the paper's default scene, copied into pycolfrag/data/column_parthenon.json
+  (shaft 9.38 m in 12 drums of 1.65-1.28 m diameter, capital, total 10.08 m, 10 sides,
+  2700 kg/m^3); its mass and centre of mass are recomputed here independently by Simpson's rule
   over the height of each piece (exact: the area is quadratic and z * area cubic in z);
-- the reference file's "derived_for_checking" mass (about 44800 kg) and centre-of-mass height (about
-  4.87 m) are rounded figures for a slightly different idealisation (they are labelled "approx"); our
-  exact 10-gon values are 44297 kg and 4.812 m, 1.1 % and 1.2 % below them, so they are checked to 2 %.
+- the column description we started from also gave a mass (about 44800 kg) and centre-of-mass
+  height (about 4.87 m): rounded figures for a slightly different idealisation (labelled "approx");
+  our exact 10-gon values are 44297 kg and 4.812 m, 1.1 % and 1.2 % below them, so they are checked to 2 %.
 """
 import json
 import math

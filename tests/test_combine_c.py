@@ -73,7 +73,7 @@ def test_fourier_amplitude_follows_the_larger_part():
 def test_velocity_shows_the_pulse(seed):
     """Paper step 2 then steps 3-6: the pulse's velocity peak placed at the HF record's
     velocity peak, with that peak's polarity. Then the combined peak velocity is >= the
-    pulse's (the issue's check; over seeds 0-39 the ratio was 1.12-1.41). Without the
+    pulse's (the pulse must show in the record; over seeds 0-39 the ratio was 1.12-1.41). Without the
     polarity match the sum can interfere destructively: we measured ratios down to 0.87
     (seeds 0-39, same pulse, positive polarity), so the polarity matters to callers."""
     hf, _ = as00.simulate(7.0, 5.0, seed, DT)

@@ -181,7 +181,7 @@ def _grid_rows(tmp_path, name, extra_env):
 
 
 def test_grid_rows_bitwise_equal_under_every_emulation(tmp_path):
-    """The issue's check: the same grid rows on a machine without AVX2/AVX-512 in numpy's dispatch
+    """End to end: the same grid rows on a machine without AVX2/AVX-512 in numpy's dispatch
     and without glibc's FMA/AVX2 libm variants (bit patterns compared, tolerance zero)."""
     plain = _grid_rows(tmp_path, "plain", {})
     assert np.isfinite(plain["samples/u_top"]).all() and plain["samples/u_top"].size == 6

@@ -1,7 +1,7 @@
-"""Tests that fail when an EDP or collapse definition breaks (issue 10, item 3).
+"""Tests that fail when an EDP or collapse definition breaks.
 
-The definitions are those of SPEC section 3 ("EDPs (paper)") and of the paper (Psycharis,
-Fragiadakis & Stefanou, section "Performance-based assessment"):
+The definitions are those of the paper (Psycharis, Fragiadakis & Stefanou, section
+"Performance-based assessment") as docs/solver.md ("Collapse and EDPs") states them:
 
 * ``u_top`` = max over time of the horizontal displacement of the capital's top-face centre
   relative to the base / BASE diameter (lower diameter of drum 1);
@@ -255,7 +255,7 @@ def test_u_d_is_measured_from_the_drum_below_stack_slides_as_one():
     the stack slides as one on the ground (the upper joint sits exactly at its friction limit).
     Measured: a 6 x 6 x 2 m lower block (194 t under 0.7 t) slides 1.828 m with the upper joint
     at 3.9 mm, as here. A fixed lower drum needs per-joint friction or a "fixed blocks" option
-    (reported to the lead).
+    (not available yet).
 
     Expected (Newmark, closed form as above): the base joint slips the single-block slip, the upper
     joint 0 relative to the drum below; so u_d = slip / D0. Tolerances: base joint as in the

@@ -1,11 +1,12 @@
-"""The Monte Carlo grid driver (issue 4): rank independence, resume after a kill, failed samples,
+"""The Monte Carlo grid driver (docs/grid.md): rank independence, resume after a kill, failed samples,
 refused arguments, documented fields and attributes.
 
 Runs start ``scripts/run_grid.py`` in child processes, as users do. ``mpirun`` children get an
 environment without the ``PMIX_*``/``OMPI_*`` variables an MPI-initialised parent would leave
-(TOOLCHAIN.md), and this process never imports ``mpi4py.MPI``. Grids are tiny (a few scenarios,
-a few samples, records cut to a few seconds with ``--max-record-s``) to keep the file under a
-minute or two; ``tests/grid_fakes.py`` supplies the injected sample functions.
+(with them a child ``mpirun`` exits 1 with no output), and this process never imports
+``mpi4py.MPI``. Grids are tiny (a few scenarios, a few samples, records cut to a few seconds with
+``--max-record-s``) to keep the file under a minute or two; ``tests/grid_fakes.py`` supplies the
+injected sample functions.
 """
 import json
 import os

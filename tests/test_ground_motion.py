@@ -123,7 +123,7 @@ SCENARIOS = ((6.5, 10.0), (7.5, 5.0), (5.5, 20.0), (6.0, 15.0), (5.5, 5.0))
 
 
 def test_combined_velocity_shows_the_pulse():
-    # The combined record's peak velocity is at least the pulse's (issue 3). Measured over these
+    # The combined record's peak velocity is at least the pulse's (the pulse shows). Measured over these
     # 40 records: min ratio 1.002, median 1.18 (with the HF polarity matched to the pulse; without,
     # min 0.71 -- see docs/ground_motion.md).
     for mw, r in SCENARIOS:
@@ -162,7 +162,7 @@ def test_combined_fourier_amplitude_follows_the_larger_part():
 
 
 def test_medians_against_bssa14():
-    # Orientation (issue 3): medians over 30 records at Mw 6.5, 10 km against NGA-West2 BSSA14
+    # Orientation, not calibration: medians over 30 records at Mw 6.5, 10 km against NGA-West2 BSSA14
     # (pygmm, Rjb = 10 km, Vs30 760 m/s, strike-slip). Site difference: AS00 uses the Boore-Joyner
     # (1997) generic-rock amplification (Vs30 about 620 m/s), a little softer than 760, so our PGA is
     # expected somewhat above BSSA14; nothing is tuned to it.

@@ -1,5 +1,5 @@
-"""Hard cases for the solver's numerical stability and accuracy (issue 6). Each bound states
-its source; independent references are in tests/reference_solutions.py."""
+"""Hard cases for the solver's numerical stability and accuracy (docs/accuracy.md, "Hard cases").
+Each bound states its source; independent references are in tests/reference_solutions.py."""
 import math
 import os
 import sys
@@ -44,7 +44,8 @@ def test_free_rocking_60s_energy_balance_shrinks_with_step():
 
 def test_step_above_stability_limit_is_reported():
     """dt_solver = 1.5 x the whole-stack stability limit (docs/solver.md): an explicit step above
-    the limit must not pass silently (issue 2: friction can hide it) -> SolverError or the
+    the limit must not pass silently (friction can hide it: the slip then "dissipates" the
+    spurious energy while displacements still look plausible) -> SolverError or the
     energy-warning flag."""
     col = pcf.Column.parthenon()
     dcrit = pcf.simulate(col, np.zeros(2), 0.01, tail_s=0.01).dt_crit
@@ -69,7 +70,8 @@ def ramp_and_hold(col, level_g, t_ramp=2.0, t_hold=8.0, dt=0.01):
 def test_ramp_and_hold_at_measured_threshold():
     """Default column, default joints (1 GPa/m): bisect the quasi-static overturning level
     (bracketed by 0.5x and 1x the rigid threshold b/h_cg, R.quasi_static_threshold_g), then it must
-    stand at 0.97x and overturn at 1.03x (issue 6)."""
+    stand at 0.97x and overturn at 1.03x (the margin of the stiff-joint test in
+    tests/test_solver_physics.py; the bisection's bracket is under 0.5 %)."""
     col = pcf.Column.parthenon()
     seg = col.blocks[0].bottom
     rigid = R.quasi_static_threshold_g(seg.r_bottom, col.com_height)
@@ -117,7 +119,8 @@ def test_one_sine_pulse_threshold_two_periods(Tp):
     """Block 0.4 x 0.4 x 2 m (alpha = 0.197), kn = ks = 1e11 (rigid limit), friction 80 deg so it
     cannot slide (Housner's model). Threshold by bisection of Housner's equations with his
     restitution (R.one_sine_threshold; 0.253 g at Tp = 1 s, 0.229 g at 2 s). Survives at 0.95x,
-    overturns at 1.05x (issue 6). Tp = 0.25 s is in tests/test_solver_physics.py; Tp = 0.5 s,
+    overturns at 1.05x (5 %: the soft contacts' restitution is not exactly Housner's, see the next
+    test). Tp = 0.25 s is in tests/test_solver_physics.py; Tp = 0.5 s,
     where overturning comes after several impacts, is test_one_sine_threshold_follows_soft_restitution."""
     b, H = 0.2, 2.0
     thr = R.one_sine_threshold(b, H / 2, Tp, lo_g=0.2, hi_g=20.0)
@@ -134,7 +137,7 @@ def test_one_sine_pulse_threshold_two_periods(Tp):
 
 
 def test_one_sine_threshold_follows_soft_restitution(monkeypatch):
-    """Impact dissipation of the soft vertex contacts (issue 10 item 5; docs/accuracy.md "Impact
+    """Impact dissipation of the soft vertex contacts (docs/accuracy.md "Impact
     dissipation", bench/restitution.py). Same block as above: 0.4 x 0.4 x 2 m, alpha = 0.197,
     kn = ks = 1e11 (rigid limit), friction 80 deg.
 
@@ -162,8 +165,8 @@ def test_one_sine_threshold_follows_soft_restitution(monkeypatch):
        (R.one_sine_threshold, restitution patched) must predict the solver's threshold to the
        same +-5 % as Tp = 1 and 2 s above: stands at 0.95x, overturns at 1.05x (measured: 0.406 g
        predicted, the solver's bisected threshold 0.412 g). r = 0.975-0.99 moves that prediction
-       by 1.2 % (0.413-0.404 g), so the 5 % bracket is the issue-6 tolerance, not room for the
-       restitution's scatter."""
+       by 1.2 % (0.413-0.404 g), so the 5 % bracket is the one used at Tp = 1 and 2 s, not room
+       for the restitution's scatter."""
     b, H = 0.2, 2.0
     col = pcf.Column.single_block(2 * b, H, n_sides=4,
                                   joints=pcf.JointProperties(kn=1e11, ks=1e11, friction_deg=80.0))
@@ -292,8 +295,8 @@ def test_joint_stiffness_range(kn):
 # ---- collapse part-way: early exit -----------------------------------------------------------
 
 def test_collapse_part_way_early_exit():
-    """Default column under a 0.6 g one-sine pulse of 2 s period, then 20 s of silence (issue 2:
-    it collapses). Early exit: the run ends at the collapse time, well before the end of the
+    """Default column under a 0.6 g one-sine pulse of 2 s period, then 20 s of silence (it
+    collapses). Early exit: the run ends at the collapse time, well before the end of the
     record, with the block and reason reported, a finite u_top and u_d NaN (no residual after a
     collapse); the collapse time lies within the
     pulse or shortly after it (a free column topples within ~2 s once past its stability)."""
@@ -316,7 +319,7 @@ def test_stiff_block_impacts_energy_error_falls_with_step():
     Housner threshold (docs/accuracy.md, finding 4). Measured energy error with vertex contacts:
     0.06-0.14 at dt_factor 0.8 (flagged; it moves with the last digits of the amplitude), 0.02-0.026
     at 0.4, 0.005-0.006 at 0.1. Asserted: the flag matches the
-    tolerance (0.05), and the error falls as the step shrinks (issue 6: bound shrinking with the step)."""
+    tolerance (0.05), and the error falls as the step shrinks (an integration error, not a model one)."""
     col = pcf.Column.single_block(0.4, 2.0, n_sides=4,
                                   joints=pcf.JointProperties(kn=1e11, ks=1e11, friction_deg=80.0))
     t = np.arange(0, 2.0005, 0.001)

@@ -1,4 +1,4 @@
-"""pycolfrag.report and pycolfrag.validation import without matplotlib (issue 12, item 6): a machine
+"""pycolfrag.report and pycolfrag.validation import without matplotlib: a machine
 that only analyses results files (tables, the markdown report's numbers) needs no plotting stack.
 
 The check runs in a child interpreter where ``sys.modules['matplotlib'] = None`` makes every

@@ -1,8 +1,8 @@
 """SolverOptions: the one home of the solver's options (defaults from C, one validation,
 results-file round trip), and simulate's keyword compatibility.
 
-Expected values: the paper's definitions (SPEC section 3: residual dislocation averaged over
-the last 2 s; no damping by default) and the C library's own range checks."""
+Expected values: the paper's definitions (residual dislocation averaged over the last 2 s;
+no damping by default) and the C library's own range checks."""
 import json
 import warnings
 

@@ -13,7 +13,7 @@ def test_c_library_version_matches_package():
 def test_floating_point_contraction_is_off():
     # a = 1 + 2^-30: a*a = 1 + 2^-29 + 2^-60 exactly. Rounded to double the 2^-60 term is lost,
     # so (a*a) - (1 + 2^-29) is 0 without FMA and 2^-60 with a fused multiply-add.
-    # Bitwise reproducibility across CPUs (STYLE.md rule 6) needs the unfused result.
+    # Bitwise reproducibility across CPUs (docs/reproducibility.md) needs the unfused result.
     a = 1.0 + 2.0 ** -30
     c = -(1.0 + 2.0 ** -29)
     assert _ffi.lib.cf_common_fma_probe(a, a, c) == 0.0

@@ -86,7 +86,7 @@ def test_displacement_is_integral_and_constant_after(A, fp, nu, gamma):
 
 # ---------------------------------------------------------------- sampling
 def test_peak_velocity_equals_sampled_vp(lhs):
-    # The defining property of A (SPEC 4.2): max_t |V| = Vp. Checked on a grid of 1e-4 in fp*tau:
+    # The defining property of A (the paper's Eq. 5): max_t |V| = Vp. Checked on a grid of 1e-4 in fp*tau:
     # a sampled peak is low by at most (2 pi)^2 (0.5e-4)^2 / 2 ~ 5e-8 relative; tolerance 1e-6.
     for i in range(N):
         vp, fp, nu, g, A = (lhs[k][i] for k in ("Vp_cm_s", "fp_hz", "nu_rad", "gamma", "A_cm_s"))

@@ -1,8 +1,9 @@
-"""Record-suite grids (issue 12 phase 2): ``scripts/run_grid.py --records SOURCE`` on the demo suite
+"""Record-suite grids (docs/records.md): ``scripts/run_grid.py --records SOURCE`` on the demo suite
 (:mod:`pycolfrag.demo_records`: three closed-form records, 2 components each), run as users do, in
 child processes (helpers of tests/test_grid.py: ``mpirun`` children get an environment without the
-``PMIX_*``/``OMPI_*`` variables, TOOLCHAIN.md). The demo records are 4-6 s long; a row takes a few
-hundredths of a second, so every run here is short.
+``PMIX_*``/``OMPI_*`` variables an MPI-initialised parent leaves, which make a child ``mpirun``
+exit 1). The demo records are 4-6 s long; a row takes a few hundredths of a second, so every run
+here is short.
 """
 import json
 import os

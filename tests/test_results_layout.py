@@ -1,4 +1,4 @@
-"""The results layouts (issue 12 item 6): the IM/EDP fields come from the one registry
+"""The results layouts: the IM/EDP fields come from the one registry
 (pycolfrag.names) without changing the synthetic layout, and the record-suite layout is the one
 documented in docs/results_format.md."""
 import re

@@ -28,7 +28,7 @@ def test_statics_rest_normal_forces_and_settlement(col):
     """Zero ground motion: the stack starts in exact equilibrium and stays there.
 
     Expected numbers: the normal force of joint i equals the weight of the blocks above
-    (g * sum of block masses from Column geometry) -- the issue asks for 0.1 %; the
+    (g * sum of block masses from Column geometry) -- 0.1 % would be an engineering tolerance; the
     start is exact equilibrium so we hold it to 1e-6. Settlement of joint i is
     W_i / (kn A_i) with A_i the area of the upper block's bottom polygon (same as the
     lower's top here), so the centre of mass of block 0 sits that much below its
@@ -56,7 +56,7 @@ def test_energy_balance_elastic_20s(col):
     The leapfrog conserves the energy with the kinetic term m v(n-1/2).v(n+1/2)/2 and
     trapezoidal work exactly for linear springs, so the balance error is round-off
     plus the tiny geometric non-linearity: asserted below 1e-6 of the energy scale
-    (issue 2), measured about 3e-10.
+    (docs/solver.md, "Energy balance"), measured about 3e-10.
     """
     a, dt = sine(0.01, 2.0, 3.0)
     res = pcf.simulate(col, a, dt, history=True, tail_s=17.0)
@@ -103,7 +103,7 @@ def test_newmark_sliding_block():
     """Squat block (2 m x 2 m x 0.5 m: rocking needs A > g b/h = 4 g) on joints with
     mu = tan 37 deg under a rectangular pulse of A = 1 g for t0 = 0.5 s.
     Newmark (1965): slip = V^2 / (2 mu g) (1 - mu g / A) with V = A t0 = 0.401 m here.
-    Tolerance 2 % (issue 2); the elastic shear displacement (mu W / (ks A) ~ 1e-5 m)
+    Tolerance 2 %: the elastic shear displacement (mu W / (ks A) ~ 1e-5 m)
     and the 1-sample ramp at the end of the sampled pulse are far below it."""
     col = pcf.Column.single_block(2.0, 0.5, n_sides=4, joints=pcf.JointProperties(friction_deg=37.0))
     dt = 0.001
@@ -123,7 +123,7 @@ def test_newmark_sliding_block():
 # ---- collapse --------------------------------------------------------------------------
 
 def test_default_column_collapses_under_strong_pulse(col):
-    """0.6 g one-sine pulse of 2 s period (issue 2): far above the ~0.15 g quasi-static
+    """0.6 g one-sine pulse of 2 s period: far above the ~0.15 g quasi-static
     threshold and long enough to tip the whole column: it collapses, and says which
     block and when (within the pulse + a few seconds)."""
     t = np.arange(0.0, 2.0, 0.005)
@@ -200,7 +200,7 @@ def test_determinism_bitwise(col):
         assert np.array_equal(r1.history.energy[k], r2.history.energy[k])
 
 
-# ---- bad input (SPEC section 9) --------------------------------------------------------
+# ---- bad input: each a clear ValueError subclass naming the value -----------------------
 
 @pytest.mark.parametrize("acc, dt, kw, match", [
     (np.array([0.0, np.nan, 0.0]), 0.01, {}, "non-finite"),
@@ -245,7 +245,7 @@ def test_bad_input_is_valueerror_and_column_checked(col):
 @pytest.mark.parametrize("contact", ["vertex", "exact"])
 def test_collapse_without_early_exit_runs_to_the_end(col, contact):
     """With early_exit=False a collapsing column is followed to the end of the record plus
-    tail: tumbling blocks must not produce NaN or a spurious instability (issue 6 hard case)."""
+    tail: tumbling blocks must not produce NaN or a spurious instability (a hard case of docs/accuracy.md)."""
     t = np.arange(0.0, 6.0, 0.005)
     res = pcf.simulate(col, 0.8 * G * np.sin(2 * np.pi * t), 0.005, early_exit=False, tail_s=1.0,
                        contact=contact)

@@ -24,7 +24,7 @@ def rigid_threshold_g(col, vertex_along_load):
     """Quasi-static overturning threshold of the rigid column about its base joint:
     support distance in the loading direction / height of the centre of mass.
     A 10-gon with a vertex along x supports at the circumradius; with a flat side
-    normal to x at the apothem (issue 2: 0.170 g and 0.162 g)."""
+    normal to x at the apothem (0.170 g and 0.162 g for the default column)."""
     seg = col.blocks[0].bottom
     b = seg.r_bottom if vertex_along_load else seg.r_bottom * math.cos(math.pi / seg.n_sides)
     return b / col.com_height
@@ -33,7 +33,7 @@ def rigid_threshold_g(col, vertex_along_load):
 @pytest.mark.parametrize("phase_deg, vertex", [(0.0, True), (18.0, False)])
 def test_quasi_static_overturning_stiff_joints(phase_deg, vertex):
     """kn = ks = 1e11 Pa/m (rigid limit): stands at 0.97 x and overturns at 1.03 x the rigid
-    threshold (issue 2). The 3 % margin covers the joint compliance at this stiffness
+    threshold. The 3 % margin covers the joint compliance at this stiffness
     (the toe compresses ~W/(kn A_toe) ~ 0.1 mm) and the finite hold time."""
     col = pcf.Column.parthenon(phase_deg=phase_deg).with_joints(kn=1e11, ks=1e11)
     thr = rigid_threshold_g(col, vertex)
@@ -56,8 +56,8 @@ def threshold_by_bisection(col, lo_g, hi_g, iters=5):
 
 def test_quasi_static_threshold_rises_with_joint_stiffness(capsys):
     """Soft joints let the toe compress, which lowers the overturning threshold; it must rise
-    monotonically towards the rigid value as kn grows (issue 2: about 0.15 g at 1 GPa/m
-    with vertex sub-contacts). Measured here (planar mode, vertex along x, rigid 0.171 g):
+    monotonically towards the rigid value as kn grows (an earlier independent estimate: about
+    0.15 g at 1 GPa/m with vertex sub-contacts). Measured here (planar mode, vertex along x, rigid 0.171 g):
     about 0.148 g at 1e9, 0.163 at 1e10, 0.169 at 1e11 Pa/m. Each threshold is bracketed to
     +-0.001 g by bisection, so 'rises' is asserted with that margin."""
     base = pcf.Column.parthenon()
@@ -69,7 +69,7 @@ def test_quasi_static_threshold_rises_with_joint_stiffness(capsys):
     with capsys.disabled():
         print(f"\nquasi-static overturning threshold (g): rigid {rigid:.4f}; "
               + ", ".join(f"kn={k:.0e}: {v:.4f}" for k, v in thr.items()))
-    assert 0.13 < thr[1e9] < 0.16            # issue 2: about 0.15 g
+    assert 0.13 < thr[1e9] < 0.16            # the earlier estimate: about 0.15 g
     assert thr[1e9] + 0.002 < thr[1e10] < thr[1e11] + 0.002
     assert thr[1e11] < rigid + 0.002
     assert thr[1e11] > 0.95 * rigid
@@ -84,7 +84,7 @@ def test_housner_free_rocking():
     Housner (1963), linearised equation theta'' = p^2 (theta - alpha) for slender blocks:
     time to the first impact T/4 = arccosh(alpha / (alpha - theta0)) / p; the time between
     two impacts at amplitude theta_m is 2 arccosh(alpha / (alpha - theta_m)) / p.
-    Tolerances of issue 2: 1 % and 2 %; the linearisation itself costs about alpha^2/6 = 0.17 %.
+    Tolerances 1 % and 2 %; the linearisation itself costs about alpha^2/6 = 0.17 %.
     """
     b, H = 0.15, 3.0
     col = pcf.Column.single_block(2 * b, H, n_sides=4, joints=pcf.JointProperties(kn=1e11, ks=1e11))
@@ -163,7 +163,7 @@ def test_one_sine_pulse_overturning_single_block():
     0.25 s. Friction angle 80 deg (mu = 5.7 > A/g): Housner's equation assumes the block
     does not slide, and at 4 g a block on mu = 0.75 slides a lot. The threshold amplitude is found by bisecting the independent integration
     above (about 4.0 g); the soft-contact block must survive 0.95 x and overturn at
-    1.05 x it (issue 2). Note: the threshold depends on the impact law; at this pulse
+    1.05 x it. Note: the threshold depends on the impact law; at this pulse
     period the block overturns on the first excursion after one impact, and the soft
     vertex contacts lose about Housner's share of energy at that impact."""
     b, H, Tp = 0.2, 2.0, 0.25

@@ -14,7 +14,7 @@ Sources of the expected numbers:
   We widen each measured range by about 3 standard errors of our ensemble mean
   (N = 300 records, coefficient of variation of a peak 0.1 (PGA) to 0.35 (PSA 3 s),
   so 3 SE = 2 % to 6 %), see BANDS below.
-* Target FAS: the model itself; 10 % is the issue's tolerance, about 3 standard errors
+* Target FAS: the model itself; 10 % tolerance, about 3 standard errors
   of a 1/6-decade band average at 0.2 Hz (fewest frequency bins) with 300 records.
 """
 from __future__ import annotations

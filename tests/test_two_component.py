@@ -1,5 +1,5 @@
-"""Two-component motion (issue 10, item 4): symmetry, the quasi-static level along a flat side,
-and the energy ledger when drums slide past the edge of the drum below.
+"""Two-component motion (docs/accuracy.md, "Two-component motion"): symmetry, the quasi-static
+level along a flat side, and the energy ledger when drums slide past the edge of the drum below.
 
 The default column (``Column.parthenon()``) is a stack of regular 10-gons with a vertex along +x,
 so its geometry is unchanged by a rotation of 36 degrees about z, and the loading direction 18 deg
@@ -178,11 +178,12 @@ def ramp_level(col, deg, rate=0.0005, a0=0.14, amax=0.19, dt=0.01, u_level=0.05)
 def test_quasi_static_level_along_flat_side_follows_rigid_geometry():
     """Along 0 deg the column tips about a vertex of the base 10-gon, along 18 deg about a flat side.
     Rigid-block levels from the geometry (computed here): base joint r / h_cg = 0.825 / 4.81 = 0.1715 g
-    towards a vertex, apothem / h_cg = 0.1631 g towards a flat side (issue 10: 0.170 and 0.162 g); the
-    base joint governs (every joint above has a higher level). With stiff joints (kn = ks = 1e11 Pa/m)
-    and a slow two-component ramp (0.0005 g/s) the measured levels are 0.1728 and 0.1646 g: within
-    0.003 g of rigid (the toe compliance lowers the level, the ramp's lag of a few tenths of a second
-    raises it; both are about 0.001 g here), and their ratio 0.9525 is cos 18 deg = 0.9511 to 0.005."""
+    towards a vertex, apothem / h_cg = 0.1631 g towards a flat side (rounded to 0.170 and 0.162 g in
+    tests/test_solver_physics.py); the base joint governs (every joint above has a higher level).
+    With stiff joints (kn = ks = 1e11 Pa/m) and a slow two-component ramp (0.0005 g/s) the measured
+    levels are 0.1728 and 0.1646 g: within 0.003 g of rigid (the toe compliance lowers the level,
+    the ramp's lag of a few tenths of a second raises it; both are about 0.001 g here), and their
+    ratio 0.9525 is cos 18 deg = 0.9511 to 0.005."""
     col = pcf.Column.parthenon().with_joints(kn=1e11, ks=1e11)
     levels = rigid_levels(col)
     vertex, flat = levels[0]

@@ -1,4 +1,4 @@
-"""Mavroeidis & Papageorgiou (2003) near-fault velocity pulse (the paper's Eq. 5, SPEC §4.2),
+"""Mavroeidis & Papageorgiou (2003) near-fault velocity pulse (the paper's Eq. 5),
 and the Latin-hypercube sampling of its parameters per scenario.
 
 Eq. (5), with tau = t - t0 and support |tau| <= gamma / (2 fp)::

@@ -1,6 +1,6 @@
 """Rupakhety, Sigurdsson, Papageorgiou & Sigbjörnsson (2011): mean pulse amplitude and period
 of near-fault forward-directivity pulses, as printed in the paper we reproduce (Psycharis et al.,
-Eqs. 6 and 7; SPEC §4.2).
+Eqs. 6 and 7).
 
 Eq. (6), base-10 logarithms, Vp in cm/s, R in km (the paper's fault distance)::
 
