@@ -947,8 +947,7 @@ def run_grid(spec: "GridSpec | RecordGridSpec", out, *, overwrite: bool = False,
 
 def _previous_sessions(path) -> list:
     try:
-        import h5py
-        with h5py.File(path, "r") as f:
+        with _results.h5open(path, "r") as f:
             return json.loads(f.attrs.get("sessions", "[]"))
     except Exception:
         return []

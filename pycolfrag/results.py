@@ -70,7 +70,7 @@ __all__ = [
     "STATUS_IM_FAILED", "STATUS_SOLVER_FAILED", "STATUS_OTHER_FAILED", "MESSAGE_BYTES",
     "Results", "ResultsWriter", "load", "create", "open_for_run", "journal_path", "read_journal",
     "signature_mismatch", "lock_path", "RunLock", "ResultsLockedError", "ResultsDamagedError",
-    "OPEN_TIMEOUT_S", "JournalHeaderError", "journal_mismatch",
+    "OPEN_TIMEOUT_S", "JournalHeaderError", "journal_mismatch", "h5open",
 ]
 
 FORMAT_VERSION = 1
@@ -221,6 +221,15 @@ SPECTRA_FIELDS = {name: f"{q.description}, {q.unit}" for name, q in _names.IMS.i
 def _h5py():
     import h5py  # imported lazily: reading the field table must not need h5py
     return h5py
+
+
+def h5open(path, mode: str = "r"):
+    """``h5py.File(path, mode)`` without HDF5's file locks. With them (the library's default) a reader
+    holding the file open -- h5py, HDFView, :func:`load` polling -- makes the grid's next write fail
+    ("unable to lock file", exit 4), and a writer between batches locks readers out. Only one process
+    writes a results file (the run lock, :class:`RunLock`), it writes in short batches with ``status``
+    last, and readers that want every finished row take the journal too (:func:`load`)."""
+    return _h5py().File(path, mode, locking=False)
 
 
 def journal_path(path) -> Path:
@@ -476,6 +485,22 @@ def _read_holder(fd: int) -> dict:
         return {}
 
 
+def _lock_held(results_path) -> bool:
+    """Whether a run holds the lock of ``results_path`` now (its :class:`RunLock`)."""
+    try:
+        fd = os.open(lock_path(results_path), os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return False
+    except OSError:
+        return True
+    finally:
+        os.close(fd)
+
+
 def _pid_alive(pid) -> bool:
     try:
         os.kill(int(pid), 0)
@@ -643,8 +668,7 @@ def _read_h5(path: Path, any_layout: bool = False, verify: bool = True) -> dict:
 
     ``any_layout``: also read a file in the documented layout that ``run_grid.py`` did not write
     (a ``/samples`` group, no ``grid_signature``; ``/spectra`` optional)."""
-    h5py = _h5py()
-    with h5py.File(path, "r") as f:
+    with h5open(path, "r") as f:
         if "samples" not in f or ("grid_signature" not in f.attrs and not any_layout):
             raise ResultsFileError(f"{path} is not a pycolfrag grid results file (no grid_signature attribute); "
                                    "use --overwrite to replace it or --out for another file")
@@ -753,9 +777,8 @@ def _attr_value(v):
 
 
 def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping) -> None:
-    h5py = _h5py()
     tmp = path.with_name(path.name + ".tmp")
-    with h5py.File(tmp, "w") as f:
+    with h5open(tmp, "w") as f:
         g = f.create_group("samples")
         for name, (code, fill, desc) in fields_of(attrs.get("layout")).items():
             dt = _dtype(code)
@@ -945,10 +968,16 @@ def _write_journal_header(jp: Path, n_rows: int, periods_s, signature: Mapping, 
     header = {"kind": "pycolfrag-grid-journal", "format_version": FORMAT_VERSION, "n_rows": int(n_rows),
               "periods_s": [float(p) for p in periods_s], "signature": signature,
               "attrs": {k: plain(v) for k, v in attrs.items()}}
-    with open(jp, "w", encoding="utf-8") as fh:
-        fh.write(_journal_line(json.dumps(header, sort_keys=True, default=str)))
-        fh.flush()
-        os.fsync(fh.fileno())
+    tmp = jp.with_name(jp.name + ".tmp")
+    try:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(_journal_line(json.dumps(header, sort_keys=True, default=str)))
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, jp)  # a reader never meets a journal without its header
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def _os_error_of(exc: BaseException, path) -> BaseException:
@@ -985,8 +1014,7 @@ def _write_rows_h5_unguarded(path: Path, rows: list, n_rows: int, n_periods: int
     run replaced the file, and nothing is written into it). Writing rows removes the stored
     ``checksums``; ``checksums=True`` stores them afresh after the write (complete files).
     """
-    h5py = _h5py()
-    with h5py.File(path, "r+") as f:
+    with h5open(path, "r+") as f:
         found = f.attrs.get("run_id")
         found = found.decode() if isinstance(found, bytes) else found
         if run_id is not None and found != run_id:
@@ -1051,8 +1079,7 @@ class ResultsWriter:
         self._lock: RunLock | None = None
         self._pending: list[dict] = []
         self._journal = _Journal(journal_path(self.path))
-        h5py = _h5py()
-        with h5py.File(self.path, "r") as f:
+        with h5open(self.path, "r") as f:
             g = f["samples"]
             self.status = g["status"][...]
             ident = {k: g[k][...] for k in ("scenario", "record") if k in g}
@@ -1260,7 +1287,16 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
         except JournalHeaderError as exc:
             warnings.warn(f"{exc}; the journal is ignored", stacklevel=2)
     try:
-        raw = _read_h5_bounded(path, timeout_s, any_layout, verify)
+        for attempt in range(4):
+            try:
+                raw = _read_h5_bounded(path, timeout_s, any_layout, verify)
+                break
+            except ResultsDamagedError:
+                # a run writing the file right now (its lock is held): a read that met a batch
+                # half-written is not damage; read again after the batch
+                if attempt == 3 or (attempt > 0 and not _lock_held(path)):
+                    raise  # read twice (the run may have just finished its last batch), more while it runs
+                time.sleep(0.2)
     except (ResultsDamagedError, FileNotFoundError) as exc:
         if header is None:
             if isinstance(exc, ResultsDamagedError):

@@ -13,6 +13,7 @@ import subprocess
 import sys
 import textwrap
 import time
+import warnings
 from pathlib import Path
 
 import h5py
@@ -381,3 +382,36 @@ def test_a_pair_of_unequal_lengths_runs_as_recorded_and_a_failing_record_says_wh
     lines = p.stdout.splitlines()
     k = lines.index("failed rows (status > 0; the message is stored in each row):")
     assert lines[k + 1] == f"  1 failed [BROKEN h1]: {msg}", lines[k:k + 3]
+
+
+# ------------------------------------------------------------------------------ 6: readers
+
+def test_a_reader_holding_the_file_open_does_not_abort_the_run(tmp_path):
+    # Reported: h5py.File(out, "r") held open (HDF5's default file locking) or results.load polling
+    # made the grid's next HDF5 write fail "unable to lock file" (exit 4).
+    out = tmp_path / "g.h5"
+    run = _start([*FAKE, "--out", str(out)], PCF_FAKE_SLEEP_S="0.15")
+    holder = None
+    try:
+        _wait_rows(out, 1, run)
+        holder = subprocess.Popen([sys.executable, "-c", "import h5py, sys, time\n"
+                                   "f = h5py.File(sys.argv[1], 'r')\nprint('open', flush=True)\ntime.sleep(30)\n",
+                                   str(out)], stdout=subprocess.PIPE, text=True, env=_env())
+        assert holder.stdout.readline().strip() == "open"  # a plain h5py reader, locks as HDF5 does by default
+        seen = 0
+        while run.poll() is None:  # and results.load polling meanwhile
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", UserWarning)  # no read called the file damaged
+                seen = max(seen, len(R.load(out)))
+            time.sleep(0.05)
+        text = run.stdout.read()
+        assert run.returncode == 0, text
+        assert seen >= 1
+    finally:
+        for p in (run, holder):
+            if p is not None and p.poll() is None:
+                p.kill()
+                p.wait()
+    after = R.load(out)
+    assert after.complete and len(after) == 16
+    _same_rows(_fresh(tmp_path), after)
