@@ -1358,6 +1358,14 @@ def main(argv=None) -> int:
         if comm is not None and size > 1 and getattr(exc, "pcf_during_run", False):
             comm.Abort(code)  # the other ranks wait for rank 0: end them too
         return code
+    except (SystemExit, KeyboardInterrupt) as exc:  # SIGTERM (turned into SystemExit) or Ctrl-C on rank 0
+        if comm is not None and size > 1 and getattr(exc, "pcf_during_run", False):
+            # rank 0 made its final write; the workers wait for rank 0 in a blocking receive (Open MPI
+            # polls at full CPU) and, without "python -m mpi4py", nothing else would end them
+            code = exc.code if isinstance(exc, SystemExit) and isinstance(exc.code, int) else 128 + signal.SIGINT
+            log(f"run_grid: interrupted (exit {code}); every finished row is in {args.out}; ending the other ranks")
+            comm.Abort(code)
+        raise
     if summary is None:  # worker ranks
         return 0
     log(format_table(summary.table))

@@ -415,3 +415,57 @@ def test_a_reader_holding_the_file_open_does_not_abort_the_run(tmp_path):
     after = R.load(out)
     assert after.complete and len(after) == 16
     _same_rows(_fresh(tmp_path), after)
+
+
+# ------------------------------------------------------------------------------ 7: signals under plain mpirun
+
+def _plain_rank_pids(out):
+    """pids of the python ranks of an mpirun writing ``out`` (argv: this python, the script, ... out)."""
+    pids = []
+    for d in Path("/proc").iterdir():
+        if not d.name.isdigit():
+            continue
+        try:
+            argv = (d / "cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if argv and argv[0].decode(errors="replace") == sys.executable and str(SCRIPT).encode() in argv \
+                and str(out).encode() in argv:
+            pids.append(int(d.name))
+    return pids
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_a_signal_to_rank_0_under_plain_mpirun_ends_every_rank_after_the_final_write(tmp_path, sig):
+    # Reported: SIGTERM/SIGINT to rank 0 alone under "mpirun -n 2 python scripts/run_grid.py" (the
+    # README's form, without -m mpi4py): the final write completed, then rank 1 spun at 99 % CPU forever.
+    import shutil
+    if shutil.which("mpirun") is None:
+        pytest.skip("mpirun not installed (make system)")
+    out = tmp_path / "g.h5"
+    args = [*FAKE[:-2], "--flush-s", "60", "--out", str(out)]  # no HDF5 batch before the signal: only the final write
+    cmd = ["timeout", "-k", "10", "120", "mpirun", "--allow-run-as-root", "-n", "2", sys.executable, str(SCRIPT), *args]
+    proc = subprocess.Popen(cmd, env=_env(PCF_FAKE_SLEEP_S="0.2"), cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    try:
+        _wait_rows(out, 4, proc)
+        rank0 = json.loads(R.lock_path(out).read_text())["pid"]
+        ranks = _plain_rank_pids(out)
+        assert rank0 in ranks and len(ranks) == 2, (rank0, ranks)
+        os.kill(rank0, sig)
+        text, _ = proc.communicate(timeout=60)  # before the fix: never (rank 1 waits forever; timeout ends it at 120 s)
+        t0 = time.time()
+        while any(Path(f"/proc/{r}").exists() for r in ranks):
+            assert time.time() - t0 < 10, "ranks still alive after mpirun ended"
+            time.sleep(0.1)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 128 + sig and proc.returncode != 124, text  # 124: the timeout had to end it
+    assert "interrupted" in text and "ending the other ranks" in text, text
+    n_journal = _journal_rows(out)
+    with h5py.File(out, "r") as f:
+        in_h5 = int((f["samples/status"][...] != R.STATUS_PENDING).sum())
+    assert in_h5 == n_journal >= 4  # the final write holds every row that reached rank 0
