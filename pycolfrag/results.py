@@ -777,7 +777,75 @@ def _attr_value(v):
 
 
 def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping) -> None:
+    """Write the new file as ``<path>.tmp`` in a forked child, then rename it into place.
+
+    In a child because the HDF5 library, when a write fails (a full disk), raises RuntimeErrors from
+    its clean-up and can crash the process at exit; the parent gets the error back as the OSError
+    it is (:func:`_os_error_of`), or the child's exception (e.g. a TypeError for a value HDF5 cannot
+    store), and removes the partial ``.tmp``."""
     tmp = path.with_name(path.name + ".tmp")
+    try:
+        _in_child(_write_new_h5, tmp, n_rows, periods_s, attrs)
+    except BaseException as exc:
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:
+            pass
+        err = _os_error_of(exc, tmp)
+        if err is exc:
+            raise
+        raise err from None
+    os.replace(tmp, path)  # the file appears complete or not at all
+
+
+def _in_child(fn, *args) -> None:
+    """Run ``fn(*args)`` in a forked child; raise what it raised (pickled back), or
+    :class:`OSError` when the child died without a word (a crash of the HDF5 library)."""
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        code = 0
+        try:
+            os.close(r)
+            null = os.open(os.devnull, os.O_WRONLY)  # the HDF5 library's clean-up noise after a failed write
+            os.dup2(null, 2)
+            try:
+                fn(*args)
+                out = ("ok", None)
+            except BaseException as exc:  # noqa: BLE001 -- every failure goes to the parent
+                try:
+                    pickle.dumps(exc)
+                    out = ("err", exc)
+                except Exception:
+                    out = ("err", RuntimeError(f"{type(exc).__name__}: {exc}"))
+            data = pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
+            view = memoryview(data)
+            while view:
+                view = view[os.write(w, view):]
+        except BaseException:
+            code = 1
+        finally:
+            os._exit(code)
+    os.close(w)
+    chunks = []
+    try:
+        while True:
+            b = os.read(r, 1 << 16)
+            if not b:
+                break
+            chunks.append(b)
+    finally:
+        os.close(r)
+        _, status = os.waitpid(pid, 0)
+    try:
+        kind, val = pickle.loads(b"".join(chunks))
+    except Exception:
+        raise OSError(f"creating the results file crashed the writing process (status {status})") from None
+    if kind == "err":
+        raise val
+
+
+def _write_new_h5(tmp: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping) -> None:
     with h5open(tmp, "w") as f:
         g = f.create_group("samples")
         for name, (code, fill, desc) in fields_of(attrs.get("layout")).items():
@@ -799,7 +867,6 @@ def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mappi
         f.attrs["complete"] = False
         f.attrs["n_done"] = 0
         _store_checksums(f, datasets=False)
-    os.replace(tmp, path)  # the file appears complete or not at all
 
 
 def signature_mismatch(old: Mapping, new: Mapping, names=("file has", "this run asks for")) -> list[str]:
@@ -861,11 +928,16 @@ def open_for_run(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_
     of its rows is used. A damaged HDF5 file (an error, a checksum mismatch, or no answer within
     ``timeout_s``) is set aside and rebuilt from its journal; journalled rows missing from the HDF5
     file are written into it. ``log`` (default: :func:`warnings.warn`) receives those messages.
+    ``path`` is resolved to its real path first (symlinks followed): the lock, journal and file
+    are those of the file itself, whatever name reaches it.
     """
     log = log or (lambda s: warnings.warn(s, stacklevel=3))
+    # the lock, the journal and the file are those of the real path: a symlink to a results file
+    # (or a path through a linked folder) must meet the lock of the run writing it
+    path = Path(os.path.realpath(path))
     lock = RunLock.acquire(path, log, command)
     try:
-        writer = _open_locked(Path(path), signature, attrs, n_rows, periods_s, overwrite, log, timeout_s)
+        writer = _open_locked(path, signature, attrs, n_rows, periods_s, overwrite, log, timeout_s)
     except BaseException:
         lock.release()
         raise
@@ -986,7 +1058,7 @@ def _os_error_of(exc: BaseException, path) -> BaseException:
     seen, e = 0, exc
     while e is not None and seen < 8:  # closing after a failed write raises again: look down the chain
         if isinstance(e, OSError) and e.errno:
-            return e
+            return e if e.filename else OSError(e.errno, os.strerror(e.errno), os.fspath(path))
         m = re.search(r"errno = (\d+)", str(e))
         if m and int(m.group(1)) > 0:
             n = int(m.group(1))
@@ -1278,7 +1350,7 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
     ResultsFileError
         Not a pycolfrag results file.
     """
-    path = Path(path)
+    path = Path(os.path.realpath(path))  # the journal is beside the real file (a symlink has none)
     jp = journal_path(path)
     header, jrows = None, {}
     if journal and jp.exists():

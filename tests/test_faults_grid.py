@@ -469,3 +469,126 @@ def test_a_signal_to_rank_0_under_plain_mpirun_ends_every_rank_after_the_final_w
     with h5py.File(out, "r") as f:
         in_h5 = int((f["samples/status"][...] != R.STATUS_PENDING).sum())
     assert in_h5 == n_journal >= 4  # the final write holds every row that reached rank 0
+
+
+# ------------------------------------------------------------------------------ 9: suite paths, the lock's path
+
+def _suite_csv(folder, file_h1, rid="R1"):
+    (folder / "suite.csv").write_text(f"record_id,file_h1,mw,rrup_km\n{rid},{file_h1},6.5,10\n")
+    return folder / "suite.csv"
+
+
+def test_suite_files_outside_the_suite_folder_are_refused_unless_allowed(tmp_path):
+    # Reported: a row naming ../somewhere/.token stored that file's 4th line in the results.
+    from pycolfrag import records
+    from pycolfrag.demo_records import write_at2
+    (tmp_path / "secret").mkdir()
+    (tmp_path / "secret" / ".token").write_text("line 1\nline 2\nline 3\nTOKEN-VALUE-42\n")
+    write_at2(tmp_path / "secret" / "ok.AT2", np.full(100, 0.01), 0.01)
+    suite = tmp_path / "suite"
+    suite.mkdir()
+    (suite / "link.AT2").symlink_to(tmp_path / "secret" / "ok.AT2")  # a symlink leading out, too
+    for name in ("../secret/.token", str(tmp_path / "secret" / "ok.AT2"), "link.AT2"):
+        csv = _suite_csv(suite, name)
+        with pytest.raises(records.RecordFileError, match="is outside the suite's folder") as exc:
+            records.load_records(csv)
+        assert "TOKEN" not in str(exc.value)
+        kept = records.load_records(csv, on_error="keep")  # the grid's way: the record's rows fail, naming why
+        assert "is outside the suite's folder" in kept[0].error and "TOKEN" not in kept[0].error
+    rec = records.load_records(csv, allow_outside=True)[0]  # the explicit opt-out
+    assert rec.n == 100 and rec.h1[0] == 0.01 * 9.81
+    out = tmp_path / "r.h5"
+    p = _ok(_serial(["--records", str(_suite_csv(suite, "../secret/.token")), "--no-figures", "--no-progress",
+                     "--out", str(out)]))
+    s = R.load(out).samples
+    assert s["status"][0] == R.STATUS_RECORD_FAILED and "outside the suite's folder" in s["message"][0]
+    assert "TOKEN" not in p.stdout and not any("TOKEN" in m for m in s["message"])
+
+
+def test_devices_are_refused_as_tables_and_record_files(tmp_path):
+    # Reported: /dev/zero was hashed without bound.
+    from pycolfrag import records
+    with pytest.raises(records.RecordFileError, match="suite table /dev/zero is not a regular file"):
+        records.load_records("/dev/zero")
+    csv = _suite_csv(tmp_path, "/dev/zero")
+    with pytest.raises(records.RecordFileError, match="'/dev/zero' is not a regular file"):
+        records.load_records(csv, allow_outside=True)
+    assert len(records._files_sha1(["/dev/zero"])) == 40  # a device hashes as its name, at once
+
+
+def test_record_file_hash_is_that_of_its_bytes_and_bounded(tmp_path, monkeypatch):
+    import hashlib
+    from pycolfrag import records
+    p = tmp_path / "a.bin"
+    data = bytes(range(256)) * 40
+    p.write_bytes(data)
+    assert records._files_sha1([p]) == hashlib.sha1(data + b"\0").hexdigest()  # whole small files, as before
+    monkeypatch.setattr(records, "MAX_HASH_BYTES", 1000)
+    assert records._files_sha1([p]) == hashlib.sha1(data[:1000] + b"size:10240" + b"\0").hexdigest()
+
+
+def test_a_symlink_to_a_results_file_meets_its_lock(tmp_path):
+    # Reported: a symlink to the results file bypassed the run lock (the lock was <link>.lock).
+    out = tmp_path / "g.h5"
+    link = tmp_path / "link.h5"
+    a = _start([*FAKE, "--out", str(out)], PCF_FAKE_SLEEP_S="0.5")
+    try:
+        _wait_rows(out, 1, a)
+        link.symlink_to(out)
+        p = _serial([*FAKE, "--out", str(link)])
+        assert p.returncode == 5 and f"pid {a.pid}" in p.stdout, p.stdout + p.stderr
+        assert not R.lock_path(link).exists()
+        assert len(R.load(link)) >= 1  # readers through the link see the journal beside the real file
+    finally:
+        _kill9(a)
+    _ok(_serial([*FAKE, "--out", str(link)]))  # resumes the real file through the link
+    assert link.is_symlink() and R.load(out).complete
+    _same_rows(_fresh(tmp_path), R.load(out))
+
+
+# ------------------------------------------------------------------------------ 8: full disk at creation
+
+@pytest.fixture
+def small_tmpfs(tmp_path):
+    """A 1 MB tmpfs (root only; skipped where mounting is impossible)."""
+    if os.geteuid() != 0:
+        pytest.skip("mounting a tmpfs needs root")
+    mnt = tmp_path / "mnt"
+    mnt.mkdir()
+    p = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(mnt)], capture_output=True, text=True)
+    if p.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {p.stderr.strip()}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)])
+
+
+def test_a_results_file_larger_than_the_disk_is_one_clear_line(small_tmpfs):
+    # Reported: a full disk while the HDF5 file was created gave a RuntimeError traceback and a
+    # segfault (exit 139). 4 x 4 x 500 rows of ~900 bytes do not fit 1 MB: refused before creating.
+    from pycolfrag.results import row_bytes
+    out = small_tmpfs / "g.h5"
+    p = _serial([*FAKE[:FAKE.index("--samples")], "--samples", "500", *FAKE[FAKE.index("--samples") + 2:],
+                 "--out", str(out)])
+    assert p.returncode == 4, p.stdout + p.stderr
+    need = 4 * 500 * row_bytes(10)  # the default 10 periods
+    line = p.stdout.strip().splitlines()[-1]
+    assert line.startswith(f"run_grid: cannot write the results at {out}: No space left on device: the results "
+                           f"file needs {need / 1e9:.3g} GB (2000 rows of {row_bytes(10)} bytes)"), line
+    assert "no row was computed" in line and "Traceback" not in p.stdout + p.stderr
+    assert list(small_tmpfs.iterdir()) == []
+
+
+def test_a_disk_filling_up_while_the_file_is_created_raises_enospc_and_leaves_nothing(small_tmpfs):
+    # The free-space check passed (another process filled the disk meanwhile): creating the file
+    # must give the OSError of a full disk, leave no .tmp or .journal, and not crash the process.
+    (small_tmpfs / "filler").write_bytes(b"\0" * 600_000)
+    code = ("import sys\nfrom pycolfrag import results as R\n"
+            "try:\n    R.create(sys.argv[1], {'a': 1}, {}, 2000, [0.5, 1.0])\n"
+            "except OSError as e:\n    print('OSError', e.errno, e.strerror)\n")
+    p = subprocess.run([sys.executable, "-c", code, str(small_tmpfs / "g.h5")], capture_output=True, text=True,
+                       env=_env(), timeout=60)
+    assert p.returncode == 0 and p.stdout.strip() == "OSError 28 No space left on device", p.stdout + p.stderr
+    assert "Traceback" not in p.stderr
+    assert sorted(x.name for x in small_tmpfs.iterdir()) == ["filler"]
