@@ -592,3 +592,40 @@ def test_a_disk_filling_up_while_the_file_is_created_raises_enospc_and_leaves_no
     assert p.returncode == 0 and p.stdout.strip() == "OSError 28 No space left on device", p.stdout + p.stderr
     assert "Traceback" not in p.stderr
     assert sorted(x.name for x in small_tmpfs.iterdir()) == ["filler"]
+
+
+# ------------------------------------------------------------------------------ 10: Ctrl-C inside simulate()
+
+def test_ctrl_c_inside_simulate_interrupts_the_c_run_promptly():
+    # Reported: Ctrl-C inside simulate() waited 94 s (the C run never returned to Python). The run
+    # here needs (5 s + the 3 s tail) / 5e-7 s = 1.6e7 steps, about a minute; the C run now calls
+    # back every CF_SOLVER_CHECK_STEPS steps (a few ms), where Python raises the KeyboardInterrupt.
+    code = textwrap.dedent("""
+        import sys, time, numpy as np, pycolfrag as pcf
+        col = pcf.Column.parthenon()
+        t = np.arange(0, 5.0, 0.005)
+        acc = 0.25 * 9.81 * np.sin(2 * np.pi * 2 * t)
+        print("start", flush=True)
+        try:
+            pcf.simulate(col, acc, 0.005, dt_solver=5e-7)
+            print("finished", flush=True)
+        except KeyboardInterrupt:
+            print("interrupted", flush=True)
+        short = pcf.simulate(col, acc[:200], 0.005)  # the next run is a normal one (no check left over)
+        ref = pcf.simulate(col, acc[:200], 0.005)
+        print("after", short.u_top == ref.u_top and short.n_steps == ref.n_steps, flush=True)
+    """)
+    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         env=_env())
+    try:
+        assert p.stdout.readline().strip() == "start"
+        time.sleep(1.0)
+        t0 = time.time()
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=120)
+        waited = time.time() - t0
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert out.split() == ["interrupted", "after", "True"], out + err
+    assert waited < 20, waited  # a bound far below the minute of the uninterrupted run, not a timing
