@@ -617,13 +617,14 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
     try:
         # the step the rows will use, from a run of a few steps: a tiny dt_solver must be refused
         # before the check below runs for minutes
-        dt_step = options.dt_solver
+        dt_step, collapsed = options.dt_solver, False
         if dt_step is None:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                dt_step = simulate(column, np.zeros(3), record_dt_s, options=options.replace(tail_s=0.0)).dt
+                probe = simulate(column, np.zeros(3), record_dt_s, options=options.replace(tail_s=0.0))
+            dt_step, collapsed = probe.dt, probe.collapsed
         check_steps = (3 * record_dt_s + options.tail_s) / dt_step
-        if check_steps > MAX_CHECK_STEPS:
+        if check_steps > MAX_CHECK_STEPS and not collapsed:  # a collapse stops the check at once
             raise ParameterError(f"solver options {changed}: a step of {dt_step:.3g} s needs {check_steps:.3g} steps for "
                                  f"{options.tail_s:g} s of response alone (a row of a {DEFAULT_RECORD_DT_S * 4000:g} s "
                                  f"record: {(20.0 + options.tail_s) / dt_step:.3g} steps, about "
