@@ -1132,10 +1132,18 @@ def _false_done(samples: Mapping, layout) -> np.ndarray:
     failed ones too, carries it). Damaged status bytes (e.g. zeroed by a crash of the file system)
     would otherwise read as successful rows of NaN that are never recomputed."""
     status = np.asarray(samples["status"])
-    bad = (status != STATUS_PENDING) & ~np.isin(status, _KNOWN_STATUS)
-    key = "record" if fields_of(layout) is RECORD_SAMPLE_FIELDS else "scenario"
-    if key in samples:
-        bad |= (status != STATUS_PENDING) & (np.asarray(samples[key]) < 0)
+    done = status != STATUS_PENDING
+    bad = done & ~np.isin(status, _KNOWN_STATUS)
+    if fields_of(layout) is RECORD_SAMPLE_FIELDS:
+        # a record row is named by its index or its id (files written by other code may give only the id)
+        if "record" in samples:
+            nameless = np.asarray(samples["record"]) < 0
+            if "record_id" in samples:
+                nameless &= np.array([not (x.strip() if isinstance(x, (bytes, str)) else x)
+                                      for x in samples["record_id"]], dtype=bool)
+            bad |= done & nameless
+    elif "scenario" in samples:
+        bad |= done & (np.asarray(samples["scenario"]) < 0)
     return bad
 
 
@@ -1154,7 +1162,7 @@ class ResultsWriter:
         with h5open(self.path, "r") as f:
             g = f["samples"]
             self.status = g["status"][...]
-            ident = {k: g[k][...] for k in ("scenario", "record") if k in g}
+            ident = {k: g[k][...] for k in ("scenario", "record", "record_id") if k in g}
             layout = f.attrs.get("layout")
         bad = _false_done({"status": self.status, **ident}, layout)
         #: rows the HDF5 file marks done that cannot be (damaged status bytes): recomputed
