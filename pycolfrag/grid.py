@@ -184,7 +184,7 @@ class GridSpec:
     samples: int = DEFAULT_SAMPLES
     seed: int = DEFAULT_SEED
     column: dict = field(default_factory=dict)
-    solver_options: dict = field(default_factory=dict)
+    solver_options: object = field(default_factory=dict)  # resolved to a SolverOptions by __post_init__
     vp_scale: float = 1.0
     periods_s: tuple = DEFAULT_PERIODS_S
     damping: float = DEFAULT_DAMPING
@@ -362,7 +362,7 @@ class RecordGridSpec:
     components: tuple = ("h1", "h2")
     scales: tuple = (1.0,)
     column: dict = field(default_factory=dict)
-    solver_options: dict = field(default_factory=dict)
+    solver_options: object = field(default_factory=dict)  # resolved to a SolverOptions by __post_init__
     periods_s: tuple = DEFAULT_PERIODS_S
     damping: float = DEFAULT_DAMPING
     max_record_s: float | None = None
