@@ -5,6 +5,15 @@ run, readers and signals that must not break a run, suites that must not reach o
 Grids use the fake sample function of ``tests/grid_fakes.py`` where the physics does not matter
 (seconds per case); the few cases about the physics (step limits, the pre-run probes) run the
 solver on a 3-sample zero record or one short record.
+
+Cases, by the number of the defect in the report they guard: 1 a resume across a code or default
+change, and one signature for one physics; 4 a solver step above the stability limit; 5 changed
+attributes, signature, journal lines and status bytes; 6 a reader holding the file open; 7 a
+signal to rank 0 under plain mpirun; 8 a full disk at creation; 9 suite files outside their
+folder, devices, bounded hashing, the lock through a symlink; 10 options that fail every row, a
+tiny step, absurd sizes, expected work, Ctrl-C inside simulate(); 12 a pair of unequal lengths
+(FEMA P695 FF15) and a failing record's reason in the summary; and the grid's misleading messages
+(--out DIR, "rows are in the journal", history_dt).
 """
 import json
 import os
