@@ -501,7 +501,10 @@ def _load_function(name: str | None, default: Callable = None) -> Callable:
     mod, _, attr = name.partition(":")
     if not attr:
         raise ParameterError(f"sample function must be 'module:function', got {name!r}")
-    return getattr(importlib.import_module(mod), attr)
+    try:
+        return getattr(importlib.import_module(mod), attr)
+    except (ImportError, AttributeError) as exc:
+        raise ParameterError(f"--sample-function {name}: {type(exc).__name__}: {exc}") from None
 
 
 # ---------------------------------------------------------------------------------------
@@ -1335,6 +1338,7 @@ def main(argv=None) -> int:
             raise ParameterError(f"--out {args.out} is a folder: give the results file's path, e.g. "
                                  f"{Path(args.out) / Path(_default_out(args)).name}")
         spec = spec_from_args(args)
+        _load_function(spec.sample_function, spec.default_function())  # a missing one: refused, not a traceback
         if spec.layout is None:
             check_models(spec)
         if spec.sample_function is None:

@@ -638,3 +638,9 @@ def test_ctrl_c_inside_simulate_interrupts_the_c_run_promptly():
             p.kill()
     assert out.split() == ["interrupted", "after", "True"], out + err
     assert waited < 20, waited  # a bound far below the minute of the uninterrupted run, not a timing
+
+
+def test_a_sample_function_that_cannot_be_imported_is_refused_in_one_line(tmp_path, capsys):
+    line = _refused(BASE + ["--sample-function", "no_such_module_xyz:fake"], capsys, tmp_path)
+    assert line == ("run_grid: --sample-function no_such_module_xyz:fake: ModuleNotFoundError: No module named "
+                    "'no_such_module_xyz'"), line
