@@ -12,6 +12,7 @@ const char *cf_common_status_name(int status)
     case CF_EUNSTABLE: return "CF_EUNSTABLE";
     case CF_ERANGE: return "CF_ERANGE";
     case CF_ESTATE: return "CF_ESTATE";
+    case CF_EINTR: return "CF_EINTR";
     default: return "CF_UNKNOWN";
     }
 }

@@ -22,7 +22,8 @@ typedef enum {
     CF_ENOMEM = 2,      /* allocation failed */
     CF_EUNSTABLE = 3,   /* numerical instability detected (NaN, energy blow-up) */
     CF_ERANGE = 4,      /* argument outside the model's calibrated range */
-    CF_ESTATE = 5       /* object used in the wrong state */
+    CF_ESTATE = 5,      /* object used in the wrong state */
+    CF_EINTR = 6        /* stopped by the caller's check (e.g. an interrupt from the user) */
 } cf_status;
 
 /* Name of a status code ("CF_EINVAL", ...); never NULL. */

@@ -67,6 +67,14 @@ void cf_solver_free(cf_solver *s)
     free(s);
 }
 
+int cf_solver_set_check(cf_solver *s, cf_solver_check_fn fn, void *user)
+{
+    if (!s) return CF_EINVAL;
+    s->check = fn;
+    s->check_user = user;
+    return CF_OK;
+}
+
 const char *cf_solver_message(const cf_solver *s) { return s ? s->msg : "no solver"; }
 double cf_solver_dt_crit(const cf_solver *s) { return s && s->ready ? s->dt_crit : NAN; }
 double cf_solver_dt(const cf_solver *s) { return s && s->ready ? s->dt : NAN; }
@@ -294,6 +302,10 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
         }
         if (s->def.early_exit && t > t_rec && cf_solver_monitor_at_rest(&m, t, ke)) { at_rest = 1; break; }
         if (n == nsteps) break;
+        if (s->check && n % CF_SOLVER_CHECK_STEPS == CF_SOLVER_CHECK_STEPS - 1 && s->check(s->check_user)) {
+            st = cf_solver_fail(s, CF_EINTR, "stopped by the caller at t = %.4f s (step %ld)", t, n);
+            break;
+        }
         cf_solver_step_positions(s, dt);
     }
     if (n > nsteps) n = nsteps;

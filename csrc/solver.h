@@ -119,6 +119,14 @@ int cf_solver_set_history(cf_solver *s, long capacity, double *t, double *top_di
  * cf_solver_set_history, which sets the capacity. */
 int cf_solver_set_history_normal(cf_solver *s, double *joint_normal);
 
+/* Optional check of the caller, called by cf_solver_run every CF_SOLVER_CHECK_STEPS steps
+ * with `user`; a nonzero return stops the run with CF_EINTR (the results are then not
+ * valid). NULL (the default) for none. It does not change any computed number. Python
+ * uses it to stop a run promptly on Ctrl-C. Set it after cf_solver_setup (which clears it). */
+#define CF_SOLVER_CHECK_STEPS 4096
+typedef int (*cf_solver_check_fn)(void *user);
+int cf_solver_set_check(cf_solver *s, cf_solver_check_fn fn, void *user);
+
 /* Run one record: acc_x (n samples, m/s^2) at dt_rec; acc_y, acc_z may be NULL.
  * residual_dislocation (n_blocks entries, m) may be NULL; after a collapse it and
  * result.u_d are NaN. A run that would need more than CF_SOLVER_MAX_STEPS steps is

@@ -87,6 +87,8 @@ extern const cf_solver_contact_model cf_solver_exact_model;        /* solver_exa
 struct cf_solver {
     char msg[CF_MSG_LEN];
     int ready;
+    cf_solver_check_fn check;       /* the caller's check (cf_solver_set_check), NULL: none */
+    void *check_user;
     cf_solver_def def;
     const cf_solver_contact_model *model;
     double density;

@@ -68,6 +68,8 @@ def make_builder() -> FFI:
     headers = _public_headers()
     ffi = FFI()
     ffi.cdef(_cdefs(headers))
+    # the Python side of cf_solver_set_check (pycolfrag.solver: Ctrl-C stops a run promptly)
+    ffi.cdef('extern "Python" int _pcf_solver_check(void *);')
     includes = "\n".join(f'#include "{os.path.basename(h)}"' for h in headers)
     sources = sorted(glob.glob(os.path.join(CSRC, "*.c")))
     ffi.set_source(

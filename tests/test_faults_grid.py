@@ -5,6 +5,15 @@ run, readers and signals that must not break a run, suites that must not reach o
 Grids use the fake sample function of ``tests/grid_fakes.py`` where the physics does not matter
 (seconds per case); the few cases about the physics (step limits, the pre-run probes) run the
 solver on a 3-sample zero record or one short record.
+
+Cases, by the number of the defect in the report they guard: 1 a resume across a code or default
+change, and one signature for one physics; 4 a solver step above the stability limit; 5 changed
+attributes, signature, journal lines and status bytes; 6 a reader holding the file open; 7 a
+signal to rank 0 under plain mpirun; 8 a full disk at creation; 9 suite files outside their
+folder, devices, bounded hashing, the lock through a symlink; 10 options that fail every row, a
+tiny step, absurd sizes, expected work, Ctrl-C inside simulate(); 12 a pair of unequal lengths
+(FEMA P695 FF15) and a failing record's reason in the summary; and the grid's misleading messages
+(--out DIR, "rows are in the journal", history_dt).
 """
 import json
 import os
@@ -13,6 +22,7 @@ import subprocess
 import sys
 import textwrap
 import time
+import warnings
 from pathlib import Path
 
 import h5py
@@ -381,3 +391,256 @@ def test_a_pair_of_unequal_lengths_runs_as_recorded_and_a_failing_record_says_wh
     lines = p.stdout.splitlines()
     k = lines.index("failed rows (status > 0; the message is stored in each row):")
     assert lines[k + 1] == f"  1 failed [BROKEN h1]: {msg}", lines[k:k + 3]
+
+
+# ------------------------------------------------------------------------------ 6: readers
+
+def test_a_reader_holding_the_file_open_does_not_abort_the_run(tmp_path):
+    # Reported: h5py.File(out, "r") held open (HDF5's default file locking) or results.load polling
+    # made the grid's next HDF5 write fail "unable to lock file" (exit 4).
+    out = tmp_path / "g.h5"
+    run = _start([*FAKE, "--out", str(out)], PCF_FAKE_SLEEP_S="0.15")
+    holder = None
+    try:
+        _wait_rows(out, 1, run)
+        holder = subprocess.Popen([sys.executable, "-c", "import h5py, sys, time\n"
+                                   "f = h5py.File(sys.argv[1], 'r')\nprint('open', flush=True)\ntime.sleep(30)\n",
+                                   str(out)], stdout=subprocess.PIPE, text=True, env=_env())
+        assert holder.stdout.readline().strip() == "open"  # a plain h5py reader, locks as HDF5 does by default
+        seen = 0
+        while run.poll() is None:  # and results.load polling meanwhile
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", UserWarning)  # no read called the file damaged
+                seen = max(seen, len(R.load(out)))
+            time.sleep(0.05)
+        text = run.stdout.read()
+        assert run.returncode == 0, text
+        assert seen >= 1
+    finally:
+        for p in (run, holder):
+            if p is not None and p.poll() is None:
+                p.kill()
+                p.wait()
+    after = R.load(out)
+    assert after.complete and len(after) == 16
+    _same_rows(_fresh(tmp_path), after)
+
+
+# ------------------------------------------------------------------------------ 7: signals under plain mpirun
+
+def _plain_rank_pids(out):
+    """pids of the python ranks of an mpirun writing ``out`` (argv: this python, the script, ... out)."""
+    pids = []
+    for d in Path("/proc").iterdir():
+        if not d.name.isdigit():
+            continue
+        try:
+            argv = (d / "cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if argv and argv[0].decode(errors="replace") == sys.executable and str(SCRIPT).encode() in argv \
+                and str(out).encode() in argv:
+            pids.append(int(d.name))
+    return pids
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_a_signal_to_rank_0_under_plain_mpirun_ends_every_rank_after_the_final_write(tmp_path, sig):
+    # Reported: SIGTERM/SIGINT to rank 0 alone under "mpirun -n 2 python scripts/run_grid.py" (the
+    # README's form, without -m mpi4py): the final write completed, then rank 1 spun at 99 % CPU forever.
+    import shutil
+    if shutil.which("mpirun") is None:
+        pytest.skip("mpirun not installed (make system)")
+    out = tmp_path / "g.h5"
+    args = [*FAKE[:-2], "--flush-s", "60", "--out", str(out)]  # no HDF5 batch before the signal: only the final write
+    cmd = ["timeout", "-k", "10", "120", "mpirun", "--allow-run-as-root", "-n", "2", sys.executable, str(SCRIPT), *args]
+    proc = subprocess.Popen(cmd, env=_env(PCF_FAKE_SLEEP_S="0.2"), cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    try:
+        _wait_rows(out, 4, proc)
+        rank0 = json.loads(R.lock_path(out).read_text())["pid"]
+        ranks = _plain_rank_pids(out)
+        assert rank0 in ranks and len(ranks) == 2, (rank0, ranks)
+        os.kill(rank0, sig)
+        text, _ = proc.communicate(timeout=60)  # before the fix: never (rank 1 waits forever; timeout ends it at 120 s)
+        t0 = time.time()
+        while any(Path(f"/proc/{r}").exists() for r in ranks):
+            assert time.time() - t0 < 10, "ranks still alive after mpirun ended"
+            time.sleep(0.1)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 128 + sig and proc.returncode != 124, text  # 124: the timeout had to end it
+    assert "interrupted" in text and "ending the other ranks" in text, text
+    n_journal = _journal_rows(out)
+    with h5py.File(out, "r") as f:
+        in_h5 = int((f["samples/status"][...] != R.STATUS_PENDING).sum())
+    assert in_h5 == n_journal >= 4  # the final write holds every row that reached rank 0
+
+
+# ------------------------------------------------------------------------------ 9: suite paths, the lock's path
+
+def _suite_csv(folder, file_h1, rid="R1"):
+    (folder / "suite.csv").write_text(f"record_id,file_h1,mw,rrup_km\n{rid},{file_h1},6.5,10\n")
+    return folder / "suite.csv"
+
+
+def test_suite_files_outside_the_suite_folder_are_refused_unless_allowed(tmp_path):
+    # Reported: a row naming ../somewhere/.token stored that file's 4th line in the results.
+    from pycolfrag import records
+    from pycolfrag.demo_records import write_at2
+    (tmp_path / "secret").mkdir()
+    (tmp_path / "secret" / ".token").write_text("line 1\nline 2\nline 3\nTOKEN-VALUE-42\n")
+    write_at2(tmp_path / "secret" / "ok.AT2", np.full(100, 0.01), 0.01)
+    suite = tmp_path / "suite"
+    suite.mkdir()
+    (suite / "link.AT2").symlink_to(tmp_path / "secret" / "ok.AT2")  # a symlink leading out, too
+    for name in ("../secret/.token", str(tmp_path / "secret" / "ok.AT2"), "link.AT2"):
+        csv = _suite_csv(suite, name)
+        with pytest.raises(records.RecordFileError, match="is outside the suite's folder") as exc:
+            records.load_records(csv)
+        assert "TOKEN" not in str(exc.value)
+        kept = records.load_records(csv, on_error="keep")  # the grid's way: the record's rows fail, naming why
+        assert "is outside the suite's folder" in kept[0].error and "TOKEN" not in kept[0].error
+    rec = records.load_records(csv, allow_outside=True)[0]  # the explicit opt-out
+    assert rec.n == 100 and rec.h1[0] == 0.01 * 9.81
+    out = tmp_path / "r.h5"
+    p = _ok(_serial(["--records", str(_suite_csv(suite, "../secret/.token")), "--no-figures", "--no-progress",
+                     "--out", str(out)]))
+    s = R.load(out).samples
+    assert s["status"][0] == R.STATUS_RECORD_FAILED and "outside the suite's folder" in s["message"][0]
+    assert "TOKEN" not in p.stdout and not any("TOKEN" in m for m in s["message"])
+
+
+def test_devices_are_refused_as_tables_and_record_files(tmp_path):
+    # Reported: /dev/zero was hashed without bound.
+    from pycolfrag import records
+    with pytest.raises(records.RecordFileError, match="suite table /dev/zero is not a regular file"):
+        records.load_records("/dev/zero")
+    csv = _suite_csv(tmp_path, "/dev/zero")
+    with pytest.raises(records.RecordFileError, match="'/dev/zero' is not a regular file"):
+        records.load_records(csv, allow_outside=True)
+    assert len(records._files_sha1(["/dev/zero"])) == 40  # a device hashes as its name, at once
+
+
+def test_record_file_hash_is_that_of_its_bytes_and_bounded(tmp_path, monkeypatch):
+    import hashlib
+    from pycolfrag import records
+    p = tmp_path / "a.bin"
+    data = bytes(range(256)) * 40
+    p.write_bytes(data)
+    assert records._files_sha1([p]) == hashlib.sha1(data + b"\0").hexdigest()  # whole small files, as before
+    monkeypatch.setattr(records, "MAX_HASH_BYTES", 1000)
+    assert records._files_sha1([p]) == hashlib.sha1(data[:1000] + b"size:10240" + b"\0").hexdigest()
+
+
+def test_a_symlink_to_a_results_file_meets_its_lock(tmp_path):
+    # Reported: a symlink to the results file bypassed the run lock (the lock was <link>.lock).
+    out = tmp_path / "g.h5"
+    link = tmp_path / "link.h5"
+    a = _start([*FAKE, "--out", str(out)], PCF_FAKE_SLEEP_S="0.5")
+    try:
+        _wait_rows(out, 1, a)
+        link.symlink_to(out)
+        p = _serial([*FAKE, "--out", str(link)])
+        assert p.returncode == 5 and f"pid {a.pid}" in p.stdout, p.stdout + p.stderr
+        assert not R.lock_path(link).exists()
+        assert len(R.load(link)) >= 1  # readers through the link see the journal beside the real file
+    finally:
+        _kill9(a)
+    _ok(_serial([*FAKE, "--out", str(link)]))  # resumes the real file through the link
+    assert link.is_symlink() and R.load(out).complete
+    _same_rows(_fresh(tmp_path), R.load(out))
+
+
+# ------------------------------------------------------------------------------ 8: full disk at creation
+
+@pytest.fixture
+def small_tmpfs(tmp_path):
+    """A 1 MB tmpfs (root only; skipped where mounting is impossible)."""
+    if os.geteuid() != 0:
+        pytest.skip("mounting a tmpfs needs root")
+    mnt = tmp_path / "mnt"
+    mnt.mkdir()
+    p = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(mnt)], capture_output=True, text=True)
+    if p.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {p.stderr.strip()}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)])
+
+
+def test_a_results_file_larger_than_the_disk_is_one_clear_line(small_tmpfs):
+    # Reported: a full disk while the HDF5 file was created gave a RuntimeError traceback and a
+    # segfault (exit 139). 4 x 4 x 500 rows of ~900 bytes do not fit 1 MB: refused before creating.
+    from pycolfrag.results import row_bytes
+    out = small_tmpfs / "g.h5"
+    p = _serial([*FAKE[:FAKE.index("--samples")], "--samples", "500", *FAKE[FAKE.index("--samples") + 2:],
+                 "--out", str(out)])
+    assert p.returncode == 4, p.stdout + p.stderr
+    need = 4 * 500 * row_bytes(10)  # the default 10 periods
+    line = p.stdout.strip().splitlines()[-1]
+    assert line.startswith(f"run_grid: cannot write the results at {out}: No space left on device: the results "
+                           f"file needs {need / 1e9:.3g} GB (2000 rows of {row_bytes(10)} bytes)"), line
+    assert "no row was computed" in line and "Traceback" not in p.stdout + p.stderr
+    assert list(small_tmpfs.iterdir()) == []
+
+
+def test_a_disk_filling_up_while_the_file_is_created_raises_enospc_and_leaves_nothing(small_tmpfs):
+    # The free-space check passed (another process filled the disk meanwhile): creating the file
+    # must give the OSError of a full disk, leave no .tmp or .journal, and not crash the process.
+    (small_tmpfs / "filler").write_bytes(b"\0" * 600_000)
+    code = ("import sys\nfrom pycolfrag import results as R\n"
+            "try:\n    R.create(sys.argv[1], {'a': 1}, {}, 2000, [0.5, 1.0])\n"
+            "except OSError as e:\n    print('OSError', e.errno, e.strerror)\n")
+    p = subprocess.run([sys.executable, "-c", code, str(small_tmpfs / "g.h5")], capture_output=True, text=True,
+                       env=_env(), timeout=60)
+    assert p.returncode == 0 and p.stdout.strip() == "OSError 28 No space left on device", p.stdout + p.stderr
+    assert "Traceback" not in p.stderr
+    assert sorted(x.name for x in small_tmpfs.iterdir()) == ["filler"]
+
+
+# ------------------------------------------------------------------------------ 10: Ctrl-C inside simulate()
+
+def test_ctrl_c_inside_simulate_interrupts_the_c_run_promptly():
+    # Reported: Ctrl-C inside simulate() waited 94 s (the C run never returned to Python). The run
+    # here needs (5 s + the 3 s tail) / 5e-7 s = 1.6e7 steps, about a minute; the C run now calls
+    # back every CF_SOLVER_CHECK_STEPS steps (a few ms), where Python raises the KeyboardInterrupt.
+    code = textwrap.dedent("""
+        import sys, time, numpy as np, pycolfrag as pcf
+        col = pcf.Column.parthenon()
+        t = np.arange(0, 5.0, 0.005)
+        acc = 0.25 * 9.81 * np.sin(2 * np.pi * 2 * t)
+        print("start", flush=True)
+        try:
+            pcf.simulate(col, acc, 0.005, dt_solver=5e-7)
+            print("finished", flush=True)
+        except KeyboardInterrupt:
+            print("interrupted", flush=True)
+        short = pcf.simulate(col, acc[:200], 0.005)  # the next run is a normal one (no check left over)
+        ref = pcf.simulate(col, acc[:200], 0.005)
+        print("after", short.u_top == ref.u_top and short.n_steps == ref.n_steps, flush=True)
+    """)
+    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         env=_env())
+    try:
+        assert p.stdout.readline().strip() == "start"
+        time.sleep(1.0)
+        t0 = time.time()
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=120)
+        waited = time.time() - t0
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert out.split() == ["interrupted", "after", "True"], out + err
+    assert waited < 20, waited  # a bound far below the minute of the uninterrupted run, not a timing
+
+
+def test_a_sample_function_that_cannot_be_imported_is_refused_in_one_line(tmp_path, capsys):
+    line = _refused(BASE + ["--sample-function", "no_such_module_xyz:fake"], capsys, tmp_path)
+    assert line == ("run_grid: --sample-function no_such_module_xyz:fake: ModuleNotFoundError: No module named "
+                    "'no_such_module_xyz'"), line

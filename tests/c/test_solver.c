@@ -111,6 +111,42 @@ static void test_determinism(void)
     cf_solver_free(s);
 }
 
+static int check_calls;
+static int stop_on_second_call(void *user)
+{
+    (void)user;
+    return ++check_calls >= 2;
+}
+
+/* The caller's check stops a run at the step it is asked at (CF_EINTR), and changes nothing when
+ * it lets the run go on: the same numbers, bit for bit, as without a check. */
+static void test_caller_check(void)
+{
+    cf_geometry_segment seg[14]; int nseg[13], i;
+    cf_solver_def d;
+    cf_solver_result r1, r2;
+    double acc[400], res1[13], res2[13];
+    cf_solver *s = cf_solver_create();
+    parthenon(seg, nseg);
+    for (i = 0; i < 400; i++) acc[i] = 0.3 * 9.81 * sin(2 * CF_PI * 2.0 * i * 0.005);
+    cf_solver_def_default(&d);
+    d.tail_s = 30.0; d.early_exit = 0;   /* 32 s of response: far more than 2 x CF_SOLVER_CHECK_STEPS steps */
+    CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, 0.75) == CF_OK);
+    CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 400, 0.005, res1, &r1) == CF_OK);
+    CF_CHECK(r1.n_steps > 2 * CF_SOLVER_CHECK_STEPS);
+    check_calls = 0;
+    CF_CHECK(cf_solver_set_check(s, stop_on_second_call, NULL) == CF_OK);
+    CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 400, 0.005, res2, &r2) == CF_EINTR);
+    CF_CHECK(check_calls == 2 && r2.n_steps == 2 * CF_SOLVER_CHECK_STEPS - 1);
+    CF_CHECK(strstr(cf_solver_message(s), "stopped by the caller") != NULL);
+    check_calls = -1000000;                  /* a check that never stops: the run is unchanged */
+    CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 400, 0.005, res2, &r2) == CF_OK);
+    CF_CHECK(r2.u_top == r1.u_top && r2.u_d == r1.u_d && r2.n_steps == r1.n_steps);
+    CF_CHECK(memcmp(res1, res2, sizeof res1) == 0);
+    CF_CHECK(strcmp(cf_common_status_name(CF_EINTR), "CF_EINTR") == 0);
+    cf_solver_free(s);
+}
+
 /* Largest eigenvalue (stability limit): the second-difference matrix tridiag(-1, 2, -1)
  * of size n has eigenvalues 2 - 2 cos(k pi / (n + 1)); a dense matrix Q diag(l) Q^T with
  * a Householder reflector Q = I - 2 u u^T has eigenvalues l. */
@@ -181,5 +217,6 @@ int main(void)
     CF_RUN(test_statics);
     CF_RUN(test_bad_input);
     CF_RUN(test_determinism);
+    CF_RUN(test_caller_check);
     return CF_TEST_SUMMARY("test_solver");
 }
