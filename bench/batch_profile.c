@@ -133,7 +133,7 @@ int main(int argc, char **argv)
             steps += out[i].result.n_steps;
             h = hash_result(h, out[i].status, &out[i].result, resid + (size_t)i * NB);
         }
-        if (width == 0) width = cf_solver_batch_width(s);
+        if (width == 0) width = cf_solver_batch_width(s, count);
         free(jobs); free(out);
     }
 #endif

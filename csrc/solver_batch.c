@@ -90,10 +90,24 @@ static int widest(const cf_solver *s)
 #endif
 }
 
-int cf_solver_batch_width(const cf_solver *s)
+int cf_solver_batch_max_width(const cf_solver *s)
 {
     if (!s || !s->ready) return 0;
     return widest(s);
+}
+
+/* The width that pays, measured (docs/performance.md): a lane costs 0.53 of a single run at
+ * width 8 and 0.71 at width 4 when every lane is busy, and a batch pays for its idle lanes,
+ * so 8 from 5 jobs on, 4 from 3 jobs on; two lanes of SSE2 cost 1.05 of a single run (SSE2
+ * points): never by default. */
+int cf_solver_batch_width(const cf_solver *s, int n_jobs)
+{
+    int w;
+    if (!s || !s->ready) return 0;
+    w = widest(s);
+    if (w >= 8 && n_jobs >= 5) return 8;
+    if (w >= 4 && n_jobs >= 3) return 4;
+    return 1;
 }
 
 /* Width 1: the jobs one after the other, each a run of a freshly reset solver. */
@@ -130,11 +144,11 @@ int cf_solver_batch_run(cf_solver *s, int width, int n_jobs, const cf_solver_bat
     if (n_jobs > 0 && (!jobs || !out)) return cf_solver_fail(s, CF_EINVAL, "no jobs or no outputs");
     w = widest(s);
     if (width != 0 && width != 1 && width != 2 && width != 4 && width != 8)
-        return cf_solver_fail(s, CF_EINVAL, "width must be 0 (the widest), 1, 2, 4 or 8, got %d", width);
+        return cf_solver_fail(s, CF_EINVAL, "width must be 0 (automatic), 1, 2, 4 or 8, got %d", width);
     if (width > w)
         return cf_solver_fail(s, CF_EINVAL, "width %d: this CPU and build run at most %d runs side by side for "
                               "this column", width, w);
-    if (width == 0) width = w;
+    if (width == 0) width = cf_solver_batch_width(s, n_jobs);
     if (n_jobs == 0) return CF_OK;
     s->msg[0] = 0;
 #ifdef CF_BATCH_LANES

@@ -37,12 +37,17 @@ typedef struct {
     cf_solver_result result;
 } cf_solver_batch_out;
 
-/* The widest batch the set-up solver s runs on this CPU and build: 8, 4, 2, or 1 (one
- * run after the other: the exact-interface contact model, or a build without SIMD). */
-int cf_solver_batch_width(const cf_solver *s);
+/* The widest batch the set-up solver s runs on this CPU and build: 8 (AVX-512), 4 (AVX2),
+ * 2 (SSE2), or 1 (one run after the other: the exact-interface contact model, or a build
+ * without SIMD); 0 before set-up. */
+int cf_solver_batch_max_width(const cf_solver *s);
+/* The width cf_solver_batch_run takes for n_jobs jobs when asked for 0: the widest that is
+ * faster than one run after the other for that many jobs (8 from 5 jobs on, 4 from 3 on,
+ * else 1; 2 lanes of SSE2 are slower than one SSE2 run, so never 2). */
+int cf_solver_batch_width(const cf_solver *s, int n_jobs);
 
-/* Runs n_jobs jobs on the column of s (set up), width runs at a time: 0 = the widest
- * (cf_solver_batch_width), else 1, 2, 4 or 8 up to the widest. Returns CF_OK when every
+/* Runs n_jobs jobs on the column of s (set up), width runs at a time: 0 = automatic
+ * (cf_solver_batch_width), else 1, 2, 4 or 8 up to cf_solver_batch_max_width. Returns CF_OK when every
  * job was attempted (each job's own status is in out[i].status), CF_EINVAL for bad
  * arguments, CF_ESTATE before set-up, CF_ENOMEM; the message is on s. Uses s's time
  * step and options; s's own state is left as after a run. */

@@ -213,7 +213,7 @@ static int batch(const config *c, int early_exit)
         cf_solver_free(s1);
     }
     for (w = 0; w < 4 && !bad; w++) {
-        if (widths[w] > cf_solver_batch_width(s)) continue;
+        if (widths[w] > cf_solver_batch_max_width(s)) continue;
         for (i = 0; i < NJOB; i++) { memset(jb[i].buf, 0, jb[i].nbuf * sizeof(double)); memset(jb[i].resid, 0, sizeof jb[i].resid); }
         memset(o, 0xff, NJOB * sizeof *o);
         if (cf_solver_batch_run(s, widths[w], NJOB, bj, o)) { printf("%s: batch failed: %s\n", c->name, cf_solver_message(s)); bad = 1; break; }
