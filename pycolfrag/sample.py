@@ -262,14 +262,25 @@ def run_synthetic_samples(column, samples, *, record_dt_s=0.005, vp_scale=1.0, p
     its sample, but faster. ``samples``: (mw, dist_km, hf_seed, pulse) of each; the other arguments
     as :func:`run_synthetic_sample`. ``wall_s`` of a row: its record and IMs, and of the batch's
     solver time the share of its steps."""
-    rows, runs, owner, times = [], [], [], []
-    for i, (mw, dist_km, hf_seed, pulse) in enumerate(samples):
-        t0 = time.perf_counter()
+    def prepare(mw, dist_km, hf_seed, pulse):
         out, acc, dt = _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s)
+        return out, (None if acc is None else {"acc_x": acc, "dt": dt})
+    return _batch_rows(column, samples, prepare, periods_s, damping, solver_options)
+
+
+def _batch_rows(column, samples, prepare, periods_s, damping, solver_options) -> list[dict]:
+    """Rows of many samples: ``prepare(*sample)`` gives each its row so far and its run (None when it
+    failed before the run), then :func:`response_rows` runs them together; ``wall_s`` of a row: its
+    own preparation and IMs, and the share of its steps of the batch's solver time."""
+    rows, runs, owner, times = [], [], [], []
+    for i, smp in enumerate(samples):
+        t0 = time.perf_counter()
+        out, run = prepare(*smp)
         rows.append(out)
         times.append(time.perf_counter() - t0)
-        if acc is not None:
-            runs.append({"out": out, "acc_x": acc, "dt": dt})
+        if run is not None:
+            run["out"] = out
+            runs.append(run)
             owner.append(i)
     run_times = [0.0] * len(runs)
     response_rows(column, runs, periods_s=periods_s, damping=damping, solver_options=solver_options,
@@ -365,24 +376,9 @@ def run_record_samples(samples, *, column, vertical=False, rotation_deg=None, pe
     :func:`run_record_sample` of its sample, but faster. ``samples``: (record, component, scale) of
     each; the other arguments as :func:`run_record_sample`. ``wall_s`` as in
     :func:`run_synthetic_samples`."""
-    rows, runs, owner, times = [], [], [], []
-    for i, (record, component, scale) in enumerate(samples):
-        t0 = time.perf_counter()
-        out, run = _record_run(record, component, scale, vertical, rotation_deg, periods_s, damping, max_record_s)
-        rows.append(out)
-        times.append(time.perf_counter() - t0)
-        if run is not None:
-            run["out"] = out
-            runs.append(run)
-            owner.append(i)
-    run_times = [0.0] * len(runs)
-    response_rows(column, runs, periods_s=periods_s, damping=damping, solver_options=solver_options,
-                  times=run_times)
-    for i, t in zip(owner, run_times):
-        times[i] += t
-    for out, t in zip(rows, times):
-        out["wall_s"] = t
-    return rows
+    def prepare(record, component, scale):
+        return _record_run(record, component, scale, vertical, rotation_deg, periods_s, damping, max_record_s)
+    return _batch_rows(column, samples, prepare, periods_s, damping, solver_options)
 
 
 def rows_to_table(rows) -> dict:
