@@ -28,13 +28,11 @@
 #define CF_BN(n) n##_w2
 #define CF_BW_SQRT(x) ((VD)_mm_sqrt_pd((__m128d)(x)))
 #define CF_BW_BITS(m) _mm_movemask_pd((__m128d)(m))
-#define CF_BW_GATHER(b, i) ((VD){(b)[(i)[0]], (b)[(i)[1]]})
 #include "solver_batch_lanes.h"
 #undef CF_BW
 #undef CF_BN
 #undef CF_BW_SQRT
 #undef CF_BW_BITS
-#undef CF_BW_GATHER
 
 #if !defined(CF_FORCE_SSE2)
 #define CF_BATCH_AVX2 1
@@ -44,13 +42,11 @@
 #define CF_BN(n) n##_w4
 #define CF_BW_SQRT(x) ((VD)_mm256_sqrt_pd((__m256d)(x)))
 #define CF_BW_BITS(m) _mm256_movemask_pd((__m256d)(m))
-#define CF_BW_GATHER(b, i) ((VD)_mm256_i32gather_pd((b), _mm_loadu_si128((const __m128i *)(i)), 8))
 #include "solver_batch_lanes.h"
 #undef CF_BW
 #undef CF_BN
 #undef CF_BW_SQRT
 #undef CF_BW_BITS
-#undef CF_BW_GATHER
 #pragma GCC pop_options
 
 #if !defined(CF_FORCE_AVX2)
@@ -61,13 +57,11 @@
 #define CF_BN(n) n##_w8
 #define CF_BW_SQRT(x) ((VD)_mm512_sqrt_pd((__m512d)(x)))
 #define CF_BW_BITS(m) ((int)_mm512_test_epi64_mask((__m512i)(m), (__m512i)(m)))
-#define CF_BW_GATHER(b, i) ((VD)_mm512_i32gather_pd(_mm256_loadu_si256((const __m256i *)(i)), (b), 8))
 #include "solver_batch_lanes.h"
 #undef CF_BW
 #undef CF_BN
 #undef CF_BW_SQRT
 #undef CF_BW_BITS
-#undef CF_BW_GATHER
 #pragma GCC pop_options
 #endif
 #endif

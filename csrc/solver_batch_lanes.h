@@ -5,7 +5,6 @@
  *   CF_BN(n)         the width's name of n
  *   CF_BW_SQRT(x)    per lane square root of a lane vector
  *   CF_BW_BITS(m)    the lanes of a mask as the bits of an int (lane l: bit l)
- *   CF_BW_GATHER(b, i)  the lane vector (b[i[0]], b[i[1]], ...) of doubles b, ints i
  * inside a target region of the instruction set of that width. Included without CF_BW
  * (as the Python build includes every header) it is empty.
  *
@@ -44,9 +43,16 @@ typedef struct {
 #undef CF_PH_STATE
 #undef CF_PH_NAME
 
-/* lanes of a row of a joint chunk (stride CF_JCH) <-> a lane vector */
+/* lanes of a row of a joint chunk (stride CF_JCH) <-> a lane vector; a double in every lane */
 static inline VD CF_BN(ld)(const double *p) { VD v; memcpy(&v, p, sizeof v); return v; }
 static inline void CF_BN(st)(double *p, VD v) { memcpy(p, &v, sizeof v); }
+static inline VD CF_BN(splat)(double x)
+{
+    VD v;
+    int l;
+    for (l = 0; l < CF_BW; l++) v[l] = x;
+    return v;
+}
 static inline VD CF_BN(mask)(VD a, VM m) { return (VD)((VM)a & m); }
 
 /* Everything the batch keeps: the lanes' state, and per lane its run (cf_run), a view of
@@ -57,11 +63,26 @@ typedef struct {
     VD *jfn;                        /* nj: normal force of each joint this step */
     double *fsx, *fsy, *pst, *pen0; /* np x CF_BW: the points' state, lane innermost */
     int *hint;                      /* np x CF_BW */
+    /* np x CF_BW each: the edge normals at the hint, the next and the previous edge of the face
+     * the point is tested against, kept with the hint (loads instead of gathers) */
+    double *he[6];
+    const cf_face **pface;          /* np: that face */
     cf_run r[CF_BW];
     cf_solver view[CF_BW];
     int job[CF_BW];                 /* -1: idle */
     double *lane_mem[CF_BW];        /* the views' x, R, q, jfn */
 } CF_BN(batch);
+
+/* The cached edge normals of point k in lane l, from its hint h: (ec, es) of edges h, h + 1, h - 1 */
+static inline void CF_BN(hint_edges)(CF_BN(batch) *B, int k, int l)
+{
+    const cf_face *ff = B->pface[k];
+    size_t i = (size_t)k * CF_BW + (size_t)l;
+    int h = B->hint[i];
+    B->he[0][i] = ff->ecw[h + 1]; B->he[1][i] = ff->esw[h + 1];
+    B->he[2][i] = ff->ecw[h + 2]; B->he[3][i] = ff->esw[h + 2];
+    B->he[4][i] = ff->ecw[h]; B->he[5][i] = ff->esw[h];
+}
 
 /* Lane l to the rest state of the column (what cf_solver_stack_reset gives a run). */
 static void CF_BN(lane_reset)(const cf_solver *s, CF_BN(batch) *B, int l)
@@ -82,6 +103,7 @@ static void CF_BN(lane_reset)(const cf_solver *s, CF_BN(batch) *B, int l)
     for (k = 0; k < s->np; k++) {
         B->fsx[k * CF_BW + l] = 0; B->fsy[k * CF_BW + l] = 0; B->pst[k * CF_BW + l] = 0;
         B->pen0[k * CF_BW + l] = 0; B->hint[k * CF_BW + l] = 0;
+        CF_BN(hint_edges)(B, k, l);
     }
 }
 
@@ -152,9 +174,11 @@ static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk 
             CF_BN(st)(C->xl[i], b->x[3 * bl + i]); CF_BN(st)(C->xu[i], b->x[3 * bu + i]);
             CF_BN(st)(C->vl[i], b->v[3 * bl + i]); CF_BN(st)(C->vu[i], b->v[3 * bu + i]);
             CF_BN(st)(C->wl[i], b->ww[3 * bl + i]); CF_BN(st)(C->wu[i], b->ww[3 * bu + i]);
-            for (l = 0; l < CF_BW; l++) { C->fcl[i][l] = J->fl.c[i]; C->fcu[i][l] = J->fu.c[i]; }
+            CF_BN(st)(C->fcl[i], CF_BN(splat)(J->fl.c[i])); CF_BN(st)(C->fcu[i], CF_BN(splat)(J->fu.c[i]));
         }
-        for (l = 0; l < CF_BW; l++) { C->lz[0][l] = J->lz[0]; C->lz[1][l] = J->lz[1]; C->gl[l] = bl != 0 ? 1.0 : 0.0; }
+        /* whole vectors (the lane functions load them as such: no store forwarding from doubles) */
+        CF_BN(st)(C->lz[0], CF_BN(splat)(J->lz[0])); CF_BN(st)(C->lz[1], CF_BN(splat)(J->lz[1]));
+        CF_BN(st)(C->gl, CF_BN(splat)(bl != 0 ? 1.0 : 0.0));
         before(C, CF_BW, s->dt);
         for (side = 0; side < 2; side++) {
             int k0 = side == 0 ? J->p0 : J->p0 + J->n0, k1 = side == 0 ? J->p0 + J->n0 : end, k, built = 0;
@@ -163,7 +187,7 @@ static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk 
             VD s0 = zero, s1 = zero, s2 = zero, s3 = zero, s4 = zero, s5 = zero;
             const cf_face *ff;
             double apo2, apotol;
-            for (l = 0; l < CF_BW; l++) C->has[side][l] = k1 > k0 ? 1.0 : 0.0;
+            CF_BN(st)(C->has[side], CF_BN(splat)(k1 > k0 ? 1.0 : 0.0));
             if (k1 <= k0) {
                 for (i = 0; i < 6; i++) CF_BN(st)(C->sm[side][i], zero);
                 continue;
@@ -206,12 +230,12 @@ static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk 
                         /* the polygon test where the lane's hint edge is still its most distant
                          * edge (cf_face_inside_hint would stay there and leave the hint): inside
                          * or outside; where the walk would move, cf_point_law_at decides */
-                        const int *h = B->hint + (size_t)k * CF_BW;
+                        size_t o = (size_t)k * CF_BW;
                         VD best, pp, pm;
                         VM stay;
-                        best = X * CF_BW_GATHER(ff->ecw + 1, h) + Y * CF_BW_GATHER(ff->esw + 1, h);
-                        pp = X * CF_BW_GATHER(ff->ecw + 2, h) + Y * CF_BW_GATHER(ff->esw + 2, h);
-                        pm = X * CF_BW_GATHER(ff->ecw, h) + Y * CF_BW_GATHER(ff->esw, h);
+                        best = X * CF_BN(ld)(B->he[0] + o) + Y * CF_BN(ld)(B->he[1] + o);
+                        pp = X * CF_BN(ld)(B->he[2] + o) + Y * CF_BN(ld)(B->he[3] + o);
+                        pm = X * CF_BN(ld)(B->he[4] + o) + Y * CF_BN(ld)(B->he[5] + o);
                         stay = ~in & ~(pp > best) & ~(pm > best);
                         out = stay & ~(best <= apotol);
                         in = in | (stay & (best <= apotol));
@@ -252,23 +276,33 @@ static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk 
                 open = open | lift | (act & out & (st == 2.0));
                 bits = CF_BW_BITS(ok | open);
                 fb = ~bits & ((1 << CF_BW) - 1);
-                /* the other lanes: the full law on the lane's own state, one lane at a time */
-                for (l = 0; fb; l++, fb >>= 1) {
-                    cf_face_sums S;
-                    double t[8];
-                    if (!(fb & 1)) continue;
-                    if (!(built & (1 << l))) {
-                        PL[l] = P;
-                        cf_face_pass_lane(C, side, l, &PL[l]);
-                        built |= 1 << l;
+                /* the other lanes: the full law on the lane's own state, one lane at a time, its
+                 * terms added to the lane's sums (through memory, so that the sums stay in
+                 * registers on the vector path) */
+                if (fb) {
+                    double sa[8][CF_BW], dsl[CF_BW], dsw[CF_BW];
+                    CF_BN(st)(sa[0], s0); CF_BN(st)(sa[1], s1); CF_BN(st)(sa[2], s2); CF_BN(st)(sa[3], s3);
+                    CF_BN(st)(sa[4], s4); CF_BN(st)(sa[5], s5); CF_BN(st)(sa[6], s6); CF_BN(st)(sa[7], s7);
+                    CF_BN(st)(dsl, dslip); CF_BN(st)(dsw, dswitch);
+                    for (l = 0; fb; l++, fb >>= 1) {
+                        cf_face_sums S;
+                        double t[8];
+                        if (!(fb & 1)) continue;
+                        if (!(built & (1 << l))) {
+                            PL[l] = P;
+                            cf_face_pass_lane(C, side, l, &PL[l]);
+                            built |= 1 << l;
+                        }
+                        S.dslip = dsl[l]; S.dswitch = dsw[l];
+                        if (cf_point_law_at(s, &PL[l], k, pfsx + l, pfsy + l, pst + l,
+                                            B->pen0 + (size_t)k * CF_BW + l, B->hint + (size_t)k * CF_BW + l, &S, t))
+                            for (i = 0; i < 8; i++) sa[i][l] += t[i];
+                        dsl[l] = S.dslip; dsw[l] = S.dswitch;
+                        CF_BN(hint_edges)(B, k, l);
                     }
-                    S.dslip = dslip[l]; S.dswitch = dswitch[l];
-                    if (cf_point_law_at(s, &PL[l], k, pfsx + l, pfsy + l, pst + l, B->pen0 + (size_t)k * CF_BW + l,
-                                        B->hint + (size_t)k * CF_BW + l, &S, t)) {
-                        s0[l] += t[0]; s1[l] += t[1]; s2[l] += t[2]; s3[l] += t[3]; s4[l] += t[4]; s5[l] += t[5];
-                        s6[l] += t[6]; s7[l] += t[7];
-                    }
-                    dslip[l] = S.dslip; dswitch[l] = S.dswitch;
+                    s0 = CF_BN(ld)(sa[0]); s1 = CF_BN(ld)(sa[1]); s2 = CF_BN(ld)(sa[2]); s3 = CF_BN(ld)(sa[3]);
+                    s4 = CF_BN(ld)(sa[4]); s5 = CF_BN(ld)(sa[5]); s6 = CF_BN(ld)(sa[6]); s7 = CF_BN(ld)(sa[7]);
+                    dslip = CF_BN(ld)(dsl); dswitch = CF_BN(ld)(dsw);
                 }
             }
             CF_BN(st)(C->sm[side][0], s0); CF_BN(st)(C->sm[side][1], s1); CF_BN(st)(C->sm[side][2], s2);
@@ -302,9 +336,10 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
     cf_joint_chunk *C;
     cf_chunk_before_fn before;
     cf_chunk_after_fn after;
-    int nb = s->nbody, np = s->np, nj = s->nj, l, next = 0, active, nomem = 0;
+    int nb = s->nbody, np = s->np, nj = s->nj, l, i, j, next = 0, active, nomem = 0;
     size_t nvec = (size_t)46 * nb + (size_t)nj, nd = 4 * (size_t)np * CF_BW;
-    size_t bytes = nvec * sizeof(VD) + nd * sizeof(double) + (size_t)np * CF_BW * sizeof(int) + 64;
+    size_t bytes = nvec * sizeof(VD) + (nd + 6 * (size_t)np * CF_BW) * sizeof(double)
+                   + (size_t)np * CF_BW * sizeof(int) + (size_t)np * sizeof(cf_face *) + 64;
     unsigned char *raw, *p;
     const VD zero = {0};
     B = (CF_BN(batch) *)calloc(1, sizeof *B);
@@ -329,7 +364,14 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
 #undef TAKE
     B->fsx = (double *)p; B->fsy = B->fsx + (size_t)np * CF_BW; B->pst = B->fsy + (size_t)np * CF_BW;
     B->pen0 = B->pst + (size_t)np * CF_BW;
-    B->hint = (int *)(B->pen0 + (size_t)np * CF_BW);
+    for (i = 0; i < 6; i++) B->he[i] = B->pen0 + (size_t)(i + 1) * np * CF_BW;
+    B->pface = (const cf_face **)(B->he[5] + (size_t)np * CF_BW);
+    B->hint = (int *)(B->pface + np);
+    for (j = 0; j < nj; j++) {
+        const cf_joint *J = &s->jt[j];
+        int k;
+        for (k = J->p0; k < J->p0 + J->np; k++) B->pface[k] = k < J->p0 + J->n0 ? &J->fl : &J->fu;
+    }
     cf_solver_points_chunk_fns(&before, &after);
     for (l = 0; l < CF_BW; l++) {
         cf_solver *v = &B->view[l];
