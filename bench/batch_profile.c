@@ -6,8 +6,9 @@
  * Records file (native doubles): count, then per record: n, dt, n accelerations (m/s^2).
  * Run:
  *   build/batch_profile FILE single        every record alone, a fresh reset per run
- *   build/batch_profile FILE batch=W       cf_solver_batch_run at width W (0: the widest)
- * Options as the grid's (SolverOptions defaults: vertex, dt_factor 0.8, early exit, tail 3 s).
+ *   build/batch_profile FILE batch=W       cf_solver_batch_run at width W (0: automatic)
+ * then optionally perimeterN (N points per edge), exact, planar, mono: else the grid's options
+ * (SolverOptions defaults: vertex, dt_factor 0.8, early exit, tail 3 s).
  * Prints: runs, total steps, thread CPU seconds, CPU microseconds per run-step, and a hash of
  * every run's result bits (the same for every mode when the batch is bitwise the single run).
  * Built with -DNO_BATCH (a baseline tree without the batch API), only "single" exists.
@@ -68,7 +69,7 @@ int main(int argc, char **argv)
     unsigned long long h = 1469598103934665603ULL;
     double c0, c1;
     FILE *f;
-    if (argc < 3) { fprintf(stderr, "usage: %s FILE single|batch=W\n", argv[0]); return 2; }
+    if (argc < 3) { fprintf(stderr, "usage: %s FILE single|batch=W [perimeterN|exact|planar|mono]...\n", argv[0]); return 2; }
     if (!strncmp(argv[2], "batch=", 6)) width = atoi(argv[2] + 6);
     else if (strcmp(argv[2], "single")) { fprintf(stderr, "unknown mode %s\n", argv[2]); return 2; }
 #ifdef NO_BATCH
@@ -88,6 +89,15 @@ int main(int argc, char **argv)
     fclose(f);
     parthenon_column(seg, nseg);
     cf_solver_def_default(&def);
+    for (i = 3; i < argc; i++) {
+        if (!strncmp(argv[i], "perimeter", 9)) {
+            def.contact = CF_SOLVER_CONTACT_PERIMETER;
+            def.points_per_edge = atoi(argv[i] + 9) > 0 ? atoi(argv[i] + 9) : 1;
+        } else if (!strcmp(argv[i], "exact")) def.contact = CF_SOLVER_CONTACT_EXACT;
+        else if (!strcmp(argv[i], "planar")) def.planar = 1;
+        else if (!strcmp(argv[i], "mono")) def.monolithic = 1;
+        else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
+    }
     s = cf_solver_create();
     if (cf_solver_setup(s, &def, NB, nseg, seg, 2700.0, 1e9, 1e9, 0.7535540501027942)) {
         fprintf(stderr, "setup: %s\n", cf_solver_message(s));

@@ -61,8 +61,8 @@ def write_records(path: Path, n: int) -> tuple[list[int], float]:
     return rows, float(np.mean(lens))
 
 
-def run(exe: Path, records: Path, mode: str) -> tuple[float, int, int, str, int]:
-    p = subprocess.run([str(exe), str(records), mode], capture_output=True, text=True, check=True)
+def run(exe: Path, records: Path, mode: str, case: list[str]) -> tuple[float, int, int, str, int]:
+    p = subprocess.run([str(exe), str(records), mode, *case], capture_output=True, text=True, check=True)
     m = re.search(r"runs (\d+) steps (\d+) cpu ([0-9.]+) us/run-step [0-9.]+ width (\d+) hash ([0-9a-f]+)", p.stdout)
     if not m:
         raise SystemExit(f"unexpected output of {exe}: {p.stdout}{p.stderr}")
@@ -75,6 +75,8 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=3, help="alternating rounds (best of all is reported)")
     ap.add_argument("--baseline", type=Path, help="checkout of a baseline commit (its single-run path)")
     ap.add_argument("--widths", type=int, nargs="*", default=[1, 2, 4, 8], help="batch widths to time")
+    ap.add_argument("--case", nargs="*", default=[], help="solver options of bench/batch_profile.c "
+                    "(perimeterN, exact, planar, mono; default: the grid's)")
     args = ap.parse_args(argv)
     bdir = ROOT / "build"
     bdir.mkdir(exist_ok=True)
@@ -93,13 +95,14 @@ def main(argv=None):
     print(f"this tree ({rev(ROOT)})" + (f" vs baseline {args.baseline} ({rev(args.baseline)})" if args.baseline
                                          else "") + f", {_cpu_model()}")
     print(f"{len(rows)} default-grid rows (every {rows[1] - rows[0] if len(rows) > 1 else 0}th, mean record "
-          f"{mean_s:.1f} s), default options (vertex, dt_factor 0.8, early exit); best thread CPU time over "
+          f"{mean_s:.1f} s), options {' '.join(args.case) or 'of the grid'} (else vertex, dt_factor 0.8, early "
+          "exit); best thread CPU time over "
           f"{args.rounds} alternating rounds")
     best, info = {}, {}
     for _ in range(args.rounds):
         for name, exe, mode in modes:
             try:
-                cpu, steps, nruns, h, w = run(exe, records, mode)
+                cpu, steps, nruns, h, w = run(exe, records, mode, args.case)
             except subprocess.CalledProcessError as exc:   # a width this CPU does not run
                 info[name] = None
                 print(f"  {name}: {exc.stderr.strip()}", file=sys.stderr)
