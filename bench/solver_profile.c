@@ -29,6 +29,7 @@
 #include "cf_common.h"
 #include "geometry.h"
 #include "solver.h"
+#include "parthenon_column.h"
 
 static double now(void)
 {
@@ -87,24 +88,7 @@ int main(int argc, char **argv)
         else { fprintf(stderr, "unknown argument %s\n", argv[a]); return 2; }
     }
     if (repeat < 1) repeat = 1;
-    /* Column.parthenon(): 12 drums tapering from 0.825 m to 0.64 m (radii as Python holds them),
-     * then the capital (echinus frustum + square abacus, one block) */
-    {
-        static const double r[13] = {0.825, 0.8095833333333333, 0.7941666666666666, 0.7787499999999999,
-                                     0.7633333333333333, 0.7479166666666667, 0.7324999999999999,
-                                     0.7170833333333333, 0.7016666666666667, 0.68625, 0.6708333333333333,
-                                     0.6554166666666666, 0.64};
-        for (i = 0; i < 12; i++) {
-            seg[i].height = 0.7816666666666667;
-            seg[i].r_bottom = r[i]; seg[i].r_top = r[i + 1];
-            seg[i].phase_rad = 0.0; seg[i].n_sides = 10;
-            nseg[i] = 1;
-        }
-    }
-    seg[12].height = 0.4; seg[12].r_bottom = 0.64; seg[12].r_top = 0.83; seg[12].phase_rad = 0.0; seg[12].n_sides = 10;
-    seg[13].height = 0.3; seg[13].r_bottom = 1.2232947314527272; seg[13].r_top = 1.2232947314527272;
-    seg[13].phase_rad = 0.7853981633974483; seg[13].n_sides = 4;
-    nseg[12] = 2;
+    parthenon_column(seg, nseg);
     acc = (double *)malloc(sizeof(double) * (size_t)nrec);
     times = (double *)malloc(sizeof(double) * (size_t)repeat);
     cpu = (double *)malloc(sizeof(double) * (size_t)repeat);

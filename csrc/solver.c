@@ -215,7 +215,7 @@ int cf_solver_set_history(cf_solver *s, long cap, double *t, double *top, double
 
 /* ---- the run --------------------------------------------------------------------- */
 
-static inline double ground_acc(const double *a, int n, double dtr, double t)
+static double ground_acc(const double *a, int n, double dtr, double t)
 {
     double f;
     long i;
@@ -228,17 +228,13 @@ static inline double ground_acc(const double *a, int n, double dtr, double t)
 }
 
 
-int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double *az, int nrec, double dtr,
-                  double *resid, cf_solver_result *res)
+/* The record and the step count of a run (its message on s when refused). */
+int cf_solver_run_check(cf_solver *s, cf_run *r, const double *ax, const double *ay, const double *az, int nrec,
+                        double dtr)
 {
-    int i, collapsed = 0, cblk = -1, creason = 0, at_rest = 0, st = CF_OK;
-    long n, nsteps;
-    double dt, t_rec, t_final, t = 0, ctime = NAN, alpha, tdamp;
-    cf_monitor m;
-    if (!s) return CF_EINVAL;
-    if (!res) return cf_solver_fail(s, CF_EINVAL, "no result struct");
-    memset(res, 0, sizeof *res);
-    res->collapse_time = NAN; res->collapse_block = -1;
+    int i;
+    double t_final;
+    memset(r, 0, sizeof *r);
     if (!s->ready) return cf_solver_fail(s, CF_ESTATE, "cf_solver_run before a successful cf_solver_setup");
     if (!ax || nrec < 1) return cf_solver_fail(s, CF_EINVAL, "acceleration record is empty");
     if (!(dtr > 0) || !isfinite(dtr)) return cf_solver_fail(s, CF_EINVAL, "record dt must be > 0, got %g", dtr);
@@ -247,81 +243,122 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
             return cf_solver_fail(s, CF_EINVAL, "non-finite ground acceleration at sample %d", i);
     }
     if (s->def.planar && ay) return cf_solver_fail(s, CF_EINVAL, "planar mode takes one horizontal component (acc_y given)");
-    dt = s->dt; alpha = s->def.damping_alpha; tdamp = s->def.damping_start_s;
-    t_rec = (nrec - 1) * dtr;
-    t_final = t_rec + s->def.tail_s;
+    r->ax = ax; r->ay = ay; r->az = az; r->nrec = nrec; r->dtr = dtr;
+    r->t_rec = (nrec - 1) * dtr;
+    t_final = r->t_rec + s->def.tail_s;
     {
         /* in double first: a tiny dt must not overflow the step count */
-        double ns = ceil(t_final / dt - 1e-9);
+        double ns = ceil(t_final / s->dt - 1e-9);
         if (!(ns <= CF_SOLVER_MAX_STEPS))
             return cf_solver_fail(s, CF_EINVAL, "the run needs %.4g steps (%.4g s of response at dt = %.4g s), more "
-                                  "than the limit of %d: choose a longer solver step", ns, t_final, dt, CF_SOLVER_MAX_STEPS);
-        nsteps = (long)ns;
+                                  "than the limit of %d: choose a longer solver step", ns, t_final, s->dt,
+                                  CF_SOLVER_MAX_STEPS);
+        r->nsteps = (long)ns;
     }
-    s->msg[0] = 0;
-    cf_solver_stack_reset(s);
-    for (i = 0; i < s->nbody; i++) quat_to_mat(s->q + 4 * i, s->R + 9 * i);
-    st = cf_solver_monitor_begin(s, &m, t_rec);   /* reads the rest state: after the reset */
-    if (st) return st;
+    r->ctime = NAN; r->cblk = -1;
+    return CF_OK;
+}
 
-    for (n = 0; n <= nsteps; n++) {
-        cf_step_energy e;
-        double ag[3], ke, vg, err;
-        int hist_now;
-        t = n * dt;
-        hist_now = s->h_cap > 0 && m.hcount < s->h_cap && t + 0.5 * dt > m.hcount * s->def.history_dt;
-        /* the spring energies (a sum over all sub-contacts) are evaluated every 4th step,
-         * at history samples and at the last step; the rest of the ledger every step */
-        e.need = (n & 3) == 0 || n == nsteps || hist_now;
-        ag[0] = ground_acc(ax, nrec, dtr, t);
-        ag[1] = ground_acc(ay, nrec, dtr, t);
-        ag[2] = ground_acc(az, nrec, dtr, t);
-        cf_solver_step_rotations(s);
-        cf_solver_step_contacts(s, dt, &e);
-        m.Dslip += e.dslip;
-        m.Dswitch += e.dswitch;
-        cf_solver_step_velocities(s, ag, alpha > 0.0 && t >= tdamp, &m, &ke, &vg);
-        err = cf_solver_monitor_energy(&m, n, ke, vg, &e);
-        if (!isfinite(err) || !isfinite(ke)) {
-            st = cf_solver_fail(s, CF_EUNSTABLE, "non-finite state at t = %.4f s (step %ld, dt = %.3g s, dt_crit = %.3g s)",
-                                t, n, dt, s->dt_crit);
-            break;
-        }
-        /* after a collapse (early_exit off) violent contacts of tumbling blocks are expected:
-         * only a non-finite state aborts then */
-        if (!collapsed && m.scale_max > 10.0 * m.scale_floor && m.err_max > s->def.unstable_tolerance * m.scale_max) {
-            st = cf_solver_fail(s, CF_EUNSTABLE, "energy balance error %.3g of the energy scale at t = %.4f s: unstable "
-                                "(dt = %.3g s, dt_crit = %.3g s)", m.err_max / m.scale_max, t, dt, s->dt_crit);
-            break;
-        }
-        cf_solver_monitor_record(s, &m, n, t, ke, vg, &e, err, hist_now);
-        /* collapse criteria every 4th step (a few ms: far finer than any collapse) */
-        if (!collapsed && (n & 3) == 0) {
-            creason = cf_solver_monitor_collapse(s, &cblk);
-            if (creason) { collapsed = 1; ctime = t; if (s->def.early_exit) break; }
-        }
-        if (s->def.early_exit && t > t_rec && cf_solver_monitor_at_rest(&m, t, ke)) { at_rest = 1; break; }
-        if (n == nsteps) break;
-        if (s->check && n % CF_SOLVER_CHECK_STEPS == CF_SOLVER_CHECK_STEPS - 1 && s->check(s->check_user)) {
-            st = cf_solver_fail(s, CF_EINTR, "stopped by the caller at t = %.4f s (step %ld)", t, n);
-            break;
-        }
-        cf_solver_step_positions(s, dt);
+int cf_solver_run_begin(cf_solver *s, cf_run *r)
+{
+    s->msg[0] = 0;
+    return cf_solver_monitor_begin(s, &r->m, r->t_rec);   /* reads the rest state */
+}
+
+void cf_solver_run_pre(const cf_solver *s, cf_run *r, cf_step_energy *e, double *ag)
+{
+    double dt = s->dt;
+    long n = r->n;
+    r->t = n * dt;
+    r->hist_now = s->h_cap > 0 && r->m.hcount < s->h_cap && r->t + 0.5 * dt > r->m.hcount * s->def.history_dt;
+    /* the spring energies (a sum over all sub-contacts) are evaluated every 4th step,
+     * at history samples and at the last step; the rest of the ledger every step */
+    e->need = (n & 3) == 0 || n == r->nsteps || r->hist_now;
+    ag[0] = ground_acc(r->ax, r->nrec, r->dtr, r->t);
+    ag[1] = ground_acc(r->ay, r->nrec, r->dtr, r->t);
+    ag[2] = ground_acc(r->az, r->nrec, r->dtr, r->t);
+}
+
+int cf_solver_run_post(cf_solver *s, cf_run *r, const cf_step_energy *e, double ke, double vg)
+{
+    cf_monitor *m = &r->m;
+    double err, t = r->t, dt = s->dt;
+    long n = r->n;
+    m->Dslip += e->dslip;
+    m->Dswitch += e->dswitch;
+    err = cf_solver_monitor_energy(m, n, ke, vg, e);
+    if (!isfinite(err) || !isfinite(ke)) {
+        r->st = cf_solver_fail(s, CF_EUNSTABLE, "non-finite state at t = %.4f s (step %ld, dt = %.3g s, dt_crit = %.3g s)",
+                               t, n, dt, s->dt_crit);
+        return 1;
     }
-    if (n > nsteps) n = nsteps;
-    cf_solver_monitor_finish(s, &m, collapsed, resid, res);
-    cf_solver_monitor_end(&m);
-    res->collapsed = collapsed;
-    res->collapse_block = collapsed ? cblk : -1;
-    res->collapse_reason = collapsed ? creason : 0;
-    res->collapse_time = ctime;
+    /* after a collapse (early_exit off) violent contacts of tumbling blocks are expected:
+     * only a non-finite state aborts then */
+    if (!r->collapsed && m->scale_max > 10.0 * m->scale_floor && m->err_max > s->def.unstable_tolerance * m->scale_max) {
+        r->st = cf_solver_fail(s, CF_EUNSTABLE, "energy balance error %.3g of the energy scale at t = %.4f s: unstable "
+                               "(dt = %.3g s, dt_crit = %.3g s)", m->err_max / m->scale_max, t, dt, s->dt_crit);
+        return 1;
+    }
+    cf_solver_monitor_record(s, m, n, t, ke, vg, e, err, r->hist_now);
+    /* collapse criteria every 4th step (a few ms: far finer than any collapse) */
+    if (!r->collapsed && (n & 3) == 0) {
+        r->creason = cf_solver_monitor_collapse(s, &r->cblk);
+        if (r->creason) { r->collapsed = 1; r->ctime = t; if (s->def.early_exit) return 1; }
+    }
+    if (s->def.early_exit && t > r->t_rec && cf_solver_monitor_at_rest(m, t, ke)) { r->at_rest = 1; return 1; }
+    return n == r->nsteps;
+}
+
+void cf_solver_run_finish(cf_solver *s, cf_run *r, double *resid, cf_solver_result *res)
+{
+    long n = r->n > r->nsteps ? r->nsteps : r->n;
+    double dt = s->dt;
+    memset(res, 0, sizeof *res);
+    cf_solver_monitor_finish(s, &r->m, r->collapsed, resid, res);
+    cf_solver_monitor_end(&r->m);
+    res->collapsed = r->collapsed;
+    res->collapse_block = r->collapsed ? r->cblk : -1;
+    res->collapse_reason = r->collapsed ? r->creason : 0;
+    res->collapse_time = r->ctime;
     res->n_steps = n;
     res->t_end = n * dt;
     res->dt = dt;
     res->dt_crit = s->dt_crit;
-    res->at_rest_exit = at_rest;
-    if (st == CF_OK && res->energy_warning)
+    res->at_rest_exit = r->at_rest;
+    if (r->st == CF_OK && res->energy_warning)
         snprintf(s->msg, CF_MSG_LEN, "energy balance error %.3g of the energy scale exceeds the tolerance %.3g "
                  "(dt = %.3g s, dt_crit = %.3g s)", res->energy_error, s->def.energy_tolerance, dt, s->dt_crit);
-    return st;
+}
+
+int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double *az, int nrec, double dtr,
+                  double *resid, cf_solver_result *res)
+{
+    int i, st;
+    cf_run r;
+    if (!s) return CF_EINVAL;
+    if (!res) return cf_solver_fail(s, CF_EINVAL, "no result struct");
+    memset(res, 0, sizeof *res);
+    res->collapse_time = NAN; res->collapse_block = -1;
+    st = cf_solver_run_check(s, &r, ax, ay, az, nrec, dtr);
+    if (st) return st;
+    cf_solver_stack_reset(s);
+    for (i = 0; i < s->nbody; i++) quat_to_mat(s->q + 4 * i, s->R + 9 * i);
+    st = cf_solver_run_begin(s, &r);   /* reads the rest state: after the reset */
+    if (st) return st;
+    for (r.n = 0;; r.n++) {
+        cf_step_energy e;
+        double ag[3], ke, vg;
+        cf_solver_run_pre(s, &r, &e, ag);
+        cf_solver_step_rotations(s);
+        cf_solver_step_contacts(s, s->dt, &e);
+        cf_solver_step_velocities(s, ag, s->def.damping_alpha > 0.0 && r.t >= s->def.damping_start_s, &r.m, &ke, &vg);
+        if (cf_solver_run_post(s, &r, &e, ke, vg)) break;
+        if (s->check && r.n % CF_SOLVER_CHECK_STEPS == CF_SOLVER_CHECK_STEPS - 1 && s->check(s->check_user)) {
+            r.st = cf_solver_fail(s, CF_EINTR, "stopped by the caller at t = %.4f s (step %ld)", r.t, r.n);
+            break;
+        }
+        cf_solver_step_positions(s);
+    }
+    cf_solver_run_finish(s, &r, resid, res);
+    return r.st;
 }

@@ -180,12 +180,38 @@ int cf_solver_monitor_at_rest(cf_monitor *m, double t, double ke);
 void cf_solver_monitor_finish(struct cf_solver *s, cf_monitor *m, int collapsed, double *resid,
                               cf_solver_result *res);
 
+/* One run's progress through its record (solver.c): what the time loop of cf_solver_run
+ * keeps between steps, so that a batch of runs (solver_batch.c) steps each run with the
+ * same text. */
+typedef struct {
+    const double *ax, *ay, *az;        /* the record: nrec samples at dtr, ay and az may be NULL */
+    int nrec;
+    double dtr, t_rec;                 /* record interval, record duration (s) */
+    long n, nsteps;                    /* this step, the last step */
+    double t, ctime;                   /* time of this step, collapse time (s) */
+    int collapsed, cblk, creason, at_rest, st, hist_now;
+    cf_monitor m;
+} cf_run;
+
+/* solver.c: a run, step by step. check: the record and the step count (a failed check
+ * leaves its message on s); begin: the monitor, on the rest state in s->x, s->R; pre: the
+ * time of step r->n, whether its energy and history are due, the ground acceleration;
+ * post: after the velocities, the ledger, the checks, the EDPs and the exits -- returns 1
+ * when the run ends at this step (else the positions follow and r->n advances); finish:
+ * the result. */
+int cf_solver_run_check(struct cf_solver *s, cf_run *r, const double *ax, const double *ay, const double *az,
+                        int nrec, double dtr);
+int cf_solver_run_begin(struct cf_solver *s, cf_run *r);
+void cf_solver_run_pre(const struct cf_solver *s, cf_run *r, cf_step_energy *e, double *ag);
+int cf_solver_run_post(struct cf_solver *s, cf_run *r, const cf_step_energy *e, double ke, double vg);
+void cf_solver_run_finish(struct cf_solver *s, cf_run *r, double *resid, cf_solver_result *res);
+
 /* solver_step.c: the phases of one leapfrog step */
 void cf_solver_step_rotations(struct cf_solver *s);
 void cf_solver_step_contacts(struct cf_solver *s, double dt, cf_step_energy *e);
 void cf_solver_step_velocities(struct cf_solver *s, const double *ag, int damp_on, cf_monitor *m, double *ke,
                                double *vg);
-void cf_solver_step_positions(struct cf_solver *s, double dt);
+void cf_solver_step_positions(struct cf_solver *s);
 
 /* face centre and normal (world) of face f of body b */
 static inline void cf_face_world(const struct cf_solver *s, int b, const cf_face *f, double *c, double *n)

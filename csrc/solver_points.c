@@ -22,20 +22,6 @@
  * at run time). Each lane evaluates the scalar expressions written here, operation for
  * operation (contraction off, no reassociation), so every width gives the same bits;
  * the forces then join the bodies' sums in joint order, as before. */
-enum { JCH = 16 };   /* joints per chunk */
-
-typedef struct {
-    /* in: the two bodies' rotations, positions, velocities and world omegas; the face
-     * centres (body frame) and the points' shared body z of each side; has a lower body */
-    double RL[9][JCH], RU[9][JCH], xl[3][JCH], xu[3][JCH], vl[3][JCH], vu[3][JCH], wl[3][JCH], wu[3][JCH];
-    double fcl[3][JCH], fcu[3][JCH], lz[2][JCH], gl[JCH];
-    /* out: M0 = RL^T RU; per side: face centre (world), A, W, t, mz (cf_face_pass) */
-    double M0[9][JCH], c[2][3][JCH], A[2][3][JCH], W[2][3][JCH], t[2][3][JCH], mz[2][3][JCH];
-    /* in: per side the face sums (force, moment; face frame), has points; out: force
-     * (world) and the torques about the upper and lower body's centres, moment included */
-    double sm[2][6][JCH], has[2][JCH], Fw[2][3][JCH], Tu[2][3][JCH], Tl[2][3][JCH];
-} joint_chunk;
-
 /* mat_tvec, mat_vec and v3_cross of solver_math_internal.h, lane j of the chunk */
 #define TVEC(R, a0, a1, a2, o0, o1, o2)                                        \
     do {                                                                       \
@@ -89,7 +75,7 @@ typedef struct {
 
 /* Lanes before the points: M0 = RL^T RU (the lower body in the upper face's frame is
  * its transpose), per side the face centre, the field and the points' z offset. */
-static inline __attribute__((always_inline)) void chunk_before_body(joint_chunk *restrict C, int n, double dt)
+static inline __attribute__((always_inline)) void chunk_before_body(cf_joint_chunk *restrict C, int n, double dt)
 {
     int j;
 #pragma GCC ivdep
@@ -135,7 +121,7 @@ static inline __attribute__((always_inline)) void chunk_before_body(joint_chunk 
 /* Lanes after the points: each side's sums (face frame) to world force F and moment M,
  * and the torques r x F + M about the upper and lower bodies' centres; a side without
  * points gives exact zeros. */
-static inline __attribute__((always_inline)) void chunk_after_body(joint_chunk *restrict C, int n)
+static inline __attribute__((always_inline)) void chunk_after_body(cf_joint_chunk *restrict C, int n)
 {
     int j;
 #pragma GCC ivdep
@@ -145,49 +131,57 @@ static inline __attribute__((always_inline)) void chunk_after_body(joint_chunk *
     }
 }
 
-typedef void (*chunk_before_fn)(joint_chunk *C, int n, double dt);
-typedef void (*chunk_after_fn)(joint_chunk *C, int n);
+/* A whole chunk, or the lane counts of the batches of runs (solver_batch.c: one joint of
+ * 8, 4 or 2 runs), as loops of fixed length that compile to whole vectors; else n lanes. */
+#define CHUNK_FIXED(full, n8, n4, n2, any)                                              \
+    do {                                                                              \
+        if (n == CF_JCH) full;                                                        \
+        else if (n == 8) n8;                                                          \
+        else if (n == 4) n4;                                                          \
+        else if (n == 2) n2;                                                          \
+        else any;                                                                     \
+    } while (0)
 
-static void chunk_before_base(joint_chunk *C, int n, double dt)
+static void chunk_before_base(cf_joint_chunk *C, int n, double dt)
 {
-    if (n == JCH) chunk_before_body(C, JCH, dt);
-    else chunk_before_body(C, n, dt);
+    CHUNK_FIXED(chunk_before_body(C, CF_JCH, dt), chunk_before_body(C, 8, dt), chunk_before_body(C, 4, dt),
+                chunk_before_body(C, 2, dt), chunk_before_body(C, n, dt));
 }
-static void chunk_after_base(joint_chunk *C, int n)
+static void chunk_after_base(cf_joint_chunk *C, int n)
 {
-    if (n == JCH) chunk_after_body(C, JCH);
-    else chunk_after_body(C, n);
+    CHUNK_FIXED(chunk_after_body(C, CF_JCH), chunk_after_body(C, 8), chunk_after_body(C, 4),
+                chunk_after_body(C, 2), chunk_after_body(C, n));
 }
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(CF_NO_SIMD) && !defined(CF_FORCE_SSE2)
 #define CF_HAVE_AVX2 1
-__attribute__((target("avx2"))) static void chunk_before_avx2(joint_chunk *C, int n, double dt)
+__attribute__((target("avx2"))) static void chunk_before_avx2(cf_joint_chunk *C, int n, double dt)
 {
-    if (n == JCH) chunk_before_body(C, JCH, dt);
-    else chunk_before_body(C, n, dt);
+    CHUNK_FIXED(chunk_before_body(C, CF_JCH, dt), chunk_before_body(C, 8, dt), chunk_before_body(C, 4, dt),
+                chunk_before_body(C, 2, dt), chunk_before_body(C, n, dt));
 }
-__attribute__((target("avx2"))) static void chunk_after_avx2(joint_chunk *C, int n)
+__attribute__((target("avx2"))) static void chunk_after_avx2(cf_joint_chunk *C, int n)
 {
-    if (n == JCH) chunk_after_body(C, JCH);
-    else chunk_after_body(C, n);
+    CHUNK_FIXED(chunk_after_body(C, CF_JCH), chunk_after_body(C, 8), chunk_after_body(C, 4),
+                chunk_after_body(C, 2), chunk_after_body(C, n));
 }
 #if !defined(CF_FORCE_AVX2)
 #define CF_HAVE_AVX512 1
-__attribute__((target("avx512f"))) static void chunk_before_avx512(joint_chunk *C, int n, double dt)
+__attribute__((target("avx512f"))) static void chunk_before_avx512(cf_joint_chunk *C, int n, double dt)
 {
-    if (n == JCH) chunk_before_body(C, JCH, dt);
-    else chunk_before_body(C, n, dt);
+    CHUNK_FIXED(chunk_before_body(C, CF_JCH, dt), chunk_before_body(C, 8, dt), chunk_before_body(C, 4, dt),
+                chunk_before_body(C, 2, dt), chunk_before_body(C, n, dt));
 }
-__attribute__((target("avx512f"))) static void chunk_after_avx512(joint_chunk *C, int n)
+__attribute__((target("avx512f"))) static void chunk_after_avx512(cf_joint_chunk *C, int n)
 {
-    if (n == JCH) chunk_after_body(C, JCH);
-    else chunk_after_body(C, n);
+    CHUNK_FIXED(chunk_after_body(C, CF_JCH), chunk_after_body(C, 8), chunk_after_body(C, 4),
+                chunk_after_body(C, 2), chunk_after_body(C, n));
 }
 #endif
 #endif
 
 /* The widest lanes this CPU runs (every width gives the same bits). -DCF_FORCE_SSE2 /
  * -DCF_FORCE_AVX2 cap the width (scripts/check_result_hashes.sh builds each). */
-static void chunk_select(chunk_before_fn *before, chunk_after_fn *after)
+static void chunk_select(cf_chunk_before_fn *before, cf_chunk_after_fn *after)
 {
 #ifdef CF_HAVE_AVX512
     if (__builtin_cpu_supports("avx512f")) { *before = chunk_before_avx512; *after = chunk_after_avx512; return; }
@@ -198,20 +192,25 @@ static void chunk_select(chunk_before_fn *before, chunk_after_fn *after)
     *before = chunk_before_base; *after = chunk_after_base;
 }
 
-/* Joints [j0, j0 + n) through the face runner, in chunks of JCH. */
+void cf_solver_points_chunk_fns(cf_chunk_before_fn *before, cf_chunk_after_fn *after)
+{
+    chunk_select(before, after);
+}
+
+/* Joints [j0, j0 + n) through the face runner, in chunks of CF_JCH. */
 static void points_joints(cf_solver *s, int j0, int n, const double *ww, double dt, cf_step_energy *e,
                           cf_points_run_fn run)
 {
-    static chunk_before_fn before;   /* chosen once; a racing first call stores the same pointers */
-    static chunk_after_fn after;
-    joint_chunk C;
+    static cf_chunk_before_fn before;   /* chosen once; a racing first call stores the same pointers */
+    static cf_chunk_after_fn after;
+    cf_joint_chunk C;
     int need = e->need, c0;
     if (!before) chunk_select(&before, &after);
-    for (c0 = j0; c0 < j0 + n; c0 += JCH) {
-        int m = j0 + n - c0 < JCH ? j0 + n - c0 : JCH, l, i;
+    for (c0 = j0; c0 < j0 + n; c0 += CF_JCH) {
+        int m = j0 + n - c0 < CF_JCH ? j0 + n - c0 : CF_JCH, l, i;
         /* gather the chunk; from 8 joints on, a whole chunk (a fixed trip count, no
          * remainder loop: the lanes past the last joint copy it and are ignored) */
-        int lanes = m >= 8 ? JCH : m;
+        int lanes = m >= 8 ? CF_JCH : m;
         for (l = 0; l < lanes; l++) {
             const cf_joint *J = &s->jt[c0 + (l < m ? l : m - 1)];
             int bl = J->bl, bu = J->bu;
@@ -234,7 +233,6 @@ static void points_joints(cf_solver *s, int j0, int n, const double *ww, double 
             S.dslip = 0.0; S.dswitch = 0.0;
             S.sm[6] = S.sm[7] = 0.0;
             for (side = 0; side < 2; side++) {
-                const cf_face *ff = side == 0 ? &J->fl : &J->fu;
                 int k0 = side == 0 ? J->p0 : J->p0 + J->n0, k1 = side == 0 ? J->p0 + J->n0 : end;
                 cf_face_pass P;
                 C.has[side][l] = k1 > k0 ? 1.0 : 0.0;
@@ -242,22 +240,8 @@ static void points_joints(cf_solver *s, int j0, int n, const double *ww, double 
                     for (i = 0; i < 6; i++) C.sm[side][i][l] = 0.0;
                     continue;
                 }
-                for (i = 0; i < 3; i++) {
-                    int r;
-                    for (r = 0; r < 3; r++) P.M[3 * i + r] = side == 0 ? C.M0[3 * i + r][l] : C.M0[3 * r + i][l];
-                    P.A[i] = C.A[side][i][l]; P.W[i] = C.W[side][i][l]; P.t[i] = C.t[side][i][l];
-                    P.mz[i] = C.mz[side][i][l];
-                }
-                /* a point deeper than a tenth of the face's radius is not in contact with it:
-                 * it has passed beside or through the face (a tumbling block after a collapse) */
-                P.pmax = 0.1 * ff->rc;
-                /* a point coming onto the face deeper than this starts unstretched */
-                P.pent = s->def.reentry_depth * ff->rc;
-                P.tol = s->def.contact_tolerance * ff->rc;
-                P.sgn = side == 0 ? -1.0 : 1.0;
-                P.kn = J->kn; P.mu = J->mu;
-                P.unbounded = side == 0 && J->bl == 0;
-                P.ff = ff;
+                cf_face_pass_set(s, J, side, &P);
+                cf_face_pass_lane(&C, side, l, &P);
                 S.sm[0] = S.sm[1] = S.sm[2] = S.sm[3] = S.sm[4] = S.sm[5] = 0.0;
                 run(s, &P, k0, k1, &S, need);
                 for (i = 0; i < 6; i++) C.sm[side][i][l] = S.sm[i];

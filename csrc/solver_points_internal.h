@@ -34,6 +34,58 @@ typedef struct {
     double dslip, dswitch;
 } cf_face_sums;
 
+/* The joints in lanes (solver_points.c): the per-joint work around the points for a
+ * chunk of up to CF_JCH lanes at a time in structure-of-arrays form. A lane is a joint of
+ * one run (the single-run path) or one joint of several runs (solver_batch.c). */
+enum { CF_JCH = 16 };   /* lanes per chunk */
+
+typedef struct {
+    /* in: the two bodies' rotations, positions, velocities and world omegas; the face
+     * centres (body frame) and the points' shared body z of each side; has a lower body */
+    double RL[9][CF_JCH], RU[9][CF_JCH], xl[3][CF_JCH], xu[3][CF_JCH], vl[3][CF_JCH], vu[3][CF_JCH];
+    double wl[3][CF_JCH], wu[3][CF_JCH];
+    double fcl[3][CF_JCH], fcu[3][CF_JCH], lz[2][CF_JCH], gl[CF_JCH];
+    /* out: M0 = RL^T RU; per side: face centre (world), A, W, t, mz (cf_face_pass) */
+    double M0[9][CF_JCH], c[2][3][CF_JCH], A[2][3][CF_JCH], W[2][3][CF_JCH], t[2][3][CF_JCH], mz[2][3][CF_JCH];
+    /* in: per side the face sums (force, moment; face frame), has points; out: force
+     * (world) and the torques about the upper and lower body's centres, moment included */
+    double sm[2][6][CF_JCH], has[2][CF_JCH], Fw[2][3][CF_JCH], Tu[2][3][CF_JCH], Tl[2][3][CF_JCH];
+} cf_joint_chunk;
+
+/* the chunk's lane work before and after the points, n lanes (the widest the CPU runs) */
+typedef void (*cf_chunk_before_fn)(cf_joint_chunk *C, int n, double dt);
+typedef void (*cf_chunk_after_fn)(cf_joint_chunk *C, int n);
+void cf_solver_points_chunk_fns(cf_chunk_before_fn *before, cf_chunk_after_fn *after);
+
+/* The face's part of a pass (side 0: the upper body's points against the lower face,
+ * side 1: the lower body's points against the upper face): thresholds and joint law. */
+static inline void cf_face_pass_set(const cf_solver *s, const cf_joint *J, int side, cf_face_pass *P)
+{
+    const cf_face *ff = side == 0 ? &J->fl : &J->fu;
+    /* a point deeper than a tenth of the face's radius is not in contact with it:
+     * it has passed beside or through the face (a tumbling block after a collapse) */
+    P->pmax = 0.1 * ff->rc;
+    /* a point coming back onto the face deeper than this starts unstretched (reentry_depth) */
+    P->pent = s->def.reentry_depth * ff->rc;
+    P->tol = s->def.contact_tolerance * ff->rc;
+    P->sgn = side == 0 ? -1.0 : 1.0;
+    P->kn = J->kn; P->mu = J->mu;
+    P->unbounded = side == 0 && J->bl == 0;
+    P->ff = ff;
+}
+
+/* The step's part of a pass, from lane l of a chunk: frame map (side 0 in the lower face's
+ * frame: M0; side 1 in the upper face's: M0^T), displacement field, translation, z offset. */
+static inline void cf_face_pass_lane(const cf_joint_chunk *C, int side, int l, cf_face_pass *P)
+{
+    int i, r;
+    for (i = 0; i < 3; i++) {
+        for (r = 0; r < 3; r++) P->M[3 * i + r] = side == 0 ? C->M0[3 * i + r][l] : C->M0[3 * r + i][l];
+        P->A[i] = C->A[side][i][l]; P->W[i] = C->W[side][i][l]; P->t[i] = C->t[side][i][l];
+        P->mz[i] = C->mz[side][i][l];
+    }
+}
+
 /* Runs the points [k0, k1) against the face of P, adding to S in point order. */
 typedef void (*cf_points_run_fn)(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
 
@@ -87,10 +139,13 @@ static inline int cf_face_inside_hint(const cf_face *f, double X, double Y, doub
 /* One sub-contact k against the face of P, any state: position in the face frame,
  * open / off-the-face / in-contact transitions (with their energy bookkeeping), then
  * the contact law. Returns 1 and its terms in t (fx, fy, fn, mx, my, mz, vs, fn) when
- * it carries force, 0 when it is open, too deep or off the face. */
-static inline int cf_point_law(cf_solver *s, const cf_face_pass *P, int k, cf_face_sums *S, int *hint, double *t)
+ * it carries force, 0 when it is open, too deep or off the face. The point's fixed data
+ * are those of s; its state (shear force, contact state, offset depth, polygon hint) is
+ * where the pointers say: s's own arrays for one run, a lane of the batch's arrays for a
+ * run of a batch (solver_batch.c). */
+static inline int cf_point_law_at(const cf_solver *s, const cf_face_pass *P, int k, double *fsx, double *fsy,
+                                  double *state, double *pen0, int *hint, cf_face_sums *S, double *t)
 {
-    double *fsx = s->p_fsx + k, *fsy = s->p_fsy + k, *state = s->p_state + k;
     double lx = s->p_lx[k], ly = s->p_ly[k], w = s->p_w[k], fs[2], fn, dux, duy, fs2, pe;
     double X = P->M[0] * lx + P->M[1] * ly + P->mz[0] + P->t[0];
     double Y = P->M[3] * lx + P->M[4] * ly + P->mz[1] + P->t[1];
@@ -106,7 +161,7 @@ static inline int cf_point_law(cf_solver *s, const cf_face_pass *P, int k, cf_fa
         if (pen > 0.0) {
             /* too deep while compressed: its normal spring energy leaves the model as when
              * it slides off the face (contact_switch) */
-            pe = *state == 4.0 ? pen - s->p_pen0[k] : pen;
+            pe = *state == 4.0 ? pen - *pen0 : pen;
             if (*state == 1.0 || *state == 4.0) S->dswitch += 0.5 * P->kn * w * pe * pe;
             *state = 3.0;
         } else *state = 0.0;
@@ -116,7 +171,7 @@ static inline int cf_point_law(cf_solver *s, const cf_face_pass *P, int k, cf_fa
           || cf_face_inside_hint(P->ff, X, Y, P->tol, hint))) {
         /* slid off the face while compressed: its normal spring energy leaves the
          * model (booked as contact_switch, not as a balance error) */
-        pe = *state == 4.0 ? pen - s->p_pen0[k] : pen;
+        pe = *state == 4.0 ? pen - *pen0 : pen;
         if (*state == 1.0 || *state == 4.0) S->dswitch += 0.5 * P->kn * w * pe * pe;
         S->dslip += cf_law_release(fsx, fsy, s->p_ihkw[k]);
         *state = 2.0;
@@ -129,13 +184,13 @@ static inline int cf_point_law(cf_solver *s, const cf_face_pass *P, int k, cf_fa
          * back (that energy would come from nothing: it broke the ledger of two-component
          * runs, docs/accuracy.md); shallower, with its spring energy booked as
          * contact_switch */
-        if (pen > P->pent) { s->p_pen0[k] = pen; *state = 4.0; }
+        if (pen > P->pent) { *pen0 = pen; *state = 4.0; }
         else { S->dswitch -= 0.5 * P->kn * w * pen * pen; *state = 1.0; }
     } else if (*state == 0.0) *state = 1.0;
     pe = pen;
     if (*state == 4.0) {
-        if (pen < s->p_pen0[k]) s->p_pen0[k] = pen;   /* no tension: the offset follows the point up */
-        pe = pen - s->p_pen0[k];
+        if (pen < *pen0) *pen0 = pen;   /* no tension: the offset follows the point up */
+        pe = pen - *pen0;
     }
     dux = P->A[0] + P->W[1] * Z - P->W[2] * Y;
     duy = P->A[1] + P->W[2] * X - P->W[0] * Z;
@@ -149,6 +204,12 @@ static inline int cf_point_law(cf_solver *s, const cf_face_pass *P, int k, cf_fa
                  t[3], t[4], t[5], t[6]);
     t[7] = fn;
     return 1;
+}
+
+/* cf_point_law_at on s's own state of point k */
+static inline int cf_point_law(cf_solver *s, const cf_face_pass *P, int k, cf_face_sums *S, int *hint, double *t)
+{
+    return cf_point_law_at(s, P, k, s->p_fsx + k, s->p_fsy + k, s->p_state + k, s->p_pen0 + k, hint, S, t);
 }
 
 /* add the terms t[0..7] of one point (same order as cf_face_sums) */

@@ -422,7 +422,8 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
     return st;
 }
 
-/* The state at the start of a run: the initial equilibrium, at rest, no stored shear. */
+/* The state at the start of a run: the initial equilibrium, at rest, no stored shear,
+ * the state of a freshly set-up solver. */
 void cf_solver_stack_reset(cf_solver *s)
 {
     int j, nb = s->nbody;
@@ -435,6 +436,8 @@ void cf_solver_stack_reset(cf_solver *s)
         memset(s->p_fsy, 0, sizeof(double) * (size_t)s->np);
         memset(s->p_state, 0, sizeof(double) * (size_t)s->np);
         memset(s->p_pen0, 0, sizeof(double) * (size_t)s->np);
+        /* the polygon tests' starting edges too: a run does not depend on the runs before it */
+        memset(s->p_hint, 0, sizeof(int) * (size_t)s->np);
     }
     memset(s->fext_prev, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->fdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);

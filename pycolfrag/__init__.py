@@ -21,5 +21,5 @@ from .errors import (  # noqa: E402,F401
 )
 from .column import Block, Column, JointProperties, Segment  # noqa: E402,F401
 from .options import SolverOptions  # noqa: E402,F401
-from .solver import History, Response, simulate  # noqa: E402,F401
+from .solver import History, Response, simulate, simulate_batch  # noqa: E402,F401
 from . import fragility, ground_motion, intensity, names, records, results, sample  # noqa: E402,F401

@@ -25,12 +25,14 @@ from . import names
 from .errors import ParameterError
 
 __all__ = ["DEFAULT_PERIODS_S", "DEFAULT_DAMPING", "COMPONENTS", "STATUS", "record_identity", "ims_row", "response_row",
-           "run_synthetic_sample", "run_record_sample", "record_jobs", "run_suite", "rows_to_table"]
+           "run_synthetic_sample", "run_synthetic_samples", "run_record_sample", "run_record_samples", "response_rows", "record_jobs", "run_suite", "rows_to_table"]
 
 #: Spectral periods of a row (``/spectra``), s -- the grid's default.
 DEFAULT_PERIODS_S = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0)
 #: Spectral damping ratio.
 DEFAULT_DAMPING = 0.05
+#: Runs of :func:`run_suite` integrated together (side by side in SIMD lanes, lanes refilled).
+_SUITE_BATCH = 64
 #: Component choices of a record sample.
 COMPONENTS = ("h1", "h2", "both")
 
@@ -104,6 +106,67 @@ def _edp_row(res) -> dict:
     return out
 
 
+def _ims_phase(out, acc_x, dt, ims, periods_s, damping) -> bool:
+    """The IMs of a row (``ims`` when given, else those of ``acc_x``); False (and ``status``) when they failed."""
+    out.setdefault("status", STATUS["ok"])
+    out.setdefault("message", "")
+    try:
+        out.update(ims_row(acc_x, dt, periods_s, damping) if ims is None else ims)
+    except Exception as exc:  # a failed sample is a result (status, message), not the end of the run
+        out["status"] = STATUS["im"]
+        out["message"] = f"{type(exc).__name__}: {exc}"
+        return False
+    return True
+
+
+def _response_phase(out, res, steps=()) -> None:
+    """The EDPs of a row from its run: a Response, or the exception the run raised; ``steps``, the
+    texts of the run's step warnings, go into the row's message."""
+    if isinstance(res, BaseException):
+        out["status"] = STATUS["solver"]
+        out["message"] = f"{type(res).__name__}: {res}"
+        return
+    try:
+        out.update(_edp_row(res))
+    except Exception as exc:
+        out["status"] = STATUS["other"]
+        out["message"] = f"{type(exc).__name__}: {exc}"
+        return
+    if steps:
+        out["message"] = "StepWarning: " + "; ".join(steps)
+
+
+def _solver_kw(solver_options) -> dict:
+    """simulate()'s keywords for a row's solver options: a resolved SolverOptions (what the grid
+    passes) or a dict of overrides."""
+    from .options import SolverOptions
+    if isinstance(solver_options, SolverOptions):
+        return {"options": solver_options}
+    return dict(solver_options or {})
+
+
+def _caught(run):
+    """``run()`` as a row needs it: (its result or the exception it raised, the texts of its step
+    warnings). An energy warning is stored in the row (energy_warning), not printed per run; a step
+    warning (dt_solver above the stability limit or the record's dt) is kept in the row's message."""
+    from .solver import EnergyWarning, StepWarning
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("ignore", UserWarning)
+        warnings.simplefilter("ignore", EnergyWarning)
+        warnings.simplefilter("always", StepWarning)
+        try:
+            res = run()
+        except Exception as exc:
+            res = exc
+    return res, [str(w.message) for w in caught if issubclass(w.category, StepWarning)]
+
+
+def _simulate(column, acc_x, dt, acc_y, acc_z, solver_options):
+    """One run as a row needs it: (the Response or the exception, its step-warning texts)."""
+    from .solver import simulate
+    return _caught(lambda: simulate(column, acc_x, dt, acc_y=acc_y, acc_z=acc_z, **_solver_kw(solver_options)))
+
+
 def response_row(column, acc_x, dt, *, acc_y=None, acc_z=None, ims=None, periods_s=DEFAULT_PERIODS_S,
                  damping=DEFAULT_DAMPING, solver_options=None, out=None) -> dict:
     """IMs then the column's response: the shared body of every sample.
@@ -111,32 +174,54 @@ def response_row(column, acc_x, dt, *, acc_y=None, acc_z=None, ims=None, periods
     ``ims``: precomputed IMs (else those of ``acc_x``). ``out``: a row dict to fill (its
     ``status``/``message`` are set by the phase that fails; nothing is raised).
     """
-    from .solver import simulate
     out = {} if out is None else out
-    out.setdefault("status", STATUS["ok"])
-    out.setdefault("message", "")
-    phase = "im"
-    try:
-        out.update(ims_row(acc_x, dt, periods_s, damping) if ims is None else ims)
-        phase = "solver"
-        from .options import SolverOptions
-        from .solver import EnergyWarning, StepWarning
-        kw = {"options": solver_options} if isinstance(solver_options, SolverOptions) else dict(solver_options or {})
-        with warnings.catch_warnings(record=True) as caught:
-            # an energy warning is stored (energy_warning), not printed per run; a step warning
-            # (dt_solver above the stability limit or the record's dt) is kept in the row's message
-            warnings.simplefilter("ignore", EnergyWarning)
-            warnings.simplefilter("always", StepWarning)
-            res = simulate(column, acc_x, dt, acc_y=acc_y, acc_z=acc_z, **kw)
-        phase = "other"
-        out.update(_edp_row(res))
-        steps = [str(w.message) for w in caught if issubclass(w.category, StepWarning)]
-        if steps:
-            out["message"] = "StepWarning: " + "; ".join(steps)
-    except Exception as exc:  # a failed sample is a result (status, message), not the end of the run
-        out["status"] = STATUS[phase]
-        out["message"] = f"{type(exc).__name__}: {exc}"
+    if _ims_phase(out, acc_x, dt, ims, periods_s, damping):
+        _response_phase(out, *_simulate(column, acc_x, dt, acc_y, acc_z, solver_options))
     return out
+
+
+def _simulate_many(column, runs, solver_options) -> list:
+    """The runs (dicts of acc_x, dt, acc_y, acc_z) on one column: (Response or exception, step-warning
+    texts) each, the Response bitwise what :func:`_simulate` gives, through
+    :func:`pycolfrag.solver.simulate_batch` (runs in SIMD lanes). Where the batch cannot start (options
+    the set-up refuses), every run alone, so that each row gets the message of its own run. A step
+    warning of the batch is kept in every row of it."""
+    from .solver import simulate_batch
+    if len(runs) < 2:
+        return [_simulate(column, r["acc_x"], r["dt"], r["acc_y"], r["acc_z"], solver_options) for r in runs]
+    res, steps = _caught(lambda: simulate_batch(column, runs, errors="return", **_solver_kw(solver_options)))
+    if isinstance(res, Exception):
+        return [_simulate(column, r["acc_x"], r["dt"], r["acc_y"], r["acc_z"], solver_options) for r in runs]
+    return [(x, steps) for x in res]
+
+
+def response_rows(column, rows, *, periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_DAMPING, solver_options=None,
+                  times=None) -> None:
+    """:func:`response_row` for many rows at once, their runs in one batch: each row gets bitwise what
+    :func:`response_row` gives it.
+
+    ``rows``: dicts with ``out`` (the row to fill), ``acc_x``, ``dt`` and optionally ``acc_y``,
+    ``acc_z``, ``ims``. ``times`` (list, one per row, or None): each row's own seconds are added to
+    it -- its IMs, and of the batch's solver time the share of its steps.
+    """
+    t_ims, todo = [], []
+    for r in rows:
+        t0 = time.perf_counter()
+        if _ims_phase(r["out"], r["acc_x"], r["dt"], r.get("ims"), periods_s, damping):
+            todo.append(r)
+        t_ims.append(time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    res = _simulate_many(column, [{"acc_x": r["acc_x"], "dt": r["dt"], "acc_y": r.get("acc_y"),
+                                   "acc_z": r.get("acc_z")} for r in todo], solver_options)
+    t_run = time.perf_counter() - t0
+    for r, (x, warned) in zip(todo, res):
+        _response_phase(r["out"], x, warned)
+    if times is not None:
+        steps = {id(r): float(getattr(x, "n_steps", 0)) for r, (x, _) in zip(todo, res)}
+        total = sum(steps.values())
+        for i, r in enumerate(rows):
+            share = steps.get(id(r), 0.0) / total if total > 0 else (1.0 / len(todo) if id(r) in steps else 0.0)
+            times[i] += t_ims[i] + share * t_run
 
 
 def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.005, vp_scale=1.0,
@@ -165,8 +250,18 @@ def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.0
     of :mod:`pycolfrag.names`, the run diagnostics and ``wall_s``. The grid adds ``row``,
     ``scenario`` and ``sample``.
     """
-    from . import ground_motion
     t0 = time.perf_counter()
+    out, acc, dt = _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse)
+    if acc is not None:
+        response_row(column, acc, dt, periods_s=periods_s, damping=damping, solver_options=solver_options, out=out)
+    out["wall_s"] = time.perf_counter() - t0
+    return out
+
+
+def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse=True):
+    """The record of a synthetic sample and its row so far: (row, acc, dt); acc is None (and the row
+    says why) when the record failed."""
+    from . import ground_motion
     out = {"mw": float(mw), "dist_km": float(dist_km), "status": STATUS["ok"], "message": ""}
     try:
         if with_pulse:
@@ -186,11 +281,47 @@ def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.0
     except Exception as exc:
         out["status"] = STATUS["record"]
         out["message"] = f"{type(exc).__name__}: {exc}"
-        out["wall_s"] = time.perf_counter() - t0
-        return out
-    response_row(column, acc, dt, periods_s=periods_s, damping=damping, solver_options=solver_options, out=out)
-    out["wall_s"] = time.perf_counter() - t0
-    return out
+        return out, None, None
+    return out, acc, dt
+
+
+def run_synthetic_samples(column, samples, *, record_dt_s=0.005, vp_scale=1.0, periods_s=DEFAULT_PERIODS_S,
+                          damping=DEFAULT_DAMPING, solver_options=None, max_record_s=None,
+                          with_pulse=True) -> list[dict]:
+    """Many synthetic samples of one column, their runs side by side in SIMD lanes
+    (:func:`pycolfrag.solver.simulate_batch`): each row bitwise the :func:`run_synthetic_sample` of
+    its sample, but faster. ``samples``: (mw, dist_km, hf_seed, pulse) of each; the other arguments
+    as :func:`run_synthetic_sample`. ``wall_s`` of a row: its record and IMs, and of the batch's
+    solver time the share of its steps."""
+    def prepare(mw, dist_km, hf_seed, pulse):
+        out, acc, dt = _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s,
+                                         with_pulse)
+        return out, (None if acc is None else {"acc_x": acc, "dt": dt})
+    return _batch_rows(column, samples, prepare, periods_s, damping, solver_options)
+
+
+def _batch_rows(column, samples, prepare, periods_s, damping, solver_options) -> list[dict]:
+    """Rows of many samples: ``prepare(*sample)`` gives each its row so far and its run (None when it
+    failed before the run), then :func:`response_rows` runs them together; ``wall_s`` of a row: its
+    own preparation and IMs, and the share of its steps of the batch's solver time."""
+    rows, runs, owner, times = [], [], [], []
+    for i, smp in enumerate(samples):
+        t0 = time.perf_counter()
+        out, run = prepare(*smp)
+        rows.append(out)
+        times.append(time.perf_counter() - t0)
+        if run is not None:
+            run["out"] = out
+            runs.append(run)
+            owner.append(i)
+    run_times = [0.0] * len(runs)
+    response_rows(column, runs, periods_s=periods_s, damping=damping, solver_options=solver_options,
+                  times=run_times)
+    for i, t in zip(owner, run_times):
+        times[i] += t
+    for out, t in zip(rows, times):
+        out["wall_s"] = t
+    return rows
 
 
 def run_record_sample(record, *, column, component="h1", scale=1.0, vertical=False, rotation_deg=None,
@@ -224,6 +355,18 @@ def run_record_sample(record, *, column, component="h1", scale=1.0, vertical=Fal
     values (the convention of the NGA GMPEs before RotD50).
     """
     t0 = time.perf_counter()
+    out, run = _record_run(record, component, scale, vertical, rotation_deg, periods_s, damping, max_record_s)
+    if run is not None:
+        response_row(column, run["acc_x"], run["dt"], acc_y=run["acc_y"], acc_z=run["acc_z"], ims=run["ims"],
+                     periods_s=periods_s, damping=damping, solver_options=solver_options, out=out)
+    out["wall_s"] = time.perf_counter() - t0
+    return out
+
+
+def _record_run(record, component, scale, vertical, rotation_deg, periods_s, damping, max_record_s):
+    """A natural-record sample up to its run: (row, run) with run the dict of acc_x, dt, acc_y, acc_z and
+    ims (the combined IMs of a pair, else None); run is None (and the row says why) when the record or
+    the IMs of a pair failed."""
     meta = dict(getattr(record, "meta", {}) or {})
     out = {**record_identity(record, component, math.nan), "rjb_km": _meta(meta, "rjb_km"),
            "vs30_m_s": _meta(meta, "vs30_m_s"), "tp_s": _meta(meta, "tp_s"), "year": _meta(meta, "year"),
@@ -249,8 +392,7 @@ def run_record_sample(record, *, column, component="h1", scale=1.0, vertical=Fal
         out["status"] = STATUS["record"]
         text = str(exc)  # an unreadable record's error already names its type
         out["message"] = text if text.startswith(f"{type(exc).__name__}: ") else f"{type(exc).__name__}: {text}"
-        out["wall_s"] = time.perf_counter() - t0
-        return out
+        return out, None
     ims = None
     if y is not None:
         try:
@@ -258,12 +400,20 @@ def run_record_sample(record, *, column, component="h1", scale=1.0, vertical=Fal
         except Exception as exc:
             out["status"] = STATUS["im"]
             out["message"] = f"{type(exc).__name__}: {exc}"
-            out["wall_s"] = time.perf_counter() - t0
-            return out
-    response_row(column, x, dt, acc_y=y, acc_z=z, ims=ims, periods_s=periods_s, damping=damping,
-                 solver_options=solver_options, out=out)
-    out["wall_s"] = time.perf_counter() - t0
-    return out
+            return out, None
+    return out, {"acc_x": x, "dt": dt, "acc_y": y, "acc_z": z, "ims": ims}
+
+
+def run_record_samples(samples, *, column, vertical=False, rotation_deg=None, periods_s=DEFAULT_PERIODS_S,
+                       damping=DEFAULT_DAMPING, solver_options=None, max_record_s=None) -> list[dict]:
+    """Many natural-record samples of one column, their runs side by side in SIMD lanes
+    (:func:`pycolfrag.solver.simulate_batch`, two-component runs too): each row bitwise the
+    :func:`run_record_sample` of its sample, but faster. ``samples``: (record, component, scale) of
+    each; the other arguments as :func:`run_record_sample`. ``wall_s`` as in
+    :func:`run_synthetic_samples`."""
+    def prepare(record, component, scale):
+        return _record_run(record, component, scale, vertical, rotation_deg, periods_s, damping, max_record_s)
+    return _batch_rows(column, samples, prepare, periods_s, damping, solver_options)
 
 
 def rows_to_table(rows) -> dict:
@@ -317,11 +467,12 @@ def run_suite(records, *, column=None, components=("h1", "h2"), scales=(1.0,), p
     col = Column.parthenon() if column is None else column
     jobs = record_jobs(suite, components, scales)
     rows = []
-    for i, (k, c, s) in enumerate(jobs):
-        rows.append(run_record_sample(suite[k], column=col, component=c, scale=s, periods_s=periods_s,
-                                      damping=damping, solver_options=solver_options, max_record_s=max_record_s))
+    for i in range(0, len(jobs), _SUITE_BATCH):   # runs side by side, progress between batches
+        part = jobs[i:i + _SUITE_BATCH]
+        rows.extend(run_record_samples([(suite[k], c, s) for k, c, s in part], column=col, periods_s=periods_s,
+                                       damping=damping, solver_options=solver_options, max_record_s=max_record_s))
         if progress is not None:
-            progress(i + 1, len(jobs))
+            progress(len(rows), len(jobs))
     table = rows_to_table(rows)
     table["periods_s"] = np.asarray(periods_s, dtype=float)
     return table

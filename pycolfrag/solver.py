@@ -29,7 +29,7 @@ from .column import Column
 from .errors import ParameterError
 from .options import CONTACT_OPTIONS, SolverOptions
 
-__all__ = ["simulate", "Response", "History", "EnergyWarning", "StepWarning", "CONTACT_OPTIONS", "MAX_ABS_ACC",
+__all__ = ["simulate", "simulate_batch", "batch_width", "Response", "History", "EnergyWarning", "StepWarning", "CONTACT_OPTIONS", "MAX_ABS_ACC",
            "SolverOptions"]
 _REASONS = {lib.CF_SOLVER_COLLAPSE_NONE: "",
             lib.CF_SOLVER_COLLAPSE_OVERTURNING: "overturning",
@@ -155,6 +155,108 @@ def _segments(col: Column, monolithic: bool):
     return arr, nseg
 
 
+def _setup(col, options, overrides, caller):
+    """The set-up C solver of a column and options (one per call of simulate / simulate_batch)."""
+    if not isinstance(col, Column):
+        raise ParameterError(f"col must be a Column, got {type(col).__name__}")
+    if options is None:
+        options = SolverOptions()
+    elif not isinstance(options, SolverOptions):
+        raise ParameterError(f"options must be a SolverOptions, got {type(options).__name__}")
+    if overrides:
+        options = options.replace(**overrides)
+    d = options.to_c()
+    monolithic = options.monolithic
+
+    solver = ffi.gc(lib.cf_solver_create(), lib.cf_solver_free)
+    if solver == ffi.NULL:
+        raise MemoryError("cf_solver_create failed")
+    segs, nseg = _segments(col, monolithic)
+    if monolithic and any(j > 0 for j in col.joint_overrides):
+        warnings.warn(f"{caller}: monolithic=True has the base joint only; joint_overrides of joints "
+                      f"{sorted(j for j in col.joint_overrides if j > 0)} do not act", UserWarning, stacklevel=3)
+    props = [col.joint(i) for i in range(col.n_blocks)]
+    kn = np.array([p.kn for p in props]); ks = np.array([p.ks for p in props]); mu = np.array([p.mu for p in props])
+    st = lib.cf_solver_setup_joints(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks), ptr(mu))
+    check(st, lib.cf_solver_message(solver), caller)
+    if options.dt_solver is not None:
+        crit = float(lib.cf_solver_dt_crit(solver))
+        if options.dt_solver > crit:
+            warnings.warn(f"{caller}: dt_solver = {options.dt_solver:.4g} s exceeds the whole-stack stability limit "
+                          f"{crit:.4g} s: the run may go unstable (it stops with SolverError when the energy balance "
+                          "breaks)", StepWarning, stacklevel=3)
+    return solver, options
+
+
+class _Job:
+    """One record checked for a run, with the C buffers of its outputs."""
+
+    def __init__(self, solver, col, options, acc_x, dt, acc_y, acc_z, history, caller):
+        dt = float(positive_float(dt, "dt (record sampling interval, s)"))
+        if acc_x is None:
+            raise ParameterError("acc_x must be an array of accelerations (m/s^2), got None")
+        self.ax = ax = _acc(acc_x, "acc_x")
+        self.ay = ay = _acc(acc_y, "acc_y", ax.size)
+        self.az = _acc(acc_z, "acc_z", ax.size)
+        self.dt = dt
+        self.history = history = flag(history, "history")
+        if options.planar and ay is not None:
+            raise ParameterError("planar=True takes one horizontal component: acc_y must be None")
+        if options.dt_solver is not None and options.dt_solver > dt:
+            warnings.warn(f"{caller}: dt_solver = {options.dt_solver:.4g} s is longer than the record's dt = "
+                          f"{dt:.4g} s: the solver skips record samples", StepWarning, stacklevel=3)
+        nb = col.n_blocks
+        self.cap = 0
+        self.h = None
+        if history:
+            cap = int(lib.cf_solver_history_capacity(solver, ax.size, dt))
+            nbytes = 8 * cap * (1 + 2 + 8 + 11 * nb)
+            if cap < 0 or nbytes > MAX_HISTORY_BYTES:
+                raise ParameterError(f"history_dt = {options.history_dt!r} s needs "
+                                     f"{'over %d' % lib.CF_SOLVER_MAX_HISTORY if cap < 0 else cap} history samples for "
+                                     f"this record ({'more than' if cap < 0 else f'{nbytes / 2**30:.1f} GiB,'} over the "
+                                     f"{MAX_HISTORY_BYTES / 2**30:.0f} GiB limit): choose a longer history_dt")
+            self.cap = cap
+            self.h = dict(
+                t=np.zeros(cap), top=np.zeros((cap, 2)), pos=np.zeros((cap, nb, 3)), quat=np.zeros((cap, nb, 4)),
+                open=np.zeros((cap, nb)), slip=np.zeros((cap, nb, 2)), en=np.zeros((cap, lib.CF_SOLVER_N_ENERGY)),
+                fn=np.zeros((cap, nb)))
+        self.resid = np.zeros(nb)
+
+    def fill(self, cj) -> None:
+        """Point a cf_solver_batch_job at this job's arrays (which must outlive the run)."""
+        opt = lambda a: ptr(a) if a is not None else ffi.NULL
+        cj.acc_x = ptr(self.ax); cj.acc_y = opt(self.ay); cj.acc_z = opt(self.az)
+        cj.n = self.ax.size; cj.dt_rec = self.dt
+        cj.residual_dislocation = ptr(self.resid)
+        cj.history_capacity = self.cap
+        if self.h is not None:
+            h = self.h
+            cj.h_t = ptr(h["t"]); cj.h_top = ptr(h["top"]); cj.h_pos = ptr(h["pos"]); cj.h_quat = ptr(h["quat"])
+            cj.h_open = ptr(h["open"]); cj.h_slip = ptr(h["slip"]); cj.h_energy = ptr(h["en"]); cj.h_normal = ptr(h["fn"])
+
+    def response(self, r, message, options) -> Response:
+        """The Response of a finished run (its cf_solver_result r)."""
+        hist = None
+        if self.history:
+            n = r.n_history
+            h = self.h
+            en = h["en"][:n]
+            hist = History(t=h["t"][:n].copy(), top_disp=h["top"][:n].copy(), block_pos=h["pos"][:n].copy(),
+                           block_quat=h["quat"][:n].copy(), joint_opening=h["open"][:n].copy(),
+                           joint_slip=h["slip"][:n].copy(), joint_normal_force=h["fn"][:n].copy(),
+                           energy={k: en[:, i].copy() for i, k in enumerate(_ENERGY_KEYS)})
+        return Response(
+            u_top=float(r.u_top), u_d=float(r.u_d), collapsed=bool(r.collapsed),
+            collapse_block=int(r.collapse_block) if r.collapsed else None,
+            collapse_time=float(r.collapse_time) if r.collapsed else math.nan,
+            collapse_reason=_REASONS.get(r.collapse_reason, "unknown"),
+            n_steps=int(r.n_steps), t_end=float(r.t_end), dt=float(r.dt), dt_crit=float(r.dt_crit),
+            energy_error=float(r.energy_error), energy_scale=float(r.energy_scale),
+            energy_warning=bool(r.energy_warning), residual_dislocation=self.resid, options=options.to_dict(),
+            history=hist, message=message, at_rest_exit=bool(r.at_rest_exit), max_top_disp=float(r.max_top_disp))
+
+
 def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, options=None, **overrides) -> Response:
     """Simulate the column under one ground-motion record.
 
@@ -194,75 +296,31 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, options=None
         The energy balance error exceeded ``energy_tolerance``.
     StepWarning
         An explicit ``dt_solver`` longer than the stability limit or than the record's dt.
+
+    See :func:`simulate_batch` for many records on one column (the same results, faster).
     """
     if not isinstance(col, Column):
         raise ParameterError(f"col must be a Column, got {type(col).__name__}")
-    dt = float(positive_float(dt, "dt (record sampling interval, s)"))
+    # the record is checked before the set-up (a bad record fails fast)
+    positive_float(dt, "dt (record sampling interval, s)")
     if acc_x is None:
         raise ParameterError("acc_x must be an array of accelerations (m/s^2), got None")
-    ax = _acc(acc_x, "acc_x")
-    ay = _acc(acc_y, "acc_y", ax.size)
-    az = _acc(acc_z, "acc_z", ax.size)
-    history = flag(history, "history")
-    if options is None:
-        options = SolverOptions()
-    elif not isinstance(options, SolverOptions):
-        raise ParameterError(f"options must be a SolverOptions, got {type(options).__name__}")
-    if overrides:
-        options = options.replace(**overrides)
-    if options.planar and ay is not None:
-        raise ParameterError("planar=True takes one horizontal component: acc_y must be None")
-    d = options.to_c()
-    monolithic = options.monolithic
-
-    solver = ffi.gc(lib.cf_solver_create(), lib.cf_solver_free)
-    if solver == ffi.NULL:
-        raise MemoryError("cf_solver_create failed")
-    segs, nseg = _segments(col, monolithic)
-    if monolithic and any(j > 0 for j in col.joint_overrides):
-        warnings.warn(f"simulate: monolithic=True has the base joint only; joint_overrides of joints "
-                      f"{sorted(j for j in col.joint_overrides if j > 0)} do not act", UserWarning, stacklevel=2)
-    props = [col.joint(i) for i in range(col.n_blocks)]
-    kn = np.array([p.kn for p in props]); ks = np.array([p.ks for p in props]); mu = np.array([p.mu for p in props])
-    st = lib.cf_solver_setup_joints(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks), ptr(mu))
-    check(st, lib.cf_solver_message(solver), "simulate")
-    if options.dt_solver is not None:
-        crit = float(lib.cf_solver_dt_crit(solver))
-        if options.dt_solver > crit:
-            warnings.warn(f"simulate: dt_solver = {options.dt_solver:.4g} s exceeds the whole-stack stability limit "
-                          f"{crit:.4g} s: the run may go unstable (it stops with SolverError when the energy balance "
-                          "breaks)", StepWarning, stacklevel=2)
-        if options.dt_solver > dt:
-            warnings.warn(f"simulate: dt_solver = {options.dt_solver:.4g} s is longer than the record's dt = {dt:.4g} s: "
-                          "the solver skips record samples", StepWarning, stacklevel=2)
-
-    nb = col.n_blocks
-    hist_arrays = None
-    if history:
-        cap = int(lib.cf_solver_history_capacity(solver, ax.size, dt))
-        nbytes = 8 * cap * (1 + 2 + 8 + 11 * nb)
-        if cap < 0 or nbytes > MAX_HISTORY_BYTES:
-            raise ParameterError(f"history_dt = {options.history_dt!r} s needs "
-                                 f"{'over %d' % lib.CF_SOLVER_MAX_HISTORY if cap < 0 else cap} history samples for "
-                                 f"this record ({'more than' if cap < 0 else f'{nbytes / 2**30:.1f} GiB,'} over the "
-                                 f"{MAX_HISTORY_BYTES / 2**30:.0f} GiB limit): choose a longer history_dt")
-        hist_arrays = dict(
-            t=np.zeros(cap), top=np.zeros((cap, 2)), pos=np.zeros((cap, nb, 3)), quat=np.zeros((cap, nb, 4)),
-            open=np.zeros((cap, nb)), slip=np.zeros((cap, nb, 2)), en=np.zeros((cap, lib.CF_SOLVER_N_ENERGY)), fn=np.zeros((cap, nb)))
-        h = hist_arrays
-        check(lib.cf_solver_set_history(solver, cap, ptr(h["t"]), ptr(h["top"]), ptr(h["pos"]), ptr(h["quat"]),
+    solver, options = _setup(col, options, overrides, "simulate")
+    job = _Job(solver, col, options, acc_x, dt, acc_y, acc_z, history, "simulate")
+    h = job.h
+    if h is not None:
+        check(lib.cf_solver_set_history(solver, job.cap, ptr(h["t"]), ptr(h["top"]), ptr(h["pos"]), ptr(h["quat"]),
                                         ptr(h["open"]), ptr(h["slip"]), ptr(h["en"])),
               lib.cf_solver_message(solver), "simulate")
         check(lib.cf_solver_set_history_normal(solver, ptr(h["fn"])), lib.cf_solver_message(solver), "simulate")
-    resid = np.zeros(nb)
     r = ffi.new("cf_solver_result *")
     # every CF_SOLVER_CHECK_STEPS steps (about 10 ms) the run calls back into Python, where a
     # pending Ctrl-C (or any signal handler's exception) is raised; the run then stops at once
     _runs.caught = caught = []
     lib.cf_solver_set_check(solver, lib._pcf_solver_check, ffi.NULL)
     try:
-        st = lib.cf_solver_run(solver, ptr(ax), ptr(ay) if ay is not None else ffi.NULL,
-                               ptr(az) if az is not None else ffi.NULL, ax.size, dt, ptr(resid), r)
+        st = lib.cf_solver_run(solver, ptr(job.ax), ptr(job.ay) if job.ay is not None else ffi.NULL,
+                               ptr(job.az) if job.az is not None else ffi.NULL, job.ax.size, job.dt, ptr(job.resid), r)
     finally:
         _runs.caught = []
     if caught:
@@ -271,22 +329,106 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, options=None
     message = ffi.string(lib.cf_solver_message(solver)).decode(errors="replace")
     if r.energy_warning:
         warnings.warn(f"simulate: {message}", EnergyWarning, stacklevel=2)
+    return job.response(r, message, options)
 
-    hist = None
-    if history:
-        n = r.n_history
-        h = hist_arrays
-        en = h["en"][:n]
-        hist = History(t=h["t"][:n].copy(), top_disp=h["top"][:n].copy(), block_pos=h["pos"][:n].copy(),
-                       block_quat=h["quat"][:n].copy(), joint_opening=h["open"][:n].copy(),
-                       joint_slip=h["slip"][:n].copy(), joint_normal_force=h["fn"][:n].copy(),
-                       energy={k: en[:, i].copy() for i, k in enumerate(_ENERGY_KEYS)})
-    return Response(
-        u_top=float(r.u_top), u_d=float(r.u_d), collapsed=bool(r.collapsed),
-        collapse_block=int(r.collapse_block) if r.collapsed else None,
-        collapse_time=float(r.collapse_time) if r.collapsed else math.nan,
-        collapse_reason=_REASONS.get(r.collapse_reason, "unknown"),
-        n_steps=int(r.n_steps), t_end=float(r.t_end), dt=float(r.dt), dt_crit=float(r.dt_crit),
-        energy_error=float(r.energy_error), energy_scale=float(r.energy_scale),
-        energy_warning=bool(r.energy_warning), residual_dislocation=resid, options=options.to_dict(), history=hist,
-        message=message, at_rest_exit=bool(r.at_rest_exit), max_top_disp=float(r.max_top_disp))
+
+def batch_width(col=None, options=None, n_runs=None, **overrides) -> int:
+    """How many runs :func:`simulate_batch` integrates side by side on this CPU for a column and
+    options: the most it can (``n_runs`` None): 8 (AVX-512), 4 (AVX2), 2 (SSE2) or 1 (the
+    exact-interface contact model, whose runs go one after the other); or the width it takes by
+    default for ``n_runs`` records (8 from 5 runs on, 4 from 3 on, else 1: the widths that are
+    faster than one run after the other, docs/performance.md)."""
+    col = Column.parthenon() if col is None else col
+    solver, _ = _setup(col, options, overrides, "batch_width")
+    if n_runs is None:
+        return int(lib.cf_solver_batch_max_width(solver))
+    return int(lib.cf_solver_batch_width(solver, int(n_runs)))
+
+
+def simulate_batch(col, records, history=False, options=None, *, width=None, errors="raise",
+                   **overrides) -> list:
+    """Simulate the column under many records at once: one run per SIMD lane.
+
+    Every run is bitwise the :func:`simulate` of its record with the same options (the batch
+    integrates ``width`` runs side by side, each lane doing the single run's operations in its
+    order, and gives a lane the next record when its run ends); only the speed differs
+    (docs/performance.md).
+
+    Parameters
+    ----------
+    col : Column
+    records : sequence
+        One entry per run: a mapping with ``acc_x`` and ``dt`` (and optionally ``acc_y``, ``acc_z``),
+        or a tuple ``(acc_x, dt)`` / ``(acc_x, dt, acc_y, acc_z)`` -- as :func:`simulate` takes them.
+    history, options, **overrides
+        As :func:`simulate`, for every run.
+    width : int, optional
+        Runs side by side: 1, 2, 4 or 8 up to :func:`batch_width` (default: the fastest for this many
+        records, ``batch_width(col, options, n_runs=len(records))``). The results do not depend on it.
+    errors : {"raise", "return"}
+        A run that :func:`simulate` would end with an exception: raise it (after the batch), or put
+        the exception in that run's place of the returned list.
+
+    Returns
+    -------
+    list of Response (or of exceptions, with ``errors="return"``), in the order of ``records``.
+
+    Warns
+    -----
+    EnergyWarning, StepWarning
+        As :func:`simulate`, per run.
+    """
+    if errors not in ("raise", "return"):
+        raise ParameterError(f"errors must be 'raise' or 'return', got {errors!r}")
+    if isinstance(records, (str, bytes)) or not hasattr(records, "__iter__"):
+        raise ParameterError(f"records must be a sequence of records, got {type(records).__name__}")
+    records = list(records)
+    solver, options = _setup(col, options, overrides, "simulate_batch")
+    widest = int(lib.cf_solver_batch_max_width(solver))
+    if width is None:
+        width = 0   # the C library's choice for the number of runs
+    elif isinstance(width, bool) or not isinstance(width, (int, np.integer)) or int(width) not in (1, 2, 4, 8) \
+            or int(width) > widest:
+        raise ParameterError(f"width must be 1, 2, 4 or 8 up to {widest} (this CPU and contact model), got {width!r}")
+    out: list = [None] * len(records)
+    jobs = []
+    for i, rec in enumerate(records):
+        try:
+            if isinstance(rec, dict):
+                unknown = set(rec) - {"acc_x", "dt", "acc_y", "acc_z"}
+                if unknown:
+                    raise ParameterError(f"records[{i}] has unknown keys {sorted(unknown)} (acc_x, dt, acc_y, acc_z)")
+                args = (rec.get("acc_x"), rec.get("dt"), rec.get("acc_y"), rec.get("acc_z"))
+            elif isinstance(rec, (tuple, list)) and len(rec) in (2, 4):
+                args = (rec[0], rec[1], *(rec[2:] if len(rec) == 4 else (None, None)))
+            else:
+                raise ParameterError(f"records[{i}] must be a dict (acc_x, dt[, acc_y, acc_z]) or a tuple (acc_x, dt) "
+                                     f"or (acc_x, dt, acc_y, acc_z), got {type(rec).__name__}")
+            if args[1] is None:
+                raise ParameterError(f"records[{i}] has no dt (record sampling interval, s)")
+            jobs.append((i, _Job(solver, col, options, args[0], args[1], args[2], args[3], history,
+                                 "simulate_batch")))
+        except Exception as exc:   # a bad record is that run's error, as simulate would raise it
+            out[i] = exc
+    if jobs:
+        cjobs = ffi.new("cf_solver_batch_job[]", len(jobs))
+        couts = ffi.new("cf_solver_batch_out[]", len(jobs))
+        for c, (_, job) in zip(cjobs, jobs):
+            job.fill(c)
+        check(lib.cf_solver_batch_run(solver, int(width), len(jobs), cjobs, couts), lib.cf_solver_message(solver),
+              "simulate_batch")
+        for o, (i, job) in zip(couts, jobs):
+            message = ffi.string(o.message).decode(errors="replace")
+            try:   # a run's error reads as simulate's
+                check(o.status, message, "simulate")
+            except Exception as exc:
+                out[i] = exc
+                continue
+            if o.result.energy_warning:
+                warnings.warn(f"simulate_batch: run {i}: {message}", EnergyWarning, stacklevel=2)
+            out[i] = job.response(o.result, message, options)
+    if errors == "raise":
+        for r in out:
+            if isinstance(r, BaseException):
+                raise r
+    return out

@@ -1,7 +1,12 @@
 #!/usr/bin/env bash
 # Every SIMD width and the scalar build must give bitwise the same results:
-# tests/c/result_hashes.c hashes every bit of 12 solver configurations (each contact
-# model, planar, monolithic, two components, damping, a collapse), built four times:
+# tests/c/result_hashes.c hashes every bit of 14 solver configurations (each contact
+# model, planar, monolithic, two components, damping, a collapse, stiff joints), and of
+# a batch of 11 runs of each (cf_solver_batch_run: amplitudes and record lengths that
+# end at different steps, so lanes are refilled, collapses, a refused job), which it
+# also runs as batches of every width the build and CPU have (1, 2, 4, 8 runs side by
+# side) and requires bitwise equal to the same runs alone (it fails on a MISMATCH);
+# built four times:
 #   default          the widest the CPU runs, chosen at run time (AVX-512 lanes across
 #                    joints, AVX2 lanes across points, on a CPU that has them)
 #   -DCF_FORCE_AVX2  at most AVX2 (what an AVX2 CPU without AVX-512 runs)
@@ -20,7 +25,10 @@ declare -A variants=([simd]="" [avx2]="-DCF_FORCE_AVX2" [sse2]="-DCF_FORCE_SSE2"
 for v in simd avx2 sse2 scalar; do
     # shellcheck disable=SC2086
     ${CC:-gcc} $cflags ${variants[$v]} -Icsrc -o "build/result_hashes_$v" tests/c/result_hashes.c csrc/*.c -lm
-    "build/result_hashes_$v" > "build/result_hashes_$v.txt"
+    if ! "build/result_hashes_$v" > "build/result_hashes_$v.txt"; then
+        grep -h "MISMATCH\|failed" "build/result_hashes_$v.txt" || true
+        echo "check_result_hashes: the $v build's batches differ from its single runs (lines above)"; exit 1
+    fi
 done
 status=0
 for v in avx2 sse2 scalar; do
@@ -29,7 +37,7 @@ for v in avx2 sse2 scalar; do
     fi
 done
 if [ $status -eq 0 ]; then
-    echo "check_result_hashes: default SIMD, AVX2, SSE2 and scalar builds give identical results" \
-         "($(wc -l < build/result_hashes_simd.txt) configurations)"
+    echo "check_result_hashes: default SIMD, AVX2, SSE2 and scalar builds give identical results, batches" \
+         "of every width equal to single runs ($(wc -l < build/result_hashes_simd.txt) lines)"
 fi
 exit $status

@@ -21,6 +21,7 @@
 #include "cf_common.h"
 #include "geometry.h"
 #include "solver.h"
+#include "solver_batch.h"
 
 enum { NB = 13, NREC = 1201 };
 
@@ -59,68 +60,175 @@ typedef struct {
     double kn;             /* joint stiffness kn = ks, Pa/m; 0 = the default 1e9 */
 } config;
 
-static int run(const config *c)
+/* The burst of a configuration: amplitude factor f on the config's amplitude. */
+static void record(const config *c, double f, double *ax, double *ay, double *az)
 {
-    cf_geometry_segment seg[NB + 1];
-    int nseg[NB], i, cap, st;
-    double ax[NREC], ay[NREC], az[NREC], resid[NB], dtr = 0.005;
-    double *buf;
-    size_t nbuf;
-    cf_solver_def def;
-    cf_solver_result res;
-    cf_solver *s = cf_solver_create();
-    unsigned long long h = 1469598103934665603ULL;
-    if (!s) return 1;
-    column(seg, nseg);
+    int i;
+    double dtr = 0.005;
     for (i = 0; i < NREC; i++) {
         double t = i * dtr, env = t < 3.0 ? 1.0 : 0.0;
         /* polynomial burst (no libm in the input: the hashes must not depend on it) */
         double ph = 4.0 * t - floor(4.0 * t), tri = 4.0 * fabs(ph - 0.5) - 1.0;
-        ax[i] = c->amp_g * 9.81 * env * tri;
-        ay[i] = 0.6 * c->amp_g * 9.81 * env * (1.0 - 2.0 * fabs(2.0 * (2.6 * t - floor(2.6 * t)) - 1.0));
-        az[i] = 0.3 * c->amp_g * 9.81 * env * tri * tri;
+        ax[i] = f * c->amp_g * 9.81 * env * tri;
+        ay[i] = 0.6 * f * c->amp_g * 9.81 * env * (1.0 - 2.0 * fabs(2.0 * (2.6 * t - floor(2.6 * t)) - 1.0));
+        az[i] = 0.3 * f * c->amp_g * 9.81 * env * tri * tri;
     }
+}
+
+static cf_solver *setup(const config *c, int early_exit)
+{
+    cf_geometry_segment seg[NB + 1];
+    int nseg[NB], st;
+    cf_solver_def def;
+    cf_solver *s = cf_solver_create();
+    double kn = c->kn > 0 ? c->kn : 1e9;
+    if (!s) return NULL;
+    column(seg, nseg);
     cf_solver_def_default(&def);
     def.contact = c->contact; def.points_per_edge = c->ppe; def.planar = c->planar;
-    def.monolithic = c->mono; def.dt_factor = c->dtf; def.early_exit = 0;
+    def.monolithic = c->mono; def.dt_factor = c->dtf; def.early_exit = early_exit;
     def.tail_s = 2.0;
     if (c->damp) { def.damping_alpha = 0.5; def.damping_start_s = 3.0; }
-    {
-        double kn = c->kn > 0 ? c->kn : 1e9;
-        st = cf_solver_setup(s, &def, NB, nseg, seg, 2700.0, kn, kn, 0.7535540501027942);
-    }
-    if (st) { printf("%-14s setup failed: %s\n", c->name, cf_solver_message(s)); cf_solver_free(s); return 1; }
-    cap = cf_solver_history_capacity(s, NREC, dtr);
+    st = cf_solver_setup(s, &def, NB, nseg, seg, 2700.0, kn, kn, 0.7535540501027942);
+    if (st) { printf("%-14s setup failed: %s\n", c->name, cf_solver_message(s)); cf_solver_free(s); return NULL; }
+    return s;
+}
+
+/* One job: its record (amplitude factor f, the first n samples) and its output buffers. */
+typedef struct {
+    double ax[NREC], ay[NREC], az[NREC], resid[NB];
+    double *buf;
+    size_t nbuf;
+    long cap;
+} job;
+
+static int job_make(const config *c, const cf_solver *s, double f, int n, job *jb, cf_solver_batch_job *bj)
+{
+    long cap = cf_solver_history_capacity(s, n, 0.005);
+    double *p;
+    record(c, f, jb->ax, jb->ay, jb->az);
+    jb->cap = cap;
     /* t, top (2), pos (3 NB), quat (4 NB), open (NB), slip (2 NB), energy (8), normal (NB) */
-    nbuf = (size_t)cap * (1 + 2 + 11 * NB + 8 + NB);
-    buf = (double *)calloc(nbuf, sizeof(double));
-    if (!buf) { cf_solver_free(s); return 1; }
-    {
-        double *p = buf;
-        double *t = p; p += cap;
-        double *top = p; p += 2 * (size_t)cap;
-        double *pos = p; p += 3 * (size_t)cap * NB;
-        double *quat = p; p += 4 * (size_t)cap * NB;
-        double *open = p; p += (size_t)cap * NB;
-        double *slip = p; p += 2 * (size_t)cap * NB;
-        double *en = p; p += 8 * (size_t)cap;
-        cf_solver_set_history(s, cap, t, top, pos, quat, open, slip, en);
-        cf_solver_set_history_normal(s, p);
-    }
-    st = cf_solver_run(s, ax, c->two ? ay : NULL, c->two ? az : NULL, NREC, dtr, resid, &res);
-    h = hash_bytes(h, &res.u_top, sizeof res.u_top);
-    h = hash_bytes(h, &res.u_d, sizeof res.u_d);
-    h = hash_bytes(h, &res.energy_error, sizeof res.energy_error);
-    h = hash_bytes(h, &res.n_steps, sizeof res.n_steps);
-    h = hash_bytes(h, &res.collapsed, sizeof res.collapsed);
-    h = hash_bytes(h, &res.collapse_block, sizeof res.collapse_block);
-    h = hash_bytes(h, resid, sizeof resid);
-    h = hash_bytes(h, buf, nbuf * sizeof(double));
-    printf("%-14s status %d steps %ld u_top %.12g u_d %.6g err %.3g collapsed %d/%d | hash %016llx\n", c->name, st,
-           res.n_steps, res.u_top, res.u_d, res.energy_error, res.collapsed, res.collapse_block, h);
-    free(buf);
+    jb->nbuf = (size_t)cap * (1 + 2 + 11 * NB + 8 + NB);
+    jb->buf = (double *)calloc(jb->nbuf, sizeof(double));
+    if (!jb->buf) return 1;
+    memset(bj, 0, sizeof *bj);
+    bj->acc_x = jb->ax; bj->acc_y = c->two ? jb->ay : NULL; bj->acc_z = c->two ? jb->az : NULL;
+    bj->n = n; bj->dt_rec = 0.005; bj->residual_dislocation = jb->resid; bj->history_capacity = cap;
+    p = jb->buf;
+    bj->h_t = p; p += cap;
+    bj->h_top = p; p += 2 * (size_t)cap;
+    bj->h_pos = p; p += 3 * (size_t)cap * NB;
+    bj->h_quat = p; p += 4 * (size_t)cap * NB;
+    bj->h_open = p; p += (size_t)cap * NB;
+    bj->h_slip = p; p += 2 * (size_t)cap * NB;
+    bj->h_energy = p; p += 8 * (size_t)cap;
+    bj->h_normal = p;
+    return 0;
+}
+
+/* every bit of a job's outputs: result, residual dislocations, histories, status, message */
+static unsigned long long job_hash(const job *jb, const cf_solver_batch_out *o)
+{
+    unsigned long long h = 1469598103934665603ULL;
+    const cf_solver_result *res = &o->result;
+    h = hash_bytes(h, &res->u_top, sizeof res->u_top);
+    h = hash_bytes(h, &res->u_d, sizeof res->u_d);
+    h = hash_bytes(h, &res->energy_error, sizeof res->energy_error);
+    h = hash_bytes(h, &res->n_steps, sizeof res->n_steps);
+    h = hash_bytes(h, &res->collapsed, sizeof res->collapsed);
+    h = hash_bytes(h, &res->collapse_block, sizeof res->collapse_block);
+    h = hash_bytes(h, jb->resid, sizeof jb->resid);
+    h = hash_bytes(h, jb->buf, jb->nbuf * sizeof(double));
+    return h;
+}
+
+/* ... and its status, message and every field of its result (set after a memset in both
+ * paths, so the padding is zero too) */
+static unsigned long long job_hash_all(const job *jb, const cf_solver_batch_out *o)
+{
+    unsigned long long h = job_hash(jb, o);
+    h = hash_bytes(h, &o->status, sizeof o->status);
+    h = hash_bytes(h, o->message, strlen(o->message));
+    return hash_bytes(h, &o->result, sizeof o->result);
+}
+
+/* A configuration run alone (cf_solver_run on a fresh solver): one line. */
+static int run(const config *c)
+{
+    cf_solver *s = setup(c, 0);
+    job *jb;
+    cf_solver_batch_job bj;
+    cf_solver_batch_out o;
+    if (!s) return 1;
+    jb = (job *)calloc(1, sizeof *jb);
+    if (!jb || job_make(c, s, 1.0, NREC, jb, &bj)) { free(jb); cf_solver_free(s); return 1; }
+    cf_solver_set_history(s, jb->cap, bj.h_t, bj.h_top, bj.h_pos, bj.h_quat, bj.h_open, bj.h_slip, bj.h_energy);
+    cf_solver_set_history_normal(s, bj.h_normal);
+    memset(&o, 0, sizeof o);
+    o.status = cf_solver_run(s, bj.acc_x, bj.acc_y, bj.acc_z, NREC, 0.005, jb->resid, &o.result);
+    printf("%-14s status %d steps %ld u_top %.12g u_d %.6g err %.3g collapsed %d/%d | hash %016llx\n", c->name,
+           o.status, o.result.n_steps, o.result.u_top, o.result.u_d, o.result.energy_error, o.result.collapsed,
+           o.result.collapse_block, job_hash(jb, &o));
+    free(jb->buf); free(jb);
     cf_solver_free(s);
     return 0;
+}
+
+/* A batch of NJOB runs of one configuration -- amplitudes and record lengths that end at
+ * different steps (so lanes are refilled), with early exit (collapse, at rest) or not, and
+ * one job refused by cf_solver_run's checks -- on a fresh solver for each job alone, then as
+ * batches of every width this CPU and build run: every job's outputs must be bitwise the same.
+ * Prints one line per configuration (the same in every build), and MISMATCH lines on failure. */
+enum { NJOB = 11 };
+
+static int batch(const config *c, int early_exit)
+{
+    static const double amp[NJOB] = {1.0, 0.5, 1.4, 0.8, 2.5, 0.3, 1.2, 4.0, 0.9, 0.0, 1.1};
+    static const int len[NJOB] = {NREC, 700, NREC, 300, NREC, 1000, 500, NREC, 900, NREC, 200};
+    job *jb = (job *)calloc(NJOB, sizeof *jb);
+    cf_solver_batch_job bj[NJOB];
+    cf_solver_batch_out *o = (cf_solver_batch_out *)calloc(NJOB, sizeof *o);
+    unsigned long long ref[NJOB], all = 1469598103934665603ULL;
+    cf_solver *s = setup(c, early_exit);
+    int i, w, bad = 0, ncol = 0, widths[4] = {1, 2, 4, 8};
+    if (!s || !jb || !o) { free(jb); free(o); cf_solver_free(s); return 1; }
+    for (i = 0; i < NJOB; i++)
+        if (job_make(c, s, amp[i], len[i], &jb[i], &bj[i])) bad = 1;
+    if (!bad) bj[NJOB - 2].dt_rec = -1.0;   /* refused: its status and message must come through */
+    for (i = 0; i < NJOB && !bad; i++) {
+        /* alone, on a freshly set-up solver */
+        cf_solver *s1 = setup(c, early_exit);
+        if (!s1) { bad = 1; break; }
+        memset(&o[i], 0, sizeof o[i]);
+        cf_solver_set_history(s1, bj[i].history_capacity, bj[i].h_t, bj[i].h_top, bj[i].h_pos, bj[i].h_quat,
+                              bj[i].h_open, bj[i].h_slip, bj[i].h_energy);
+        cf_solver_set_history_normal(s1, bj[i].h_normal);
+        o[i].status = cf_solver_run(s1, bj[i].acc_x, bj[i].acc_y, bj[i].acc_z, bj[i].n, bj[i].dt_rec,
+                                    bj[i].residual_dislocation, &o[i].result);
+        memcpy(o[i].message, cf_solver_message(s1), CF_MSG_LEN);
+        ref[i] = job_hash_all(&jb[i], &o[i]);
+        all = hash_bytes(all, &ref[i], sizeof ref[i]);
+        ncol += o[i].result.collapsed;
+        cf_solver_free(s1);
+    }
+    for (w = 0; w < 4 && !bad; w++) {
+        if (widths[w] > cf_solver_batch_max_width(s)) continue;
+        for (i = 0; i < NJOB; i++) { memset(jb[i].buf, 0, jb[i].nbuf * sizeof(double)); memset(jb[i].resid, 0, sizeof jb[i].resid); }
+        memset(o, 0xff, NJOB * sizeof *o);
+        if (cf_solver_batch_run(s, widths[w], NJOB, bj, o)) { printf("%s: batch failed: %s\n", c->name, cf_solver_message(s)); bad = 1; break; }
+        for (i = 0; i < NJOB; i++)
+            if (job_hash_all(&jb[i], &o[i]) != ref[i]) {
+                printf("MISMATCH %s%s: job %d, batch width %d\n", c->name, early_exit ? "+exit" : "", i, widths[w]);
+                bad = 1;
+            }
+    }
+    printf("%-14s batch of %d (%s, %d collapsed) | hash %016llx\n", c->name, NJOB, early_exit ? "early exit" : "full",
+           ncol, all);
+    for (i = 0; i < NJOB; i++) free(jb[i].buf);
+    free(jb); free(o);
+    cf_solver_free(s);
+    return bad;
 }
 
 int main(void)
@@ -145,5 +253,9 @@ int main(void)
     size_t i;
     int bad = 0;
     for (i = 0; i < sizeof cs / sizeof cs[0]; i++) bad |= run(&cs[i]);
+    /* batches: the default options (early exit) on the default scene, then every configuration */
+    bad |= batch(&cs[0], 1);
+    bad |= batch(&cs[3], 1);
+    for (i = 0; i < sizeof cs / sizeof cs[0]; i++) bad |= batch(&cs[i], 0);
     return bad;
 }

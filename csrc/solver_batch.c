@@ -1,0 +1,158 @@
+/*
+ * solver_batch.c -- many runs of one column, one run per SIMD lane (solver_batch.h).
+ *
+ * The integrator of solver_batch_lanes.h is instantiated for 2 lanes (SSE2, part of every
+ * x86-64 CPU), 4 (AVX2) and 8 (AVX-512F), the wider ones compiled for their instruction
+ * set by a target region (no -m flag: the library still runs on any x86-64) and chosen at
+ * run time from CPUID, as the point runners are. No FMA is enabled and contraction is
+ * off, so every lane rounds as the single run does. Width 1 -- the exact-interface
+ * model, whose work is the polygon clipping of contact.c, and builds without GCC vector
+ * extensions or with -DCF_NO_SIMD -- runs the jobs one after the other with
+ * cf_solver_run.
+ */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "solver_batch.h"
+#include "solver_internal.h"
+#include "solver_points_internal.h"
+
+#if defined(CF_SOLVER_SIMD) && defined(__GNUC__) && defined(__x86_64__)
+#define CF_BATCH_LANES 1
+#include <immintrin.h>
+
+/* 2 lanes: SSE2 */
+#define CF_BW 2
+#define CF_BN(n) n##_w2
+#define CF_BW_SQRT(x) ((VD)_mm_sqrt_pd((__m128d)(x)))
+#define CF_BW_BITS(m) _mm_movemask_pd((__m128d)(m))
+#include "solver_batch_lanes.h"
+#undef CF_BW
+#undef CF_BN
+#undef CF_BW_SQRT
+#undef CF_BW_BITS
+
+#if !defined(CF_FORCE_SSE2)
+#define CF_BATCH_AVX2 1
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#define CF_BW 4
+#define CF_BN(n) n##_w4
+#define CF_BW_SQRT(x) ((VD)_mm256_sqrt_pd((__m256d)(x)))
+#define CF_BW_BITS(m) _mm256_movemask_pd((__m256d)(m))
+#include "solver_batch_lanes.h"
+#undef CF_BW
+#undef CF_BN
+#undef CF_BW_SQRT
+#undef CF_BW_BITS
+#pragma GCC pop_options
+
+#if !defined(CF_FORCE_AVX2)
+#define CF_BATCH_AVX512 1
+#pragma GCC push_options
+#pragma GCC target("avx512f")
+#define CF_BW 8
+#define CF_BN(n) n##_w8
+#define CF_BW_SQRT(x) ((VD)_mm512_sqrt_pd((__m512d)(x)))
+#define CF_BW_BITS(m) ((int)_mm512_test_epi64_mask((__m512i)(m), (__m512i)(m)))
+#include "solver_batch_lanes.h"
+#undef CF_BW
+#undef CF_BN
+#undef CF_BW_SQRT
+#undef CF_BW_BITS
+#pragma GCC pop_options
+#endif
+#endif
+#endif
+
+/* The widest lane count this CPU and build run for the column of s. */
+static int widest(const cf_solver *s)
+{
+    if (s->def.contact == CF_SOLVER_CONTACT_EXACT) return 1;
+#ifdef CF_BATCH_LANES
+#ifdef CF_BATCH_AVX512
+    if (__builtin_cpu_supports("avx512f")) return 8;
+#endif
+#ifdef CF_BATCH_AVX2
+    if (__builtin_cpu_supports("avx2")) return 4;
+#endif
+    return 2;
+#else
+    return 1;
+#endif
+}
+
+int cf_solver_batch_max_width(const cf_solver *s)
+{
+    if (!s || !s->ready) return 0;
+    return widest(s);
+}
+
+/* The width that pays, measured (docs/performance.md): a lane costs 0.53 of a single run at
+ * width 8 and 0.71 at width 4 when every lane is busy, and a batch pays for its idle lanes,
+ * so 8 from 5 jobs on, 4 from 3 jobs on; two lanes of SSE2 cost 1.05 of a single run (SSE2
+ * points): never by default. */
+int cf_solver_batch_width(const cf_solver *s, int n_jobs)
+{
+    int w;
+    if (!s || !s->ready) return 0;
+    w = widest(s);
+    if (w >= 8 && n_jobs >= 5) return 8;
+    if (w >= 4 && n_jobs >= 3) return 4;
+    return 1;
+}
+
+/* Width 1: the jobs one after the other, each a run of a freshly reset solver. */
+static int one_by_one(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs, cf_solver_batch_out *out)
+{
+    int j;
+    long cap = s->h_cap;
+    double *h[8];
+    h[0] = s->h_t; h[1] = s->h_top; h[2] = s->h_pos; h[3] = s->h_quat; h[4] = s->h_open; h[5] = s->h_slip;
+    h[6] = s->h_en; h[7] = s->h_fn;
+    for (j = 0; j < n_jobs; j++) {
+        const cf_solver_batch_job *jb = &jobs[j];
+        s->h_cap = jb->history_capacity > 0 ? jb->history_capacity : 0;
+        s->h_t = jb->h_t; s->h_top = jb->h_top; s->h_pos = jb->h_pos; s->h_quat = jb->h_quat;
+        s->h_open = jb->h_open; s->h_slip = jb->h_slip; s->h_en = jb->h_energy; s->h_fn = jb->h_normal;
+        s->msg[0] = 0;
+        out[j].status = cf_solver_run(s, jb->acc_x, jb->acc_y, jb->acc_z, jb->n, jb->dt_rec,
+                                      jb->residual_dislocation, &out[j].result);
+        memcpy(out[j].message, s->msg, CF_MSG_LEN);
+    }
+    s->h_cap = cap; s->h_t = h[0]; s->h_top = h[1]; s->h_pos = h[2]; s->h_quat = h[3]; s->h_open = h[4];
+    s->h_slip = h[5]; s->h_en = h[6]; s->h_fn = h[7];
+    s->msg[0] = 0;
+    return CF_OK;
+}
+
+int cf_solver_batch_run(cf_solver *s, int width, int n_jobs, const cf_solver_batch_job *jobs,
+                        cf_solver_batch_out *out)
+{
+    int w;
+    if (!s) return CF_EINVAL;
+    if (!s->ready) return cf_solver_fail(s, CF_ESTATE, "cf_solver_batch_run before a successful cf_solver_setup");
+    if (n_jobs < 0) return cf_solver_fail(s, CF_EINVAL, "n_jobs must be >= 0, got %d", n_jobs);
+    if (n_jobs > 0 && (!jobs || !out)) return cf_solver_fail(s, CF_EINVAL, "no jobs or no outputs");
+    w = widest(s);
+    if (width != 0 && width != 1 && width != 2 && width != 4 && width != 8)
+        return cf_solver_fail(s, CF_EINVAL, "width must be 0 (automatic), 1, 2, 4 or 8, got %d", width);
+    if (width > w)
+        return cf_solver_fail(s, CF_EINVAL, "width %d: this CPU and build run at most %d runs side by side for "
+                              "this column", width, w);
+    if (width == 0) width = cf_solver_batch_width(s, n_jobs);
+    if (n_jobs == 0) return CF_OK;
+    s->msg[0] = 0;
+#ifdef CF_BATCH_LANES
+#ifdef CF_BATCH_AVX512
+    if (width == 8) return run_w8(s, n_jobs, jobs, out);
+#endif
+#ifdef CF_BATCH_AVX2
+    if (width == 4) return run_w4(s, n_jobs, jobs, out);
+#endif
+    if (width == 2) return run_w2(s, n_jobs, jobs, out);
+#endif
+    return one_by_one(s, n_jobs, jobs, out);
+}

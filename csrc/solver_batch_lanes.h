@@ -1,0 +1,433 @@
+/*
+ * solver_batch_lanes.h -- the batch integrator, written once for any lane count.
+ * Included by solver_batch.c once per width with
+ *   CF_BW            lanes (runs side by side): 2, 4 or 8
+ *   CF_BN(n)         the width's name of n
+ *   CF_BW_SQRT(x)    per lane square root of a lane vector
+ *   CF_BW_BITS(m)    the lanes of a mask as the bits of an int (lane l: bit l)
+ * inside a target region of the instruction set of that width. Included without CF_BW
+ * (as the Python build includes every header) it is empty.
+ *
+ * Layout: every quantity of a run is a vector of CF_BW doubles, lane l the run in lane
+ * l, indexed as the single run indexes its double (body i's x at x[3 i + c], point k's
+ * shear at fsx[k], ...). Each phase is the single run's text: solver_phases.h for the
+ * bodies, the chunk lane functions of solver_points.c for the joints (their lanes are
+ * now the runs of one joint), CF_LAW_TRIAL / CF_LAW_TERMS of contact_law.h for a point
+ * that stays in sticking contact, cf_point_law_at on the lane's own state for any
+ * other point, and cf_solver_run_pre / _post / _finish for the control of each run.
+ * Sums stay per lane, in the single run's order (a lane adds exact +0.0 where the
+ * single run adds nothing: a sum that starts at +0.0 never becomes -0.0, so this
+ * leaves it unchanged).
+ */
+#ifdef CF_BW
+
+#define VD CF_BN(vd)
+#define VM CF_BN(vm)
+typedef double VD __attribute__((vector_size(8 * CF_BW)));
+typedef long long VM __attribute__((vector_size(8 * CF_BW)));
+
+typedef struct {
+    VD *x, *v, *q, *w, *R, *F, *T, *ww, *vold, *wold, *fext_prev, *fdamp_prev, *tdamp_prev;
+} CF_BN(state);
+
+#define CF_PH_T VD
+#define CF_PH_M VM
+#define CF_PH_SEL(m, a, b) ((VD)(((VM)(a) & (m)) | ((VM)(b) & ~(m))))
+#define CF_PH_SQRT CF_BW_SQRT
+#define CF_PH_STATE CF_BN(state)
+#define CF_PH_NAME(n) CF_BN(phase_##n)
+#include "solver_phases.h"
+#undef CF_PH_T
+#undef CF_PH_M
+#undef CF_PH_SQRT
+#undef CF_PH_STATE
+#undef CF_PH_NAME
+
+/* lanes of a row of a joint chunk (stride CF_JCH) <-> a lane vector; a double in every lane */
+static inline VD CF_BN(ld)(const double *p) { VD v; memcpy(&v, p, sizeof v); return v; }
+static inline void CF_BN(st)(double *p, VD v) { memcpy(p, &v, sizeof v); }
+static inline VD CF_BN(splat)(double x)
+{
+    VD v;
+    int l;
+    for (l = 0; l < CF_BW; l++) v[l] = x;
+    return v;
+}
+static inline VD CF_BN(mask)(VD a, VM m) { return (VD)((VM)a & m); }
+
+/* Everything the batch keeps: the lanes' state, and per lane its run (cf_run), a view of
+ * the lane as a cf_solver for the monitor (a copy of the set-up solver with the lane's
+ * positions, rotations, quaternions, joint forces, history buffers and message) and its job. */
+typedef struct {
+    CF_BN(state) b;
+    VD *jfn;                        /* nj: normal force of each joint this step */
+    double *fsx, *fsy, *pst, *pen0; /* np x CF_BW: the points' state, lane innermost */
+    int *hint;                      /* np x CF_BW */
+    /* np x CF_BW each: the edge normals at the hint, the next and the previous edge of the face
+     * the point is tested against, kept with the hint (loads instead of gathers) */
+    double *he[6];
+    const cf_face **pface;          /* np: that face */
+    cf_run r[CF_BW];
+    cf_solver view[CF_BW];
+    int job[CF_BW];                 /* -1: idle */
+    double *lane_mem[CF_BW];        /* the views' x, R, q, jfn */
+} CF_BN(batch);
+
+/* The cached edge normals of point k in lane l, from its hint h: (ec, es) of edges h, h + 1, h - 1 */
+static inline void CF_BN(hint_edges)(CF_BN(batch) *B, int k, int l)
+{
+    const cf_face *ff = B->pface[k];
+    size_t i = (size_t)k * CF_BW + (size_t)l;
+    int h = B->hint[i];
+    B->he[0][i] = ff->ecw[h + 1]; B->he[1][i] = ff->esw[h + 1];
+    B->he[2][i] = ff->ecw[h + 2]; B->he[3][i] = ff->esw[h + 2];
+    B->he[4][i] = ff->ecw[h]; B->he[5][i] = ff->esw[h];
+}
+
+/* Lane l to the rest state of the column (what cf_solver_stack_reset gives a run). */
+static void CF_BN(lane_reset)(const cf_solver *s, CF_BN(batch) *B, int l)
+{
+    int i, c, k;
+    for (i = 0; i < s->nbody; i++) {
+        double R[9];
+        quat_to_mat(s->q0 + 4 * i, R);
+        for (c = 0; c < 3; c++) {
+            B->b.x[3 * i + c][l] = s->x0[3 * i + c];
+            B->b.v[3 * i + c][l] = 0; B->b.w[3 * i + c][l] = 0; B->b.ww[3 * i + c][l] = 0;
+            B->b.fext_prev[3 * i + c][l] = 0; B->b.fdamp_prev[3 * i + c][l] = 0;
+            B->b.tdamp_prev[3 * i + c][l] = 0;
+        }
+        for (c = 0; c < 4; c++) B->b.q[4 * i + c][l] = s->q0[4 * i + c];
+        for (c = 0; c < 9; c++) B->b.R[9 * i + c][l] = R[c];
+    }
+    for (k = 0; k < s->np; k++) {
+        B->fsx[k * CF_BW + l] = 0; B->fsy[k * CF_BW + l] = 0; B->pst[k * CF_BW + l] = 0;
+        B->pen0[k * CF_BW + l] = 0; B->hint[k * CF_BW + l] = 0;
+        CF_BN(hint_edges)(B, k, l);
+    }
+}
+
+/* The lane's view for the monitor: positions and rotations of every body (all) or of the
+ * top block's body only; with hist, quaternions and joint forces too. */
+static void CF_BN(lane_view)(const cf_solver *s, CF_BN(batch) *B, int l, int all, int hist)
+{
+    cf_solver *v = &B->view[l];
+    int i, c, i0 = all ? 0 : s->blk_body[s->nblk - 1], i1 = all ? s->nbody : i0 + 1;
+    for (i = i0; i < i1; i++) {
+        for (c = 0; c < 3; c++) v->x[3 * i + c] = B->b.x[3 * i + c][l];
+        for (c = 0; c < 9; c++) v->R[9 * i + c] = B->b.R[9 * i + c][l];
+    }
+    if (hist) {
+        for (i = 0; i < 4 * s->nbody; i++) v->q[i] = B->b.q[i][l];
+        for (i = 0; i < s->nj; i++) v->jfn[i] = B->jfn[i][l];
+    }
+}
+
+/* Lane l takes the next job that passes cf_solver_run's checks (a job that fails them
+ * gets cf_solver_run's status, message and result at once); idle when none is left. */
+static void CF_BN(lane_fill)(const cf_solver *s, CF_BN(batch) *B, int l, int *next, int n_jobs,
+                             const cf_solver_batch_job *jobs, cf_solver_batch_out *out)
+{
+    cf_solver *v = &B->view[l];
+    CF_BN(lane_reset)(s, B, l);
+    B->job[l] = -1;
+    while (*next < n_jobs) {
+        int j = (*next)++, st;
+        const cf_solver_batch_job *jb = &jobs[j];
+        v->msg[0] = 0;
+        v->h_cap = jb->history_capacity > 0 ? jb->history_capacity : 0;
+        v->h_t = jb->h_t; v->h_top = jb->h_top; v->h_pos = jb->h_pos; v->h_quat = jb->h_quat;
+        v->h_open = jb->h_open; v->h_slip = jb->h_slip; v->h_en = jb->h_energy; v->h_fn = jb->h_normal;
+        st = cf_solver_run_check(v, &B->r[l], jb->acc_x, jb->acc_y, jb->acc_z, jb->n, jb->dt_rec);
+        if (!st) {
+            CF_BN(lane_view)(s, B, l, 1, 0);
+            st = cf_solver_run_begin(v, &B->r[l]);
+        }
+        if (st) {
+            memset(&out[j].result, 0, sizeof out[j].result);
+            out[j].result.collapse_time = NAN; out[j].result.collapse_block = -1;
+            out[j].status = st;
+            memcpy(out[j].message, v->msg, CF_MSG_LEN);
+            continue;
+        }
+        B->r[l].n = 0;
+        B->job[l] = j;
+        return;
+    }
+}
+
+/* 2. contacts of every joint, in joint order, for all lanes (solver_points.c's order) */
+static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk *C, cf_chunk_before_fn before,
+                            cf_chunk_after_fn after, VD *e_vs, VD *e_dslip, VD *e_dswitch)
+{
+    const VD zero = {0}, one = zero + 1.0;
+    int i, j, l, nb = s->nbody;
+    CF_BN(state) *b = &B->b;
+    for (i = 0; i < 3 * nb; i++) { b->F[i] = zero; b->T[i] = zero; }
+    *e_vs = zero; *e_dslip = zero; *e_dswitch = zero;
+    for (j = 0; j < s->nj; j++) {
+        const cf_joint *J = &s->jt[j];
+        int bl = J->bl, bu = J->bu, side, end = J->p0 + J->np;
+        VD s6 = zero, s7 = zero, dslip = zero, dswitch = zero;
+        for (i = 0; i < 9; i++) { CF_BN(st)(C->RL[i], b->R[9 * bl + i]); CF_BN(st)(C->RU[i], b->R[9 * bu + i]); }
+        for (i = 0; i < 3; i++) {
+            CF_BN(st)(C->xl[i], b->x[3 * bl + i]); CF_BN(st)(C->xu[i], b->x[3 * bu + i]);
+            CF_BN(st)(C->vl[i], b->v[3 * bl + i]); CF_BN(st)(C->vu[i], b->v[3 * bu + i]);
+            CF_BN(st)(C->wl[i], b->ww[3 * bl + i]); CF_BN(st)(C->wu[i], b->ww[3 * bu + i]);
+            CF_BN(st)(C->fcl[i], CF_BN(splat)(J->fl.c[i])); CF_BN(st)(C->fcu[i], CF_BN(splat)(J->fu.c[i]));
+        }
+        /* whole vectors (the lane functions load them as such: no store forwarding from doubles) */
+        CF_BN(st)(C->lz[0], CF_BN(splat)(J->lz[0])); CF_BN(st)(C->lz[1], CF_BN(splat)(J->lz[1]));
+        CF_BN(st)(C->gl, CF_BN(splat)(bl != 0 ? 1.0 : 0.0));
+        before(C, CF_BW, s->dt);
+        for (side = 0; side < 2; side++) {
+            int k0 = side == 0 ? J->p0 : J->p0 + J->n0, k1 = side == 0 ? J->p0 + J->n0 : end, k, built = 0;
+            cf_face_pass P, PL[CF_BW];
+            VD Mx0, Mx1, My0, My1, Mz0, Mz1, z0, z1, z2, t0, t1, t2, A0, A1, W0, W1, W2;
+            VD s0 = zero, s1 = zero, s2 = zero, s3 = zero, s4 = zero, s5 = zero;
+            const cf_face *ff;
+            double apo2, apotol;
+            CF_BN(st)(C->has[side], CF_BN(splat)(k1 > k0 ? 1.0 : 0.0));
+            if (k1 <= k0) {
+                for (i = 0; i < 6; i++) CF_BN(st)(C->sm[side][i], zero);
+                continue;
+            }
+            cf_face_pass_set(s, J, side, &P);
+            ff = P.ff;
+            apo2 = ff->apo * ff->apo; apotol = ff->apo + P.tol;
+            /* the frame map: side 0 in the lower face's frame (M0), side 1 in the upper's (M0^T) */
+            Mx0 = CF_BN(ld)(C->M0[0]); Mx1 = CF_BN(ld)(C->M0[side == 0 ? 1 : 3]);
+            My0 = CF_BN(ld)(C->M0[side == 0 ? 3 : 1]); My1 = CF_BN(ld)(C->M0[4]);
+            Mz0 = CF_BN(ld)(C->M0[side == 0 ? 6 : 2]); Mz1 = CF_BN(ld)(C->M0[side == 0 ? 7 : 5]);
+            z0 = CF_BN(ld)(C->mz[side][0]); z1 = CF_BN(ld)(C->mz[side][1]); z2 = CF_BN(ld)(C->mz[side][2]);
+            t0 = CF_BN(ld)(C->t[side][0]); t1 = CF_BN(ld)(C->t[side][1]); t2 = CF_BN(ld)(C->t[side][2]);
+            A0 = CF_BN(ld)(C->A[side][0]); A1 = CF_BN(ld)(C->A[side][1]);
+            W0 = CF_BN(ld)(C->W[side][0]); W1 = CF_BN(ld)(C->W[side][1]); W2 = CF_BN(ld)(C->W[side][2]);
+            for (k = k0; k < k1; k++) {
+                const double lx = s->p_lx[k], ly = s->p_ly[k];
+                double *pfsx = B->fsx + (size_t)k * CF_BW, *pfsy = B->fsy + (size_t)k * CF_BW;
+                double *pst = B->pst + (size_t)k * CF_BW;
+                /* the point in the face frame, as cf_point_law_at */
+                VD X = Mx0 * lx + Mx1 * ly + z0 + t0;
+                VD Y = My0 * lx + My1 * ly + z1 + t1;
+                VD Z = Mz0 * lx + Mz1 * ly + z2 + t2;
+                VD pen = P.sgn * Z, st = CF_BN(ld)(pst), fsx0, fsy0, f, lim, fx, fy, m2, mx, my, mz, vs, dux, duy;
+                VM pos = pen > 0.0, act, in, out, st0, st1, ok, open, lift, slip, nz;
+                const double ksw = s->p_ksw[k], ihkw = s->p_ihkw[k];
+                int bits, fb;
+                st0 = st == 0.0;
+                open = ~pos & st0;
+                /* open before and now, not overlapping the plane: nothing to do */
+                if (CF_BW_BITS(open) == (1 << CF_BW) - 1) continue;
+                act = pos & ~(pen > P.pmax);
+                st1 = st == 1.0;
+                out = (VM)zero;
+                if (P.unbounded) in = st1 | ~st1;
+                else {
+                    VD dhx = X - s->p_hx[k], dhy = Y - s->p_hy[k];
+                    in = (dhx * dhx + dhy * dhy <= s->p_fast[k]) | (X * X + Y * Y <= apo2);
+                    if (CF_BW_BITS(act & ~in)) {
+                        /* the polygon test where the lane's hint edge is still its most distant
+                         * edge (cf_face_inside_hint would stay there and leave the hint): inside
+                         * or outside; where the walk would move, cf_point_law_at decides */
+                        size_t o = (size_t)k * CF_BW;
+                        VD best, pp, pm;
+                        VM stay;
+                        best = X * CF_BN(ld)(B->he[0] + o) + Y * CF_BN(ld)(B->he[1] + o);
+                        pp = X * CF_BN(ld)(B->he[2] + o) + Y * CF_BN(ld)(B->he[3] + o);
+                        pm = X * CF_BN(ld)(B->he[4] + o) + Y * CF_BN(ld)(B->he[5] + o);
+                        stay = ~in & ~(pp > best) & ~(pm > best);
+                        out = stay & ~(best <= apotol);
+                        in = in | (stay & (best <= apotol));
+                    }
+                }
+                dux = A0 + W1 * Z - W2 * Y;
+                duy = A1 + W2 * X - W0 * Z;
+                fsx0 = CF_BN(ld)(pfsx); fsy0 = CF_BN(ld)(pfsy);
+                CF_LAW_TRIAL(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, pen, dux, duy, s->p_knw[k], ksw, P.mu,
+                             fsx0, fsy0, f, lim, fx, fy, m2);
+                /* in contact (from state 1, or taking contact from state 0): the law of
+                 * cf_law_update, sticking or slipping; the point is in state 1 after it */
+                ok = act & in & (st0 | st1);
+                slip = ok & (m2 > CF_LAW_CAP2(CF_LAW_SMUL, lim));
+                if (CF_BW_BITS(slip)) {
+                    VD sc = lim / CF_BW_SQRT(m2), fxs = fx * sc, fys = fy * sc;
+                    VD diss = -0.5 * ((fsx0 + fxs) * dux + (fsy0 + fys) * duy)
+                              - 0.5 * (fxs * fxs + fys * fys - fsx0 * fsx0 - fsy0 * fsy0) / ksw;
+                    dslip = dslip + CF_BN(mask)(diss, slip);
+                    fx = CF_PH_SEL(slip, fxs, fx); fy = CF_PH_SEL(slip, fys, fy);
+                    m2 = fx * fx + fy * fy;
+                }
+                CF_LAW_TERMS(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, 0.5, X, Y, Z, pen, f, fx, fy, m2, ihkw,
+                             mx, my, mz, vs);
+                /* leaving contact from state 1 (not overlapping the plane any more): the release
+                 * of cf_law_release -- its stored shear energy dissipated, the shear reset --
+                 * and state 0 */
+                lift = ~pos & st1;
+                nz = (fsx0 != 0.0) | (fsy0 != 0.0);
+                dslip = dslip + CF_BN(mask)((fsx0 * fsx0 + fsy0 * fsy0) * ihkw, lift & nz);
+                CF_BN(st)(pfsx, CF_PH_SEL(ok, fx, CF_PH_SEL(lift & nz, zero, fsx0)));
+                CF_BN(st)(pfsy, CF_PH_SEL(ok, fy, CF_PH_SEL(lift & nz, zero, fsy0)));
+                CF_BN(st)(pst, CF_PH_SEL(ok, one, CF_PH_SEL(lift, zero, st)));
+                s0 = s0 + CF_BN(mask)(fx, ok); s1 = s1 + CF_BN(mask)(fy, ok); s2 = s2 + CF_BN(mask)(f, ok);
+                s3 = s3 + CF_BN(mask)(mx, ok); s4 = s4 + CF_BN(mask)(my, ok); s5 = s5 + CF_BN(mask)(mz, ok);
+                s6 = s6 + CF_BN(mask)(vs, ok); s7 = s7 + CF_BN(mask)(f, ok);
+                /* off the face polygon before and now (state 2, no shear): nothing changes */
+                open = open | lift | (act & out & (st == 2.0));
+                bits = CF_BW_BITS(ok | open);
+                fb = ~bits & ((1 << CF_BW) - 1);
+                /* the other lanes: the full law on the lane's own state, one lane at a time, its
+                 * terms added to the lane's sums (through memory, so that the sums stay in
+                 * registers on the vector path) */
+                if (fb) {
+                    double sa[8][CF_BW], dsl[CF_BW], dsw[CF_BW];
+                    CF_BN(st)(sa[0], s0); CF_BN(st)(sa[1], s1); CF_BN(st)(sa[2], s2); CF_BN(st)(sa[3], s3);
+                    CF_BN(st)(sa[4], s4); CF_BN(st)(sa[5], s5); CF_BN(st)(sa[6], s6); CF_BN(st)(sa[7], s7);
+                    CF_BN(st)(dsl, dslip); CF_BN(st)(dsw, dswitch);
+                    for (l = 0; fb; l++, fb >>= 1) {
+                        cf_face_sums S;
+                        double t[8];
+                        if (!(fb & 1)) continue;
+                        if (!(built & (1 << l))) {
+                            PL[l] = P;
+                            cf_face_pass_lane(C, side, l, &PL[l]);
+                            built |= 1 << l;
+                        }
+                        S.dslip = dsl[l]; S.dswitch = dsw[l];
+                        if (cf_point_law_at(s, &PL[l], k, pfsx + l, pfsy + l, pst + l,
+                                            B->pen0 + (size_t)k * CF_BW + l, B->hint + (size_t)k * CF_BW + l, &S, t))
+                            for (i = 0; i < 8; i++) sa[i][l] += t[i];
+                        dsl[l] = S.dslip; dsw[l] = S.dswitch;
+                        CF_BN(hint_edges)(B, k, l);
+                    }
+                    s0 = CF_BN(ld)(sa[0]); s1 = CF_BN(ld)(sa[1]); s2 = CF_BN(ld)(sa[2]); s3 = CF_BN(ld)(sa[3]);
+                    s4 = CF_BN(ld)(sa[4]); s5 = CF_BN(ld)(sa[5]); s6 = CF_BN(ld)(sa[6]); s7 = CF_BN(ld)(sa[7]);
+                    dslip = CF_BN(ld)(dsl); dswitch = CF_BN(ld)(dsw);
+                }
+            }
+            CF_BN(st)(C->sm[side][0], s0); CF_BN(st)(C->sm[side][1], s1); CF_BN(st)(C->sm[side][2], s2);
+            CF_BN(st)(C->sm[side][3], s3); CF_BN(st)(C->sm[side][4], s4); CF_BN(st)(C->sm[side][5], s5);
+        }
+        *e_vs = *e_vs + s6;
+        B->jfn[j] = s7;
+        *e_dslip = *e_dslip + dslip;
+        *e_dswitch = *e_dswitch + dswitch;
+        after(C, CF_BW);
+        /* apply, as solver_points.c: force at the face centre with its moment on the upper
+         * body, the opposite on the lower body */
+        for (side = 0; side < 2; side++) {
+            for (i = 0; i < 3; i++) {
+                b->F[3 * bu + i] = b->F[3 * bu + i] + CF_BN(ld)(C->Fw[side][i]);
+            }
+            for (i = 0; i < 3; i++) b->T[3 * bu + i] = b->T[3 * bu + i] + CF_BN(ld)(C->Tu[side][i]);
+            if (bl != 0) {
+                for (i = 0; i < 3; i++) b->F[3 * bl + i] = b->F[3 * bl + i] - CF_BN(ld)(C->Fw[side][i]);
+                for (i = 0; i < 3; i++) b->T[3 * bl + i] = b->T[3 * bl + i] - CF_BN(ld)(C->Tl[side][i]);
+            }
+        }
+    }
+}
+
+/* The batch: lanes filled with jobs in order, stepped together, each refilled when its
+ * run ends. The lanes' vectors live in one block aligned for VD. */
+static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs, cf_solver_batch_out *out)
+{
+    CF_BN(batch) *B;
+    cf_joint_chunk *C;
+    cf_chunk_before_fn before;
+    cf_chunk_after_fn after;
+    int nb = s->nbody, np = s->np, nj = s->nj, l, i, j, next = 0, active, nomem = 0;
+    size_t nvec = (size_t)46 * nb + (size_t)nj, nd = 4 * (size_t)np * CF_BW;
+    size_t bytes = nvec * sizeof(VD) + (nd + 6 * (size_t)np * CF_BW) * sizeof(double)
+                   + (size_t)np * CF_BW * sizeof(int) + (size_t)np * sizeof(cf_face *) + 64;
+    unsigned char *raw, *p;
+    const VD zero = {0};
+    B = (CF_BN(batch) *)calloc(1, sizeof *B);
+    C = (cf_joint_chunk *)calloc(1, sizeof *C);
+    raw = (unsigned char *)calloc(1, bytes);
+    if (B)
+        for (l = 0; l < CF_BW; l++) {
+            B->lane_mem[l] = (double *)calloc((size_t)16 * nb + (size_t)nj, sizeof(double));
+            nomem |= !B->lane_mem[l];
+        }
+    if (!B || !C || !raw || nomem) {
+        if (B) for (l = 0; l < CF_BW; l++) free(B->lane_mem[l]);
+        free(B); free(C); free(raw);
+        return cf_solver_fail(s, CF_ENOMEM, "out of memory");
+    }
+    p = raw + (64 - (uintptr_t)raw % 64) % 64;
+#define TAKE(ptr, n) do { (ptr) = (VD *)p; p += (size_t)(n) * sizeof(VD); } while (0)
+    TAKE(B->b.x, 3 * nb); TAKE(B->b.v, 3 * nb); TAKE(B->b.q, 4 * nb); TAKE(B->b.w, 3 * nb); TAKE(B->b.R, 9 * nb);
+    TAKE(B->b.F, 3 * nb); TAKE(B->b.T, 3 * nb); TAKE(B->b.ww, 3 * nb); TAKE(B->b.vold, 3 * nb);
+    TAKE(B->b.wold, 3 * nb); TAKE(B->b.fext_prev, 3 * nb); TAKE(B->b.fdamp_prev, 3 * nb);
+    TAKE(B->b.tdamp_prev, 3 * nb); TAKE(B->jfn, nj);
+#undef TAKE
+    B->fsx = (double *)p; B->fsy = B->fsx + (size_t)np * CF_BW; B->pst = B->fsy + (size_t)np * CF_BW;
+    B->pen0 = B->pst + (size_t)np * CF_BW;
+    for (i = 0; i < 6; i++) B->he[i] = B->pen0 + (size_t)(i + 1) * np * CF_BW;
+    B->pface = (const cf_face **)(B->he[5] + (size_t)np * CF_BW);
+    B->hint = (int *)(B->pface + np);
+    for (j = 0; j < nj; j++) {
+        const cf_joint *J = &s->jt[j];
+        int k;
+        for (k = J->p0; k < J->p0 + J->np; k++) B->pface[k] = k < J->p0 + J->n0 ? &J->fl : &J->fu;
+    }
+    cf_solver_points_chunk_fns(&before, &after);
+    for (l = 0; l < CF_BW; l++) {
+        cf_solver *v = &B->view[l];
+        *v = *s;
+        v->x = B->lane_mem[l]; v->R = v->x + 3 * nb; v->q = v->R + 9 * nb; v->jfn = v->q + 4 * nb;
+        CF_BN(lane_fill)(s, B, l, &next, n_jobs, jobs, out);
+    }
+    for (;;) {
+        VD ag[3], ke, vg, Wl, Dd, e_vs, e_dslip, e_dswitch;
+        VM damp = (VM)zero;
+        cf_step_energy e[CF_BW];
+        int end[CF_BW];
+        ag[0] = ag[1] = ag[2] = Wl = Dd = zero;
+        active = 0;
+        for (l = 0; l < CF_BW; l++) {
+            double a[3] = {0, 0, 0};
+            if (B->job[l] >= 0) {
+                cf_run *r = &B->r[l];
+                active++;
+                cf_solver_run_pre(&B->view[l], r, &e[l], a);
+                if (s->def.damping_alpha > 0.0 && r->t >= s->def.damping_start_s) damp[l] = -1;
+                Wl[l] = r->m.W; Dd[l] = r->m.Ddamp;
+            }
+            ag[0][l] = a[0]; ag[1][l] = a[1]; ag[2][l] = a[2];
+        }
+        if (!active) break;
+        CF_BN(phase_rotations)(s, &B->b);
+        CF_BN(contacts)(s, B, C, before, after, &e_vs, &e_dslip, &e_dswitch);
+        CF_BN(phase_velocities)(s, &B->b, ag, damp, &Wl, &Dd, &ke, &vg);
+        for (l = 0; l < CF_BW; l++) {
+            cf_run *r = &B->r[l];
+            end[l] = 0;
+            if (B->job[l] < 0) continue;
+            r->m.W = Wl[l]; r->m.Ddamp = Dd[l];
+            e[l].vs = e_vs[l]; e[l].dslip = e_dslip[l]; e[l].dswitch = e_dswitch[l];
+            CF_BN(lane_view)(s, B, l, r->n % r->m.kres == 0 || (r->n & 3) == 0 || r->hist_now, r->hist_now);
+            end[l] = cf_solver_run_post(&B->view[l], r, &e[l], ke[l], vg[l]);
+        }
+        CF_BN(phase_positions)(s, &B->b);
+        for (l = 0; l < CF_BW; l++) {
+            if (B->job[l] < 0) continue;
+            if (end[l]) {
+                int j = B->job[l];
+                cf_solver_run_finish(&B->view[l], &B->r[l], jobs[j].residual_dislocation, &out[j].result);
+                out[j].status = B->r[l].st;
+                memcpy(out[j].message, B->view[l].msg, CF_MSG_LEN);
+                CF_BN(lane_fill)(s, B, l, &next, n_jobs, jobs, out);
+            } else B->r[l].n++;
+        }
+    }
+    for (l = 0; l < CF_BW; l++) free(B->lane_mem[l]);
+    free(B); free(C); free(raw);
+    return CF_OK;
+}
+
+#undef CF_PH_SEL
+#undef VD
+#undef VM
+#endif

@@ -1,0 +1,127 @@
+/*
+ * test_batch.c -- cf_solver_batch_run (solver_batch.h): its argument checks, a refused job, and
+ * short runs of every width equal to cf_solver_run. Small enough for the AddressSanitizer build
+ * of CI (make ctest-asan), which checks the batch's memory handling; scripts/check_result_hashes.sh
+ * compares every bit of long batches with single runs in every SIMD build.
+ *
+ * The reference of each equality is cf_solver_run on a freshly set-up solver, so the tolerance is
+ * zero: the batch must do each run's operations in the single run's order.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cf_test.h"
+#include "solver.h"
+#include "solver_batch.h"
+
+enum { NB = 3, NREC = 301, NJ = 6 };
+
+/* three drums of 0.5 m radius, 1 m high, on the ground */
+static cf_solver *column(int contact, int early_exit)
+{
+    cf_geometry_segment seg[NB];
+    int nseg[NB], i;
+    cf_solver_def def;
+    cf_solver *s = cf_solver_create();
+    for (i = 0; i < NB; i++) {
+        seg[i].height = 1.0; seg[i].r_bottom = 0.5; seg[i].r_top = 0.5; seg[i].phase_rad = 0.0;
+        seg[i].n_sides = 8; nseg[i] = 1;
+    }
+    cf_solver_def_default(&def);
+    def.contact = contact; def.early_exit = early_exit; def.tail_s = 0.5;
+    if (!s || cf_solver_setup(s, &def, NB, nseg, seg, 2500.0, 1e9, 1e9, 0.7)) { cf_solver_free(s); return NULL; }
+    return s;
+}
+
+/* a 2 Hz triangle burst of amplitude a (g); the record's samples past n are not used */
+static void burst(double a, double *acc)
+{
+    int i;
+    for (i = 0; i < NREC; i++) {
+        double t = i * 0.01, ph = 2.0 * t - floor(2.0 * t);
+        acc[i] = a * 9.81 * (4.0 * fabs(ph - 0.5) - 1.0);
+    }
+}
+
+static void test_arguments(void)
+{
+    cf_solver *s = cf_solver_create(), *t = column(CF_SOLVER_CONTACT_VERTEX, 1);
+    cf_solver_batch_job job;
+    cf_solver_batch_out out;
+    double acc[NREC];
+    burst(0.1, acc);
+    memset(&job, 0, sizeof job);
+    job.acc_x = acc; job.n = NREC; job.dt_rec = 0.01;
+    CF_CHECK(cf_solver_batch_run(NULL, 0, 1, &job, &out) == CF_EINVAL);
+    CF_CHECK(cf_solver_batch_run(s, 0, 1, &job, &out) == CF_ESTATE);   /* not set up */
+    CF_CHECK(cf_solver_batch_max_width(s) == 0 && cf_solver_batch_width(s, 10) == 0);
+    CF_CHECK(t != NULL);
+    if (t) {
+        int w = cf_solver_batch_max_width(t);
+        CF_CHECK(w == 1 || w == 2 || w == 4 || w == 8);
+        CF_CHECK(cf_solver_batch_run(t, 3, 1, &job, &out) == CF_EINVAL);
+        CF_CHECK(strstr(cf_solver_message(t), "width must be") != NULL);
+        CF_CHECK(cf_solver_batch_run(t, 16, 1, &job, &out) == CF_EINVAL);
+        CF_CHECK(cf_solver_batch_run(t, 0, -1, &job, &out) == CF_EINVAL);
+        CF_CHECK(cf_solver_batch_run(t, 0, 1, NULL, &out) == CF_EINVAL);
+        CF_CHECK(cf_solver_batch_run(t, 0, 0, NULL, NULL) == CF_OK);
+        /* one or two runs: one after the other (idle lanes would cost more) */
+        CF_CHECK(cf_solver_batch_width(t, 1) == 1 && cf_solver_batch_width(t, 2) == 1);
+    }
+    cf_solver_free(s);
+    cf_solver_free(t);
+}
+
+/* jobs of different amplitudes and lengths (lanes refilled), one refused (dt_rec < 0); each run
+ * of every width bitwise the single run */
+static void check_equal(int contact, int early_exit)
+{
+    static const double amp[NJ] = {0.3, 0.05, 0.6, 0.2, 0.4, 0.1};
+    static const int len[NJ] = {NREC, 120, NREC, 200, 60, NREC};
+    double acc[NJ][NREC], resid[NJ][NB], ref_resid[NJ][NB];
+    cf_solver_batch_job jobs[NJ];
+    cf_solver_batch_out out[NJ], ref[NJ];
+    cf_solver *s = column(contact, early_exit);
+    int i, w;
+    CF_CHECK(s != NULL);
+    if (!s) return;
+    for (i = 0; i < NJ; i++) {
+        cf_solver *one = column(contact, early_exit);
+        burst(amp[i], acc[i]);
+        memset(&jobs[i], 0, sizeof jobs[i]);
+        jobs[i].acc_x = acc[i]; jobs[i].n = len[i]; jobs[i].dt_rec = i == 3 ? -1.0 : 0.01;
+        jobs[i].residual_dislocation = resid[i];
+        memset(&ref[i], 0, sizeof ref[i]);
+        ref[i].status = cf_solver_run(one, jobs[i].acc_x, NULL, NULL, jobs[i].n, jobs[i].dt_rec, ref_resid[i],
+                                      &ref[i].result);
+        strcpy(ref[i].message, cf_solver_message(one));
+        cf_solver_free(one);
+    }
+    CF_CHECK(ref[3].status == CF_EINVAL && ref[0].status == CF_OK);
+    for (w = 1; w <= cf_solver_batch_max_width(s); w *= 2) {
+        memset(out, 0xff, sizeof out);
+        memset(resid, 0, sizeof resid);
+        CF_CHECK(cf_solver_batch_run(s, w, NJ, jobs, out) == CF_OK);
+        for (i = 0; i < NJ; i++) {
+            CF_CHECK(out[i].status == ref[i].status);
+            CF_CHECK(strcmp(out[i].message, ref[i].message) == 0);
+            CF_CHECK(memcmp(&out[i].result, &ref[i].result, sizeof ref[i].result) == 0);
+            if (ref[i].status == CF_OK) CF_CHECK(memcmp(resid[i], ref_resid[i], sizeof resid[i]) == 0);
+        }
+    }
+    cf_solver_free(s);
+}
+
+static void test_vertex_runs(void) { check_equal(CF_SOLVER_CONTACT_VERTEX, 1); }
+static void test_vertex_full_runs(void) { check_equal(CF_SOLVER_CONTACT_VERTEX, 0); }
+static void test_exact_runs(void) { check_equal(CF_SOLVER_CONTACT_EXACT, 1); }
+
+int main(void)
+{
+    CF_RUN(test_arguments);
+    CF_RUN(test_vertex_runs);
+    CF_RUN(test_vertex_full_runs);
+    CF_RUN(test_exact_runs);
+    return CF_TEST_SUMMARY("batch");
+}
