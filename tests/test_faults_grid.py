@@ -32,29 +32,8 @@ import pytest
 from pycolfrag import results as R
 from pycolfrag.errors import ParameterError
 
+from test_faults import FAKE, _kill9, _start, _wait_rows
 from test_grid import ROOT, SCRIPT, _env, _journal_rows, _ok, _same_rows, _serial
-
-FAKE = ["--mw", "6", "7", "--dist", "5", "10", "--samples", "4", "--sample-function", "grid_fakes:fake",
-        "--no-figures", "--no-progress", "--flush-s", "0.2"]
-
-
-def _start(args, **env):
-    return subprocess.Popen([sys.executable, str(SCRIPT), *args], env=_env(**env), cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-
-
-def _wait_rows(out, n, proc=None, limit=60):
-    t0 = time.time()
-    while _journal_rows(out) < n:
-        assert time.time() - t0 < limit, f"journal of {out} never reached {n} rows"
-        assert proc is None or proc.poll() is None, f"run ended early: {proc.stdout.read()}"
-        time.sleep(0.02)
-
-
-def _kill9(proc):
-    proc.send_signal(signal.SIGKILL)
-    proc.wait(timeout=30)
-
 
 def _partial(tmp_path, n=3, name="g.h5", extra=()):
     """A fake grid killed (SIGKILL) after ``n`` journalled rows: the state a resume starts from."""
