@@ -766,24 +766,33 @@ def probe_rows(spec) -> list[tuple[str, float]]:
         sc = spec.scenarios.index((min(spec.mw), max(spec.dist_km)))
         mw, dist = spec.scenarios[sc]
         what = f"the record of Mw {mw:g}, R {dist:g} km, sample 0"
-        from .ground_motion import sample_pulse_parameters, synthesize
+        from .ground_motion import sample_pulse_parameters
+        with_pulse = spec.pulse != "none"
 
-        def pulse(scenario):  # sample 0 of a small LHS of the scenario: a representative row, at once
+        def record(scenario):
+            """Sample 0's record of the scenario as its row makes it (sample._synthetic_record), the
+            pulse from a small LHS of the scenario (a representative row, at once)."""
             m, r = spec.scenarios[scenario]
-            table = sample_pulse_parameters(m, r, min(spec.samples, 8), ctx.lhs_seed(scenario), vp_scale=spec.vp_scale)
-            return {k: (np.asarray(v)[0] if np.ndim(v) else v).item() for k, v in table.items()}
+            p = None
+            if with_pulse:
+                table = sample_pulse_parameters(m, r, min(spec.samples, 8), ctx.lhs_seed(scenario),
+                                                vp_scale=spec.vp_scale, tp_model=spec.tp_model)
+                p = {k: (np.asarray(v)[0] if np.ndim(v) else v).item() for k, v in table.items()}
+            out, a, d = _sample._synthetic_record(m, r, ctx.hf_seed(scenario, 0), p, spec.record_dt_s, spec.vp_scale,
+                                                  None, with_pulse)
+            if a is None:
+                raise RuntimeError(out["message"])
+            return a, d
 
         try:
-            rec = synthesize(mw, dist, ctx.hf_seed(sc, 0), dt=spec.record_dt_s, vp_scale=spec.vp_scale, pulse=pulse(sc))
+            acc, dt = record(sc)
         except Exception as exc:
             raise ParameterError(f"--vp-scale {spec.vp_scale:g}/--record-dt {spec.record_dt_s:g}: {what} cannot be "
-                                 f"made ({type(exc).__name__}: {exc}); every row would fail") from None
-        acc, dt = np.asarray(rec.acc, dtype=float), float(rec.dt)
+                                 f"made ({exc}); every row would fail") from None
         sl = spec.scenarios.index((max(spec.mw), max(spec.dist_km)))
         mw_l, dist_l = spec.scenarios[sl]
         try:
-            n_long = len(synthesize(mw_l, dist_l, ctx.hf_seed(sl, 0), dt=spec.record_dt_s, vp_scale=spec.vp_scale,
-                                    pulse=pulse(sl)).acc)
+            n_long = len(record(sl)[0])
         except Exception:
             n_long = len(acc)
         long_s = n_long * spec.record_dt_s

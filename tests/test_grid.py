@@ -216,6 +216,20 @@ def test_bad_solver_options_are_refused_before_any_file_is_made(tmp_path):
     assert not out.exists()
 
 
+def test_a_no_pulse_grid_outside_the_pulse_models_range_runs(tmp_path):
+    """A no-pulse grid makes no pulse, so the pulse model's range (Mw 5-8) does not bind it: Mw 4.5
+    is inside the stochastic model's range and runs, while the same grid with pulses is refused
+    naming the pulse model's range. The pre-run probe builds the row's own record (sample 0), so a
+    probe that made a pulse anyway refused the no-pulse grid."""
+    base = ["--mw", "4.5", "--dist", "5", "--samples", "2", "--no-figures", "--no-progress"]
+    out = tmp_path / "np.h5"
+    _ok(_serial([*base, "--pulse", "none", "--out", str(out)]))
+    r = R.load(out)
+    assert r.complete and (r.samples["status"] == 0).all() and np.isnan(r.samples["tp_s"]).all()
+    p = _serial([*base, "--out", str(tmp_path / "p.h5")])
+    assert p.returncode == 2 and "outside the pulse model's range" in p.stdout, p.stdout + p.stderr
+
+
 def test_mismatched_arguments_are_refused(tmp_path):
     out = tmp_path / "m.h5"
     base = ["--mw", "6", "--dist", "5", "10", "--samples", "2", "--sample-function", "grid_fakes:fake",
