@@ -11,6 +11,7 @@
  * cf_solver_run.
  */
 #include <math.h>
+#include <stdio.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,6 +19,18 @@
 #include "solver_batch.h"
 #include "solver_internal.h"
 #include "solver_points_internal.h"
+
+/* Jobs from..n_jobs-1 not run because the caller's check asked the batch to stop (CF_EINTR). */
+static void batch_not_started(int from, int n_jobs, cf_solver_batch_out *out)
+{
+    int j;
+    for (j = from; j < n_jobs; j++) {
+        memset(&out[j].result, 0, sizeof out[j].result);
+        out[j].result.collapse_time = NAN; out[j].result.collapse_block = -1;
+        out[j].status = CF_EINTR;
+        snprintf(out[j].message, CF_MSG_LEN, "stopped by the caller before this run started");
+    }
+}
 
 #if defined(CF_SOLVER_SIMD) && defined(__GNUC__) && defined(__x86_64__)
 #define CF_BATCH_LANES 1
@@ -121,6 +134,10 @@ static int one_by_one(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
         out[j].status = cf_solver_run(s, jb->acc_x, jb->acc_y, jb->acc_z, jb->n, jb->dt_rec,
                                       jb->residual_dislocation, &out[j].result);
         memcpy(out[j].message, s->msg, CF_MSG_LEN);
+        if (out[j].status == CF_EINTR) {   /* the caller's check stopped this run: stop the batch */
+            batch_not_started(j + 1, n_jobs, out);
+            break;
+        }
     }
     s->h_cap = cap; s->h_t = h[0]; s->h_top = h[1]; s->h_pos = h[2]; s->h_quat = h[3]; s->h_open = h[4];
     s->h_slip = h[5]; s->h_en = h[6]; s->h_fn = h[7];

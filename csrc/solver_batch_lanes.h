@@ -337,6 +337,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
     cf_chunk_before_fn before;
     cf_chunk_after_fn after;
     int nb = s->nbody, np = s->np, nj = s->nj, l, i, j, next = 0, active, nomem = 0;
+    long steps = 0;
     size_t nvec = (size_t)46 * nb + (size_t)nj, nd = 4 * (size_t)np * CF_BW;
     size_t bytes = nvec * sizeof(VD) + (nd + 6 * (size_t)np * CF_BW) * sizeof(double)
                    + (size_t)np * CF_BW * sizeof(int) + (size_t)np * sizeof(cf_face *) + 64;
@@ -420,6 +421,22 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
                 memcpy(out[j].message, B->view[l].msg, CF_MSG_LEN);
                 CF_BN(lane_fill)(s, B, l, &next, n_jobs, jobs, out);
             } else B->r[l].n++;
+        }
+        /* the caller's check (cf_solver_set_check) every CF_SOLVER_CHECK_STEPS steps of the batch, as
+         * cf_solver_run does: on a stop every running lane ends with CF_EINTR, the rest do not start */
+        if (s->check && ++steps % CF_SOLVER_CHECK_STEPS == 0 && s->check(s->check_user)) {
+            for (l = 0; l < CF_BW; l++) {
+                int j = B->job[l];
+                cf_run *r = &B->r[l];
+                if (j < 0) continue;
+                r->st = cf_solver_fail(&B->view[l], CF_EINTR, "stopped by the caller at t = %.4f s (step %ld)",
+                                       r->t, r->n);
+                cf_solver_run_finish(&B->view[l], r, jobs[j].residual_dislocation, &out[j].result);
+                out[j].status = r->st;
+                memcpy(out[j].message, B->view[l].msg, CF_MSG_LEN);
+            }
+            batch_not_started(next, n_jobs, out);
+            break;
         }
     }
     for (l = 0; l < CF_BW; l++) free(B->lane_mem[l]);

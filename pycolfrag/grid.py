@@ -357,7 +357,7 @@ def run_sample(ctx: SampleContext, row: int) -> dict:
 def run_samples(ctx: SampleContext, rows) -> list[dict]:
     """:func:`run_sample` of many rows, their runs side by side in SIMD lanes
     (:func:`pycolfrag.sample.run_synthetic_samples`): the same rows, faster (``run_sample.rows``)."""
-    outs, samples, owner = [], [], []
+    outs, samples, owner, t_seed = [], [], [], []
     spec = ctx.spec
     with_pulse = spec.pulse != "none"
     for row in rows:
@@ -367,6 +367,7 @@ def run_samples(ctx: SampleContext, rows) -> list[dict]:
         try:
             samples.append((mw, dist, ctx.hf_seed(sc, k), ctx.pulse(sc, k) if with_pulse else None))
             owner.append(out)
+            t_seed.append(time.perf_counter() - t0)  # the scenario's LHS is drawn at its first row
         except Exception as exc:  # the pulse parameters are part of the record: a record failure
             out.update(mw=mw, dist_km=dist, status=_results.STATUS_RECORD_FAILED,
                        message=f"{type(exc).__name__}: {exc}", wall_s=time.perf_counter() - t0)
@@ -375,8 +376,9 @@ def run_samples(ctx: SampleContext, rows) -> list[dict]:
         ctx.column, samples, record_dt_s=spec.record_dt_s, vp_scale=spec.vp_scale, periods_s=spec.periods_s,
         damping=spec.damping, solver_options=spec.solver_options, max_record_s=spec.max_record_s,
         with_pulse=with_pulse)
-    for out, d in zip(owner, done):
+    for out, d, t in zip(owner, done, t_seed):
         out.update(d)
+        out["wall_s"] += t
     return outs
 
 

@@ -184,15 +184,16 @@ def _simulate_many(column, runs, solver_options) -> list:
     """The runs (dicts of acc_x, dt, acc_y, acc_z) on one column: (Response or exception, step-warning
     texts) each, the Response bitwise what :func:`_simulate` gives, through
     :func:`pycolfrag.solver.simulate_batch` (runs in SIMD lanes). Where the batch cannot start (options
-    the set-up refuses), every run alone, so that each row gets the message of its own run. A step
-    warning of the batch is kept in every row of it."""
+    the set-up refuses) or warns about the step (an explicit dt_solver above the stability limit or a
+    record's dt: rare, the grid refuses both), every run alone, so that each row gets the message and
+    the warnings of its own run."""
     from .solver import simulate_batch
     if len(runs) < 2:
         return [_simulate(column, r["acc_x"], r["dt"], r["acc_y"], r["acc_z"], solver_options) for r in runs]
     res, steps = _caught(lambda: simulate_batch(column, runs, errors="return", **_solver_kw(solver_options)))
-    if isinstance(res, Exception):
+    if isinstance(res, Exception) or steps:
         return [_simulate(column, r["acc_x"], r["dt"], r["acc_y"], r["acc_z"], solver_options) for r in runs]
-    return [(x, steps) for x in res]
+    return [(x, []) for x in res]
 
 
 def response_rows(column, rows, *, periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_DAMPING, solver_options=None,

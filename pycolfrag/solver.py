@@ -16,6 +16,7 @@ Example::
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import warnings
@@ -124,6 +125,21 @@ def _stop_with(exc_type, exc, tb):
 def _pcf_solver_check(user):
     """Called by the C run every CF_SOLVER_CHECK_STEPS steps; 0 lets it go on."""
     return 0
+
+
+@contextlib.contextmanager
+def _interruptible(solver):
+    """A C run (or batch) of ``solver`` that calls back into Python every CF_SOLVER_CHECK_STEPS steps
+    (about 10 ms), where a pending Ctrl-C (or any signal handler's exception) is raised: the run then
+    stops at once and the exception is raised here, after it."""
+    _runs.caught = caught = []
+    lib.cf_solver_set_check(solver, lib._pcf_solver_check, ffi.NULL)
+    try:
+        yield
+    finally:
+        _runs.caught = []
+    if caught:
+        raise caught[0]
 
 
 def _acc(a, name, n_expected=None):
@@ -314,17 +330,9 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, options=None
               lib.cf_solver_message(solver), "simulate")
         check(lib.cf_solver_set_history_normal(solver, ptr(h["fn"])), lib.cf_solver_message(solver), "simulate")
     r = ffi.new("cf_solver_result *")
-    # every CF_SOLVER_CHECK_STEPS steps (about 10 ms) the run calls back into Python, where a
-    # pending Ctrl-C (or any signal handler's exception) is raised; the run then stops at once
-    _runs.caught = caught = []
-    lib.cf_solver_set_check(solver, lib._pcf_solver_check, ffi.NULL)
-    try:
+    with _interruptible(solver):
         st = lib.cf_solver_run(solver, ptr(job.ax), ptr(job.ay) if job.ay is not None else ffi.NULL,
                                ptr(job.az) if job.az is not None else ffi.NULL, job.ax.size, job.dt, ptr(job.resid), r)
-    finally:
-        _runs.caught = []
-    if caught:
-        raise caught[0]
     check(st, lib.cf_solver_message(solver), "simulate")
     message = ffi.string(lib.cf_solver_message(solver)).decode(errors="replace")
     if r.energy_warning:
@@ -415,8 +423,9 @@ def simulate_batch(col, records, history=False, options=None, *, width=None, err
         couts = ffi.new("cf_solver_batch_out[]", len(jobs))
         for c, (_, job) in zip(cjobs, jobs):
             job.fill(c)
-        check(lib.cf_solver_batch_run(solver, int(width), len(jobs), cjobs, couts), lib.cf_solver_message(solver),
-              "simulate_batch")
+        with _interruptible(solver):
+            st = lib.cf_solver_batch_run(solver, int(width), len(jobs), cjobs, couts)
+        check(st, lib.cf_solver_message(solver), "simulate_batch")
         for o, (i, job) in zip(couts, jobs):
             message = ffi.string(o.message).decode(errors="replace")
             try:   # a run's error reads as simulate's

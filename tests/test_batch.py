@@ -137,10 +137,11 @@ def test_default_width_pays():
     assert batch_width(COL, contact="exact") == 1
 
 
-def test_grid_rows_in_a_batch_equal_rows_one_by_one():
+@pytest.mark.parametrize("pulse", ["mp03", "none"])
+def test_grid_rows_in_a_batch_equal_rows_one_by_one(pulse):
     """grid.run_samples (the grid's chunk, runs side by side) gives every row of grid.run_sample bit for
-    bit (apart from wall_s)."""
-    spec = grid.GridSpec(mw=(7.5, 6.0), dist_km=(5.0,), samples=4, max_record_s=3.0)
+    bit (apart from wall_s), with pulses and without (--pulse none)."""
+    spec = grid.GridSpec(mw=(7.5, 6.0), dist_km=(5.0,), samples=4, max_record_s=3.0, pulse=pulse)
     ctx = grid.SampleContext(spec)
     rows = list(range(spec.n_rows))
     batch = grid.run_samples(ctx, rows)
@@ -153,15 +154,21 @@ def test_grid_rows_in_a_batch_equal_rows_one_by_one():
         assert b["wall_s"] > 0
 
 
-def test_record_rows_in_a_batch_equal_rows_one_by_one(tmp_path):
+# an explicit step above the stability limit (0.001001 s for this column): every run warns (StepWarning,
+# kept in the row's message), and the message must be the row's own run's, as when it runs alone
+@pytest.mark.parametrize("solver_options", [None, {"dt_solver": 0.00105}])
+def test_record_rows_in_a_batch_equal_rows_one_by_one(tmp_path, solver_options):
     """sample.run_record_samples (record suites: h1, h2 and the two-component pair, scaled) gives every
     row of run_record_sample bit for bit (apart from wall_s), a missing component failing alone."""
     suite = records.load_records(rs.write_suite(tmp_path))
     jobs = [(suite[k], c, f) for k in range(len(suite)) for c in ("h1", "both") for f in (0.5, 2.0)]
     jobs.append((suite[0], "bad", 1.0))
-    batch = sample.run_record_samples(jobs, column=COL, max_record_s=3.0)
+    batch = sample.run_record_samples(jobs, column=COL, max_record_s=3.0, solver_options=solver_options)
+    if solver_options:
+        assert all(b["message"].startswith(("StepWarning: simulate: ", "SolverError")) for b in batch[:-1])
     for (rec, c, f), b in zip(jobs, batch):
-        a = sample.run_record_sample(rec, column=COL, component=c, scale=f, max_record_s=3.0)
+        a = sample.run_record_sample(rec, column=COL, component=c, scale=f, max_record_s=3.0,
+                                     solver_options=solver_options)
         assert set(a) == set(b)
         for key in a:
             if key != "wall_s":

@@ -594,10 +594,13 @@ def test_a_disk_filling_up_while_the_file_is_created_raises_enospc_and_leaves_no
 
 # ------------------------------------------------------------------------------ 10: Ctrl-C inside simulate()
 
-def test_ctrl_c_inside_simulate_interrupts_the_c_run_promptly():
+@pytest.mark.parametrize("call", ["pcf.simulate(col, acc, 0.005, dt_solver=5e-7)",
+                                  "pcf.simulate_batch(col, [{'acc_x': acc, 'dt': 0.005}] * 8, dt_solver=5e-7)"])
+def test_ctrl_c_inside_simulate_interrupts_the_c_run_promptly(call):
     # Reported: Ctrl-C inside simulate() waited 94 s (the C run never returned to Python). The run
-    # here needs (5 s + the 3 s tail) / 5e-7 s = 1.6e7 steps, about a minute; the C run now calls
-    # back every CF_SOLVER_CHECK_STEPS steps (a few ms), where Python raises the KeyboardInterrupt.
+    # here needs (5 s + the 3 s tail) / 5e-7 s = 1.6e7 steps, about a minute (the batch: 8 of them
+    # side by side, as the grid's chunks run); the C run now calls back every CF_SOLVER_CHECK_STEPS
+    # steps (a few ms), where Python raises the KeyboardInterrupt.
     code = textwrap.dedent("""
         import sys, time, numpy as np, pycolfrag as pcf
         col = pcf.Column.parthenon()
@@ -605,14 +608,14 @@ def test_ctrl_c_inside_simulate_interrupts_the_c_run_promptly():
         acc = 0.25 * 9.81 * np.sin(2 * np.pi * 2 * t)
         print("start", flush=True)
         try:
-            pcf.simulate(col, acc, 0.005, dt_solver=5e-7)
+            CALL
             print("finished", flush=True)
         except KeyboardInterrupt:
             print("interrupted", flush=True)
         short = pcf.simulate(col, acc[:200], 0.005)  # the next run is a normal one (no check left over)
         ref = pcf.simulate(col, acc[:200], 0.005)
         print("after", short.u_top == ref.u_top and short.n_steps == ref.n_steps, flush=True)
-    """)
+    """).replace("CALL", call)
     p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          env=_env())
     try:

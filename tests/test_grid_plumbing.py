@@ -56,7 +56,20 @@ def fake_physics(monkeypatch):
     monkeypatch.setattr(pcf.ground_motion, "synthesize", synthesize, raising=False)
     monkeypatch.setattr(pcf.ground_motion, "stochastic", stochastic, raising=False)
     monkeypatch.setattr(pcf.intensity, "measures", measures, raising=False)
+    def simulate_batch(col, records, history=False, options=None, *, width=None, errors="raise", **opts):
+        calls.setdefault("batch", []).append(len(records))
+        out = []
+        for r in records:
+            try:
+                out.append(simulate(col, r["acc_x"], r["dt"], options=options, **opts))
+            except Exception as exc:
+                if errors == "raise":
+                    raise
+                out.append(exc)
+        return out
+
     monkeypatch.setattr(pcf.solver, "simulate", simulate)
+    monkeypatch.setattr(pcf.solver, "simulate_batch", simulate_batch)  # the grid's chunks run through it
     return calls
 
 
