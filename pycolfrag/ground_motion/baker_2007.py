@@ -14,6 +14,11 @@ times longer median period over the paper's grid (Mw 5.5 / 6.5 / 7.5: 0.71 / 2.1
 0.52 / 1.53 / 4.52 s) and a wider scatter (0.56 against 0.41 in ln). Only the pulse period changes;
 Vp (Eq. 6), nu and gamma stay as in the paper.
 
+Provenance: the two coefficients and the standard deviation were transcribed without access to
+the paper's text here (no public copy was reachable from this project's machines); they are the
+values this relation is usually quoted with, but check them against the paper before a decision
+rests on this branch (docs/ground_motion.md says the same).
+
 The sampling uses base-10 logarithms of fp (:func:`log10_fp_mean`, :data:`SIGMA_LOG10_FP`), the
 same uniform column of the Latin hypercube as the default model, so that a grid with this model
 pairs row by row with the default grid.
