@@ -294,8 +294,9 @@ def test_zeroed_data_of_a_complete_file_fail_its_checksums(tmp_path):
 
 # ------------------------------------------------------------------------------ kill -9 under MPI
 
-def _rank_pids(out):
-    """pids of the python ranks of an mpirun writing ``out`` (from /proc: argv[0] is this python)."""
+def _rank_pids(out, marker=b"mpi4py"):
+    """pids of the python ranks of an mpirun writing ``out`` (from /proc: argv[0] is this python, and
+    ``marker`` -- ``-m mpi4py``'s, or the script's path under plain ``mpirun python script`` -- in argv)."""
     pids = []
     for d in Path("/proc").iterdir():
         if not d.name.isdigit():
@@ -304,7 +305,8 @@ def _rank_pids(out):
             argv = (d / "cmdline").read_bytes().split(b"\0")
         except OSError:
             continue
-        if argv and argv[0].decode() == sys.executable and b"mpi4py" in argv and str(out).encode() in argv:
+        if argv and argv[0].decode(errors="replace") == sys.executable and marker in argv \
+                and str(out).encode() in argv:
             pids.append(int(d.name))
     return pids
 

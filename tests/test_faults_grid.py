@@ -32,7 +32,7 @@ import pytest
 from pycolfrag import results as R
 from pycolfrag.errors import ParameterError
 
-from test_faults import FAKE, _kill9, _start, _wait_rows
+from test_faults import FAKE, _kill9, _rank_pids, _start, _wait_rows
 from test_grid import ROOT, SCRIPT, _env, _journal_rows, _ok, _same_rows, _serial
 
 def _partial(tmp_path, n=3, name="g.h5", extra=()):
@@ -422,22 +422,6 @@ def test_a_reader_holding_the_file_open_does_not_abort_the_run(tmp_path):
 
 # ------------------------------------------------------------------------------ 7: signals under plain mpirun
 
-def _plain_rank_pids(out):
-    """pids of the python ranks of an mpirun writing ``out`` (argv: this python, the script, ... out)."""
-    pids = []
-    for d in Path("/proc").iterdir():
-        if not d.name.isdigit():
-            continue
-        try:
-            argv = (d / "cmdline").read_bytes().split(b"\0")
-        except OSError:
-            continue
-        if argv and argv[0].decode(errors="replace") == sys.executable and str(SCRIPT).encode() in argv \
-                and str(out).encode() in argv:
-            pids.append(int(d.name))
-    return pids
-
-
 @pytest.mark.mpi
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_a_signal_to_rank_0_under_plain_mpirun_ends_every_rank_after_the_final_write(tmp_path, sig):
@@ -454,7 +438,7 @@ def test_a_signal_to_rank_0_under_plain_mpirun_ends_every_rank_after_the_final_w
     try:
         _wait_rows(out, 4, proc)
         rank0 = json.loads(R.lock_path(out).read_text())["pid"]
-        ranks = _plain_rank_pids(out)
+        ranks = _rank_pids(out, marker=str(SCRIPT).encode())
         assert rank0 in ranks and len(ranks) == 2, (rank0, ranks)
         os.kill(rank0, sig)
         text, _ = proc.communicate(timeout=60)  # before the fix: never (rank 1 waits forever; timeout ends it at 120 s)
