@@ -17,7 +17,7 @@ GRID_ARGS ?=
 # Open MPI refuses root without these; set only for our own commands.
 MPIENV  := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 
-.PHONY: setup system build ctest ctest-asan pytest test grid analysis figures validation records risk bench clean
+.PHONY: setup system build ctest ctest-bin ctest-asan pytest test grid analysis figures validation records risk bench clean
 
 setup: system .venv/.installed build
 
@@ -35,13 +35,28 @@ build: .venv/.built
 	$(PIP) install -q --no-build-isolation --no-deps -e .
 	touch $@
 
-build/ctest/%: tests/c/%.c $(CSRCS) $(CHDRS) tests/c/cf_test.h
-	@mkdir -p build/ctest
-	$(CC) $(CFLAGS) -Icsrc -o $@ $< $(CSRCS) $(LDLIBS)
+# The library is compiled once per flavour (plain, sanitized) and linked into every C test.
+COBJS      := $(patsubst csrc/%.c,build/obj/%.o,$(CSRCS))
+COBJS_ASAN := $(patsubst csrc/%.c,build/obj-asan/%.o,$(CSRCS))
+ASANFLAGS  := $(CSTD) $(CWARN) $(SANFLAGS) -ffp-contract=off
 
-build/ctest-asan/%: tests/c/%.c $(CSRCS) $(CHDRS) tests/c/cf_test.h
+build/obj/%.o: csrc/%.c $(CHDRS) csrc/flags.mk
+	@mkdir -p build/obj
+	$(CC) $(CFLAGS) -Icsrc -c -o $@ $<
+
+build/obj-asan/%.o: csrc/%.c $(CHDRS) csrc/flags.mk
+	@mkdir -p build/obj-asan
+	$(CC) $(ASANFLAGS) -Icsrc -c -o $@ $<
+
+build/ctest/%: tests/c/%.c $(COBJS) tests/c/cf_test.h
+	@mkdir -p build/ctest
+	$(CC) $(CFLAGS) -Icsrc -o $@ $< $(COBJS) $(LDLIBS)
+
+build/ctest-asan/%: tests/c/%.c $(COBJS_ASAN) tests/c/cf_test.h
 	@mkdir -p build/ctest-asan
-	$(CC) $(CSTD) $(CWARN) $(SANFLAGS) -ffp-contract=off -Icsrc -o $@ $< $(CSRCS) $(LDLIBS)
+	$(CC) $(ASANFLAGS) -Icsrc -o $@ $< $(COBJS_ASAN) $(LDLIBS)
+
+ctest-bin: $(CTESTS)
 
 ctest: $(CTESTS)
 	@bash scripts/run_ctests.sh $(CTESTS)
