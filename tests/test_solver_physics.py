@@ -1,14 +1,18 @@
 """Physics benchmarks of the solver against closed forms and independent integrations:
 quasi-static overturning (rigid threshold g b / h_cg), Housner (1963) free rocking, and
-one-sine pulse overturning of a single block (Housner's equation integrated here with
-scipy's solve_ivp)."""
+one-sine pulse overturning of a single block (Housner's equation integrated with scipy's
+solve_ivp in tests/reference_solutions.py)."""
 import math
+import os
+import sys
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
 
 import pycolfrag as pcf
+
+sys.path.insert(0, os.path.dirname(__file__))
+from reference_solutions import housner_overturns  # noqa: E402  (tests/ is not a package)
 
 G = 9.81
 
@@ -111,58 +115,11 @@ def test_housner_free_rocking():
 
 # ---- pulse overturning of a single block ---------------------------------------------
 
-def housner_overturns(A, b, h, Tp, t_end=3.0):
-    """Independent rigid-block integration: Housner's equation
-    theta'' = -p^2 [sin(alpha sgn(theta) - theta) + (a_g / g) cos(alpha sgn(theta) - theta)]
-    with impacts of restitution r = 1 - 1.5 sin^2(alpha) (Housner 1963), one-sine pulse
-    a_g = A sin(2 pi t / Tp) on [0, Tp]. Overturned when |theta| reaches pi/2."""
-    alpha = math.atan(b / h)
-    p2 = 3 * G / (4 * math.hypot(b, h))
-    r = 1 - 1.5 * math.sin(alpha) ** 2
-
-    def ag(t):
-        return A * math.sin(2 * math.pi * t / Tp) if t < Tp else 0.0
-
-    ts = np.linspace(0, Tp, 20001)
-    a = A * np.sin(2 * np.pi * ts / Tp)
-    over = np.abs(a) > G * math.tan(alpha)
-    if not over.any():
-        return False
-    t0 = ts[np.argmax(over)]
-    sgn0 = -np.sign(a[np.argmax(over)])
-
-    def f(t, y):
-        s = np.sign(y[0]) if y[0] != 0 else sgn0
-        return [y[1], -p2 * (math.sin(alpha * s - y[0]) + ag(t) / G * math.cos(alpha * s - y[0]))]
-
-    def impact(t, y):
-        return y[0]
-    impact.terminal = True
-
-    def fall(t, y):
-        return abs(y[0]) - math.pi / 2
-    fall.terminal = True
-
-    y, t = [sgn0 * 1e-12, 0.0], t0
-    while t < t_end:
-        sol = solve_ivp(f, (t, t_end), y, events=(impact, fall), rtol=1e-9, atol=1e-12, max_step=2e-3)
-        if sol.t_events[1].size:
-            return True
-        if not sol.t_events[0].size:
-            return False
-        t = sol.t_events[0][0] + 1e-9
-        w = sol.y_events[0][0][1] * r
-        if abs(w) < 1e-6:
-            return False
-        y = [math.copysign(1e-12, w), w]
-    return False
-
-
 def test_one_sine_pulse_overturning_single_block():
     """Block 0.4 m x 0.4 m x 2 m (alpha = 0.197), kn = ks = 1e11, one-sine pulse of period
     0.25 s. Friction angle 80 deg (mu = 5.7 > A/g): Housner's equation assumes the block
     does not slide, and at 4 g a block on mu = 0.75 slides a lot. The threshold amplitude is found by bisecting the independent integration
-    above (about 4.0 g); the soft-contact block must survive 0.95 x and overturn at
+    of Housner's equation with his restitution (reference_solutions.housner_overturns, about 4.0 g); the soft-contact block must survive 0.95 x and overturn at
     1.05 x it. Note: the threshold depends on the impact law; at this pulse
     period the block overturns on the first excursion after one impact, and the soft
     vertex contacts lose about Housner's share of energy at that impact."""
@@ -170,7 +127,9 @@ def test_one_sine_pulse_overturning_single_block():
     lo, hi = 2.0 * G, 6.0 * G
     for _ in range(14):
         mid = 0.5 * (lo + hi)
-        if housner_overturns(mid, b, H / 2, Tp):
+        def ag(x, A=mid):
+            return A * math.sin(2 * math.pi * x / Tp) if x < Tp else 0.0
+        if housner_overturns(ag, b, H / 2, t_end=3.0):
             hi = mid
         else:
             lo = mid
