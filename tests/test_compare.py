@@ -1,4 +1,4 @@
-"""``pycolfrag.compare``: row-level equality of two results files and, where rows differ, the
+"""``pycolfrag.analysis.compare``: row-level equality of two results files and, where rows differ, the
 per-scenario statistics (collapse fraction: Fisher's exact test; mean u_top, u_d: Welch's t).
 
 The files are written by hand here in the layout of docs/results_format.md (h5py, every
@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from pycolfrag import results
-from pycolfrag.compare import compare_results
+from pycolfrag.analysis.compare import compare_results
 
 h5py = pytest.importorskip("h5py")
 
@@ -130,7 +130,7 @@ def test_command_line(base):
     cols = {k: v.copy() for k, v in cols.items()}
     cols["u_d"][0] = np.nextafter(cols["u_d"][0], 1.0)
     b = _write(tmp / "b.h5", cols, spectra)
-    run = [sys.executable, "-m", "pycolfrag.compare"]
+    run = [sys.executable, "-m", "pycolfrag.analysis.compare"]
     p = subprocess.run(run + [str(a), str(a)], capture_output=True, text=True)
     assert p.returncode == 0 and "bitwise identical" in p.stdout
     p = subprocess.run(run + [str(a), str(b)], capture_output=True, text=True)

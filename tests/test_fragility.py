@@ -1,4 +1,4 @@
-"""Tests of pycolfrag.fragility (paper Eqs. (1)-(4), stripes, MLE, bootstrap).
+"""Tests of pycolfrag.analysis.fragility (paper Eqs. (1)-(4), stripes, MLE, bootstrap).
 
 Expected numbers come from from-scratch formulas written here with the standard library
 (math.erf for Phi, sums for the log-moments) or from the known law of synthetic data; each
@@ -11,7 +11,7 @@ import pytest
 from scipy import stats
 
 import pycolfrag
-from pycolfrag import fragility as fr
+from pycolfrag.analysis import fragility as fr
 
 
 def phi(z):

@@ -1,4 +1,4 @@
-"""OpenQuake interchange and the IM route (pycolfrag.openquake).
+"""OpenQuake interchange and the IM route (pycolfrag.analysis.openquake).
 
 Expected numbers: OpenQuake's own QA case classical_damage/case_1 (its hazard curves, fragility
 models and expected damage distributions, copied into tests/data/oq_classical_damage_case_1, see
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pycolfrag import openquake as oq
+from pycolfrag.analysis import openquake as oq
 from pycolfrag.errors import HazardFileError, ParameterError
 
 CASE1 = Path(__file__).resolve().parent / "data" / "oq_classical_damage_case_1"
@@ -204,7 +204,7 @@ def test_openquake_reads_the_export_and_agrees(tmp_path, fmt):
 def test_fragility_from_results_is_the_mle_fit(tmp_path):
     """The exported limit states are fragility.fit_lognormal_fragility of the same rows (median and
     beta recovered from mean/stddev to 1e-12); collapse is fitted on the collapse flags alone."""
-    from pycolfrag import fragility as F
+    from pycolfrag.analysis import fragility as F
     rng = np.random.default_rng(1)
     n = 600
     pgv = np.exp(rng.normal(np.log(60), 0.6, n))
@@ -234,7 +234,7 @@ def test_crossing_limit_states_are_refused():
     u = 0.5 * pga * np.exp(0.8 * rng.standard_normal(n))
     coll = (pga > 0.45).astype(int)        # a sharp collapse threshold: far steeper than the u_top curve
     table = {"pga_g": pga, "u_top": np.where(coll, np.nan, u), "collapsed": coll, "status": np.zeros(n, int)}
-    from pycolfrag.fragility import U_TOP_LEVELS
+    from pycolfrag.analysis.fragility import U_TOP_LEVELS
     with pytest.raises(ParameterError, match=r"cross.*P\(collapse\) exceeds P\(damage_limitation\)"):
         oq.fragility_from_results(table, "pga_g", levels=U_TOP_LEVELS[:1])
     oq.fragility_from_results(table, "pga_g", levels=U_TOP_LEVELS[:1], collapse=False)   # alone it is fine

@@ -1,4 +1,4 @@
-"""The paper's natural-record checks: Fig. 10 (pycolfrag.record_figures) and Table II
+"""The paper's natural-record checks: Fig. 10 (pycolfrag.analysis.record_figures) and Table II
 (pycolfrag.table_ii), and the serial suite runner they use (pycolfrag.sample.run_suite)."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from scipy import optimize
 sys.path.insert(0, os.path.dirname(__file__))
 import record_suite as rs  # noqa: E402
 
-from pycolfrag import record_figures as rf  # noqa: E402
+from pycolfrag.analysis import record_figures as rf  # noqa: E402
 from pycolfrag import records, sample  # noqa: E402
 from pycolfrag import table_ii as t2  # noqa: E402
 from pycolfrag.errors import ParameterError  # noqa: E402

@@ -25,8 +25,8 @@ Three pieces, none of which needs OpenQuake installed:
 
 Command line::
 
-    python -m pycolfrag.openquake export results/grid.h5 column_fragility.xml --im pga_g
-    python -m pycolfrag.openquake damage hazard_curve-mean-PGA.csv column_fragility.xml --risk-time 50
+    python -m pycolfrag.analysis.openquake export results/grid.h5 column_fragility.xml --im pga_g
+    python -m pycolfrag.analysis.openquake damage hazard_curve-mean-PGA.csv column_fragility.xml --risk-time 50
 
 Units are OpenQuake's: PGA and SA in g, PGV in cm/s (pycolfrag's ``pga_g``, ``sa_g``, ``pgv_cm_s``).
 """
@@ -44,7 +44,8 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from .errors import HazardFileError, ParameterError
+from ..errors import HazardFileError, ParameterError
+from .data import read_table
 
 __all__ = ["NRML_NS", "MIN_IML", "HazardCurves", "read_hazard_curves", "imt_of", "im_of_imt", "annual_rates",
            "occurrence_rates", "ContinuousFragility", "DiscreteFragility", "FragilityModel",
@@ -360,7 +361,7 @@ class FragilityModel:
 
     ``functions``: one :class:`ContinuousFragility` or :class:`DiscreteFragility` per limit state (all of
     one format; a discrete model shares its IMLs and no-damage limit). ``fits``: the pycolfrag fits it
-    came from (:class:`~pycolfrag.fragility.LognormalFragility` per limit state), when built from results.
+    came from (:class:`~pycolfrag.analysis.fragility.LognormalFragility` per limit state), when built from results.
     """
 
     imt: str
@@ -460,17 +461,6 @@ def classical_damage(model: FragilityModel, imls, poes, investigation_time, risk
 
 # --------------------------------------------------------------------------- from pycolfrag results
 
-def _results_table(results):
-    from . import results as _results
-    if isinstance(results, dict):
-        return results
-    r = results if isinstance(results, _results.Results) else _results.load(results)
-    t = dict(r.samples)
-    t.update(r.spectra)
-    t["periods_s"] = np.asarray(r.periods_s, dtype=float)
-    return t
-
-
 def _ls_name(level) -> str:
     return re.sub(r"[^A-Za-z0-9]+", "_", level.name.strip()).strip("_").lower()
 
@@ -487,12 +477,12 @@ def fragility_from_results(results, im: str = "pga_g", *, period_s: float | None
     """IM-based fragility of a results file as an OpenQuake fragility model.
 
     Every limit state is pycolfrag's binomial maximum-likelihood lognormal fit
-    (:func:`pycolfrag.fragility.fit_lognormal_fragility`) over the successful rows: exceedance of a
+    (:func:`pycolfrag.analysis.fragility.fit_lognormal_fragility`) over the successful rows: exceedance of a
     performance level (a collapse counts as exceeding), and collapse itself last when ``collapse``.
 
     Parameters
     ----------
-    results : path, :class:`~pycolfrag.results.Results` or a suite table (dict)
+    results : path, :class:`~pycolfrag.analysis.data.Results` or a suite table (dict)
     im : ``pga_g``, ``pgv_cm_s`` or ``sa_g`` (with ``period_s``)
     levels : performance levels in increasing severity (default: Table III, ``U_TOP_LEVELS``)
     fmt : ``continuous`` (``mean``/``stddev`` of the IML, :meth:`ContinuousFragility.from_lognormal`)
@@ -512,7 +502,7 @@ def fragility_from_results(results, im: str = "pga_g", *, period_s: float | None
     if fmt not in ("continuous", "discrete"):
         raise ParameterError(f"fmt must be 'continuous' or 'discrete', got {fmt!r}")
     levels = tuple(U_TOP_LEVELS if levels is None else levels)
-    table = _results_table(results)
+    table = read_table(results)
     x, label = _frag.table_im(table, im, period_s)
     imt = imt_of(im, period_s)
     ok = _frag._ok_rows(table) & np.isfinite(x) & (x > 0)
@@ -668,7 +658,7 @@ def read_nrml(path) -> dict:
 # --------------------------------------------------------------------------- command line
 
 def _parser():
-    p = argparse.ArgumentParser(prog="python -m pycolfrag.openquake",
+    p = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.openquake",
                                 description="OpenQuake interchange: export IM-based fragility as NRML 0.5, or "
                                             "convolve OpenQuake hazard curves with a fragility model "
                                             "(OpenQuake's classical damage). docs/risk.md")
@@ -742,7 +732,7 @@ def main(argv=None) -> int:
             print("  damage states: " + ", ".join(f"{s} {p:.4e}" for s, p in zip(states, res["damage"][i])))
         return 0
     except (ParameterError, HazardFileError, OSError) as exc:
-        print(f"pycolfrag.openquake: {exc}", file=sys.stderr)
+        print(f"pycolfrag.analysis.openquake: {exc}", file=sys.stderr)
         return 2
 
 

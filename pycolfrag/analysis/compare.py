@@ -1,7 +1,7 @@
 """Compare two grid results files: are the rows bitwise equal, and where they are not, do the
 per-scenario statistics agree within their sampling error?
 
-Run as ``python -m pycolfrag.compare A.h5 B.h5`` (options: ``--alpha``, ``--quiet``), or call
+Run as ``python -m pycolfrag.analysis.compare A.h5 B.h5`` (options: ``--alpha``, ``--quiet``), or call
 :func:`compare_results`. See docs/reproducibility.md for when two files should be bitwise equal
 (same pycolfrag version and grid arguments on any x86-64 CPU) and when only statistically.
 
@@ -30,8 +30,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import results as _results
-from .errors import ParameterError, PycolfragError
+from .. import results as _results
+from ..errors import ParameterError, PycolfragError
+from .data import as_results
 
 __all__ = ["compare_results", "Comparison", "ScenarioStats", "main"]
 
@@ -111,12 +112,6 @@ class Comparison:
         lines.append("statistics agree within sampling error" if self.statistically_consistent
                      else "statistics DISAGREE (or the rows do not match)")
         return "\n".join(lines)
-
-
-def _load(x):
-    if isinstance(x, _results.Results):
-        return x
-    return _results.load(x)
 
 
 def _same_bits(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -203,7 +198,7 @@ def _scenario_stats(ra, rb, ia, ib, sc, n_diff, index=0) -> ScenarioStats:
 
 
 def compare_results(a, b, alpha: float = 0.05) -> Comparison:
-    """Compare two results files (paths or :class:`pycolfrag.results.Results`).
+    """Compare two results files (paths or :class:`pycolfrag.analysis.data.Results`).
 
     Parameters
     ----------
@@ -222,7 +217,7 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
     """
     if not 0.0 < float(alpha) < 1.0:
         raise ParameterError(f"alpha must be in (0, 1), got {alpha!r}")
-    ra, rb = _load(a), _load(b)
+    ra, rb = as_results(a), as_results(b)
     sa, sb = ra.samples, rb.samples
     keys_a, group_a = _row_keys(sa)
     keys_b, group_b = _row_keys(sb)
@@ -264,7 +259,7 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m pycolfrag.compare",
+    ap = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.compare",
                                  description="Compare two pycolfrag grid results files row by row and, "
                                              "where rows differ, by per-scenario statistics.")
     ap.add_argument("a", help="first results file (HDF5)")
