@@ -34,10 +34,13 @@ scheduler, journal, lock, resume and refusals apply; the file has the ``records`
 from __future__ import annotations
 
 import argparse
+import errno
+import hashlib
 import importlib
 import json
 import math
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -52,11 +55,17 @@ from typing import Callable, Sequence
 import numpy as np
 
 from . import __version__
+from . import ground_motion as _gm
 from . import results as _results
 from . import sample as _sample
+from . import solver as _solver
+from .column import Column
 from .sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S  # /spectra periods (s) and damping: a sample's
-from .errors import ParameterError, RecordFileError, ResultsFileError
+from .errors import ParameterError, RecordFileError, ResultsFileError, SolverError
+from .ground_motion import atkinson_silva_2000 as as00, rupakhety_2011
 from .ground_motion.mavroeidis_papageorgiou_2003 import DEFAULT_TP_MODEL, TP_MODELS, tp_model_of
+from .options import SolverOptions
+from .records import load_records
 
 __all__ = [
     "DEFAULT_MW", "DEFAULT_DIST_KM", "DEFAULT_SAMPLES", "DEFAULT_SEED", "DEFAULT_PERIODS_S",
@@ -309,7 +318,6 @@ class SampleContext:
     """What a rank needs to compute any row: the spec, the column, cached LHS tables."""
 
     def __init__(self, spec: GridSpec):
-        from .column import Column
         self.spec = spec
         self.column = Column.from_dict(spec.column) if spec.column else Column.parthenon()
         self._lhs: OrderedDict = OrderedDict()
@@ -336,9 +344,8 @@ class SampleContext:
     def pulse(self, scenario: int, sample: int) -> dict:
         """Row ``sample`` of the scenario's LHS of pulse parameters (cached per scenario)."""
         if scenario not in self._lhs:
-            from .ground_motion import sample_pulse_parameters
             mw, dist = self.spec.scenarios[scenario]
-            table = sample_pulse_parameters(mw, dist, self.spec.samples, self.lhs_seed(scenario),
+            table = _gm.sample_pulse_parameters(mw, dist, self.spec.samples, self.lhs_seed(scenario),
                                             vp_scale=self.spec.vp_scale, tp_model=self.spec.tp_model)
             self._lhs[scenario] = {k: np.asarray(v) for k, v in table.items()}
             while len(self._lhs) > 8:
@@ -429,7 +436,6 @@ class RecordGridSpec:
     layout = "records"
 
     def __post_init__(self):
-        from .records import load_records
         object.__setattr__(self, "solver_options", resolve_solver_options(self.solver_options))
         if self.suite is None:
             if not self.records:
@@ -512,7 +518,6 @@ class RecordContext:
     """What a rank needs to compute any row of a record-suite grid: the spec, the column, the suite."""
 
     def __init__(self, spec: RecordGridSpec):
-        from .column import Column
         self.spec = spec
         self.column = Column.from_dict(spec.column) if spec.column else Column.parthenon()
 
@@ -606,7 +611,7 @@ def get_comm(mode: str = "auto"):
     if mode == "auto" and "mpi4py.MPI" not in sys.modules and not any(v in os.environ for v in _LAUNCHER_VARS):
         return None
     try:
-        from mpi4py import MPI
+        from mpi4py import MPI  # here: importing it starts MPI, wanted only under a launcher
     except ImportError:
         if mode == "yes":
             raise
@@ -630,7 +635,6 @@ def _git_revision() -> str:
 
 def solver_defaults() -> dict:
     """The solver options' defaults (:class:`pycolfrag.SolverOptions`, read from the C library)."""
-    from .options import SolverOptions
     return SolverOptions().to_dict()
 
 
@@ -638,7 +642,6 @@ def resolve_solver_options(opts) -> "SolverOptions":
     """The :class:`pycolfrag.SolverOptions` a grid runs with: ``opts`` (a SolverOptions, or a dict of
     :func:`pycolfrag.simulate` keywords applied to the C library's defaults). Unknown names and
     values the C library rejects raise :class:`ParameterError` naming them."""
-    from .options import SolverOptions
     if isinstance(opts, SolverOptions):
         return opts
     if opts is None:
@@ -663,17 +666,12 @@ def build_identity() -> dict:
     keeps it. Computed once per process (about 40 ms). Part of every grid signature, so a file is
     never resumed by another build (and MPI ranks of different builds are refused)."""
     if not _BUILD:
-        import hashlib
-        from . import __version__
-        from .column import Column
-        from .ground_motion import synthesize
-        from .solver import simulate
-        rec = synthesize(7.0, 5.0, 1, dt=0.01)
+        rec = _gm.synthesize(7.0, 5.0, 1, dt=0.01)
         acc = np.asarray(rec.acc, dtype=float)[:500]
         ims = _sample.ims_row(acc, 0.01)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            res = simulate(Column.parthenon(), acc, 0.01)
+            res = _solver.simulate(Column.parthenon(), acc, 0.01)
         h = hashlib.sha256(acc.tobytes())
         for name in sorted(ims):
             h.update(np.asarray(ims[name], dtype=float).tobytes())
@@ -692,8 +690,6 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
     that stops as unstable, a step so short that this check alone would need more than
     :data:`MAX_CHECK_STEPS` steps, and a column that collapses under gravity alone. Returns the
     solver step (``dt_s``) and the measured time per step (``step_s``) for :func:`check_work`."""
-    from .errors import SolverError
-    from .solver import StepWarning, simulate
     options = resolve_solver_options(options)
     changed = {k: v for k, v in options.to_dict().items() if v != solver_defaults()[k]}
     caught, failure, res = [], None, None
@@ -704,7 +700,7 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
         if dt_step is None:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                probe = simulate(column, np.zeros(3), record_dt_s, options=options.replace(tail_s=0.0))
+                probe = _solver.simulate(column, np.zeros(3), record_dt_s, options=options.replace(tail_s=0.0))
             dt_step, collapsed = probe.dt, probe.collapsed
         check_steps = (3 * record_dt_s + options.tail_s) / dt_step
         if check_steps > MAX_CHECK_STEPS and not collapsed:  # a collapse stops the check at once
@@ -717,7 +713,7 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             t0 = time.perf_counter()
-            res = simulate(column, np.zeros(3), record_dt_s, options=options)
+            res = _solver.simulate(column, np.zeros(3), record_dt_s, options=options)
             step_s = (time.perf_counter() - t0) / max(res.n_steps, 1)
     except (TypeError, SolverError) as exc:
         failure = exc
@@ -725,11 +721,11 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
         if str(exc).startswith("solver options"):
             raise
         failure = exc
-    steps = [w for w in caught if issubclass(w.category, StepWarning)]
+    steps = [w for w in caught if issubclass(w.category, _solver.StepWarning)]
     if failure is not None and not steps:
         raise ParameterError(f"solver options {changed}: {type(failure).__name__}: {failure}") from None
     if steps:
-        crit = res.dt_crit if res is not None else simulate(column, np.zeros(3), record_dt_s,
+        crit = res.dt_crit if res is not None else _solver.simulate(column, np.zeros(3), record_dt_s,
                                                              options=options.replace(dt_solver=None)).dt_crit
         raise ParameterError(f"solver options {changed}: {str(steps[0].message).removeprefix('simulate: ')}; "
                              f"every row would be computed that way: choose dt_solver <= {min(crit, record_dt_s):.4g} s "
@@ -749,7 +745,6 @@ def probe_rows(spec) -> list[tuple[str, float]]:
     (``--vp-scale``, ``--damping``, ``--periods``...), and its accelerations must be within what the
     solver accepts (:data:`pycolfrag.solver.MAX_ABS_ACC`). Returns (label, duration s) of the longest
     record of the run (the synthetic grid: the largest Mw at the largest R, sample 0)."""
-    from .solver import MAX_ABS_ACC
     if spec.layout == "records":
         durations = []
         for r in spec.suite:
@@ -767,7 +762,6 @@ def probe_rows(spec) -> list[tuple[str, float]]:
         sc = spec.scenarios.index((min(spec.mw), max(spec.dist_km)))
         mw, dist = spec.scenarios[sc]
         what = f"the record of Mw {mw:g}, R {dist:g} km, sample 0"
-        from .ground_motion import sample_pulse_parameters
         with_pulse = spec.pulse != "none"
 
         def record(scenario):
@@ -776,7 +770,7 @@ def probe_rows(spec) -> list[tuple[str, float]]:
             m, r = spec.scenarios[scenario]
             p = None
             if with_pulse:
-                table = sample_pulse_parameters(m, r, min(spec.samples, 8), ctx.lhs_seed(scenario),
+                table = _gm.sample_pulse_parameters(m, r, min(spec.samples, 8), ctx.lhs_seed(scenario),
                                                 vp_scale=spec.vp_scale, tp_model=spec.tp_model)
                 p = {k: (np.asarray(v)[0] if np.ndim(v) else v).item() for k, v in table.items()}
             out, a, d = _sample._synthetic_record(m, r, ctx.hf_seed(scenario, 0), p, spec.record_dt_s, spec.vp_scale,
@@ -801,9 +795,9 @@ def probe_rows(spec) -> list[tuple[str, float]]:
             long_s = min(long_s, spec.max_record_s)
         durations = [(f"Mw {mw_l:g}, R {dist_l:g} km", long_s)]
     peak = float(np.max(np.abs(acc))) if acc.size else 0.0
-    if not np.isfinite(peak) or peak > MAX_ABS_ACC:
+    if not np.isfinite(peak) or peak > _solver.MAX_ABS_ACC:
         opt = "--vp-scale" if spec.layout is None else "--scale"
-        raise ParameterError(f"{opt}: {what} reaches |a| = {peak:.3g} m/s^2, beyond the {MAX_ABS_ACC:g} m/s^2 the "
+        raise ParameterError(f"{opt}: {what} reaches |a| = {peak:.3g} m/s^2, beyond the {_solver.MAX_ABS_ACC:g} m/s^2 the "
                              "solver accepts; every row would fail")
     try:  # the IMs' options are what is checked: the first 8192 samples say it (a 1e8-sample record would take minutes)
         _sample.ims_row(acc[:8192], dt, spec.periods_s, spec.damping)
@@ -855,8 +849,6 @@ def check_space(spec, out) -> None:
     """Refuse, with the OSError of a full disk (exit code 4), a results file that cannot fit: every row
     is allocated when the file is created (the bytes of one row times the rows), compared with the
     free space of the folder it goes to."""
-    import errno
-    import shutil
     need = spec.n_rows * _results.row_bytes(len(spec.periods_s), spec.layout)
     where = Path(out).absolute().parent
     while not where.exists() and where != where.parent:
@@ -876,7 +868,6 @@ def check_models(spec: GridSpec) -> None:
     both models' declared ranges (``atkinson_silva_2000.check_scenario``, ``rupakhety_2011.check_scenario``)
     and the record step within the stochastic generator's range (``atkinson_silva_2000.DT_MIN/DT_MAX``).
     Otherwise every row would fail the same way and the grid would exit 0 with a file of failures."""
-    from .ground_motion import atkinson_silva_2000 as as00, rupakhety_2011
     for mw, dist in spec.scenarios:
         try:
             as00.check_scenario(mw, dist)
@@ -1054,7 +1045,7 @@ def _progress(total: int, enabled: bool, under_mpi: bool = False):
     if not enabled or total == 0:
         return None
     try:
-        from tqdm import tqdm
+        from tqdm import tqdm  # here: only rank 0 with a bar loads it; without tqdm, no bar
     except ImportError:
         return None
     # Under mpirun stderr is always a pipe (stdout a pty), so a terminal cannot be told from a log
@@ -1073,7 +1064,7 @@ def _chunk(queue: deque, size: int, chunk_max: int) -> list[int]:
 
 def _serve(comm, ctx, fn, queue: deque, works: bool, chunk_max: int, accept) -> None:
     """Rank 0: answer requests between its own rows until every worker has stopped."""
-    from mpi4py import MPI
+    from mpi4py import MPI  # here: only under MPI (importing it starts MPI)
     size = comm.Get_size()
     status = MPI.Status()
     active = size - 1
@@ -1203,7 +1194,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def spec_from_args(args) -> "GridSpec | RecordGridSpec":
-    from .column import Column
     col = Column.from_file(args.column) if args.column else Column.parthenon()
     if args.kn is not None:
         col = col.with_joints(kn=args.kn)
@@ -1293,7 +1283,6 @@ def run_command(args, argv=None) -> tuple[int, RunSummary | None, "GridSpec | Re
         if spec.layout is None:
             check_models(spec)
         if spec.sample_function is None:
-            from .column import Column
             solver = check_solver_options(Column.from_dict(spec.column), spec.solver_options,
                                           spec.shortest_record_dt())
             check_work(spec, probe_rows(spec), solver, log)

@@ -1266,6 +1266,6 @@ def __getattr__(name):
     would be an import circle, and the driver, which writes through this module, must not load the
     analysis package."""
     if name in ("load", "Results"):
-        from .analysis import data
+        from .analysis import data  # here: the reader imports this module (a circle at the top)
         return getattr(data, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

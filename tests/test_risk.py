@@ -15,6 +15,7 @@ from scipy import stats
 
 from pycolfrag.analysis import fragility as fr
 from pycolfrag.analysis import risk
+from pycolfrag.analysis.data import read_results
 from pycolfrag import site as site_file
 from pycolfrag.errors import ParameterError
 from pycolfrag.ground_motion import shahi_baker_2014 as sb14
@@ -70,7 +71,7 @@ def char_source(mw, r_km, rate=0.002, **kw):
 
 
 def _cell(path, mw, r):
-    d = risk._read(path)
+    d = read_results(path)
     sel = (d["mw"] == mw) & (d["dist_km"] == r)
     return d["u_top"][sel], d["u_d"][sel], d["collapsed"][sel]
 

@@ -29,6 +29,7 @@ import sys
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import stats
 
 from .. import results as _results
 from ..errors import ParameterError, PycolfragError
@@ -127,7 +128,6 @@ def _same_bits(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _clopper_pearson(k: int, n: int, conf: float = 0.95) -> tuple:
-    from scipy import stats
     if n == 0:
         return (math.nan, math.nan)
     a = 1.0 - conf
@@ -137,7 +137,6 @@ def _clopper_pearson(k: int, n: int, conf: float = 0.95) -> tuple:
 
 
 def _welch(x: np.ndarray, y: np.ndarray) -> float:
-    from scipy import stats
     if len(x) < 2 or len(y) < 2:
         return math.nan
     if np.array_equal(x, y):
@@ -165,7 +164,6 @@ def _row_keys(s) -> tuple:
 
 
 def _scenario_stats(ra, rb, ia, ib, sc, n_diff, index=0) -> ScenarioStats:
-    from scipy import stats
     sa, sb = ra.samples, rb.samples
     out = {}
     for key, s, idx in (("a", sa, ia), ("b", sb, ib)):

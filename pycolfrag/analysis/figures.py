@@ -39,7 +39,7 @@ def Figure(*args, **kwargs):
     """A ``matplotlib.figure.Figure``; matplotlib is imported here, on the first figure, so that
     reading results (:mod:`pycolfrag.analysis.data`) and the modules built on it (:mod:`~pycolfrag.analysis.report`,
     :mod:`~pycolfrag.analysis.validation`) work without matplotlib installed."""
-    from matplotlib.figure import Figure as _Figure
+    from matplotlib.figure import Figure as _Figure  # here: the optional plotting stack, only to draw
     return _Figure(*args, **kwargs)
 
 

@@ -45,7 +45,9 @@ import numpy as np
 from scipy import stats
 
 from ..errors import HazardFileError, ParameterError
+from . import fragility as _frag
 from .data import read_table
+from .fragility import U_D_LEVELS, U_TOP_LEVELS
 
 __all__ = ["NRML_NS", "MIN_IML", "HazardCurves", "read_hazard_curves", "imt_of", "im_of_imt", "annual_rates",
            "occurrence_rates", "ContinuousFragility", "DiscreteFragility", "FragilityModel",
@@ -497,8 +499,6 @@ def fragility_from_results(results, im: str = "pga_g", *, period_s: float | None
     probable as the one before it), else ParameterError naming the two: OpenQuake would turn such
     curves into negative damage-state probabilities.
     """
-    from . import fragility as _frag
-    from .fragility import U_TOP_LEVELS
     if fmt not in ("continuous", "discrete"):
         raise ParameterError(f"fmt must be 'continuous' or 'discrete', got {fmt!r}")
     levels = tuple(U_TOP_LEVELS if levels is None else levels)
@@ -690,7 +690,6 @@ def _parser():
 
 
 def _model_from_args(results, args, im, period):
-    from .fragility import U_D_LEVELS, U_TOP_LEVELS
     return fragility_from_results(results, im, period_s=period,
                                   levels=U_TOP_LEVELS if args.levels == "u_top" else U_D_LEVELS,
                                   collapse=not args.no_collapse, fmt=args.format, n_imls=args.n_imls,

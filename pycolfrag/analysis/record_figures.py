@@ -28,6 +28,7 @@ from .. import names
 from ..errors import ParameterError
 from ..sample import rows_to_table
 from .data import as_data
+from .figures import Figure
 
 __all__ = ["FIG10_BAND_KM", "FIG10_DIST_KM", "FIG10_MW_BIN_WIDTH", "PAPER_FIG10_MEAN_U_TOP", "synthetic_mean_u_top",
            "binned_means", "fig_10"]
@@ -154,7 +155,6 @@ def fig_10(records, synthetic=None, *, band_km=FIG10_BAND_KM, dist_km=FIG10_DIST
     bin_width : Mw bin width of the binned means; n_boot, rng : their bootstrap
     paper : draw the paper's synthetic mean (:data:`PAPER_FIG10_MEAN_U_TOP`), marked as the paper's
     """
-    from matplotlib.figure import Figure
     sets = _sets(records)
     lo, hi = map(float, band_km)
     fig = Figure(figsize=(12, 5.5))

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import os
 import sys
 import warnings
 from pathlib import Path
@@ -34,9 +35,11 @@ from pathlib import Path
 import numpy as np
 
 from . import fragility as fr
+from . import record_figures as rf
 from .. import names
 from ..errors import ParameterError, ResultsFileError
 from .data import read_table
+from .figures import Figure
 from .summary import format_table, summary_table
 
 __all__ = ["STRIPE_IMS", "suite_table", "analyse", "write_record_report", "main"]
@@ -105,7 +108,6 @@ def _im_label(im, period):
 # --------------------------------------------------------------------------------- figures
 
 def _fig_stripes(a, levels):
-    from matplotlib.figure import Figure
     fig = Figure(figsize=(12, 8))
     for k, im in enumerate(STRIPE_IMS):
         ax = fig.add_subplot(2, 2, k + 1)
@@ -124,7 +126,6 @@ def _fig_stripes(a, levels):
 
 
 def _fig_cloud(table, a):
-    from matplotlib.figure import Figure
     ok = np.asarray(table["status"]) == 0
     coll = np.asarray(table["collapsed"]).astype(bool)[ok]
     fig = Figure(figsize=(14, 6.5))
@@ -151,7 +152,6 @@ def _fig_cloud(table, a):
 
 
 def _fig_msa(a, levels):
-    from matplotlib.figure import Figure
     fig = Figure(figsize=(12, 8))
     for k, im in enumerate(STRIPE_IMS):
         ax = fig.add_subplot(2, 2, k + 1)
@@ -266,12 +266,11 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
     drawn = []
     if figures:
         try:
-            import matplotlib  # noqa: F401
+            import matplotlib  # noqa: F401 -- a probe: the plotting stack is optional, the tables are not
         except ImportError:
             L += ["", "Figures: matplotlib is not installed; tables only."]
             figures = False
     if figures:
-        from . import record_figures as rf
         figs = []
         if not isinstance(a["stripes"], str):
             figs.append(("stripes.png", _fig_stripes(a, levels)))
@@ -312,7 +311,6 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
 
 
 def _relpath(p: Path, start: Path) -> str:
-    import os
     return os.path.relpath(p, start)
 
 

@@ -49,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from . import fragility as fr
+from . import risk_figures
 from ..errors import ParameterError, PycolfragError, ResultsFileError
 from ..site import OUTSIDE_CHOICES, PulseModel, Site, load_site
 from .data import as_data
@@ -642,7 +643,6 @@ def write_outputs(risk: SiteRisk, outdir, *, figures=True) -> dict:
     paths = {}
     figs = {}
     if figures:
-        from . import risk_figures
         for stem, path in risk_figures.make_all(risk, outdir).items():
             figs[risk_figures.CAPTIONS[stem]] = Path(path).name
             paths[stem] = str(path)
