@@ -696,7 +696,7 @@ def _open_timeout(path: Path, timeout_s) -> float:
 
 
 def read_h5_bounded(path: Path, timeout_s=None, any_layout: bool = False, verify: bool = True) -> dict:
-    """:func:`_read_h5` in a forked child, killed after ``timeout_s`` s.
+    """:func:`_read_h5` in a forked child (:func:`_in_child`), killed after ``timeout_s`` s.
 
     Some damage (e.g. zeroed bytes in an HDF5 B-tree) makes the HDF5 library loop forever while
     holding the GIL: neither a thread nor a signal can stop it in this process, but a child can be
@@ -707,34 +707,65 @@ def read_h5_bounded(path: Path, timeout_s=None, any_layout: bool = False, verify
     if not path.exists():
         raise FileNotFoundError(f"results file not found: {path}")
     timeout_s = _open_timeout(path, timeout_s)
+    try:
+        return _in_child(_read_h5, path, any_layout, verify, timeout_s=timeout_s)
+    except _ChildLost as lost:
+        if lost.timed_out:
+            raise ResultsDamagedError(f"{path} did not open within {timeout_s:.0f} s (the HDF5 library stalled on "
+                                      "it: the file is damaged)") from None
+        raise ResultsDamagedError(f"{path}: reading it crashed the reading process (the file is damaged)") from None
+    except ResultsFileError:
+        raise
+    except Exception as exc:  # noqa: BLE001 -- whatever the HDF5 library raised: the file cannot be read
+        raise ResultsDamagedError(f"{path} cannot be read ({type(exc).__name__}: {exc}): the file is "
+                                  "damaged") from None
+
+
+class _ChildLost(Exception):
+    """The child of :func:`_in_child` sent no answer: it died (``status``) or ran out of time."""
+
+    def __init__(self, status=None, timed_out: bool = False):
+        super().__init__(f"child ended without an answer (status {status}, timed out {timed_out})")
+        self.status, self.timed_out = status, timed_out
+
+
+def _in_child(fn, *args, timeout_s: float | None = None, quiet: bool = False):
+    """``fn(*args)`` in a forked child; return what it returned, or raise what it raised (both pickled
+    back through a pipe). :class:`_ChildLost` when the child died without a word (a crash of the
+    HDF5 library) or, with ``timeout_s``, did not answer in time (it is killed then).
+
+    The HDF5 library can hang on a damaged file holding the GIL, or crash the process when a write
+    fails (a full disk); in a child, this process survives both. ``quiet``: the child's stderr goes
+    to /dev/null (the HDF5 library's clean-up noise after a failed write)."""
     r, w = os.pipe()
     pid = os.fork()
-    if pid == 0:  # child: read, send the result (or the error) back, exit without cleanup handlers
+    if pid == 0:  # child: run, send the result (or the error) back, exit without clean-up handlers
         code = 0
         try:
             os.close(r)
+            if quiet:
+                os.dup2(os.open(os.devnull, os.O_WRONLY), 2)
             try:
-                out = ("ok", _read_h5(path, any_layout, verify))
-            except BaseException as exc:  # noqa: BLE001 -- every failure is reported to the parent
+                out = ("ok", fn(*args))
+            except BaseException as exc:  # noqa: BLE001 -- every failure goes to the parent
                 try:
                     pickle.dumps(exc)
                     out = ("err", exc)
                 except Exception:
-                    out = ("err", ResultsDamagedError(f"{type(exc).__name__}: {exc}"))
-            data = pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
-            view = memoryview(data)
+                    out = ("err", RuntimeError(f"{type(exc).__name__}: {exc}"))
+            view = memoryview(pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL))
             while view:
-                n = os.write(w, view)
-                view = view[n:]
+                view = view[os.write(w, view):]
         except BaseException:
             code = 1
         finally:
             os._exit(code)
     os.close(w)
-    chunks, deadline, timed_out = [], time.monotonic() + timeout_s, False
+    chunks, timed_out = [], False
+    deadline = None if timeout_s is None else time.monotonic() + timeout_s
     try:
         while True:
-            left = deadline - time.monotonic()
+            left = 1.0 if deadline is None else deadline - time.monotonic()
             if left <= 0:
                 timed_out = True
                 break
@@ -751,19 +782,16 @@ def read_h5_bounded(path: Path, timeout_s=None, any_layout: bool = False, verify
                 os.kill(pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass
-        os.waitpid(pid, 0)
+        _, status = os.waitpid(pid, 0)
     if timed_out:
-        raise ResultsDamagedError(f"{path} did not open within {timeout_s:.0f} s (the HDF5 library stalled on it: "
-                                  "the file is damaged)")
+        raise _ChildLost(status, timed_out=True)
     try:
         kind, val = pickle.loads(b"".join(chunks))
     except Exception:
-        raise ResultsDamagedError(f"{path}: reading it crashed the reading process (the file is damaged)") from None
-    if kind == "ok":
-        return val
-    if isinstance(val, ResultsFileError):
+        raise _ChildLost(status) from None
+    if kind == "err":
         raise val
-    raise ResultsDamagedError(f"{path} cannot be read ({type(val).__name__}: {val}): the file is damaged")
+    return val
 
 
 # ---------------------------------------------------------------------------------------
@@ -787,7 +815,10 @@ def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mappi
     store), and removes the partial ``.tmp``."""
     tmp = path.with_name(path.name + ".tmp")
     try:
-        _in_child(_write_new_h5, tmp, n_rows, periods_s, attrs)
+        try:
+            _in_child(_write_new_h5, tmp, n_rows, periods_s, attrs, quiet=True)
+        except _ChildLost as lost:
+            raise OSError(f"creating the results file crashed the writing process (status {lost.status})") from None
     except BaseException as exc:
         try:
             tmp.unlink(missing_ok=True)
@@ -798,53 +829,6 @@ def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mappi
             raise
         raise err from None
     os.replace(tmp, path)  # the file appears complete or not at all
-
-
-def _in_child(fn, *args) -> None:
-    """Run ``fn(*args)`` in a forked child; raise what it raised (pickled back), or
-    :class:`OSError` when the child died without a word (a crash of the HDF5 library)."""
-    r, w = os.pipe()
-    pid = os.fork()
-    if pid == 0:
-        code = 0
-        try:
-            os.close(r)
-            null = os.open(os.devnull, os.O_WRONLY)  # the HDF5 library's clean-up noise after a failed write
-            os.dup2(null, 2)
-            try:
-                fn(*args)
-                out = ("ok", None)
-            except BaseException as exc:  # noqa: BLE001 -- every failure goes to the parent
-                try:
-                    pickle.dumps(exc)
-                    out = ("err", exc)
-                except Exception:
-                    out = ("err", RuntimeError(f"{type(exc).__name__}: {exc}"))
-            data = pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
-            view = memoryview(data)
-            while view:
-                view = view[os.write(w, view):]
-        except BaseException:
-            code = 1
-        finally:
-            os._exit(code)
-    os.close(w)
-    chunks = []
-    try:
-        while True:
-            b = os.read(r, 1 << 16)
-            if not b:
-                break
-            chunks.append(b)
-    finally:
-        os.close(r)
-        _, status = os.waitpid(pid, 0)
-    try:
-        kind, val = pickle.loads(b"".join(chunks))
-    except Exception:
-        raise OSError(f"creating the results file crashed the writing process (status {status})") from None
-    if kind == "err":
-        raise val
 
 
 def _write_new_h5(tmp: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping) -> None:

@@ -90,7 +90,7 @@ def test_vectorised_eq4_equals_scalar():
     # the bootstrap's batched statistic must be Eq. (4) itself (round-off)
     rng = np.random.default_rng(14)
     edp, c = lognormal_sample(rng, 60, p_collapse=0.2)
-    stat = fr._eq4_vectorised(0.35)
+    stat = fr.eq4_statistic(0.35)
     assert stat(np.nan_to_num(edp), c.astype(float)) == pytest.approx(fr.exceedance(edp, c, 0.35), abs=1e-9)
 
 

@@ -77,13 +77,15 @@ class Comparison:
 
     @property
     def identical(self) -> bool:
-        """Every row of both files present in the other and bitwise equal (but ``wall_s``)."""
-        return not self.only_in_a and not self.only_in_b and self.n_rows_differing == 0
+        """At least one row matched, every row of both files present in the other and bitwise equal
+        (but ``wall_s``). Two files without a finished row are not identical: nothing was compared."""
+        return self.n_common > 0 and not self.only_in_a and not self.only_in_b and self.n_rows_differing == 0
 
     @property
     def statistically_consistent(self) -> bool:
-        """Same rows, and every scenario with differing rows agrees within sampling error."""
-        return not self.only_in_a and not self.only_in_b and all(s.agree for s in self.scenarios)
+        """Same rows (at least one), and every scenario with differing rows agrees within sampling error."""
+        return (self.n_common > 0 and not self.only_in_a and not self.only_in_b
+                and all(s.agree for s in self.scenarios))
 
     @property
     def exit_code(self) -> int:
@@ -96,6 +98,9 @@ class Comparison:
         if self.only_in_a or self.only_in_b:
             lines.append(f"rows only in A: {len(self.only_in_a)}, only in B: {len(self.only_in_b)} "
                          "(the files are not runs of the same grid, or one is unfinished)")
+        if self.n_common == 0:
+            lines.append("no rows matched: the files have no finished row in common, so nothing was compared")
+            return "\n".join(lines)
         if self.identical:
             lines.append("bitwise identical: every matched row equal in every field (wall_s ignored)")
             return "\n".join(lines)

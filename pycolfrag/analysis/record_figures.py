@@ -116,7 +116,7 @@ def binned_means(table, *, band_km=FIG10_BAND_KM, bin_width=FIG10_MW_BIN_WIDTH, 
     dirs = _directions(table)
     width = float(bin_width)
     centre = np.round(mw / width) * width
-    g = fr._rng(rng)
+    g = fr.as_rng(rng)
     groups = {"all": sel}
     for d in ("FN", "FP"):
         if np.any(sel & (dirs == d)):

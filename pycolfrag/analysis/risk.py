@@ -298,7 +298,7 @@ def _cell_draws(cell, threshold, estimator, uncertainty, n_draws, rng):
         else:
             e = np.nan_to_num(np.asarray(edp, dtype=float), nan=0.0)
             c = np.asarray(c, dtype=bool)
-            draws = fr._eq4_vectorised(threshold)(e[idx], c[idx], axis=-1)
+            draws = fr.eq4_statistic(threshold)(e[idx], c[idx], axis=-1)
         out[b] = (point[b], draws)
     return out, len(cell) == 1 or paired
 
@@ -488,7 +488,7 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
     if any(not (math.isfinite(y) and y > 0) for y in extra):
         raise ParameterError(f"years must be positive, got {list(years)!r}")
     all_years = tuple(sorted(set(site.years) | set(extra)))
-    g = fr._rng(rng)
+    g = fr.as_rng(rng)
     pulse = as_data(pulse_results)
     no_pulse = None if no_pulse_results is None else as_data(no_pulse_results)
     need = [s.name for s in site.sources if s.pulse.needs_no_pulse_branch]
