@@ -48,13 +48,13 @@ from ..errors import HazardFileError, ParameterError
 from . import fragility as _frag
 from .data import read_table
 from .fragility import U_D_LEVELS, U_TOP_LEVELS
+from .outputs import NRML_NS, WRITERS, write_fragility, write_nrml
 
 __all__ = ["NRML_NS", "MIN_IML", "HazardCurves", "read_hazard_curves", "imt_of", "im_of_imt", "annual_rates",
            "occurrence_rates", "ContinuousFragility", "DiscreteFragility", "FragilityModel",
            "classical_damage", "fragility_from_results", "write_nrml", "read_nrml", "main"]
 
 #: XML namespace of NRML 0.5.
-NRML_NS = "http://openquake.org/xmlns/nrml/0.5"
 
 #: pycolfrag IM name -> OpenQuake IMT (spectral ones take a period: ``SA(1.0)``); units agree.
 _IMT = {"pga_g": "PGA", "pgv_cm_s": "PGV", "sa_g": "SA"}
@@ -548,49 +548,6 @@ def fragility_from_results(results, im: str = "pga_g", *, period_s: float | None
 
 # --------------------------------------------------------------------------- NRML 0.5
 
-def _num(v: float) -> str:
-    return repr(float(v))
-
-
-def write_nrml(models, path) -> str:
-    """Write one or more :class:`FragilityModel` (one ``fragilityFunction`` each, sharing limit states,
-    id and description of the first) as an NRML 0.5 ``fragilityModel``; return the path."""
-    models = [models] if isinstance(models, FragilityModel) else list(models)
-    if not models:
-        raise ParameterError("write_nrml: no fragility model given")
-    m0 = models[0]
-    if any(m.limit_states != m0.limit_states for m in models):
-        raise ParameterError("write_nrml: every fragility function of a model must have the same limit states")
-    ET.register_namespace("", NRML_NS)
-    q = lambda tag: f"{{{NRML_NS}}}{tag}"  # noqa: E731
-    root = ET.Element(q("nrml"))
-    fm = ET.SubElement(root, q("fragilityModel"), id=m0.model_id, assetCategory=m0.asset_category,
-                       lossCategory=m0.loss_category)
-    ET.SubElement(fm, q("description")).text = m0.description or m0.model_id
-    ET.SubElement(fm, q("limitStates")).text = " ".join(m0.limit_states)
-    for m in models:
-        ff = ET.SubElement(fm, q("fragilityFunction"), id=m.taxonomy, format=m.format, shape="logncdf")
-        f0 = m.functions[0]
-        if m.format == "continuous":
-            attrs = {"imt": m.imt, "minIML": _num(f0.min_iml), "maxIML": _num(f0.max_iml)}
-            if f0.no_damage_limit:
-                attrs["noDamageLimit"] = _num(f0.no_damage_limit)
-            ET.SubElement(ff, q("imls"), **attrs)
-            for ls, f in zip(m.limit_states, m.functions):
-                ET.SubElement(ff, q("params"), ls=ls, mean=_num(f.mean), stddev=_num(f.stddev))
-        else:
-            attrs = {"imt": m.imt}
-            if f0.no_damage_limit:
-                attrs["noDamageLimit"] = _num(f0.no_damage_limit)
-            ET.SubElement(ff, q("imls"), **attrs).text = " ".join(_num(v) for v in f0.imls)
-            for ls, f in zip(m.limit_states, m.functions):
-                ET.SubElement(ff, q("poes"), ls=ls).text = " ".join(_num(v) for v in f.poes)
-    ET.indent(root)
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    ET.ElementTree(root).write(path, encoding="utf-8", xml_declaration=True)
-    return str(path)
-
-
 def _floats(text, what, path):
     try:
         vals = [float(v) for v in (text or "").split()]
@@ -665,7 +622,9 @@ def _parser():
     sub = p.add_subparsers(dest="cmd", required=True)
     e = sub.add_parser("export", help="fit IM-based fragility curves to a results file and write NRML 0.5")
     e.add_argument("results", help="results file (run_grid.py)")
-    e.add_argument("out", help="NRML file to write (.xml)")
+    e.add_argument("out", help="file to write (NRML: .xml)")
+    e.add_argument("--to", choices=sorted(WRITERS), default="nrml",
+                   help="output format: " + "; ".join(f"{w.name}: {w.description}" for w in WRITERS.values()))
     d = sub.add_parser("damage", help="damage-state probabilities from a hazard-curve CSV and a fragility model")
     d.add_argument("hazard", help="OpenQuake hazard-curve CSV")
     d.add_argument("fragility", help="NRML fragility model (.xml) or a results file (.h5, fitted as by export)")
@@ -702,7 +661,7 @@ def main(argv=None) -> int:
     try:
         if args.cmd == "export":
             model = _model_from_args(args.results, args, args.im or "pga_g", args.period)
-            write_nrml(model, args.out)
+            write_fragility(model, args.out, args.to)
             print(f"{args.out}: {model.format} fragility on {model.imt}, limit states {', '.join(model.limit_states)}")
             for ls, f, fit in zip(model.limit_states, model.functions, model.fits):
                 print(f"  {ls:24s} median {fit.median:.4g}  beta {fit.beta:.3f}  ({fit.n_exceed} of {fit.n} runs)")
