@@ -287,8 +287,8 @@ def test_export_formats_come_from_the_registry(tmp_path, monkeypatch, capsys):
     assert list(got) == list(nrml.limit_states)
     for ls, f in zip(nrml.limit_states, nrml.functions):
         assert float(got[ls]) == pytest.approx(f.median, rel=1e-12)
-    with pytest.raises(ParameterError, match="'csv' is not one of .*'nrml'"):
-        outputs.write_fragility(nrml, tmp_path / "x.csv", "csv")
+    with pytest.raises(ParameterError, match="'no-such-format' is not one of .*'nrml'"):
+        outputs.write_fragility(nrml, tmp_path / "x.txt", "no-such-format")
     monkeypatch.delitem(outputs.WRITERS, "toy")
     with pytest.raises(SystemExit):
         oq.main(["export", str(h5), str(tmp_path / "g.txt"), "--to", "toy"])

@@ -622,7 +622,7 @@ def _parser():
     sub = p.add_subparsers(dest="cmd", required=True)
     e = sub.add_parser("export", help="fit IM-based fragility curves to a results file and write NRML 0.5")
     e.add_argument("results", help="results file (run_grid.py)")
-    e.add_argument("out", help="file to write (NRML: .xml)")
+    e.add_argument("out", help="file to write (" + ", ".join(f"{w.name}: {w.suffix}" for w in WRITERS.values()) + ")")
     e.add_argument("--to", choices=sorted(WRITERS), default="nrml",
                    help="output format: " + "; ".join(f"{w.name}: {w.description}" for w in WRITERS.values()))
     d = sub.add_parser("damage", help="damage-state probabilities from a hazard-curve CSV and a fragility model")
