@@ -60,7 +60,7 @@ def _partial_whole(tmp_path, n=3):
 
 
 def _main_patched(patch, args, **env):
-    """``grid.main(args)`` in a child process after ``patch`` (Python source) has run: another build."""
+    """``cli.main(args)`` in a child process after ``patch`` (Python source) has run: another build."""
     code = textwrap.dedent(patch) + "\nimport sys\nfrom pycolfrag.cli import main\nsys.exit(main(sys.argv[1:]))\n"
     return subprocess.run(["timeout", "-k", "10", "120", sys.executable, "-c", code, *args], capture_output=True,
                           text=True, env=_env(**env), cwd=ROOT)

@@ -90,7 +90,7 @@ def test_binned_means_count_collapses_instead_of_dropping_them():
 
 
 def test_fig_10_from_a_results_file(table, tmp_path):
-    """The synthetic line from an HDF5 file in the documented /samples layout (figures.read_results)."""
+    """The synthetic line from an HDF5 file in the documented /samples layout (analysis.data.read_results)."""
     import h5py
     s = _synthetic()
     with h5py.File(tmp_path / "g.h5", "w") as f:

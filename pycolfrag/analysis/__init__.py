@@ -11,6 +11,7 @@
   -- site risk, OpenQuake hazard curves in and fragility models out;
 * :mod:`~pycolfrag.analysis.compare` -- two results files, row by row.
 
-Nothing here imports the C library or the grid driver. The old names (``pycolfrag.fragility``,
+No module here imports the grid driver, and the statistics (``fragility``, ``summary``, ``data``) import
+no C binding (tests/test_analysis_package.py). The old names (``pycolfrag.fragility``,
 ``python -m pycolfrag.report``, ...) still work: :mod:`pycolfrag._aliases`.
 """

@@ -9,7 +9,8 @@
   fragility fits);
 * :func:`as_results`, :func:`as_data`: the same, passing through what was read already.
 
-Nothing here imports the C library: analysing a file needs numpy and h5py only.
+This module imports no C binding and nothing of the grid driver: only the results layout and its
+crash-safe reading (:mod:`pycolfrag.results`).
 """
 from __future__ import annotations
 
