@@ -29,7 +29,8 @@ Record suites (``--records SOURCE``, :class:`RecordGridSpec`): the rows are the 
 suite and the options only), computed by :func:`run_record_row`; nothing is random. The same
 scheduler, journal, lock, resume and refusals apply; the file has the ``records`` layout
 (docs/results_format.md). What a row holds -- synthetic or natural -- is defined once, in
-:mod:`pycolfrag.sample`; this module keeps scheduling, seeds and the command line.
+:mod:`pycolfrag.sample`; this module keeps scheduling, seeds and the run of the command line (:func:`run_command`; the
+command line itself, with what follows a run, is :mod:`pycolfrag.cli`).
 """
 from __future__ import annotations
 
@@ -100,7 +101,7 @@ MAX_ROW_STEPS = 5e7
 #: Estimated CPU time (s) above which the grid says how long it expects to take before it starts.
 SAY_WORK_ABOVE_S = 600.0
 
-#: Exit codes of :func:`main` (also in docs/grid.md).
+#: Exit codes of the command line, :func:`pycolfrag.cli.main` (also in docs/grid.md).
 EXIT_OK, EXIT_ARGS, EXIT_OUTPUTS, EXIT_OS_ERROR, EXIT_LOCKED = 0, 2, 3, 4, 5
 
 # tags of the rank-0 <-> worker protocol
@@ -797,8 +798,8 @@ def probe_rows(spec) -> list[tuple[str, float]]:
     peak = float(np.max(np.abs(acc))) if acc.size else 0.0
     if not np.isfinite(peak) or peak > _solver.MAX_ABS_ACC:
         opt = "--vp-scale" if spec.layout is None else "--scale"
-        raise ParameterError(f"{opt}: {what} reaches |a| = {peak:.3g} m/s^2, beyond the {_solver.MAX_ABS_ACC:g} m/s^2 the "
-                             "solver accepts; every row would fail")
+        raise ParameterError(f"{opt}: {what} reaches |a| = {peak:.3g} m/s^2, beyond the {_solver.MAX_ABS_ACC:g} "
+                             "m/s^2 the solver accepts; every row would fail")
     try:  # the IMs' options are what is checked: the first 8192 samples say it (a 1e8-sample record would take minutes)
         _sample.ims_row(acc[:8192], dt, spec.periods_s, spec.damping)
     except Exception as exc:
@@ -1106,7 +1107,7 @@ def _worker(comm, ctx, fn) -> None:
 
 
 # ---------------------------------------------------------------------------------------
-# summary, outputs, command line
+# the run of the command line (what follows a run: pycolfrag.cli)
 # ---------------------------------------------------------------------------------------
 
 def _solver_value(text: str):

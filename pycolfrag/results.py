@@ -70,7 +70,8 @@ from .errors import ResultsFileError
 __all__ = [
     "FORMAT_VERSION", "SAMPLE_FIELDS", "STATUS_PENDING", "STATUS_OK", "STATUS_RECORD_FAILED",
     "STATUS_IM_FAILED", "STATUS_SOLVER_FAILED", "STATUS_OTHER_FAILED", "MESSAGE_BYTES",
-    "ResultsWriter", "create", "merged_columns", "read_h5_bounded", "lock_held", "open_for_run", "journal_path", "read_journal",
+    "ResultsWriter", "create", "merged_columns", "read_h5_bounded", "lock_held", "open_for_run",
+    "journal_path", "read_journal",
     "signature_mismatch", "lock_path", "RunLock", "ResultsLockedError", "ResultsDamagedError",
     "OPEN_TIMEOUT_S", "JournalHeaderError", "journal_mismatch", "h5open",
 ]

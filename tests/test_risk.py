@@ -1,4 +1,5 @@
-"""Site risk by the Mw-R route (pycolfrag.analysis.risk, pycolfrag.site) and the pulse-occurrence model of Shahi & Baker (2014).
+"""Site risk by the Mw-R route (pycolfrag.analysis.risk, pycolfrag.site) and the pulse-occurrence model of
+Shahi & Baker (2014).
 
 Every expected number is computed here from a closed form (the truncated Gutenberg-Richter pdf,
 bilinear interpolation, binomial and beta quantiles and the Dirichlet covariance from scipy or by
