@@ -85,7 +85,7 @@ sens_name = $(or $(SENS_$(basename $(notdir $(1)))),$(basename $(notdir $(1))))
 SENS_ARGS = $(foreach f,$(wildcard results/sensitivity/*.h5),--sensitivity '$(call sens_name,$(f))=$(f)')
 analysis: setup
 	$(PY) scripts/make_figures.py $(RESULTS) --out $(RESDIR)/figures
-	$(PY) -m pycolfrag.report $(RESULTS) $(RESDIR)/report.md
+	$(PY) -m pycolfrag.analysis.report $(RESULTS) $(RESDIR)/report.md
 	$(PY) scripts/make_validation.py $(RESULTS) --notes docs/validation_notes.md $(SENS_ARGS)
 
 figures: analysis
@@ -135,7 +135,7 @@ risk: setup
 	mkdir -p $(RISK_DIR)
 	$(RUN_GRID) $(RISK_GRID) --out $(RISK_DIR)/pulse.h5
 	$(RUN_GRID) $(RISK_GRID) --pulse none --out $(RISK_DIR)/nopulse.h5
-	$(PY) -m pycolfrag.risk $(SITE) $(RISK_DIR)/pulse.h5 $(RISK_DIR) --no-pulse $(RISK_DIR)/nopulse.h5
+	$(PY) -m pycolfrag.analysis.risk $(SITE) $(RISK_DIR)/pulse.h5 $(RISK_DIR) --no-pulse $(RISK_DIR)/nopulse.h5
 
 bench: setup
 	$(PY) bench/solver_speed.py

@@ -8,7 +8,7 @@ that both see the same machine load, and this tree on 1 rank too. Reports per co
 the driver's session (the file's ``wall_s_last_session``), the CPU seconds of all its processes
 (``getrusage`` of the children: Python start-up and imports included), the ratio to the baseline, the
 1 -> 2 rank speed-up, the full grid (3500 runs) extrapolated from the session times, and whether the
-rows are bitwise the baseline's (``pycolfrag.compare``).
+rows are bitwise the baseline's (``pycolfrag.analysis.compare``).
 
     .venv/bin/python bench/grid_batch.py --baseline /tmp/main [--samples 4] [--rounds 2] [--chunk-max 8 32]
 
@@ -56,7 +56,7 @@ def run(tree: Path, n_ranks: int, args: list[str]) -> tuple[float, float, float]
 
 
 def same_rows(a: Path, b: Path) -> bool:
-    p = subprocess.run([sys.executable, "-m", "pycolfrag.compare", str(a), str(b)], capture_output=True, text=True,
+    p = subprocess.run([sys.executable, "-m", "pycolfrag.analysis.compare", str(a), str(b)], capture_output=True, text=True,
                        cwd=ROOT)
     return "bitwise identical" in p.stdout
 

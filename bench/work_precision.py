@@ -26,7 +26,7 @@ from multiprocessing import Pool
 import numpy as np
 
 import pycolfrag as pcf
-from pycolfrag.fragility import PERFORMANCE_LEVELS
+from pycolfrag.analysis.fragility import PERFORMANCE_LEVELS
 
 G = 9.81
 HERE = os.path.dirname(os.path.abspath(__file__))

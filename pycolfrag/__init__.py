@@ -22,4 +22,9 @@ from .errors import (  # noqa: E402,F401
 from .column import Block, Column, JointProperties, Segment  # noqa: E402,F401
 from .options import SolverOptions  # noqa: E402,F401
 from .solver import History, Response, simulate, simulate_batch  # noqa: E402,F401
-from . import fragility, ground_motion, intensity, names, records, results, sample  # noqa: E402,F401
+from . import _aliases  # noqa: E402
+
+_aliases.install()  # the old names of the modules that moved into pycolfrag.analysis
+
+from . import ground_motion, intensity, names, records, results, sample  # noqa: E402,F401
+from .analysis import fragility  # noqa: E402,F401

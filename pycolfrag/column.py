@@ -24,6 +24,7 @@ import json
 import math
 import numbers
 import os
+import tomllib
 from dataclasses import dataclass, replace
 from importlib import resources
 from typing import Iterable, Sequence
@@ -472,7 +473,6 @@ class Column:
             raise FileNotFoundError(f"column file not found: {path}")
         try:
             if path.lower().endswith(".toml"):
-                import tomllib
                 with open(path, "rb") as fh:
                     d = tomllib.load(fh)
             else:

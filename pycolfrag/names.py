@@ -2,7 +2,7 @@
 demand parameters (EDPs) of a sample row, with their units and plot labels.
 
 A new IM or EDP is declared here once; :mod:`pycolfrag.sample` (which fills a row),
-:mod:`pycolfrag.record_figures` and the record-suite analysis in :mod:`pycolfrag.fragility`
+:mod:`pycolfrag.analysis.record_figures` and the record-suite analysis in :mod:`pycolfrag.analysis.fragility`
 iterate over these tables instead of spelling the names again.
 
 Constants

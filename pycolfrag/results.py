@@ -1,4 +1,7 @@
-"""HDF5 results of the Monte Carlo grid (``scripts/run_grid.py``): layout, crash-safe writing, reading.
+"""HDF5 results of the Monte Carlo grid (``scripts/run_grid.py``): layout, crash-safe writing, resume.
+
+Reading a file for analysis (``load``, ``Results``) is :mod:`pycolfrag.analysis.data`; the names
+``pycolfrag.results.load`` and ``pycolfrag.results.Results`` still work (see :func:`__getattr__`).
 
 The layout is documented in ``docs/results_format.md`` and readable with h5py alone:
 
@@ -36,7 +39,7 @@ Faults from outside a run
   ignored (:func:`load`) or set aside (:func:`open_for_run`); every HDF5 write checks the file's
   ``run_id``, and :meth:`ResultsWriter.finish` deletes only its own journal.
 * A damaged file: read in a forked child with a deadline and checked against its checksums
-  (:func:`_read_h5_bounded`), so a damaged file is reported (:class:`ResultsDamagedError`) instead
+  (:func:`read_h5_bounded`), so a damaged file is reported (:class:`ResultsDamagedError`) instead
   of hanging the HDF5 library, and rebuilt from the journal when there is one.
 * A journal whose header was cut (full disk) raises :class:`JournalHeaderError` in
   :func:`read_journal`; callers set it aside or ignore it, never crash.
@@ -56,7 +59,6 @@ import time
 import uuid
 import warnings
 import zlib
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Mapping, Sequence
 
@@ -68,7 +70,8 @@ from .errors import ResultsFileError
 __all__ = [
     "FORMAT_VERSION", "SAMPLE_FIELDS", "STATUS_PENDING", "STATUS_OK", "STATUS_RECORD_FAILED",
     "STATUS_IM_FAILED", "STATUS_SOLVER_FAILED", "STATUS_OTHER_FAILED", "MESSAGE_BYTES",
-    "Results", "ResultsWriter", "load", "create", "open_for_run", "journal_path", "read_journal",
+    "ResultsWriter", "create", "merged_columns", "read_h5_bounded", "lock_held", "open_for_run",
+    "journal_path", "read_journal",
     "signature_mismatch", "lock_path", "RunLock", "ResultsLockedError", "ResultsDamagedError",
     "OPEN_TIMEOUT_S", "JournalHeaderError", "journal_mismatch", "h5open",
 ]
@@ -305,12 +308,12 @@ def _row_to_json(row: Mapping) -> str:
     return json.dumps(out, separators=(",", ":"))
 
 
-def _rows_of(res: "Results") -> list[dict]:
-    """The rows of a loaded file as row dicts (the inverse of :func:`_put_row`)."""
+def _rows_of(samples: Mapping, spectra: Mapping, rows) -> list[dict]:
+    """Rows ``rows`` of a file's columns as row dicts (the inverse of :func:`_put_row`)."""
     out = []
-    for j, i in enumerate(res.rows):
-        row = {name: v[j] for name, v in res.samples.items()}
-        row.update({name: res.spectra[name][j] for name in SPECTRA_FIELDS if name in res.spectra})
+    for i in rows:
+        row = {name: v[i] for name, v in samples.items()}
+        row.update({name: spectra[name][i] for name in SPECTRA_FIELDS if name in spectra})
         row["row"] = int(i)
         out.append(row)
     return out
@@ -485,7 +488,7 @@ def _read_holder(fd: int) -> dict:
         return {}
 
 
-def _lock_held(results_path) -> bool:
+def lock_held(results_path) -> bool:
     """Whether a run holds the lock of ``results_path`` now (its :class:`RunLock`)."""
     try:
         fd = os.open(lock_path(results_path), os.O_RDONLY)
@@ -693,8 +696,8 @@ def _open_timeout(path: Path, timeout_s) -> float:
     return float(timeout_s)
 
 
-def _read_h5_bounded(path: Path, timeout_s=None, any_layout: bool = False, verify: bool = True) -> dict:
-    """:func:`_read_h5` in a forked child, killed after ``timeout_s`` s.
+def read_h5_bounded(path: Path, timeout_s=None, any_layout: bool = False, verify: bool = True) -> dict:
+    """:func:`_read_h5` in a forked child (:func:`_in_child`), killed after ``timeout_s`` s.
 
     Some damage (e.g. zeroed bytes in an HDF5 B-tree) makes the HDF5 library loop forever while
     holding the GIL: neither a thread nor a signal can stop it in this process, but a child can be
@@ -705,34 +708,65 @@ def _read_h5_bounded(path: Path, timeout_s=None, any_layout: bool = False, verif
     if not path.exists():
         raise FileNotFoundError(f"results file not found: {path}")
     timeout_s = _open_timeout(path, timeout_s)
+    try:
+        return _in_child(_read_h5, path, any_layout, verify, timeout_s=timeout_s)
+    except _ChildLost as lost:
+        if lost.timed_out:
+            raise ResultsDamagedError(f"{path} did not open within {timeout_s:.0f} s (the HDF5 library stalled on "
+                                      "it: the file is damaged)") from None
+        raise ResultsDamagedError(f"{path}: reading it crashed the reading process (the file is damaged)") from None
+    except ResultsFileError:
+        raise
+    except Exception as exc:  # noqa: BLE001 -- whatever the HDF5 library raised: the file cannot be read
+        raise ResultsDamagedError(f"{path} cannot be read ({type(exc).__name__}: {exc}): the file is "
+                                  "damaged") from None
+
+
+class _ChildLost(Exception):
+    """The child of :func:`_in_child` sent no answer: it died (``status``) or ran out of time."""
+
+    def __init__(self, status=None, timed_out: bool = False):
+        super().__init__(f"child ended without an answer (status {status}, timed out {timed_out})")
+        self.status, self.timed_out = status, timed_out
+
+
+def _in_child(fn, *args, timeout_s: float | None = None, quiet: bool = False):
+    """``fn(*args)`` in a forked child; return what it returned, or raise what it raised (both pickled
+    back through a pipe). :class:`_ChildLost` when the child died without a word (a crash of the
+    HDF5 library) or, with ``timeout_s``, did not answer in time (it is killed then).
+
+    The HDF5 library can hang on a damaged file holding the GIL, or crash the process when a write
+    fails (a full disk); in a child, this process survives both. ``quiet``: the child's stderr goes
+    to /dev/null (the HDF5 library's clean-up noise after a failed write)."""
     r, w = os.pipe()
     pid = os.fork()
-    if pid == 0:  # child: read, send the result (or the error) back, exit without cleanup handlers
+    if pid == 0:  # child: run, send the result (or the error) back, exit without clean-up handlers
         code = 0
         try:
             os.close(r)
+            if quiet:
+                os.dup2(os.open(os.devnull, os.O_WRONLY), 2)
             try:
-                out = ("ok", _read_h5(path, any_layout, verify))
-            except BaseException as exc:  # noqa: BLE001 -- every failure is reported to the parent
+                out = ("ok", fn(*args))
+            except BaseException as exc:  # noqa: BLE001 -- every failure goes to the parent
                 try:
                     pickle.dumps(exc)
                     out = ("err", exc)
                 except Exception:
-                    out = ("err", ResultsDamagedError(f"{type(exc).__name__}: {exc}"))
-            data = pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
-            view = memoryview(data)
+                    out = ("err", RuntimeError(f"{type(exc).__name__}: {exc}"))
+            view = memoryview(pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL))
             while view:
-                n = os.write(w, view)
-                view = view[n:]
+                view = view[os.write(w, view):]
         except BaseException:
             code = 1
         finally:
             os._exit(code)
     os.close(w)
-    chunks, deadline, timed_out = [], time.monotonic() + timeout_s, False
+    chunks, timed_out = [], False
+    deadline = None if timeout_s is None else time.monotonic() + timeout_s
     try:
         while True:
-            left = deadline - time.monotonic()
+            left = 1.0 if deadline is None else deadline - time.monotonic()
             if left <= 0:
                 timed_out = True
                 break
@@ -749,19 +783,16 @@ def _read_h5_bounded(path: Path, timeout_s=None, any_layout: bool = False, verif
                 os.kill(pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass
-        os.waitpid(pid, 0)
+        _, status = os.waitpid(pid, 0)
     if timed_out:
-        raise ResultsDamagedError(f"{path} did not open within {timeout_s:.0f} s (the HDF5 library stalled on it: "
-                                  "the file is damaged)")
+        raise _ChildLost(status, timed_out=True)
     try:
         kind, val = pickle.loads(b"".join(chunks))
     except Exception:
-        raise ResultsDamagedError(f"{path}: reading it crashed the reading process (the file is damaged)") from None
-    if kind == "ok":
-        return val
-    if isinstance(val, ResultsFileError):
+        raise _ChildLost(status) from None
+    if kind == "err":
         raise val
-    raise ResultsDamagedError(f"{path} cannot be read ({type(val).__name__}: {val}): the file is damaged")
+    return val
 
 
 # ---------------------------------------------------------------------------------------
@@ -785,7 +816,10 @@ def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mappi
     store), and removes the partial ``.tmp``."""
     tmp = path.with_name(path.name + ".tmp")
     try:
-        _in_child(_write_new_h5, tmp, n_rows, periods_s, attrs)
+        try:
+            _in_child(_write_new_h5, tmp, n_rows, periods_s, attrs, quiet=True)
+        except _ChildLost as lost:
+            raise OSError(f"creating the results file crashed the writing process (status {lost.status})") from None
     except BaseException as exc:
         try:
             tmp.unlink(missing_ok=True)
@@ -796,53 +830,6 @@ def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mappi
             raise
         raise err from None
     os.replace(tmp, path)  # the file appears complete or not at all
-
-
-def _in_child(fn, *args) -> None:
-    """Run ``fn(*args)`` in a forked child; raise what it raised (pickled back), or
-    :class:`OSError` when the child died without a word (a crash of the HDF5 library)."""
-    r, w = os.pipe()
-    pid = os.fork()
-    if pid == 0:
-        code = 0
-        try:
-            os.close(r)
-            null = os.open(os.devnull, os.O_WRONLY)  # the HDF5 library's clean-up noise after a failed write
-            os.dup2(null, 2)
-            try:
-                fn(*args)
-                out = ("ok", None)
-            except BaseException as exc:  # noqa: BLE001 -- every failure goes to the parent
-                try:
-                    pickle.dumps(exc)
-                    out = ("err", exc)
-                except Exception:
-                    out = ("err", RuntimeError(f"{type(exc).__name__}: {exc}"))
-            data = pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
-            view = memoryview(data)
-            while view:
-                view = view[os.write(w, view):]
-        except BaseException:
-            code = 1
-        finally:
-            os._exit(code)
-    os.close(w)
-    chunks = []
-    try:
-        while True:
-            b = os.read(r, 1 << 16)
-            if not b:
-                break
-            chunks.append(b)
-    finally:
-        os.close(r)
-        _, status = os.waitpid(pid, 0)
-    try:
-        kind, val = pickle.loads(b"".join(chunks))
-    except Exception:
-        raise OSError(f"creating the results file crashed the writing process (status {status})") from None
-    if kind == "err":
-        raise val
 
 
 def _write_new_h5(tmp: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping) -> None:
@@ -960,7 +947,7 @@ def _open_locked(path: Path, signature, attrs, n_rows, periods_s, overwrite, log
     h5, damage = None, None
     if path.exists():
         try:
-            h5 = _read_h5_bounded(path, timeout_s)
+            h5 = read_h5_bounded(path, timeout_s)
         except ResultsDamagedError as exc:
             if header is None:
                 raise ResultsDamagedError(_salvage_text(path, exc), data_intact=exc.data_intact) from None
@@ -1000,11 +987,11 @@ def _open_locked(path: Path, signature, attrs, n_rows, periods_s, overwrite, log
         # a journal-less file (finished run, or journal deleted): start a new journal for this
         # session that also holds the file's finished rows, so that a kill during this session's
         # HDF5 writes can rebuild the file from the journal without losing them
-        old = _results_from_raw(h5, pending=False)
-        old_attrs = {k: v for k, v in old.attrs.items() if k != "checksums"}
+        samples, spectra, _, old_attrs = merged_columns(h5)
+        old_attrs = {k: v for k, v in old_attrs.items() if k != "checksums"}
         _write_journal_header(jp, n_rows, periods_s, signature, old_attrs)
         journal = _Journal(jp)
-        journal.append(_rows_of(old))
+        journal.append(_rows_of(samples, spectra, np.flatnonzero(samples["status"] != STATUS_PENDING)))
         journal.sync()
         journal.close()
     if jrows:  # idempotent replay: rows the HDF5 file may have missed when the run was killed
@@ -1147,6 +1134,36 @@ def _false_done(samples: Mapping, layout) -> np.ndarray:
     return bad
 
 
+def merged_columns(raw: Mapping | None, header: Mapping | None = None, jrows: Mapping | None = None):
+    """The columns of a file as :func:`read_h5_bounded` read them (or, when ``raw`` is None, the pending
+    columns of a journal header), with the journalled rows ``jrows`` laid over them (the journal is
+    authoritative for every row it holds) and rows marked done that cannot be (:func:`_false_done`)
+    read as not computed, with a warning. Returns ``(samples, spectra, periods_s, attrs)``, copies.
+
+    The one text of what a finished row is: the resume path takes its rows from here, and so does the
+    reader (:func:`pycolfrag.analysis.data.load`)."""
+    if raw is not None:
+        samples = {k: v.copy() for k, v in raw["samples"].items()}
+        spectra = {k: v.copy() for k, v in raw["spectra"].items()}
+        periods, attrs = raw["periods"], dict(raw["attrs"])
+    else:
+        periods = np.asarray(header["periods_s"], dtype=float)
+        attrs = dict(header["attrs"])
+        samples, spectra = empty_columns(int(header["n_rows"]), len(periods), attrs.get("layout"))
+    bad = _false_done(samples, attrs.get("layout"))
+    if bad.any():
+        warnings.warn(f"{int(bad.sum())} row(s) of the results file are marked done but carry no identity or an "
+                      f"unknown status (damaged status bytes; rows {np.flatnonzero(bad)[:10].tolist()}...): they "
+                      "are read as not computed (a rerun of the grid recomputes them)", stacklevel=4)
+        samples["status"][bad] = STATUS_PENDING
+    if jrows:
+        for i, r in jrows.items():
+            _put_row(samples, spectra, i, r, attrs.get("layout"))
+    if jrows or bad.any():
+        attrs["n_done"] = int(np.count_nonzero(samples["status"] != STATUS_PENDING))
+    return samples, spectra, periods, attrs
+
+
 class ResultsWriter:
     """Rank 0's writer: journal every row at once, HDF5 in batches (open, write, flush, close)."""
 
@@ -1227,193 +1244,13 @@ class ResultsWriter:
                 self._lock = None
 
 
-# ---------------------------------------------------------------------------------------
-# reading
-# ---------------------------------------------------------------------------------------
-
-@dataclass
-class Results:
-    """A results file in memory (see :func:`load`).
-
-    Attributes
-    ----------
-    samples : dict of str -> ndarray
-        The ``/samples`` fields (``message`` decoded to ``str``), one entry per row.
-    spectra : dict of str -> ndarray
-        ``sa_g`` (g) and ``sv_cm_s`` (cm/s), shape (rows, periods).
-    periods_s : ndarray
-        Spectral periods, s.
-    attrs : dict
-        Root attributes; ``column``, ``solver`` and ``grid_signature`` are JSON strings.
-    rows : ndarray of int
-        Row index of each entry in the file (all rows for a complete file).
-    """
-
-    samples: dict
-    spectra: dict
-    periods_s: np.ndarray
-    attrs: dict
-    rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
-
-    def __len__(self) -> int:
-        return len(self.samples["status"])
-
-    @property
-    def ok(self) -> np.ndarray:
-        """Mask of successful runs (``status == 0``)."""
-        return self.samples["status"] == STATUS_OK
-
-    @property
-    def complete(self) -> bool:
-        return bool(self.attrs.get("complete", False))
-
-    def scenario_table(self) -> list[dict]:
-        """One dict per scenario present: mw, dist_km, n, ok, failed, collapses, rows (indices)."""
-        out = []
-        s = self.samples
-        for sc in np.unique(s["scenario"]):
-            m = s["scenario"] == sc
-            okm = m & self.ok
-            out.append({"scenario": int(sc), "mw": float(s["mw"][m][0]), "dist_km": float(s["dist_km"][m][0]),
-                        "n": int(m.sum()), "ok": int(okm.sum()), "failed": int((m & ~self.ok).sum()),
-                        "collapses": int(s["collapsed"][okm].astype(bool).sum()), "index": np.flatnonzero(m)})
-        return out
-
-
-def _results_from_raw(raw, pending: bool, header: Mapping | None = None, jrows: Mapping | None = None) -> Results:
-    """Build :class:`Results` from :func:`_read_h5`'s dict (or from a journal header alone when
-    ``raw`` is None), overlaying journalled rows."""
-    if raw is not None:
-        samples = {k: v.copy() for k, v in raw["samples"].items()}
-        spectra = {k: v.copy() for k, v in raw["spectra"].items()}
-        periods, attrs = raw["periods"], dict(raw["attrs"])
-    else:
-        periods = np.asarray(header["periods_s"], dtype=float)
-        attrs = dict(header["attrs"])
-        samples, spectra = empty_columns(int(header["n_rows"]), len(periods), attrs.get("layout"))
-    bad = _false_done(samples, attrs.get("layout"))
-    if bad.any():
-        warnings.warn(f"{int(bad.sum())} row(s) of the results file are marked done but carry no identity or an "
-                      f"unknown status (damaged status bytes; rows {np.flatnonzero(bad)[:10].tolist()}...): they "
-                      "are read as not computed (a rerun of the grid recomputes them)", stacklevel=3)
-        samples["status"][bad] = STATUS_PENDING
-    if jrows:  # the journal is authoritative for every row it holds
-        for i, r in jrows.items():
-            _put_row(samples, spectra, i, r, attrs.get("layout"))
-    if jrows or bad.any():
-        attrs["n_done"] = int(np.count_nonzero(samples["status"] != STATUS_PENDING))
-    for name in list(samples):  # string datasets (fixed-length UTF-8) -> str
-        if samples[name].dtype.kind == "S":
-            samples[name] = np.array([m.decode("utf-8", errors="replace") if isinstance(m, bytes) else str(m)
-                                      for m in samples[name]], dtype=object)
-    if "collapsed" in samples:
-        samples["collapsed"] = samples["collapsed"].astype(bool)
-    rows = np.arange(len(samples["status"]))
-    if not pending:
-        keep = samples["status"] != STATUS_PENDING
-        samples = {k: v[keep] for k, v in samples.items()}
-        spectra = {k: v[keep] for k, v in spectra.items()}
-        rows = rows[keep]
-    return Results(samples=samples, spectra=spectra, periods_s=periods, attrs=attrs, rows=rows)
-
-
-def _refuse_non_hdf5(path: Path) -> None:
-    """A path that cannot hold results at all (a folder, a file of another kind) gets an error saying
-    what it is, instead of the reader's "damaged"."""
-    if path.is_dir():
-        raise ResultsFileError(f"{path} is a folder, not a results file")
-    if path.is_file() and not _has_hdf5_signature(path):
-        raise ResultsFileError(f"{path} is not an HDF5 file (no HDF5 signature at its start): not a results "
-                               "file, or one whose first bytes were overwritten")
-
-
-def _has_hdf5_signature(path: Path) -> bool:
-    """The HDF5 format signature at offset 0, 512, 1024, 2048, ... (after a user block); read directly,
-    since the HDF5 library's own probe opens the file, which a damaged file can make hang."""
-    size = path.stat().st_size
-    with open(path, "rb") as fh:
-        off = 0
-        while off + 8 <= size:
-            fh.seek(off)
-            if fh.read(8) == b"\x89HDF\r\n\x1a\n":
-                return True
-            off = 512 if off == 0 else 2 * off
-    return False
-
-
-def load(path, pending: bool = False, journal: bool = True, timeout_s: float | None = None,
-         any_layout: bool = False, verify: bool = True) -> Results:
-    """Read a results file written by ``scripts/run_grid.py``.
-
-    Parameters
-    ----------
-    path : str or path-like
-        The HDF5 file (e.g. ``results/grid.h5``).
-    pending : bool
-        Keep rows not computed yet (``status == -1``). Default False: only finished rows
-        (ok or failed), so a partial file from a killed run reads like a smaller complete one.
-    journal : bool
-        Overlay rows from the journal sidecar (``<path>.journal``) that are not in the HDF5 file
-        yet (present only while a run is going on or after a kill). Nothing is written. The journal
-        is used only if it belongs to the file (same signature and ``run_id``); a journal of another
-        run or with a bad header is ignored with a warning. If the HDF5 file cannot be read (killed
-        mid-write, damaged) the data come from the journal alone, with a warning.
-    timeout_s : float or None
-        Time allowed to open and read the file (in a child process) before it is called damaged;
-        default :data:`OPEN_TIMEOUT_S` (env ``PYCOLFRAG_OPEN_TIMEOUT_S``) plus 1 s per 50 MB.
-    any_layout : bool
-        Also read a file in the documented ``/samples`` layout written by other code (no
-        ``grid_signature``; fields or ``/spectra`` may be missing). Default False: such a file is
-        refused (:class:`~pycolfrag.errors.ResultsFileError`).
-    verify : bool
-        Check the stored checksums (every attribute; every dataset of a complete file). Default True;
-        False reads a damaged file as it is (salvage: check what you take from it).
-
-    Returns
-    -------
-    Results
-        ``samples`` (dict of 1-D arrays), ``spectra`` (dict of 2-D arrays), ``periods_s``, ``attrs``,
-        ``rows`` (row indices kept). ``collapsed`` is returned as bool.
-
-    Raises
-    ------
-    ResultsDamagedError
-        The file is damaged (read error, checksum mismatch, no answer in time) and no journal of it exists.
-    ResultsFileError
-        Not a pycolfrag results file.
-    """
-    path = Path(os.path.realpath(path))  # the journal is beside the real file (a symlink has none)
-    jp = journal_path(path)
-    header, jrows = None, {}
-    if journal and jp.exists():
-        try:
-            header, jrows = read_journal(jp)
-        except JournalHeaderError as exc:
-            warnings.warn(f"{exc}; the journal is ignored", stacklevel=2)
-    if header is None:
-        _refuse_non_hdf5(path)
-    try:
-        for attempt in range(4):
-            try:
-                raw = _read_h5_bounded(path, timeout_s, any_layout, verify)
-                break
-            except ResultsDamagedError:
-                # a run writing the file right now (its lock is held): a read that met a batch
-                # half-written is not damage; read again after the batch
-                if attempt == 3 or (attempt > 0 and not _lock_held(path)):
-                    raise  # read twice (the run may have just finished its last batch), more while it runs
-                time.sleep(0.2)
-    except (ResultsDamagedError, FileNotFoundError) as exc:
-        if header is None:
-            if isinstance(exc, ResultsDamagedError):
-                raise
-            raise ResultsFileError(f"cannot read results file {path}: {exc}") from None
-        warnings.warn(f"{exc}; the rows come from the journal {jp} alone", stacklevel=2)
-        return _results_from_raw(None, pending, header, jrows)
-    if header is not None:
-        diffs = journal_mismatch(header, raw["attrs"])
-        if diffs:
-            warnings.warn(f"{jp} belongs to another run ({'; '.join(diffs)}): none of its rows is used",
-                          stacklevel=2)
-            jrows = {}
-    return _results_from_raw(raw, pending, header, jrows)
+def __getattr__(name):
+    """``pycolfrag.results.load`` and ``pycolfrag.results.Results``, public names from before the reading
+    side moved to :mod:`pycolfrag.analysis.data`, keep working. Imported on first use, not at the top:
+    the reader imports this module (layout, journal, the bounded read), so a top-level import here
+    would be an import circle, and the driver, which writes through this module, must not load the
+    analysis package."""
+    if name in ("load", "Results"):
+        from .analysis import data  # here: the reader imports this module (a circle at the top)
+        return getattr(data, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

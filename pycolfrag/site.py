@@ -4,7 +4,7 @@ A :class:`Site` holds :class:`Source` objects: an annual rate, a magnitude model
 Gutenberg-Richter or a characteristic magnitude), a distance model (fixed, uniform, areal or
 discrete) and a pulse-occurrence model (a given probability, Shahi & Baker 2014, or pulse-only).
 Magnitude and distance models give quadrature points and weights (``points(breaks)``: Gauss-Legendre
-on each segment between the breaks, which :mod:`pycolfrag.risk` sets at the grid's nodes).
+on each segment between the breaks, which :mod:`pycolfrag.analysis.risk` sets at the grid's nodes).
 Every bad value of a site file raises :class:`~pycolfrag.errors.ParameterError` naming the file,
 the key and the value.
 """

@@ -25,8 +25,12 @@ import warnings
 
 import numpy as np
 
+from . import solver as _solver
 from ._validate import finite_float, integer, positive_float
+from .column import Column
 from .errors import ParameterError
+from .intensity import measures
+from .records import load_records
 
 __all__ = ["DEFAULT_TABLE_II_ALPHA", "DEFAULT_ENSEMBLE", "RANGE_PERCENTILES", "PAPER_TABLE_II",
            "strong_motion_end", "paper_row", "table_ii", "format_table_ii"]
@@ -70,7 +74,6 @@ def paper_row(event: str, station: str = "") -> str | None:
 def strong_motion_end(acc, dt) -> float:
     """End of the strong motion, s: the time at which the Husid plot reaches 95 % of the Arias
     intensity (the end of the D5-95 interval, :func:`pycolfrag.intensity.measures` ``t95_s``)."""
-    from .intensity import measures
     return float(measures(acc, dt, periods=(1.0,))["t95_s"])
 
 
@@ -119,9 +122,6 @@ def table_ii(records, column=None, *, component="h1", damping_alpha=DEFAULT_TABL
     ``n_collapsed_damped``, ``n_collapsed_undamped`` (of ``n_members``); ``paper``: the paper's
     ``(damped, undamped, error %)`` for this record (:func:`paper_row`) or None.
     """
-    from .column import Column
-    from .records import load_records
-    from .solver import simulate
     recs = load_records(records) if isinstance(records, (str, os.PathLike)) else records
     col = Column.parthenon() if column is None else column
     opts = dict(solver_options or {})
@@ -144,8 +144,8 @@ def table_ii(records, column=None, *, component="h1", damping_alpha=DEFAULT_TABL
         for f in scales:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", UserWarning)
-                r0 = simulate(col, f * acc, rec.dt, **opts)
-                r1 = simulate(col, f * acc, rec.dt, damping_alpha=alpha, damping_start_s=t_end, **opts)
+                r0 = _solver.simulate(col, f * acc, rec.dt, **opts)
+                r1 = _solver.simulate(col, f * acc, rec.dt, damping_alpha=alpha, damping_start_s=t_end, **opts)
             und.append(math.nan if r0.collapsed else r0.u_d)
             dam.append(math.nan if r1.collapsed else r1.u_d)
         und, dam = np.array(und), np.array(dam)

@@ -13,7 +13,7 @@ matplotlib.use("Agg")
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-from pycolfrag import figures  # noqa: E402
+from pycolfrag.analysis import figures  # noqa: E402
 from pycolfrag.errors import PycolfragError  # noqa: E402
 
 

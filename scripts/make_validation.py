@@ -13,7 +13,7 @@ import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-from pycolfrag import validation  # noqa: E402
+from pycolfrag.analysis import validation  # noqa: E402
 
 
 def main(argv=None):

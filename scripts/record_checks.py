@@ -46,7 +46,8 @@ def _fig10_table(suite, components, max_record_s, progress) -> dict:
 
 
 def _fig10(args) -> int:
-    from pycolfrag import record_figures, records
+    from pycolfrag import records
+    from pycolfrag.analysis import record_figures
     band = tuple(args.band)
     sets = {}
     for source in args.records:
@@ -123,7 +124,7 @@ def main(argv=None) -> int:
     t.add_argument("--ensemble", type=int, default=None, help="ensemble members per record (default: "
                    "pycolfrag.table_ii.DEFAULT_ENSEMBLE)")
     t.add_argument("--json", default=None, help="also write the rows as JSON")
-    a = sub.add_parser("analyse", help="analyse a record-suite results file (pycolfrag.record_report)")
+    a = sub.add_parser("analyse", help="analyse a record-suite results file (pycolfrag.analysis.record_report)")
     a.add_argument("results")
     a.add_argument("--out", default=None, help="output folder (default: <file folder>/<file name>_analysis)")
     a.add_argument("--synthetic", default=None, help="synthetic grid file for the Fig. 10 line")
@@ -136,7 +137,7 @@ def main(argv=None) -> int:
         print(f"demo suite written to {write_suite(args.folder)}")
         return 0
     if args.cmd == "analyse":
-        from pycolfrag.record_report import main as analyse
+        from pycolfrag.analysis.record_report import main as analyse
         res = Path(args.results)
         out = args.out or str(res.parent / f"{res.stem}_analysis")
         return analyse([str(res), out, "--period", str(args.period)]

@@ -1,4 +1,4 @@
-"""``pycolfrag.compare``: row-level equality of two results files and, where rows differ, the
+"""``pycolfrag.analysis.compare``: row-level equality of two results files and, where rows differ, the
 per-scenario statistics (collapse fraction: Fisher's exact test; mean u_top, u_d: Welch's t).
 
 The files are written by hand here in the layout of docs/results_format.md (h5py, every
@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from pycolfrag import results
-from pycolfrag.compare import compare_results
+from pycolfrag.analysis.compare import compare_results
 
 h5py = pytest.importorskip("h5py")
 
@@ -125,12 +125,26 @@ def test_missing_rows_are_reported(base):
     assert c.only_in_a == [(0, 3), (1, 10)] and c.only_in_b == [] and c.exit_code == 2
 
 
+def test_files_without_rows_are_not_called_identical(base):
+    """Two files whose rows are all pending (a grid killed before its first row) hold nothing to compare:
+    0 matched rows must not read as "bitwise identical" (exit 0) nor as "consistent" (exit 1)."""
+    tmp, cols, spectra, _ = base
+    cols = dict(cols, status=np.full_like(cols["status"], results.STATUS_PENDING))  # load drops every row
+    a = _write(tmp / "empty_a.h5", cols, spectra)
+    b = _write(tmp / "empty_b.h5", cols, spectra)
+    c = compare_results(a, b)
+    assert c.n_common == 0 and not c.identical and not c.statistically_consistent and c.exit_code == 2
+    p = subprocess.run([sys.executable, "-m", "pycolfrag.analysis.compare", str(a), str(b)],
+                       capture_output=True, text=True)
+    assert p.returncode == 2 and "no rows matched" in p.stdout and "identical" not in p.stdout
+
+
 def test_command_line(base):
     tmp, cols, spectra, a = base
     cols = {k: v.copy() for k, v in cols.items()}
     cols["u_d"][0] = np.nextafter(cols["u_d"][0], 1.0)
     b = _write(tmp / "b.h5", cols, spectra)
-    run = [sys.executable, "-m", "pycolfrag.compare"]
+    run = [sys.executable, "-m", "pycolfrag.analysis.compare"]
     p = subprocess.run(run + [str(a), str(a)], capture_output=True, text=True)
     assert p.returncode == 0 and "bitwise identical" in p.stdout
     p = subprocess.run(run + [str(a), str(b)], capture_output=True, text=True)

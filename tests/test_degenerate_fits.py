@@ -1,4 +1,4 @@
-"""Fits that are not estimates are said to be so (pycolfrag.fragility.DegenerateFitWarning, the
+"""Fits that are not estimates are said to be so (pycolfrag.analysis.fragility.DegenerateFitWarning, the
 ``degenerate`` fields, the report's marks), while the formulas' values stay what they are.
 
 Expected numbers: the beta -> 0 limit of Eq. (4) (a step at the one standing EDP); Eq. (4) computed
@@ -13,8 +13,8 @@ import warnings
 import numpy as np
 import pytest
 
-from pycolfrag import fragility as fr
-from pycolfrag.fragility import DegenerateFitWarning
+from pycolfrag.analysis import fragility as fr
+from pycolfrag.analysis.fragility import DegenerateFitWarning
 
 sys.path.insert(0, os.path.dirname(__file__))
 from test_figures import write_results  # noqa: E402
@@ -101,7 +101,7 @@ def test_msa_on_separated_stripes_is_flagged():
 
 
 def test_report_of_a_one_sample_per_scenario_grid_says_its_fits_are_degenerate(tmp_path):
-    from pycolfrag import report
+    from pycolfrag.analysis import report
     res = write_results(tmp_path / "grid.h5", mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0, 20.0), n=1, n_failed=0)
     with warnings.catch_warnings():
         warnings.simplefilter("error", DegenerateFitWarning)    # marked in the text, not repeated as warnings

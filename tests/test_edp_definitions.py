@@ -534,7 +534,7 @@ def test_collapsed_run_keeps_u_top_and_standing_run_has_finite_u_d():
 # collapsed rows (u_top 1.5, u_d 0.3: what today's solver returns after a collapse), compared exactly
 # (the collapsed rows are masked before any arithmetic, so not even round-off may differ).
 
-from pycolfrag import fragility as fr  # noqa: E402
+from pycolfrag.analysis import fragility as fr  # noqa: E402
 
 
 def _table(seed=1, n=24):
@@ -640,7 +640,7 @@ def test_report_and_validation_ignore_the_edps_of_collapsed_runs(tmp_path, monke
     collapsed rows (the file names excepted), and print no "nan" for a mean u_d. Bootstrap sizes are
     cut (fewer resamples, no MLE band) to keep the test at a few seconds: the comparison is between
     two identical computations, so their size does not matter."""
-    from pycolfrag import figures, report, validation
+    from pycolfrag.analysis import figures, report, validation
     orig_curves, orig_fit = report.im_curves, fr.fit_lognormal_fragility
     monkeypatch.setattr(report, "im_curves", lambda d, v, **kw: orig_curves(d, v, **{**kw, "n_boot": 5, "n_boot_mle": 0}))
     monkeypatch.setattr(fr, "fit_lognormal_fragility", lambda *a, **kw: orig_fit(*a, **{**kw, "n_boot": min(kw.get("n_boot", 0), 5)}))
@@ -661,7 +661,7 @@ def test_report_and_validation_ignore_the_edps_of_collapsed_runs(tmp_path, monke
 def test_figures_ignore_the_edps_of_collapsed_runs(tmp_path):
     """Figs. 7, 14 (scatter of the non-collapsed runs) show the same points, and Figs. 8, 13 (means
     and fragility surfaces) the same surfaces, with NaN or finite EDPs in the collapsed rows."""
-    from pycolfrag import figures
+    from pycolfrag.analysis import figures
     nan_path, fin_path = _results_pair(tmp_path)
     d = [figures.read_results(p) for p in (nan_path, fin_path)]
     for fig_fn in (figures.fig_07, figures.fig_14):

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag import fragility as fr
+from pycolfrag.analysis import fragility as fr
 from pycolfrag import intensity
 from pycolfrag import results as R
 from pycolfrag.errors import ParameterError, ResultsFileError
@@ -106,7 +106,7 @@ def test_a_file_that_is_not_hdf5_or_a_folder_is_named_as_such(tmp_path):
     assert not isinstance(info.value, R.ResultsDamagedError)       # it was never a results file
     with pytest.raises(ResultsFileError, match="is a folder, not a results file"):
         R.load(tmp_path)
-    for args in (["-m", "pycolfrag.report", str(text), str(tmp_path / "r.md")],
+    for args in (["-m", "pycolfrag.analysis.report", str(text), str(tmp_path / "r.md")],
                  ["scripts/make_figures.py", str(tmp_path), "--out", str(tmp_path / "f")]):
         p = _cli(*args)
         assert p.returncode == 2 and "Traceback" not in p.stderr, p.stderr
@@ -116,7 +116,7 @@ def test_a_file_that_is_not_hdf5_or_a_folder_is_named_as_such(tmp_path):
 def test_a_results_file_lacking_a_field_an_output_needs_names_it(tmp_path):
     """A file in the documented layout written by other code, without PGA: the report stops on a
     ResultsFileError naming the field instead of a KeyError."""
-    from pycolfrag import report
+    from pycolfrag.analysis import report
     sys.path.insert(0, os.path.dirname(__file__))
     from test_figures import write_results
     path = write_results(tmp_path / "grid.h5", mws=(6.5,), dists=(10.0,), n=10, n_failed=0)

@@ -432,7 +432,7 @@ def test_read_only_folder_is_one_clear_line_and_nothing_is_lost(tmp_path, tmpfs)
 ])
 def test_bad_grid_arguments_are_refused_before_any_file(tmp_path, capsys, change, expect):
     # in process (main() is what scripts/run_grid.py calls), a dozen runs in a second
-    from pycolfrag.grid import main
+    from pycolfrag.cli import main
     out = tmp_path / "o" / "g.h5"
     base = ["--mw", "6", "--dist", "5", "--samples", "2", "--no-figures", "--no-progress", "--mpi", "no",
             "--out", str(out)]

@@ -60,8 +60,8 @@ def _partial_whole(tmp_path, n=3):
 
 
 def _main_patched(patch, args, **env):
-    """``grid.main(args)`` in a child process after ``patch`` (Python source) has run: another build."""
-    code = textwrap.dedent(patch) + "\nimport sys\nfrom pycolfrag.grid import main\nsys.exit(main(sys.argv[1:]))\n"
+    """``cli.main(args)`` in a child process after ``patch`` (Python source) has run: another build."""
+    code = textwrap.dedent(patch) + "\nimport sys\nfrom pycolfrag.cli import main\nsys.exit(main(sys.argv[1:]))\n"
     return subprocess.run(["timeout", "-k", "10", "120", sys.executable, "-c", code, *args], capture_output=True,
                           text=True, env=_env(**env), cwd=ROOT)
 
@@ -127,7 +127,7 @@ def test_resume_across_a_code_change_is_refused(tmp_path, patch, named):
 
 def _refused(argv, capsys, tmp_path):
     """main(argv) in process: exit code 2, one line, no file made; returns the line."""
-    from pycolfrag.grid import main
+    from pycolfrag.cli import main
     out = tmp_path / "o" / "g.h5"
     code = main([*argv, "--no-figures", "--no-progress", "--mpi", "no", "--out", str(out)])
     text = capsys.readouterr().out.strip()
@@ -326,7 +326,7 @@ def test_a_long_grid_says_its_expected_work_and_a_long_record_is_named():
 # ------------------------------------------------------------------------------ misleading messages
 
 def test_out_naming_a_folder_is_refused_as_such_not_called_damaged(tmp_path, capsys):
-    from pycolfrag.grid import main
+    from pycolfrag.cli import main
     code = main([*FAKE, "--mpi", "no", "--out", str(tmp_path)])
     line = capsys.readouterr().out.strip()
     assert code == 2 and line == f"run_grid: --out {tmp_path} is a folder: give the results file's path, e.g. " \

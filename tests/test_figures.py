@@ -9,7 +9,7 @@ import h5py
 import numpy as np
 import pytest
 
-from pycolfrag import figures
+from pycolfrag.analysis import figures
 
 
 def write_results(path, seed=0, mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0, 20.0), n=30, n_failed=3,

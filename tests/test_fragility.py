@@ -1,4 +1,4 @@
-"""Tests of pycolfrag.fragility (paper Eqs. (1)-(4), stripes, MLE, bootstrap).
+"""Tests of pycolfrag.analysis.fragility (paper Eqs. (1)-(4), stripes, MLE, bootstrap).
 
 Expected numbers come from from-scratch formulas written here with the standard library
 (math.erf for Phi, sums for the log-moments) or from the known law of synthetic data; each
@@ -11,7 +11,7 @@ import pytest
 from scipy import stats
 
 import pycolfrag
-from pycolfrag import fragility as fr
+from pycolfrag.analysis import fragility as fr
 
 
 def phi(z):
@@ -90,7 +90,7 @@ def test_vectorised_eq4_equals_scalar():
     # the bootstrap's batched statistic must be Eq. (4) itself (round-off)
     rng = np.random.default_rng(14)
     edp, c = lognormal_sample(rng, 60, p_collapse=0.2)
-    stat = fr._eq4_vectorised(0.35)
+    stat = fr.eq4_statistic(0.35)
     assert stat(np.nan_to_num(edp), c.astype(float)) == pytest.approx(fr.exceedance(edp, c, 0.35), abs=1e-9)
 
 

@@ -1,4 +1,4 @@
-"""Record-suite analysis in pycolfrag.fragility: cloud regression, logistic collapse, MSA (Baker 2015),
+"""Record-suite analysis in pycolfrag.analysis.fragility: cloud regression, logistic collapse, MSA (Baker 2015),
 stripes over a suite table.
 
 Recovery tests draw synthetic data from known parameters. One draw can sit 3 standard errors away
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy import special, stats
 
-from pycolfrag import fragility as fr
+from pycolfrag.analysis import fragility as fr
 from pycolfrag.errors import ParameterError
 
 REPS = 200

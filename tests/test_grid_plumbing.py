@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag import grid, results as R
+from pycolfrag import cli, grid, results as R
+from pycolfrag.analysis.summary import format_table, summary_table
 
 
 @pytest.fixture
@@ -166,15 +167,17 @@ def test_solver_failure_becomes_status_3_and_run_goes_on(fake_physics, tmp_path)
 def test_in_process_run_writes_summary_and_collapse_fields(fake_physics, tmp_path):
     spec = grid.GridSpec(mw=(6.0, 7.5), dist_km=(5.0,), samples=3, seed=2, periods_s=(0.5, 1.0))
     summary = grid.run_grid(spec, tmp_path / "g.h5", progress=False, log=lambda s: None)
-    assert summary.n_ranks == 1 and summary.computed == 6 and len(summary.table) == 2
+    assert summary.n_ranks == 1 and summary.computed == 6
+    table = summary_table(summary.path)
+    assert len(table) == 2
     r = R.load(tmp_path / "g.h5")
     c = r.samples["collapsed"]
     assert (r.samples["collapse_block"][c] == 4).all() and (r.samples["collapse_block"][~c] == -1).all()
     assert np.isnan(r.samples["collapse_time_s"][~c]).all()
-    text = grid.format_table(summary.table)
+    text = format_table(table)
     assert "collapses" in text and "7.5" in text
-    assert sum(t["collapses"] for t in summary.table) == int(c.sum())
-    assert math.isclose(summary.table[0]["cpu_s"], float(r.samples["wall_s"][:3].sum()))
+    assert sum(t["collapses"] for t in table) == int(c.sum())
+    assert math.isclose(table[0]["cpu_s"], float(r.samples["wall_s"][:3].sum()))
 
 
 def test_report_links_figures_from_a_custom_figures_dir(tmp_path, monkeypatch):
@@ -182,7 +185,7 @@ def test_report_links_figures_from_a_custom_figures_dir(tmp_path, monkeypatch):
     # make_all wrote them (it used to look in <report folder>/figures and found none)
     import functools
 
-    from pycolfrag import figures, report as rep
+    from pycolfrag.analysis import figures, report as rep
     from test_figures import write_results
 
     h5 = write_results(tmp_path / "grid.h5", mws=(6.5, 7.5), dists=(5.0,), n=10, n_failed=0)
@@ -194,7 +197,7 @@ def test_report_links_figures_from_a_custom_figures_dir(tmp_path, monkeypatch):
     monkeypatch.setattr(figures, "make_all", fake_make_all)
     monkeypatch.setattr(rep, "write_report", functools.partial(rep.write_report, n_boot=20))  # speed only
     report = tmp_path / "rep" / "report.md"
-    assert grid.make_outputs(h5, tmp_path / "figs", report, log=lambda s: None)
+    assert cli.make_outputs(h5, tmp_path / "figs", report, log=lambda s: None)
     assert "![fig07_ud_vs_utop](../figs/fig07_ud_vs_utop.png)" in report.read_text()
 
 

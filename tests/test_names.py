@@ -37,6 +37,6 @@ def test_labels():
     assert names.label("sa_g", 1.0) == "SA(1 s) (g)"
     assert names.label("u_top").startswith("u_top")
     assert names.label("unknown") == "unknown"
-    from pycolfrag import figures
+    from pycolfrag.analysis import figures
     assert figures.IM_LABELS["pgv_cm_s"] == "PGV (cm/s)" and figures.EDP_LABELS == {
         k: q.label for k, q in names.EDPS.items()}

@@ -1,4 +1,4 @@
-"""pycolfrag.report and pycolfrag.validation import without matplotlib: a machine
+"""pycolfrag.analysis.report and pycolfrag.analysis.validation import without matplotlib: a machine
 that only analyses results files (tables, the markdown report's numbers) needs no plotting stack.
 
 The check runs in a child interpreter where ``sys.modules['matplotlib'] = None`` makes every
@@ -12,12 +12,12 @@ def test_report_and_validation_import_without_matplotlib():
     code = textwrap.dedent("""
         import sys
         sys.modules["matplotlib"] = None          # any import of matplotlib now raises ImportError
-        import pycolfrag.report, pycolfrag.validation, pycolfrag.figures, pycolfrag.results
-        from pycolfrag.figures import read_results  # the one reader is reachable too
+        import pycolfrag.analysis.report, pycolfrag.analysis.validation, pycolfrag.analysis.figures, pycolfrag.results
+        from pycolfrag.analysis.data import read_results  # the one reader is reachable too
         loaded = sorted(m for m, v in sys.modules.items() if m.startswith("matplotlib") and v is not None)
         assert not loaded, loaded
         try:
-            pycolfrag.figures.Figure()
+            pycolfrag.analysis.figures.Figure()
         except ImportError:
             print("ok")
     """)

@@ -1,4 +1,4 @@
-"""OpenQuake interchange and the IM route (pycolfrag.openquake).
+"""OpenQuake interchange and the IM route (pycolfrag.analysis.openquake).
 
 Expected numbers: OpenQuake's own QA case classical_damage/case_1 (its hazard curves, fragility
 models and expected damage distributions, copied into tests/data/oq_classical_damage_case_1, see
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pycolfrag import openquake as oq
+from pycolfrag.analysis import openquake as oq
 from pycolfrag.errors import HazardFileError, ParameterError
 
 CASE1 = Path(__file__).resolve().parent / "data" / "oq_classical_damage_case_1"
@@ -204,7 +204,7 @@ def test_openquake_reads_the_export_and_agrees(tmp_path, fmt):
 def test_fragility_from_results_is_the_mle_fit(tmp_path):
     """The exported limit states are fragility.fit_lognormal_fragility of the same rows (median and
     beta recovered from mean/stddev to 1e-12); collapse is fitted on the collapse flags alone."""
-    from pycolfrag import fragility as F
+    from pycolfrag.analysis import fragility as F
     rng = np.random.default_rng(1)
     n = 600
     pgv = np.exp(rng.normal(np.log(60), 0.6, n))
@@ -234,7 +234,7 @@ def test_crossing_limit_states_are_refused():
     u = 0.5 * pga * np.exp(0.8 * rng.standard_normal(n))
     coll = (pga > 0.45).astype(int)        # a sharp collapse threshold: far steeper than the u_top curve
     table = {"pga_g": pga, "u_top": np.where(coll, np.nan, u), "collapsed": coll, "status": np.zeros(n, int)}
-    from pycolfrag.fragility import U_TOP_LEVELS
+    from pycolfrag.analysis.fragility import U_TOP_LEVELS
     with pytest.raises(ParameterError, match=r"cross.*P\(collapse\) exceeds P\(damage_limitation\)"):
         oq.fragility_from_results(table, "pga_g", levels=U_TOP_LEVELS[:1])
     oq.fragility_from_results(table, "pga_g", levels=U_TOP_LEVELS[:1], collapse=False)   # alone it is fine
@@ -260,3 +260,36 @@ def test_command_line_export_and_damage(tmp_path, capsys):
     hz.write_text("lon,lat,poe-0.05\n1,2,0.1\n")
     assert oq.main(["damage", str(hz), str(out)]) == 2
     assert "investigation_time" in capsys.readouterr().err
+
+
+def test_export_formats_come_from_the_registry(tmp_path, monkeypatch, capsys):
+    """The export command offers every writer of ``pycolfrag.analysis.outputs.WRITERS`` (its ``--to``
+    choices are read from the registry): a format registered here is accepted by the command line
+    and gets the model the NRML export gets -- its medians, one per limit state, are those of the
+    NRML file read back (continuous NRML stores mean and stddev, whose lognormal median is exact to
+    rounding: 1e-12). An unknown format is refused with the registered names."""
+    import sys
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from test_figures import write_results
+
+    from pycolfrag.analysis import outputs
+
+    def toy(model, path):
+        Path(path).write_text("\n".join(f"{ls} {f.median!r}" for ls, f in zip(model.limit_states, model.fits)))
+        return str(path)
+
+    monkeypatch.setitem(outputs.WRITERS, "toy", outputs.Writer("toy", ".txt", "limit state and median", toy))
+    h5 = write_results(tmp_path / "grid.h5", mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0), n=60, n_failed=0)
+    assert oq.main(["export", str(h5), str(tmp_path / "f.txt"), "--to", "toy", "--im", "pga_g", "--no-collapse"]) == 0
+    assert oq.main(["export", str(h5), str(tmp_path / "f.xml"), "--im", "pga_g", "--no-collapse"]) == 0
+    [nrml] = oq.read_nrml(tmp_path / "f.xml").values()
+    got = dict(line.split() for line in (tmp_path / "f.txt").read_text().splitlines())
+    assert list(got) == list(nrml.limit_states)
+    for ls, f in zip(nrml.limit_states, nrml.functions):
+        assert float(got[ls]) == pytest.approx(f.median, rel=1e-12)
+    with pytest.raises(ParameterError, match="'no-such-format' is not one of .*'nrml'"):
+        outputs.write_fragility(nrml, tmp_path / "x.txt", "no-such-format")
+    monkeypatch.delitem(outputs.WRITERS, "toy")
+    with pytest.raises(SystemExit):
+        oq.main(["export", str(h5), str(tmp_path / "g.txt"), "--to", "toy"])
+    assert "invalid choice: 'toy'" in capsys.readouterr().err

@@ -1,4 +1,4 @@
-"""The paper's natural-record checks: Fig. 10 (pycolfrag.record_figures) and Table II
+"""The paper's natural-record checks: Fig. 10 (pycolfrag.analysis.record_figures) and Table II
 (pycolfrag.table_ii), and the serial suite runner they use (pycolfrag.sample.run_suite)."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from scipy import optimize
 sys.path.insert(0, os.path.dirname(__file__))
 import record_suite as rs  # noqa: E402
 
-from pycolfrag import record_figures as rf  # noqa: E402
+from pycolfrag.analysis import record_figures as rf  # noqa: E402
 from pycolfrag import records, sample  # noqa: E402
 from pycolfrag import table_ii as t2  # noqa: E402
 from pycolfrag.errors import ParameterError  # noqa: E402
@@ -90,7 +90,7 @@ def test_binned_means_count_collapses_instead_of_dropping_them():
 
 
 def test_fig_10_from_a_results_file(table, tmp_path):
-    """The synthetic line from an HDF5 file in the documented /samples layout (figures.read_results)."""
+    """The synthetic line from an HDF5 file in the documented /samples layout (analysis.data.read_results)."""
     import h5py
     s = _synthetic()
     with h5py.File(tmp_path / "g.h5", "w") as f:

@@ -20,6 +20,7 @@ import record_suite as rs  # noqa: E402
 from test_grid import SCRIPT, _env, _kill_after, _mpirun, _ok, _same_rows, _serial  # noqa: E402
 
 from pycolfrag import grid, results as R  # noqa: E402
+from pycolfrag.analysis.summary import format_table, summary_table  # noqa: E402
 
 QUIET = ["--no-figures", "--no-progress"]
 
@@ -88,10 +89,10 @@ def test_scale_rows_and_closing_table(suite, tmp_path):
     assert s["rjb_km"][i] == 19.0 and s["vs30_m_s"][i] == 400.0 and s["dt_s"][i] == 0.005
     # the closing table: per scale when several scales, per record otherwise
     assert "scale" in p.stdout.splitlines()[1] and "12 runs computed" in p.stdout
-    by_record = grid.summary_table(out, by="record")
+    by_record = summary_table(out, by="record")
     assert [t["record_id"] for t in by_record] == ["RSN9001", "RSN9002", "RSN9003"]
     assert all(t["done"] == 4 for t in by_record)
-    assert "Pulse Quake" in grid.format_table(by_record)
+    assert "Pulse Quake" in format_table(by_record)
 
 
 def test_record_grid_kill_and_resume_equals_uninterrupted(suite, tmp_path):

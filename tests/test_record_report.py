@@ -1,4 +1,4 @@
-"""The analysis of a record-suite file (pycolfrag.record_report, ``record_checks.py analyse``) and the
+"""The analysis of a record-suite file (pycolfrag.analysis.record_report, ``record_checks.py analyse``) and the
 closing outputs of ``run_grid.py --records`` on the demo suite (3 records x h1/h2 x 4 scales = 24
 runs, about a second)."""
 import os
@@ -12,7 +12,8 @@ import record_suite as rs  # noqa: E402
 from test_figures import write_results  # noqa: E402
 from test_grid import _ok, _serial  # noqa: E402
 
-from pycolfrag import record_report, results as R  # noqa: E402
+from pycolfrag import results as R  # noqa: E402
+from pycolfrag.analysis import record_report  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -72,13 +73,13 @@ def test_synthetic_grid_outputs_refuse_a_record_suite_file(suite_file, tmp_path,
     """The converse: the scenario report and the paper's figures pool rows by (Mw, R) scenario, which
     for a suite would mix the four scale factors into one probability. Each refuses the file and names
     the command that analyses it; the command line exits 2 with that message, not a traceback."""
-    from pycolfrag import figures, report
+    from pycolfrag.analysis import figures, report
     out, _, _ = suite_file
-    with pytest.raises(R.ResultsFileError, match="record-suite results file.*pycolfrag.record_report"):
+    with pytest.raises(R.ResultsFileError, match="record-suite results file.*pycolfrag.analysis.record_report"):
         report.write_report(out, tmp_path / "report.md")
     assert not (tmp_path / "report.md").exists()
     assert report.main([str(out), str(tmp_path / "report.md")]) == 2
-    assert "python -m pycolfrag.record_report" in capsys.readouterr().err
+    assert "python -m pycolfrag.analysis.record_report" in capsys.readouterr().err
     with pytest.raises(R.ResultsFileError, match="record-suite"):
         figures.make_all(out, tmp_path / "figs")
 
@@ -87,7 +88,7 @@ def test_degenerate_msa_fits_are_marked_in_the_report(suite_file, tmp_path, monk
     """The report prints a fit's own degenerate reason beside its median, for exactly the fits that
     carry one (the demo suite's stripes overlap, so one fit is made to carry one here), and the stripes
     CSV has the stripes' flags."""
-    from pycolfrag import fragility as fr
+    from pycolfrag.analysis import fragility as fr
     out, _, _ = suite_file
     real = fr.msa_fragility
     seen = []

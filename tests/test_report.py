@@ -1,11 +1,11 @@
 """Report from a small synthetic results file (tests/test_figures.write_results).
 
-Checks content, not numbers: the numbers are those of pycolfrag.fragility, tested in
+Checks content, not numbers: the numbers are those of pycolfrag.analysis.fragility, tested in
 tests/test_fragility.py; here the per-scenario rows, the failed-run count and the figure links.
 """
 import numpy as np
 
-from pycolfrag import report
+from pycolfrag.analysis import report
 from test_figures import write_results
 
 

@@ -8,8 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from pycolfrag import validation
-from pycolfrag.figures import read_results
+from pycolfrag.analysis import validation
+from pycolfrag.analysis.data import read_results
 from test_figures import write_results
 
 ROOT = Path(__file__).resolve().parents[1]

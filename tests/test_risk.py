@@ -1,4 +1,5 @@
-"""Site risk by the Mw-R route (pycolfrag.risk, pycolfrag.site) and the pulse-occurrence model of Shahi & Baker (2014).
+"""Site risk by the Mw-R route (pycolfrag.analysis.risk, pycolfrag.site) and the pulse-occurrence model of
+Shahi & Baker (2014).
 
 Every expected number is computed here from a closed form (the truncated Gutenberg-Richter pdf,
 bilinear interpolation, binomial and beta quantiles and the Dirichlet covariance from scipy or by
@@ -13,8 +14,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pycolfrag import fragility as fr
-from pycolfrag import risk
+from pycolfrag.analysis import fragility as fr
+from pycolfrag.analysis import risk
+from pycolfrag.analysis.data import read_results
 from pycolfrag import site as site_file
 from pycolfrag.errors import ParameterError
 from pycolfrag.ground_motion import shahi_baker_2014 as sb14
@@ -70,7 +72,7 @@ def char_source(mw, r_km, rate=0.002, **kw):
 
 
 def _cell(path, mw, r):
-    d = risk._read(path)
+    d = read_results(path)
     sel = (d["mw"] == mw) & (d["dist_km"] == r)
     return d["u_top"][sel], d["u_d"][sel], d["collapsed"][sel]
 
@@ -518,7 +520,7 @@ def test_command_says_what_lies_outside_the_grid(tmp_path, capsys):
 
 def test_report_carries_the_risk_section(tmp_path):
     from test_figures import write_results
-    from pycolfrag import report
+    from pycolfrag.analysis import report
     h5 = write_results(tmp_path / "g.h5")
     res = risk.site_risk(site([char_source(7.0, 10.0)]), h5, n_draws=20, curves=False)
     text = open(report.write_report(h5, tmp_path / "r.md", n_boot=20, risk=res)).read()

@@ -30,7 +30,7 @@ here: the coefficients are checked against that one secondary implementation, no
 paper (``tests/test_risk.py``).
 
 pycolfrag uses the model to weight the pulse and no-pulse branches of a site's risk
-(:mod:`pycolfrag.risk`, ``docs/risk.md``).
+(:mod:`pycolfrag.analysis.risk`, ``docs/risk.md``).
 """
 from __future__ import annotations
 

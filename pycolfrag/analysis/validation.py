@@ -25,7 +25,8 @@ import numpy as np
 from scipy import stats
 
 from . import fragility as fr
-from .figures import ROCKING_INITIATION_G, ResultsData, read_results
+from .data import ResultsData, read_results
+from .figures import ROCKING_INITIATION_G
 from .fragility import binomial_ci
 from .report import fmt_ci
 from .record_figures import PAPER_FIG10_MEAN_U_TOP

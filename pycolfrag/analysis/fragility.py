@@ -47,8 +47,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize, special, stats
 
-from ._validate import float_array, integer, positive_float, real
-from .errors import ParameterError
+from .._validate import float_array, integer, positive_float, real
+from ..errors import ParameterError
 
 __all__ = [
     "PerformanceLevel",
@@ -59,6 +59,9 @@ __all__ = [
     "binomial_ci",
     "lognormal_parameters",
     "exceedance",
+    "eq4_statistic",
+    "as_rng",
+    "ok_rows",
     "empirical_exceedance",
     "bootstrap_interval",
     "ScenarioRow",
@@ -336,8 +339,10 @@ def exceeded(edp, collapsed, threshold) -> np.ndarray:
 
 # --------------------------------------------------------------------------- vectorised statistics
 
-def _eq4_vectorised(threshold):
-    """Eq. (4) as a statistic over the last axis of (edp, collapsed) batches (for the bootstrap).
+def eq4_statistic(threshold):
+    """Eq. (4) as a vectorised statistic: ``statistic(edp, collapsed, axis=-1)`` gives P(EDP > threshold)
+    of every batch along ``axis`` at once -- the form :func:`scipy.stats.bootstrap` takes, and what
+    the site risk draws its resampled probabilities with.
 
     Uses the closed form of the lognormal MLE (mean and ddof=0 std of ln x), which is what
     ``scipy.stats.lognorm.fit(x, floc=0)`` returns; ``tests/test_fragility.py`` checks the two agree.
@@ -382,7 +387,9 @@ def _mean_ok_vectorised(edp, collapsed, axis=-1):
         return np.sum(np.where(ok, np.nan_to_num(edp), 0.0), axis=-1) / np.sum(ok, axis=-1)
 
 
-def _rng(rng):
+def as_rng(rng) -> np.random.Generator:
+    """The generator of an ``rng`` argument: None (fresh entropy) or an int seed -> a new
+    :func:`numpy.random.default_rng`; a Generator itself; anything else -> ParameterError."""
     if rng is None or isinstance(rng, (int, np.integer)):
         return np.random.default_rng(rng)
     if isinstance(rng, np.random.Generator):
@@ -417,7 +424,7 @@ def bootstrap_interval(edp, collapsed, threshold=None, *, statistic="eq4", n_boo
     """
     if statistic in ("eq4", "empirical"):
         edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
-        fun = _eq4_vectorised(threshold) if statistic == "eq4" else _empirical_vectorised(threshold)
+        fun = eq4_statistic(threshold) if statistic == "eq4" else _empirical_vectorised(threshold)
     elif statistic == "mean":
         edp, collapsed = _as_inputs(edp, collapsed)
         if np.all(collapsed):
@@ -438,7 +445,7 @@ def bootstrap_interval(edp, collapsed, threshold=None, *, statistic="eq4", n_boo
     if statistic == "mean":
         # a resample may hold only collapsed rows: its mean is undefined; the percentile of the
         # rest is what we want, so draw the indices here and use nanpercentile.
-        g = _rng(rng)
+        g = as_rng(rng)
         idx = g.integers(0, edp.size, size=(int(n_boot), edp.size))
         vals = fun(edp[idx], collapsed[idx])
         a = 100 * (1 - confidence) / 2
@@ -446,7 +453,7 @@ def bootstrap_interval(edp, collapsed, threshold=None, *, statistic="eq4", n_boo
         return float(lo), float(hi)
     res = stats.bootstrap((np.nan_to_num(edp, nan=0.0), collapsed.astype(float)), fun, paired=True,
                           vectorized=True, n_resamples=int(n_boot), confidence_level=confidence,
-                          method="percentile", random_state=_rng(rng))
+                          method="percentile", random_state=as_rng(rng))
     ci = res.confidence_interval
     return float(ci.low), float(ci.high)
 
@@ -518,7 +525,7 @@ def scenario_table(mw, dist_km, edps: dict, collapsed, levels=PERFORMANCE_LEVELS
             raise ParameterError(f"{k} has length {v.size}, expected {mw.size}")
     if collapsed.shape != mw.shape:
         raise ParameterError(f"collapsed has length {collapsed.size}, expected {mw.size}")
-    g = _rng(rng)
+    g = as_rng(rng)
     rows = []
     for m in mws:
         for d in ds:
@@ -620,7 +627,7 @@ def exceedance_surface(mw, dist_km, edp, collapsed, threshold, *, method="eq4", 
     if method not in ("eq4", "empirical"):
         raise ParameterError(f"method must be 'eq4' or 'empirical', got {method!r}")
     _ = _as_inputs(edp, collapsed, threshold)
-    g = _rng(rng)
+    g = as_rng(rng)
     fn = exceedance if method == "eq4" else empirical_exceedance
     return _surface(mw, dist_km, edp, collapsed, lambda e, c: fn(e, c, threshold),
                     lambda e, c: bootstrap_interval(e, c, threshold, statistic=method, n_boot=n_boot,
@@ -633,7 +640,7 @@ def mean_edp_surface(mw, dist_km, edp, collapsed, *, n_boot=1000, confidence=0.9
     """Mean EDP of the non-collapsed samples over (Mw, R) (paper Fig. 8a, b); NaN if all collapsed.
 
     EDPs of collapsed samples are ignored (may be NaN)."""
-    g = _rng(rng)
+    g = as_rng(rng)
     return _surface(mw, dist_km, edp, collapsed, lambda e, c: float(_mean_ok_vectorised(e, c)),
                     lambda e, c: bootstrap_interval(e, c, statistic="mean", n_boot=n_boot,
                                                     confidence=confidence, rng=g),
@@ -642,7 +649,7 @@ def mean_edp_surface(mw, dist_km, edp, collapsed, *, n_boot=1000, confidence=0.9
 
 def collapse_surface(mw, dist_km, collapsed, *, n_boot=1000, confidence=0.90, rng=None) -> Surface:
     """Collapse probability, Eq. (3), over (Mw, R) (paper Fig. 8c)."""
-    g = _rng(rng)
+    g = as_rng(rng)
     c = np.asarray(collapsed)
     return _surface(mw, dist_km, np.zeros(c.shape), c, lambda e, c: float(np.mean(c)),
                     lambda e, c: bootstrap_interval(e, c, statistic="collapse", n_boot=n_boot,
@@ -733,7 +740,7 @@ def stripe_curve(im, edp, collapsed, threshold, *, n_stripes=12, stripes="equal-
     # stripe index; the last stripe is closed on the right
     idx = np.clip(np.searchsorted(edges, im, side="right") - 1, 0, k - 1)
     inside = (im >= edges[0]) & (im <= edges[-1])
-    g = _rng(rng)
+    g = as_rng(rng)
     out = {name: np.full(k, np.nan) for name in ("im", "p", "pe", "lo", "hi")}
     n = np.zeros(k, dtype=int)
     nc = np.zeros(k, dtype=int)
@@ -917,7 +924,7 @@ def fit_lognormal_fragility(im, edp, collapsed, threshold, *, groups=None, n_boo
         warnings.warn(f"fit_lognormal_fragility ({threshold:g}): {fit.degenerate}", DegenerateFitWarning,
                       stacklevel=2)
     if members is not None:
-        g = _rng(rng)
+        g = as_rng(rng)
         grid = (np.geomspace(im.min(), im.max(), 100) if band_im is None
                 else np.asarray(band_im, dtype=float))
         curves, meds, betas = [], [], []
@@ -954,7 +961,8 @@ def fit_lognormal_fragility(im, edp, collapsed, threshold, *, groups=None, n_boo
 # statsmodels would give the same numbers (ordinary least squares and a binomial GLM) but would be a
 # new dependency for two two-parameter fits whose likelihoods and standard errors are a few lines.
 
-def _ok_rows(table) -> np.ndarray:
+def ok_rows(table) -> np.ndarray:
+    """Mask of a table's successful rows (``status == 0``; every row when it has no ``status``)."""
     status = table.get("status")
     n = len(np.asarray(table["collapsed"]))
     return np.ones(n, dtype=bool) if status is None else (np.asarray(status) == 0)
@@ -963,7 +971,9 @@ def _ok_rows(table) -> np.ndarray:
 def table_im(table, im: str, period_s: float | None = None) -> tuple[np.ndarray, str]:
     """One IM column of a suite table and its label: a scalar IM, or a spectral IM (``sa_g``,
     ``sv_cm_s``) at ``period_s`` (the nearest stored period must match to 1e-9 s)."""
-    from . import names as _names
+    # imported here, not at the top: names reads gravity from the C library when it is imported, and
+    # the statistics must import without the C library
+    from .. import names as _names
     q = _names.im(im)
     if not q.spectral:
         return np.asarray(table[im], dtype=float), q.label
@@ -985,8 +995,8 @@ def stripe_analysis(table, levels=PERFORMANCE_LEVELS, ims=("pga_g", "pgv_cm_s", 
     Successful rows (``status == 0``) only; spectral IMs at ``period_s``. Returns
     ``{(im, level.label): StripeCurve}`` (:func:`stripe_curve`).
     """
-    ok = _ok_rows(table)
-    g = _rng(rng)
+    ok = ok_rows(table)
+    g = as_rng(rng)
     out = {}
     for im in ims:
         x, _ = table_im(table, im, period_s)
@@ -1204,7 +1214,7 @@ def msa_from_table(table, im: str, level: PerformanceLevel, *, stripe_key="scale
     ``stripe_key``; the stripe's IM level is the geometric mean of its runs' IM (the common IM level
     when the records were scaled to one; with plain amplitude factors the runs of a stripe have
     different IMs and :func:`fit_lognormal_fragility` on the individual IMs is the sharper fit)."""
-    ok = _ok_rows(table)
+    ok = ok_rows(table)
     x, _ = table_im(table, im, period_s)
     key = np.asarray(table[stripe_key])[ok]
     y = exceeded(np.asarray(table[level.edp], dtype=float)[ok], np.asarray(table["collapsed"])[ok].astype(bool),

@@ -14,19 +14,17 @@ rows are never read -- ``u_d`` of a collapsed run is NaN (no residual state), an
 """
 from __future__ import annotations
 
-import os
 import warnings
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from . import fragility as fr
-from . import names as _names
-from . import results as _results
-from .errors import ParameterError, ResultsFileError
+from .. import names as _names
+from ..errors import ParameterError
+from .data import ResultsData, as_data, read_results
 
-__all__ = ["ResultsData", "read_results", "FIGURES", "make_all", "ROCKING_INITIATION_G"]
+__all__ = ["FIGURES", "make_all", "ROCKING_INITIATION_G"]
 
 #: Minimum base acceleration initiating rocking of the column as a rigid block (paper Fig. 11c), g.
 ROCKING_INITIATION_G = 0.17
@@ -39,100 +37,10 @@ IM_LABELS = {k: q.label for k, q in _names.IMS.items()}
 
 def Figure(*args, **kwargs):
     """A ``matplotlib.figure.Figure``; matplotlib is imported here, on the first figure, so that
-    reading results (:func:`read_results`) and the modules built on it (:mod:`pycolfrag.report`,
-    :mod:`pycolfrag.validation`) work without matplotlib installed."""
-    from matplotlib.figure import Figure as _Figure
+    reading results (:mod:`pycolfrag.analysis.data`) and the modules built on it (:mod:`~pycolfrag.analysis.report`,
+    :mod:`~pycolfrag.analysis.validation`) work without matplotlib installed."""
+    from matplotlib.figure import Figure as _Figure  # here: the optional plotting stack, only to draw
     return _Figure(*args, **kwargs)
-
-
-# --------------------------------------------------------------------------- reading
-
-@dataclass
-class ResultsData:
-    """Successful samples of a results file, ready for the fragility analysis.
-
-    Attributes
-    ----------
-    samples : dict of str -> ndarray
-        ``/samples`` fields restricted to rows with ``status == 0`` (``collapsed`` as bool).
-    sa_g, sv_cm_s : ndarray (n_ok, n_periods) or None
-    periods_s : ndarray or None
-    attrs : dict
-        Root attributes of the file.
-    n_total, n_failed : int
-        Finished rows in the file, and rows with ``status != 0`` (excluded here).
-    failures : dict of int -> int
-        Failed rows by status code.
-    path : str
-    """
-
-    samples: dict
-    sa_g: np.ndarray | None
-    sv_cm_s: np.ndarray | None
-    periods_s: np.ndarray | None
-    attrs: dict
-    n_total: int
-    n_failed: int
-    failures: dict = field(default_factory=dict)
-    path: str = ""
-
-    @property
-    def n(self) -> int:
-        return int(self.samples["mw"].size)
-
-    def __getitem__(self, name):
-        try:
-            return self.samples[name]
-        except KeyError:
-            raise ResultsFileError(f"{self.path}: /samples has no field {name!r}, which this output needs "
-                                   f"(fields: {', '.join(sorted(self.samples))})") from None
-
-    def scenario_index(self) -> np.ndarray:
-        """Integer stratum of each sample: its (Mw, R) scenario (for stratified bootstraps)."""
-        keys = np.round(self.samples["mw"], 6) * 1e4 + np.round(self.samples["dist_km"], 6)
-        return np.unique(keys, return_inverse=True)[1].ravel()
-
-    def failed_note(self) -> str:
-        return f"; {self.n_failed} failed runs excluded" if self.n_failed else ""
-
-
-def read_results(path) -> ResultsData:
-    """Read a results file through the one reader, :func:`pycolfrag.results.load` (journal overlay of
-    a killed run; ``any_layout=True`` also reads a file in the documented layout that ``run_grid.py``
-    did not write, without ``grid_signature``).
-
-    Rows not computed yet (status -1) are dropped; failed rows (status > 0) are counted and excluded.
-    """
-    path = os.fspath(path)
-    if not os.path.exists(path):
-        raise ResultsFileError(f"results file {path} does not exist")
-    r = _results.load(path, any_layout=True)
-    samples, spectra, attrs = r.samples, r.spectra, r.attrs
-    if attrs.get("layout") == "records":
-        # a suite's rows are records x components x scales, not (Mw, R) scenarios of one distribution:
-        # pooling them as scenarios would mix scale factors into one probability
-        raise ResultsFileError(f"{path} is a record-suite results file (run_grid.py --records), not a synthetic "
-                               f"grid: analyse it with python -m pycolfrag.record_report {path} OUT_DIR")
-    periods = r.periods_s if len(r.periods_s) else None
-    missing = [k for k in ("mw", "dist_km", "u_top", "u_d", "collapsed", "status") if k not in samples]
-    if missing:
-        raise ResultsFileError(f"{path}: /samples lacks {', '.join(missing)}")
-    status = np.asarray(samples["status"])
-    done = status >= 0
-    ok = status == 0
-    n_total = int(done.sum())
-    failures = {int(s): int(np.sum(status == s)) for s in np.unique(status[done & ~ok])}
-    s = {k: np.asarray(v)[ok] for k, v in samples.items() if np.ndim(v) == 1 and len(v) == status.size}
-    s["collapsed"] = s["collapsed"].astype(bool)
-    if ok.sum() == 0:
-        raise ResultsFileError(f"{path}: no successful runs (status == 0) to analyse")
-    sa = np.asarray(spectra["sa_g"])[ok] if "sa_g" in spectra else None
-    sv = np.asarray(spectra["sv_cm_s"])[ok] if "sv_cm_s" in spectra else None
-    return ResultsData(s, sa, sv, periods, dict(attrs), n_total, int(n_total - ok.sum()), failures, path)
-
-
-def _as_data(data) -> ResultsData:
-    return data if isinstance(data, ResultsData) else read_results(data)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -168,7 +76,7 @@ def _level_surface(d: ResultsData, lev: fr.PerformanceLevel, n_boot, rng):
 
 def fig_07(data, **_) -> Figure:
     """Fig. 7: u_d versus u_top for the runs that did not collapse."""
-    d = _as_data(data)
+    d = as_data(data)
     ok = ~d["collapsed"]
     fig = Figure(figsize=(6, 5))
     ax = fig.add_subplot(1, 1, 1)
@@ -191,7 +99,7 @@ def fig_07(data, **_) -> Figure:
 
 def fig_08(data, n_boot=500, rng=0, **_) -> Figure:
     """Fig. 8: mean u_top, mean u_d (non-collapsed) and collapse probability over (Mw, R)."""
-    d = _as_data(data)
+    d = as_data(data)
     g = np.random.default_rng(rng)
     fig = Figure(figsize=(15, 5))
     s1 = fr.mean_edp_surface(d["mw"], d["dist_km"], d["u_top"], d["collapsed"], n_boot=n_boot, rng=g)
@@ -220,7 +128,7 @@ def _has_pulses(d) -> bool:
 
 def fig_09(data, **_) -> Figure | None:
     """Fig. 9: mean sampled Vp and mean pulse acceleration amplitude Ap per (Mw, R); None without pulses."""
-    d = _as_data(data)
+    d = as_data(data)
     if not _has_pulses(d):
         return None
     ap, ap_label = _pulse_ap_g(d)
@@ -246,7 +154,7 @@ def fig_09(data, **_) -> Figure | None:
 
 def fig_11(data, **_) -> Figure | None:
     """Fig. 11: u_top vs Tp; safe/unsafe on the PGA-fp and Ap-fp planes (Mw >= 6.5); None without pulses."""
-    d = _as_data(data)
+    d = as_data(data)
     if not _has_pulses(d):
         return None
     ap, ap_label = _pulse_ap_g(d)
@@ -283,7 +191,7 @@ def fig_11(data, **_) -> Figure | None:
 
 
 def _fig_levels(data, levels, number, edp, n_boot, rng):
-    d = _as_data(data)
+    d = as_data(data)
     g = np.random.default_rng(rng)
     fig = Figure(figsize=(15, 5))
     for k, lev in enumerate(levels, start=1):
@@ -306,7 +214,7 @@ def fig_13(data, n_boot=500, rng=0, **_) -> Figure:
 
 
 def _fig_im_vs_edp(data, im, number):
-    d = _as_data(data)
+    d = as_data(data)
     c = d["collapsed"]
     fig = Figure(figsize=(11, 4.8))
     for k, (edp, levels) in enumerate((("u_top", fr.U_TOP_LEVELS), ("u_d", fr.U_D_LEVELS)), start=1):
@@ -389,14 +297,14 @@ def _fig_curves(d, ims, number, title, n_boot, rng):
 
 def fig_16(data, n_boot=200, rng=0, **_) -> Figure:
     """Fig. 16: fragility curves against PGA and PGV (stripe method and MLE lognormal curves)."""
-    d = _as_data(data)
+    d = as_data(data)
     return _fig_curves(d, [("PGA", d["pga_g"], IM_LABELS["pga_g"]), ("PGV", d["pgv_cm_s"], IM_LABELS["pgv_cm_s"])],
                        16, "Fig. 16: fragility curves against PGA and PGV", n_boot, rng)
 
 
 def fig_16_spectral(data, period_s=1.0, n_boot=200, rng=0, **_) -> Figure | None:
     """Fig. 16 with SA(T) and SV(T) at the stored period nearest ``period_s`` (None without spectra)."""
-    d = _as_data(data)
+    d = as_data(data)
     if d.sa_g is None or d.periods_s is None or d.sv_cm_s is None or d.periods_s.size == 0:
         return None
     k = int(np.argmin(np.abs(d.periods_s - period_s)))

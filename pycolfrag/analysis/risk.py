@@ -35,7 +35,7 @@ simulated (Mw, R) range is always reported (rate fractions below/above in Mw and
 file chooses what it contributes: ``refuse`` (default: an error giving the fractions), ``clamp``
 (the nearest edge of the grid) or ``zero`` (nothing).
 
-Command: ``python -m pycolfrag.risk SITE.toml RESULTS.h5 OUTDIR [--no-pulse NOPULSE.h5]``.
+Command: ``python -m pycolfrag.analysis.risk SITE.toml RESULTS.h5 OUTDIR [--no-pulse NOPULSE.h5]``.
 """
 from __future__ import annotations
 
@@ -49,8 +49,10 @@ from pathlib import Path
 import numpy as np
 
 from . import fragility as fr
-from .errors import ParameterError, PycolfragError, ResultsFileError
-from .site import OUTSIDE_CHOICES, PulseModel, Site, load_site
+from . import risk_figures
+from ..errors import ParameterError, PycolfragError, ResultsFileError
+from ..site import OUTSIDE_CHOICES, PulseModel, Site, load_site
+from .data import as_data
 
 __all__ = ["RiskQuantity", "QUANTITIES", "node_weights", "interpolate", "OutsideReport", "SiteRisk",
            "declared_pulse", "site_risk", "report_section", "write_outputs", "main"]
@@ -296,7 +298,7 @@ def _cell_draws(cell, threshold, estimator, uncertainty, n_draws, rng):
         else:
             e = np.nan_to_num(np.asarray(edp, dtype=float), nan=0.0)
             c = np.asarray(c, dtype=bool)
-            draws = fr._eq4_vectorised(threshold)(e[idx], c[idx], axis=-1)
+            draws = fr.eq4_statistic(threshold)(e[idx], c[idx], axis=-1)
         out[b] = (point[b], draws)
     return out, len(cell) == 1 or paired
 
@@ -336,11 +338,6 @@ def declared_pulse(attrs) -> str | None:
     if isinstance(v, bytes):
         v = v.decode()
     return None if v is None else str(v)
-
-
-def _read(results):
-    from .figures import read_results
-    return results if hasattr(results, "samples") else read_results(results)
 
 
 def _check_branches(pulse, no_pulse):
@@ -491,9 +488,9 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
     if any(not (math.isfinite(y) and y > 0) for y in extra):
         raise ParameterError(f"years must be positive, got {list(years)!r}")
     all_years = tuple(sorted(set(site.years) | set(extra)))
-    g = fr._rng(rng)
-    pulse = _read(pulse_results)
-    no_pulse = None if no_pulse_results is None else _read(no_pulse_results)
+    g = fr.as_rng(rng)
+    pulse = as_data(pulse_results)
+    no_pulse = None if no_pulse_results is None else as_data(no_pulse_results)
     need = [s.name for s in site.sources if s.pulse.needs_no_pulse_branch]
     if no_pulse is None and need:
         raise ParameterError(
@@ -646,7 +643,6 @@ def write_outputs(risk: SiteRisk, outdir, *, figures=True) -> dict:
     paths = {}
     figs = {}
     if figures:
-        from . import risk_figures
         for stem, path in risk_figures.make_all(risk, outdir).items():
             figs[risk_figures.CAPTIONS[stem]] = Path(path).name
             paths[stem] = str(path)
@@ -659,7 +655,7 @@ def write_outputs(risk: SiteRisk, outdir, *, figures=True) -> dict:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m pycolfrag.risk",
+    ap = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.risk",
                                  description="Annual rates and T-year probabilities of the column's damage "
                                              "levels at a site (docs/risk.md).")
     ap.add_argument("site", help="site file (TOML)")

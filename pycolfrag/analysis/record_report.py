@@ -1,20 +1,20 @@
 """Analysis of a record-suite results file (``scripts/run_grid.py --records``): stripe curves, cloud
 analysis, multiple-stripe fragility, Fig. 10, and a short markdown report.
 
-    python -m pycolfrag.record_report results/records.h5 results/records_analysis [--synthetic results/grid.h5]
+    python -m pycolfrag.analysis.record_report results/records.h5 results/records_analysis [--synthetic results/grid.h5]
     python scripts/record_checks.py analyse results/records.h5 --out results/records_analysis
 
 What it writes into the output folder (docs/records.md, "Analysing a record-suite file"):
 
 * ``stripes.png`` and ``stripes.csv`` -- the stripe method of paper Fig. 3 / Fig. 16 on PGA, PGV,
-  SA(T) and SV(T) (:func:`pycolfrag.fragility.stripe_analysis`, stripes of equal counts), every
+  SA(T) and SV(T) (:func:`pycolfrag.analysis.fragility.stripe_analysis`, stripes of equal counts), every
   performance level;
 * ``cloud.png`` -- ln u_top and ln u_d against ln IM with the cloud regression
-  (:func:`pycolfrag.fragility.cloud_analysis`: OLS with its dispersion, collapse by logistic
+  (:func:`pycolfrag.analysis.fragility.cloud_analysis`: OLS with its dispersion, collapse by logistic
   regression on the IM);
 * ``msa.png`` -- with several ``--scale`` values, the multiple-stripe fragility by maximum likelihood
-  (Baker 2015, :func:`pycolfrag.fragility.msa_from_table`), one stripe per scale factor;
-* ``fig10_records.png`` -- Fig. 10 (:func:`pycolfrag.record_figures.fig_10`) of the rows at scale 1,
+  (Baker 2015, :func:`pycolfrag.analysis.fragility.msa_from_table`), one stripe per scale factor;
+* ``fig10_records.png`` -- Fig. 10 (:func:`pycolfrag.analysis.record_figures.fig_10`) of the rows at scale 1,
   with the synthetic mean line when a synthetic grid file is given;
 * ``report.md`` -- the run, the per-record table, the cloud and MSA fits, links to the figures.
 
@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import os
 import sys
 import warnings
 from pathlib import Path
@@ -34,15 +35,18 @@ from pathlib import Path
 import numpy as np
 
 from . import fragility as fr
-from . import names
-from . import results as _results
-from .errors import ParameterError, ResultsFileError
+from . import record_figures as rf
+from .. import names
+from ..errors import ParameterError, ResultsFileError
+from .data import read_table
+from .figures import Figure
+from .summary import format_table, summary_table
 
 __all__ = ["STRIPE_IMS", "suite_table", "analyse", "write_record_report", "main"]
 
 #: IMs of the stripe, cloud and MSA analyses (spectral ones at ``period_s``).
 STRIPE_IMS = ("pga_g", "pgv_cm_s", "sa_g", "sv_cm_s")
-#: Runs per stripe below which a stripe is left empty (as in :func:`pycolfrag.fragility.stripe_curve`).
+#: Runs per stripe below which a stripe is left empty (as in :func:`pycolfrag.analysis.fragility.stripe_curve`).
 MIN_PER_STRIPE = 5
 
 
@@ -50,17 +54,7 @@ def suite_table(path) -> dict:
     """A record-suite results file as a suite table (the ``/samples`` fields, ``sa_g``/``sv_cm_s``
     rows x periods, ``periods_s``, and ``attrs``): finished rows only, failed rows included with
     their ``status`` (the analyses keep ``status == 0``)."""
-    r = _results.load(path)
-    if r.attrs.get("layout") != "records":
-        raise ResultsFileError(f"{path} is not a record-suite results file (run_grid.py --records); "
-                               "for a synthetic grid use python -m pycolfrag.report")
-    if len(r) == 0:
-        raise ResultsFileError(f"{path} holds no finished rows yet")
-    t = dict(r.samples)
-    t.update(r.spectra)
-    t["periods_s"] = np.asarray(r.periods_s, dtype=float)
-    t["attrs"] = dict(r.attrs)
-    return t
+    return read_table(path, layout="records")
 
 
 def _period(table, period_s):
@@ -114,7 +108,6 @@ def _im_label(im, period):
 # --------------------------------------------------------------------------------- figures
 
 def _fig_stripes(a, levels):
-    from matplotlib.figure import Figure
     fig = Figure(figsize=(12, 8))
     for k, im in enumerate(STRIPE_IMS):
         ax = fig.add_subplot(2, 2, k + 1)
@@ -133,7 +126,6 @@ def _fig_stripes(a, levels):
 
 
 def _fig_cloud(table, a):
-    from matplotlib.figure import Figure
     ok = np.asarray(table["status"]) == 0
     coll = np.asarray(table["collapsed"]).astype(bool)[ok]
     fig = Figure(figsize=(14, 6.5))
@@ -160,7 +152,6 @@ def _fig_cloud(table, a):
 
 
 def _fig_msa(a, levels):
-    from matplotlib.figure import Figure
     fig = Figure(figsize=(12, 8))
     for k, im in enumerate(STRIPE_IMS):
         ax = fig.add_subplot(2, 2, k + 1)
@@ -210,8 +201,7 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
 
     ``synthetic``: a synthetic grid results file for the Fig. 10 line (skipped when None or missing).
     ``band_km``/``dist_km``: Fig. 10's Rrup band and synthetic distance (defaults of
-    :mod:`pycolfrag.record_figures`). ``figures=False``: tables only (no matplotlib needed)."""
-    from .grid import format_table, summary_table
+    :mod:`pycolfrag.analysis.record_figures`). ``figures=False``: tables only (no matplotlib needed)."""
     levels = fr.PERFORMANCE_LEVELS
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -276,12 +266,11 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
     drawn = []
     if figures:
         try:
-            import matplotlib  # noqa: F401
+            import matplotlib  # noqa: F401 -- a probe: the plotting stack is optional, the tables are not
         except ImportError:
             L += ["", "Figures: matplotlib is not installed; tables only."]
             figures = False
     if figures:
-        from . import record_figures as rf
         figs = []
         if not isinstance(a["stripes"], str):
             figs.append(("stripes.png", _fig_stripes(a, levels)))
@@ -322,12 +311,11 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
 
 
 def _relpath(p: Path, start: Path) -> str:
-    import os
     return os.path.relpath(p, start)
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m pycolfrag.record_report",
+    p = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.record_report",
                                 description="Analyse a record-suite results file (run_grid.py --records): stripes, "
                                             "cloud, MSA (several scales), Fig. 10, report.md")
     p.add_argument("results", help="record-suite HDF5 file")

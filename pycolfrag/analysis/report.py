@@ -2,17 +2,17 @@
 
 ``write_report(results_path, out_path)`` is called by the grid driver at the end of a run
 (``results/report.md`` next to ``results/grid.h5`` by default) and by
-``python -m pycolfrag.report RESULTS.h5 [OUT.md]``.
+``python -m pycolfrag.analysis.report RESULTS.h5 [OUT.md]``.
 
 Confidence intervals: Eq. (4) exceedances and mean EDPs carry percentile-bootstrap intervals
-(resampling within the scenario, :mod:`pycolfrag.fragility`); the collapse probability, a binomial
+(resampling within the scenario, :mod:`pycolfrag.analysis.fragility`); the collapse probability, a binomial
 proportion, carries the exact Clopper-Pearson interval (``scipy.stats.binomtest``), which stays
 informative when no run collapsed (the bootstrap interval of 0 of n is [0, 0]).
 
 EDPs of collapsed runs (``u_d`` is NaN for them) are not used: means and log-moments are over the
 non-collapsed runs, and Eq. (4) counts a collapse as exceeding every level.
 
-Fits that are not estimates (:func:`pycolfrag.fragility.eq4_degenerate`, ``LognormalFragility.degenerate``:
+Fits that are not estimates (:func:`pycolfrag.analysis.fragility.eq4_degenerate`, ``LognormalFragility.degenerate``:
 too few runs, a parameter on the optimiser's bound, a bootstrap that cannot vary) are marked in the
 tables and their reasons listed under them; their numbers are still printed, as the formula gives them.
 """
@@ -27,10 +27,11 @@ from pathlib import Path
 import numpy as np
 
 from . import fragility as fr
-from . import names
+from .. import names
 from .fragility import binomial_ci
-from .errors import PycolfragError
-from .figures import FIGURES, im_curves, read_results
+from ..errors import PycolfragError
+from .data import read_results
+from .figures import FIGURES, im_curves
 from .risk import report_section
 
 __all__ = ["write_report", "binomial_ci", "fmt_ci"]
@@ -94,14 +95,14 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
     out_path : str or path-like, optional
         Markdown file (default: ``report.md`` next to the results file).
     figures_dir : str or path-like, optional
-        Where :func:`pycolfrag.figures.make_all` wrote the PNGs (default: ``figures/`` next to the
+        Where :func:`pycolfrag.analysis.figures.make_all` wrote the PNGs (default: ``figures/`` next to the
         report); PNGs found there are embedded with relative links.
     n_boot : int
         Bootstrap resamples per interval.
     rng : int
         Seed of the bootstrap (reports are reproducible).
-    risk : pycolfrag.risk.SiteRisk, optional
-        A site risk computed from this results file (:func:`pycolfrag.risk.site_risk`): its section
+    risk : pycolfrag.analysis.risk.SiteRisk, optional
+        A site risk computed from this results file (:func:`pycolfrag.analysis.risk.site_risk`): its section
         is added before the figures.
     """
     d = read_results(results_path)
@@ -195,7 +196,7 @@ def _write(d, out_path, figures_dir, n_boot, g, risk) -> str:
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     if not argv or argv[0] in ("-h", "--help"):
-        print("usage: python -m pycolfrag.report RESULTS.h5 [OUT.md]")
+        print("usage: python -m pycolfrag.analysis.report RESULTS.h5 [OUT.md]")
         return 0 if argv else 2
     try:
         print(write_report(argv[0], argv[1] if len(argv) > 1 else None))

@@ -10,22 +10,25 @@ confusing whose numbers are whose:
   for one or several record sets at once;
 * their **binned means** (Mw bins of :data:`FIG10_MW_BIN_WIDTH` centred on the grid's magnitudes,
   mean u_top of the standing components) with percentile-bootstrap intervals
-  (:func:`pycolfrag.fragility.bootstrap_interval`, resampling the components of the bin) and the
+  (:func:`pycolfrag.analysis.fragility.bootstrap_interval`, resampling the components of the bin) and the
   count beside each, split into fault-normal (FN) and fault-parallel (FP) components when the rows
   carry a ``direction`` (``scripts/record_checks.py fig10`` rotates records whose strike and H1
   azimuth are known); otherwise the figure says that the split is not available;
 * **pycolfrag's** synthetic mean line at R = ``dist_km`` from a grid file, labelled as ours;
 * **the paper's** synthetic mean, :data:`PAPER_FIG10_MEAN_U_TOP`, marked as the paper's.
 
-Built with the object-oriented matplotlib API (no pyplot state), like :mod:`pycolfrag.figures`.
+Built with the object-oriented matplotlib API (no pyplot state), like :mod:`pycolfrag.analysis.figures`.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from . import fragility as fr
-from . import names
-from .errors import ParameterError
+from .. import names
+from ..errors import ParameterError
+from ..sample import rows_to_table
+from .data import as_data
+from .figures import Figure
 
 __all__ = ["FIG10_BAND_KM", "FIG10_DIST_KM", "FIG10_MW_BIN_WIDTH", "PAPER_FIG10_MEAN_U_TOP", "synthetic_mean_u_top",
            "binned_means", "fig_10"]
@@ -44,13 +47,12 @@ PAPER_FIG10_MEAN_U_TOP = {6.5: 0.4, 7.5: 0.2}
 
 def synthetic_mean_u_top(synthetic, dist_km: float = FIG10_DIST_KM) -> tuple[np.ndarray, np.ndarray]:
     """(Mw, mean u_top of the successful non-collapsed runs) at distance ``dist_km`` of a synthetic
-    grid: a results path, a :class:`pycolfrag.figures.ResultsData` or a dict of arrays."""
+    grid: a results path, a :class:`pycolfrag.analysis.data.ResultsData` or a dict of arrays."""
     if isinstance(synthetic, dict):
         s = synthetic
         ok = np.asarray(s.get("status", np.zeros(len(s["mw"]))), dtype=int) == 0
     else:
-        from .figures import ResultsData, read_results
-        d = synthetic if isinstance(synthetic, ResultsData) else read_results(synthetic)
+        d = as_data(synthetic)
         s, ok = d.samples, np.ones(d.n, dtype=bool)
     dist = np.asarray(s["dist_km"], dtype=float)
     at = ok & np.isclose(dist, float(dist_km))
@@ -67,8 +69,6 @@ def synthetic_mean_u_top(synthetic, dist_km: float = FIG10_DIST_KM) -> tuple[np.
 
 def _sets(records) -> dict:
     """``{label: suite table}`` from a table, a list of row dicts, or a mapping of labels to either."""
-    from .sample import rows_to_table
-
     def table(x):
         return rows_to_table(x) if isinstance(x, (list, tuple)) else x
 
@@ -116,7 +116,7 @@ def binned_means(table, *, band_km=FIG10_BAND_KM, bin_width=FIG10_MW_BIN_WIDTH, 
     dirs = _directions(table)
     width = float(bin_width)
     centre = np.round(mw / width) * width
-    g = fr._rng(rng)
+    g = fr.as_rng(rng)
     groups = {"all": sel}
     for d in ("FN", "FP"):
         if np.any(sel & (dirs == d)):
@@ -155,7 +155,6 @@ def fig_10(records, synthetic=None, *, band_km=FIG10_BAND_KM, dist_km=FIG10_DIST
     bin_width : Mw bin width of the binned means; n_boot, rng : their bootstrap
     paper : draw the paper's synthetic mean (:data:`PAPER_FIG10_MEAN_U_TOP`), marked as the paper's
     """
-    from matplotlib.figure import Figure
     sets = _sets(records)
     lo, hi = map(float, band_km)
     fig = Figure(figsize=(12, 5.5))

@@ -25,8 +25,8 @@ Three pieces, none of which needs OpenQuake installed:
 
 Command line::
 
-    python -m pycolfrag.openquake export results/grid.h5 column_fragility.xml --im pga_g
-    python -m pycolfrag.openquake damage hazard_curve-mean-PGA.csv column_fragility.xml --risk-time 50
+    python -m pycolfrag.analysis.openquake export results/grid.h5 column_fragility.xml --im pga_g
+    python -m pycolfrag.analysis.openquake damage hazard_curve-mean-PGA.csv column_fragility.xml --risk-time 50
 
 Units are OpenQuake's: PGA and SA in g, PGV in cm/s (pycolfrag's ``pga_g``, ``sa_g``, ``pgv_cm_s``).
 """
@@ -44,14 +44,17 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from .errors import HazardFileError, ParameterError
+from ..errors import HazardFileError, ParameterError
+from . import fragility as _frag
+from .data import read_table
+from .fragility import U_D_LEVELS, U_TOP_LEVELS
+from .outputs import NRML_NS, WRITERS, write_fragility, write_nrml
 
 __all__ = ["NRML_NS", "MIN_IML", "HazardCurves", "read_hazard_curves", "imt_of", "im_of_imt", "annual_rates",
            "occurrence_rates", "ContinuousFragility", "DiscreteFragility", "FragilityModel",
            "classical_damage", "fragility_from_results", "write_nrml", "read_nrml", "main"]
 
 #: XML namespace of NRML 0.5.
-NRML_NS = "http://openquake.org/xmlns/nrml/0.5"
 
 #: pycolfrag IM name -> OpenQuake IMT (spectral ones take a period: ``SA(1.0)``); units agree.
 _IMT = {"pga_g": "PGA", "pgv_cm_s": "PGV", "sa_g": "SA"}
@@ -360,7 +363,7 @@ class FragilityModel:
 
     ``functions``: one :class:`ContinuousFragility` or :class:`DiscreteFragility` per limit state (all of
     one format; a discrete model shares its IMLs and no-damage limit). ``fits``: the pycolfrag fits it
-    came from (:class:`~pycolfrag.fragility.LognormalFragility` per limit state), when built from results.
+    came from (:class:`~pycolfrag.analysis.fragility.LognormalFragility` per limit state), when built from results.
     """
 
     imt: str
@@ -460,17 +463,6 @@ def classical_damage(model: FragilityModel, imls, poes, investigation_time, risk
 
 # --------------------------------------------------------------------------- from pycolfrag results
 
-def _results_table(results):
-    from . import results as _results
-    if isinstance(results, dict):
-        return results
-    r = results if isinstance(results, _results.Results) else _results.load(results)
-    t = dict(r.samples)
-    t.update(r.spectra)
-    t["periods_s"] = np.asarray(r.periods_s, dtype=float)
-    return t
-
-
 def _ls_name(level) -> str:
     return re.sub(r"[^A-Za-z0-9]+", "_", level.name.strip()).strip("_").lower()
 
@@ -487,12 +479,12 @@ def fragility_from_results(results, im: str = "pga_g", *, period_s: float | None
     """IM-based fragility of a results file as an OpenQuake fragility model.
 
     Every limit state is pycolfrag's binomial maximum-likelihood lognormal fit
-    (:func:`pycolfrag.fragility.fit_lognormal_fragility`) over the successful rows: exceedance of a
+    (:func:`pycolfrag.analysis.fragility.fit_lognormal_fragility`) over the successful rows: exceedance of a
     performance level (a collapse counts as exceeding), and collapse itself last when ``collapse``.
 
     Parameters
     ----------
-    results : path, :class:`~pycolfrag.results.Results` or a suite table (dict)
+    results : path, :class:`~pycolfrag.analysis.data.Results` or a suite table (dict)
     im : ``pga_g``, ``pgv_cm_s`` or ``sa_g`` (with ``period_s``)
     levels : performance levels in increasing severity (default: Table III, ``U_TOP_LEVELS``)
     fmt : ``continuous`` (``mean``/``stddev`` of the IML, :meth:`ContinuousFragility.from_lognormal`)
@@ -507,15 +499,13 @@ def fragility_from_results(results, im: str = "pga_g", *, period_s: float | None
     probable as the one before it), else ParameterError naming the two: OpenQuake would turn such
     curves into negative damage-state probabilities.
     """
-    from . import fragility as _frag
-    from .fragility import U_TOP_LEVELS
     if fmt not in ("continuous", "discrete"):
         raise ParameterError(f"fmt must be 'continuous' or 'discrete', got {fmt!r}")
     levels = tuple(U_TOP_LEVELS if levels is None else levels)
-    table = _results_table(results)
+    table = read_table(results)
     x, label = _frag.table_im(table, im, period_s)
     imt = imt_of(im, period_s)
-    ok = _frag._ok_rows(table) & np.isfinite(x) & (x > 0)
+    ok = _frag.ok_rows(table) & np.isfinite(x) & (x > 0)
     x = x[ok]
     coll = np.asarray(table["collapsed"])[ok].astype(bool)
     fits, names = [], []
@@ -557,49 +547,6 @@ def fragility_from_results(results, im: str = "pga_g", *, period_s: float | None
 
 
 # --------------------------------------------------------------------------- NRML 0.5
-
-def _num(v: float) -> str:
-    return repr(float(v))
-
-
-def write_nrml(models, path) -> str:
-    """Write one or more :class:`FragilityModel` (one ``fragilityFunction`` each, sharing limit states,
-    id and description of the first) as an NRML 0.5 ``fragilityModel``; return the path."""
-    models = [models] if isinstance(models, FragilityModel) else list(models)
-    if not models:
-        raise ParameterError("write_nrml: no fragility model given")
-    m0 = models[0]
-    if any(m.limit_states != m0.limit_states for m in models):
-        raise ParameterError("write_nrml: every fragility function of a model must have the same limit states")
-    ET.register_namespace("", NRML_NS)
-    q = lambda tag: f"{{{NRML_NS}}}{tag}"  # noqa: E731
-    root = ET.Element(q("nrml"))
-    fm = ET.SubElement(root, q("fragilityModel"), id=m0.model_id, assetCategory=m0.asset_category,
-                       lossCategory=m0.loss_category)
-    ET.SubElement(fm, q("description")).text = m0.description or m0.model_id
-    ET.SubElement(fm, q("limitStates")).text = " ".join(m0.limit_states)
-    for m in models:
-        ff = ET.SubElement(fm, q("fragilityFunction"), id=m.taxonomy, format=m.format, shape="logncdf")
-        f0 = m.functions[0]
-        if m.format == "continuous":
-            attrs = {"imt": m.imt, "minIML": _num(f0.min_iml), "maxIML": _num(f0.max_iml)}
-            if f0.no_damage_limit:
-                attrs["noDamageLimit"] = _num(f0.no_damage_limit)
-            ET.SubElement(ff, q("imls"), **attrs)
-            for ls, f in zip(m.limit_states, m.functions):
-                ET.SubElement(ff, q("params"), ls=ls, mean=_num(f.mean), stddev=_num(f.stddev))
-        else:
-            attrs = {"imt": m.imt}
-            if f0.no_damage_limit:
-                attrs["noDamageLimit"] = _num(f0.no_damage_limit)
-            ET.SubElement(ff, q("imls"), **attrs).text = " ".join(_num(v) for v in f0.imls)
-            for ls, f in zip(m.limit_states, m.functions):
-                ET.SubElement(ff, q("poes"), ls=ls).text = " ".join(_num(v) for v in f.poes)
-    ET.indent(root)
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    ET.ElementTree(root).write(path, encoding="utf-8", xml_declaration=True)
-    return str(path)
-
 
 def _floats(text, what, path):
     try:
@@ -668,14 +615,16 @@ def read_nrml(path) -> dict:
 # --------------------------------------------------------------------------- command line
 
 def _parser():
-    p = argparse.ArgumentParser(prog="python -m pycolfrag.openquake",
+    p = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.openquake",
                                 description="OpenQuake interchange: export IM-based fragility as NRML 0.5, or "
                                             "convolve OpenQuake hazard curves with a fragility model "
                                             "(OpenQuake's classical damage). docs/risk.md")
     sub = p.add_subparsers(dest="cmd", required=True)
     e = sub.add_parser("export", help="fit IM-based fragility curves to a results file and write NRML 0.5")
     e.add_argument("results", help="results file (run_grid.py)")
-    e.add_argument("out", help="NRML file to write (.xml)")
+    e.add_argument("out", help="file to write (" + ", ".join(f"{w.name}: {w.suffix}" for w in WRITERS.values()) + ")")
+    e.add_argument("--to", choices=sorted(WRITERS), default="nrml",
+                   help="output format: " + "; ".join(f"{w.name}: {w.description}" for w in WRITERS.values()))
     d = sub.add_parser("damage", help="damage-state probabilities from a hazard-curve CSV and a fragility model")
     d.add_argument("hazard", help="OpenQuake hazard-curve CSV")
     d.add_argument("fragility", help="NRML fragility model (.xml) or a results file (.h5, fitted as by export)")
@@ -700,7 +649,6 @@ def _parser():
 
 
 def _model_from_args(results, args, im, period):
-    from .fragility import U_D_LEVELS, U_TOP_LEVELS
     return fragility_from_results(results, im, period_s=period,
                                   levels=U_TOP_LEVELS if args.levels == "u_top" else U_D_LEVELS,
                                   collapse=not args.no_collapse, fmt=args.format, n_imls=args.n_imls,
@@ -713,7 +661,7 @@ def main(argv=None) -> int:
     try:
         if args.cmd == "export":
             model = _model_from_args(args.results, args, args.im or "pga_g", args.period)
-            write_nrml(model, args.out)
+            write_fragility(model, args.out, args.to)
             print(f"{args.out}: {model.format} fragility on {model.imt}, limit states {', '.join(model.limit_states)}")
             for ls, f, fit in zip(model.limit_states, model.functions, model.fits):
                 print(f"  {ls:24s} median {fit.median:.4g}  beta {fit.beta:.3f}  ({fit.n_exceed} of {fit.n} runs)")
@@ -742,7 +690,7 @@ def main(argv=None) -> int:
             print("  damage states: " + ", ".join(f"{s} {p:.4e}" for s, p in zip(states, res["damage"][i])))
         return 0
     except (ParameterError, HazardFileError, OSError) as exc:
-        print(f"pycolfrag.openquake: {exc}", file=sys.stderr)
+        print(f"pycolfrag.analysis.openquake: {exc}", file=sys.stderr)
         return 2
 
 

@@ -1,7 +1,7 @@
 """Compare two grid results files: are the rows bitwise equal, and where they are not, do the
 per-scenario statistics agree within their sampling error?
 
-Run as ``python -m pycolfrag.compare A.h5 B.h5`` (options: ``--alpha``, ``--quiet``), or call
+Run as ``python -m pycolfrag.analysis.compare A.h5 B.h5`` (options: ``--alpha``, ``--quiet``), or call
 :func:`compare_results`. See docs/reproducibility.md for when two files should be bitwise equal
 (same pycolfrag version and grid arguments on any x86-64 CPU) and when only statistically.
 
@@ -29,9 +29,11 @@ import sys
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import stats
 
-from . import results as _results
-from .errors import ParameterError, PycolfragError
+from .. import results as _results
+from ..errors import ParameterError, PycolfragError
+from .data import as_results
 
 __all__ = ["compare_results", "Comparison", "ScenarioStats", "main"]
 
@@ -75,13 +77,15 @@ class Comparison:
 
     @property
     def identical(self) -> bool:
-        """Every row of both files present in the other and bitwise equal (but ``wall_s``)."""
-        return not self.only_in_a and not self.only_in_b and self.n_rows_differing == 0
+        """At least one row matched, every row of both files present in the other and bitwise equal
+        (but ``wall_s``). Two files without a finished row are not identical: nothing was compared."""
+        return self.n_common > 0 and not self.only_in_a and not self.only_in_b and self.n_rows_differing == 0
 
     @property
     def statistically_consistent(self) -> bool:
-        """Same rows, and every scenario with differing rows agrees within sampling error."""
-        return not self.only_in_a and not self.only_in_b and all(s.agree for s in self.scenarios)
+        """Same rows (at least one), and every scenario with differing rows agrees within sampling error."""
+        return (self.n_common > 0 and not self.only_in_a and not self.only_in_b
+                and all(s.agree for s in self.scenarios))
 
     @property
     def exit_code(self) -> int:
@@ -94,6 +98,9 @@ class Comparison:
         if self.only_in_a or self.only_in_b:
             lines.append(f"rows only in A: {len(self.only_in_a)}, only in B: {len(self.only_in_b)} "
                          "(the files are not runs of the same grid, or one is unfinished)")
+        if self.n_common == 0:
+            lines.append("no rows matched: the files have no finished row in common, so nothing was compared")
+            return "\n".join(lines)
         if self.identical:
             lines.append("bitwise identical: every matched row equal in every field (wall_s ignored)")
             return "\n".join(lines)
@@ -113,12 +120,6 @@ class Comparison:
         return "\n".join(lines)
 
 
-def _load(x):
-    if isinstance(x, _results.Results):
-        return x
-    return _results.load(x)
-
-
 def _same_bits(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row mask: True where the rows of a and b are equal bit for bit (any trailing shape)."""
     if a.dtype.kind == "O" or b.dtype.kind == "O":
@@ -132,7 +133,6 @@ def _same_bits(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _clopper_pearson(k: int, n: int, conf: float = 0.95) -> tuple:
-    from scipy import stats
     if n == 0:
         return (math.nan, math.nan)
     a = 1.0 - conf
@@ -142,7 +142,6 @@ def _clopper_pearson(k: int, n: int, conf: float = 0.95) -> tuple:
 
 
 def _welch(x: np.ndarray, y: np.ndarray) -> float:
-    from scipy import stats
     if len(x) < 2 or len(y) < 2:
         return math.nan
     if np.array_equal(x, y):
@@ -170,7 +169,6 @@ def _row_keys(s) -> tuple:
 
 
 def _scenario_stats(ra, rb, ia, ib, sc, n_diff, index=0) -> ScenarioStats:
-    from scipy import stats
     sa, sb = ra.samples, rb.samples
     out = {}
     for key, s, idx in (("a", sa, ia), ("b", sb, ib)):
@@ -203,7 +201,7 @@ def _scenario_stats(ra, rb, ia, ib, sc, n_diff, index=0) -> ScenarioStats:
 
 
 def compare_results(a, b, alpha: float = 0.05) -> Comparison:
-    """Compare two results files (paths or :class:`pycolfrag.results.Results`).
+    """Compare two results files (paths or :class:`pycolfrag.analysis.data.Results`).
 
     Parameters
     ----------
@@ -222,7 +220,7 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
     """
     if not 0.0 < float(alpha) < 1.0:
         raise ParameterError(f"alpha must be in (0, 1), got {alpha!r}")
-    ra, rb = _load(a), _load(b)
+    ra, rb = as_results(a), as_results(b)
     sa, sb = ra.samples, rb.samples
     keys_a, group_a = _row_keys(sa)
     keys_b, group_b = _row_keys(sb)
@@ -264,7 +262,7 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m pycolfrag.compare",
+    ap = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.compare",
                                  description="Compare two pycolfrag grid results files row by row and, "
                                              "where rows differ, by per-scenario statistics.")
     ap.add_argument("a", help="first results file (HDF5)")

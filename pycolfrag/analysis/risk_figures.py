@@ -1,4 +1,4 @@
-"""Figures of a site risk (:func:`pycolfrag.risk.site_risk`) for a committee to read.
+"""Figures of a site risk (:func:`pycolfrag.analysis.risk.site_risk`) for a committee to read.
 
 * ``risk_curves``: annual rate of exceeding each EDP level (u_top, u_d) with its interval band, the
   Table III/IV levels marked, the probability in 50 years on the right axis;

@@ -1,0 +1,17 @@
+"""Analysis of results files: everything that reads what a grid wrote.
+
+* :mod:`~pycolfrag.analysis.data` -- every reader of a results file (``load``, ``read_results``, ``read_table``);
+* :mod:`~pycolfrag.analysis.summary` -- the summary tables a grid prints when it ends;
+* :mod:`~pycolfrag.analysis.fragility` -- the statistics: Eqs. (1)-(4), surfaces, stripes, fits (numpy/scipy only);
+* :mod:`~pycolfrag.analysis.outputs` -- fragility output formats, one writer each in one registry;
+* :mod:`~pycolfrag.analysis.figures`, :mod:`~pycolfrag.analysis.report`, :mod:`~pycolfrag.analysis.validation`
+  -- the paper's figures, the markdown report, docs/validation.md;
+* :mod:`~pycolfrag.analysis.record_report`, :mod:`~pycolfrag.analysis.record_figures` -- record suites;
+* :mod:`~pycolfrag.analysis.risk`, :mod:`~pycolfrag.analysis.risk_figures`, :mod:`~pycolfrag.analysis.openquake`
+  -- site risk, OpenQuake hazard curves in and fragility models out;
+* :mod:`~pycolfrag.analysis.compare` -- two results files, row by row.
+
+No module here imports the grid driver, and the statistics (``fragility``, ``summary``, ``data``) import
+no C binding (tests/test_analysis_package.py). The old names (``pycolfrag.fragility``,
+``python -m pycolfrag.report``, ...) still work: :mod:`pycolfrag._aliases`.
+"""
