@@ -31,17 +31,17 @@ system:
 	touch $@
 
 build: .venv/.built
-.venv/.built: .venv/.installed $(CSRCS) $(CHDRS) csrc/flags.mk pycolfrag/_build.py
+.venv/.built: .venv/.installed $(CSRCS) $(CHDRS) csrc/flags.mk pycolfrag/_build.py pycolfrag/data/constants.json
 	$(PIP) install -q --no-build-isolation --no-deps -e .
 	touch $@
 
-build/ctest/%: tests/c/%.c $(CSRCS) $(CHDRS) tests/c/cf_test.h
+build/ctest/%: tests/c/%.c $(CSRCS) $(CHDRS) tests/c/cf_test.h csrc/flags.mk pycolfrag/data/constants.json
 	@mkdir -p build/ctest
 	$(CC) $(CFLAGS) -Icsrc -o $@ $< $(CSRCS) $(LDLIBS)
 
-build/ctest-asan/%: tests/c/%.c $(CSRCS) $(CHDRS) tests/c/cf_test.h
+build/ctest-asan/%: tests/c/%.c $(CSRCS) $(CHDRS) tests/c/cf_test.h csrc/flags.mk pycolfrag/data/constants.json
 	@mkdir -p build/ctest-asan
-	$(CC) $(CSTD) $(CWARN) $(SANFLAGS) -ffp-contract=off -Icsrc -o $@ $< $(CSRCS) $(LDLIBS)
+	$(CC) $(CSTD) $(CWARN) $(SANFLAGS) -ffp-contract=off $(CDEFS) -Icsrc -o $@ $< $(CSRCS) $(LDLIBS)
 
 ctest: $(CTESTS)
 	@bash scripts/run_ctests.sh $(CTESTS)
