@@ -57,7 +57,7 @@ from . import results as _results
 from . import sample as _sample
 from .sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S  # /spectra periods (s) and damping: a sample's
 from .errors import ParameterError, RecordFileError, ResultsFileError
-from .ground_motion.mavroeidis_papageorgiou_2003 import DEFAULT_TP_MODEL, TP_MODELS, tp_model_of
+from .ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS, tp_model_of
 
 __all__ = [
     "DEFAULT_MW", "DEFAULT_DIST_KM", "DEFAULT_SAMPLES", "DEFAULT_SEED", "DEFAULT_PERIODS_S",
@@ -187,7 +187,7 @@ class GridSpec:
         ``"mp03"`` (the paper's near-fault records) or ``"none"`` (the stochastic record alone, same seeds).
     tp_model : str
         Pulse-period relation of the sampled pulses
-        (:data:`pycolfrag.ground_motion.mavroeidis_papageorgiou_2003.TP_MODELS`).
+        (:data:`pycolfrag.ground_motion.registry.TP_MODELS`).
     """
 
     mw: tuple = DEFAULT_MW
