@@ -29,7 +29,7 @@ KIND = "record"
 PARAMETERS = (
     Parameter("Mw", "", (-math.inf, math.inf), "moment magnitude", "Mw", "mw"),
     Parameter("R", "km", (0.0, math.inf), "closest distance to the rupture", "dist_km", "dist_km"),
-    Parameter("seed", "-", (0.0, 2.0**64 - 1), "seed of the high-frequency noise", "seed"),
+    Parameter("seed", "-", (0.0, math.inf), "seed of the high-frequency noise (an integer)", "seed"),
     Parameter("dt", "s", (0.0, math.inf), "time step of the record", "dt_s", low_open=True),
 )
 

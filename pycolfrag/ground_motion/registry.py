@@ -9,8 +9,8 @@ Every module listed in :data:`MODELS` declares, as data at its top, ``NAME``, ``
   the parameters with a row field of the models of kind ``"pulse"``;
 * :data:`TP_MODELS` -- the pulse-period relations (kind ``"pulse_period"``), the choices of
   ``run_grid.py --tp-model`` and of ``sample_pulse_parameters(tp_model=...)``;
-* the parameter tables of docs/ground_motion.md (``tests/test_ground_motion_declarations.py`` checks
-  them against :func:`markdown_table`).
+* the parameter tables of docs/ground_motion.md (:func:`docs_section`; a test keeps them equal;
+  ``python -c "from pycolfrag.ground_motion import registry; print(registry.docs_section())"`` prints them).
 
 A new model is its module plus its line in :data:`MODELS`. Importing this module loads no C: the
 model modules load the C library on first use of a function that needs it, so the results layout
@@ -23,7 +23,8 @@ from __future__ import annotations
 from ..errors import ParameterError
 from . import baker_2007, mavroeidis_papageorgiou_2003, record, rupakhety_2011, shahi_baker_2014
 
-__all__ = ["MODELS", "KINDS", "PULSE_FIELDS", "TP_MODELS", "DEFAULT_TP_MODEL", "tp_model_of", "markdown_table"]
+__all__ = ["MODELS", "KINDS", "PULSE_FIELDS", "TP_MODELS", "DEFAULT_TP_MODEL", "tp_model_of", "markdown_table",
+           "docs_section"]
 
 #: Every declared model, one line each (name -> module).
 MODELS = {m.NAME: m for m in (
@@ -70,3 +71,13 @@ def markdown_table(module) -> str:
         lines.append(f"| {p.name} | {p.unit or '-'} | {p.range_text()} | {f'`{p.meta_key}`' if p.meta_key else '-'} "
                      f"| {f'`{p.row_field}`' if p.row_field else '-'} | {p.description} |")
     return "\n".join(lines)
+
+
+def docs_section() -> str:
+    """The declared parameters of every model, as docs/ground_motion.md prints them: the high-frequency
+    model (loads C: its ranges are the generator's) and then :data:`MODELS` in their order."""
+    from . import atkinson_silva_2000  # loads C (see the module docstring); docs only
+    parts = []
+    for m in (atkinson_silva_2000, *MODELS.values()):
+        parts += [f"**`{m.NAME}`** ({m.KIND}: {KINDS[m.KIND]})", "", markdown_table(m), ""]
+    return "\n".join(parts).rstrip() + "\n"
