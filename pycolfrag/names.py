@@ -126,6 +126,10 @@ class Quantity:
     spectral : bool
         One value per spectral period (``/spectra``) instead of a scalar.
     description : str
+    response : str or None
+        EDPs only: the attribute of :class:`pycolfrag.solver.Response` that holds the value (default
+        ``name``). A row (:mod:`pycolfrag.sample`), ``/samples`` (:mod:`pycolfrag.results`), the
+        figures' labels and the report's statistics table take every EDP from :data:`EDPS`.
     """
 
     name: str
@@ -134,6 +138,7 @@ class Quantity:
     short: str
     spectral: bool = False
     description: str = ""
+    response: str | None = None
 
 
 #: Intensity measures, in the order they are stored (keys of :func:`pycolfrag.intensity.measures`).

@@ -94,7 +94,7 @@ def _edp_row(res) -> dict:
     collapsed = bool(res.collapsed)
     cb = getattr(res, "collapse_block", None)
     ct = getattr(res, "collapse_time", None)
-    out = {name: float(getattr(res, name)) for name in names.EDPS}
+    out = {name: float(getattr(res, q.response or name)) for name, q in names.EDPS.items()}
     out.update(collapsed=int(collapsed),
                collapse_block=int(cb) if (collapsed and cb is not None and cb >= 0) else -1,
                collapse_time_s=float(ct) if (collapsed and ct is not None) else math.nan,

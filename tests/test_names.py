@@ -102,3 +102,41 @@ def test_labels():
     from pycolfrag import figures
     assert figures.IM_LABELS["pgv_cm_s"] == "PGV (cm/s)" and figures.EDP_LABELS == {
         k: q.label for k, q in names.EDPS.items()}
+
+
+def test_docs_samples_table_follows_the_registry():
+    """docs/results_format.md's /samples table: the meaning of every scalar IM and EDP row starts with
+    the registry's "description, unit" (the dataset's description attribute), in the registry's order."""
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "results_format.md").read_text()
+    part = doc[doc.index("## `/samples`"):doc.index("## `/spectra`")]
+    rows = re.findall(r"^\| `(\w+)` \| \w+ \| [^|]+ \| ([^|]+) \|$", part, re.M)
+    meaning = dict(rows)
+    order = [name for name, _ in rows]
+    for table in (names.IMS, names.EDPS):
+        declared = [k for k, q in table.items() if not q.spectral]
+        assert [k for k in order if k in declared] == declared
+        for k in declared:
+            q = table[k]
+            assert meaning[k].strip().startswith(f"{q.description}, {q.unit}"), k
+
+
+def test_a_new_edp_in_the_registry_reaches_row_layout_and_labels():
+    """Declaring an EDP in names.EDPS (with the Response attribute that holds it) is all a row, the
+    /samples layout and the figures' labels need: a child interpreter adds one and reloads them."""
+    code = textwrap.dedent("""
+        import importlib, math
+        from types import SimpleNamespace
+        from pycolfrag import names
+        names.EDPS["top_m"] = names.Quantity("top_m", "m", "peak top displacement (m)", "top",
+                                             description="peak top displacement", response="max_top_disp")
+        from pycolfrag import figures, results, sample
+        R = importlib.reload(results)
+        assert R.SAMPLE_FIELDS["top_m"] == ("f8", R.SAMPLE_FIELDS["u_top"][1], "peak top displacement, m")
+        assert R.RECORD_SAMPLE_FIELDS["top_m"] == R.SAMPLE_FIELDS["top_m"]
+        res = SimpleNamespace(u_top=0.2, u_d=0.01, max_top_disp=0.31, collapsed=False, n_steps=5, t_end=1.0)
+        assert sample._edp_row(res)["top_m"] == 0.31
+        assert importlib.reload(figures).EDP_LABELS["top_m"] == "peak top displacement (m)"
+        print("ok")
+    """)
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and p.stdout.strip() == "ok", p.stderr
