@@ -31,20 +31,20 @@ system:
 	touch $@
 
 build: .venv/.built
-.venv/.built: .venv/.installed $(CSRCS) $(CHDRS) csrc/flags.mk pycolfrag/_build.py
+.venv/.built: .venv/.installed $(CSRCS) $(CHDRS) csrc/flags.mk pycolfrag/_build.py pycolfrag/data/constants.json
 	$(PIP) install -q --no-build-isolation --no-deps -e .
 	touch $@
 
 # The library is compiled once per flavour (plain, sanitized) and linked into every C test.
 COBJS      := $(patsubst csrc/%.c,build/obj/%.o,$(CSRCS))
 COBJS_ASAN := $(patsubst csrc/%.c,build/obj-asan/%.o,$(CSRCS))
-ASANFLAGS  := $(CSTD) $(CWARN) $(SANFLAGS) -ffp-contract=off
+ASANFLAGS  := $(CSTD) $(CWARN) $(SANFLAGS) -ffp-contract=off $(CDEFS)
 
-build/obj/%.o: csrc/%.c $(CHDRS) csrc/flags.mk
+build/obj/%.o: csrc/%.c $(CHDRS) csrc/flags.mk pycolfrag/data/constants.json
 	@mkdir -p build/obj
 	$(CC) $(CFLAGS) -Icsrc -c -o $@ $<
 
-build/obj-asan/%.o: csrc/%.c $(CHDRS) csrc/flags.mk
+build/obj-asan/%.o: csrc/%.c $(CHDRS) csrc/flags.mk pycolfrag/data/constants.json
 	@mkdir -p build/obj-asan
 	$(CC) $(ASANFLAGS) -Icsrc -c -o $@ $<
 

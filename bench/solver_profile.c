@@ -8,9 +8,10 @@
  * best and median wall time of the runs, microseconds per step, u_top, u_d and a
  * hash of the result bits (to check that a code change kept results bit-identical).
  *
- * Build (from the repository root; the same flags as csrc/flags.mk): compile this file
- * with the csrc/ sources, e.g.
- *   gcc -std=c99 -O3 -ffp-contract=off -fno-math-errno -g -Icsrc -o build/solver_profile
+ * Build (from the repository root; the same flags as csrc/flags.mk, whose CFLAGS also carry
+ * -DCF_G_M_S2, the gravity of pycolfrag/data/constants.json): compile this file with the
+ * csrc/ sources, e.g.
+ *   gcc $(make -s -f csrc/flags.mk -f - p <<< 'p: ; @echo $(CFLAGS)') -g -Icsrc -o build/solver_profile
  *       bench/solver_profile.c $(ls csrc/[a-z]*.c) -lm
  * (bench/solver_compare.py builds it against this tree and a baseline tree and times both
  * alternately in one run.)

@@ -21,6 +21,12 @@ int cf_solver_fail(cf_solver *s, int st, const char *fmt, ...)
     return st;
 }
 
+/* The default gravity is compiled in from pycolfrag/data/constants.json, the one home of the value that
+   Python's intensity measures (in g) also read: csrc/flags.mk and pycolfrag/_build.py pass it. */
+#ifndef CF_G_M_S2
+#error "CF_G_M_S2 (gravity, m/s^2) is not defined: compile with the CFLAGS of csrc/flags.mk"
+#endif
+
 void cf_solver_def_default(cf_solver_def *d)
 {
     memset(d, 0, sizeof *d);
@@ -36,7 +42,7 @@ void cf_solver_def_default(cf_solver_def *d)
     d->damping_alpha = 0.0;
     d->damping_start_s = 0.0;
     d->history_dt = 0.01;
-    d->g = 9.81;
+    d->g = CF_G_M_S2;
     d->energy_tolerance = 0.05;
     d->unstable_tolerance = 0.5;
     d->initial_tilt_rad = 0.0;

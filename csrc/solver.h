@@ -46,7 +46,7 @@ typedef struct {
     double damping_alpha;      /* mass-proportional damping, 1/s; default 0 */
     double damping_start_s;    /* damping acts from this time on, s; default 0 */
     double history_dt;         /* history sampling interval, s; default 0.01 */
-    double g;                  /* gravity, m/s^2; default 9.81 */
+    double g;                  /* gravity, m/s^2; default CF_G_M_S2 (pycolfrag/data/constants.json) */
     double energy_tolerance;   /* relative balance error that sets energy_warning; default 0.05 */
     double unstable_tolerance; /* relative balance error that aborts with CF_EUNSTABLE; default 0.5 */
     double initial_tilt_rad;   /* rigid initial tilt about the +x base edge (y axis), rad; default 0 */

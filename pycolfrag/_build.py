@@ -14,6 +14,7 @@ other build path for the extension (a stale ``_libcolfrag.cpython-*.so`` left by
 from __future__ import annotations
 
 import glob
+import json
 import os
 import re
 
@@ -44,6 +45,16 @@ def _flags_mk() -> list[str]:
 
 
 CFLAGS = _flags_mk()
+
+
+def _defines() -> list[tuple[str, str]]:
+    """Compile-time values whose one home is a data file of the package: the default gravity
+    (``CF_G_M_S2``, the ``g_m_s2`` of ``pycolfrag/data/constants.json``, which
+    :mod:`pycolfrag.names` reads as ``G``). ``repr`` of the float gives the literal that parses
+    back to the same double."""
+    with open(os.path.join(HERE, "data", "constants.json"), encoding="utf-8") as fh:
+        g = float(json.load(fh)["g_m_s2"])
+    return [("CF_G_M_S2", repr(g))]
 
 _REGION = re.compile(r"/\*\s*cffi:begin\s*\*/(.*?)/\*\s*cffi:end\s*\*/", re.S)
 
@@ -78,6 +89,7 @@ def make_builder() -> FFI:
         sources=[os.path.relpath(s, os.path.join(HERE, "..")) for s in sources],
         include_dirs=[os.path.relpath(CSRC, os.path.join(HERE, ".."))],
         extra_compile_args=CFLAGS,
+        define_macros=_defines(),
         libraries=["m"],
     )
     return ffi

@@ -64,7 +64,7 @@ from .column import Column
 from .sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S  # /spectra periods (s) and damping: a sample's
 from .errors import ParameterError, RecordFileError, ResultsFileError, SolverError
 from .ground_motion import atkinson_silva_2000 as as00, rupakhety_2011
-from .ground_motion.mavroeidis_papageorgiou_2003 import DEFAULT_TP_MODEL, TP_MODELS, tp_model_of
+from .ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS, tp_model_of
 from .options import SolverOptions
 from .records import load_records
 
@@ -196,7 +196,7 @@ class GridSpec:
         ``"mp03"`` (the paper's near-fault records) or ``"none"`` (the stochastic record alone, same seeds).
     tp_model : str
         Pulse-period relation of the sampled pulses
-        (:data:`pycolfrag.ground_motion.mavroeidis_papageorgiou_2003.TP_MODELS`).
+        (:data:`pycolfrag.ground_motion.registry.TP_MODELS`).
     """
 
     mw: tuple = DEFAULT_MW

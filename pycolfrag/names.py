@@ -1,38 +1,112 @@
-"""One place for each name: physical constants, and the intensity measures (IMs) and engineering
-demand parameters (EDPs) of a sample row, with their units and plot labels.
+"""One place for each name: physical constants, the intensity measures (IMs) and engineering
+demand parameters (EDPs) of a sample row with their units and plot labels, and the type in which the
+ground-motion models declare their parameters.
+
+Pure data: this module imports nothing of the package's C side, so that statistics and readers of a
+results file (which take their field names from here) never load the C library.
 
 A new IM or EDP is declared here once; :mod:`pycolfrag.sample` (which fills a row),
-:mod:`pycolfrag.analysis.record_figures` and the record-suite analysis in :mod:`pycolfrag.analysis.fragility`
-iterate over these tables instead of spelling the names again.
+:mod:`pycolfrag.results` (the ``/samples`` layout), :mod:`pycolfrag.analysis.figures`,
+:mod:`pycolfrag.analysis.record_figures`, :mod:`pycolfrag.analysis.report` and the record-suite analysis in
+:mod:`pycolfrag.analysis.fragility` iterate over these tables instead of spelling the names again.
+A ground-motion model declares its parameters as :class:`Parameter` rows in its own module
+(``PARAMETERS``), listed once in :mod:`pycolfrag.ground_motion.registry`.
 
 Constants
 ---------
-``G`` = 9.81 m/s^2 is the package's gravity, read from the C library's default solver definition
-(``cf_solver_def_default`` in ``csrc/solver.c``), so the solver, :mod:`pycolfrag.intensity`
-(PGA and SA in g) and :func:`pycolfrag.ground_motion.read_at2` (an AT2 file's g to m/s^2) share
-one value. Keeping 9.81 rather than the standard 9.80665 leaves every stored result unchanged: a
-record read from AT2 and expressed back in g gives exactly the file's numbers (the factor
-cancels), and the difference to 9.80665 (0.035 %) is far below the scatter of any fragility
-estimate.
+``G`` = 9.81 m/s^2 is the package's gravity. Its one text is ``pycolfrag/data/constants.json``:
+this module reads it there, and every build of the C library compiles the solver's default
+(``cf_solver_def.g``, ``cf_solver_def_default``) from the same file (``pycolfrag/_build.py`` and
+``csrc/flags.mk`` pass it as ``CF_G_M_S2``), so the solver, :mod:`pycolfrag.intensity` (PGA and SA in
+g) and :func:`pycolfrag.ground_motion.read_at2` (an AT2 file's g to m/s^2) share one value without
+this module loading C to ask for it. Keeping 9.81 rather than the standard 9.80665 leaves every
+stored result unchanged: a record read from AT2 and expressed back in g gives exactly the file's
+numbers (the factor cancels), and the difference to 9.80665 (0.035 %) is far below the scatter of
+any fragility estimate.
 """
 from __future__ import annotations
 
+import json
+import math
 from dataclasses import dataclass
+from importlib import resources
+
+from ._validate import finite_float
+from .errors import ModelRangeError
 
 __all__ = ["G", "CM_PER_M", "Quantity", "IMS", "EDPS", "SCALAR_IMS", "SPECTRAL_IMS", "RECORD_FIELDS",
-           "im", "edp", "label"]
+           "Parameter", "im", "edp", "label"]
 
-def _solver_default_g() -> float:
-    from ._ffi import ffi, lib
-    d = ffi.new("cf_solver_def *")
-    lib.cf_solver_def_default(d)
-    return float(d.g)
-
-
-#: Gravity, m/s^2: the C library's default (see the module docstring for why 9.81).
-G = _solver_default_g()
+#: Gravity, m/s^2, from ``pycolfrag/data/constants.json`` (see the module docstring for why 9.81).
+G: float = float(json.loads(resources.files(__package__).joinpath("data/constants.json").read_text("utf-8"))
+                 ["g_m_s2"])
 #: Centimetres per metre (PGV in cm/s, PGD in cm).
 CM_PER_M = 100.0
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One parameter of a ground-motion model, declared once in the model's module (``PARAMETERS``).
+
+    Attributes
+    ----------
+    name : str
+        The symbol the model's paper uses (``"Vp"``, ``"fp"``, ``"Mw"``).
+    unit : str
+        Unit as printed (``"cm/s"``, ``"-"``; ``""`` for a magnitude).
+    range : (float, float)
+        The values the model accepts, bounds included (``math.inf`` for none); the module's range
+        check reads it (:meth:`check`).
+    description : str
+        What it is, without the unit (the ``/samples`` description is ``"<description>, <unit>"``).
+    meta_key : str or None
+        Its key in :attr:`pycolfrag.ground_motion.Record.meta`, when records carry it.
+    row_field : str or None
+        Its field in a sample row and in ``/samples``, when rows carry it.
+    low_open : bool
+        The lower bound itself is refused (a value must be > it).
+    """
+
+    name: str
+    unit: str
+    range: tuple[float, float]
+    description: str
+    meta_key: str | None = None
+    row_field: str | None = None
+    low_open: bool = False
+
+    @property
+    def field_description(self) -> str:
+        """``"<description>, <unit>"`` (the description alone without a unit): the ``description``
+        attribute of its ``/samples`` dataset."""
+        return f"{self.description}, {self.unit}" if self.unit else self.description
+
+    def range_text(self) -> str:
+        """The accepted range as a reader writes it: ``> 0``, ``[5, 8]``, ``any``."""
+        lo, hi = self.range
+        if math.isinf(lo) and math.isinf(hi):
+            return "any"
+        if math.isinf(hi):
+            return f"{'>' if self.low_open else '>='} {lo:g}"
+        if math.isinf(lo):
+            return f"<= {hi:g}"
+        return f"{'(' if self.low_open else '['}{lo:g}, {hi:g}]"
+
+    def check(self, value, what: str | None = None, *, error=ModelRangeError, owner: str = "the model's") -> float:
+        """``value`` as a float inside :attr:`range`, else ``error`` naming ``what`` (default the
+        meta key or the name) and the value; non-numbers and NaN/inf raise ParameterError first."""
+        what = what or self.meta_key or self.name
+        v = finite_float(value, what)
+        lo, hi = self.range
+        below = v <= lo if self.low_open else v < lo
+        if below or v > hi:
+            if math.isinf(hi):
+                raise error(f"{what} must be {'>' if self.low_open else '>='} {lo:g}, got {value!r}")
+            if math.isinf(lo):
+                raise error(f"{what} must be <= {hi:g}, got {value!r}")
+            unit = f" {self.unit}" if self.unit not in ("", "-") else ""
+            raise error(f"{what} = {value!r} is outside {owner} range {self.range}{unit}")
+        return v
 
 
 @dataclass(frozen=True)
@@ -52,6 +126,10 @@ class Quantity:
     spectral : bool
         One value per spectral period (``/spectra``) instead of a scalar.
     description : str
+    response : str or None
+        EDPs only: the attribute of :class:`pycolfrag.solver.Response` that holds the value (default
+        ``name``). A row (:mod:`pycolfrag.sample`), ``/samples`` (:mod:`pycolfrag.results`), the
+        figures' labels and the report's statistics table take every EDP from :data:`EDPS`.
     """
 
     name: str
@@ -60,6 +138,7 @@ class Quantity:
     short: str
     spectral: bool = False
     description: str = ""
+    response: str | None = None
 
 
 #: Intensity measures, in the order they are stored (keys of :func:`pycolfrag.intensity.measures`).

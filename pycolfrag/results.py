@@ -66,6 +66,8 @@ import numpy as np
 
 from . import names as _names
 from .errors import ResultsFileError
+from .ground_motion import record as _gm_record
+from .ground_motion import registry as _gm_registry
 
 __all__ = [
     "FORMAT_VERSION", "SAMPLE_FIELDS", "STATUS_PENDING", "STATUS_OK", "STATUS_RECORD_FAILED",
@@ -91,7 +93,8 @@ MESSAGE_BYTES = 256
 
 # name: (numpy dtype, fill value for rows not computed yet, unit/description)
 # The IM and EDP fields are not spelled here: they come from the one registry (pycolfrag.names),
-# "<description>, <unit>".
+# "<description>, <unit>"; nor are the scenario and pulse fields of a synthetic row: they come from
+# the ground-motion models' declarations (pycolfrag.ground_motion.registry).
 
 
 def _quantity_fields(table) -> dict:
@@ -101,6 +104,10 @@ def _quantity_fields(table) -> dict:
             desc = f"{q.description}, {q.unit}"
             out[name] = ("f8", math.nan, desc)
     return out
+
+
+def _declared_fields(parameters) -> dict:
+    return {p.row_field: ("f8", math.nan, p.field_description) for p in parameters if p.row_field}
 
 
 _STATUS_FIELDS = {
@@ -126,18 +133,10 @@ SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
     # identity of the run
     "scenario": ("i4", -1, "scenario index in the grid (row-major over mw, then dist_km)"),
     "sample": ("i4", -1, "sample index within the scenario (row of the scenario's LHS)"),
-    "mw": ("f8", math.nan, "moment magnitude"),
-    "dist_km": ("f8", math.nan, "closest distance to the rupture, km"),
+    **_declared_fields(_gm_record.PARAMETERS),        # mw, dist_km
     **_STATUS_FIELDS,
     # sampled pulse parameters and record metadata (from Record.meta)
-    "vp_cm_s": ("f8", math.nan, "pulse amplitude Vp, cm/s"),
-    "fp_hz": ("f8", math.nan, "pulse frequency fp, Hz"),
-    "nu_rad": ("f8", math.nan, "pulse phase nu, rad"),
-    "gamma": ("f8", math.nan, "pulse oscillatory character gamma, -"),
-    "t0_s": ("f8", math.nan, "time of the pulse peak, s"),
-    "tp_s": ("f8", math.nan, "pulse period Tp = 1/fp, s"),
-    "a_cm_s": ("f8", math.nan, "envelope amplitude A of the pulse model, cm/s"),
-    "ap_g": ("f8", math.nan, "peak acceleration of the pulse alone, g"),
+    **_declared_fields(_gm_registry.PULSE_FIELDS),
     "record_s": ("f8", math.nan, "record duration used (len(acc) * dt), s"),
     # intensity measures of the record, then the response (EDPs): from pycolfrag.names
     **_quantity_fields(_names.IMS),

@@ -23,6 +23,7 @@ import numpy as np
 
 from . import names
 from .errors import ParameterError
+from .ground_motion.registry import PULSE_FIELDS
 
 __all__ = ["DEFAULT_PERIODS_S", "DEFAULT_DAMPING", "COMPONENTS", "STATUS", "record_identity", "ims_row", "response_row",
            "run_synthetic_sample", "run_synthetic_samples", "run_record_sample", "run_record_samples", "response_rows", "record_jobs", "run_suite", "rows_to_table"]
@@ -93,7 +94,7 @@ def _edp_row(res) -> dict:
     collapsed = bool(res.collapsed)
     cb = getattr(res, "collapse_block", None)
     ct = getattr(res, "collapse_time", None)
-    out = {name: float(getattr(res, name)) for name in names.EDPS}
+    out = {name: float(getattr(res, q.response or name)) for name, q in names.EDPS.items()}
     out.update(collapsed=int(collapsed),
                collapse_block=int(cb) if (collapsed and cb is not None and cb >= 0) else -1,
                collapse_time_s=float(ct) if (collapsed and ct is not None) else math.nan,
@@ -246,9 +247,9 @@ def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.0
 
     Returns
     -------
-    dict: ``mw``, ``dist_km``, ``status``, ``message``, the pulse parameters (``vp_cm_s``, ``fp_hz``,
-    ``nu_rad``, ``gamma``, ``t0_s``, ``a_cm_s``, ``ap_g``, ``tp_s``), ``record_s``, every IM and EDP
-    of :mod:`pycolfrag.names`, the run diagnostics and ``wall_s``. The grid adds ``row``,
+    dict: ``mw``, ``dist_km``, ``status``, ``message``, the pulse parameters
+    (:data:`pycolfrag.ground_motion.registry.PULSE_FIELDS`, NaN without a pulse), ``record_s``, every
+    IM and EDP of :mod:`pycolfrag.names`, the run diagnostics and ``wall_s``. The grid adds ``row``,
     ``scenario`` and ``sample``.
     """
     t0 = time.perf_counter()
@@ -274,11 +275,7 @@ def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_re
             acc = acc[: int(round(max_record_s / dt)) + 1]
         out["record_s"] = len(acc) * dt
         if with_pulse:
-            out.update(vp_cm_s=_meta(meta, "Vp_cm_s"), fp_hz=_meta(meta, "fp_hz"), nu_rad=_meta(meta, "nu_rad"),
-                       gamma=_meta(meta, "gamma"), t0_s=_meta(meta, "t0_s"), a_cm_s=_meta(meta, "A_cm_s"),
-                       ap_g=_meta(meta, "Ap_g"))
-            fp = out["fp_hz"]
-            out["tp_s"] = _meta(meta, "Tp_s", default=(1.0 / fp if fp and math.isfinite(fp) else math.nan))
+            out.update({p.row_field: _meta(meta, p.meta_key) for p in PULSE_FIELDS})
     except Exception as exc:
         out["status"] = STATUS["record"]
         out["message"] = f"{type(exc).__name__}: {exc}"

@@ -31,7 +31,8 @@ def fake_physics(monkeypatch):
     def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None):
         calls["synth"].append((Mw, dist_km, seed, dt, vp_scale, dict(pulse)))
         acc = np.random.default_rng(seed).normal(size=2001)
-        meta = dict(pulse, A_cm_s=12.0, Ap_g=0.3, Mw=Mw, dist_km=dist_km)
+        # the keys the real synthesize derives (Tp = 1/fp, A, Ap): the row copies every declared key
+        meta = dict(pulse, A_cm_s=12.0, Ap_g=0.3, Tp_s=1.0 / pulse["fp_hz"], Mw=Mw, dist_km=dist_km)
         return SimpleNamespace(acc=acc, dt=dt, meta=meta)
 
     def stochastic(Mw, dist_km, seed, dt=0.005):

@@ -116,7 +116,8 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
 
 
 def _write(d, out_path, figures_dir, n_boot, g, risk) -> str:
-    rows = fr.scenario_table(d["mw"], d["dist_km"], {"u_top": d["u_top"], "u_d": d["u_d"]}, d["collapsed"],
+    edps = tuple(e for e in names.EDPS if e in d.samples)   # every declared EDP the file has (older files lack newer ones)
+    rows = fr.scenario_table(d["mw"], d["dist_km"], {e: d[e] for e in edps}, d["collapsed"],
                              n_boot=n_boot, confidence=CONFIDENCE, rng=g)
     L = ["# pycolfrag results report", "",
          "Fragility of the column by the method of Psycharis, Fragiadakis & Stefanou: Eq. (3) collapse "
@@ -128,17 +129,17 @@ def _write(d, out_path, figures_dir, n_boot, g, risk) -> str:
           "Means and log-moments use the non-collapsed runs (a collapsed run has no u_d: NaN in the results "
           "file); mu and beta are the mean and dispersion of ln EDP "
           "(maximum likelihood, `scipy.stats.lognorm.fit` with loc = 0).", "",
-          "| Mw | R (km) | n | collapsed | P(collapse) [90 % CI] | mean u_top | mu ln u_top | beta ln u_top "
-          "| mean u_d | mu ln u_d | beta ln u_d |",
-          "|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|"]
+          "| Mw | R (km) | n | collapsed | P(collapse) [90 % CI] | "
+          + " | ".join(f"mean {e} | mu ln {e} | beta ln {e}" for e in edps) + " |",
+          "|---:|---:|---:|---:|---|" + "---:|" * (3 * len(edps))]
     for r in rows:
-        mark = {e: DEGENERATE_MARK if r.degenerate.get(e) else "" for e in ("u_top", "u_d")}
+        mark = {e: DEGENERATE_MARK if r.degenerate.get(e) else "" for e in edps}
         L.append(f"| {r.mw:g} | {r.dist_km:g} | {r.n} | {r.n_collapsed} | "
-                 f"{fmt_ci(r.p_collapse, binomial_ci(r.n_collapsed, r.n))} | {_g(r.mean['u_top'])} | "
-                 f"{_g(r.mu_ln['u_top'])}{mark['u_top']} | {_g(r.beta_ln['u_top'])}{mark['u_top']} | "
-                 f"{_g(r.mean['u_d'])} | {_g(r.mu_ln['u_d'])}{mark['u_d']} | {_g(r.beta_ln['u_d'])}{mark['u_d']} |")
+                 f"{fmt_ci(r.p_collapse, binomial_ci(r.n_collapsed, r.n))} | "
+                 + " | ".join(f"{_g(r.mean[e])} | {_g(r.mu_ln[e])}{mark[e]} | {_g(r.beta_ln[e])}{mark[e]}"
+                              for e in edps) + " |")
     L += _degenerate_notes([(f"Mw {r.mw:g}, R {r.dist_km:g} km, {e}", r.degenerate.get(e, ""))
-                            for r in rows for e in ("u_top", "u_d")])
+                            for r in rows for e in edps])
     for title, levels in (("Table III levels (u_top)", fr.U_TOP_LEVELS), ("Table IV levels (u_d)", fr.U_D_LEVELS)):
         L += ["", f"## Exceedance probabilities per scenario: {title}", "",
               "Each cell: Eq. (4) [90 % bootstrap CI] (empirical ratio).", "",

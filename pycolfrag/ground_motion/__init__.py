@@ -12,6 +12,9 @@ Modules, one per published model (docs/ground_motion.md):
 * :mod:`.mavroeidis_papageorgiou_2003` -- the velocity pulse (Eq. 5) and its LHS sampling;
 * :mod:`.rupakhety_2011` -- mean pulse amplitude and frequency (Eqs. 6-7);
 * :mod:`.baker_2007` -- an alternative pulse-period relation (``--tp-model baker_2007``);
+* :mod:`.shahi_baker_2014` -- the probability that a near-fault motion carries a pulse;
+* :mod:`.registry` -- the models that declare their parameters (``PARAMETERS``) and what is built
+  from them (the pulse fields of a sample row, the ``--tp-model`` choices);
 * :mod:`.combine` -- Fourier-amplitude combination (steps 3-6);
 * :mod:`.at2` -- PEER NGA ``.AT2`` files; :mod:`.record` -- :class:`Record`; :mod:`.plots`.
 """
@@ -21,28 +24,32 @@ import math
 
 import numpy as np
 
-from .._validate import finite_float, positive_float
-from ..intensity import G
+from .._validate import positive_float
 from ..errors import ParameterError
-from . import baker_2007, mavroeidis_papageorgiou_2003, rupakhety_2011
-from .at2 import read_at2
+from ..names import G
+from . import baker_2007, mavroeidis_papageorgiou_2003, record, registry, rupakhety_2011, shahi_baker_2014
 from .mavroeidis_papageorgiou_2003 import _int_seed as _seed
 from .mavroeidis_papageorgiou_2003 import sample_pulse_parameters
 from .record import Record
 
 __all__ = ["Record", "stochastic", "synthesize", "sample_pulse_parameters", "read_at2",
-           "atkinson_silva_2000", "mavroeidis_papageorgiou_2003", "rupakhety_2011", "baker_2007", "combine", "plots",
-           "PULSE_STREAM"]
+           "atkinson_silva_2000", "mavroeidis_papageorgiou_2003", "rupakhety_2011", "baker_2007", "shahi_baker_2014",
+           "registry", "combine", "plots", "PULSE_STREAM"]
 
 #: Second word of the SeedSequence that seeds the pulse draw of ``synthesize(pulse=None)``:
 #: ``SeedSequence([seed, PULSE_STREAM])``, so the pulse stream never equals the HF noise stream.
 PULSE_STREAM = 0x70756C73  # "puls"
 
 
-def __getattr__(name):  # the stochastic model, the combination and the plots load on first use
-    if name in ("atkinson_silva_2000", "combine", "plots"):
+def __getattr__(name):
+    # The stochastic model, the combination, the plots and the AT2 reader load on first use: they load
+    # the C library at import, and this package's declarations (registry) must be readable without it.
+    if name in ("atkinson_silva_2000", "combine", "plots", "at2"):
         import importlib
         return importlib.import_module(f"{__name__}.{name}")
+    if name == "read_at2":
+        from .at2 import read_at2
+        return read_at2
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -71,9 +78,14 @@ def stochastic(Mw, dist_km, seed, dt=0.005) -> Record:
     dt = positive_float(dt, "dt")
     seed = _seed(seed)
     acc, info = as00.simulate(Mw, dist_km, seed, dt=dt)
-    meta = {"Mw": float(Mw), "dist_km": float(dist_km), "seed": seed, "dt_s": dt, "kind": "stochastic"}
+    meta = {**_keyed(record.PARAMETERS, (float(Mw), float(dist_km), seed, dt)), "kind": "stochastic"}
     meta.update(_generator_meta(info))
     return Record(acc, dt, meta=meta)
+
+
+def _keyed(parameters, values) -> dict:
+    """``{meta key: value}`` of declared parameters, in their order."""
+    return {p.meta_key: v for p, v in zip(parameters, values, strict=True)}
 
 
 def _generator_meta(info):
@@ -85,26 +97,19 @@ def _generator_meta(info):
 
 
 def _pulse_row(Mw, dist_km, seed, vp_scale, pulse):
-    """(Vp_cm_s, fp_hz, nu_rad, gamma) from the given row, or one draw seeded from ``seed``."""
+    """The pulse inputs (Vp_cm_s, fp_hz, nu_rad, gamma: the declared
+    ``mavroeidis_papageorgiou_2003.INPUTS``) from the given row, or one draw seeded from ``seed``."""
     if pulse is None:
         ss = np.random.SeedSequence([seed, PULSE_STREAM])
         row = sample_pulse_parameters(Mw, dist_km, 1, int(ss.generate_state(1)[0]), vp_scale=vp_scale)
         pulse = {k: v[0] for k, v in row.items()}
     if not hasattr(pulse, "get"):
         raise ParameterError(f"pulse must be a dict of pulse parameters, got {type(pulse).__name__}")
-    vals = []
-    for key in ("Vp_cm_s", "fp_hz", "nu_rad", "gamma"):
-        if key not in pulse:
-            raise ParameterError(f"pulse is missing {key!r} (needs Vp_cm_s, fp_hz, nu_rad, gamma)")
-        vals.append(finite_float(pulse[key], f"pulse[{key!r}]"))
-    vp, fp, nu, gamma = vals
-    if vp <= 0:
-        raise ParameterError(f"pulse['Vp_cm_s'] must be > 0, got {pulse['Vp_cm_s']!r}")
-    if fp <= 0:
-        raise ParameterError(f"pulse['fp_hz'] must be > 0, got {pulse['fp_hz']!r}")
-    if gamma <= 0:
-        raise ParameterError(f"pulse['gamma'] must be > 0, got {pulse['gamma']!r}")
-    return vp, fp, nu, gamma
+    inputs = mavroeidis_papageorgiou_2003.INPUTS
+    for p in inputs:
+        if p.meta_key not in pulse:
+            raise ParameterError(f"pulse is missing {p.meta_key!r} (needs {', '.join(q.meta_key for q in inputs)})")
+    return tuple(p.check(pulse[p.meta_key], f"pulse[{p.meta_key!r}]", error=ParameterError) for p in inputs)
 
 
 def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_polarity=True) -> Record:
@@ -188,9 +193,9 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_pola
     pulse_acc = mp.acceleration(t, A / 100.0, fp, nu, gamma, t0)                    # m/s^2, closed form
 
     acc = combine(hf, pulse_acc)                                                    # steps 3-6
-    meta = {"Mw": Mw_f, "dist_km": dist_f, "seed": seed, "dt_s": dt, "kind": "near-fault",
-            "vp_scale": vp_scale_f, "Vp_cm_s": vp, "fp_hz": fp, "nu_rad": nu, "gamma": gamma,
-            "t0_s": t0, "A_cm_s": A, "Ap_g": float(np.abs(pulse_acc).max()) / G, "Tp_s": 1.0 / fp,
+    meta = {**_keyed(record.PARAMETERS, (Mw_f, dist_f, seed, dt)), "kind": "near-fault", "vp_scale": vp_scale_f,
+            # in the order of the declaration: Vp, fp, nu, gamma, t0, Tp, A, Ap
+            **_keyed(mp.PARAMETERS, (vp, fp, nu, gamma, t0, 1.0 / fp, A, float(np.abs(pulse_acc).max()) / G)),
             "t_peak_s": t_peak, "pad_before_s": n_pre * dt, "pad_after_s": n_post * dt,
             "hf_polarity": int(polarity), "pulse_seeded_from": "seed" if pulse is None else "argument"}
     meta.update(_generator_meta(info))

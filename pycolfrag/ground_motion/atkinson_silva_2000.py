@@ -25,8 +25,9 @@ import numpy as np
 from .._ffi import check, ffi, lib, ptr
 from .._validate import integer, real
 from ..errors import ParameterError
+from ..names import Parameter
 
-__all__ = ["PARAMS", "check_scenario", "fourier_amplitude", "duration_s", "simulate", "window"]
+__all__ = ["NAME", "KIND", "PARAMETERS", "PARAMS", "check_scenario", "fourier_amplitude", "duration_s", "simulate", "window"]
 
 #: The model's parameters (a copy of ``reference/as00.json`` shipped with the package).
 PARAMS: dict = json.loads(resources.files("pycolfrag").joinpath("data/as00.json").read_text("utf-8"))
@@ -40,6 +41,18 @@ def _limits():
 
 #: Accepted ranges (defined in csrc/stochastic.h): Mw, max distance (km), dt (s).
 MW_RANGE, DIST_MAX_KM, DT_MIN, DT_MAX = _limits()
+
+#: Name of the model (not in :mod:`pycolfrag.ground_motion.registry`: its ranges are the C generator's,
+#: read above when this module loads, and it adds no field to a sample row).
+NAME = "atkinson_silva_2000"
+#: The high-frequency part of a near-fault record.
+KIND = "high_frequency"
+#: The generator's inputs and the ranges it accepts (the C library's, so one text: csrc/stochastic.h).
+PARAMETERS = (
+    Parameter("Mw", "", MW_RANGE, "moment magnitude", "Mw"),
+    Parameter("R", "km", (0.0, DIST_MAX_KM), "closest distance to the fault", "dist_km", low_open=True),
+    Parameter("dt", "s", (DT_MIN, DT_MAX), "time step of the record", "dt_s"),
+)
 GENERATOR = "SMSIM time-domain recipe, Atkinson & Silva (2000), C (xoshiro256**, own radix-2 FFT)"
 
 

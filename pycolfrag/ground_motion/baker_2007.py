@@ -27,12 +27,18 @@ from __future__ import annotations
 
 import math
 
-from .._ffi import lib
-from .._validate import finite_float
-from ..errors import ModelRangeError
-from .rupakhety_2011 import MW_RANGE
+from . import rupakhety_2011 as _r11
 
-__all__ = ["C0", "C1", "SIGMA_LN_TP", "SIGMA_LOG10_FP", "mean_tp_s", "log10_fp_mean"]
+__all__ = ["NAME", "KIND", "PARAMETERS", "C0", "C1", "SIGMA_LN_TP", "SIGMA_LOG10_FP", "mean_tp_s", "log10_fp_mean"]
+
+#: Name in the registry (:mod:`pycolfrag.ground_motion.registry`) and in ``--tp-model``.
+NAME = "baker_2007"
+#: A pulse-period relation: ``log10_fp_mean(Mw)`` and ``SIGMA_LOG10_FP`` (the grid's ``--tp-model``).
+KIND = "pulse_period"
+#: Its one input: the magnitude, over the pulse model's range (that of Eq. 7, the declaration of
+#: :mod:`pycolfrag.ground_motion.rupakhety_2011`: this relation replaces Eq. 7 on the same scenarios).
+PARAMETERS = (_r11.PARAMETERS[0],)
+_MW, = PARAMETERS
 
 #: ln(Tp) = C0 + C1 Mw (Baker 2007).
 C0, C1 = -6.45, 1.11
@@ -44,14 +50,12 @@ SIGMA_LOG10_FP = SIGMA_LN_TP / math.log(10.0)
 
 def log10_fp_mean(Mw) -> float:
     """Mean of log10(fp), fp = 1/Tp in Hz: ``-(C0 + C1 Mw) / ln 10``. Magnitudes outside the
-    pulse model's range (:data:`pycolfrag.ground_motion.rupakhety_2011.MW_RANGE`) are refused,
-    as for Eq. (7)."""
-    m = finite_float(Mw, "Mw")
-    if not MW_RANGE[0] <= m <= MW_RANGE[1]:
-        raise ModelRangeError(f"Mw = {Mw!r} is outside the pulse model's range {MW_RANGE}")
+    declared range (that of Eq. 7) are refused (ModelRangeError)."""
+    m = _MW.check(Mw, "Mw", owner="the pulse model's")
     return -(C0 + C1 * m) / math.log(10.0)
 
 
 def mean_tp_s(Mw) -> float:
     """Median pulse period, s: ``exp(-6.45 + 1.11 Mw)``."""
+    from .._ffi import lib  # C on first use: the declaration above is read without the C library
     return lib.cf_math_pow(10.0, -log10_fp_mean(Mw))

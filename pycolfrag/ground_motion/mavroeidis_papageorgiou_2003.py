@@ -22,34 +22,51 @@ import numpy as np
 from scipy import optimize
 from scipy.stats import qmc
 
-from .._ffi import check, ffi, lib, ptr
 from .._validate import finite_float, float_array, integer, positive_float
 from ..errors import ParameterError
-from . import baker_2007 as _b07
+from ..names import Parameter
 from . import rupakhety_2011 as _r11
 
-__all__ = ["GAMMA_MEAN", "GAMMA_SD", "GAMMA_MIN", "NU_RANGE_RAD", "pulse", "velocity", "acceleration",
-           "displacement", "support", "envelope_amplitude", "peak_velocity_time",
-           "sample_pulse_parameters", "TP_MODELS", "DEFAULT_TP_MODEL", "tp_model_of"]
+__all__ = ["NAME", "KIND", "PARAMETERS", "INPUTS", "GAMMA_MEAN", "GAMMA_SD", "GAMMA_MIN", "NU_RANGE_RAD", "pulse", "velocity",
+           "acceleration", "displacement", "support", "envelope_amplitude", "peak_velocity_time",
+           "sample_pulse_parameters"]
+
+#: Name in the registry (:mod:`pycolfrag.ground_motion.registry`).
+NAME = "mavroeidis_papageorgiou_2003"
+#: The velocity pulse of a near-fault record: its parameters are the pulse fields of a sample row.
+KIND = "pulse"
 
 #: gamma ~ N(1.8, 0.4) left-truncated at 1 (the paper, after MP03's data).
 GAMMA_MEAN, GAMMA_SD, GAMMA_MIN = 1.8, 0.4, 1.0
 #: nu ~ U[-pi/2, pi/2] (the paper).
 NU_RANGE_RAD = (-math.pi / 2, math.pi / 2)
 
+#: The pulse's parameters as a record carries them (``Record.meta`` key) and a sample row stores them
+#: (``/samples`` field), in the order of the results layout. The first four are the inputs of
+#: :func:`pycolfrag.ground_motion.synthesize` (``pulse=`` rows, checked against these ranges: any
+#: finite phase, positive amplitude, frequency and gamma, which the C kernel needs; the sampling keeps
+#: gamma >= GAMMA_MIN and nu in NU_RANGE_RAD); the others are derived from them for each record.
+PARAMETERS = (
+    Parameter("Vp", "cm/s", (0.0, math.inf), "pulse amplitude Vp", "Vp_cm_s", "vp_cm_s", low_open=True),
+    Parameter("fp", "Hz", (0.0, math.inf), "pulse frequency fp", "fp_hz", "fp_hz", low_open=True),
+    Parameter("nu", "rad", (-math.inf, math.inf), "pulse phase nu", "nu_rad", "nu_rad"),
+    Parameter("gamma", "-", (0.0, math.inf), "pulse oscillatory character gamma", "gamma", "gamma", low_open=True),
+    Parameter("t0", "s", (-math.inf, math.inf), "time of the pulse peak", "t0_s", "t0_s"),
+    Parameter("Tp", "s", (0.0, math.inf), "pulse period Tp = 1/fp", "Tp_s", "tp_s", low_open=True),
+    Parameter("A", "cm/s", (0.0, math.inf), "envelope amplitude A of the pulse model", "A_cm_s", "a_cm_s",
+              low_open=True),
+    Parameter("Ap", "g", (0.0, math.inf), "peak acceleration of the pulse alone", "Ap_g", "ap_g"),
+)
+_VP, _FP, _NU, _GAMMA, _T0, _TP, _A, _AP = PARAMETERS
+#: The parameters a pulse row must give (:func:`pycolfrag.ground_motion.synthesize`); the rest are derived.
+INPUTS = (_VP, _FP, _NU, _GAMMA)
 
-#: Pulse-period relations the sampling can use (an epistemic branch of the grid): name -> module
-#: with ``log10_fp_mean(Mw)`` and ``SIGMA_LOG10_FP``. The paper's Eq. (7) is the default.
-TP_MODELS = {"rupakhety_2011": _r11, "baker_2007": _b07}
-DEFAULT_TP_MODEL = "rupakhety_2011"
 
-
-def tp_model_of(name):
-    """The module of a pulse-period relation of :data:`TP_MODELS`, or ParameterError naming ``name``."""
-    try:
-        return TP_MODELS[name]
-    except (KeyError, TypeError):
-        raise ParameterError(f"unknown pulse-period model {name!r} (known: {', '.join(TP_MODELS)})") from None
+def _c():
+    """The compiled library's module (``ffi``, ``lib``, ``check``, ``ptr``), loaded on first use rather
+    than at import: the declarations above are read by the results layout, which must not need C."""
+    from .. import _ffi
+    return _ffi
 
 
 def _float(value, name, positive=False):
@@ -57,7 +74,7 @@ def _float(value, name, positive=False):
 
 
 def _params(A, fp, nu, gamma, t0):
-    p = ffi.new("cf_pulse_params *")
+    p = _c().ffi.new("cf_pulse_params *")
     p.amplitude = _float(A, "A")
     p.fp = _float(fp, "fp", positive=True)
     p.nu = _float(nu, "nu")
@@ -85,7 +102,8 @@ def pulse(t, A, fp, nu, gamma, t0=0.0):
     p = _params(A, fp, nu, gamma, t0)
     tt = np.ravel(float_array(t, "t", ndim=None, allow_empty=True))
     vel, acc, disp = np.empty_like(tt), np.empty_like(tt), np.empty_like(tt)
-    check(lib.cf_pulse_eval(p, ptr(tt), tt.size, ptr(vel), ptr(acc), ptr(disp)), what="pulse")
+    c = _c()
+    c.check(c.lib.cf_pulse_eval(p, c.ptr(tt), tt.size, c.ptr(vel), c.ptr(acc), c.ptr(disp)), what="pulse")
     shape = np.shape(t)
     return vel.reshape(shape), acc.reshape(shape), disp.reshape(shape)
 
@@ -118,12 +136,13 @@ def _unit_peak(nu, gamma):
     [-gamma/2, gamma/2]: where the unit-amplitude pulse peaks in |g| (independent of fp), and
     its signed value there (the sign is that of the pulse's peak velocity for A > 0)."""
     u = np.linspace(-gamma / 2, gamma / 2, 2001)
+    c = _c()
 
     def g(x):
         # C (csrc/pulse.c, cf_math cos): the same bits on every CPU, unlike numpy's cos loops
         xs = np.ascontiguousarray(np.atleast_1d(x), dtype=np.float64)
         out = np.empty_like(xs)
-        check(lib.cf_pulse_unit_shape(nu, gamma, ptr(xs), xs.size, ptr(out)), what="unit pulse")
+        c.check(c.lib.cf_pulse_unit_shape(nu, gamma, c.ptr(xs), xs.size, c.ptr(out)), what="unit pulse")
         return out if np.ndim(x) else float(out[0])
 
     k = int(np.argmax(np.abs(g(u))))
@@ -172,7 +191,7 @@ def _lhs(d, n, seed):
 
 
 def _distribution(log10_vp_mean, log10_fp_mean, log10_fp_sd):
-    d = ffi.new("cf_pulse_dist *")
+    d = _c().ffi.new("cf_pulse_dist *")
     d.log10_vp_mean, d.log10_vp_sd = log10_vp_mean, _r11.SIGMA_LOG10_VP
     d.log10_fp_mean, d.log10_fp_sd = log10_fp_mean, log10_fp_sd
     d.nu_min, d.nu_max = NU_RANGE_RAD
@@ -180,7 +199,7 @@ def _distribution(log10_vp_mean, log10_fp_mean, log10_fp_sd):
     return d
 
 
-def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=DEFAULT_TP_MODEL):
+def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11.NAME):
     """Latin-hypercube sample of ``n`` pulses for the scenario (Mw, dist_km km).
 
     One LHS of the unit 4-cube (``scipy.stats.qmc.LatinHypercube(d=4)`` seeded with
@@ -192,7 +211,8 @@ def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=DEFAULT
 
     * column 0: log10 Vp ~ N(log10 of the Eq. (6) mean times ``vp_scale``, 0.16);
     * column 1: log10 fp ~ N(log10 of the Eq. (7) mean, 0.18), or the mean and scatter of another
-      pulse-period relation (``tp_model``, :data:`TP_MODELS`) on the same uniform column;
+      pulse-period relation (``tp_model``, :data:`pycolfrag.ground_motion.registry.TP_MODELS`) on the same
+      uniform column;
     * column 2: nu ~ U[-pi/2, pi/2];
     * column 3: gamma ~ N(1.8, 0.4) left-truncated at 1: ``ndtri(Phi(a) + u (1 - Phi(a)))``,
       a = (1 - 1.8) / 0.4 (equal to ``scipy.stats.truncnorm.ppf`` to about 1e-15).
@@ -207,22 +227,24 @@ def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=DEFAULT
     n : int (>= 1), samples
     seed : int (>= 0), e.g. a 32-bit integer from ``numpy.random.SeedSequence``
     vp_scale : float (> 0), multiplies the Eq. (6) mean
-    tp_model : str, a key of :data:`TP_MODELS` (default the paper's Eq. 7)
+    tp_model : str, a key of :data:`pycolfrag.ground_motion.registry.TP_MODELS` (default the paper's Eq. 7)
 
     Returns
     -------
     dict of 1-D float arrays of length n: ``Vp_cm_s``, ``fp_hz``, ``nu_rad``, ``gamma``,
     ``A_cm_s`` (envelope amplitude giving peak |V| = Vp), ``Tp_s`` (= 1/fp).
     """
+    from .registry import tp_model_of  # here, not at the top: the registry imports this module
     model = tp_model_of(tp_model)
-    log_vp = lib.cf_math_log10(_r11.mean_vp_cm_s(Mw, dist_km, vp_scale))
+    c = _c()
+    log_vp = c.lib.cf_math_log10(_r11.mean_vp_cm_s(Mw, dist_km, vp_scale))
     log_fp = model.log10_fp_mean(Mw)
     n_ = integer(n, "n", 1)
     u = np.ascontiguousarray(_lhs(4, n_, _int_seed(seed)), dtype=np.float64)
     vp, fp, nu, gamma = (np.empty(n_) for _ in range(4))
     dist = _distribution(log_vp, log_fp, model.SIGMA_LOG10_FP)
-    check(lib.cf_pulse_sample_map(dist, ptr(u), n_, ptr(vp), ptr(fp), ptr(nu), ptr(gamma)),
-          what="pulse parameter sampling")
-    return {"Vp_cm_s": vp, "fp_hz": fp, "nu_rad": nu, "gamma": gamma,
-            "A_cm_s": np.asarray(envelope_amplitude(vp, fp, nu, gamma), dtype=float).reshape(n_),
-            "Tp_s": 1.0 / fp}
+    c.check(c.lib.cf_pulse_sample_map(dist, c.ptr(u), n_, c.ptr(vp), c.ptr(fp), c.ptr(nu), c.ptr(gamma)),
+            what="pulse parameter sampling")
+    return {_VP.meta_key: vp, _FP.meta_key: fp, _NU.meta_key: nu, _GAMMA.meta_key: gamma,
+            _A.meta_key: np.asarray(envelope_amplitude(vp, fp, nu, gamma), dtype=float).reshape(n_),
+            _TP.meta_key: 1.0 / fp}

@@ -8,12 +8,30 @@ the same pipeline.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .._validate import float_array, positive_float
 from ..errors import ParameterError
+from ..names import Parameter
 
-__all__ = ["Record"]
+__all__ = ["NAME", "KIND", "PARAMETERS", "Record"]
+
+#: Name in the registry (:mod:`pycolfrag.ground_motion.registry`).
+NAME = "record"
+#: The keys every synthetic record's ``meta`` carries (the pulse model's keys are declared with it).
+KIND = "record"
+#: The scenario and generator keys of a synthetic record's ``meta`` (:func:`pycolfrag.ground_motion.synthesize`,
+#: :func:`~pycolfrag.ground_motion.stochastic`) and their sample-row fields. The ranges are what any
+#: record may carry; each model checks its own, narrower range (the Atkinson & Silva and the pulse
+#: modules).
+PARAMETERS = (
+    Parameter("Mw", "", (-math.inf, math.inf), "moment magnitude", "Mw", "mw"),
+    Parameter("R", "km", (0.0, math.inf), "closest distance to the rupture", "dist_km", "dist_km"),
+    Parameter("seed", "-", (0.0, math.inf), "seed of the high-frequency noise (an integer)", "seed"),
+    Parameter("dt", "s", (0.0, math.inf), "time step of the record", "dt_s", low_open=True),
+)
 
 
 class Record:

@@ -34,11 +34,27 @@ pycolfrag uses the model to weight the pulse and no-pulse branches of a site's r
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..errors import ParameterError
+from ..names import Parameter
 
-__all__ = ["COEFFICIENTS", "MECHANISMS", "pulse_probability"]
+__all__ = ["NAME", "KIND", "PARAMETERS", "COEFFICIENTS", "MECHANISMS", "pulse_probability"]
+
+#: Name in the registry (:mod:`pycolfrag.ground_motion.registry`).
+NAME = "shahi_baker_2014"
+#: The probability that a near-fault motion carries a pulse (weights a site's pulse branch).
+KIND = "pulse_occurrence"
+#: The inputs of the logistic model, with the ranges of its directivity geometry (Somerville et al.
+#: 1997, as the paper uses it): distances >= 0, the angle in [0, 90] degrees.
+PARAMETERS = (
+    Parameter("r", "km", (0.0, math.inf), "closest distance from the site to the rupture"),
+    Parameter("s (d)", "km", (0.0, math.inf),
+              "rupture length between epicentre (hypocentre) and site along strike (up dip)"),
+    Parameter("theta (phi)", "deg", (0.0, 90.0), "angle between strike (dip) and the path to the site"),
+)
 
 #: (c0, c1, c2, c3) of the logistic model by mechanism (see the module docstring).
 COEFFICIENTS = {
@@ -72,12 +88,13 @@ def pulse_probability(r_km, s_km, angle_deg, mechanism="strike-slip"):
     except (KeyError, TypeError):
         raise ParameterError(f"mechanism must be one of {', '.join(MECHANISMS)}, got {mechanism!r}") from None
     r, s, a = (np.asarray(v, dtype=float) for v in (r_km, s_km, angle_deg))
-    for name, v in (("r_km", r), ("s_km", s), ("angle_deg", a)):
+    for name, v, p in zip(("r_km", "s_km", "angle_deg"), (r, s, a), PARAMETERS):
+        lo, hi = p.range
         if not np.all(np.isfinite(v)):
             raise ParameterError(f"{name} must be finite, got {v!r}")
-        if np.any(v < 0):
-            raise ParameterError(f"{name} must be >= 0, got {v!r}")
-    if np.any(a > 90):
-        raise ParameterError(f"angle_deg must be in [0, 90] degrees, got {a!r}")
+        if np.any(v < lo):
+            raise ParameterError(f"{name} must be >= {lo:g}, got {v!r}")
+        if np.any(v > hi):
+            raise ParameterError(f"{name} must be in [{lo:g}, {hi:g}] {p.unit}, got {v!r}")
     p = 1.0 / (1.0 + np.exp(c0 + c1 * r - c2 * np.sqrt(s) + c3 * a))
     return float(p) if p.ndim == 0 else p
