@@ -51,7 +51,7 @@ def test_mp03_ranges_hold_the_sampled_values():
     g, nu = _param(mp, "gamma"), _param(mp, "nu")
     assert g.range[0] < mp.GAMMA_MIN and g.low_open
     assert nu.range[0] <= mp.NU_RANGE_RAD[0] and mp.NU_RANGE_RAD[1] <= nu.range[1]
-    rows = mp.sample_pulse_parameters(6.5, 10.0, 20, 3)
+    rows = mp.sample_parameters(6.5, 10.0, 20, 3)
     for p in mp.PARAMETERS:
         if p.meta_key in rows:
             for v in rows[p.meta_key]:

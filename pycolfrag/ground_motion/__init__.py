@@ -29,12 +29,21 @@ from ..errors import ParameterError
 from ..names import G
 from . import baker_2007, mavroeidis_papageorgiou_2003, record, registry, rupakhety_2011, shahi_baker_2014
 from .mavroeidis_papageorgiou_2003 import _int_seed as _seed
-from .mavroeidis_papageorgiou_2003 import sample_pulse_parameters
 from .record import Record
 
 __all__ = ["Record", "stochastic", "synthesize", "sample_pulse_parameters", "read_at2",
            "atkinson_silva_2000", "mavroeidis_papageorgiou_2003", "rupakhety_2011", "baker_2007", "shahi_baker_2014",
            "registry", "combine", "plots", "PULSE_STREAM"]
+
+def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=registry.DEFAULT_TP_MODEL):
+    """Latin-hypercube sample of ``n`` pulses for the scenario (Mw, dist_km km), the pulse period from
+    the relation named ``tp_model`` (a key of :data:`registry.TP_MODELS`): the name looked up here,
+    the sampling in :func:`mavroeidis_papageorgiou_2003.sample_parameters` (whose docstring gives the
+    distributions and the returned keys), so the pulse model need not import the registry that
+    lists it."""
+    return mavroeidis_papageorgiou_2003.sample_parameters(Mw, dist_km, n, seed, vp_scale,
+                                                          registry.tp_model_of(tp_model))
+
 
 #: Second word of the SeedSequence that seeds the pulse draw of ``synthesize(pulse=None)``:
 #: ``SeedSequence([seed, PULSE_STREAM])``, so the pulse stream never equals the HF noise stream.

@@ -199,7 +199,7 @@ def _distribution(log10_vp_mean, log10_fp_mean, log10_fp_sd):
     return d
 
 
-def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11.NAME):
+def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11):
     """Latin-hypercube sample of ``n`` pulses for the scenario (Mw, dist_km km).
 
     One LHS of the unit 4-cube (``scipy.stats.qmc.LatinHypercube(d=4)`` seeded with
@@ -211,8 +211,8 @@ def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11.NA
 
     * column 0: log10 Vp ~ N(log10 of the Eq. (6) mean times ``vp_scale``, 0.16);
     * column 1: log10 fp ~ N(log10 of the Eq. (7) mean, 0.18), or the mean and scatter of another
-      pulse-period relation (``tp_model``, :data:`pycolfrag.ground_motion.registry.TP_MODELS`) on the same
-      uniform column;
+      pulse-period relation (``tp_model``, one of :data:`pycolfrag.ground_motion.registry.TP_MODELS`)
+      on the same uniform column;
     * column 2: nu ~ U[-pi/2, pi/2];
     * column 3: gamma ~ N(1.8, 0.4) left-truncated at 1: ``ndtri(Phi(a) + u (1 - Phi(a)))``,
       a = (1 - 1.8) / 0.4 (equal to ``scipy.stats.truncnorm.ppf`` to about 1e-15).
@@ -227,15 +227,16 @@ def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11.NA
     n : int (>= 1), samples
     seed : int (>= 0), e.g. a 32-bit integer from ``numpy.random.SeedSequence``
     vp_scale : float (> 0), multiplies the Eq. (6) mean
-    tp_model : str, a key of :data:`pycolfrag.ground_motion.registry.TP_MODELS` (default the paper's Eq. 7)
+    tp_model : module, a pulse-period relation (``log10_fp_mean(Mw)``, ``SIGMA_LOG10_FP``; default the
+        paper's Eq. 7, :mod:`~pycolfrag.ground_motion.rupakhety_2011`). Callers with a name take
+        :func:`pycolfrag.ground_motion.sample_pulse_parameters`, which looks it up in the registry.
 
     Returns
     -------
     dict of 1-D float arrays of length n: ``Vp_cm_s``, ``fp_hz``, ``nu_rad``, ``gamma``,
     ``A_cm_s`` (envelope amplitude giving peak |V| = Vp), ``Tp_s`` (= 1/fp).
     """
-    from .registry import tp_model_of  # here, not at the top: the registry imports this module
-    model = tp_model_of(tp_model)
+    model = tp_model
     c = _c()
     log_vp = c.lib.cf_math_log10(_r11.mean_vp_cm_s(Mw, dist_km, vp_scale))
     log_fp = model.log10_fp_mean(Mw)
