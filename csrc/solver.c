@@ -103,15 +103,10 @@ int cf_solver_check_def(cf_solver *s, const cf_solver_def *d)
     return CF_OK;
 }
 
-/* The contact model of a definition: exact, or points (SSE2 where the build has it). */
+/* The contact model of a definition: exact, or points. */
 static const cf_solver_contact_model *model_of(const cf_solver_def *d)
 {
-    if (d->contact == CF_SOLVER_CONTACT_EXACT) return &cf_solver_exact_model;
-#ifdef CF_SOLVER_SIMD
-    return &cf_solver_points_sse2_model;
-#else
-    return &cf_solver_points_model;
-#endif
+    return d->contact == CF_SOLVER_CONTACT_EXACT ? &cf_solver_exact_model : &cf_solver_points_model;
 }
 
 int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int *nseg,
@@ -163,6 +158,7 @@ int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int nblk, con
 
     s->def = *def;
     s->model = model_of(def);
+    s->lanes = cf_solver_lanes_widest();
     s->density = density;
     st = cf_solver_stack_build(s, nblk, nseg, segs, kn, ks, mu);
     if (!st) {

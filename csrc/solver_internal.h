@@ -29,11 +29,25 @@
 
 #define CF_MAXS CF_SOLVER_MAX_SIDES
 
-/* SSE2 is part of every x86-64 CPU (no -m flag needed); elsewhere, or with
- * -DCF_NO_SIMD, the scalar point path runs, with identical results. */
-#if defined(__SSE2__) && !defined(CF_NO_SIMD)
+/* The SIMD widths this build has (every width gives the same bits; solver_lanes.h):
+ *   CF_SOLVER_SIMD    2 lanes (SSE2, part of every x86-64 CPU; no -m flag needed), with
+ *                     GCC vector extensions; elsewhere, or with -DCF_NO_SIMD, the scalar paths run
+ *   CF_SOLVER_AVX2    4 lanes on x86-64 (-DCF_FORCE_SSE2 leaves it out)
+ *   CF_SOLVER_AVX512  8 lanes (-DCF_FORCE_AVX2 leaves it out)
+ * the wider ones compiled for their instruction set by a target region and run where
+ * CPUID says the CPU has it (cf_solver_lanes_widest, solver_points.c). */
+#if defined(__SSE2__) && defined(__GNUC__) && !defined(CF_NO_SIMD)
 #define CF_SOLVER_SIMD 1
+#if defined(__x86_64__) && !defined(CF_FORCE_SSE2)
+#define CF_SOLVER_AVX2 1
+#if !defined(CF_FORCE_AVX2)
+#define CF_SOLVER_AVX512 1
 #endif
+#endif
+#endif
+
+/* The widest lanes this CPU and build run: 8, 4, 2, or 1 (no SIMD); a pure function of CPUID. */
+int cf_solver_lanes_widest(void);
 
 typedef struct {
     double c[3];                 /* face centre in the body frame, m */
@@ -79,9 +93,6 @@ typedef struct {
 } cf_solver_contact_model;
 
 extern const cf_solver_contact_model cf_solver_points_model;       /* solver_points.c */
-#ifdef CF_SOLVER_SIMD
-extern const cf_solver_contact_model cf_solver_points_sse2_model;  /* solver_points_sse2.c */
-#endif
 extern const cf_solver_contact_model cf_solver_exact_model;        /* solver_exact.c */
 
 struct cf_solver {
@@ -91,6 +102,7 @@ struct cf_solver {
     void *check_user;
     cf_solver_def def;
     const cf_solver_contact_model *model;
+    int lanes;                      /* SIMD lanes of the points runner and the joint chunks (set-up) */
     double density;
     int nblk, nbody, nj;
     /* bodies (nbody) */

@@ -152,8 +152,7 @@ static void chunk_after_base(cf_joint_chunk *C, int n)
     CHUNK_FIXED(chunk_after_body(C, CF_JCH), chunk_after_body(C, 8), chunk_after_body(C, 4),
                 chunk_after_body(C, 2), chunk_after_body(C, n));
 }
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(CF_NO_SIMD) && !defined(CF_FORCE_SSE2)
-#define CF_HAVE_AVX2 1
+#ifdef CF_SOLVER_AVX2
 __attribute__((target("avx2"))) static void chunk_before_avx2(cf_joint_chunk *C, int n, double dt)
 {
     CHUNK_FIXED(chunk_before_body(C, CF_JCH, dt), chunk_before_body(C, 8, dt), chunk_before_body(C, 4, dt),
@@ -164,8 +163,7 @@ __attribute__((target("avx2"))) static void chunk_after_avx2(cf_joint_chunk *C, 
     CHUNK_FIXED(chunk_after_body(C, CF_JCH), chunk_after_body(C, 8), chunk_after_body(C, 4),
                 chunk_after_body(C, 2), chunk_after_body(C, n));
 }
-#if !defined(CF_FORCE_AVX2)
-#define CF_HAVE_AVX512 1
+#ifdef CF_SOLVER_AVX512
 __attribute__((target("avx512f"))) static void chunk_before_avx512(cf_joint_chunk *C, int n, double dt)
 {
     CHUNK_FIXED(chunk_before_body(C, CF_JCH, dt), chunk_before_body(C, 8, dt), chunk_before_body(C, 4, dt),
@@ -179,33 +177,74 @@ __attribute__((target("avx512f"))) static void chunk_after_avx512(cf_joint_chunk
 #endif
 #endif
 
-/* The widest lanes this CPU runs (every width gives the same bits). -DCF_FORCE_SSE2 /
- * -DCF_FORCE_AVX2 cap the width (scripts/check_result_hashes.sh builds each). */
-static void chunk_select(cf_chunk_before_fn *before, cf_chunk_after_fn *after)
+/* The widest lanes this CPU and build run (every width gives the same bits), from CPUID
+ * each call: no state. -DCF_FORCE_SSE2 / -DCF_FORCE_AVX2 cap the width and -DCF_NO_SIMD
+ * leaves SIMD out (scripts/check_result_hashes.sh builds each). */
+int cf_solver_lanes_widest(void)
 {
-#ifdef CF_HAVE_AVX512
-    if (__builtin_cpu_supports("avx512f")) { *before = chunk_before_avx512; *after = chunk_after_avx512; return; }
+#ifdef CF_SOLVER_AVX512
+    if (__builtin_cpu_supports("avx512f")) return 8;
 #endif
-#ifdef CF_HAVE_AVX2
-    if (__builtin_cpu_supports("avx2")) { *before = chunk_before_avx2; *after = chunk_after_avx2; return; }
+#ifdef CF_SOLVER_AVX2
+    if (__builtin_cpu_supports("avx2")) return 4;
+#endif
+#ifdef CF_SOLVER_SIMD
+    return 2;
+#else
+    return 1;
+#endif
+}
+
+/* The chunk lane functions of a width (the compiler's vectors of 2 lanes are the base ones). */
+static void chunk_fns(int lanes, cf_chunk_before_fn *before, cf_chunk_after_fn *after)
+{
+    (void)lanes;
+#ifdef CF_SOLVER_AVX512
+    if (lanes == 8) { *before = chunk_before_avx512; *after = chunk_after_avx512; return; }
+#endif
+#ifdef CF_SOLVER_AVX2
+    if (lanes == 4) { *before = chunk_before_avx2; *after = chunk_after_avx2; return; }
 #endif
     *before = chunk_before_base; *after = chunk_after_base;
 }
 
 void cf_solver_points_chunk_fns(cf_chunk_before_fn *before, cf_chunk_after_fn *after)
 {
-    chunk_select(before, after);
+    chunk_fns(cf_solver_lanes_widest(), before, after);
+}
+
+/* The face runner of the solver's width (s->lanes, chosen at set-up); every width gives
+ * the same bits. */
+static void points_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
+{
+    switch (s->lanes) {
+#ifdef CF_SOLVER_AVX512
+    case 8:
+        /* eight lanes pay off on long faces only: a 10-point face runs 8 + 2 lanes as two
+         * 512-bit blocks, slower than three 256-bit ones where AVX-512 executes as two
+         * halves (measured on an AMD EPYC, Zen 4) */
+        if (k1 - k0 >= 16) cf_solver_points_run_w8(s, P, k0, k1, S, need);
+        else cf_solver_points_run_w4(s, P, k0, k1, S, need);
+        return;
+#endif
+#ifdef CF_SOLVER_AVX2
+    case 4: cf_solver_points_run_w4(s, P, k0, k1, S, need); return;
+#endif
+#ifdef CF_SOLVER_SIMD
+    case 2: cf_solver_points_run_w2(s, P, k0, k1, S, need); return;
+#endif
+    default: cf_solver_points_run_scalar(s, P, k0, k1, S, need);
+    }
 }
 
 /* Joints [j0, j0 + n) through the face runner, in chunks of CF_JCH. */
-static void points_joints(cf_solver *s, int j0, int n, const double *ww, double dt, cf_step_energy *e,
-                          cf_points_run_fn run)
+static void points_joints(cf_solver *s, int j0, int n, const double *ww, double dt, cf_step_energy *e)
 {
-    static cf_chunk_before_fn before;   /* chosen once; a racing first call stores the same pointers */
-    static cf_chunk_after_fn after;
+    cf_chunk_before_fn before;
+    cf_chunk_after_fn after;
     cf_joint_chunk C;
     int need = e->need, c0;
-    if (!before) chunk_select(&before, &after);
+    chunk_fns(s->lanes, &before, &after);
     for (c0 = j0; c0 < j0 + n; c0 += CF_JCH) {
         int m = j0 + n - c0 < CF_JCH ? j0 + n - c0 : CF_JCH, l, i;
         /* gather the chunk; from 8 joints on, a whole chunk (a fixed trip count, no
@@ -243,7 +282,7 @@ static void points_joints(cf_solver *s, int j0, int n, const double *ww, double 
                 cf_face_pass_set(s, J, side, &P);
                 cf_face_pass_lane(&C, side, l, &P);
                 S.sm[0] = S.sm[1] = S.sm[2] = S.sm[3] = S.sm[4] = S.sm[5] = 0.0;
-                run(s, &P, k0, k1, &S, need);
+                points_run(s, &P, k0, k1, &S, need);
                 for (i = 0; i < 6; i++) C.sm[side][i][l] = S.sm[i];
             }
             e->vs += S.sm[6];
@@ -278,15 +317,14 @@ static void points_joints(cf_solver *s, int j0, int n, const double *ww, double 
     }
 }
 
-void cf_solver_points_joint(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e,
-                            cf_points_run_fn run)
+static void points_joint(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
 {
-    points_joints(s, (int)(J - s->jt), 1, ww, dt, e, run);
+    points_joints(s, (int)(J - s->jt), 1, ww, dt, e);
 }
 
-void cf_solver_points_all(cf_solver *s, const double *ww, double dt, cf_step_energy *e, cf_points_run_fn run)
+static void points_all(cf_solver *s, const double *ww, double dt, cf_step_energy *e)
 {
-    points_joints(s, 0, s->nj, ww, dt, e, run);
+    points_joints(s, 0, s->nj, ww, dt, e);
 }
 
 /* The scalar runner: every point through the full law, in order. */
@@ -298,20 +336,12 @@ void cf_solver_points_run_scalar(cf_solver *s, const cf_face_pass *P, int k0, in
         if (cf_point_law(s, P, k, S, s->p_hint + k, t)) cf_sums_add(S, t, need);
 }
 
-static void all_scalar(cf_solver *s, const double *ww, double dt, cf_step_energy *e)
-{
-    cf_solver_points_all(s, ww, dt, e, cf_solver_points_run_scalar);
-}
-
-static void joint_scalar(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
-{
-    cf_solver_points_joint(s, J, ww, dt, e, cf_solver_points_run_scalar);
-}
-
 const cf_solver_contact_model cf_solver_points_model = {
     "points",
     "Sub-contact points (polygon vertices, or a refined face mesh with lumped area "
-    "weights), each with the soft Coulomb law of contact_law.h; scalar, one point at a time.",
-    joint_scalar,
-    all_scalar,
+    "weights), each with the soft Coulomb law of contact_law.h; two, four or eight points "
+    "per SSE2, AVX2 or AVX-512 instruction on the sticking path (the widest the CPU has), "
+    "bitwise the results of one point at a time.",
+    points_joint,
+    points_all,
 };
