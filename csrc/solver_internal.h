@@ -81,19 +81,42 @@ typedef struct {
 
 struct cf_solver;
 
-/* A contact model: how the forces of one joint are computed (the way REBOUND keeps
- * one integrator per file behind a table). */
+/* The stiffness of the stack at rest, for the stability limit (solver_timestep.c): a contact
+ * model adds its springs with cf_stiffness_add_spring. */
+struct cf_stiffness;
+/* a spring of stiffness k (N/m) along the unit vector e at world point p (at rest) between bodies bl, bu */
+void cf_stiffness_add_spring(const struct cf_solver *s, struct cf_stiffness *S, int bl, int bu, const double *p,
+                             const double *e, double k);
+/* the three springs of a contact of area share w (m^2) of joint J at world point p (at rest):
+ * normal kn w along z, shear ks w along x and along y */
+void cf_stiffness_add_contact(const struct cf_solver *s, struct cf_stiffness *S, const cf_joint *J, const double *p,
+                              double w);
+
+/* A contact model: one entry of the registry (solver_contact_models.c, the way REBOUND keeps
+ * its integrators, gravity and collision modules: a table of entries, each owning its
+ * functions). The definition's `contact` field is the entry's index; its name is the
+ * option's value in Python (read through cf_solver_contact_model_name). */
 typedef struct {
     const char *name;
-    const char *doc;
-    /* the forces of one joint */
+    const char *doc;                /* one sentence, exported (cf_solver_contact_model_doc) */
+    /* optional: set-up, once the bodies and joints are built (cf_solver_setup): the
+     * model's contact points or joint data and its per-run state, allocated */
+    int (*setup)(struct cf_solver *s);
+    /* the model's per-run state to its rest value (the start of every run) */
+    void (*reset)(struct cf_solver *s);
+    /* the springs joint J contributes to the stiffness of the stability limit */
+    void (*stiffness)(const struct cf_solver *s, const cf_joint *J, struct cf_stiffness *K);
+    /* the step hook: the forces of one joint */
     void (*joint)(struct cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e);
     /* optional: the forces of every joint at once (NULL: joint by joint); the same bits */
     void (*all)(struct cf_solver *s, const double *ww, double dt, cf_step_energy *e);
+    /* 1: the batch integrator (solver_batch_lanes.h, which writes the points law in lanes)
+     * runs this model's runs side by side; 0: one after the other */
+    int batch_lanes;
 } cf_solver_contact_model;
 
-extern const cf_solver_contact_model cf_solver_points_model;       /* solver_points.c */
-extern const cf_solver_contact_model cf_solver_exact_model;        /* solver_exact.c */
+/* the registry (solver_contact_models.c): cf_solver_contact_models[def.contact] */
+extern const cf_solver_contact_model *const cf_solver_contact_models[];
 
 struct cf_solver {
     char msg[CF_MSG_LEN];
@@ -147,6 +170,8 @@ int cf_solver_stack_build(struct cf_solver *s, int nblk, const int *nseg, const 
                           const double *kn, const double *ks, const double *mu);
 void cf_solver_stack_release(struct cf_solver *s);
 void cf_solver_stack_reset(struct cf_solver *s);
+/* the sub-contact points of every joint, mm per edge (0: the polygon vertices) */
+int cf_solver_stack_points(struct cf_solver *s, int mm);
 
 /* solver_timestep.c */
 int cf_solver_timestep_limit(struct cf_solver *s);

@@ -336,12 +336,59 @@ void cf_solver_points_run_scalar(cf_solver *s, const cf_face_pass *P, int k0, in
         if (cf_point_law(s, P, k, S, s->p_hint + k, t)) cf_sums_add(S, t, need);
 }
 
-const cf_solver_contact_model cf_solver_points_model = {
-    "points",
-    "Sub-contact points (polygon vertices, or a refined face mesh with lumped area "
-    "weights), each with the soft Coulomb law of contact_law.h; two, four or eight points "
-    "per SSE2, AVX2 or AVX-512 instruction on the sticking path (the widest the CPU has), "
-    "bitwise the results of one point at a time.",
-    points_joint,
-    points_all,
+/* Set-up of the two points models: the points at the polygon vertices, or m per edge of a
+ * refined face mesh (points_per_edge). */
+static int vertex_setup(cf_solver *s)
+{
+    return cf_solver_stack_points(s, 0);
+}
+
+static int perimeter_setup(cf_solver *s)
+{
+    return cf_solver_stack_points(s, s->def.points_per_edge);
+}
+
+/* The points' state at the start of a run: no shear, open, no offset; the polygon tests'
+ * starting edges too (a run does not depend on the runs before it). */
+static void points_reset(cf_solver *s)
+{
+    size_t n = (size_t)s->np;
+    if (n == 0) return;
+    memset(s->p_fsx, 0, sizeof(double) * n);
+    memset(s->p_fsy, 0, sizeof(double) * n);
+    memset(s->p_state, 0, sizeof(double) * n);   /* 0.0 is CF_POINT_OPEN */
+    memset(s->p_pen0, 0, sizeof(double) * n);
+    memset(s->p_hint, 0, sizeof(int) * n);
+}
+
+/* For the stability limit: every point's springs at its rest position. */
+static void points_stiffness(const cf_solver *s, const cf_joint *J, struct cf_stiffness *K)
+{
+    int k;
+    for (k = J->p0; k < J->p0 + J->np; k++) {
+        int b = s->p_side[k] == 0 ? J->bu : J->bl;
+        double p[3];
+        p[0] = s->x0[3 * b] + s->p_loc[3 * k];
+        p[1] = s->x0[3 * b + 1] + s->p_loc[3 * k + 1];
+        p[2] = s->x0[3 * b + 2] + s->p_loc[3 * k + 2];
+        cf_stiffness_add_contact(s, K, J, p, s->p_w[k]);
+    }
+}
+
+/* The face runners give the same bits at every width: two, four or eight points per
+ * SSE2, AVX2 or AVX-512 instruction on the sticking path (the widest the CPU has), else
+ * one point at a time. */
+const cf_solver_contact_model cf_solver_vertex_model = {
+    "vertex",
+    "Sub-contact points at the polygon vertices of both faces (3DEC-like), each with the soft "
+    "Coulomb law of contact_law.h.",
+    vertex_setup, points_reset, points_stiffness, points_joint, points_all, 1,
+};
+
+const cf_solver_contact_model cf_solver_perimeter_model = {
+    "perimeter",
+    "Sub-contact points on a refined face mesh (points_per_edge per polygon edge, interior "
+    "nodes too) with lumped area weights, each with the soft Coulomb law of contact_law.h; "
+    "converges to the exact interface as points_per_edge grows.",
+    perimeter_setup, points_reset, points_stiffness, points_joint, points_all, 1,
 };

@@ -75,6 +75,12 @@ static void test_bad_input(void)
     d.contact = 7;
     CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, 0.75) == CF_EINVAL);
     CF_CHECK(strstr(cf_solver_message(s), "contact") != NULL);
+    /* the range check's message names every model of the registry (by the C callers' indices) */
+    CF_CHECK(strstr(cf_solver_message(s), "0 (vertex), 1 (perimeter) or 2 (exact), got 7") != NULL);
+    d.contact = cf_solver_contact_model_count();
+    CF_CHECK(cf_solver_check_def(s, &d) == CF_EINVAL);
+    d.contact = -1;
+    CF_CHECK(cf_solver_check_def(s, &d) == CF_EINVAL);
     cf_solver_def_default(&d);
     CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, -1.0, 1e9, 0.75) == CF_EINVAL);
     CF_CHECK(strstr(cf_solver_message(s), "kn") != NULL);
@@ -88,6 +94,18 @@ static void test_bad_input(void)
     CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 0, 0.01, NULL, &r) == CF_EINVAL);       /* empty */
     cf_solver_free(s);
     cf_solver_free(NULL);
+}
+
+/* The registry of contact models: the entries in the order of the C callers' names
+ * (CF_SOLVER_CONTACT_*), each with a description; NULL outside the table. */
+static void test_contact_registry(void)
+{
+    CF_CHECK(cf_solver_contact_model_count() == 3);
+    CF_CHECK(!strcmp(cf_solver_contact_model_name(CF_SOLVER_CONTACT_VERTEX), "vertex"));
+    CF_CHECK(!strcmp(cf_solver_contact_model_name(CF_SOLVER_CONTACT_PERIMETER), "perimeter"));
+    CF_CHECK(!strcmp(cf_solver_contact_model_name(CF_SOLVER_CONTACT_EXACT), "exact"));
+    CF_CHECK(strstr(cf_solver_contact_model_doc(CF_SOLVER_CONTACT_PERIMETER), "points_per_edge") != NULL);
+    CF_CHECK(cf_solver_contact_model_name(3) == NULL && cf_solver_contact_model_doc(-1) == NULL);
 }
 
 /* Same input twice: bitwise identical results (no hidden state between runs). */
@@ -216,6 +234,7 @@ int main(void)
     CF_RUN(test_dt_crit_default_column);
     CF_RUN(test_statics);
     CF_RUN(test_bad_input);
+    CF_RUN(test_contact_registry);
     CF_RUN(test_determinism);
     CF_RUN(test_caller_check);
     return CF_TEST_SUMMARY("test_solver");
