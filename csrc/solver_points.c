@@ -22,19 +22,15 @@
  * at run time). Each lane evaluates the scalar expressions written here, operation for
  * operation (contraction off, no reassociation), so every width gives the same bits;
  * the forces then join the bodies' sums in joint order, as before. */
-/* mat_tvec, mat_vec and v3_cross of solver_math_internal.h, lane j of the chunk */
-#define TVEC(R, a0, a1, a2, o0, o1, o2)                                        \
-    do {                                                                       \
-        o0 = R[0][j] * (a0) + R[3][j] * (a1) + R[6][j] * (a2);                 \
-        o1 = R[1][j] * (a0) + R[4][j] * (a1) + R[7][j] * (a2);                 \
-        o2 = R[2][j] * (a0) + R[5][j] * (a1) + R[8][j] * (a2);                 \
+/* CF_MAT_VEC_STRIDED (R v, R^T v) and v3_cross of solver_math_internal.h, lane j of the chunk */
+#define LANE_MAT_VEC(R, rs, cs, a0, a1, a2, o0, o1, o2)                                           \
+    do {                                                                                          \
+        o0 = R[0][j] * (a0) + R[cs][j] * (a1) + R[2 * (cs)][j] * (a2);                            \
+        o1 = R[rs][j] * (a0) + R[(rs) + (cs)][j] * (a1) + R[(rs) + 2 * (cs)][j] * (a2);           \
+        o2 = R[2 * (rs)][j] * (a0) + R[2 * (rs) + (cs)][j] * (a1) + R[2 * (rs) + 2 * (cs)][j] * (a2); \
     } while (0)
-#define MVEC(R, a0, a1, a2, o0, o1, o2)                                        \
-    do {                                                                       \
-        o0 = R[0][j] * (a0) + R[1][j] * (a1) + R[2][j] * (a2);                 \
-        o1 = R[3][j] * (a0) + R[4][j] * (a1) + R[5][j] * (a2);                 \
-        o2 = R[6][j] * (a0) + R[7][j] * (a1) + R[8][j] * (a2);                 \
-    } while (0)
+#define TVEC(R, a0, a1, a2, o0, o1, o2) LANE_MAT_VEC(R, 1, 3, a0, a1, a2, o0, o1, o2)
+#define MVEC(R, a0, a1, a2, o0, o1, o2) LANE_MAT_VEC(R, 3, 1, a0, a1, a2, o0, o1, o2)
 #define CROSS(a0, a1, a2, b0, b1, b2, o0, o1, o2)                              \
     do {                                                                       \
         o0 = (a1) * (b2) - (a2) * (b1);                                        \
@@ -142,38 +138,23 @@ static inline __attribute__((always_inline)) void chunk_after_body(cf_joint_chun
         else any;                                                                     \
     } while (0)
 
-static void chunk_before_base(cf_joint_chunk *C, int n, double dt)
-{
-    CHUNK_FIXED(chunk_before_body(C, CF_JCH, dt), chunk_before_body(C, 8, dt), chunk_before_body(C, 4, dt),
-                chunk_before_body(C, 2, dt), chunk_before_body(C, n, dt));
-}
-static void chunk_after_base(cf_joint_chunk *C, int n)
-{
-    CHUNK_FIXED(chunk_after_body(C, CF_JCH), chunk_after_body(C, 8), chunk_after_body(C, 4),
-                chunk_after_body(C, 2), chunk_after_body(C, n));
-}
+/* The chunk functions of one target (attr: its target attribute, empty for the base one) */
+#define CHUNK_FNS(name, attr)                                                                              \
+    attr static void chunk_before_##name(cf_joint_chunk *C, int n, double dt)                               \
+    {                                                                                                      \
+        CHUNK_FIXED(chunk_before_body(C, CF_JCH, dt), chunk_before_body(C, 8, dt), chunk_before_body(C, 4, dt), \
+                    chunk_before_body(C, 2, dt), chunk_before_body(C, n, dt));                             \
+    }                                                                                                      \
+    attr static void chunk_after_##name(cf_joint_chunk *C, int n)                                           \
+    {                                                                                                      \
+        CHUNK_FIXED(chunk_after_body(C, CF_JCH), chunk_after_body(C, 8), chunk_after_body(C, 4),           \
+                    chunk_after_body(C, 2), chunk_after_body(C, n));                                       \
+    }
+CHUNK_FNS(base, )
 #ifdef CF_SOLVER_AVX2
-__attribute__((target("avx2"))) static void chunk_before_avx2(cf_joint_chunk *C, int n, double dt)
-{
-    CHUNK_FIXED(chunk_before_body(C, CF_JCH, dt), chunk_before_body(C, 8, dt), chunk_before_body(C, 4, dt),
-                chunk_before_body(C, 2, dt), chunk_before_body(C, n, dt));
-}
-__attribute__((target("avx2"))) static void chunk_after_avx2(cf_joint_chunk *C, int n)
-{
-    CHUNK_FIXED(chunk_after_body(C, CF_JCH), chunk_after_body(C, 8), chunk_after_body(C, 4),
-                chunk_after_body(C, 2), chunk_after_body(C, n));
-}
+CHUNK_FNS(avx2, __attribute__((target("avx2"))))
 #ifdef CF_SOLVER_AVX512
-__attribute__((target("avx512f"))) static void chunk_before_avx512(cf_joint_chunk *C, int n, double dt)
-{
-    CHUNK_FIXED(chunk_before_body(C, CF_JCH, dt), chunk_before_body(C, 8, dt), chunk_before_body(C, 4, dt),
-                chunk_before_body(C, 2, dt), chunk_before_body(C, n, dt));
-}
-__attribute__((target("avx512f"))) static void chunk_after_avx512(cf_joint_chunk *C, int n)
-{
-    CHUNK_FIXED(chunk_after_body(C, CF_JCH), chunk_after_body(C, 8), chunk_after_body(C, 4),
-                chunk_after_body(C, 2), chunk_after_body(C, n));
-}
+CHUNK_FNS(avx512, __attribute__((target("avx512f"))))
 #endif
 #endif
 
