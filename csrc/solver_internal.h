@@ -102,7 +102,7 @@ typedef struct {
     /* optional: set-up, once the bodies and joints are built (cf_solver_setup): the
      * model's contact points or joint data and its per-run state, allocated */
     int (*setup)(struct cf_solver *s);
-    /* the model's per-run state to its rest value (the start of every run) */
+    /* optional: the model's per-run state to its rest value (the start of every run) */
     void (*reset)(struct cf_solver *s);
     /* the springs joint J contributes to the stiffness of the stability limit */
     void (*stiffness)(const struct cf_solver *s, const cf_joint *J, struct cf_stiffness *K);

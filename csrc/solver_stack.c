@@ -434,5 +434,5 @@ void cf_solver_stack_reset(cf_solver *s)
     memset(s->fext_prev, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->fdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->tdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);
-    s->model->reset(s);   /* the contact model's state */
+    if (s->model->reset) s->model->reset(s);   /* the contact model's state */
 }
