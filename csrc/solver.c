@@ -163,8 +163,8 @@ int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int nblk, con
     }
 
     s->def = *def;
-    s->model = cf_solver_contact_models[def->contact];
-    s->lanes = cf_solver_lanes_widest();
+    s->model = cf_solver_contact_model_table[def->contact];
+    s->lanes = cf_solver_points_lanes_widest();
     s->density = density;
     st = cf_solver_stack_build(s, nblk, nseg, segs, kn, ks, mu);
     if (!st) {

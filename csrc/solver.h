@@ -20,7 +20,7 @@
 
 /* cffi:begin */
 /* The contact models (the `contact` field): indices into the registry of
- * solver_contact_models.c, whose names and documentation these functions give (NULL for
+ * solver_contact_model.c, whose names and documentation these functions give (NULL for
  * an index out of range); the C callers' names of the first three. */
 int cf_solver_contact_model_count(void);
 const char *cf_solver_contact_model_name(int i);

@@ -55,7 +55,7 @@ static void batch_not_started(int from, int n_jobs, cf_solver_batch_out *out)
 /* The widest lane count this CPU and build run for the column of s. */
 static int widest(const cf_solver *s)
 {
-    return s->model->batch_lanes ? cf_solver_lanes_widest() : 1;
+    return s->model->batch_lanes ? cf_solver_points_lanes_widest() : 1;
 }
 
 int cf_solver_batch_max_width(const cf_solver *s)

@@ -158,7 +158,7 @@ static void exact_stiffness(const cf_solver *s, const cf_joint *J, struct cf_sti
             p[0] = s->x0[3 * J->bu] + f->c[0] + mids[t][0];
             p[1] = s->x0[3 * J->bu + 1] + f->c[1] + mids[t][1];
             p[2] = s->x0[3 * J->bu + 2] + f->c[2];
-            cf_stiffness_add_contact(s, K, J, p, wq);
+            cf_solver_timestep_add_contact(s, K, J, p, wq);
         }
     }
 }

@@ -6,10 +6,12 @@
  *   solver_stack.c      bodies, mass properties, joints, faces, contact points, equilibrium
  *   solver_timestep.c   stability limit of the whole linearised stack -> time step
  *   solver_step.c       the integrator step, as named phases
- *   solver_points.c     contact model: sub-contact points (vertex / perimeter), scalar
- *   solver_points_sse2.c  the same model, two points per instruction (SSE2); with
- *   solver_points_avx2.c, solver_points_avx512.c  four / eight points per instruction, the
- *                       widest the CPU has chosen at run time; every width gives the same bits
+ *   solver_contact_model.c  the registry of contact models (cf_solver_contact_model)
+ *   solver_points.c     contact models: sub-contact points (vertex / perimeter), scalar
+ *                       runner, the SIMD width from CPUID
+ *   solver_points_wide.h  the same models' runner written once over the lane operators of
+ *                       solver_lanes.h, instantiated by solver_points_w2.c, _w4.c, _w8.c (two,
+ *                       four, eight points per instruction); every width gives the same bits
  *   solver_exact.c      contact model: exact interface integral
  *   solver_monitor.c    energy ledger, EDPs, collapse criteria, histories
  *   contact_law.h       the contact law itself, one text for every path above
@@ -35,7 +37,7 @@
  *   CF_SOLVER_AVX2    4 lanes on x86-64 (-DCF_FORCE_SSE2 leaves it out)
  *   CF_SOLVER_AVX512  8 lanes (-DCF_FORCE_AVX2 leaves it out)
  * the wider ones compiled for their instruction set by a target region and run where
- * CPUID says the CPU has it (cf_solver_lanes_widest, solver_points.c). */
+ * CPUID says the CPU has it (cf_solver_points_lanes_widest, solver_points.c). */
 #if defined(__SSE2__) && defined(__GNUC__) && !defined(CF_NO_SIMD)
 #define CF_SOLVER_SIMD 1
 #if defined(__x86_64__) && !defined(CF_FORCE_SSE2)
@@ -47,7 +49,7 @@
 #endif
 
 /* The widest lanes this CPU and build run: 8, 4, 2, or 1 (no SIMD); a pure function of CPUID. */
-int cf_solver_lanes_widest(void);
+int cf_solver_points_lanes_widest(void);
 
 typedef struct {
     double c[3];                 /* face centre in the body frame, m */
@@ -82,17 +84,17 @@ typedef struct {
 struct cf_solver;
 
 /* The stiffness of the stack at rest, for the stability limit (solver_timestep.c): a contact
- * model adds its springs with cf_stiffness_add_spring. */
+ * model adds its springs with cf_solver_timestep_add_spring. */
 struct cf_stiffness;
 /* a spring of stiffness k (N/m) along the unit vector e at world point p (at rest) between bodies bl, bu */
-void cf_stiffness_add_spring(const struct cf_solver *s, struct cf_stiffness *S, int bl, int bu, const double *p,
+void cf_solver_timestep_add_spring(const struct cf_solver *s, struct cf_stiffness *S, int bl, int bu, const double *p,
                              const double *e, double k);
 /* the three springs of a contact of area share w (m^2) of joint J at world point p (at rest):
  * normal kn w along z, shear ks w along x and along y */
-void cf_stiffness_add_contact(const struct cf_solver *s, struct cf_stiffness *S, const cf_joint *J, const double *p,
+void cf_solver_timestep_add_contact(const struct cf_solver *s, struct cf_stiffness *S, const cf_joint *J, const double *p,
                               double w);
 
-/* A contact model: one entry of the registry (solver_contact_models.c, the way REBOUND keeps
+/* A contact model: one entry of the registry (solver_contact_model.c, the way REBOUND keeps
  * its integrators, gravity and collision modules: a table of entries, each owning its
  * functions). The definition's `contact` field is the entry's index; its name is the
  * option's value in Python (read through cf_solver_contact_model_name). */
@@ -115,8 +117,8 @@ typedef struct {
     int batch_lanes;
 } cf_solver_contact_model;
 
-/* the registry (solver_contact_models.c): cf_solver_contact_models[def.contact] */
-extern const cf_solver_contact_model *const cf_solver_contact_models[];
+/* the registry (solver_contact_model.c): cf_solver_contact_model_table[def.contact] */
+extern const cf_solver_contact_model *const cf_solver_contact_model_table[];
 
 struct cf_solver {
     char msg[CF_MSG_LEN];

@@ -6,8 +6,10 @@
  * summed per side in that frame (force and moment about the face centre, in point
  * order) and turned to world coordinates once per joint.
  *
- * This file holds the joint driver and the scalar runner over a face's points; the
- * SSE2 runner (solver_points_sse2.c) gives the same bits, two points at a time.
+ * This file holds the models' registry entries ("vertex", "perimeter"), the joint driver,
+ * the scalar runner over a face's points and the choice of the SIMD width (CPUID); the
+ * wide runner (solver_points_wide.h, one instance per width) gives the same bits, two,
+ * four or eight points at a time.
  */
 #include <string.h>
 
@@ -161,7 +163,7 @@ CHUNK_FNS(avx512, __attribute__((target("avx512f"))))
 /* The widest lanes this CPU and build run (every width gives the same bits), from CPUID
  * each call: no state. -DCF_FORCE_SSE2 / -DCF_FORCE_AVX2 cap the width and -DCF_NO_SIMD
  * leaves SIMD out (scripts/check_result_hashes.sh builds each). */
-int cf_solver_lanes_widest(void)
+int cf_solver_points_lanes_widest(void)
 {
 #ifdef CF_SOLVER_AVX512
     if (__builtin_cpu_supports("avx512f")) return 8;
@@ -191,7 +193,7 @@ static void chunk_fns(int lanes, cf_chunk_before_fn *before, cf_chunk_after_fn *
 
 void cf_solver_points_chunk_fns(cf_chunk_before_fn *before, cf_chunk_after_fn *after)
 {
-    chunk_fns(cf_solver_lanes_widest(), before, after);
+    chunk_fns(cf_solver_points_lanes_widest(), before, after);
 }
 
 /* The face runner of the solver's width (s->lanes, chosen at set-up); every width gives
@@ -204,15 +206,15 @@ static void points_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_f
         /* eight lanes pay off on long faces only: a 10-point face runs 8 + 2 lanes as two
          * 512-bit blocks, slower than three 256-bit ones where AVX-512 executes as two
          * halves (measured on an AMD EPYC, Zen 4) */
-        if (k1 - k0 >= 16) cf_solver_points_run_w8(s, P, k0, k1, S, need);
-        else cf_solver_points_run_w4(s, P, k0, k1, S, need);
+        if (k1 - k0 >= 16) cf_solver_points_w8_run(s, P, k0, k1, S, need);
+        else cf_solver_points_w4_run(s, P, k0, k1, S, need);
         return;
 #endif
 #ifdef CF_SOLVER_AVX2
-    case 4: cf_solver_points_run_w4(s, P, k0, k1, S, need); return;
+    case 4: cf_solver_points_w4_run(s, P, k0, k1, S, need); return;
 #endif
 #ifdef CF_SOLVER_SIMD
-    case 2: cf_solver_points_run_w2(s, P, k0, k1, S, need); return;
+    case 2: cf_solver_points_w2_run(s, P, k0, k1, S, need); return;
 #endif
     default: cf_solver_points_run_scalar(s, P, k0, k1, S, need);
     }
@@ -352,21 +354,21 @@ static void points_stiffness(const cf_solver *s, const cf_joint *J, struct cf_st
         p[0] = s->x0[3 * b] + s->p_loc[3 * k];
         p[1] = s->x0[3 * b + 1] + s->p_loc[3 * k + 1];
         p[2] = s->x0[3 * b + 2] + s->p_loc[3 * k + 2];
-        cf_stiffness_add_contact(s, K, J, p, s->p_w[k]);
+        cf_solver_timestep_add_contact(s, K, J, p, s->p_w[k]);
     }
 }
 
 /* The face runners give the same bits at every width: two, four or eight points per
  * SSE2, AVX2 or AVX-512 instruction on the sticking path (the widest the CPU has), else
  * one point at a time. */
-const cf_solver_contact_model cf_solver_vertex_model = {
+const cf_solver_contact_model cf_solver_points_vertex = {
     "vertex",
     "Sub-contact points at the polygon vertices of both faces (3DEC-like), each with the soft "
     "Coulomb law of contact_law.h.",
     vertex_setup, points_reset, points_stiffness, points_joint, points_all, 1,
 };
 
-const cf_solver_contact_model cf_solver_perimeter_model = {
+const cf_solver_contact_model cf_solver_points_perimeter = {
     "perimeter",
     "Sub-contact points on a refined face mesh (points_per_edge per polygon edge, interior "
     "nodes too) with lumped area weights, each with the soft Coulomb law of contact_law.h; "

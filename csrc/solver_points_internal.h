@@ -92,9 +92,9 @@ static inline void cf_face_pass_lane(const cf_joint_chunk *C, int side, int l, c
  * scalar (solver_points.c), and CF_BW points per instruction
  * (solver_points_wide.h, one per width the build has: solver_points_w2.c, _w4.c, _w8.c) */
 void cf_solver_points_run_scalar(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
-void cf_solver_points_run_w2(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
-void cf_solver_points_run_w4(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
-void cf_solver_points_run_w8(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+void cf_solver_points_w2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+void cf_solver_points_w4_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+void cf_solver_points_w8_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
 
 /* Regular polygon test with a hint: the projection of (X, Y) on the edge normals is
  * unimodal around the polygon, so walking from the last maximising edge finds the

@@ -22,11 +22,15 @@
 #include "solver_points_internal.h"
 #include "solver_lanes.h"
 
+/* this width's runner, and the next narrower one */
 #if CF_BW == 8
-#define CF_NARROWER cf_solver_points_run_w4
+#define CF_POINTS_RUN cf_solver_points_w8_run
+#define CF_NARROWER cf_solver_points_w4_run
 #elif CF_BW == 4
-#define CF_NARROWER cf_solver_points_run_w2
+#define CF_POINTS_RUN cf_solver_points_w4_run
+#define CF_NARROWER cf_solver_points_w2_run
 #else
+#define CF_POINTS_RUN cf_solver_points_w2_run
 #define CF_NARROWER cf_solver_points_run_scalar
 #endif
 
@@ -38,7 +42,7 @@ static inline cf_v2 CF_BN(add_pairs)(cf_v2 acc, VD a, VD b)
     return acc;
 }
 
-void CF_BN(cf_solver_points_run)(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
+void CF_POINTS_RUN(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
 {
     int k = k0, l;
     cf_simd_sums V;
@@ -135,6 +139,7 @@ void CF_BN(cf_solver_points_run)(cf_solver *s, const cf_face_pass *P, int k0, in
     if (k < k1) CF_NARROWER(s, P, k, k1, S, need);
 }
 
+#undef CF_POINTS_RUN
 #undef CF_NARROWER
 #include "solver_lanes_end.h"
 #else

@@ -97,7 +97,7 @@ static inline void stiff_add(stiffness *S, int i, int j, double v)
 }
 
 /* Add a spring of stiffness k along e at world point p between bodies bl, bu (at rest). */
-void cf_stiffness_add_spring(const cf_solver *s, stiffness *S, int bl, int bu, const double *p, const double *e,
+void cf_solver_timestep_add_spring(const cf_solver *s, stiffness *S, int bl, int bu, const double *p, const double *e,
                              double k)
 {
     double b[12];
@@ -119,12 +119,12 @@ void cf_stiffness_add_spring(const cf_solver *s, stiffness *S, int bl, int bu, c
 
 /* The three springs of a contact of area share w (m^2) of joint J at world point p (at rest):
  * normal kn w along z, shear ks w along x and along y. */
-void cf_stiffness_add_contact(const cf_solver *s, stiffness *S, const cf_joint *J, const double *p, double w)
+void cf_solver_timestep_add_contact(const cf_solver *s, stiffness *S, const cf_joint *J, const double *p, double w)
 {
     static const double ex[3] = {1, 0, 0}, ey[3] = {0, 1, 0}, ez[3] = {0, 0, 1};
-    cf_stiffness_add_spring(s, S, J->bl, J->bu, p, ez, J->kn * w);
-    cf_stiffness_add_spring(s, S, J->bl, J->bu, p, ex, J->ks * w);
-    cf_stiffness_add_spring(s, S, J->bl, J->bu, p, ey, J->ks * w);
+    cf_solver_timestep_add_spring(s, S, J->bl, J->bu, p, ez, J->kn * w);
+    cf_solver_timestep_add_spring(s, S, J->bl, J->bu, p, ex, J->ks * w);
+    cf_solver_timestep_add_spring(s, S, J->bl, J->bu, p, ey, J->ks * w);
 }
 
 int cf_solver_timestep_limit(cf_solver *s)

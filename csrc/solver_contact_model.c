@@ -1,5 +1,5 @@
 /*
- * solver_contact_models.c -- the registry of contact models: the definition's `contact`
+ * solver_contact_model.c -- the registry of contact models: the definition's `contact`
  * field is an index into this table, and the range check of cf_solver_check_def, the
  * option names of Python (pycolfrag/options.py) and their documentation are read from it.
  * Each entry owns its set-up, per-run state, stiffness for the stability limit and step
@@ -10,26 +10,26 @@
 
 #include "solver_internal.h"
 
-extern const cf_solver_contact_model cf_solver_vertex_model, cf_solver_perimeter_model;   /* solver_points.c */
+extern const cf_solver_contact_model cf_solver_points_vertex, cf_solver_points_perimeter;   /* solver_points.c */
 extern const cf_solver_contact_model cf_solver_exact_model;                               /* solver_exact.c */
 
-const cf_solver_contact_model *const cf_solver_contact_models[] = {
-    &cf_solver_vertex_model,
-    &cf_solver_perimeter_model,
+const cf_solver_contact_model *const cf_solver_contact_model_table[] = {
+    &cf_solver_points_vertex,
+    &cf_solver_points_perimeter,
     &cf_solver_exact_model,
 };
 
 int cf_solver_contact_model_count(void)
 {
-    return (int)(sizeof cf_solver_contact_models / sizeof cf_solver_contact_models[0]);
+    return (int)(sizeof cf_solver_contact_model_table / sizeof cf_solver_contact_model_table[0]);
 }
 
 const char *cf_solver_contact_model_name(int i)
 {
-    return i >= 0 && i < cf_solver_contact_model_count() ? cf_solver_contact_models[i]->name : NULL;
+    return i >= 0 && i < cf_solver_contact_model_count() ? cf_solver_contact_model_table[i]->name : NULL;
 }
 
 const char *cf_solver_contact_model_doc(int i)
 {
-    return i >= 0 && i < cf_solver_contact_model_count() ? cf_solver_contact_models[i]->doc : NULL;
+    return i >= 0 && i < cf_solver_contact_model_count() ? cf_solver_contact_model_table[i]->doc : NULL;
 }
