@@ -28,7 +28,7 @@ from .errors import ParameterError
 __all__ = ["SolverOptions", "CONTACT_OPTIONS", "CONTACT_DOCS"]
 
 #: contact models understood by the solver (names -> C codes), read from the C library's
-#: registry of contact models (csrc/solver_contact_models.c): a model added there is an option here
+#: registry of contact models (csrc/solver_contact_model.c): a model added there is an option here
 CONTACT_OPTIONS = {ffi.string(lib.cf_solver_contact_model_name(i)).decode(): i
                    for i in range(lib.cf_solver_contact_model_count())}
 #: each contact model's one-sentence description, from the same registry
