@@ -23,7 +23,7 @@
 #include "cf_common.h"
 #include "geometry.h"
 #include "solver.h"
-#include "parthenon_column.h"
+#include "../tests/c/parthenon_column.h"
 #ifndef NO_BATCH
 #include "solver_batch.h"
 #endif

@@ -30,7 +30,7 @@
 #include "cf_common.h"
 #include "geometry.h"
 #include "solver.h"
-#include "parthenon_column.h"
+#include "../tests/c/parthenon_column.h"
 
 static double now(void)
 {

@@ -17,9 +17,10 @@
  *             integrator conserves exactly.
  *
  * Who uses this text: the scalar point path (solver_points.c), the SIMD path
- * (solver_points_sse2.c: the same trial and terms on two lanes; a lane that slips
- * takes the scalar law), the exact interface (solver_exact.c: one joint-level
- * contact), and the C unit tests through cf_contact_point (contact.c).
+ * (solver_points_wide.h: the same trial and terms on 2, 4 or 8 lanes; a lane that slips
+ * takes the scalar law), the batch (solver_batch_lanes.h), the exact interface
+ * (solver_exact.c: one joint-level contact), and the C unit tests through
+ * cf_contact_point (contact.c).
  *
  * The lane-generic parts are macros over the operators of a lane type, so the scalar
  * and SIMD paths evaluate the same operations in the same order (each a correctly

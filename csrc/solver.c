@@ -87,11 +87,23 @@ double cf_solver_dt(const cf_solver *s) { return s && s->ready ? s->dt : NAN; }
 
 /* ---- set-up --------------------------------------------------------------------- */
 
+/* A contact field out of range: the message names every model of the registry. */
+static int contact_range_fail(cf_solver *s, int contact)
+{
+    char list[CF_MSG_LEN] = "";
+    size_t u = 0;
+    int i, n = cf_solver_contact_model_count();
+    for (i = 0; i < n && u < sizeof list; i++)
+        u += (size_t)snprintf(list + u, sizeof list - u, "%s%d (%s)", i == 0 ? "" : i == n - 1 ? " or " : ", ", i,
+                              cf_solver_contact_model_name(i));
+    return cf_solver_fail(s, CF_EINVAL, "contact must be %s, got %d", list, contact);
+}
+
 int cf_solver_check_def(cf_solver *s, const cf_solver_def *d)
 {
     if (!s) return CF_EINVAL;
     if (!d) return cf_solver_fail(s, CF_EINVAL, "no solver definition");
-    if (d->contact < 0 || d->contact > 2) return cf_solver_fail(s, CF_EINVAL, "contact must be 0 (vertex), 1 (perimeter) or 2 (exact), got %d", d->contact);
+    if (d->contact < 0 || d->contact >= cf_solver_contact_model_count()) return contact_range_fail(s, d->contact);
     if (d->points_per_edge < 1 || d->points_per_edge > 64) return cf_solver_fail(s, CF_EINVAL, "points_per_edge must be in [1, 64], got %d", d->points_per_edge);
     if (!(d->dt >= 0.0) || !isfinite(d->dt)) return cf_solver_fail(s, CF_EINVAL, "dt must be >= 0 (0 = automatic), got %g", d->dt);
     if (!(d->dt_factor > 0.0) || !(d->dt_factor <= 4.0)) return cf_solver_fail(s, CF_EINVAL, "dt_factor must be in (0, 4], got %g", d->dt_factor);
@@ -107,17 +119,6 @@ int cf_solver_check_def(cf_solver *s, const cf_solver_def *d)
     if (!(d->contact_tolerance >= 0.0) || !(d->contact_tolerance < 0.1)) return cf_solver_fail(s, CF_EINVAL, "contact_tolerance must be in [0, 0.1), got %g", d->contact_tolerance);
     if (!(d->reentry_depth >= 0.0) || !(d->reentry_depth <= 0.1)) return cf_solver_fail(s, CF_EINVAL, "reentry_depth must be in [0, 0.1], got %g", d->reentry_depth);
     return CF_OK;
-}
-
-/* The contact model of a definition: exact, or points (SSE2 where the build has it). */
-static const cf_solver_contact_model *model_of(const cf_solver_def *d)
-{
-    if (d->contact == CF_SOLVER_CONTACT_EXACT) return &cf_solver_exact_model;
-#ifdef CF_SOLVER_SIMD
-    return &cf_solver_points_sse2_model;
-#else
-    return &cf_solver_points_model;
-#endif
 }
 
 int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int *nseg,
@@ -168,7 +169,8 @@ int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int nblk, con
     }
 
     s->def = *def;
-    s->model = model_of(def);
+    s->model = cf_solver_contact_model_table[def->contact];
+    s->lanes = cf_solver_points_lanes_widest();
     s->density = density;
     st = cf_solver_stack_build(s, nblk, nseg, segs, kn, ks, mu);
     if (!st) {

@@ -19,6 +19,12 @@
 #include "geometry.h"
 
 /* cffi:begin */
+/* The contact models (the `contact` field): indices into the registry of
+ * solver_contact_model.c, whose names and documentation these functions give (NULL for
+ * an index out of range); the C callers' names of the first three. */
+int cf_solver_contact_model_count(void);
+const char *cf_solver_contact_model_name(int i);
+const char *cf_solver_contact_model_doc(int i);
 #define CF_SOLVER_CONTACT_VERTEX 0
 #define CF_SOLVER_CONTACT_PERIMETER 1
 #define CF_SOLVER_CONTACT_EXACT 2
@@ -34,7 +40,7 @@
 #define CF_SOLVER_N_ENERGY 8
 
 typedef struct {
-    int contact;               /* CF_SOLVER_CONTACT_*; default VERTEX */
+    int contact;               /* contact model: an index of cf_solver_contact_model_name; default VERTEX */
     int points_per_edge;       /* refined face mesh subdivisions (PERIMETER), >= 1; default 1 */
     double dt;                 /* solver step, s; 0 = automatic dt_factor * dt_crit; default 0 */
     double dt_factor;          /* fraction of the whole-stack stability limit; default 0.8 */

@@ -32,69 +32,30 @@ static void batch_not_started(int from, int n_jobs, cf_solver_batch_out *out)
     }
 }
 
-#if defined(CF_SOLVER_SIMD) && defined(__GNUC__) && defined(__x86_64__)
-#define CF_BATCH_LANES 1
-#include <immintrin.h>
-
-/* 2 lanes: SSE2 */
+/* one instance of the integrator per width the build has (solver_internal.h) */
+#ifdef CF_SOLVER_SIMD
 #define CF_BW 2
-#define CF_BN(n) n##_w2
-#define CF_BW_SQRT(x) ((VD)_mm_sqrt_pd((__m128d)(x)))
-#define CF_BW_BITS(m) _mm_movemask_pd((__m128d)(m))
+#include "solver_lanes.h"
 #include "solver_batch_lanes.h"
-#undef CF_BW
-#undef CF_BN
-#undef CF_BW_SQRT
-#undef CF_BW_BITS
-
-#if !defined(CF_FORCE_SSE2)
-#define CF_BATCH_AVX2 1
-#pragma GCC push_options
-#pragma GCC target("avx2")
+#include "solver_lanes_end.h"
+#endif
+#ifdef CF_SOLVER_AVX2
 #define CF_BW 4
-#define CF_BN(n) n##_w4
-#define CF_BW_SQRT(x) ((VD)_mm256_sqrt_pd((__m256d)(x)))
-#define CF_BW_BITS(m) _mm256_movemask_pd((__m256d)(m))
+#include "solver_lanes.h"
 #include "solver_batch_lanes.h"
-#undef CF_BW
-#undef CF_BN
-#undef CF_BW_SQRT
-#undef CF_BW_BITS
-#pragma GCC pop_options
-
-#if !defined(CF_FORCE_AVX2)
-#define CF_BATCH_AVX512 1
-#pragma GCC push_options
-#pragma GCC target("avx512f")
+#include "solver_lanes_end.h"
+#endif
+#ifdef CF_SOLVER_AVX512
 #define CF_BW 8
-#define CF_BN(n) n##_w8
-#define CF_BW_SQRT(x) ((VD)_mm512_sqrt_pd((__m512d)(x)))
-#define CF_BW_BITS(m) ((int)_mm512_test_epi64_mask((__m512i)(m), (__m512i)(m)))
+#include "solver_lanes.h"
 #include "solver_batch_lanes.h"
-#undef CF_BW
-#undef CF_BN
-#undef CF_BW_SQRT
-#undef CF_BW_BITS
-#pragma GCC pop_options
-#endif
-#endif
+#include "solver_lanes_end.h"
 #endif
 
 /* The widest lane count this CPU and build run for the column of s. */
 static int widest(const cf_solver *s)
 {
-    if (s->def.contact == CF_SOLVER_CONTACT_EXACT) return 1;
-#ifdef CF_BATCH_LANES
-#ifdef CF_BATCH_AVX512
-    if (__builtin_cpu_supports("avx512f")) return 8;
-#endif
-#ifdef CF_BATCH_AVX2
-    if (__builtin_cpu_supports("avx2")) return 4;
-#endif
-    return 2;
-#else
-    return 1;
-#endif
+    return s->model->batch_lanes ? cf_solver_points_lanes_widest() : 1;
 }
 
 int cf_solver_batch_max_width(const cf_solver *s)
@@ -162,13 +123,13 @@ int cf_solver_batch_run(cf_solver *s, int width, int n_jobs, const cf_solver_bat
     if (width == 0) width = cf_solver_batch_width(s, n_jobs);
     if (n_jobs == 0) return CF_OK;
     s->msg[0] = 0;
-#ifdef CF_BATCH_LANES
-#ifdef CF_BATCH_AVX512
+#ifdef CF_SOLVER_AVX512
     if (width == 8) return run_w8(s, n_jobs, jobs, out);
 #endif
-#ifdef CF_BATCH_AVX2
+#ifdef CF_SOLVER_AVX2
     if (width == 4) return run_w4(s, n_jobs, jobs, out);
 #endif
+#ifdef CF_SOLVER_SIMD
     if (width == 2) return run_w2(s, n_jobs, jobs, out);
 #endif
     return one_by_one(s, n_jobs, jobs, out);

@@ -1,12 +1,9 @@
 /*
  * solver_batch_lanes.h -- the batch integrator, written once for any lane count.
- * Included by solver_batch.c once per width with
- *   CF_BW            lanes (runs side by side): 2, 4 or 8
- *   CF_BN(n)         the width's name of n
- *   CF_BW_SQRT(x)    per lane square root of a lane vector
- *   CF_BW_BITS(m)    the lanes of a mask as the bits of an int (lane l: bit l)
- * inside a target region of the instruction set of that width. Included without CF_BW
- * (as the Python build includes every header) it is empty.
+ * Included by solver_batch.c once per width (CF_BW lanes: runs side by side), after
+ * solver_lanes.h, whose lane operators of that width (VD, VM, CF_BN, CF_BW_SQRT, CF_BW_BITS,
+ * CF_BW_SEL, ld / st / splat / mask) it is written over. Included without CF_BW (as the
+ * Python build includes every header) it is empty.
  *
  * Layout: every quantity of a run is a vector of CF_BW doubles, lane l the run in lane
  * l, indexed as the single run indexes its double (body i's x at x[3 i + c], point k's
@@ -21,18 +18,13 @@
  */
 #ifdef CF_BW
 
-#define VD CF_BN(vd)
-#define VM CF_BN(vm)
-typedef double VD __attribute__((vector_size(8 * CF_BW)));
-typedef long long VM __attribute__((vector_size(8 * CF_BW)));
-
 typedef struct {
     VD *x, *v, *q, *w, *R, *F, *T, *ww, *vold, *wold, *fext_prev, *fdamp_prev, *tdamp_prev;
 } CF_BN(state);
 
 #define CF_PH_T VD
 #define CF_PH_M VM
-#define CF_PH_SEL(m, a, b) ((VD)(((VM)(a) & (m)) | ((VM)(b) & ~(m))))
+#define CF_PH_SEL CF_BW_SEL
 #define CF_PH_SQRT CF_BW_SQRT
 #define CF_PH_STATE CF_BN(state)
 #define CF_PH_NAME(n) CF_BN(phase_##n)
@@ -42,18 +34,6 @@ typedef struct {
 #undef CF_PH_SQRT
 #undef CF_PH_STATE
 #undef CF_PH_NAME
-
-/* lanes of a row of a joint chunk (stride CF_JCH) <-> a lane vector; a double in every lane */
-static inline VD CF_BN(ld)(const double *p) { VD v; memcpy(&v, p, sizeof v); return v; }
-static inline void CF_BN(st)(double *p, VD v) { memcpy(p, &v, sizeof v); }
-static inline VD CF_BN(splat)(double x)
-{
-    VD v;
-    int l;
-    for (l = 0; l < CF_BW; l++) v[l] = x;
-    return v;
-}
-static inline VD CF_BN(mask)(VD a, VM m) { return (VD)((VM)a & m); }
 
 /* Everything the batch keeps: the lanes' state, and per lane its run (cf_run), a view of
  * the lane as a cf_solver for the monitor (a copy of the set-up solver with the lane's
@@ -160,7 +140,7 @@ static void CF_BN(lane_fill)(const cf_solver *s, CF_BN(batch) *B, int l, int *ne
 static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk *C, cf_chunk_before_fn before,
                             cf_chunk_after_fn after, VD *e_vs, VD *e_dslip, VD *e_dswitch)
 {
-    const VD zero = {0}, one = zero + 1.0;
+    const VD zero = {0};
     int i, j, l, nb = s->nbody;
     CF_BN(state) *b = &B->b;
     for (i = 0; i < 3 * nb; i++) { b->F[i] = zero; b->T[i] = zero; }
@@ -215,12 +195,12 @@ static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk 
                 VM pos = pen > 0.0, act, in, out, st0, st1, ok, open, lift, slip, nz;
                 const double ksw = s->p_ksw[k], ihkw = s->p_ihkw[k];
                 int bits, fb;
-                st0 = st == 0.0;
+                st0 = cf_point_state_is(st, CF_POINT_OPEN);
                 open = ~pos & st0;
                 /* open before and now, not overlapping the plane: nothing to do */
                 if (CF_BW_BITS(open) == (1 << CF_BW) - 1) continue;
                 act = pos & ~(pen > P.pmax);
-                st1 = st == 1.0;
+                st1 = cf_point_state_is(st, CF_POINT_CONTACT);
                 out = (VM)zero;
                 if (P.unbounded) in = st1 | ~st1;
                 else {
@@ -268,12 +248,12 @@ static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk 
                 dslip = dslip + CF_BN(mask)((fsx0 * fsx0 + fsy0 * fsy0) * ihkw, lift & nz);
                 CF_BN(st)(pfsx, CF_PH_SEL(ok, fx, CF_PH_SEL(lift & nz, zero, fsx0)));
                 CF_BN(st)(pfsy, CF_PH_SEL(ok, fy, CF_PH_SEL(lift & nz, zero, fsy0)));
-                CF_BN(st)(pst, CF_PH_SEL(ok, one, CF_PH_SEL(lift, zero, st)));
+                CF_BN(st)(pst, CF_PH_SEL(ok, zero + CF_POINT_CONTACT, CF_PH_SEL(lift, zero + CF_POINT_OPEN, st)));
                 s0 = s0 + CF_BN(mask)(fx, ok); s1 = s1 + CF_BN(mask)(fy, ok); s2 = s2 + CF_BN(mask)(f, ok);
                 s3 = s3 + CF_BN(mask)(mx, ok); s4 = s4 + CF_BN(mask)(my, ok); s5 = s5 + CF_BN(mask)(mz, ok);
                 s6 = s6 + CF_BN(mask)(vs, ok); s7 = s7 + CF_BN(mask)(f, ok);
                 /* off the face polygon before and now (state 2, no shear): nothing changes */
-                open = open | lift | (act & out & (st == 2.0));
+                open = open | lift | (act & out & cf_point_state_is(st, CF_POINT_OFF_FACE));
                 bits = CF_BW_BITS(ok | open);
                 fb = ~bits & ((1 << CF_BW) - 1);
                 /* the other lanes: the full law on the lane's own state, one lane at a time, its
@@ -445,6 +425,4 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
 }
 
 #undef CF_PH_SEL
-#undef VD
-#undef VM
 #endif

@@ -133,11 +133,42 @@ static void joint_exact(cf_solver *s, cf_joint *J, const double *ww, double dt, 
     }
 }
 
+/* The joints' shear force and torsional moment at the start of a run: none. */
+static void exact_reset(cf_solver *s)
+{
+    int j;
+    for (j = 0; j < s->nj; j++) { s->jt[j].fs[0] = s->jt[j].fs[1] = 0; s->jt[j].mt = 0; }
+}
+
+/* For the stability limit: the face integral by the edge-midpoint rule on the fan
+ * triangles (exact for the quadratic integrands of the stiffness). */
+static void exact_stiffness(const cf_solver *s, const cf_joint *J, struct cf_stiffness *K)
+{
+    const cf_face *f = &J->fu;
+    double wq = J->area / f->n / 3.0;
+    int k, t;
+    for (k = 0; k < f->n; k++) {
+        int k1 = (k + 1) % f->n;
+        double mids[3][2];
+        mids[0][0] = 0.5 * f->vx[k]; mids[0][1] = 0.5 * f->vy[k];
+        mids[1][0] = 0.5 * f->vx[k1]; mids[1][1] = 0.5 * f->vy[k1];
+        mids[2][0] = 0.5 * (f->vx[k] + f->vx[k1]); mids[2][1] = 0.5 * (f->vy[k] + f->vy[k1]);
+        for (t = 0; t < 3; t++) {
+            double p[3];
+            p[0] = s->x0[3 * J->bu] + f->c[0] + mids[t][0];
+            p[1] = s->x0[3 * J->bu + 1] + f->c[1] + mids[t][1];
+            p[2] = s->x0[3 * J->bu + 2] + f->c[2];
+            cf_solver_timestep_add_contact(s, K, J, p, wq);
+        }
+    }
+}
+
+/* No set-up of its own (the joints' polygons and polar moments are the stack's); run one
+ * after the other by the batch (its work is the polygon clipping of contact.c). */
 const cf_solver_contact_model cf_solver_exact_model = {
     "exact",
     "Exact interface: kn * overlap integrated over the compressed part of the face overlap "
     "polygon; one joint-level shear spring with the law of contact_law.h and a torsional "
     "spring, both capped by Coulomb friction.",
-    joint_exact,
-    NULL,
+    NULL, exact_reset, exact_stiffness, joint_exact, NULL, 0,
 };

@@ -6,10 +6,12 @@
  *   solver_stack.c      bodies, mass properties, joints, faces, contact points, equilibrium
  *   solver_timestep.c   stability limit of the whole linearised stack -> time step
  *   solver_step.c       the integrator step, as named phases
- *   solver_points.c     contact model: sub-contact points (vertex / perimeter), scalar
- *   solver_points_sse2.c  the same model, two points per instruction (SSE2); with
- *   solver_points_avx2.c, solver_points_avx512.c  four / eight points per instruction, the
- *                       widest the CPU has chosen at run time; every width gives the same bits
+ *   solver_contact_model.c  the registry of contact models (cf_solver_contact_model)
+ *   solver_points.c     contact models: sub-contact points (vertex / perimeter), scalar
+ *                       runner, the SIMD width from CPUID
+ *   solver_points_wide.h  the same models' runner written once over the lane operators of
+ *                       solver_lanes.h, instantiated by solver_points_w2.c, _w4.c, _w8.c (two,
+ *                       four, eight points per instruction); every width gives the same bits
  *   solver_exact.c      contact model: exact interface integral
  *   solver_monitor.c    energy ledger, EDPs, collapse criteria, histories
  *   contact_law.h       the contact law itself, one text for every path above
@@ -29,11 +31,25 @@
 
 #define CF_MAXS CF_SOLVER_MAX_SIDES
 
-/* SSE2 is part of every x86-64 CPU (no -m flag needed); elsewhere, or with
- * -DCF_NO_SIMD, the scalar point path runs, with identical results. */
-#if defined(__SSE2__) && !defined(CF_NO_SIMD)
+/* The SIMD widths this build has (every width gives the same bits; solver_lanes.h):
+ *   CF_SOLVER_SIMD    2 lanes (SSE2, part of every x86-64 CPU; no -m flag needed), with
+ *                     GCC vector extensions; elsewhere, or with -DCF_NO_SIMD, the scalar paths run
+ *   CF_SOLVER_AVX2    4 lanes on x86-64 (-DCF_FORCE_SSE2 leaves it out)
+ *   CF_SOLVER_AVX512  8 lanes (-DCF_FORCE_AVX2 leaves it out)
+ * the wider ones compiled for their instruction set by a target region and run where
+ * CPUID says the CPU has it (cf_solver_points_lanes_widest, solver_points.c). */
+#if defined(__SSE2__) && defined(__GNUC__) && !defined(CF_NO_SIMD)
 #define CF_SOLVER_SIMD 1
+#if defined(__x86_64__) && !defined(CF_FORCE_SSE2)
+#define CF_SOLVER_AVX2 1
+#if !defined(CF_FORCE_AVX2)
+#define CF_SOLVER_AVX512 1
 #endif
+#endif
+#endif
+
+/* The widest lanes this CPU and build run: 8, 4, 2, or 1 (no SIMD); a pure function of CPUID. */
+int cf_solver_points_lanes_widest(void);
 
 typedef struct {
     double c[3];                 /* face centre in the body frame, m */
@@ -67,22 +83,42 @@ typedef struct {
 
 struct cf_solver;
 
-/* A contact model: how the forces of one joint are computed (the way REBOUND keeps
- * one integrator per file behind a table). */
+/* The stiffness of the stack at rest, for the stability limit (solver_timestep.c): a contact
+ * model adds its springs with cf_solver_timestep_add_spring. */
+struct cf_stiffness;
+/* a spring of stiffness k (N/m) along the unit vector e at world point p (at rest) between bodies bl, bu */
+void cf_solver_timestep_add_spring(const struct cf_solver *s, struct cf_stiffness *S, int bl, int bu, const double *p,
+                             const double *e, double k);
+/* the three springs of a contact of area share w (m^2) of joint J at world point p (at rest):
+ * normal kn w along z, shear ks w along x and along y */
+void cf_solver_timestep_add_contact(const struct cf_solver *s, struct cf_stiffness *S, const cf_joint *J, const double *p,
+                              double w);
+
+/* A contact model: one entry of the registry (solver_contact_model.c, the way REBOUND keeps
+ * its integrators, gravity and collision modules: a table of entries, each owning its
+ * functions). The definition's `contact` field is the entry's index; its name is the
+ * option's value in Python (read through cf_solver_contact_model_name). */
 typedef struct {
     const char *name;
-    const char *doc;
-    /* the forces of one joint */
+    const char *doc;                /* one sentence, exported (cf_solver_contact_model_doc) */
+    /* optional: set-up, once the bodies and joints are built (cf_solver_setup): the
+     * model's contact points or joint data and its per-run state, allocated */
+    int (*setup)(struct cf_solver *s);
+    /* optional: the model's per-run state to its rest value (the start of every run) */
+    void (*reset)(struct cf_solver *s);
+    /* the springs joint J contributes to the stiffness of the stability limit */
+    void (*stiffness)(const struct cf_solver *s, const cf_joint *J, struct cf_stiffness *K);
+    /* the step hook: the forces of one joint */
     void (*joint)(struct cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e);
     /* optional: the forces of every joint at once (NULL: joint by joint); the same bits */
     void (*all)(struct cf_solver *s, const double *ww, double dt, cf_step_energy *e);
+    /* 1: the batch integrator (solver_batch_lanes.h, which writes the points law in lanes)
+     * runs this model's runs side by side; 0: one after the other */
+    int batch_lanes;
 } cf_solver_contact_model;
 
-extern const cf_solver_contact_model cf_solver_points_model;       /* solver_points.c */
-#ifdef CF_SOLVER_SIMD
-extern const cf_solver_contact_model cf_solver_points_sse2_model;  /* solver_points_sse2.c */
-#endif
-extern const cf_solver_contact_model cf_solver_exact_model;        /* solver_exact.c */
+/* the registry (solver_contact_model.c): cf_solver_contact_model_table[def.contact] */
+extern const cf_solver_contact_model *const cf_solver_contact_model_table[];
 
 struct cf_solver {
     char msg[CF_MSG_LEN];
@@ -91,6 +127,7 @@ struct cf_solver {
     void *check_user;
     cf_solver_def def;
     const cf_solver_contact_model *model;
+    int lanes;                      /* SIMD lanes of the points runner and the joint chunks (set-up) */
     double density;
     int nblk, nbody, nj;
     /* bodies (nbody) */
@@ -135,6 +172,8 @@ int cf_solver_stack_build(struct cf_solver *s, int nblk, const int *nseg, const 
                           const double *kn, const double *ks, const double *mu);
 void cf_solver_stack_release(struct cf_solver *s);
 void cf_solver_stack_reset(struct cf_solver *s);
+/* the sub-contact points of every joint, mm per edge (0: the polygon vertices) */
+int cf_solver_stack_points(struct cf_solver *s, int mm);
 
 /* solver_timestep.c */
 int cf_solver_timestep_limit(struct cf_solver *s);

@@ -47,23 +47,17 @@
         (R)[6] = 2*(x_*z_ - w_*y_); (R)[7] = 2*(y_*z_ + w_*x_); (R)[8] = 1 - 2*(x_*x_ + y_*y_); \
     } while (0)
 
-/* o = R v (o may be v) */
-#define CF_MAT_VEC(T, R, v, o)                                                                \
+/* o = A v with A's entry (r, c) at R[rs r + cs c] (o may be v): R v (rs 3, cs 1) or R^T v (rs 1, cs 3) */
+#define CF_MAT_VEC_STRIDED(T, R, rs, cs, v, o)                                                \
     do {                                                                                      \
-        T ma_ = (R)[0]*(v)[0] + (R)[1]*(v)[1] + (R)[2]*(v)[2];                                \
-        T mb_ = (R)[3]*(v)[0] + (R)[4]*(v)[1] + (R)[5]*(v)[2];                                \
-        T mc_ = (R)[6]*(v)[0] + (R)[7]*(v)[1] + (R)[8]*(v)[2];                                \
+        T ma_ = (R)[0]*(v)[0] + (R)[cs]*(v)[1] + (R)[2*(cs)]*(v)[2];                          \
+        T mb_ = (R)[rs]*(v)[0] + (R)[(rs)+(cs)]*(v)[1] + (R)[(rs)+2*(cs)]*(v)[2];             \
+        T mc_ = (R)[2*(rs)]*(v)[0] + (R)[2*(rs)+(cs)]*(v)[1] + (R)[2*(rs)+2*(cs)]*(v)[2];     \
         (o)[0] = ma_; (o)[1] = mb_; (o)[2] = mc_;                                             \
     } while (0)
-
-/* o = R^T v (o may be v) */
-#define CF_MAT_TVEC(T, R, v, o)                                                               \
-    do {                                                                                      \
-        T ma_ = (R)[0]*(v)[0] + (R)[3]*(v)[1] + (R)[6]*(v)[2];                                \
-        T mb_ = (R)[1]*(v)[0] + (R)[4]*(v)[1] + (R)[7]*(v)[2];                                \
-        T mc_ = (R)[2]*(v)[0] + (R)[5]*(v)[1] + (R)[8]*(v)[2];                                \
-        (o)[0] = ma_; (o)[1] = mb_; (o)[2] = mc_;                                             \
-    } while (0)
+/* o = R v, o = R^T v (o may be v) */
+#define CF_MAT_VEC(T, R, v, o) CF_MAT_VEC_STRIDED(T, R, 3, 1, v, o)
+#define CF_MAT_TVEC(T, R, v, o) CF_MAT_VEC_STRIDED(T, R, 1, 3, v, o)
 
 /* Rotation quaternion for a body-frame angular velocity w held over dt (a double):
  * exp(w dt / 2) with 4th-order Taylor series of cos and sin (no trigonometry in the

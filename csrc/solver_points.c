@@ -6,8 +6,10 @@
  * summed per side in that frame (force and moment about the face centre, in point
  * order) and turned to world coordinates once per joint.
  *
- * This file holds the joint driver and the scalar runner over a face's points; the
- * SSE2 runner (solver_points_sse2.c) gives the same bits, two points at a time.
+ * This file holds the models' registry entries ("vertex", "perimeter"), the joint driver,
+ * the scalar runner over a face's points and the choice of the SIMD width (CPUID); the
+ * wide runner (solver_points_wide.h, one instance per width) gives the same bits, two,
+ * four or eight points at a time.
  */
 #include <string.h>
 
@@ -22,19 +24,15 @@
  * at run time). Each lane evaluates the scalar expressions written here, operation for
  * operation (contraction off, no reassociation), so every width gives the same bits;
  * the forces then join the bodies' sums in joint order, as before. */
-/* mat_tvec, mat_vec and v3_cross of solver_math_internal.h, lane j of the chunk */
-#define TVEC(R, a0, a1, a2, o0, o1, o2)                                        \
-    do {                                                                       \
-        o0 = R[0][j] * (a0) + R[3][j] * (a1) + R[6][j] * (a2);                 \
-        o1 = R[1][j] * (a0) + R[4][j] * (a1) + R[7][j] * (a2);                 \
-        o2 = R[2][j] * (a0) + R[5][j] * (a1) + R[8][j] * (a2);                 \
+/* CF_MAT_VEC_STRIDED (R v, R^T v) and v3_cross of solver_math_internal.h, lane j of the chunk */
+#define LANE_MAT_VEC(R, rs, cs, a0, a1, a2, o0, o1, o2)                                           \
+    do {                                                                                          \
+        o0 = R[0][j] * (a0) + R[cs][j] * (a1) + R[2 * (cs)][j] * (a2);                            \
+        o1 = R[rs][j] * (a0) + R[(rs) + (cs)][j] * (a1) + R[(rs) + 2 * (cs)][j] * (a2);           \
+        o2 = R[2 * (rs)][j] * (a0) + R[2 * (rs) + (cs)][j] * (a1) + R[2 * (rs) + 2 * (cs)][j] * (a2); \
     } while (0)
-#define MVEC(R, a0, a1, a2, o0, o1, o2)                                        \
-    do {                                                                       \
-        o0 = R[0][j] * (a0) + R[1][j] * (a1) + R[2][j] * (a2);                 \
-        o1 = R[3][j] * (a0) + R[4][j] * (a1) + R[5][j] * (a2);                 \
-        o2 = R[6][j] * (a0) + R[7][j] * (a1) + R[8][j] * (a2);                 \
-    } while (0)
+#define TVEC(R, a0, a1, a2, o0, o1, o2) LANE_MAT_VEC(R, 1, 3, a0, a1, a2, o0, o1, o2)
+#define MVEC(R, a0, a1, a2, o0, o1, o2) LANE_MAT_VEC(R, 3, 1, a0, a1, a2, o0, o1, o2)
 #define CROSS(a0, a1, a2, b0, b1, b2, o0, o1, o2)                              \
     do {                                                                       \
         o0 = (a1) * (b2) - (a2) * (b1);                                        \
@@ -142,70 +140,94 @@ static inline __attribute__((always_inline)) void chunk_after_body(cf_joint_chun
         else any;                                                                     \
     } while (0)
 
-static void chunk_before_base(cf_joint_chunk *C, int n, double dt)
-{
-    CHUNK_FIXED(chunk_before_body(C, CF_JCH, dt), chunk_before_body(C, 8, dt), chunk_before_body(C, 4, dt),
-                chunk_before_body(C, 2, dt), chunk_before_body(C, n, dt));
-}
-static void chunk_after_base(cf_joint_chunk *C, int n)
-{
-    CHUNK_FIXED(chunk_after_body(C, CF_JCH), chunk_after_body(C, 8), chunk_after_body(C, 4),
-                chunk_after_body(C, 2), chunk_after_body(C, n));
-}
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(CF_NO_SIMD) && !defined(CF_FORCE_SSE2)
-#define CF_HAVE_AVX2 1
-__attribute__((target("avx2"))) static void chunk_before_avx2(cf_joint_chunk *C, int n, double dt)
-{
-    CHUNK_FIXED(chunk_before_body(C, CF_JCH, dt), chunk_before_body(C, 8, dt), chunk_before_body(C, 4, dt),
-                chunk_before_body(C, 2, dt), chunk_before_body(C, n, dt));
-}
-__attribute__((target("avx2"))) static void chunk_after_avx2(cf_joint_chunk *C, int n)
-{
-    CHUNK_FIXED(chunk_after_body(C, CF_JCH), chunk_after_body(C, 8), chunk_after_body(C, 4),
-                chunk_after_body(C, 2), chunk_after_body(C, n));
-}
-#if !defined(CF_FORCE_AVX2)
-#define CF_HAVE_AVX512 1
-__attribute__((target("avx512f"))) static void chunk_before_avx512(cf_joint_chunk *C, int n, double dt)
-{
-    CHUNK_FIXED(chunk_before_body(C, CF_JCH, dt), chunk_before_body(C, 8, dt), chunk_before_body(C, 4, dt),
-                chunk_before_body(C, 2, dt), chunk_before_body(C, n, dt));
-}
-__attribute__((target("avx512f"))) static void chunk_after_avx512(cf_joint_chunk *C, int n)
-{
-    CHUNK_FIXED(chunk_after_body(C, CF_JCH), chunk_after_body(C, 8), chunk_after_body(C, 4),
-                chunk_after_body(C, 2), chunk_after_body(C, n));
-}
+/* The chunk functions of one target (attr: its target attribute, empty for the base one) */
+#define CHUNK_FNS(name, attr)                                                                              \
+    attr static void chunk_before_##name(cf_joint_chunk *C, int n, double dt)                               \
+    {                                                                                                      \
+        CHUNK_FIXED(chunk_before_body(C, CF_JCH, dt), chunk_before_body(C, 8, dt), chunk_before_body(C, 4, dt), \
+                    chunk_before_body(C, 2, dt), chunk_before_body(C, n, dt));                             \
+    }                                                                                                      \
+    attr static void chunk_after_##name(cf_joint_chunk *C, int n)                                           \
+    {                                                                                                      \
+        CHUNK_FIXED(chunk_after_body(C, CF_JCH), chunk_after_body(C, 8), chunk_after_body(C, 4),           \
+                    chunk_after_body(C, 2), chunk_after_body(C, n));                                       \
+    }
+CHUNK_FNS(base, )
+#ifdef CF_SOLVER_AVX2
+CHUNK_FNS(avx2, __attribute__((target("avx2"))))
+#ifdef CF_SOLVER_AVX512
+CHUNK_FNS(avx512, __attribute__((target("avx512f"))))
 #endif
 #endif
 
-/* The widest lanes this CPU runs (every width gives the same bits). -DCF_FORCE_SSE2 /
- * -DCF_FORCE_AVX2 cap the width (scripts/check_result_hashes.sh builds each). */
-static void chunk_select(cf_chunk_before_fn *before, cf_chunk_after_fn *after)
+/* The widest lanes this CPU and build run (every width gives the same bits), from CPUID
+ * each call: no state. -DCF_FORCE_SSE2 / -DCF_FORCE_AVX2 cap the width and -DCF_NO_SIMD
+ * leaves SIMD out (scripts/check_result_hashes.sh builds each). */
+int cf_solver_points_lanes_widest(void)
 {
-#ifdef CF_HAVE_AVX512
-    if (__builtin_cpu_supports("avx512f")) { *before = chunk_before_avx512; *after = chunk_after_avx512; return; }
+#ifdef CF_SOLVER_AVX512
+    if (__builtin_cpu_supports("avx512f")) return 8;
 #endif
-#ifdef CF_HAVE_AVX2
-    if (__builtin_cpu_supports("avx2")) { *before = chunk_before_avx2; *after = chunk_after_avx2; return; }
+#ifdef CF_SOLVER_AVX2
+    if (__builtin_cpu_supports("avx2")) return 4;
+#endif
+#ifdef CF_SOLVER_SIMD
+    return 2;
+#else
+    return 1;
+#endif
+}
+
+/* The chunk lane functions of a width (the compiler's vectors of 2 lanes are the base ones). */
+static void chunk_fns(int lanes, cf_chunk_before_fn *before, cf_chunk_after_fn *after)
+{
+    (void)lanes;
+#ifdef CF_SOLVER_AVX512
+    if (lanes == 8) { *before = chunk_before_avx512; *after = chunk_after_avx512; return; }
+#endif
+#ifdef CF_SOLVER_AVX2
+    if (lanes == 4) { *before = chunk_before_avx2; *after = chunk_after_avx2; return; }
 #endif
     *before = chunk_before_base; *after = chunk_after_base;
 }
 
 void cf_solver_points_chunk_fns(cf_chunk_before_fn *before, cf_chunk_after_fn *after)
 {
-    chunk_select(before, after);
+    chunk_fns(cf_solver_points_lanes_widest(), before, after);
+}
+
+/* The face runner of the solver's width (s->lanes, chosen at set-up); every width gives
+ * the same bits. */
+static void points_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
+{
+    switch (s->lanes) {
+#ifdef CF_SOLVER_AVX512
+    case 8:
+        /* eight lanes pay off on long faces only: a 10-point face runs 8 + 2 lanes as two
+         * 512-bit blocks, slower than three 256-bit ones where AVX-512 executes as two
+         * halves (measured on an AMD EPYC, Zen 4) */
+        if (k1 - k0 >= 16) cf_solver_points_w8_run(s, P, k0, k1, S, need);
+        else cf_solver_points_w4_run(s, P, k0, k1, S, need);
+        return;
+#endif
+#ifdef CF_SOLVER_AVX2
+    case 4: cf_solver_points_w4_run(s, P, k0, k1, S, need); return;
+#endif
+#ifdef CF_SOLVER_SIMD
+    case 2: cf_solver_points_w2_run(s, P, k0, k1, S, need); return;
+#endif
+    default: cf_solver_points_run_scalar(s, P, k0, k1, S, need);
+    }
 }
 
 /* Joints [j0, j0 + n) through the face runner, in chunks of CF_JCH. */
-static void points_joints(cf_solver *s, int j0, int n, const double *ww, double dt, cf_step_energy *e,
-                          cf_points_run_fn run)
+static void points_joints(cf_solver *s, int j0, int n, const double *ww, double dt, cf_step_energy *e)
 {
-    static cf_chunk_before_fn before;   /* chosen once; a racing first call stores the same pointers */
-    static cf_chunk_after_fn after;
+    cf_chunk_before_fn before;
+    cf_chunk_after_fn after;
     cf_joint_chunk C;
     int need = e->need, c0;
-    if (!before) chunk_select(&before, &after);
+    chunk_fns(s->lanes, &before, &after);
     for (c0 = j0; c0 < j0 + n; c0 += CF_JCH) {
         int m = j0 + n - c0 < CF_JCH ? j0 + n - c0 : CF_JCH, l, i;
         /* gather the chunk; from 8 joints on, a whole chunk (a fixed trip count, no
@@ -243,7 +265,7 @@ static void points_joints(cf_solver *s, int j0, int n, const double *ww, double 
                 cf_face_pass_set(s, J, side, &P);
                 cf_face_pass_lane(&C, side, l, &P);
                 S.sm[0] = S.sm[1] = S.sm[2] = S.sm[3] = S.sm[4] = S.sm[5] = 0.0;
-                run(s, &P, k0, k1, &S, need);
+                points_run(s, &P, k0, k1, &S, need);
                 for (i = 0; i < 6; i++) C.sm[side][i][l] = S.sm[i];
             }
             e->vs += S.sm[6];
@@ -278,15 +300,14 @@ static void points_joints(cf_solver *s, int j0, int n, const double *ww, double 
     }
 }
 
-void cf_solver_points_joint(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e,
-                            cf_points_run_fn run)
+static void points_joint(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
 {
-    points_joints(s, (int)(J - s->jt), 1, ww, dt, e, run);
+    points_joints(s, (int)(J - s->jt), 1, ww, dt, e);
 }
 
-void cf_solver_points_all(cf_solver *s, const double *ww, double dt, cf_step_energy *e, cf_points_run_fn run)
+static void points_all(cf_solver *s, const double *ww, double dt, cf_step_energy *e)
 {
-    points_joints(s, 0, s->nj, ww, dt, e, run);
+    points_joints(s, 0, s->nj, ww, dt, e);
 }
 
 /* The scalar runner: every point through the full law, in order. */
@@ -298,20 +319,59 @@ void cf_solver_points_run_scalar(cf_solver *s, const cf_face_pass *P, int k0, in
         if (cf_point_law(s, P, k, S, s->p_hint + k, t)) cf_sums_add(S, t, need);
 }
 
-static void all_scalar(cf_solver *s, const double *ww, double dt, cf_step_energy *e)
+/* Set-up of the two points models: the points at the polygon vertices, or m per edge of a
+ * refined face mesh (points_per_edge). */
+static int vertex_setup(cf_solver *s)
 {
-    cf_solver_points_all(s, ww, dt, e, cf_solver_points_run_scalar);
+    return cf_solver_stack_points(s, 0);
 }
 
-static void joint_scalar(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
+static int perimeter_setup(cf_solver *s)
 {
-    cf_solver_points_joint(s, J, ww, dt, e, cf_solver_points_run_scalar);
+    return cf_solver_stack_points(s, s->def.points_per_edge);
 }
 
-const cf_solver_contact_model cf_solver_points_model = {
-    "points",
-    "Sub-contact points (polygon vertices, or a refined face mesh with lumped area "
-    "weights), each with the soft Coulomb law of contact_law.h; scalar, one point at a time.",
-    joint_scalar,
-    all_scalar,
+/* The points' state at the start of a run: no shear, open, no offset; the polygon tests'
+ * starting edges too (a run does not depend on the runs before it). */
+static void points_reset(cf_solver *s)
+{
+    size_t n = (size_t)s->np;
+    if (n == 0) return;
+    memset(s->p_fsx, 0, sizeof(double) * n);
+    memset(s->p_fsy, 0, sizeof(double) * n);
+    memset(s->p_state, 0, sizeof(double) * n);   /* 0.0 is CF_POINT_OPEN */
+    memset(s->p_pen0, 0, sizeof(double) * n);
+    memset(s->p_hint, 0, sizeof(int) * n);
+}
+
+/* For the stability limit: every point's springs at its rest position. */
+static void points_stiffness(const cf_solver *s, const cf_joint *J, struct cf_stiffness *K)
+{
+    int k;
+    for (k = J->p0; k < J->p0 + J->np; k++) {
+        int b = s->p_side[k] == 0 ? J->bu : J->bl;
+        double p[3];
+        p[0] = s->x0[3 * b] + s->p_loc[3 * k];
+        p[1] = s->x0[3 * b + 1] + s->p_loc[3 * k + 1];
+        p[2] = s->x0[3 * b + 2] + s->p_loc[3 * k + 2];
+        cf_solver_timestep_add_contact(s, K, J, p, s->p_w[k]);
+    }
+}
+
+/* The face runners give the same bits at every width: two, four or eight points per
+ * SSE2, AVX2 or AVX-512 instruction on the sticking path (the widest the CPU has), else
+ * one point at a time. */
+const cf_solver_contact_model cf_solver_points_vertex = {
+    "vertex",
+    "Sub-contact points at the polygon vertices of both faces (3DEC-like), each with the soft "
+    "Coulomb law of contact_law.h.",
+    vertex_setup, points_reset, points_stiffness, points_joint, points_all, 1,
+};
+
+const cf_solver_contact_model cf_solver_points_perimeter = {
+    "perimeter",
+    "Sub-contact points on a refined face mesh (points_per_edge per polygon edge, interior "
+    "nodes too) with lumped area weights, each with the soft Coulomb law of contact_law.h; "
+    "converges to the exact interface as points_per_edge grows.",
+    perimeter_setup, points_reset, points_stiffness, points_joint, points_all, 1,
 };

@@ -7,6 +7,8 @@
 #ifndef CF_SOLVER_POINTS_INTERNAL_H
 #define CF_SOLVER_POINTS_INTERNAL_H
 
+#include <string.h>
+
 #include "contact_law.h"
 #include "solver_internal.h"
 
@@ -86,33 +88,13 @@ static inline void cf_face_pass_lane(const cf_joint_chunk *C, int side, int l, c
     }
 }
 
-/* Runs the points [k0, k1) against the face of P, adding to S in point order. */
-typedef void (*cf_points_run_fn)(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
-
-/* solver_points.c: the forces of one joint's points, or of every joint (in joint
- * order; the per-joint work in lanes across joints), with the given face runner. */
-void cf_solver_points_joint(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e,
-                            cf_points_run_fn run);
-void cf_solver_points_all(cf_solver *s, const double *ww, double dt, cf_step_energy *e, cf_points_run_fn run);
-
-/* the face runners: scalar (solver_points.c), SSE2 (solver_points_sse2.c) */
+/* The face runners: the points [k0, k1) against the face of P, adding to S in point order;
+ * scalar (solver_points.c), and CF_BW points per instruction
+ * (solver_points_wide.h, one per width the build has: solver_points_w2.c, _w4.c, _w8.c) */
 void cf_solver_points_run_scalar(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
-#ifdef CF_SOLVER_SIMD
-void cf_solver_points_sse2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
-void cf_solver_points_sse2_pairs(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
-/* four points per AVX2 instruction (solver_points_avx2.c; GCC-compatible x86-64
- * compilers, chosen at run time on CPUs with AVX2; -DCF_FORCE_SSE2 leaves it out) */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(CF_FORCE_SSE2)
-#define CF_SOLVER_AVX2 1
-void cf_solver_points_avx2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
-/* eight points per AVX-512F instruction (solver_points_avx512.c; on CPUs with AVX-512F;
- * -DCF_FORCE_AVX2 leaves it out) */
-#if !defined(CF_FORCE_AVX2)
-#define CF_SOLVER_AVX512 1
-void cf_solver_points_avx512_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
-#endif
-#endif
-#endif
+void cf_solver_points_w2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+void cf_solver_points_w4_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+void cf_solver_points_w8_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
 
 /* Regular polygon test with a hint: the projection of (X, Y) on the edge normals is
  * unimodal around the polygon, so walking from the last maximising edge finds the
@@ -136,13 +118,56 @@ static inline int cf_face_inside_hint(const cf_face *f, double X, double Y, doub
     return best <= f->apo + tol;
 }
 
-/* One sub-contact k against the face of P, any state: position in the face frame,
- * open / off-the-face / in-contact transitions (with their energy bookkeeping), then
- * the contact law. Returns 1 and its terms in t (fx, fy, fn, mx, my, mz, vs, fn) when
- * it carries force, 0 when it is open, too deep or off the face. The point's fixed data
- * are those of s; its state (shear force, contact state, offset depth, polygon hint) is
- * where the pointers say: s's own arrays for one run, a lane of the batch's arrays for a
- * run of a batch (solver_batch.c). */
+/* The contact state of a sub-contact point. It is stored as a double (s->p_state, the
+ * batch's lanes) so that the wide runners compare it in lane vectors: cf_point_state_is. */
+typedef enum {
+    CF_POINT_OPEN = 0,      /* not overlapping the face's plane */
+    CF_POINT_CONTACT = 1,   /* in contact: force kn w pen */
+    CF_POINT_OFF_FACE = 2,  /* overlapping the plane but outside the face polygon */
+    CF_POINT_TOO_DEEP = 3,  /* deeper than pmax: beside or through the face */
+    CF_POINT_OFFSET = 4     /* in contact with its normal spring unstretched at depth pen0
+                             * (it came back onto the face deeper than pent): force kn w (pen - pen0) */
+} cf_point_state;
+
+/* Is the stored state st (a double, or a lane vector of them: a lane mask) the state named? */
+#define cf_point_state_is(st, name) ((st) == (double)(name))
+
+/* The state a point goes to over a step, from its state st and where it is now: depth pen
+ * (overlap with the face's plane, m), inside the face polygon (read only when
+ * 0 < pen <= pmax), the face's pmax and pent (cf_face_pass). The transition rules, once:
+ * not overlapping -> open; deeper than pmax -> too deep; off the polygon -> off the face;
+ * back on the face from off the face or too deep -> offset when deeper than pent (a corner
+ * that went below the lower face beside it cannot bring a compressed spring back: that
+ * energy would come from nothing), else contact; open -> contact; in contact stays. */
+static inline cf_point_state cf_point_next(cf_point_state st, double pen, int inside, double pmax, double pent)
+{
+    if (!(pen > 0.0)) return CF_POINT_OPEN;
+    if (pen > pmax) return CF_POINT_TOO_DEEP;
+    if (!inside) return CF_POINT_OFF_FACE;
+    if (st == CF_POINT_OFF_FACE || st == CF_POINT_TOO_DEEP) return pen > pent ? CF_POINT_OFFSET : CF_POINT_CONTACT;
+    if (st == CF_POINT_OPEN) return CF_POINT_CONTACT;
+    return st;
+}
+
+/* Does a point of state st carry force (its normal spring compressed)? */
+static inline int cf_point_loaded(cf_point_state st)
+{
+    return st == CF_POINT_CONTACT || st == CF_POINT_OFFSET;
+}
+
+/* the energy of a normal spring kn w compressed by pe, J */
+static inline double cf_point_spring_energy(double kn, double w, double pe)
+{
+    return 0.5 * kn * w * pe * pe;
+}
+
+/* One sub-contact k against the face of P, any state: position in the face frame, the
+ * state's transition (cf_point_next) with its energy bookkeeping, then the contact law.
+ * Returns 1 and its terms in t (fx, fy, fn, mx, my, mz, vs, fn) when it carries force, 0
+ * when it is open, too deep or off the face. The point's fixed data are those of s; its
+ * state (shear force, contact state, offset depth, polygon hint) is where the pointers
+ * say: s's own arrays for one run, a lane of the batch's arrays for a run of a batch
+ * (solver_batch.c). Every transition keeps the energy ledger closed. */
 static inline int cf_point_law_at(const cf_solver *s, const cf_face_pass *P, int k, double *fsx, double *fsy,
                                   double *state, double *pen0, int *hint, cf_face_sums *S, double *t)
 {
@@ -150,45 +175,28 @@ static inline int cf_point_law_at(const cf_solver *s, const cf_face_pass *P, int
     double X = P->M[0] * lx + P->M[1] * ly + P->mz[0] + P->t[0];
     double Y = P->M[3] * lx + P->M[4] * ly + P->mz[1] + P->t[1];
     double Z = P->M[6] * lx + P->M[7] * ly + P->mz[2] + P->t[2];
-    double pen = P->sgn * Z;
+    double pen = P->sgn * Z, dhx = X - s->p_hx[k], dhy = Y - s->p_hy[k];
+    cf_point_state st = (cf_point_state)(int)*state, nx;
     int slipping;
-    /* state: 0 open, 1 in contact, 2 overlapping the plane but outside the face polygon,
-     * 3 deeper than pmax (beside or through the face), 4 in contact with its normal spring
-     * unstretched at depth pen0 (it came onto the face from state 2 or 3 deeper than pent):
-     * force kn w (pen - pen0). Every transition keeps the energy ledger closed. */
-    if (!(pen > 0.0) || pen > P->pmax) {
+    int inside = pen > 0.0 && !(pen > P->pmax)
+                 && (P->unbounded || dhx * dhx + dhy * dhy <= s->p_fast[k]
+                     || cf_face_inside_hint(P->ff, X, Y, P->tol, hint));
+    nx = cf_point_next(st, pen, inside, P->pmax, P->pent);
+    *state = (double)nx;
+    if (!cf_point_loaded(nx)) {
+        /* too deep or slid off the face while compressed: its normal spring energy leaves
+         * the model (booked as contact_switch, not as a balance error) */
+        if (nx != CF_POINT_OPEN && cf_point_loaded(st))
+            S->dswitch += cf_point_spring_energy(P->kn, w, st == CF_POINT_OFFSET ? pen - *pen0 : pen);
         S->dslip += cf_law_release(fsx, fsy, s->p_ihkw[k]);
-        if (pen > 0.0) {
-            /* too deep while compressed: its normal spring energy leaves the model as when
-             * it slides off the face (contact_switch) */
-            pe = *state == 4.0 ? pen - *pen0 : pen;
-            if (*state == 1.0 || *state == 4.0) S->dswitch += 0.5 * P->kn * w * pe * pe;
-            *state = 3.0;
-        } else *state = 0.0;
         return 0;
     }
-    if (!(P->unbounded || (X - s->p_hx[k]) * (X - s->p_hx[k]) + (Y - s->p_hy[k]) * (Y - s->p_hy[k]) <= s->p_fast[k]
-          || cf_face_inside_hint(P->ff, X, Y, P->tol, hint))) {
-        /* slid off the face while compressed: its normal spring energy leaves the
-         * model (booked as contact_switch, not as a balance error) */
-        pe = *state == 4.0 ? pen - *pen0 : pen;
-        if (*state == 1.0 || *state == 4.0) S->dswitch += 0.5 * P->kn * w * pe * pe;
-        S->dslip += cf_law_release(fsx, fsy, s->p_ihkw[k]);
-        *state = 2.0;
-        return 0;
-    }
-    if (*state == 2.0 || *state == 3.0) {
-        /* slid onto the face (from 2) or back within pmax (from 3): deeper than pent, the
-         * point takes contact with its spring unstretched at that depth (state 4) -- a
-         * corner that went below the lower face beside it cannot bring a compressed spring
-         * back (that energy would come from nothing: it broke the ledger of two-component
-         * runs, docs/accuracy.md); shallower, with its spring energy booked as
-         * contact_switch */
-        if (pen > P->pent) { *pen0 = pen; *state = 4.0; }
-        else { S->dswitch -= 0.5 * P->kn * w * pen * pen; *state = 1.0; }
-    } else if (*state == 0.0) *state = 1.0;
+    if (nx == CF_POINT_OFFSET && st != CF_POINT_OFFSET) *pen0 = pen;
+    /* back on the face shallower than pent: its spring energy comes in as contact_switch */
+    if (nx == CF_POINT_CONTACT && st != CF_POINT_CONTACT && st != CF_POINT_OPEN)
+        S->dswitch -= cf_point_spring_energy(P->kn, w, pen);
     pe = pen;
-    if (*state == 4.0) {
+    if (nx == CF_POINT_OFFSET) {
         if (pen < *pen0) *pen0 = pen;   /* no tension: the offset follows the point up */
         pe = pen - *pen0;
     }
@@ -220,36 +228,34 @@ static inline void cf_sums_add(cf_face_sums *S, const double *t, int need)
 }
 
 #ifdef CF_SOLVER_SIMD
-#include <emmintrin.h>
+/* What every SIMD width of the points runner shares. */
 
-/* What every SIMD width of the points runner shares (SSE2 is part of every x86-64 CPU; these
- * inline functions are inlined into the AVX2 and AVX-512 runners, whose targets include it). */
-
-/* The face sums on two lanes: (fx, fy) (fz, mx) (my, mz) (vs, jfn), each lane a sequential sum
+/* The face sums as pairs: (fx, fy) (fz, mx) (my, mz) (vs, jfn), each lane a sequential sum
  * in point order, as the scalar cf_face_sums. */
+typedef double cf_v2 __attribute__((vector_size(16)));
 typedef struct {
-    __m128d s01, s23, s45, s67;
+    cf_v2 s01, s23, s45, s67;
 } cf_simd_sums;
 
 static inline void cf_simd_sums_load(cf_simd_sums *V, const cf_face_sums *S)
 {
-    V->s01 = _mm_loadu_pd(S->sm); V->s23 = _mm_loadu_pd(S->sm + 2);
-    V->s45 = _mm_loadu_pd(S->sm + 4); V->s67 = _mm_loadu_pd(S->sm + 6);
+    memcpy(&V->s01, S->sm, sizeof V->s01); memcpy(&V->s23, S->sm + 2, sizeof V->s23);
+    memcpy(&V->s45, S->sm + 4, sizeof V->s45); memcpy(&V->s67, S->sm + 6, sizeof V->s67);
 }
 
 static inline void cf_simd_sums_store(const cf_simd_sums *V, cf_face_sums *S)
 {
-    _mm_storeu_pd(S->sm, V->s01); _mm_storeu_pd(S->sm + 2, V->s23);
-    _mm_storeu_pd(S->sm + 4, V->s45); _mm_storeu_pd(S->sm + 6, V->s67);
+    memcpy(S->sm, &V->s01, sizeof V->s01); memcpy(S->sm + 2, &V->s23, sizeof V->s23);
+    memcpy(S->sm + 4, &V->s45, sizeof V->s45); memcpy(S->sm + 6, &V->s67, sizeof V->s67);
 }
 
 /* add the terms t[0..7] of one point */
 static inline void cf_simd_sums_add(cf_simd_sums *V, const double *t, int need)
 {
-    V->s01 = _mm_add_pd(V->s01, _mm_loadu_pd(t));
-    V->s23 = _mm_add_pd(V->s23, _mm_loadu_pd(t + 2));
-    V->s45 = _mm_add_pd(V->s45, _mm_loadu_pd(t + 4));
-    if (need) V->s67 = _mm_add_pd(V->s67, _mm_loadu_pd(t + 6));
+    V->s01 = V->s01 + (cf_v2){t[0], t[1]};
+    V->s23 = V->s23 + (cf_v2){t[2], t[3]};
+    V->s45 = V->s45 + (cf_v2){t[4], t[5]};
+    if (need) V->s67 = V->s67 + (cf_v2){t[6], t[7]};
 }
 
 /* A block of nl lanes (points k .. k + nl - 1) that cannot take the vector sums: one point at a

@@ -58,20 +58,20 @@ static void make_face(cf_face *f, int n, double r, double phase, double cz)
 }
 
 /* Sub-contact points of one face (body frame), weights summing to wsum.
- * mode VERTEX: the n vertices; PERIMETER: nodes of the fan triangulation refined
- * m times (m points per polygon edge, interior nodes too), lumped (trapezoidal)
- * area weights, which converge to the exact interface as m grows.
+ * m = 0: the n vertices; m >= 1: nodes of the fan triangulation refined m times (m
+ * points per polygon edge, interior nodes too), lumped (trapezoidal) area weights,
+ * which converge to the exact interface as m grows.
  * Writes up to count_face_points() entries; returns the count. */
-static int count_face_points(int n, int mode, int m)
+static int count_face_points(int n, int m)
 {
-    if (mode == CF_SOLVER_CONTACT_VERTEX) return n;
+    if (m == 0) return n;
     return 1 + n * m * (m + 1) / 2;
 }
 
-static int face_points(const cf_face *f, int mode, int m, double wsum, double *loc, double *wt)
+static int face_points(const cf_face *f, int m, double wsum, double *loc, double *wt)
 {
     int k, c = 0, ring, t;
-    if (mode == CF_SOLVER_CONTACT_VERTEX) {
+    if (m == 0) {
         for (k = 0; k < f->n; k++) {
             loc[3 * c] = f->c[0] + f->vx[k]; loc[3 * c + 1] = f->c[1] + f->vy[k]; loc[3 * c + 2] = f->c[2];
             wt[c++] = wsum / f->n;
@@ -254,31 +254,31 @@ static int drop_faces_off_the_other(cf_solver *s)
     return c;
 }
 
-/* Sub-contacts: the upper face's points tested against the lower face (side 0) and
- * the lower face's points tested against the upper face (side 1), each set carrying
- * half of the joint area; then the hot loop's arrays. */
-static int points_make(cf_solver *s)
+/* Sub-contacts of the points models (their set-up, solver_points.c): the upper face's points
+ * tested against the lower face (side 0) and the lower face's points tested against the upper
+ * face (side 1), each set carrying half of the joint area, m per edge (face_points); then the
+ * hot loop's arrays. */
+int cf_solver_stack_points(cf_solver *s, int mm)
 {
-    int j, k, np, nj = s->nj, mode = s->def.contact, mm = s->def.points_per_edge;
+    int j, k, np, nj = s->nj;
     const cf_solver_def *def = &s->def;
     np = 0;
-    if (mode != CF_SOLVER_CONTACT_EXACT)
-        for (j = 0; j < nj; j++)
-            np += count_face_points(s->jt[j].fu.n, mode, mm) + (j == 0 ? 0 : count_face_points(s->jt[j].fl.n, mode, mm));
+    for (j = 0; j < nj; j++)
+        np += count_face_points(s->jt[j].fu.n, mm) + (j == 0 ? 0 : count_face_points(s->jt[j].fl.n, mm));
     s->np = np;
     ALLOC(s->p_side, int, np); ALLOC(s->p_hint, int, np); ALLOC(s->p_ihkw, double, np);
     ALLOC(s->p_loc, double, 3 * np); ALLOC(s->p_w, double, np);
-    if (mode != CF_SOLVER_CONTACT_EXACT) {
+    {
         int c = 0, n1, n2;
         /* filled below, then 1 / (2 ks w) per point */
         for (j = 0; j < nj; j++) {
             cf_joint *J = &s->jt[j];
             J->p0 = c;
             /* the ground (joint 0) is unbounded: the block's own points carry the whole area */
-            n1 = face_points(&J->fu, mode, mm, (j == 0 ? 1.0 : 0.5) * J->area, s->p_loc + 3 * c, s->p_w + c);
+            n1 = face_points(&J->fu, mm, (j == 0 ? 1.0 : 0.5) * J->area, s->p_loc + 3 * c, s->p_w + c);
             for (k = 0; k < n1; k++) s->p_side[c + k] = 0;
             c += n1;
-            n2 = j == 0 ? 0 : face_points(&J->fl, mode, mm, 0.5 * J->area, s->p_loc + 3 * c, s->p_w + c);
+            n2 = j == 0 ? 0 : face_points(&J->fl, mm, 0.5 * J->area, s->p_loc + 3 * c, s->p_w + c);
             for (k = 0; k < n2; k++) s->p_side[c + k] = 1;
             c += n2;
             J->np = n1 + n2;
@@ -288,7 +288,7 @@ static int points_make(cf_solver *s)
     /* planar mode with faces symmetric about the x-z plane: the motion is symmetric, so
      * a point at -y mirrors its twin at +y; keep one of each pair with twice its weight
      * (the out-of-plane force and moments they would cancel are discarded anyway) */
-    if (def->planar && mode != CF_SOLVER_CONTACT_EXACT) {
+    if (def->planar) {
         int sym = 1;
         for (j = 0; j < nj && sym; j++) {
             const cf_face *ff[2];
@@ -325,7 +325,7 @@ static int points_make(cf_solver *s)
             s->np = np = c;
         }
     }
-    if (mode != CF_SOLVER_CONTACT_EXACT) s->np = np = drop_faces_off_the_other(s);
+    s->np = np = drop_faces_off_the_other(s);
     ALLOC(s->p_lx, double, np); ALLOC(s->p_ly, double, np); ALLOC(s->p_hx, double, np);
     ALLOC(s->p_hy, double, np); ALLOC(s->p_fast, double, np); ALLOC(s->p_knw, double, np);
     ALLOC(s->p_ksw, double, np); ALLOC(s->p_fsx, double, np); ALLOC(s->p_fsy, double, np);
@@ -416,7 +416,7 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
         int j;
         for (j = 0; j < s->nj; j++) { s->jt[j].kn = kn[j]; s->jt[j].ks = ks[j]; s->jt[j].mu = mu[j]; }
     }
-    if (!st) st = points_make(s);
+    if (!st && s->model->setup) st = s->model->setup(s);   /* the contact model's points or joint data */
     if (!st) equilibrium(s, nblk, bp, zbot);
     free(bp); free(zbot);
     return st;
@@ -426,21 +426,13 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
  * the state of a freshly set-up solver. */
 void cf_solver_stack_reset(cf_solver *s)
 {
-    int j, nb = s->nbody;
+    int nb = s->nbody;
     memcpy(s->x, s->x0, sizeof(double) * 3 * (size_t)nb);
     memcpy(s->q, s->q0, sizeof(double) * 4 * (size_t)nb);
     memset(s->v, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->w, 0, sizeof(double) * 3 * (size_t)nb);
-    if (s->np > 0) {
-        memset(s->p_fsx, 0, sizeof(double) * (size_t)s->np);
-        memset(s->p_fsy, 0, sizeof(double) * (size_t)s->np);
-        memset(s->p_state, 0, sizeof(double) * (size_t)s->np);
-        memset(s->p_pen0, 0, sizeof(double) * (size_t)s->np);
-        /* the polygon tests' starting edges too: a run does not depend on the runs before it */
-        memset(s->p_hint, 0, sizeof(int) * (size_t)s->np);
-    }
     memset(s->fext_prev, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->fdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->tdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);
-    for (j = 0; j < s->nj; j++) { s->jt[j].fs[0] = s->jt[j].fs[1] = 0; s->jt[j].mt = 0; }
+    if (s->model->reset) s->model->reset(s);   /* the contact model's state */
 }

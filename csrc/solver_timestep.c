@@ -82,7 +82,7 @@ double cf_solver_timestep_sym_max_eig(double *a, int n)
 /* The stiffness matrix of the stack (6 DOFs per moving body), dense (band < 0: K[i * nd + j]) or,
  * for tall stacks, as its lower band (K[i * (band + 1) + i - j], j <= i): a joint couples only a
  * body and the one below, so every entry lies within 11 of the diagonal. */
-typedef struct {
+typedef struct cf_stiffness {
     double *K;
     int nd, band;
 } stiffness;
@@ -97,8 +97,8 @@ static inline void stiff_add(stiffness *S, int i, int j, double v)
 }
 
 /* Add a spring of stiffness k along e at world point p between bodies bl, bu (at rest). */
-static void add_spring(const cf_solver *s, stiffness *S, int bl, int bu, const double *p, const double *e,
-                       double k)
+void cf_solver_timestep_add_spring(const cf_solver *s, stiffness *S, int bl, int bu, const double *p, const double *e,
+                             double k)
 {
     double b[12];
     int idx[12], nb = 0, i, j;
@@ -117,54 +117,28 @@ static void add_spring(const cf_solver *s, stiffness *S, int bl, int bu, const d
         for (j = 0; j < nb; j++) stiff_add(S, idx[i], idx[j], k * b[i] * b[j]);
 }
 
+/* The three springs of a contact of area share w (m^2) of joint J at world point p (at rest):
+ * normal kn w along z, shear ks w along x and along y. */
+void cf_solver_timestep_add_contact(const cf_solver *s, stiffness *S, const cf_joint *J, const double *p, double w)
+{
+    static const double ex[3] = {1, 0, 0}, ey[3] = {0, 1, 0}, ez[3] = {0, 0, 1};
+    cf_solver_timestep_add_spring(s, S, J->bl, J->bu, p, ez, J->kn * w);
+    cf_solver_timestep_add_spring(s, S, J->bl, J->bu, p, ex, J->ks * w);
+    cf_solver_timestep_add_spring(s, S, J->bl, J->bu, p, ey, J->ks * w);
+}
+
 int cf_solver_timestep_limit(cf_solver *s)
 {
-    int nd = 6 * (s->nbody - 1), j, k, i, nsel, band = nd >= BAND_MIN_DOF ? BAND : -1;
+    int nd = 6 * (s->nbody - 1), j, i, nsel, band = nd >= BAND_MIN_DOF ? BAND : -1;
     size_t nK = band < 0 ? (size_t)nd * nd : (size_t)nd * (BAND + 1);
     double *K = (double *)calloc(nK, sizeof(double));
     double *A;
     int *sel;
     double lam;
     stiffness S;
-    static const double ex[3] = {1, 0, 0}, ey[3] = {0, 1, 0}, ez[3] = {0, 0, 1};
     if (!K) return cf_solver_fail(s, CF_ENOMEM, "out of memory (stiffness matrix)");
     S.K = K; S.nd = nd; S.band = band;
-    for (j = 0; j < s->nj; j++) {
-        cf_joint *J = &s->jt[j];
-        if (s->def.contact == CF_SOLVER_CONTACT_EXACT) {
-            /* exact interface: the face integral by the edge-midpoint rule on the fan
-             * triangles (exact for the quadratic integrands of K) */
-            const cf_face *f = &J->fu;
-            double wq = J->area / f->n / 3.0;
-            for (k = 0; k < f->n; k++) {
-                int k1 = (k + 1) % f->n, t;
-                double mids[3][2];
-                mids[0][0] = 0.5 * f->vx[k]; mids[0][1] = 0.5 * f->vy[k];
-                mids[1][0] = 0.5 * f->vx[k1]; mids[1][1] = 0.5 * f->vy[k1];
-                mids[2][0] = 0.5 * (f->vx[k] + f->vx[k1]); mids[2][1] = 0.5 * (f->vy[k] + f->vy[k1]);
-                for (t = 0; t < 3; t++) {
-                    double p[3];
-                    p[0] = s->x0[3 * J->bu] + f->c[0] + mids[t][0];
-                    p[1] = s->x0[3 * J->bu + 1] + f->c[1] + mids[t][1];
-                    p[2] = s->x0[3 * J->bu + 2] + f->c[2];
-                    add_spring(s, &S, J->bl, J->bu, p, ez, J->kn * wq);
-                    add_spring(s, &S, J->bl, J->bu, p, ex, J->ks * wq);
-                    add_spring(s, &S, J->bl, J->bu, p, ey, J->ks * wq);
-                }
-            }
-        } else {
-            for (k = J->p0; k < J->p0 + J->np; k++) {
-                int b = s->p_side[k] == 0 ? J->bu : J->bl;
-                double p[3];
-                p[0] = s->x0[3 * b] + s->p_loc[3 * k];
-                p[1] = s->x0[3 * b + 1] + s->p_loc[3 * k + 1];
-                p[2] = s->x0[3 * b + 2] + s->p_loc[3 * k + 2];
-                add_spring(s, &S, J->bl, J->bu, p, ez, J->kn * s->p_w[k]);
-                add_spring(s, &S, J->bl, J->bu, p, ex, J->ks * s->p_w[k]);
-                add_spring(s, &S, J->bl, J->bu, p, ey, J->ks * s->p_w[k]);
-            }
-        }
-    }
+    for (j = 0; j < s->nj; j++) s->model->stiffness(s, &s->jt[j], &S);   /* the contact model's springs */
     sel = (int *)malloc(sizeof(int) * (size_t)nd);
     A = (double *)malloc(sizeof(double) * nK);
     if (!sel || !A) { free(K); free(sel); free(A); return cf_solver_fail(s, CF_ENOMEM, "out of memory (eigen)"); }

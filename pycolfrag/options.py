@@ -25,12 +25,14 @@ from ._ffi import ffi, lib
 from ._validate import flag, real
 from .errors import ParameterError
 
-__all__ = ["SolverOptions", "CONTACT_OPTIONS"]
+__all__ = ["SolverOptions", "CONTACT_OPTIONS", "CONTACT_DOCS"]
 
-#: contact models understood by the solver (names -> C codes)
-CONTACT_OPTIONS = {"vertex": lib.CF_SOLVER_CONTACT_VERTEX,
-                   "perimeter": lib.CF_SOLVER_CONTACT_PERIMETER,
-                   "exact": lib.CF_SOLVER_CONTACT_EXACT}
+#: contact models understood by the solver (names -> C codes), read from the C library's
+#: registry of contact models (csrc/solver_contact_model.c): a model added there is an option here
+CONTACT_OPTIONS = {ffi.string(lib.cf_solver_contact_model_name(i)).decode(): i
+                   for i in range(lib.cf_solver_contact_model_count())}
+#: each contact model's one-sentence description, from the same registry
+CONTACT_DOCS = {name: ffi.string(lib.cf_solver_contact_model_doc(i)).decode() for name, i in CONTACT_OPTIONS.items()}
 _CONTACT_NAMES = {v: k for k, v in CONTACT_OPTIONS.items()}
 
 
@@ -93,7 +95,8 @@ class SolverOptions:
         Joint discretisation: sub-contacts at the polygon vertices of both faces (3DEC-like,
         default); a refined face mesh with ``points_per_edge`` points per edge plus interior
         nodes (converges to "exact"); or the exact integral of kn * overlap over the compressed
-        part of the face overlap polygon.
+        part of the face overlap polygon. The names are those of the C library's registry
+        (``CONTACT_OPTIONS``; ``CONTACT_DOCS`` describes each).
     points_per_edge : int
         Refinement of "perimeter", in [1, 64].
     dt_solver : float or None

@@ -128,3 +128,15 @@ def test_numpy_scalars_and_ranges():
         with pytest.raises(pcf.ParameterError):
             SolverOptions(**bad)
     assert SolverOptions(damping_start_s=None).damping_start_s == 0.0
+
+
+def test_contact_options_are_the_c_registry():
+    """The contact option's names and codes come from the C library's registry of contact
+    models, in the order of its C names (CF_SOLVER_CONTACT_*), each with its description."""
+    from pycolfrag._ffi import lib
+    from pycolfrag.options import CONTACT_DOCS, CONTACT_OPTIONS
+    assert CONTACT_OPTIONS == {"vertex": lib.CF_SOLVER_CONTACT_VERTEX, "perimeter": lib.CF_SOLVER_CONTACT_PERIMETER,
+                               "exact": lib.CF_SOLVER_CONTACT_EXACT}
+    assert set(CONTACT_DOCS) == set(CONTACT_OPTIONS) and "points_per_edge" in CONTACT_DOCS["perimeter"]
+    with pytest.raises(pcf.errors.ParameterError, match="contact must be one of"):
+        SolverOptions(contact="toy")

@@ -22,8 +22,9 @@
 #include "geometry.h"
 #include "solver.h"
 #include "solver_batch.h"
+#include "parthenon_column.h"
 
-enum { NB = 13, NREC = 1201 };
+enum { NB = PARTHENON_NB, NREC = 1201 };
 
 static unsigned long long hash_bytes(unsigned long long h, const void *p, size_t n)
 {
@@ -31,26 +32,6 @@ static unsigned long long hash_bytes(unsigned long long h, const void *p, size_t
     size_t i;
     for (i = 0; i < n; i++) { h ^= c[i]; h *= 1099511628211ULL; }   /* FNV-1a */
     return h;
-}
-
-static void column(cf_geometry_segment *seg, int *nseg)
-{
-    static const double r[13] = {0.825, 0.8095833333333333, 0.7941666666666666, 0.7787499999999999,
-                                 0.7633333333333333, 0.7479166666666667, 0.7324999999999999,
-                                 0.7170833333333333, 0.7016666666666667, 0.68625, 0.6708333333333333,
-                                 0.6554166666666666, 0.64};
-    int i;
-    for (i = 0; i < 12; i++) {
-        seg[i].height = 0.7816666666666667;
-        seg[i].r_bottom = r[i]; seg[i].r_top = r[i + 1];
-        seg[i].phase_rad = 0.0; seg[i].n_sides = 10;
-        nseg[i] = 1;
-    }
-    seg[12].height = 0.4; seg[12].r_bottom = 0.64; seg[12].r_top = 0.83; seg[12].phase_rad = 0.0;
-    seg[12].n_sides = 10;
-    seg[13].height = 0.3; seg[13].r_bottom = 1.2232947314527272; seg[13].r_top = 1.2232947314527272;
-    seg[13].phase_rad = 0.7853981633974483; seg[13].n_sides = 4;
-    nseg[12] = 2;
 }
 
 typedef struct {
@@ -83,7 +64,7 @@ static cf_solver *setup(const config *c, int early_exit)
     cf_solver *s = cf_solver_create();
     double kn = c->kn > 0 ? c->kn : 1e9;
     if (!s) return NULL;
-    column(seg, nseg);
+    parthenon_column(seg, nseg);
     cf_solver_def_default(&def);
     def.contact = c->contact; def.points_per_edge = c->ppe; def.planar = c->planar;
     def.monolithic = c->mono; def.dt_factor = c->dtf; def.early_exit = early_exit;

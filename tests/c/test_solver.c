@@ -7,23 +7,7 @@
 #include "cf_common.h"
 #include "solver.h"
 #include "solver_internal.h"
-
-/* The default column (pycolfrag/data/column_parthenon.json): 12 drums, 10-gon,
- * 1.65 m -> 1.28 m over 9.38 m, capital = echinus frustum + square abacus. */
-static void parthenon(cf_geometry_segment *seg, int *nseg)
-{
-    int i;
-    for (i = 0; i < 12; i++) {
-        double h = 9.38 / 12, z = i * h;
-        seg[i].height = h; seg[i].n_sides = 10; seg[i].phase_rad = 0;
-        seg[i].r_bottom = 0.5 * (1.65 - 0.37 * z / 9.38);
-        seg[i].r_top = 0.5 * (1.65 - 0.37 * (z + h) / 9.38);
-        nseg[i] = 1;
-    }
-    seg[12].height = 0.4; seg[12].r_bottom = 0.64; seg[12].r_top = 0.83; seg[12].n_sides = 10; seg[12].phase_rad = 0;
-    seg[13].height = 0.3; seg[13].r_bottom = seg[13].r_top = 1.73 / sqrt(2.0); seg[13].n_sides = 4;
-    seg[13].phase_rad = CF_PI / 4; nseg[12] = 2;
-}
+#include "parthenon_column.h"
 
 /* Whole-stack limit of the default column with vertex contacts: measured independently
  * before this solver was written, about 1.0 ms (per-block estimates give 1.3 ms). 5 % covers "about". */
@@ -32,7 +16,7 @@ static void test_dt_crit_default_column(void)
     cf_geometry_segment seg[14]; int nseg[13];
     cf_solver_def d;
     cf_solver *s = cf_solver_create();
-    parthenon(seg, nseg);
+    parthenon_column(seg, nseg);
     cf_solver_def_default(&d);
     CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, tan(37 * CF_PI / 180)) == CF_OK);
     CF_CHECK_REL(cf_solver_dt_crit(s), 1.0e-3, 0.05);
@@ -48,7 +32,7 @@ static void test_statics(void)
     cf_solver_result r;
     double acc[101] = {0}, pos[3 * 13 * 40], res[13];
     cf_solver *s = cf_solver_create();
-    parthenon(seg, nseg);
+    parthenon_column(seg, nseg);
     cf_solver_def_default(&d);
     d.tail_s = 0.0; d.history_dt = 0.05; d.early_exit = 0;
     CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, 0.75) == CF_OK);
@@ -69,12 +53,18 @@ static void test_bad_input(void)
     cf_solver_result r;
     double acc[3] = {0, NAN, 0};
     cf_solver *s = cf_solver_create();
-    parthenon(seg, nseg);
+    parthenon_column(seg, nseg);
     cf_solver_def_default(&d);
     CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 3, 0.01, NULL, &r) == CF_ESTATE);   /* before setup */
     d.contact = 7;
     CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, 0.75) == CF_EINVAL);
     CF_CHECK(strstr(cf_solver_message(s), "contact") != NULL);
+    /* the range check's message names every model of the registry (by the C callers' indices) */
+    CF_CHECK(strstr(cf_solver_message(s), "0 (vertex), 1 (perimeter) or 2 (exact), got 7") != NULL);
+    d.contact = cf_solver_contact_model_count();
+    CF_CHECK(cf_solver_check_def(s, &d) == CF_EINVAL);
+    d.contact = -1;
+    CF_CHECK(cf_solver_check_def(s, &d) == CF_EINVAL);
     cf_solver_def_default(&d);
     CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, -1.0, 1e9, 0.75) == CF_EINVAL);
     CF_CHECK(strstr(cf_solver_message(s), "kn") != NULL);
@@ -90,19 +80,39 @@ static void test_bad_input(void)
     cf_solver_free(NULL);
 }
 
+/* The registry of contact models: the entries in the order of the C callers' names
+ * (CF_SOLVER_CONTACT_*), each with a description; NULL outside the table. */
+static void test_contact_registry(void)
+{
+    CF_CHECK(cf_solver_contact_model_count() == 3);
+    CF_CHECK(!strcmp(cf_solver_contact_model_name(CF_SOLVER_CONTACT_VERTEX), "vertex"));
+    CF_CHECK(!strcmp(cf_solver_contact_model_name(CF_SOLVER_CONTACT_PERIMETER), "perimeter"));
+    CF_CHECK(!strcmp(cf_solver_contact_model_name(CF_SOLVER_CONTACT_EXACT), "exact"));
+    CF_CHECK(strstr(cf_solver_contact_model_doc(CF_SOLVER_CONTACT_PERIMETER), "points_per_edge") != NULL);
+    CF_CHECK(cf_solver_contact_model_name(3) == NULL && cf_solver_contact_model_doc(-1) == NULL);
+}
+
+/* The default column set up with tail_s and early_exit, and in acc 400 samples (2 s at
+ * 0.005 s) of a 0.3 g 2 Hz sine. */
+static cf_solver *sine_column(double *acc, double tail_s, int early_exit)
+{
+    cf_geometry_segment seg[PARTHENON_NB + 1]; int nseg[PARTHENON_NB], i;
+    cf_solver_def d;
+    cf_solver *s = cf_solver_create();
+    parthenon_column(seg, nseg);
+    for (i = 0; i < 400; i++) acc[i] = 0.3 * 9.81 * sin(2 * CF_PI * 2.0 * i * 0.005);
+    cf_solver_def_default(&d);
+    d.tail_s = tail_s; d.early_exit = early_exit;
+    CF_CHECK(cf_solver_setup(s, &d, PARTHENON_NB, nseg, seg, 2700, 1e9, 1e9, 0.75) == CF_OK);
+    return s;
+}
+
 /* Same input twice: bitwise identical results (no hidden state between runs). */
 static void test_determinism(void)
 {
-    cf_geometry_segment seg[14]; int nseg[13], i;
-    cf_solver_def d;
     cf_solver_result r1, r2;
     double acc[400], res1[13], res2[13];
-    cf_solver *s = cf_solver_create();
-    parthenon(seg, nseg);
-    for (i = 0; i < 400; i++) acc[i] = 0.3 * 9.81 * sin(2 * CF_PI * 2.0 * i * 0.005);
-    cf_solver_def_default(&d);
-    d.tail_s = 1.0;
-    CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, 0.75) == CF_OK);
+    cf_solver *s = sine_column(acc, 1.0, 1);
     CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 400, 0.005, res1, &r1) == CF_OK);
     CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 400, 0.005, res2, &r2) == CF_OK);
     CF_CHECK(memcmp(&r1, &r2, sizeof r1) == 0 || (r1.u_top == r2.u_top && r1.u_d == r2.u_d));
@@ -122,16 +132,10 @@ static int stop_on_second_call(void *user)
  * it lets the run go on: the same numbers, bit for bit, as without a check. */
 static void test_caller_check(void)
 {
-    cf_geometry_segment seg[14]; int nseg[13], i;
-    cf_solver_def d;
     cf_solver_result r1, r2;
     double acc[400], res1[13], res2[13];
-    cf_solver *s = cf_solver_create();
-    parthenon(seg, nseg);
-    for (i = 0; i < 400; i++) acc[i] = 0.3 * 9.81 * sin(2 * CF_PI * 2.0 * i * 0.005);
-    cf_solver_def_default(&d);
-    d.tail_s = 30.0; d.early_exit = 0;   /* 32 s of response: far more than 2 x CF_SOLVER_CHECK_STEPS steps */
-    CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, 0.75) == CF_OK);
+    /* 32 s of response: far more than 2 x CF_SOLVER_CHECK_STEPS steps */
+    cf_solver *s = sine_column(acc, 30.0, 0);
     CF_CHECK(cf_solver_run(s, acc, NULL, NULL, 400, 0.005, res1, &r1) == CF_OK);
     CF_CHECK(r1.n_steps > 2 * CF_SOLVER_CHECK_STEPS);
     check_calls = 0;
@@ -216,6 +220,7 @@ int main(void)
     CF_RUN(test_dt_crit_default_column);
     CF_RUN(test_statics);
     CF_RUN(test_bad_input);
+    CF_RUN(test_contact_registry);
     CF_RUN(test_determinism);
     CF_RUN(test_caller_check);
     return CF_TEST_SUMMARY("test_solver");

@@ -1,10 +1,12 @@
 /*
- * parthenon_column.h -- the default column of the C benchmarks (Column.parthenon(): 12 drums
- * tapering from 0.825 m to 0.64 m, radii as Python holds them, then the capital: echinus
- * frustum + square abacus, one block), for bench/solver_profile.c and bench/batch_profile.c.
+ * parthenon_column.h -- the default column of the C tests and benchmarks, one text
+ * (Column.parthenon(), pycolfrag/data/column_parthenon.json: 12 drums, 10-gon, tapering from
+ * 0.825 m to 0.64 m in radius over 9.38 m, radii as Python holds them, then the capital:
+ * echinus frustum + square abacus, one block), for tests/c/test_solver.c,
+ * tests/c/result_hashes.c, bench/solver_profile.c and bench/batch_profile.c.
  */
-#ifndef BENCH_PARTHENON_COLUMN_H
-#define BENCH_PARTHENON_COLUMN_H
+#ifndef CF_PARTHENON_COLUMN_H
+#define CF_PARTHENON_COLUMN_H
 #include "geometry.h"
 
 enum { PARTHENON_NB = 13 };

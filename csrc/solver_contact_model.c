@@ -1,0 +1,35 @@
+/*
+ * solver_contact_model.c -- the registry of contact models: the definition's `contact`
+ * field is an index into this table, and the range check of cf_solver_check_def, the
+ * option names of Python (pycolfrag/options.py) and their documentation are read from it.
+ * Each entry owns its set-up, per-run state, stiffness for the stability limit and step
+ * hook (cf_solver_contact_model, solver_internal.h). A new model is its own .c file
+ * defining its entry, and one line here. The order is that of CF_SOLVER_CONTACT_* (solver.h).
+ */
+#include <stddef.h>
+
+#include "solver_internal.h"
+
+extern const cf_solver_contact_model cf_solver_points_vertex, cf_solver_points_perimeter;   /* solver_points.c */
+extern const cf_solver_contact_model cf_solver_exact_model;                               /* solver_exact.c */
+
+const cf_solver_contact_model *const cf_solver_contact_model_table[] = {
+    &cf_solver_points_vertex,
+    &cf_solver_points_perimeter,
+    &cf_solver_exact_model,
+};
+
+int cf_solver_contact_model_count(void)
+{
+    return (int)(sizeof cf_solver_contact_model_table / sizeof cf_solver_contact_model_table[0]);
+}
+
+const char *cf_solver_contact_model_name(int i)
+{
+    return i >= 0 && i < cf_solver_contact_model_count() ? cf_solver_contact_model_table[i]->name : NULL;
+}
+
+const char *cf_solver_contact_model_doc(int i)
+{
+    return i >= 0 && i < cf_solver_contact_model_count() ? cf_solver_contact_model_table[i]->doc : NULL;
+}
