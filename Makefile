@@ -39,6 +39,7 @@ build: .venv/.built
 COBJS      := $(patsubst csrc/%.c,build/obj/%.o,$(CSRCS))
 COBJS_ASAN := $(patsubst csrc/%.c,build/obj-asan/%.o,$(CSRCS))
 ASANFLAGS  := $(CSTD) $(CWARN) $(SANFLAGS) -ffp-contract=off $(CDEFS)
+.SECONDARY: $(COBJS) $(COBJS_ASAN)   # kept between runs: make would delete them as intermediates
 
 build/obj/%.o: csrc/%.c $(CHDRS) csrc/flags.mk pycolfrag/data/constants.json
 	@mkdir -p build/obj
