@@ -21,9 +21,15 @@ import warnings
 
 import numpy as np
 
-from . import names
+from . import ground_motion, intensity, names
+from . import records as _records
+from . import results as _r
+from . import solver as _solver   # called through the module, so a test's fake of simulate takes effect
+from .column import Column
 from .errors import ParameterError
 from .ground_motion.registry import PULSE_FIELDS
+from .options import SolverOptions
+from .solver import EnergyWarning, StepWarning
 
 __all__ = ["DEFAULT_PERIODS_S", "DEFAULT_DAMPING", "COMPONENTS", "STATUS", "record_identity", "ims_row", "response_row",
            "run_synthetic_sample", "run_synthetic_samples", "run_record_sample", "run_record_samples", "response_rows", "record_jobs", "run_suite", "rows_to_table"]
@@ -39,7 +45,6 @@ COMPONENTS = ("h1", "h2", "both")
 
 
 def _status():
-    from . import results as _r
     return {"ok": _r.STATUS_OK, "record": _r.STATUS_RECORD_FAILED, "im": _r.STATUS_IM_FAILED,
             "solver": _r.STATUS_SOLVER_FAILED, "other": _r.STATUS_OTHER_FAILED}
 
@@ -71,8 +76,7 @@ def record_identity(record, component, scale) -> dict:
 def ims_row(acc, dt, periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_DAMPING) -> dict:
     """Every IM of :data:`pycolfrag.names.IMS` of one record: scalars as floats, spectral ones as
     arrays over ``periods_s`` (:func:`pycolfrag.intensity.measures`)."""
-    from .intensity import measures
-    ims = measures(acc, dt, periods=periods_s, damping=damping)
+    ims = intensity.measures(acc, dt, periods=periods_s, damping=damping)
     out = {}
     for name, q in names.IMS.items():
         out[name] = np.asarray(ims[name], dtype=float) if q.spectral else float(ims[name])
@@ -140,7 +144,6 @@ def _response_phase(out, res, steps=()) -> None:
 def _solver_kw(solver_options) -> dict:
     """simulate()'s keywords for a row's solver options: a resolved SolverOptions (what the grid
     passes) or a dict of overrides."""
-    from .options import SolverOptions
     if isinstance(solver_options, SolverOptions):
         return {"options": solver_options}
     return dict(solver_options or {})
@@ -150,7 +153,6 @@ def _caught(run):
     """``run()`` as a row needs it: (its result or the exception it raised, the texts of its step
     warnings). An energy warning is stored in the row (energy_warning), not printed per run; a step
     warning (dt_solver above the stability limit or the record's dt) is kept in the row's message."""
-    from .solver import EnergyWarning, StepWarning
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("ignore", UserWarning)
         warnings.simplefilter("ignore", EnergyWarning)
@@ -164,8 +166,7 @@ def _caught(run):
 
 def _simulate(column, acc_x, dt, acc_y, acc_z, solver_options):
     """One run as a row needs it: (the Response or the exception, its step-warning texts)."""
-    from .solver import simulate
-    return _caught(lambda: simulate(column, acc_x, dt, acc_y=acc_y, acc_z=acc_z, **_solver_kw(solver_options)))
+    return _caught(lambda: _solver.simulate(column, acc_x, dt, acc_y=acc_y, acc_z=acc_z, **_solver_kw(solver_options)))
 
 
 def response_row(column, acc_x, dt, *, acc_y=None, acc_z=None, ims=None, periods_s=DEFAULT_PERIODS_S,
@@ -188,10 +189,9 @@ def _simulate_many(column, runs, solver_options) -> list:
     the set-up refuses) or warns about the step (an explicit dt_solver above the stability limit or a
     record's dt: rare, the grid refuses both), every run alone, so that each row gets the message and
     the warnings of its own run."""
-    from .solver import simulate_batch
     if len(runs) < 2:
         return [_simulate(column, r["acc_x"], r["dt"], r["acc_y"], r["acc_z"], solver_options) for r in runs]
-    res, steps = _caught(lambda: simulate_batch(column, runs, errors="return", **_solver_kw(solver_options)))
+    res, steps = _caught(lambda: _solver.simulate_batch(column, runs, errors="return", **_solver_kw(solver_options)))
     if isinstance(res, Exception) or steps:
         return [_simulate(column, r["acc_x"], r["dt"], r["acc_y"], r["acc_z"], solver_options) for r in runs]
     return [(x, []) for x in res]
@@ -263,7 +263,6 @@ def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.0
 def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse=True):
     """The record of a synthetic sample and its row so far: (row, acc, dt); acc is None (and the row
     says why) when the record failed."""
-    from . import ground_motion
     out = {"mw": float(mw), "dist_km": float(dist_km), "status": STATUS["ok"], "message": ""}
     try:
         if with_pulse:
@@ -459,9 +458,7 @@ def run_suite(records, *, column=None, components=("h1", "h2"), scales=(1.0,), p
     """Every record x component x scale, in one process (the MPI grid will do the same rows in
     parallel): a suite table (:func:`rows_to_table`) with ``periods_s``. A component a record lacks
     (``h2`` of a one-component record) is skipped. ``progress``: callable(done, total) or None."""
-    from .column import Column
-    from .records import load_records
-    suite = load_records(records)
+    suite = _records.load_records(records)
     col = Column.parthenon() if column is None else column
     jobs = record_jobs(suite, components, scales)
     rows = []
