@@ -328,8 +328,8 @@ static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk 
     }
 }
 
-/* The batch: lanes filled with jobs in order, stepped together, each refilled when its
- * run ends. The lanes' vectors live in one block aligned for VD. */
+/* The batch: lanes filled with jobs longest record first (batch_order), stepped together,
+ * each refilled when its run ends. The lanes' vectors live in one block aligned for VD. */
 static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs, cf_solver_batch_out *out)
 {
     CF_BN(batch) *B;
