@@ -1,9 +1,10 @@
 /*
- * test_batch.c -- cf_solver_batch_run (solver_batch.h): its argument checks, a refused job, and
- * short runs of every width equal to cf_solver_run, the order in which the lanes take the jobs
- * (longest record first, seen through which runs a stop of the caller leaves unstarted). Small enough for the AddressSanitizer build
- * of CI (make ctest-asan), which checks the batch's memory handling; scripts/check_result_hashes.sh
- * compares every bit of long batches with single runs in every SIMD build.
+ * test_batch.c -- cf_solver_batch_run (solver_batch.h): its argument checks, a refused job,
+ * short runs of every width equal to cf_solver_run, and the order in which the lanes take the
+ * jobs (longest record first, seen through which runs a stop of the caller leaves unstarted).
+ * Small enough for the AddressSanitizer build of CI (make ctest-asan), which checks the batch's
+ * memory handling; scripts/check_result_hashes.sh compares every bit of long batches with
+ * single runs in every SIMD build.
  *
  * The reference of each equality is cf_solver_run on a freshly set-up solver, so the tolerance is
  * zero: the batch must do each run's operations in the single run's order.
