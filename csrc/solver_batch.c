@@ -20,11 +20,13 @@
 #include "solver_internal.h"
 #include "solver_points_internal.h"
 
-/* Jobs from..n_jobs-1 not run because the caller's check asked the batch to stop (CF_EINTR). */
-static void batch_not_started(int from, int n_jobs, cf_solver_batch_out *out)
+/* Jobs order[from..n_jobs-1] (from..n_jobs-1 without an order) not run because the caller's
+ * check asked the batch to stop (CF_EINTR). */
+static void batch_not_started(int from, int n_jobs, const int *order, cf_solver_batch_out *out)
 {
-    int j;
-    for (j = from; j < n_jobs; j++) {
+    int i;
+    for (i = from; i < n_jobs; i++) {
+        int j = order ? order[i] : i;
         memset(&out[j].result, 0, sizeof out[j].result);
         out[j].result.collapse_time = NAN; out[j].result.collapse_block = -1;
         out[j].status = CF_EINTR;
@@ -32,8 +34,40 @@ static void batch_not_started(int from, int n_jobs, cf_solver_batch_out *out)
     }
 }
 
-/* one instance of the integrator per width the build has (solver_internal.h) */
 #ifdef CF_SOLVER_SIMD
+/* The order in which the lanes take the jobs: longest record first (ties in job order). A
+ * lane idles from the end of its last run to the end of the batch's longest; taking the long
+ * runs first leaves the short ones to fill the lanes at the end (longest processing time
+ * first). The order of the runs changes no run: each starts from the rest state. */
+typedef struct { double len; int j; } batch_key;
+
+static int batch_key_cmp(const void *a, const void *b)
+{
+    const batch_key *x = (const batch_key *)a, *y = (const batch_key *)b;
+    if (x->len != y->len) return x->len > y->len ? -1 : 1;
+    return (x->j > y->j) - (x->j < y->j);
+}
+
+/* order[0..n_jobs-1]: a permutation of the jobs; NULL when out of memory */
+static int *batch_order(int n_jobs, const cf_solver_batch_job *jobs)
+{
+    int *order = (int *)malloc((size_t)n_jobs * sizeof(int));
+    batch_key *k = (batch_key *)malloc((size_t)n_jobs * sizeof(batch_key));
+    int j;
+    if (!order || !k) { free(order); free(k); return NULL; }
+    for (j = 0; j < n_jobs; j++) {
+        /* a job the checks refuse may have any n and dt: it only needs a place */
+        double len = jobs[j].n > 0 && jobs[j].dt_rec > 0.0 ? jobs[j].n * jobs[j].dt_rec : 0.0;
+        k[j].len = len == len ? len : 0.0;
+        k[j].j = j;
+    }
+    qsort(k, (size_t)n_jobs, sizeof *k, batch_key_cmp);
+    for (j = 0; j < n_jobs; j++) order[j] = k[j].j;
+    free(k);
+    return order;
+}
+
+/* one instance of the integrator per width the build has (solver_internal.h) */
 #define CF_BW 2
 #include "solver_lanes.h"
 #include "solver_batch_lanes.h"
@@ -96,7 +130,7 @@ static int one_by_one(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
                                       jb->residual_dislocation, &out[j].result);
         memcpy(out[j].message, s->msg, CF_MSG_LEN);
         if (out[j].status == CF_EINTR) {   /* the caller's check stopped this run: stop the batch */
-            batch_not_started(j + 1, n_jobs, out);
+            batch_not_started(j + 1, n_jobs, NULL, out);
             break;
         }
     }

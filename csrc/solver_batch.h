@@ -6,7 +6,8 @@
  * each a record with its own output buffers: cf_solver_batch_run integrates W runs
  * side by side (W = 8 with AVX-512, 4 with AVX2, 2 with SSE2, chosen at run time),
  * every lane doing the operations of cf_solver_run in its order, and refills a lane
- * with the next job when its run ends. Every job's result, residual dislocations,
+ * with the next job when its run ends (the jobs are taken longest record first, which
+ * leaves fewer idle lanes at the end; each job's output stays at its index). Every job's result, residual dislocations,
  * histories, status and message are bitwise those of cf_solver_run on a freshly set-up
  * solver, at every width (scripts/check_result_hashes.sh checks it).
  */

@@ -105,14 +105,14 @@ static void CF_BN(lane_view)(const cf_solver *s, CF_BN(batch) *B, int l, int all
 
 /* Lane l takes the next job that passes cf_solver_run's checks (a job that fails them
  * gets cf_solver_run's status, message and result at once); idle when none is left. */
-static void CF_BN(lane_fill)(const cf_solver *s, CF_BN(batch) *B, int l, int *next, int n_jobs,
+static void CF_BN(lane_fill)(const cf_solver *s, CF_BN(batch) *B, int l, int *next, int n_jobs, const int *order,
                              const cf_solver_batch_job *jobs, cf_solver_batch_out *out)
 {
     cf_solver *v = &B->view[l];
     CF_BN(lane_reset)(s, B, l);
     B->job[l] = -1;
     while (*next < n_jobs) {
-        int j = (*next)++, st;
+        int j = order[(*next)++], st;
         const cf_solver_batch_job *jb = &jobs[j];
         v->msg[0] = 0;
         v->h_cap = jb->history_capacity > 0 ? jb->history_capacity : 0;
@@ -308,8 +308,8 @@ static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk 
     }
 }
 
-/* The batch: lanes filled with jobs in order, stepped together, each refilled when its
- * run ends. The lanes' vectors live in one block aligned for VD. */
+/* The batch: lanes filled with jobs longest record first (batch_order), stepped together,
+ * each refilled when its run ends. The lanes' vectors live in one block aligned for VD. */
 static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs, cf_solver_batch_out *out)
 {
     CF_BN(batch) *B;
@@ -323,6 +323,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
                    + (size_t)np * CF_BW * sizeof(int) + (size_t)np * sizeof(cf_face *) + 64;
     unsigned char *raw, *p;
     const VD zero = {0};
+    int *order = batch_order(n_jobs, jobs);   /* longest record first */
     B = (CF_BN(batch) *)calloc(1, sizeof *B);
     C = (cf_joint_chunk *)calloc(1, sizeof *C);
     raw = (unsigned char *)calloc(1, bytes);
@@ -331,9 +332,9 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
             B->lane_mem[l] = (double *)calloc((size_t)16 * nb + (size_t)nj, sizeof(double));
             nomem |= !B->lane_mem[l];
         }
-    if (!B || !C || !raw || nomem) {
+    if (!B || !C || !raw || !order || nomem) {
         if (B) for (l = 0; l < CF_BW; l++) free(B->lane_mem[l]);
-        free(B); free(C); free(raw);
+        free(B); free(C); free(raw); free(order);
         return cf_solver_fail(s, CF_ENOMEM, "out of memory");
     }
     p = raw + (64 - (uintptr_t)raw % 64) % 64;
@@ -358,7 +359,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
         cf_solver *v = &B->view[l];
         *v = *s;
         v->x = B->lane_mem[l]; v->R = v->x + 3 * nb; v->q = v->R + 9 * nb; v->jfn = v->q + 4 * nb;
-        CF_BN(lane_fill)(s, B, l, &next, n_jobs, jobs, out);
+        CF_BN(lane_fill)(s, B, l, &next, n_jobs, order, jobs, out);
     }
     for (;;) {
         VD ag[3], ke, vg, Wl, Dd, e_vs, e_dslip, e_dswitch;
@@ -399,7 +400,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
                 cf_solver_run_finish(&B->view[l], &B->r[l], jobs[j].residual_dislocation, &out[j].result);
                 out[j].status = B->r[l].st;
                 memcpy(out[j].message, B->view[l].msg, CF_MSG_LEN);
-                CF_BN(lane_fill)(s, B, l, &next, n_jobs, jobs, out);
+                CF_BN(lane_fill)(s, B, l, &next, n_jobs, order, jobs, out);
             } else B->r[l].n++;
         }
         /* the caller's check (cf_solver_set_check) every CF_SOLVER_CHECK_STEPS steps of the batch, as
@@ -415,12 +416,12 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
                 out[j].status = r->st;
                 memcpy(out[j].message, B->view[l].msg, CF_MSG_LEN);
             }
-            batch_not_started(next, n_jobs, out);
+            batch_not_started(next, n_jobs, order, out);
             break;
         }
     }
     for (l = 0; l < CF_BW; l++) free(B->lane_mem[l]);
-    free(B); free(C); free(raw);
+    free(B); free(C); free(raw); free(order);
     return CF_OK;
 }
 

@@ -1,8 +1,10 @@
 /*
- * test_batch.c -- cf_solver_batch_run (solver_batch.h): its argument checks, a refused job, and
- * short runs of every width equal to cf_solver_run. Small enough for the AddressSanitizer build
- * of CI (make ctest-asan), which checks the batch's memory handling; scripts/check_result_hashes.sh
- * compares every bit of long batches with single runs in every SIMD build.
+ * test_batch.c -- cf_solver_batch_run (solver_batch.h): its argument checks, a refused job,
+ * short runs of every width equal to cf_solver_run, and the order in which the lanes take the
+ * jobs (longest record first, seen through which runs a stop of the caller leaves unstarted).
+ * Small enough for the AddressSanitizer build of CI (make ctest-asan), which checks the batch's
+ * memory handling; scripts/check_result_hashes.sh compares every bit of long batches with
+ * single runs in every SIMD build.
  *
  * The reference of each equality is cf_solver_run on a freshly set-up solver, so the tolerance is
  * zero: the batch must do each run's operations in the single run's order.
@@ -113,6 +115,46 @@ static void check_equal(int contact, int early_exit)
     cf_solver_free(s);
 }
 
+static int stop_now(void *user)
+{
+    ++*(int *)user;
+    return 1;
+}
+
+/* The lanes take the jobs longest record first: a batch stopped by the caller's check at its
+ * first call (after CF_SOLVER_CHECK_STEPS steps) has stopped the runs of the longest records,
+ * one per lane, and not started the rest, the shortest -- here the first jobs, which are given
+ * in the order of increasing length. */
+static void test_stop_takes_longest_first(void)
+{
+    enum { NS = 10, NL = 3000 };
+    static double acc[NL];
+    double resid[NS][NB];
+    cf_solver_batch_job jobs[NS];
+    cf_solver_batch_out out[NS];
+    cf_solver *s = column(CF_SOLVER_CONTACT_VERTEX, 0);
+    int i, w, calls = 0;
+    CF_CHECK(s != NULL);
+    if (!s) return;
+    w = cf_solver_batch_max_width(s);
+    /* records of 10 to 28 s: every run is longer than CF_SOLVER_CHECK_STEPS steps of this column */
+    for (i = 0; i < NL; i++) acc[i] = 0.5 * sin(12.0 * i * 0.01);
+    for (i = 0; i < NS; i++) {
+        memset(&jobs[i], 0, sizeof jobs[i]);
+        jobs[i].acc_x = acc; jobs[i].n = 1000 + 200 * i; jobs[i].dt_rec = 0.01;
+        jobs[i].residual_dislocation = resid[i];
+    }
+    cf_solver_set_check(s, stop_now, &calls);
+    CF_CHECK(cf_solver_batch_run(s, w, NS, jobs, out) == CF_OK);
+    CF_CHECK(calls == 1);
+    for (i = 0; i < NS; i++) {
+        int started = w == 1 ? i == 0 : i >= NS - w;   /* one at a time: in job order */
+        CF_CHECK(out[i].status == CF_EINTR);
+        CF_CHECK(strstr(out[i].message, started ? "stopped by the caller at" : "before this run started") != NULL);
+    }
+    cf_solver_free(s);
+}
+
 static void test_vertex_runs(void) { check_equal(CF_SOLVER_CONTACT_VERTEX, 1); }
 static void test_vertex_full_runs(void) { check_equal(CF_SOLVER_CONTACT_VERTEX, 0); }
 static void test_exact_runs(void) { check_equal(CF_SOLVER_CONTACT_EXACT, 1); }
@@ -123,5 +165,6 @@ int main(void)
     CF_RUN(test_vertex_runs);
     CF_RUN(test_vertex_full_runs);
     CF_RUN(test_exact_runs);
+    CF_RUN(test_stop_takes_longest_first);
     return CF_TEST_SUMMARY("batch");
 }
