@@ -54,16 +54,16 @@ def __getattr__(name):
     # The stochastic model, the combination, the plots and the AT2 reader load on first use: they load
     # the C library at import, and this package's declarations (registry) must be readable without it.
     if name in ("atkinson_silva_2000", "combine", "plots", "at2"):
-        import importlib
+        import importlib  # only on this path
         return importlib.import_module(f"{__name__}.{name}")
     if name == "read_at2":
-        from .at2 import read_at2
+        from .at2 import read_at2  # loads C on first use (see above)
         return read_at2
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _scenario(Mw, dist_km):
-    from . import atkinson_silva_2000 as as00
+    from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
     as00.check_scenario(Mw, dist_km)
     return rupakhety_2011.check_scenario(Mw, dist_km)
 
@@ -83,7 +83,7 @@ def stochastic(Mw, dist_km, seed, dt=0.005) -> Record:
     Record with ``meta``: ``Mw``, ``dist_km``, ``seed``, ``dt_s``, ``generator`` and the
     generator's details prefixed ``hf_`` (``hf_duration_s``, ``hf_window_start_s``, ``hf_nfft``).
     """
-    from . import atkinson_silva_2000 as as00
+    from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
     dt = positive_float(dt, "dt")
     seed = _seed(seed)
     acc, info = as00.simulate(Mw, dist_km, seed, dt=dt)
@@ -162,9 +162,9 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_pola
         ``"hf_modified"`` (step 5), all on the record's time axis. Same arguments give the
         same record, bit for bit, in any process.
     """
-    from . import atkinson_silva_2000 as as00
-    from .combine import combine
-    from ..intensity import integrate
+    from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
+    from .combine import combine  # loads C: the package must import without it
+    from ..intensity import integrate  # loads C: the package must import without it
 
     Mw_f, dist_f = _scenario(Mw, dist_km)
     dt = positive_float(dt, "dt")

@@ -22,6 +22,7 @@ messages quote at most 40 characters of a bad token or header line.
 """
 from __future__ import annotations
 
+import array
 import math
 import os
 import re
@@ -114,8 +115,6 @@ def read_at2(path) -> Record:
         ``acc`` in m/s^2; ``meta``: ``source`` ("AT2"), ``path``, ``header`` (the four lines),
         ``title`` (line 2), ``npts``, ``dt_s``.
     """
-    import array
-
     path = os.fspath(path)
     with open(path, encoding="utf-8", errors="replace") as fh:   # FileNotFoundError if missing
         lines = []

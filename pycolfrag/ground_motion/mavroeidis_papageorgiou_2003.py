@@ -65,7 +65,7 @@ INPUTS = (_VP, _FP, _NU, _GAMMA)
 def _c():
     """The compiled library's module (``ffi``, ``lib``, ``check``, ``ptr``), loaded on first use rather
     than at import: the declarations above are read by the results layout, which must not need C."""
-    from .. import _ffi
+    from .. import _ffi  # loads C on first use (docstring)
     return _ffi
 
 

@@ -101,7 +101,7 @@ def plot_fourier(rec, target=True, dt=None):
         fp_, ap = fourier_amplitude(r.components["pulse"], r.dt)
         ax.loglog(fp_, ap, color="C1", lw=1.0, label="pulse")
     if target and "Mw" in r.meta and "dist_km" in r.meta:
-        from . import atkinson_silva_2000 as as00
+        from . import atkinson_silva_2000 as as00  # loads C, only for the target curve
         ax.loglog(f, as00.fourier_amplitude(f, r.meta["Mw"], r.meta["dist_km"]), "C0--", lw=1.4,
                   label="AS00 target")
     ax.set_xlim(max(f[0], 0.05), f[-1])

@@ -79,18 +79,18 @@ class Record:
 
     def velocity(self) -> np.ndarray:
         """Trapezoidal velocity from rest, m/s (the integral behind PGV)."""
-        from ..intensity import integrate
+        from ..intensity import integrate  # loads C: a Record is read where C may be absent
         return integrate(self.acc, self.dt)[0]
 
     def displacement(self) -> np.ndarray:
         """Trapezoidal displacement from rest, m (the integral behind PGD)."""
-        from ..intensity import integrate
+        from ..intensity import integrate  # loads C: a Record is read where C may be absent
         return integrate(self.acc, self.dt)[1]
 
     def measures(self, periods=None, damping=0.05) -> dict:
         """:func:`pycolfrag.intensity.measures` of this record (``periods`` None: its
         ``DEFAULT_PERIODS_S``)."""
-        from ..intensity import DEFAULT_PERIODS_S, measures
+        from ..intensity import DEFAULT_PERIODS_S, measures  # loads C: as above
         return measures(self.acc, self.dt, periods=DEFAULT_PERIODS_S if periods is None else periods,
                         damping=damping)
 

@@ -64,7 +64,7 @@ def check_scenario(Mw, dist_km):
 def _lib():
     """The compiled library, loaded on first use rather than at import: the declarations above are
     read by the results layout, which must not need the C library."""
-    from .._ffi import lib
+    from .._ffi import lib  # loads C on first use (docstring)
     return lib
 
 
