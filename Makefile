@@ -49,11 +49,11 @@ build/obj-asan/%.o: csrc/%.c $(CHDRS) csrc/flags.mk pycolfrag/data/constants.jso
 	@mkdir -p build/obj-asan
 	$(CC) $(ASANFLAGS) -Icsrc -c -o $@ $<
 
-build/ctest/%: tests/c/%.c $(COBJS) tests/c/cf_test.h
+build/ctest/%: tests/c/%.c $(COBJS) $(wildcard tests/c/*.h)
 	@mkdir -p build/ctest
 	$(CC) $(CFLAGS) -Icsrc -o $@ $< $(COBJS) $(LDLIBS)
 
-build/ctest-asan/%: tests/c/%.c $(COBJS_ASAN) tests/c/cf_test.h
+build/ctest-asan/%: tests/c/%.c $(COBJS_ASAN) $(wildcard tests/c/*.h)
 	@mkdir -p build/ctest-asan
 	$(CC) $(ASANFLAGS) -Icsrc -o $@ $< $(COBJS_ASAN) $(LDLIBS)
 

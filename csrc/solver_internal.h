@@ -102,7 +102,9 @@ typedef struct {
     const char *name;
     const char *doc;                /* one sentence, exported (cf_solver_contact_model_doc) */
     /* optional: set-up, once the bodies and joints are built (cf_solver_setup): the
-     * model's contact points or joint data and its per-run state, allocated */
+     * model's contact points or joint data and its per-run state, in the solver's own
+     * arrays (s->p_*, the joints), which cf_solver_stack_release frees; an entry has no
+     * release hook, so a model must not allocate memory of its own */
     int (*setup)(struct cf_solver *s);
     /* optional: the model's per-run state to its rest value (the start of every run) */
     void (*reset)(struct cf_solver *s);

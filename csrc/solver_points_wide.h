@@ -61,13 +61,14 @@ void CF_POINTS_RUN(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_
          * most), unless the arrays end there */
         VM valid = all, act, st1, in, ok;
         VD X, Y, Z, pen, dhx, dhy, d2, dux, duy, st, f, lim, fx, fy, m2, mx, my, mz, vs;
-        VD vlx = CF_BN(ld)(lx + k), vly = CF_BN(ld)(ly + k);
+        VD vlx, vly;
         int inval = 0, bits, open;
         if (k + CF_BW - 1 >= k1) {
-            if (k + CF_BW > s->np) break;
+            if (k + CF_BW > s->np) break;   /* before any load: the block would read past the arrays */
             inval = full & ~((1 << (k1 - k)) - 1);
             for (l = k1 - k; l < CF_BW; l++) valid[l] = 0;
         }
+        vlx = CF_BN(ld)(lx + k); vly = CF_BN(ld)(ly + k);
         X = M0 * vlx + M1 * vly + P->mz[0] + P->t[0];
         Y = M3 * vlx + M4 * vly + P->mz[1] + P->t[1];
         Z = M6 * vlx + M7 * vly + P->mz[2] + P->t[2];

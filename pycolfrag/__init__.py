@@ -27,4 +27,13 @@ from . import _aliases  # noqa: E402
 _aliases.install()  # the old names of the modules that moved into pycolfrag.analysis
 
 from . import ground_motion, intensity, names, records, results, sample  # noqa: E402,F401
-from .analysis import fragility  # noqa: E402,F401
+
+
+def __getattr__(name):
+    """``pcf.fragility``, ``pcf.report``, ...: the modules that moved into :mod:`pycolfrag.analysis`
+    (``_aliases.MOVED``), loaded on first use, so that ``import pycolfrag`` (and the grid's driver)
+    does not load the analysis package."""
+    if f"{__name__}.{name}" in _aliases.MOVED:
+        import importlib  # only on this path
+        return importlib.import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

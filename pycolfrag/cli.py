@@ -95,10 +95,16 @@ def main(argv=None) -> int:
     def log(s):
         print(s, flush=True)
 
-    table = summary_table(summary.path)
-    log(format_table(table))
-    if summary.failed or any(t["failed"] for t in table):
-        log("failed rows (status > 0; the message is stored in each row):\n" + "\n".join(failure_lines(summary.path)))
+    try:   # the file is complete and safe: a failure to read it back for the summary is only reported
+        table = summary_table(summary.path)
+        log(format_table(table))
+        if summary.failed or any(t["failed"] for t in table):
+            log("failed rows (status > 0; the message is stored in each row):\n"
+                + "\n".join(failure_lines(summary.path)))
+    except Exception:
+        log(f"WARNING: the summary table of {summary.path} could not be read (the results are complete and "
+            "safe):\n" + traceback.format_exc())
+        code = code or EXIT_OUTPUTS
     log(f"{summary.computed} runs computed in {summary.wall_s:.1f} s on {summary.n_ranks} rank(s)"
         + (f" ({summary.wall_s / summary.computed * summary.n_ranks:.3f} rank-s per run)" if summary.computed else "")
         + f"; {summary.failed} failed; results: {summary.path}")

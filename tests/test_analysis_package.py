@@ -3,10 +3,9 @@
 * the Monte Carlo driver (``pycolfrag/grid.py``) imports nothing of the analysis: the command line
   (``pycolfrag/cli.py``) runs the summary, figures and report after a grid;
 * no import circle between pycolfrag's modules, counting the imports inside functions too;
-* the statistics import no C binding: ``analysis.fragility`` imports and computes with the C extension
-  made unimportable; ``analysis.data`` and ``analysis.summary`` name no C binding in their imports
-  (they import the results layout, whose field table reads ``names.py``, and ``names.py`` still reads
-  gravity from the C library when imported, so for them only their own imports are checked);
+* the statistics import no C binding: ``analysis.fragility``, ``analysis.data`` and ``analysis.summary``
+  import (and fragility computes) with the C extension made unimportable;
+* importing the driver (``pycolfrag.grid``) loads no module of the analysis package at run time;
 * the old module names (``pycolfrag.fragility``, ``python -m pycolfrag.compare``) still work and are the
   modules of the new home, not copies.
 
@@ -128,12 +127,13 @@ def test_fragility_runs_without_the_c_extension():
     u = 0.1, 0.2, 0.4 and threshold 0.2 is the lognormal MLE's exceedance: ln u has mean
     ln 0.2 exactly (geometric mean 0.2), so P = 0.5 whatever the dispersion."""
     code = textwrap.dedent(f"""
-        import sys, types
+        import importlib.util, sys
         sys.modules["pycolfrag._libcolfrag"] = None        # importing the C extension now raises
-        pkg = types.ModuleType("pycolfrag")
-        pkg.__path__ = [{str(PKG)!r}]
-        sys.modules["pycolfrag"] = pkg
+        spec = importlib.util.spec_from_file_location("pycolfrag", {str(PKG / "__init__.py")!r},
+                                                      submodule_search_locations=[{str(PKG)!r}])
+        sys.modules["pycolfrag"] = importlib.util.module_from_spec(spec)   # not executed: no solver
         import pycolfrag.analysis.fragility as fr
+        import pycolfrag.analysis.data, pycolfrag.analysis.summary
         p = fr.exceedance([0.1, 0.2, 0.4], [False, False, False], 0.2)
         loaded = sorted(m for m, v in sys.modules.items() if v is not None and m in {sorted(C_BINDINGS)!r})
         print(repr(p), loaded)
@@ -142,6 +142,17 @@ def test_fragility_runs_without_the_c_extension():
     assert out.returncode == 0, out.stderr
     p, loaded = out.stdout.split(" ", 1)
     assert abs(float(p) - 0.5) < 1e-12 and loaded.strip() == "[]"
+
+
+def test_importing_the_driver_loads_no_analysis():
+    """At run time, not only in the source: ``import pycolfrag.grid`` in a fresh interpreter leaves every
+    ``pycolfrag.analysis`` module unloaded (the package's ``__init__`` loads the moved modules on first
+    use only)."""
+    code = ("import sys, pycolfrag.grid\n"
+            "print(sorted(m for m in sys.modules if m.startswith(('pycolfrag.analysis', 'pycolfrag.cli'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]", out.stdout
 
 
 def test_old_module_names_are_the_new_modules():

@@ -142,6 +142,8 @@ def test_declared_names_are_unique():
     assert len(fields) == len(set(fields))
     for m in registry.MODELS.values():
         assert m.KIND in registry.KINDS and registry.MODELS[m.NAME] is m
+    # every listed module kept its entry (the registry refuses to import with two models of one NAME)
+    assert len(registry.MODELS) == len(registry._LISTED)
 
 
 def test_docs_tables_are_the_declarations():

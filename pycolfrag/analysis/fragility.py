@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize, special, stats
 
+from .. import names as _names
 from .._validate import float_array, integer, positive_float, real
 from ..errors import ParameterError
 
@@ -971,9 +972,6 @@ def ok_rows(table) -> np.ndarray:
 def table_im(table, im: str, period_s: float | None = None) -> tuple[np.ndarray, str]:
     """One IM column of a suite table and its label: a scalar IM, or a spectral IM (``sa_g``,
     ``sv_cm_s``) at ``period_s`` (the nearest stored period must match to 1e-9 s)."""
-    # imported here, not at the top: names reads gravity from the C library when it is imported, and
-    # the statistics must import without the C library
-    from .. import names as _names
     q = _names.im(im)
     if not q.spectral:
         return np.asarray(table[im], dtype=float), q.label

@@ -220,7 +220,7 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
              f"(excluded): {int((status != 0).sum())}; collapsed: {int(np.asarray(t['collapsed'])[status == 0].sum())}")
     L.append(f"- complete: {bool(attrs.get('complete', False))}; version `{attrs.get('version', '?')}`, git "
              f"`{attrs.get('git_revision', '?')}`")
-    L.append(f"- spectral IMs at T = {a['period_s']:g} s; stripe, cloud and MSA fits: pycolfrag.fragility (scipy)")
+    L.append(f"- spectral IMs at T = {a['period_s']:g} s; stripe, cloud and MSA fits: pycolfrag.analysis.fragility (scipy)")
     failed = np.flatnonzero(status != 0)
     if failed.size:
         L += ["", "Failed runs:", ""]

@@ -23,13 +23,12 @@ from scipy import optimize
 from scipy.stats import qmc
 
 from .._validate import finite_float, float_array, integer, positive_float
-from ..errors import ParameterError
 from ..names import Parameter
 from . import rupakhety_2011 as _r11
 
 __all__ = ["NAME", "KIND", "PARAMETERS", "INPUTS", "GAMMA_MEAN", "GAMMA_SD", "GAMMA_MIN", "NU_RANGE_RAD", "pulse", "velocity",
            "acceleration", "displacement", "support", "envelope_amplitude", "peak_velocity_time",
-           "sample_pulse_parameters"]
+           "sample_parameters"]
 
 #: Name in the registry (:mod:`pycolfrag.ground_motion.registry`).
 NAME = "mavroeidis_papageorgiou_2003"

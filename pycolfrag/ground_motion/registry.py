@@ -26,14 +26,18 @@ from . import baker_2007, mavroeidis_papageorgiou_2003, record, rupakhety_2011, 
 __all__ = ["MODELS", "KINDS", "PULSE_FIELDS", "TP_MODELS", "DEFAULT_TP_MODEL", "tp_model_of", "markdown_table",
            "docs_section"]
 
-#: Every declared model, one line each (name -> module).
-MODELS = {m.NAME: m for m in (
+_LISTED = (
     record,
     mavroeidis_papageorgiou_2003,
     rupakhety_2011,
     baker_2007,
     shahi_baker_2014,
-)}
+)
+#: Every declared model, one line each above (name -> module).
+MODELS = {m.NAME: m for m in _LISTED}
+if len(MODELS) != len(_LISTED):   # a second model of one NAME would silently replace the first
+    raise ImportError("ground-motion registry: two models share a NAME: "
+                      + ", ".join(sorted(m.NAME for m in _LISTED if sum(o.NAME == m.NAME for o in _LISTED) > 1)))
 
 #: What each kind of model is for.
 KINDS = {

@@ -84,12 +84,14 @@ static void test_bad_input(void)
  * (CF_SOLVER_CONTACT_*), each with a description; NULL outside the table. */
 static void test_contact_registry(void)
 {
-    CF_CHECK(cf_solver_contact_model_count() == 3);
+    int n = cf_solver_contact_model_count();
+    CF_CHECK(n >= 3);   /* the shipped models first; a model added to the table adds an entry */
     CF_CHECK(!strcmp(cf_solver_contact_model_name(CF_SOLVER_CONTACT_VERTEX), "vertex"));
     CF_CHECK(!strcmp(cf_solver_contact_model_name(CF_SOLVER_CONTACT_PERIMETER), "perimeter"));
     CF_CHECK(!strcmp(cf_solver_contact_model_name(CF_SOLVER_CONTACT_EXACT), "exact"));
     CF_CHECK(strstr(cf_solver_contact_model_doc(CF_SOLVER_CONTACT_PERIMETER), "points_per_edge") != NULL);
-    CF_CHECK(cf_solver_contact_model_name(3) == NULL && cf_solver_contact_model_doc(-1) == NULL);
+    CF_CHECK(cf_solver_contact_model_name(n) == NULL && cf_solver_contact_model_doc(-1) == NULL);
+    CF_CHECK(cf_solver_contact_model_name(n - 1) != NULL);
 }
 
 /* The default column set up with tail_s and early_exit, and in acc 400 samples (2 s at
