@@ -661,8 +661,9 @@ def _verify_checksums(path, stored_json, samples, spectra, attrs_by_object) -> N
     if bad:
         what = [f"attribute {k[5:].lstrip('/')}" if k.startswith("attr:") else k for k in bad]
         has_data = any(not k.startswith("attr:") for k in stored)
-        raise ResultsDamagedError(f"{path}: checksum mismatch in {', '.join(what)} (the file was damaged after it "
-                                  "was written)", data_intact=has_data and all(k.startswith("attr:") for k in bad))
+        raise ResultsDamagedError(f"{path}: checksum mismatch in {', '.join(what)} (the file changed after its "
+                                  "checksums were written: damaged on disk, edited, or a run stopped in the middle of a "
+                                  "write)", data_intact=has_data and all(k.startswith("attr:") for k in bad))
 
 
 def _read_h5(path: Path, any_layout: bool = False, verify: bool = True) -> dict:
