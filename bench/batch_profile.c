@@ -43,7 +43,7 @@ static unsigned long long hash_bytes(unsigned long long h, const void *p, size_t
     return h;
 }
 
-enum { NB = 13 };
+enum { NB = PARTHENON_NB };   /* blocks of the default column */
 
 static unsigned long long hash_result(unsigned long long h, int st, const cf_solver_result *r, const double *resid)
 {

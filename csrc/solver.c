@@ -287,6 +287,14 @@ void cf_solver_run_pre(const cf_solver *s, cf_run *r, cf_step_energy *e, double 
     ag[2] = ground_acc(r->az, r->nrec, r->dtr, r->t);
 }
 
+/* collapse criteria every 4th step (a few ms: far finer than any collapse) */
+static int collapse_due(long n) { return (n & 3) == 0; }
+
+int cf_solver_run_reads_all(const cf_run *r)
+{
+    return cf_monitor_residual_due(&r->m, r->n) || collapse_due(r->n) || r->hist_now;
+}
+
 int cf_solver_run_post(cf_solver *s, cf_run *r, const cf_step_energy *e, double ke, double vg)
 {
     cf_monitor *m = &r->m;
@@ -308,8 +316,7 @@ int cf_solver_run_post(cf_solver *s, cf_run *r, const cf_step_energy *e, double 
         return 1;
     }
     cf_solver_monitor_record(s, m, n, t, ke, vg, e, err, r->hist_now);
-    /* collapse criteria every 4th step (a few ms: far finer than any collapse) */
-    if (!r->collapsed && (n & 3) == 0) {
+    if (!r->collapsed && collapse_due(n)) {
         r->creason = cf_solver_monitor_collapse(s, &r->cblk);
         if (r->creason) { r->collapsed = 1; r->ctime = t; if (s->def.early_exit) return 1; }
     }
@@ -338,6 +345,17 @@ void cf_solver_run_finish(cf_solver *s, cf_run *r, double *resid, cf_solver_resu
                  "(dt = %.3g s, dt_crit = %.3g s)", res->energy_error, s->def.energy_tolerance, dt, s->dt_crit);
 }
 
+void cf_solver_result_none(cf_solver_result *res)
+{
+    memset(res, 0, sizeof *res);
+    res->collapse_time = NAN; res->collapse_block = -1;
+}
+
+void cf_solver_run_stopped(cf_solver *s, cf_run *r)
+{
+    r->st = cf_solver_fail(s, CF_EINTR, "stopped by the caller at t = %.4f s (step %ld)", r->t, r->n);
+}
+
 int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double *az, int nrec, double dtr,
                   double *resid, cf_solver_result *res)
 {
@@ -345,8 +363,7 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
     cf_run r;
     if (!s) return CF_EINVAL;
     if (!res) return cf_solver_fail(s, CF_EINVAL, "no result struct");
-    memset(res, 0, sizeof *res);
-    res->collapse_time = NAN; res->collapse_block = -1;
+    cf_solver_result_none(res);
     st = cf_solver_run_check(s, &r, ax, ay, az, nrec, dtr);
     if (st) return st;
     cf_solver_stack_reset(s);
@@ -362,7 +379,7 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
         cf_solver_step_velocities(s, ag, s->def.damping_alpha > 0.0 && r.t >= s->def.damping_start_s, &r.m, &ke, &vg);
         if (cf_solver_run_post(s, &r, &e, ke, vg)) break;
         if (s->check && r.n % CF_SOLVER_CHECK_STEPS == CF_SOLVER_CHECK_STEPS - 1 && s->check(s->check_user)) {
-            r.st = cf_solver_fail(s, CF_EINTR, "stopped by the caller at t = %.4f s (step %ld)", r.t, r.n);
+            cf_solver_run_stopped(s, &r);
             break;
         }
         cf_solver_step_positions(s);

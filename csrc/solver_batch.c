@@ -20,6 +20,14 @@
 #include "solver_internal.h"
 #include "solver_points_internal.h"
 
+/* A job's history buffers (NULL / capacity 0: none) as the solver (or a lane's view) writes them */
+static void batch_job_history(cf_solver *v, const cf_solver_batch_job *jb)
+{
+    v->h_cap = jb->history_capacity > 0 ? jb->history_capacity : 0;
+    v->h_t = jb->h_t; v->h_top = jb->h_top; v->h_pos = jb->h_pos; v->h_quat = jb->h_quat;
+    v->h_open = jb->h_open; v->h_slip = jb->h_slip; v->h_en = jb->h_energy; v->h_fn = jb->h_normal;
+}
+
 /* Jobs order[from..n_jobs-1] (from..n_jobs-1 without an order) not run because the caller's
  * check asked the batch to stop (CF_EINTR). */
 static void batch_not_started(int from, int n_jobs, const int *order, cf_solver_batch_out *out)
@@ -27,8 +35,7 @@ static void batch_not_started(int from, int n_jobs, const int *order, cf_solver_
     int i;
     for (i = from; i < n_jobs; i++) {
         int j = order ? order[i] : i;
-        memset(&out[j].result, 0, sizeof out[j].result);
-        out[j].result.collapse_time = NAN; out[j].result.collapse_block = -1;
+        cf_solver_result_none(&out[j].result);
         out[j].status = CF_EINTR;
         snprintf(out[j].message, CF_MSG_LEN, "stopped by the caller before this run started");
     }
@@ -58,7 +65,7 @@ static int *batch_order(int n_jobs, const cf_solver_batch_job *jobs)
     for (j = 0; j < n_jobs; j++) {
         /* a job the checks refuse may have any n and dt: it only needs a place */
         double len = jobs[j].n > 0 && jobs[j].dt_rec > 0.0 ? jobs[j].n * jobs[j].dt_rec : 0.0;
-        k[j].len = len == len ? len : 0.0;
+        k[j].len = len;
         k[j].j = j;
     }
     qsort(k, (size_t)n_jobs, sizeof *k, batch_key_cmp);
@@ -89,7 +96,7 @@ static int *batch_order(int n_jobs, const cf_solver_batch_job *jobs)
 /* The widest lane count this CPU and build run for the column of s. */
 static int widest(const cf_solver *s)
 {
-    return s->model->batch_lanes ? cf_solver_points_lanes_widest() : 1;
+    return s->model->batch_lanes ? s->lanes : 1;   /* chosen from CPUID at set-up */
 }
 
 int cf_solver_batch_max_width(const cf_solver *s)
@@ -122,9 +129,7 @@ static int one_by_one(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
     h[6] = s->h_en; h[7] = s->h_fn;
     for (j = 0; j < n_jobs; j++) {
         const cf_solver_batch_job *jb = &jobs[j];
-        s->h_cap = jb->history_capacity > 0 ? jb->history_capacity : 0;
-        s->h_t = jb->h_t; s->h_top = jb->h_top; s->h_pos = jb->h_pos; s->h_quat = jb->h_quat;
-        s->h_open = jb->h_open; s->h_slip = jb->h_slip; s->h_en = jb->h_energy; s->h_fn = jb->h_normal;
+        batch_job_history(s, jb);
         s->msg[0] = 0;
         out[j].status = cf_solver_run(s, jb->acc_x, jb->acc_y, jb->acc_z, jb->n, jb->dt_rec,
                                       jb->residual_dislocation, &out[j].result);

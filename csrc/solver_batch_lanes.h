@@ -115,22 +115,18 @@ static void CF_BN(lane_fill)(const cf_solver *s, CF_BN(batch) *B, int l, int *ne
         int j = order[(*next)++], st;
         const cf_solver_batch_job *jb = &jobs[j];
         v->msg[0] = 0;
-        v->h_cap = jb->history_capacity > 0 ? jb->history_capacity : 0;
-        v->h_t = jb->h_t; v->h_top = jb->h_top; v->h_pos = jb->h_pos; v->h_quat = jb->h_quat;
-        v->h_open = jb->h_open; v->h_slip = jb->h_slip; v->h_en = jb->h_energy; v->h_fn = jb->h_normal;
+        batch_job_history(v, jb);
         st = cf_solver_run_check(v, &B->r[l], jb->acc_x, jb->acc_y, jb->acc_z, jb->n, jb->dt_rec);
         if (!st) {
             CF_BN(lane_view)(s, B, l, 1, 0);
             st = cf_solver_run_begin(v, &B->r[l]);
         }
         if (st) {
-            memset(&out[j].result, 0, sizeof out[j].result);
-            out[j].result.collapse_time = NAN; out[j].result.collapse_block = -1;
+            cf_solver_result_none(&out[j].result);
             out[j].status = st;
             memcpy(out[j].message, v->msg, CF_MSG_LEN);
             continue;
         }
-        B->r[l].n = 0;
         B->job[l] = j;
         return;
     }
@@ -202,7 +198,7 @@ static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk 
                 act = pos & ~(pen > P.pmax);
                 st1 = cf_point_state_is(st, CF_POINT_CONTACT);
                 out = (VM)zero;
-                if (P.unbounded) in = st1 | ~st1;
+                if (P.unbounded) in = ~(VM)zero;
                 else {
                     VD dhx = X - s->p_hx[k], dhy = Y - s->p_hy[k];
                     in = (dhx * dhx + dhy * dhy <= s->p_fast[k]) | (X * X + Y * Y <= apo2);
@@ -354,7 +350,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
         int k;
         for (k = J->p0; k < J->p0 + J->np; k++) B->pface[k] = k < J->p0 + J->n0 ? &J->fl : &J->fu;
     }
-    cf_solver_points_chunk_fns(&before, &after);
+    cf_solver_points_chunk_fns(CF_BW, &before, &after);
     for (l = 0; l < CF_BW; l++) {
         cf_solver *v = &B->view[l];
         *v = *s;
@@ -389,7 +385,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
             if (B->job[l] < 0) continue;
             r->m.W = Wl[l]; r->m.Ddamp = Dd[l];
             e[l].vs = e_vs[l]; e[l].dslip = e_dslip[l]; e[l].dswitch = e_dswitch[l];
-            CF_BN(lane_view)(s, B, l, r->n % r->m.kres == 0 || (r->n & 3) == 0 || r->hist_now, r->hist_now);
+            CF_BN(lane_view)(s, B, l, cf_solver_run_reads_all(r), r->hist_now);
             end[l] = cf_solver_run_post(&B->view[l], r, &e[l], ke[l], vg[l]);
         }
         CF_BN(phase_positions)(s, &B->b);
@@ -410,8 +406,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
                 int j = B->job[l];
                 cf_run *r = &B->r[l];
                 if (j < 0) continue;
-                r->st = cf_solver_fail(&B->view[l], CF_EINTR, "stopped by the caller at t = %.4f s (step %ld)",
-                                       r->t, r->n);
+                cf_solver_run_stopped(&B->view[l], r);
                 cf_solver_run_finish(&B->view[l], r, jobs[j].residual_dislocation, &out[j].result);
                 out[j].status = r->st;
                 memcpy(out[j].message, B->view[l].msg, CF_MSG_LEN);

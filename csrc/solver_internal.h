@@ -210,6 +210,9 @@ typedef struct {
     double ke_win, rest_ke, next_rest; /* at-rest detection after the record */
 } cf_monitor;
 
+/* a residual-dislocation sample is due at step n (cf_solver_monitor_record reads every body then) */
+static inline int cf_monitor_residual_due(const cf_monitor *m, long n) { return n % m->kres == 0; }
+
 /* solver_monitor.c */
 int cf_solver_monitor_begin(struct cf_solver *s, cf_monitor *m, double t_rec);
 void cf_solver_monitor_end(cf_monitor *m);
@@ -245,6 +248,13 @@ int cf_solver_run_check(struct cf_solver *s, cf_run *r, const double *ax, const 
 int cf_solver_run_begin(struct cf_solver *s, cf_run *r);
 void cf_solver_run_pre(const struct cf_solver *s, cf_run *r, cf_step_energy *e, double *ag);
 int cf_solver_run_post(struct cf_solver *s, cf_run *r, const cf_step_energy *e, double ke, double vg);
+/* 1 when cf_solver_run_post reads every body's pose at this step (residual sample, collapse
+ * criteria, history), else only the top block's: the batch fills a lane's view accordingly */
+int cf_solver_run_reads_all(const cf_run *r);
+/* the result of a run that did not run: zeros, no collapse time, no collapse block */
+void cf_solver_result_none(cf_solver_result *res);
+/* the caller's check asked to stop: the run ends with CF_EINTR and says where */
+void cf_solver_run_stopped(struct cf_solver *s, cf_run *r);
 void cf_solver_run_finish(struct cf_solver *s, cf_run *r, double *resid, cf_solver_result *res);
 
 /* solver_step.c: the phases of one leapfrog step */

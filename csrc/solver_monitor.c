@@ -155,7 +155,7 @@ void cf_solver_monitor_record(cf_solver *s, cf_monitor *m, long n, double t, dou
     dx = p[0] - m->top0[0]; dy = p[1] - m->top0[1];
     d2 = sqrt(dx * dx + dy * dy);
     if (d2 > m->max_top) m->max_top = d2;
-    if (n % m->kres == 0) {
+    if (cf_monitor_residual_due(m, n)) {
         double *slot = m->ring + 2 * nblk * m->ring_pos;
         for (j = 0; j < nblk; j++) dislocation(s, j, slot + 2 * j, slot + 2 * j + 1);
         m->ring_pos = (m->ring_pos + 1) % m->ring_len;

@@ -191,9 +191,9 @@ static void chunk_fns(int lanes, cf_chunk_before_fn *before, cf_chunk_after_fn *
     *before = chunk_before_base; *after = chunk_after_base;
 }
 
-void cf_solver_points_chunk_fns(cf_chunk_before_fn *before, cf_chunk_after_fn *after)
+void cf_solver_points_chunk_fns(int lanes, cf_chunk_before_fn *before, cf_chunk_after_fn *after)
 {
-    chunk_fns(cf_solver_points_lanes_widest(), before, after);
+    chunk_fns(lanes, before, after);
 }
 
 /* The face runner of the solver's width (s->lanes, chosen at set-up); every width gives

@@ -54,10 +54,10 @@ typedef struct {
     double sm[2][6][CF_JCH], has[2][CF_JCH], Fw[2][3][CF_JCH], Tu[2][3][CF_JCH], Tl[2][3][CF_JCH];
 } cf_joint_chunk;
 
-/* the chunk's lane work before and after the points, n lanes (the widest the CPU runs) */
+/* the chunk's lane work before and after the points, n lanes; the functions of a width (`lanes`) */
 typedef void (*cf_chunk_before_fn)(cf_joint_chunk *C, int n, double dt);
 typedef void (*cf_chunk_after_fn)(cf_joint_chunk *C, int n);
-void cf_solver_points_chunk_fns(cf_chunk_before_fn *before, cf_chunk_after_fn *after);
+void cf_solver_points_chunk_fns(int lanes, cf_chunk_before_fn *before, cf_chunk_after_fn *after);
 
 /* The face's part of a pass (side 0: the upper body's points against the lower face,
  * side 1: the lower body's points against the upper face): thresholds and joint law. */
