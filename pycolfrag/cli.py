@@ -96,11 +96,12 @@ def main(argv=None) -> int:
         print(s, flush=True)
 
     try:   # the file is complete and safe: a failure to read it back for the summary is only reported
-        table = summary_table(summary.path)
+        res = data.load(summary.path)   # read once for the table and the failure lines
+        table = summary_table(res)
         log(format_table(table))
         if summary.failed or any(t["failed"] for t in table):
             log("failed rows (status > 0; the message is stored in each row):\n"
-                + "\n".join(failure_lines(summary.path)))
+                + "\n".join(failure_lines(res)))
     except Exception:
         log(f"WARNING: the summary table of {summary.path} could not be read (the results are complete and "
             "safe):\n" + traceback.format_exc())

@@ -100,10 +100,8 @@ class Parameter:
         lo, hi = self.range
         below = v <= lo if self.low_open else v < lo
         if below or v > hi:
-            if math.isinf(hi):
-                raise error(f"{what} must be {'>' if self.low_open else '>='} {lo:g}, got {value!r}")
-            if math.isinf(lo):
-                raise error(f"{what} must be <= {hi:g}, got {value!r}")
+            if math.isinf(lo) or math.isinf(hi):   # both infinite never lands here: any value is inside
+                raise error(f"{what} must be {self.range_text()}, got {value!r}")
             unit = f" {self.unit}" if self.unit not in ("", "-") else ""
             raise error(f"{what} = {value!r} is outside {owner} range {self.range}{unit}")
         return v

@@ -44,13 +44,9 @@ _SUITE_BATCH = 64
 COMPONENTS = ("h1", "h2", "both")
 
 
-def _status():
-    return {"ok": _r.STATUS_OK, "record": _r.STATUS_RECORD_FAILED, "im": _r.STATUS_IM_FAILED,
-            "solver": _r.STATUS_SOLVER_FAILED, "other": _r.STATUS_OTHER_FAILED}
-
-
 #: Status codes of a row by phase (0 ok; see :mod:`pycolfrag.results`).
-STATUS = _status()
+STATUS = {"ok": _r.STATUS_OK, "record": _r.STATUS_RECORD_FAILED, "im": _r.STATUS_IM_FAILED,
+          "solver": _r.STATUS_SOLVER_FAILED, "other": _r.STATUS_OTHER_FAILED}
 
 
 def _meta(meta: dict, *keys, default=math.nan) -> float:

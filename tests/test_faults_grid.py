@@ -32,7 +32,7 @@ import pytest
 from pycolfrag import results as R
 from pycolfrag.errors import ParameterError
 
-from test_faults import FAKE, _kill9, _rank_pids, _start, _wait_rows
+from test_faults import FAKE, _fresh, _kill9, _rank_pids, _start, _wait_rows, tmpfs  # noqa: F401 (tmpfs: a fixture)
 from test_grid import ROOT, SCRIPT, _env, _journal_rows, _ok, _same_rows, _serial
 
 def _partial(tmp_path, n=3, name="g.h5", extra=()):
@@ -185,12 +185,6 @@ def _flip_in_file(path, text: bytes, at: int, new: bytes):
             start = data.find(text, start + 1)
 
 
-def _fresh(tmp_path, name="fresh.h5"):
-    out = tmp_path / name
-    _ok(_serial([*FAKE, "--out", str(out)]))
-    return R.load(out)
-
-
 @pytest.mark.parametrize("attr, key", [("grid_signature", b'"seed": 2016060'), ("column", b'"density": '),
                                        ("solver", b'"dt_factor": 0.')])
 def test_a_changed_root_attribute_of_a_complete_file_is_damage_not_another_run(tmp_path, attr, key):
@@ -227,7 +221,7 @@ def test_a_changed_signature_of_an_interrupted_file_is_rebuilt_from_its_journal(
     after = R.load(out)
     assert after.complete and len(after) == 16
     _same_rows(before, after, rows=before.rows)
-    _same_rows(_fresh(tmp_path), after)
+    _same_rows(_fresh(tmp_path, FAKE), after)
 
 
 def test_an_edited_journal_value_is_detected_and_not_used(tmp_path):
@@ -245,7 +239,7 @@ def test_an_edited_journal_value_is_detected_and_not_used(tmp_path):
     assert "fail their checksum" in p.stdout, p.stdout
     after = R.load(out)
     assert after.complete and not (after.samples["u_top"] == 123.0).any()
-    _same_rows(_fresh(tmp_path), after)  # the edited row was recomputed
+    _same_rows(_fresh(tmp_path, FAKE), after)  # the edited row was recomputed
 
 
 def test_zeroed_status_bytes_of_an_interrupted_file_are_recomputed(tmp_path):
@@ -263,7 +257,7 @@ def test_zeroed_status_bytes_of_an_interrupted_file_are_recomputed(tmp_path):
     p = _ok(_serial([*FAKE, "--out", str(out)]))
     after = R.load(out)
     assert after.complete and len(after) == 16 and np.isfinite(after.samples["u_top"]).all()
-    _same_rows(_fresh(tmp_path), after)
+    _same_rows(_fresh(tmp_path, FAKE), after)
 
 
 # ------------------------------------------------------------------------------ 10: options that fail every row
@@ -417,7 +411,7 @@ def test_a_reader_holding_the_file_open_does_not_abort_the_run(tmp_path):
                 p.wait()
     after = R.load(out)
     assert after.complete and len(after) == 16
-    _same_rows(_fresh(tmp_path), after)
+    _same_rows(_fresh(tmp_path, FAKE), after)
 
 
 # ------------------------------------------------------------------------------ 7: signals under plain mpirun
@@ -530,55 +524,43 @@ def test_a_symlink_to_a_results_file_meets_its_lock(tmp_path):
         _kill9(a)
     _ok(_serial([*FAKE, "--out", str(link)]))  # resumes the real file through the link
     assert link.is_symlink() and R.load(out).complete
-    _same_rows(_fresh(tmp_path), R.load(out))
+    _same_rows(_fresh(tmp_path, FAKE), R.load(out))
 
 
 # ------------------------------------------------------------------------------ 8: full disk at creation
 
-@pytest.fixture
-def small_tmpfs(tmp_path):
-    """A 1 MB tmpfs (root only; skipped where mounting is impossible)."""
-    if os.geteuid() != 0:
-        pytest.skip("mounting a tmpfs needs root")
-    mnt = tmp_path / "mnt"
-    mnt.mkdir()
-    p = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(mnt)], capture_output=True, text=True)
-    if p.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {p.stderr.strip()}")
-    try:
-        yield mnt
-    finally:
-        subprocess.run(["umount", "-l", str(mnt)])
-
-
-def test_a_results_file_larger_than_the_disk_is_one_clear_line(small_tmpfs):
+def test_a_results_file_larger_than_the_disk_is_one_clear_line(tmpfs):
     # Reported: a full disk while the HDF5 file was created gave a RuntimeError traceback and a
     # segfault (exit 139). 4 x 4 x 500 rows of ~900 bytes do not fit 1 MB: refused before creating.
     from pycolfrag.results import row_bytes
-    out = small_tmpfs / "g.h5"
+    from pycolfrag.sample import DEFAULT_PERIODS_S
+    mnt, _ = tmpfs
+    n_p = len(DEFAULT_PERIODS_S)   # the grid's spectral periods per row
+    out = mnt / "g.h5"
     p = _serial([*FAKE[:FAKE.index("--samples")], "--samples", "500", *FAKE[FAKE.index("--samples") + 2:],
                  "--out", str(out)])
     assert p.returncode == 4, p.stdout + p.stderr
-    need = 4 * 500 * row_bytes(10)  # the default 10 periods
+    need = 4 * 500 * row_bytes(n_p)
     line = p.stdout.strip().splitlines()[-1]
     assert line.startswith(f"run_grid: cannot write the results at {out}: No space left on device: the results "
-                           f"file needs {need / 1e9:.3g} GB (2000 rows of {row_bytes(10)} bytes)"), line
+                           f"file needs {need / 1e9:.3g} GB (2000 rows of {row_bytes(n_p)} bytes)"), line
     assert "no row was computed" in line and "Traceback" not in p.stdout + p.stderr
-    assert list(small_tmpfs.iterdir()) == []
+    assert list(mnt.iterdir()) == []
 
 
-def test_a_disk_filling_up_while_the_file_is_created_raises_enospc_and_leaves_nothing(small_tmpfs):
+def test_a_disk_filling_up_while_the_file_is_created_raises_enospc_and_leaves_nothing(tmpfs):
     # The free-space check passed (another process filled the disk meanwhile): creating the file
     # must give the OSError of a full disk, leave no .tmp or .journal, and not crash the process.
-    (small_tmpfs / "filler").write_bytes(b"\0" * 600_000)
+    mnt, _ = tmpfs
+    (mnt / "filler").write_bytes(b"\0" * 600_000)
     code = ("import sys\nfrom pycolfrag import results as R\n"
             "try:\n    R.create(sys.argv[1], {'a': 1}, {}, 2000, [0.5, 1.0])\n"
             "except OSError as e:\n    print('OSError', e.errno, e.strerror)\n")
-    p = subprocess.run([sys.executable, "-c", code, str(small_tmpfs / "g.h5")], capture_output=True, text=True,
+    p = subprocess.run([sys.executable, "-c", code, str(mnt / "g.h5")], capture_output=True, text=True,
                        env=_env(), timeout=60)
     assert p.returncode == 0 and p.stdout.strip() == "OSError 28 No space left on device", p.stdout + p.stderr
     assert "Traceback" not in p.stderr
-    assert sorted(x.name for x in small_tmpfs.iterdir()) == ["filler"]
+    assert sorted(x.name for x in mnt.iterdir()) == ["filler"]
 
 
 # ------------------------------------------------------------------------------ 10: Ctrl-C inside simulate()

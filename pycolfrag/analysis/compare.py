@@ -206,7 +206,7 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
     Parameters
     ----------
     a, b : str, path-like or Results
-        Finished rows are read with :func:`pycolfrag.results.load`.
+        Finished rows are read with :func:`pycolfrag.analysis.data.load`.
     alpha : float
         Family-wise significance level of the statistical tests (default 0.05), shared among
         all tests by Bonferroni's correction.

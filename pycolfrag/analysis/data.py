@@ -285,8 +285,7 @@ def read_results(path) -> ResultsData:
 
 
 def as_data(data) -> ResultsData:
-    """``data`` itself when it is a :class:`ResultsData` (or anything with ``samples``, e.g. a test's
-    stand-in), else :func:`read_results` of the path."""
+    """``data`` itself when it is a :class:`ResultsData`, else :func:`read_results` of the path."""
     return data if isinstance(data, ResultsData) else read_results(data)
 
 

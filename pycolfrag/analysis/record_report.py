@@ -18,7 +18,7 @@ What it writes into the output folder (docs/records.md, "Analysing a record-suit
   with the synthetic mean line when a synthetic grid file is given;
 * ``report.md`` -- the run, the per-record table, the cloud and MSA fits, links to the figures.
 
-Numbers come from the file through :func:`pycolfrag.results.load` (the one reader). Figures need
+Numbers come from the file through :func:`pycolfrag.analysis.data.load` (the one reader). Figures need
 matplotlib (imported when drawing); without it the report is written with its tables only.
 An analysis a small suite cannot support (too few standing runs for a cloud, every run or none
 exceeding a level for MSA, too few runs per stripe) is reported as ``n/a`` with the reason.
@@ -38,7 +38,7 @@ from . import fragility as fr
 from . import record_figures as rf
 from .. import names
 from ..errors import ParameterError, ResultsFileError
-from .data import read_table
+from .data import as_results, read_table
 from .figures import Figure
 from .summary import format_table, summary_table
 
@@ -207,7 +207,8 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
     out.mkdir(parents=True, exist_ok=True)
     report = Path(report_path) if report_path else out / "report.md"
     report.parent.mkdir(parents=True, exist_ok=True)
-    t = suite_table(path)
+    res = as_results(path)   # read once for the suite table and the run counts
+    t = suite_table(res)
     with warnings.catch_warnings():   # the tables below mark degenerate fits with their reasons
         warnings.simplefilter("ignore", fr.DegenerateFitWarning)
         a = analyse(t, period_s=period_s, levels=levels, n_boot=n_boot, rng=rng)
@@ -227,9 +228,9 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
         for i in failed[:20]:
             L.append(f"- {t['record_id'][i]} {t['component'][i]} x{t['scale'][i]:g}: status {status[i]}, "
                      f"{t['message'][i]}")
-    L += ["", "## Runs per record", "", "```", format_table(summary_table(path, by="record")), "```"]
+    L += ["", "## Runs per record", "", "```", format_table(summary_table(res, by="record")), "```"]
     if len(a["scales"]) > 1:
-        L += ["", "```", format_table(summary_table(path, by="scale")), "```"]
+        L += ["", "```", format_table(summary_table(res, by="scale")), "```"]
     L += ["", "## Cloud analysis", "",
           "ln EDP = a + b ln IM + beta eps over the standing runs (EDP > 0); collapse: logistic regression "
           "on ln IM when both collapses and survivors occur.", "",

@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from ..errors import ParameterError
-from .data import load
+from .data import as_results
 
 __all__ = ["summary_table", "failure_lines", "format_table"]
 
@@ -25,15 +25,15 @@ def _group_stats(s: dict, idx) -> dict:
             "cpu_s": float(np.nansum(s["wall_s"][idx]))}
 
 
-def summary_table(path, by: str | None = None) -> list[dict]:
+def summary_table(results, by: str | None = None) -> list[dict]:
     """The closing table of a results file, one dict per group: the done, failed and collapsed
     rows, mean u_top and u_d of the non-collapsed successful runs, and the summed sample wall time
     (CPU-seconds over ranks).
 
     Groups: a synthetic grid's scenarios (``mw``, ``dist_km``); a record suite's records
     (``by="record"``: ``record_id``, ``event``, ``mw``, ``rrup_km``) or scale factors (``by="scale"``;
-    the default when the file holds several scales)."""
-    res = load(path)
+    the default when the file holds several scales). ``results``: a path or a loaded :class:`Results`."""
+    res = as_results(results)
     s = res.samples
     if res.attrs.get("layout") != "records":
         table = []
@@ -57,11 +57,11 @@ def summary_table(path, by: str | None = None) -> list[dict]:
     return table
 
 
-def failure_lines(path, limit: int = 10) -> list[str]:
+def failure_lines(results, limit: int = 10) -> list[str]:
     """Why rows failed, for the closing summary: one line per distinct message (most rows first, at most
     ``limit``), with the number of rows and the rows' names (record id and component of a record
-    suite; Mw/R of a synthetic grid)."""
-    res = load(path)
+    suite; Mw/R of a synthetic grid). ``results``: a path or a loaded :class:`Results`."""
+    res = as_results(results)
     s = res.samples
     bad = np.flatnonzero(s["status"] > 0)
     groups: dict = {}
@@ -76,7 +76,7 @@ def failure_lines(path, limit: int = 10) -> list[str]:
         shown = ", ".join(names[:4]) + (f", ... ({len(names) - 4} more)" if len(names) > 4 else "")
         lines.append(f"  {len(names)} failed [{shown}]: {msg}")
     if len(groups) > limit:
-        lines.append(f"  ... and {len(groups) - limit} other message(s): results.load(...).samples['message']")
+        lines.append(f"  ... and {len(groups) - limit} other message(s): pycolfrag.analysis.data.load(...).samples['message']")
     return lines
 
 

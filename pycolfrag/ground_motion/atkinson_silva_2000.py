@@ -79,10 +79,7 @@ def check_scenario(Mw, dist_km) -> tuple[float, float]:
 
 
 def _check_dt(dt) -> float:
-    v = real(dt, "dt")
-    if not np.isfinite(v) or v <= 0 or v > DT_MAX or v < DT_MIN:
-        raise ParameterError(f"dt = {dt!r} s must be finite and in [{DT_MIN:g}, {DT_MAX:g}] s")
-    return v
+    return PARAMETERS[2].check(dt, "dt", error=ParameterError)   # the declared range, one text
 
 
 def _check_seed(seed) -> int:
