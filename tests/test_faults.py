@@ -65,6 +65,14 @@ def _kill9(proc):
     proc.wait(timeout=30)
 
 
+def _wait_gone(pids, limit_s, message):
+    """Wait until none of ``pids`` exists any more; fail with ``message`` after ``limit_s`` seconds."""
+    t0 = time.time()
+    while any(Path(f"/proc/{r}").exists() for r in pids):
+        assert time.time() - t0 < limit_s, message
+        time.sleep(0.1)
+
+
 def _fresh(tmp_path, args, name="fresh.h5"):
     """The same grid, uninterrupted, in another file: the reference for every kept row."""
     out = tmp_path / name
@@ -572,10 +580,7 @@ def test_ctrl_c_under_mpirun_keeps_every_journalled_row(tmp_path):
         ranks = _rank_pids(out)
         os.killpg(proc.pid, signal.SIGINT)  # what the terminal does on Ctrl-C
         proc.wait(timeout=60)
-        t0 = time.time()
-        while any(Path(f"/proc/{r}").exists() for r in ranks):  # the lingering ranks
-            assert time.time() - t0 < 30, "ranks still alive 30 s after Ctrl-C"
-            time.sleep(0.1)
+        _wait_gone(ranks, 30, "ranks still alive 30 s after Ctrl-C")  # the lingering ranks
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)

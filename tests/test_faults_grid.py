@@ -32,7 +32,7 @@ import pytest
 from pycolfrag import results as R
 from pycolfrag.errors import ParameterError
 
-from test_faults import FAKE, _fresh, _kill9, _rank_pids, _start, _wait_rows, tmpfs  # noqa: F401 (tmpfs: a fixture)
+from test_faults import FAKE, _fresh, _kill9, _rank_pids, _start, _wait_gone, _wait_rows, tmpfs  # noqa: F401 (tmpfs: a fixture)
 from test_grid import ROOT, SCRIPT, _env, _journal_rows, _ok, _same_rows, _serial
 
 def _partial(tmp_path, n=3, name="g.h5", extra=()):
@@ -436,10 +436,7 @@ def test_a_signal_to_rank_0_under_plain_mpirun_ends_every_rank_after_the_final_w
         assert rank0 in ranks and len(ranks) == 2, (rank0, ranks)
         os.kill(rank0, sig)
         text, _ = proc.communicate(timeout=60)  # before the fix: never (rank 1 waits forever; timeout ends it at 120 s)
-        t0 = time.time()
-        while any(Path(f"/proc/{r}").exists() for r in ranks):
-            assert time.time() - t0 < 10, "ranks still alive after mpirun ended"
-            time.sleep(0.1)
+        _wait_gone(ranks, 10, "ranks still alive after mpirun ended")
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
