@@ -279,9 +279,9 @@ void cf_solver_run_pre(const cf_solver *s, cf_run *r, cf_step_energy *e, double 
     long n = r->n;
     r->t = n * dt;
     r->hist_now = s->h_cap > 0 && r->m.hcount < s->h_cap && r->t + 0.5 * dt > r->m.hcount * s->def.history_dt;
-    /* the spring energies (a sum over all sub-contacts) are evaluated every 4th step,
-     * at history samples and at the last step; the rest of the ledger every step */
-    e->need = (n & 3) == 0 || n == r->nsteps || r->hist_now;
+    /* the spring energies at CF_LEDGER_STEPS, history samples and the last step; the rest of the
+     * ledger every step */
+    e->need = n % CF_LEDGER_STEPS == 0 || n == r->nsteps || r->hist_now;
     ag[0] = ground_acc(r->ax, r->nrec, r->dtr, r->t);
     ag[1] = ground_acc(r->ay, r->nrec, r->dtr, r->t);
     ag[2] = ground_acc(r->az, r->nrec, r->dtr, r->t);

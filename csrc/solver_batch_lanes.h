@@ -132,9 +132,12 @@ static void CF_BN(lane_fill)(const cf_solver *s, CF_BN(batch) *B, int l, int *ne
     }
 }
 
-/* 2. contacts of every joint, in joint order, for all lanes (solver_points.c's order) */
-static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk *C, cf_chunk_before_fn before,
-                            cf_chunk_after_fn after, VD *e_vs, VD *e_dslip, VD *e_dswitch)
+/* 2. contacts of every joint, in joint order, for all lanes (solver_points.c's order); the spring
+ * energy and the joints' normal forces only where need (a constant: two instances) */
+static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_solver *s, CF_BN(batch) *B,
+                                                                      cf_joint_chunk *C, cf_chunk_before_fn before,
+                                                                      cf_chunk_after_fn after, VD *e_vs, VD *e_dslip,
+                                                                      VD *e_dswitch, const int need)
 {
     const VD zero = {0};
     int i, j, l, nb = s->nbody;
@@ -247,7 +250,7 @@ static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk 
                 CF_BN(st)(pst, CF_PH_SEL(ok, zero + CF_POINT_CONTACT, CF_PH_SEL(lift, zero + CF_POINT_OPEN, st)));
                 s0 = s0 + CF_BN(mask)(fx, ok); s1 = s1 + CF_BN(mask)(fy, ok); s2 = s2 + CF_BN(mask)(f, ok);
                 s3 = s3 + CF_BN(mask)(mx, ok); s4 = s4 + CF_BN(mask)(my, ok); s5 = s5 + CF_BN(mask)(mz, ok);
-                s6 = s6 + CF_BN(mask)(vs, ok); s7 = s7 + CF_BN(mask)(f, ok);
+                if (need) { s6 = s6 + CF_BN(mask)(vs, ok); s7 = s7 + CF_BN(mask)(f, ok); }
                 /* off the face polygon before and now (state 2, no shear): nothing changes */
                 open = open | lift | (act & out & cf_point_state_is(st, CF_POINT_OFF_FACE));
                 bits = CF_BW_BITS(ok | open);
@@ -284,8 +287,10 @@ static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk 
             CF_BN(st)(C->sm[side][0], s0); CF_BN(st)(C->sm[side][1], s1); CF_BN(st)(C->sm[side][2], s2);
             CF_BN(st)(C->sm[side][3], s3); CF_BN(st)(C->sm[side][4], s4); CF_BN(st)(C->sm[side][5], s5);
         }
-        *e_vs = *e_vs + s6;
-        B->jfn[j] = s7;
+        if (need) {
+            *e_vs = *e_vs + s6;
+            B->jfn[j] = s7;
+        }
         *e_dslip = *e_dslip + dslip;
         *e_dswitch = *e_dswitch + dswitch;
         after(C, CF_BW);
@@ -302,6 +307,13 @@ static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk 
             }
         }
     }
+}
+
+static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk *C, cf_chunk_before_fn before,
+                            cf_chunk_after_fn after, VD *e_vs, VD *e_dslip, VD *e_dswitch, int need)
+{
+    if (need) CF_BN(contacts_body)(s, B, C, before, after, e_vs, e_dslip, e_dswitch, 1);
+    else CF_BN(contacts_body)(s, B, C, before, after, e_vs, e_dslip, e_dswitch, 0);
 }
 
 /* The batch: lanes filled with jobs longest record first (batch_order), stepped together,
@@ -355,13 +367,20 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
         cf_solver *v = &B->view[l];
         *v = *s;
         v->x = B->lane_mem[l]; v->R = v->x + 3 * nb; v->q = v->R + 9 * nb; v->jfn = v->q + 4 * nb;
-        CF_BN(lane_fill)(s, B, l, &next, n_jobs, order, jobs, out);
+        B->job[l] = -1;
+        CF_BN(lane_reset)(s, B, l);
     }
-    for (;;) {
+    for (;; steps++) {
         VD ag[3], ke, vg, Wl, Dd, e_vs, e_dslip, e_dswitch;
         VM damp = (VM)zero;
         cf_step_energy e[CF_BW];
-        int end[CF_BW];
+        int end[CF_BW], need = 0;
+        /* runs start at the batch's multiples of CF_LEDGER_STEPS (a lane idles up to three steps),
+         * so that every lane's ledger steps are the batch's: the spring energies are summed at a
+         * quarter of the steps */
+        if (steps % CF_LEDGER_STEPS == 0)
+            for (l = 0; l < CF_BW && next < n_jobs; l++)
+                if (B->job[l] < 0) CF_BN(lane_fill)(s, B, l, &next, n_jobs, order, jobs, out);
         ag[0] = ag[1] = ag[2] = Wl = Dd = zero;
         active = 0;
         for (l = 0; l < CF_BW; l++) {
@@ -370,14 +389,18 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
                 cf_run *r = &B->r[l];
                 active++;
                 cf_solver_run_pre(&B->view[l], r, &e[l], a);
+                need |= e[l].need;
                 if (s->def.damping_alpha > 0.0 && r->t >= s->def.damping_start_s) damp[l] = -1;
                 Wl[l] = r->m.W; Dd[l] = r->m.Ddamp;
             }
             ag[0][l] = a[0]; ag[1][l] = a[1]; ag[2][l] = a[2];
         }
-        if (!active) break;
+        if (!active) {
+            if (next >= n_jobs) break;
+            continue;   /* every lane waits for the next start */
+        }
         CF_BN(phase_rotations)(s, &B->b);
-        CF_BN(contacts)(s, B, C, before, after, &e_vs, &e_dslip, &e_dswitch);
+        CF_BN(contacts)(s, B, C, before, after, &e_vs, &e_dslip, &e_dswitch, need);
         CF_BN(phase_velocities)(s, &B->b, ag, damp, &Wl, &Dd, &ke, &vg);
         for (l = 0; l < CF_BW; l++) {
             cf_run *r = &B->r[l];
@@ -396,12 +419,13 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
                 cf_solver_run_finish(&B->view[l], &B->r[l], jobs[j].residual_dislocation, &out[j].result);
                 out[j].status = B->r[l].st;
                 memcpy(out[j].message, B->view[l].msg, CF_MSG_LEN);
-                CF_BN(lane_fill)(s, B, l, &next, n_jobs, order, jobs, out);
+                B->job[l] = -1;
+                CF_BN(lane_reset)(s, B, l);   /* at rest until its next run starts */
             } else B->r[l].n++;
         }
         /* the caller's check (cf_solver_set_check) every CF_SOLVER_CHECK_STEPS steps of the batch, as
          * cf_solver_run does: on a stop every running lane ends with CF_EINTR, the rest do not start */
-        if (s->check && ++steps % CF_SOLVER_CHECK_STEPS == 0 && s->check(s->check_user)) {
+        if (s->check && (steps + 1) % CF_SOLVER_CHECK_STEPS == 0 && s->check(s->check_user)) {
             for (l = 0; l < CF_BW; l++) {
                 int j = B->job[l];
                 cf_run *r = &B->r[l];

@@ -210,6 +210,11 @@ typedef struct {
     double ke_win, rest_ke, next_rest; /* at-rest detection after the record */
 } cf_monitor;
 
+/* The spring energies (a sum over every sub-contact) enter the ledger every CF_LEDGER_STEPS steps
+ * of a run, at history samples and at its last step (cf_solver_run_pre). The batch starts its runs
+ * at multiples of it, so that its lanes share these steps and it sums the energies only then. */
+enum { CF_LEDGER_STEPS = 4 };
+
 /* a residual-dislocation sample is due at step n (cf_solver_monitor_record reads every body then) */
 static inline int cf_monitor_residual_due(const cf_monitor *m, long n) { return n % m->kres == 0; }
 
