@@ -57,6 +57,24 @@
         (vs) = ADD(MUL(MUL((half), (fn)), (pen)), MUL((fs2), (ihkw)));                         \
     } while (0)
 
+/* Slip: a trial (fx, fy) beyond the cap (m2 > CF_LAW_CAP2) scaled back onto the cone,
+ * (fxs, fys) = (fx, fy) lim / |f|, and the slip dissipation over the step: the trapezoidal work
+ * on the contact minus the change of its elastic energy (fsx0, fsy0: the stored shear before
+ * the step). SQRT is the lane's square root; the rest are the plain operators, which are the
+ * per-lane IEEE operations for double and for GCC vector types alike. */
+#define CF_LAW_SLIP(SQRT, lim, m2, fx, fy, fsx0, fsy0, dux, duy, ksw, sc, fxs, fys, diss)                 \
+    do {                                                                                              \
+        (sc) = (lim) / SQRT(m2);                                                                      \
+        (fxs) = (fx) * (sc);                                                                          \
+        (fys) = (fy) * (sc);                                                                          \
+        (diss) = -0.5 * (((fsx0) + (fxs)) * (dux) + ((fsy0) + (fys)) * (duy))                         \
+                 - 0.5 * ((fxs) * (fxs) + (fys) * (fys) - (fsx0) * (fsx0) - (fsy0) * (fsy0)) / (ksw); \
+    } while (0)
+
+/* The stored shear energy |fs|^2 / (2 ks w) of a contact (ihkw = 1 / (2 ks w)), J: what a
+ * release dissipates. */
+#define CF_LAW_SHEAR_ENERGY(fsx, fsy, ihkw) (((fsx) * (fsx) + (fsy) * (fsy)) * (ihkw))
+
 #define CF_LAW_SADD(a, b) ((a) + (b))
 #define CF_LAW_SSUB(a, b) ((a) - (b))
 #define CF_LAW_SMUL(a, b) ((a) * (b))
@@ -67,7 +85,7 @@ static inline double cf_law_release(double *fsx, double *fsy, double ihkw)
 {
     double d = 0.0;
     if (*fsx != 0.0 || *fsy != 0.0) {
-        d = (*fsx * *fsx + *fsy * *fsy) * ihkw;
+        d = CF_LAW_SHEAR_ENERGY(*fsx, *fsy, ihkw);
         *fsx = *fsy = 0.0;
     }
     return d;
@@ -88,11 +106,9 @@ static inline double cf_law_update(double pen, double dux, double duy, double kn
     CF_LAW_TRIAL(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, pen, dux, duy, knw, ksw, mu, fs[0], fs[1], f, lim, fx, fy, m2);
     *fn = f;
     if (m2 > CF_LAW_CAP2(CF_LAW_SMUL, lim)) {
-        double sc = lim / sqrt(m2), diss, fx0 = fs[0], fy0 = fs[1];
-        fx *= sc; fy *= sc;
-        diss = -0.5 * ((fx0 + fx) * dux + (fy0 + fy) * duy)
-               - 0.5 * (fx * fx + fy * fy - fx0 * fx0 - fy0 * fy0) / ksw;
-        fs[0] = fx; fs[1] = fy;
+        double sc, diss, fxs, fys;
+        CF_LAW_SLIP(sqrt, lim, m2, fx, fy, fs[0], fs[1], dux, duy, ksw, sc, fxs, fys, diss);
+        fs[0] = fxs; fs[1] = fys;
         *slipping = 1;
         return diss;
     }

@@ -187,9 +187,8 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                 double *pfsx = B->fsx + (size_t)k * CF_BW, *pfsy = B->fsy + (size_t)k * CF_BW;
                 double *pst = B->pst + (size_t)k * CF_BW;
                 /* the point in the face frame, as cf_point_law_at */
-                VD X = Mx0 * lx + Mx1 * ly + z0 + t0;
-                VD Y = My0 * lx + My1 * ly + z1 + t1;
-                VD Z = Mz0 * lx + Mz1 * ly + z2 + t2;
+                VD X, Y, Z;
+                CF_POINT_AT(Mx0, Mx1, My0, My1, Mz0, Mz1, z0, z1, z2, t0, t1, t2, lx, ly, X, Y, Z);
                 VD pen = P.sgn * Z, st = CF_BN(ld)(pst), fsx0, fsy0, f, lim, fx, fy, m2, mx, my, mz, vs, dux, duy;
                 VM pos = pen > 0.0, act, in, out, st0, st1, ok, open, lift, slip, nz;
                 const double ksw = s->p_ksw[k], ihkw = s->p_ihkw[k];
@@ -220,8 +219,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                         in = in | (stay & (best <= apotol));
                     }
                 }
-                dux = A0 + W1 * Z - W2 * Y;
-                duy = A1 + W2 * X - W0 * Z;
+                CF_POINT_DU(A0, A1, W0, W1, W2, X, Y, Z, dux, duy);
                 fsx0 = CF_BN(ld)(pfsx); fsy0 = CF_BN(ld)(pfsy);
                 CF_LAW_TRIAL(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, pen, dux, duy, s->p_knw[k], ksw, P.mu,
                              fsx0, fsy0, f, lim, fx, fy, m2);
@@ -230,9 +228,8 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                 ok = act & in & (st0 | st1);
                 slip = ok & (m2 > CF_LAW_CAP2(CF_LAW_SMUL, lim));
                 if (CF_BW_BITS(slip)) {
-                    VD sc = lim / CF_BW_SQRT(m2), fxs = fx * sc, fys = fy * sc;
-                    VD diss = -0.5 * ((fsx0 + fxs) * dux + (fsy0 + fys) * duy)
-                              - 0.5 * (fxs * fxs + fys * fys - fsx0 * fsx0 - fsy0 * fsy0) / ksw;
+                    VD sc, fxs, fys, diss;
+                    CF_LAW_SLIP(CF_BW_SQRT, lim, m2, fx, fy, fsx0, fsy0, dux, duy, ksw, sc, fxs, fys, diss);
                     dslip = dslip + CF_BN(mask)(diss, slip);
                     fx = CF_PH_SEL(slip, fxs, fx); fy = CF_PH_SEL(slip, fys, fy);
                     m2 = fx * fx + fy * fy;
@@ -244,7 +241,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                  * and state 0 */
                 lift = ~pos & st1;
                 nz = (fsx0 != 0.0) | (fsy0 != 0.0);
-                dslip = dslip + CF_BN(mask)((fsx0 * fsx0 + fsy0 * fsy0) * ihkw, lift & nz);
+                dslip = dslip + CF_BN(mask)(CF_LAW_SHEAR_ENERGY(fsx0, fsy0, ihkw), lift & nz);
                 CF_BN(st)(pfsx, CF_PH_SEL(ok, fx, CF_PH_SEL(lift & nz, zero, fsx0)));
                 CF_BN(st)(pfsy, CF_PH_SEL(ok, fy, CF_PH_SEL(lift & nz, zero, fsy0)));
                 CF_BN(st)(pst, CF_PH_SEL(ok, zero + CF_POINT_CONTACT, CF_PH_SEL(lift, zero + CF_POINT_OPEN, st)));

@@ -161,6 +161,23 @@ static inline double cf_point_spring_energy(double kn, double w, double pe)
     return 0.5 * kn * w * pe * pe;
 }
 
+/* Sub-contact (lx, ly) of its face in the frame of the face it is tested against, (X, Y, Z) =
+ * M (lx, ly) + mz + t (cf_face_pass: the frame map's first two columns, the points' shared z, the
+ * translation), and the tangential displacement of the upper body there over the step, (dux, duy)
+ * of A + W x (X, Y, Z). One text for the full law, the wide runner and the batch: the plain
+ * operators are the per-lane IEEE operations for double and for GCC vector types alike. */
+#define CF_POINT_AT(M0, M1, M3, M4, M6, M7, z0, z1, z2, t0, t1, t2, lx, ly, X, Y, Z) \
+    do {                                                                          \
+        (X) = (M0) * (lx) + (M1) * (ly) + (z0) + (t0);                            \
+        (Y) = (M3) * (lx) + (M4) * (ly) + (z1) + (t1);                            \
+        (Z) = (M6) * (lx) + (M7) * (ly) + (z2) + (t2);                            \
+    } while (0)
+#define CF_POINT_DU(A0, A1, W0, W1, W2, X, Y, Z, dux, duy) \
+    do {                                                 \
+        (dux) = (A0) + (W1) * (Z) - (W2) * (Y);          \
+        (duy) = (A1) + (W2) * (X) - (W0) * (Z);          \
+    } while (0)
+
 /* One sub-contact k against the face of P, any state: position in the face frame, the
  * state's transition (cf_point_next) with its energy bookkeeping, then the contact law.
  * Returns 1 and its terms in t (fx, fy, fn, mx, my, mz, vs, fn) when it carries force, 0
@@ -171,14 +188,13 @@ static inline double cf_point_spring_energy(double kn, double w, double pe)
 static inline int cf_point_law_at(const cf_solver *s, const cf_face_pass *P, int k, double *fsx, double *fsy,
                                   double *state, double *pen0, int *hint, cf_face_sums *S, double *t)
 {
-    double lx = s->p_lx[k], ly = s->p_ly[k], w = s->p_w[k], fs[2], fn, dux, duy, fs2, pe;
-    double X = P->M[0] * lx + P->M[1] * ly + P->mz[0] + P->t[0];
-    double Y = P->M[3] * lx + P->M[4] * ly + P->mz[1] + P->t[1];
-    double Z = P->M[6] * lx + P->M[7] * ly + P->mz[2] + P->t[2];
-    double pen = P->sgn * Z, dhx = X - s->p_hx[k], dhy = Y - s->p_hy[k];
+    double lx = s->p_lx[k], ly = s->p_ly[k], w = s->p_w[k], fs[2], fn, dux, duy, fs2, pe, X, Y, Z, pen, dhx, dhy;
     cf_point_state st = (cf_point_state)(int)*state, nx;
-    int slipping;
-    int inside = pen > 0.0 && !(pen > P->pmax)
+    int slipping, inside;
+    CF_POINT_AT(P->M[0], P->M[1], P->M[3], P->M[4], P->M[6], P->M[7], P->mz[0], P->mz[1], P->mz[2], P->t[0], P->t[1],
+                P->t[2], lx, ly, X, Y, Z);
+    pen = P->sgn * Z; dhx = X - s->p_hx[k]; dhy = Y - s->p_hy[k];
+    inside = pen > 0.0 && !(pen > P->pmax)
                  && (P->unbounded || dhx * dhx + dhy * dhy <= s->p_fast[k]
                      || cf_face_inside_hint(P->ff, X, Y, P->tol, hint));
     nx = cf_point_next(st, pen, inside, P->pmax, P->pent);
@@ -200,8 +216,7 @@ static inline int cf_point_law_at(const cf_solver *s, const cf_face_pass *P, int
         if (pen < *pen0) *pen0 = pen;   /* no tension: the offset follows the point up */
         pe = pen - *pen0;
     }
-    dux = P->A[0] + P->W[1] * Z - P->W[2] * Y;
-    duy = P->A[1] + P->W[2] * X - P->W[0] * Z;
+    CF_POINT_DU(P->A[0], P->A[1], P->W[0], P->W[1], P->W[2], X, Y, Z, dux, duy);
     fs[0] = *fsx; fs[1] = *fsy;
     S->dslip += cf_law_update(pe, dux, duy, s->p_knw[k], s->p_ksw[k], P->mu, fs, &fn, &slipping);
     *fsx = fs[0]; *fsy = fs[1];

@@ -69,14 +69,11 @@ void CF_POINTS_RUN(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_
             for (l = k1 - k; l < CF_BW; l++) valid[l] = 0;
         }
         vlx = CF_BN(ld)(lx + k); vly = CF_BN(ld)(ly + k);
-        X = M0 * vlx + M1 * vly + P->mz[0] + P->t[0];
-        Y = M3 * vlx + M4 * vly + P->mz[1] + P->t[1];
-        Z = M6 * vlx + M7 * vly + P->mz[2] + P->t[2];
+        CF_POINT_AT(M0, M1, M3, M4, M6, M7, P->mz[0], P->mz[1], P->mz[2], P->t[0], P->t[1], P->t[2], vlx, vly, X, Y, Z);
         pen = P->sgn * Z;
         dhx = X - CF_BN(ld)(hx + k); dhy = Y - CF_BN(ld)(hy + k);
         d2 = dhx * dhx + dhy * dhy;
-        dux = P->A[0] + P->W[1] * Z - P->W[2] * Y;
-        duy = P->A[1] + P->W[2] * X - P->W[0] * Z;
+        CF_POINT_DU(P->A[0], P->A[1], P->W[0], P->W[1], P->W[2], X, Y, Z, dux, duy);
         act = (pen > 0.0) & ~(pen > P->pmax) & valid;
         st = CF_BN(ld)(state + k);
         st1 = cf_point_state_is(st, CF_POINT_CONTACT);
