@@ -16,6 +16,7 @@ for which max_t |V| = Vp given nu and gamma (the maximum of the unit pulse found
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -130,10 +131,14 @@ def support(fp, gamma, t0=0.0):
     return t0 - half, t0 + half
 
 
+@functools.lru_cache(maxsize=4096)
 def _unit_peak(nu, gamma):
     """(u*, g(u*)) for g(u) = 0.5 (1 + cos(2 pi u / gamma)) cos(2 pi u + nu), u = fp tau in
     [-gamma/2, gamma/2]: where the unit-amplitude pulse peaks in |g| (independent of fp), and
-    its signed value there (the sign is that of the pulse's peak velocity for A > 0)."""
+    its signed value there (the sign is that of the pulse's peak velocity for A > 0).
+
+    Cached on (nu, gamma) (floats; a pure function): a grid asks for the same pulse's peak when it
+    draws a scenario's pulse parameters and again when it synthesises each of its records."""
     u = np.linspace(-gamma / 2, gamma / 2, 2001)
     c = _c()
 
