@@ -1070,10 +1070,18 @@ def _serve(comm, ctx, fn, queue: deque, works: bool, chunk_max: int, accept) -> 
     status = MPI.Status()
     active = size - 1
     sends = []
+    heard: set = set()   # workers whose first request has come
     while active > 0 or (works and queue):
         served = False
-        while active > 0 and comm.Iprobe(source=MPI.ANY_SOURCE, tag=MPI.ANY_TAG, status=status):
+        # A worker asks for work as soon as it starts, but a test of the queue (Iprobe) right after
+        # start-up can miss that request: wait for each worker's first one before rank 0 takes rows
+        # of its own, or the worker idles through rank 0's first batches (measured: two of them).
+        while active > 0 and (len(heard) < size - 1
+                              or comm.Iprobe(source=MPI.ANY_SOURCE, tag=MPI.ANY_TAG, status=status)):
+            if len(heard) < size - 1:
+                comm.Probe(source=MPI.ANY_SOURCE, tag=MPI.ANY_TAG, status=status)
             src, tag = status.Get_source(), status.Get_tag()
+            heard.add(src)
             rows = comm.recv(source=src, tag=tag)
             if tag == _TAG_REQUEST:
                 sends.append(comm.isend(_chunk(queue, size, chunk_max), dest=src, tag=_TAG_WORK))

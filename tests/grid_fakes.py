@@ -5,6 +5,7 @@ tests put this folder on PYTHONPATH).
   scheduling, resume and rank independence are tested without the solver. ``PCF_FAKE_SLEEP_S``
   makes each row take that long (to kill a run part-way); ``PCF_FAKE_BUSY_S`` burns CPU for
   about that long times (1 + 4 (Mw - 5.5)) (scheduler benchmarks without the solver).
+* ``ranked``: ``fake`` whose row's message names the MPI rank that computed it (scheduling tests).
 * ``failing``: :func:`real_solver`, except that the rows listed in
   ``PCF_FAIL_ROWS`` (comma-separated) raise.
 * ``failing_fake``: ``fake`` with the same forced failures.
@@ -38,6 +39,12 @@ def fake(ctx, row):
             "pga_g": x[3], "pgv_cm_s": 100 * x[4], "pgd_cm": x[5], "arias_m_s": x[6], "d5_95_s": 10 * x[7],
             "u_top": x[3] * x[4], "u_d": x[5] * 0.01, "collapsed": int(x[3] > 0.9),
             "sa_g": rng.random(n_p), "sv_cm_s": rng.random(n_p)}
+
+
+def ranked(ctx, row):
+    out = fake(ctx, row)
+    out["message"] = f"rank {os.environ.get('OMPI_COMM_WORLD_RANK', '0')}"  # Open MPI's rank of this process
+    return out
 
 
 def failing(ctx, row):

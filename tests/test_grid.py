@@ -127,6 +127,22 @@ def test_one_rank_and_two_ranks_give_identical_datasets(tmp_path):
     assert not R.journal_path(two).exists()  # a complete run leaves no journal
 
 
+def test_worker_gets_the_first_chunk_before_rank_0_computes(tmp_path):
+    """Rank 0 answers the worker's first request before it takes rows of its own, so the head of the
+    queue (the longest rows) goes to the worker, which would otherwise idle through rank 0's first
+    batches. 12 rows on 2 ranks: every chunk is one row (a quarter of an equal share rounds down to 0,
+    raised to 1), so the first row of the queue is the worker's whatever the rows take."""
+    out = tmp_path / "ranked.h5"
+    args = ["--mw", "6", "7.5", "--dist", "5", "15", "--samples", "3", "--sample-function", "grid_fakes:ranked",
+            "--no-figures", "--no-progress", "--out", str(out)]
+    _ok(_mpirun(2, args, PCF_FAKE_SLEEP_S="0.2"))
+    res = R.load(out)
+    first = GridSpec(mw=(6.0, 7.5), dist_km=(5.0, 15.0), samples=3).order(range(12))[0]
+    by_row = dict(zip(res.samples["scenario"] * 3 + res.samples["sample"], res.samples["message"]))
+    assert sorted(set(by_row.values())) == ["rank 0", "rank 1"]  # both ranks computed rows
+    assert by_row[first] == "rank 1"
+
+
 def _journal_rows(path):
     return len(R.read_journal(R.journal_path(path))[1]) if R.journal_path(path).exists() else 0
 
