@@ -99,7 +99,8 @@ int cf_solver_monitor_collapse(const cf_solver *s, int *blk)
      * bounds both with room. A face whose centre lies less than one radius from every
      * point of that box, widened by tol, cannot see a computed mean more than two radii
      * away, so the test's answer is known; otherwise the sums decide. A NaN position is
-     * left out of the box, but it makes the test's own comparisons false too. */
+     * left out of the box (or, the first one, makes the box NaN and the sums run), but a
+     * NaN in the sums makes the test's comparisons false: no overturning either way. */
     box[0] = box[1] = s->x[3]; box[2] = box[3] = s->x[4];
     for (i = 2; i < nbody; i++) {
         double x = s->x[3 * i], y = s->x[3 * i + 1];
