@@ -9,6 +9,7 @@
  * contact_switch - ground_work = balance error; the error's maximum over the run,
  * divided by the largest energy scale seen, is result.energy_error.
  */
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -55,55 +56,90 @@ static double opening(const cf_solver *s, int j)
     return mx;
 }
 
-/* collapse criteria at the current state; returns the reason, sets *blk */
+/* the larger of a and b (fmax is a library call here) */
+static inline double larger(double a, double b) { return a > b ? a : b; }
+
+/* 1 when every point of the box box[0..1] x box[2..3] (horizontal), widened by tol on
+ * each side, lies closer than r to (c[0], c[1]) */
+static inline int box_within(const double *box, double tol, const double *c, double r)
+{
+    double dx = larger(box[1] - c[0], c[0] - box[0]) + tol, dy = larger(box[3] - c[1], c[1] - box[2]) + tol;
+    return dx * dx + dy * dy < r * r;
+}
+
+/* collapse criteria at the current state; returns the reason, sets *blk.
+ * Three criteria, in this order of precedence, each reporting its first joint from
+ * the bottom:
+ * - overturning: the centre of mass of everything above joint j lies horizontally
+ *   more than two circumradii from the centre of a face it rests on -- past that
+ *   face's edge by a full radius, where no ground motion of the record can bring it
+ *   back (for a slender block this is a tilt of about twice its slenderness angle).
+ *   Measured both from the supporting (lower) face, with its radius, and from the
+ *   moving block's own bottom face, with its own radius: a narrow block on a wide
+ *   drum can tip over far inside the drum's face (on the unbounded ground the two
+ *   faces are the same).
+ * - off the footprint: the centre of a block's bottom face has slid outside the
+ *   polygon of the face below (in that face's plane): more than half of the joint
+ *   overhangs. Rocking alone moves this centre by b (1 - cos tilt) only.
+ * - falling: a block's bottom-face centre a quarter of its height below the top face
+ *   centre of the block that should carry it.
+ * One pass over the joints evaluates all three on the same two face centres (each
+ * computed once: these checks run every few steps of every run), keeping the first
+ * failing joint of each criterion; an overturning ends the pass, since it takes
+ * precedence over the other two wherever they fail. */
 int cf_solver_monitor_collapse(const cf_solver *s, int *blk)
 {
-    int j, i, nj = s->nj;
-    /* overturning: the centre of mass of everything above joint j lies horizontally
-     * more than two circumradii from the centre of a face it rests on -- past that
-     * face's edge by a full radius, where no ground motion of the record can bring it
-     * back (for a slender block this is a tilt of about twice its slenderness angle).
-     * Measured both from the supporting (lower) face, with its radius, and from the
-     * moving block's own bottom face, with its own radius: a narrow block on a wide
-     * drum can tip over far inside the drum's face (on the unbounded ground the two
-     * faces are the same). */
-    for (j = 0; j < nj; j++) {
-        const cf_joint *J = &s->jt[j];
-        double cL[3], nL[3], cU[3], nU[3], mx = 0, my = 0, mt = 0, gx, gy, dx, dy;
-        for (i = J->bu; i < s->nbody; i++) {
-            mx += s->m[i] * s->x[3 * i]; my += s->m[i] * s->x[3 * i + 1]; mt += s->m[i];
-        }
-        gx = mx / mt; gy = my / mt;
-        cf_face_world(s, J->bu, &J->fu, cU, nU);
-        if (J->bl == 0) { cL[0] = cU[0]; cL[1] = cU[1]; }
-        else cf_face_world(s, J->bl, &J->fl, cL, nL);
-        dx = gx - cL[0]; dy = gy - cL[1];
-        if (dx * dx + dy * dy > 4.0 * J->fl.rc * J->fl.rc) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
-        dx = gx - cU[0]; dy = gy - cU[1];
-        if (dx * dx + dy * dy > 4.0 * J->fu.rc * J->fu.rc) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
+    int j, i, nj = s->nj, nbody = s->nbody, foot = -1, fall = -1;
+    double box[4], mmin = s->m[1], big, tol;
+    /* An exact pre-test of overturning, without the sums: the mass-weighted mean of
+     * the centres of mass above a joint lies in the box of all of them (horizontal), and
+     * its computed value (at most k products, sums of k terms in order, a division) within
+     * 2 k u (k = bodies, u = DBL_EPSILON / 2) of it relative to the largest coordinate,
+     * plus an underflow term below 1e-100 m when no body is lighter than 1e-200 kg: tol
+     * bounds both with room. A face whose centre lies less than one radius from every
+     * point of that box, widened by tol, cannot see a computed mean more than two radii
+     * away, so the test's answer is known; otherwise the sums decide. A NaN position is
+     * left out of the box (or, the first one, makes the box NaN and the sums run), but a
+     * NaN in the sums makes the test's comparisons false: no overturning either way. */
+    box[0] = box[1] = s->x[3]; box[2] = box[3] = s->x[4];
+    for (i = 2; i < nbody; i++) {
+        double x = s->x[3 * i], y = s->x[3 * i + 1];
+        if (x < box[0]) box[0] = x;
+        if (x > box[1]) box[1] = x;
+        if (y < box[2]) box[2] = y;
+        if (y > box[3]) box[3] = y;
+        if (s->m[i] < mmin) mmin = s->m[i];
     }
-    /* off the footprint: the centre of a block's bottom face has slid outside the
-     * polygon of the face below (in that face's plane): more than half of the
-     * joint overhangs. Rocking alone moves this centre by b (1 - cos tilt) only. */
-    for (j = 0; j < nj; j++) {
-        const cf_joint *J = &s->jt[j];
-        double cL[3], nL[3], cU[3], nU[3], d[3], X[3];
-        if (J->bl == 0) continue;     /* the ground is unbounded */
-        cf_face_world(s, J->bl, &J->fl, cL, nL);
-        cf_face_world(s, J->bu, &J->fu, cU, nU);
-        d[0] = cU[0] - cL[0]; d[1] = cU[1] - cL[1]; d[2] = cU[2] - cL[2];
-        mat_tvec(s->R + 9 * J->bl, d, X);
-        if (!cf_face_inside(&J->fl, X[0], X[1], 0.0)) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OFF_FOOTPRINT; }
-    }
-    /* falling: a block's bottom-face centre a quarter of its height below the top
-     * face centre of the block that should carry it */
+    big = larger(larger(-box[0], box[1]), larger(-box[2], box[3]));
+    tol = mmin > 1e-200 ? 4.0 * nbody * DBL_EPSILON * big + 1e-100 : INFINITY;
     for (j = 0; j < nj; j++) {
         const cf_joint *J = &s->jt[j];
         double cL[3], nL[3], cU[3], nU[3];
-        cf_face_world(s, J->bl, &J->fl, cL, nL);
+        const double *cs;
         cf_face_world(s, J->bu, &J->fu, cU, nU);
-        if (cU[2] - cL[2] < -0.25 * s->blk_h[J->logical]) { *blk = J->logical; return CF_SOLVER_COLLAPSE_FALLING; }
+        cf_face_world(s, J->bl, &J->fl, cL, nL);
+        cs = J->bl == 0 ? cU : cL;   /* on the ground the supporting face is the block's own */
+        if (!box_within(box, tol, cs, J->fl.rc) || !box_within(box, tol, cU, J->fu.rc)) {
+            double mx = 0, my = 0, mt = 0, gx, gy, dx, dy;
+            for (i = J->bu; i < nbody; i++) {
+                mx += s->m[i] * s->x[3 * i]; my += s->m[i] * s->x[3 * i + 1]; mt += s->m[i];
+            }
+            gx = mx / mt; gy = my / mt;
+            dx = gx - cs[0]; dy = gy - cs[1];
+            if (dx * dx + dy * dy > 4.0 * J->fl.rc * J->fl.rc) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
+            dx = gx - cU[0]; dy = gy - cU[1];
+            if (dx * dx + dy * dy > 4.0 * J->fu.rc * J->fu.rc) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
+        }
+        if (foot < 0 && J->bl != 0) {     /* the ground is unbounded */
+            double d[3], X[3];
+            d[0] = cU[0] - cL[0]; d[1] = cU[1] - cL[1]; d[2] = cU[2] - cL[2];
+            mat_tvec(s->R + 9 * J->bl, d, X);
+            if (!cf_face_inside(&J->fl, X[0], X[1], 0.0)) foot = j;
+        }
+        if (fall < 0 && cU[2] - cL[2] < -0.25 * s->blk_h[J->logical]) fall = j;
     }
+    if (foot >= 0) { *blk = s->jt[foot].logical; return CF_SOLVER_COLLAPSE_OFF_FOOTPRINT; }
+    if (fall >= 0) { *blk = s->jt[fall].logical; return CF_SOLVER_COLLAPSE_FALLING; }
     *blk = -1;
     return CF_SOLVER_COLLAPSE_NONE;
 }

@@ -215,6 +215,136 @@ static void test_band_max_eigenvalue(void)
     }
 }
 
+/* The collapse criteria's definitions, written out plainly: every body's mass sum for
+ * each joint, each criterion a pass of its own, the first failing joint of the first
+ * failing criterion. cf_solver_monitor_collapse evaluates them in one pass and decides
+ * overturning without the sums where it can prove the answer: its decision must be this
+ * one, on every state. */
+static int collapse_by_definition(const cf_solver *s, int *blk)
+{
+    int j, i;
+    for (j = 0; j < s->nj; j++) {
+        const cf_joint *J = &s->jt[j];
+        double cL[3], nL[3], cU[3], nU[3], mx = 0, my = 0, mt = 0, gx, gy, dx, dy;
+        for (i = J->bu; i < s->nbody; i++) {
+            mx += s->m[i] * s->x[3 * i]; my += s->m[i] * s->x[3 * i + 1]; mt += s->m[i];
+        }
+        gx = mx / mt; gy = my / mt;
+        cf_face_world(s, J->bu, &J->fu, cU, nU);
+        if (J->bl == 0) { cL[0] = cU[0]; cL[1] = cU[1]; }
+        else cf_face_world(s, J->bl, &J->fl, cL, nL);
+        dx = gx - cL[0]; dy = gy - cL[1];
+        if (dx * dx + dy * dy > 4.0 * J->fl.rc * J->fl.rc) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
+        dx = gx - cU[0]; dy = gy - cU[1];
+        if (dx * dx + dy * dy > 4.0 * J->fu.rc * J->fu.rc) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
+    }
+    for (j = 0; j < s->nj; j++) {
+        const cf_joint *J = &s->jt[j];
+        double cL[3], nL[3], cU[3], nU[3], d[3], X[3];
+        if (J->bl == 0) continue;
+        cf_face_world(s, J->bl, &J->fl, cL, nL);
+        cf_face_world(s, J->bu, &J->fu, cU, nU);
+        d[0] = cU[0] - cL[0]; d[1] = cU[1] - cL[1]; d[2] = cU[2] - cL[2];
+        mat_tvec(s->R + 9 * J->bl, d, X);
+        if (!cf_face_inside(&J->fl, X[0], X[1], 0.0)) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OFF_FOOTPRINT; }
+    }
+    for (j = 0; j < s->nj; j++) {
+        const cf_joint *J = &s->jt[j];
+        double cL[3], nL[3], cU[3], nU[3];
+        cf_face_world(s, J->bl, &J->fl, cL, nL);
+        cf_face_world(s, J->bu, &J->fu, cU, nU);
+        if (cU[2] - cL[2] < -0.25 * s->blk_h[J->logical]) { *blk = J->logical; return CF_SOLVER_COLLAPSE_FALLING; }
+    }
+    *blk = -1;
+    return CF_SOLVER_COLLAPSE_NONE;
+}
+
+static double uniform(unsigned long long *r)   /* xorshift64, [-1, 1) */
+{
+    *r ^= *r << 13; *r ^= *r >> 7; *r ^= *r << 17;
+    return (double)(*r >> 11) / 4503599627370496.0 - 1.0;
+}
+
+/* Collapse criteria of the default column at states set by hand, the expected outcome
+ * from the criteria's geometry: the capital moved sideways by D off the top drum sits
+ * D from the drum's face (circumradius 0.64 m) while its own bottom face moves with it:
+ * past two radii (1.28 m, here 1 + 1e-9 of it) it overturns, just short of it its face
+ * centre is off the drum's polygon, within the apothem (0.64 cos 18 deg = 0.609 m)
+ * nothing has failed, along +-x and +-y alike; two more cases are named below. Then
+ * 20000 random states decide as the definitions do: a quarter near the rest state, a
+ * quarter with blocks dropped up to 1 m (falling), half with blocks shifted sideways up to
+ * 1.5 m, down up to 0.3 m and tilted up to 0.6 rad (overturning, off the footprint). */
+static void test_collapse_criteria(void)
+{
+    cf_geometry_segment seg[14]; int nseg[13], i, k, top;
+    cf_solver_def d;
+    cf_solver *s = cf_solver_create();
+    unsigned long long r = 0x9e3779b97f4a7c15ULL;
+    int count[4] = {0, 0, 0, 0}, same = 0, trials = 20000;
+    parthenon_column(seg, nseg);
+    cf_solver_def_default(&d);
+    CF_CHECK(cf_solver_setup(s, &d, 13, nseg, seg, 2700, 1e9, 1e9, 0.75) == CF_OK);
+    top = s->nbody - 1;
+    for (k = 0; k < 12; k++) {
+        static const double frac[3] = {1.0 + 1e-9, 1.0 - 1e-9, 0.45};
+        static const int want[3] = {CF_SOLVER_COLLAPSE_OVERTURNING, CF_SOLVER_COLLAPSE_OFF_FOOTPRINT,
+                                    CF_SOLVER_COLLAPSE_NONE};
+        double D = 2.0 * 0.64 * frac[k % 3];
+        int blk, why;
+        cf_solver_stack_reset(s);
+        for (i = 0; i < s->nbody; i++) quat_to_mat(s->q + 4 * i, s->R + 9 * i);
+        s->x[3 * top + (k / 3) % 2] += (k / 6 ? -D : D);
+        why = cf_solver_monitor_collapse(s, &blk);
+        CF_CHECK(why == want[k % 3]);
+        CF_CHECK(blk == (why ? 12 : -1));
+    }
+    {   /* the capital alone moved so far that the centre of mass of drum 12 and the capital
+         * lies 1.05 x two radii (drum 12's bottom, 0.6554 m) off the joint below drum 12:
+         * that joint, the lower one, overturns (block 11), though neither drum moved */
+        double mc = s->m[top], m12 = s->m[top - 1], D = 1.05 * 2.0 * 0.6554166666666666 * (mc + m12) / mc;
+        int blk, why;
+        cf_solver_stack_reset(s);
+        for (i = 0; i < s->nbody; i++) quat_to_mat(s->q + 4 * i, s->R + 9 * i);
+        s->x[3 * top] += D;
+        why = cf_solver_monitor_collapse(s, &blk);
+        CF_CHECK(why == CF_SOLVER_COLLAPSE_OVERTURNING);
+        CF_CHECK(blk == 11);
+    }
+    {   /* the whole column slid 3 m along the unbounded ground, upright: nothing failed */
+        int blk, why;
+        cf_solver_stack_reset(s);
+        for (i = 0; i < s->nbody; i++) quat_to_mat(s->q + 4 * i, s->R + 9 * i);
+        for (i = 1; i < s->nbody; i++) s->x[3 * i] += 3.0;
+        why = cf_solver_monitor_collapse(s, &blk);
+        CF_CHECK(why == CF_SOLVER_COLLAPSE_NONE);
+        CF_CHECK(blk == -1);
+    }
+    for (k = 0; k < trials; k++) {
+        /* near rest; dropped (little sideways); thrown about */
+        double sc = k % 4 < 2 ? 0.02 : 1.5 * (0.5 + 0.5 * uniform(&r)), tilt = k % 4 < 2 ? 0.01 : 0.6;
+        double drop = k % 4 == 1 ? 0.5 : 0.1 * sc;
+        int b1, b2, w1, w2;
+        cf_solver_stack_reset(s);
+        for (i = 1; i < s->nbody; i++) {
+            double q[4], h = 0.5 * tilt * uniform(&r), ax = uniform(&r), ay = uniform(&r);
+            double n = sqrt(ax * ax + ay * ay) + 1e-300;
+            s->x[3 * i] += sc * uniform(&r); s->x[3 * i + 1] += sc * uniform(&r);
+            s->x[3 * i + 2] -= drop * (1.0 + uniform(&r));
+            q[0] = cos(h); q[1] = sin(h) * ax / n; q[2] = sin(h) * ay / n; q[3] = 0.0;
+            quat_mul(q, s->q0 + 4 * i, s->q + 4 * i);
+        }
+        for (i = 0; i < s->nbody; i++) quat_to_mat(s->q + 4 * i, s->R + 9 * i);
+        w1 = cf_solver_monitor_collapse(s, &b1);
+        w2 = collapse_by_definition(s, &b2);
+        count[w2]++;
+        same += w1 == w2 && b1 == b2;
+    }
+    CF_CHECK(same == trials);
+    /* every outcome occurs (else the comparison proves little) */
+    CF_CHECK(count[0] > 100 && count[1] > 100 && count[2] > 100 && count[3] > 100);
+    cf_solver_free(s);
+}
+
 int main(void)
 {
     CF_RUN(test_max_eigenvalue);
@@ -225,5 +355,6 @@ int main(void)
     CF_RUN(test_contact_registry);
     CF_RUN(test_determinism);
     CF_RUN(test_caller_check);
+    CF_RUN(test_collapse_criteria);
     return CF_TEST_SUMMARY("test_solver");
 }
