@@ -203,18 +203,18 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                 if (P.unbounded) in = ~(VM)zero;
                 else {
                     VD dhx = X - s->p_hx[k], dhy = Y - s->p_hy[k];
-                    in = (dhx * dhx + dhy * dhy <= s->p_fast[k]) | (X * X + Y * Y <= apo2);
+                    in = CF_LANES_QUICK_IN(dhx, dhy, s->p_fast[k], X, Y, apo2);
                     if (CF_BW_BITS(act & ~in)) {
                         /* the polygon test where the lane's hint edge is still its most distant
                          * edge (cf_face_inside_hint would stay there and leave the hint): inside
                          * or outside; where the walk would move, cf_point_law_at decides */
                         size_t o = (size_t)k * CF_BW;
-                        VD best, pp, pm;
+                        VD best;
                         VM stay;
-                        best = X * CF_BN(ld)(B->he[0] + o) + Y * CF_BN(ld)(B->he[1] + o);
-                        pp = X * CF_BN(ld)(B->he[2] + o) + Y * CF_BN(ld)(B->he[3] + o);
-                        pm = X * CF_BN(ld)(B->he[4] + o) + Y * CF_BN(ld)(B->he[5] + o);
-                        stay = ~in & ~(pp > best) & ~(pm > best);
+                        CF_LANES_HINT_EDGE(X, Y, CF_BN(ld)(B->he[0] + o), CF_BN(ld)(B->he[1] + o),
+                                           CF_BN(ld)(B->he[2] + o), CF_BN(ld)(B->he[3] + o),
+                                           CF_BN(ld)(B->he[4] + o), CF_BN(ld)(B->he[5] + o), best, stay);
+                        stay = ~in & stay;
                         out = stay & ~(best <= apotol);
                         in = in | (stay & (best <= apotol));
                     }
@@ -313,20 +313,48 @@ static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk 
     else CF_BN(contacts_body)(s, B, C, before, after, e_vs, e_dslip, e_dswitch, 0);
 }
 
+/* Where the batch keeps its arrays, in one block: the lanes' vectors first (the block is aligned
+ * for VD and every vector array is whole VDs), then the points' doubles, their faces and their
+ * hints. Sets B's pointers into base when base is given; returns the bytes either way, so that
+ * the size and the carving are one list. */
+static size_t CF_BN(layout)(CF_BN(batch) *B, unsigned char *base, int nb, int nj, int np)
+{
+    size_t off = 0, npw = (size_t)np * CF_BW;
+    int i;
+#define TAKE(ptr, type, n) \
+    do { if (base) (ptr) = (type *)(void *)(base + off); off += (size_t)(n) * sizeof(type); } while (0)
+    TAKE(B->b.x, VD, 3 * nb); TAKE(B->b.v, VD, 3 * nb); TAKE(B->b.q, VD, 4 * nb); TAKE(B->b.w, VD, 3 * nb);
+    TAKE(B->b.R, VD, 9 * nb); TAKE(B->b.F, VD, 3 * nb); TAKE(B->b.T, VD, 3 * nb); TAKE(B->b.ww, VD, 3 * nb);
+    TAKE(B->b.vold, VD, 3 * nb); TAKE(B->b.wold, VD, 3 * nb); TAKE(B->b.fext_prev, VD, 3 * nb);
+    TAKE(B->b.fdamp_prev, VD, 3 * nb); TAKE(B->b.tdamp_prev, VD, 3 * nb); TAKE(B->jfn, VD, nj);
+    TAKE(B->fsx, double, npw); TAKE(B->fsy, double, npw); TAKE(B->pst, double, npw); TAKE(B->pen0, double, npw);
+    for (i = 0; i < 6; i++) TAKE(B->he[i], double, npw);
+    TAKE(B->pface, const cf_face *, np);
+    TAKE(B->hint, int, npw);
+#undef TAKE
+    return off;
+}
+
+/* A lane's view's own arrays in base (when given: x, R, q, jfn); returns their count of doubles. */
+static size_t CF_BN(view_layout)(cf_solver *v, double *base, int nb, int nj)
+{
+    if (base) { v->x = base; v->R = v->x + 3 * nb; v->q = v->R + 9 * nb; v->jfn = v->q + 4 * nb; }
+    return (size_t)16 * nb + (size_t)nj;
+}
+
 /* The batch: lanes filled with jobs longest record first (batch_order), stepped together,
- * each refilled when its run ends. The lanes' vectors live in one block aligned for VD. */
+ * each refilled at the next multiple of CF_LEDGER_STEPS after its run ends. The lanes' vectors
+ * live in one block aligned for VD (layout). */
 static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs, cf_solver_batch_out *out)
 {
     CF_BN(batch) *B;
     cf_joint_chunk *C;
     cf_chunk_before_fn before;
     cf_chunk_after_fn after;
-    int nb = s->nbody, np = s->np, nj = s->nj, l, i, j, next = 0, active, nomem = 0;
+    int nb = s->nbody, np = s->np, nj = s->nj, l, j, next = 0, active, nomem = 0;
     long steps = 0;
-    size_t nvec = (size_t)46 * nb + (size_t)nj, nd = 4 * (size_t)np * CF_BW;
-    size_t bytes = nvec * sizeof(VD) + (nd + 6 * (size_t)np * CF_BW) * sizeof(double)
-                   + (size_t)np * CF_BW * sizeof(int) + (size_t)np * sizeof(cf_face *) + 64;
-    unsigned char *raw, *p;
+    size_t bytes = CF_BN(layout)(NULL, NULL, nb, nj, np) + 64, nview = CF_BN(view_layout)(NULL, NULL, nb, nj);
+    unsigned char *raw;
     const VD zero = {0};
     int *order = batch_order(n_jobs, jobs);   /* longest record first */
     B = (CF_BN(batch) *)calloc(1, sizeof *B);
@@ -334,7 +362,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
     raw = (unsigned char *)calloc(1, bytes);
     if (B)
         for (l = 0; l < CF_BW; l++) {
-            B->lane_mem[l] = (double *)calloc((size_t)16 * nb + (size_t)nj, sizeof(double));
+            B->lane_mem[l] = (double *)calloc(nview, sizeof(double));
             nomem |= !B->lane_mem[l];
         }
     if (!B || !C || !raw || !order || nomem) {
@@ -342,18 +370,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
         free(B); free(C); free(raw); free(order);
         return cf_solver_fail(s, CF_ENOMEM, "out of memory");
     }
-    p = raw + (64 - (uintptr_t)raw % 64) % 64;
-#define TAKE(ptr, n) do { (ptr) = (VD *)p; p += (size_t)(n) * sizeof(VD); } while (0)
-    TAKE(B->b.x, 3 * nb); TAKE(B->b.v, 3 * nb); TAKE(B->b.q, 4 * nb); TAKE(B->b.w, 3 * nb); TAKE(B->b.R, 9 * nb);
-    TAKE(B->b.F, 3 * nb); TAKE(B->b.T, 3 * nb); TAKE(B->b.ww, 3 * nb); TAKE(B->b.vold, 3 * nb);
-    TAKE(B->b.wold, 3 * nb); TAKE(B->b.fext_prev, 3 * nb); TAKE(B->b.fdamp_prev, 3 * nb);
-    TAKE(B->b.tdamp_prev, 3 * nb); TAKE(B->jfn, nj);
-#undef TAKE
-    B->fsx = (double *)p; B->fsy = B->fsx + (size_t)np * CF_BW; B->pst = B->fsy + (size_t)np * CF_BW;
-    B->pen0 = B->pst + (size_t)np * CF_BW;
-    for (i = 0; i < 6; i++) B->he[i] = B->pen0 + (size_t)(i + 1) * np * CF_BW;
-    B->pface = (const cf_face **)(B->he[5] + (size_t)np * CF_BW);
-    B->hint = (int *)(B->pface + np);
+    CF_BN(layout)(B, raw + (64 - (uintptr_t)raw % 64) % 64, nb, nj, np);
     for (j = 0; j < nj; j++) {
         const cf_joint *J = &s->jt[j];
         int k;
@@ -363,7 +380,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
     for (l = 0; l < CF_BW; l++) {
         cf_solver *v = &B->view[l];
         *v = *s;
-        v->x = B->lane_mem[l]; v->R = v->x + 3 * nb; v->q = v->R + 9 * nb; v->jfn = v->q + 4 * nb;
+        CF_BN(view_layout)(v, B->lane_mem[l], nb, nj);
         B->job[l] = -1;
         CF_BN(lane_reset)(s, B, l);
     }
@@ -372,6 +389,22 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
         VM damp = (VM)zero;
         cf_step_energy e[CF_BW];
         int end[CF_BW], need = 0;
+        /* the caller's check (cf_solver_set_check) after every CF_SOLVER_CHECK_STEPS steps of the batch
+         * (idle ones included), as cf_solver_run does: on a stop every running lane ends with CF_EINTR,
+         * the rest do not start */
+        if (s->check && steps > 0 && steps % CF_SOLVER_CHECK_STEPS == 0 && s->check(s->check_user)) {
+            for (l = 0; l < CF_BW; l++) {
+                int j = B->job[l];
+                cf_run *r = &B->r[l];
+                if (j < 0) continue;
+                cf_solver_run_stopped(&B->view[l], r);
+                cf_solver_run_finish(&B->view[l], r, jobs[j].residual_dislocation, &out[j].result);
+                out[j].status = r->st;
+                memcpy(out[j].message, B->view[l].msg, CF_MSG_LEN);
+            }
+            batch_not_started(next, n_jobs, order, out);
+            break;
+        }
         /* runs start at the batch's multiples of CF_LEDGER_STEPS (a lane idles up to three steps),
          * so that every lane's ledger steps are the batch's: the spring energies are summed at a
          * quarter of the steps */
@@ -417,23 +450,8 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
                 out[j].status = B->r[l].st;
                 memcpy(out[j].message, B->view[l].msg, CF_MSG_LEN);
                 B->job[l] = -1;
-                CF_BN(lane_reset)(s, B, l);   /* at rest until its next run starts */
+                CF_BN(lane_reset)(s, B, l);   /* a defined, finite state while it waits (lane_fill resets again) */
             } else B->r[l].n++;
-        }
-        /* the caller's check (cf_solver_set_check) every CF_SOLVER_CHECK_STEPS steps of the batch, as
-         * cf_solver_run does: on a stop every running lane ends with CF_EINTR, the rest do not start */
-        if (s->check && (steps + 1) % CF_SOLVER_CHECK_STEPS == 0 && s->check(s->check_user)) {
-            for (l = 0; l < CF_BW; l++) {
-                int j = B->job[l];
-                cf_run *r = &B->r[l];
-                if (j < 0) continue;
-                cf_solver_run_stopped(&B->view[l], r);
-                cf_solver_run_finish(&B->view[l], r, jobs[j].residual_dislocation, &out[j].result);
-                out[j].status = r->st;
-                memcpy(out[j].message, B->view[l].msg, CF_MSG_LEN);
-            }
-            batch_not_started(next, n_jobs, order, out);
-            break;
         }
     }
     for (l = 0; l < CF_BW; l++) free(B->lane_mem[l]);

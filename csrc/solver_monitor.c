@@ -4,7 +4,7 @@
  * collapse criteria, the histories and the at-rest detection. Nothing here changes
  * the motion.
  *
- * Energy ledger (J), evaluated every 4th step, at history samples and at the last
+ * Energy ledger (J), evaluated every CF_LEDGER_STEPS steps, at history samples and at the last
  * step: kinetic + (gravity - gravity_0) + (spring - spring_0) + slip + damping +
  * contact_switch - ground_work = balance error; the error's maximum over the run,
  * divided by the largest energy scale seen, is result.energy_error.

@@ -178,6 +178,21 @@ static inline double cf_point_spring_energy(double kn, double w, double pe)
         (duy) = (A1) + (W2) * (X) - (W0) * (Z);          \
     } while (0)
 
+/* The lanes' face tests, for the wide runner and the batch (lane masks from the plain
+ * comparisons of GCC vector types). Quick: inside where the point is within sqrt(fast) of its
+ * rest position (dh) or within the face's inscribed circle (cf_face_inside_hint's first test).
+ * Hint edge: with the edge normals (c, s) of the point's hint edge (h + 1), the next (h + 2) and
+ * the previous (h), best is the point's distance along the hint edge's normal, and stay holds
+ * where that edge is still the most distant (cf_face_inside_hint's walk would stay there): there
+ * the point is inside iff best <= apo + tol; elsewhere the walk decides (cf_point_law_at). */
+#define CF_LANES_QUICK_IN(dhx, dhy, fast, X, Y, apo2) \
+    (((dhx) * (dhx) + (dhy) * (dhy) <= (fast)) | ((X) * (X) + (Y) * (Y) <= (apo2)))
+#define CF_LANES_HINT_EDGE(X, Y, c0, s0, c1, s1, c2, s2, best, stay)                      \
+    do {                                                                                  \
+        (best) = (X) * (c0) + (Y) * (s0);                                                 \
+        (stay) = ~((X) * (c1) + (Y) * (s1) > (best)) & ~((X) * (c2) + (Y) * (s2) > (best)); \
+    } while (0)
+
 /* One sub-contact k against the face of P, any state: position in the face frame, the
  * state's transition (cf_point_next) with its energy bookkeeping, then the contact law.
  * Returns 1 and its terms in t (fx, fy, fn, mx, my, mz, vs, fn) when it carries force, 0

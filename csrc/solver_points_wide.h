@@ -60,7 +60,7 @@ void CF_POINTS_RUN(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_
          * arrays (read, never active, counted open, their shear rewritten unchanged at
          * most), unless the arrays end there */
         VM valid = all, act, st1, in, ok;
-        VD X, Y, Z, pen, dhx, dhy, d2, dux, duy, st, f, lim, fx, fy, m2, mx, my, mz, vs;
+        VD X, Y, Z, pen, dhx, dhy, dux, duy, st, f, lim, fx, fy, m2, mx, my, mz, vs;
         VD vlx, vly;
         int inval = 0, bits, open;
         if (k + CF_BW - 1 >= k1) {
@@ -72,7 +72,6 @@ void CF_POINTS_RUN(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_
         CF_POINT_AT(M0, M1, M3, M4, M6, M7, P->mz[0], P->mz[1], P->mz[2], P->t[0], P->t[1], P->t[2], vlx, vly, X, Y, Z);
         pen = P->sgn * Z;
         dhx = X - CF_BN(ld)(hx + k); dhy = Y - CF_BN(ld)(hy + k);
-        d2 = dhx * dhx + dhy * dhy;
         CF_POINT_DU(P->A[0], P->A[1], P->W[0], P->W[1], P->W[2], X, Y, Z, dux, duy);
         act = (pen > 0.0) & ~(pen > P->pmax) & valid;
         st = CF_BN(ld)(state + k);
@@ -81,22 +80,21 @@ void CF_POINTS_RUN(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_
                      mu, CF_BN(ld)(fsx + k), CF_BN(ld)(fsy + k), f, lim, fx, fy, m2);
         /* inside: the cheap test around the point's rest position, or the face's
          * inscribed circle (face_inside_hint's first test, which leaves the hint alone) */
-        in = (d2 <= CF_BN(ld)(fast + k)) | (X * X + Y * Y <= apo2) | unb;
+        in = CF_LANES_QUICK_IN(dhx, dhy, CF_BN(ld)(fast + k), X, Y, apo2) | unb;
         if (CF_BW_BITS(act & ~in & st1)) {
             /* the polygon test: if the point's hint edge is still its most distant edge
              * (face_inside_hint's walk would stay there), inside iff within apo + tol of
              * it; else (the walk moves) leave the point to cf_point_law */
             const cf_face *ff = P->ff;
             const int *h = s->p_hint + k;
-            VD ex, ey, best, pp, pm;
+            VD c0, s0, c1, s1, c2, s2, best;
             VM stay;
-            for (l = 0; l < CF_BW; l++) { ex[l] = ff->ecw[h[l] + 1]; ey[l] = ff->esw[h[l] + 1]; }
-            best = X * ex + Y * ey;
-            for (l = 0; l < CF_BW; l++) { ex[l] = ff->ecw[h[l] + 2]; ey[l] = ff->esw[h[l] + 2]; }
-            pp = X * ex + Y * ey;
-            for (l = 0; l < CF_BW; l++) { ex[l] = ff->ecw[h[l]]; ey[l] = ff->esw[h[l]]; }
-            pm = X * ex + Y * ey;
-            stay = ~(pp > best) & ~(pm > best);
+            for (l = 0; l < CF_BW; l++) {
+                c0[l] = ff->ecw[h[l] + 1]; s0[l] = ff->esw[h[l] + 1];
+                c1[l] = ff->ecw[h[l] + 2]; s1[l] = ff->esw[h[l] + 2];
+                c2[l] = ff->ecw[h[l]]; s2[l] = ff->esw[h[l]];
+            }
+            CF_LANES_HINT_EDGE(X, Y, c0, s0, c1, s1, c2, s2, best, stay);
             in = in | (stay & (best <= apotol));
         }
         ok = act & in & st1 & ~(m2 > CF_LAW_CAP2(CF_LAW_SMUL, lim));
