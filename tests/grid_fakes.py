@@ -43,7 +43,8 @@ def fake(ctx, row):
 
 def ranked(ctx, row):
     out = fake(ctx, row)
-    out["message"] = f"rank {os.environ.get('OMPI_COMM_WORLD_RANK', '0')}"  # Open MPI's rank of this process
+    from mpi4py import MPI   # already loaded by the grid that calls this (any launcher)
+    out["message"] = f"rank {MPI.COMM_WORLD.Get_rank()}"
     return out
 
 

@@ -569,8 +569,11 @@ def test_ctrl_c_inside_simulate_interrupts_the_c_run_promptly(call):
     # here needs (5 s + the 3 s tail) / 5e-7 s = 1.6e7 steps, about a minute (the batch: 8 of them
     # side by side, as the grid's chunks run); the C run now calls back every CF_SOLVER_CHECK_STEPS
     # steps (a few ms), where Python raises the KeyboardInterrupt.
+    # The child takes Python's own Ctrl-C handler, which a run at a terminal has: a test run started in
+    # the background of a script (`cmd &`) inherits SIGINT ignored, and Python then keeps it ignored.
     code = textwrap.dedent("""
-        import sys, time, numpy as np, pycolfrag as pcf
+        import signal, sys, time, numpy as np, pycolfrag as pcf
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         col = pcf.Column.parthenon()
         t = np.arange(0, 5.0, 0.005)
         acc = 0.25 * 9.81 * np.sin(2 * np.pi * 2 * t)
