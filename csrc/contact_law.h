@@ -60,8 +60,9 @@
 /* Slip: a trial (fx, fy) beyond the cap (m2 > CF_LAW_CAP2) scaled back onto the cone,
  * (fxs, fys) = (fx, fy) lim / |f|, and the slip dissipation over the step: the trapezoidal work
  * on the contact minus the change of its elastic energy (fsx0, fsy0: the stored shear before
- * the step). SQRT is the lane's square root; the rest are the plain operators, which are the
- * per-lane IEEE operations for double and for GCC vector types alike. */
+ * the step). sc receives the scale lim / |f| (a variable of the caller's lane type: C99 has no
+ * typeof for a local of the macro's own). SQRT is the lane's square root; the rest are the plain
+ * operators, which are the per-lane IEEE operations for double and for GCC vector types alike. */
 #define CF_LAW_SLIP(SQRT, lim, m2, fx, fy, fsx0, fsy0, dux, duy, ksw, sc, fxs, fys, diss)                 \
     do {                                                                                              \
         (sc) = (lim) / SQRT(m2);                                                                      \
