@@ -133,3 +133,19 @@ def test_the_history_is_read_back_from_a_signed_file(tmp_path):
     R.create(out, SIG, {"created": "x", "code_digests": json.dumps(first)}, 2, [1.0])
     _, history = signing.resume_signature(out, dict(SIG, build={"version": "0.2.0"}), True, log=lambda s: None)
     assert history == first
+
+
+def test_a_file_being_written_is_left_to_its_lock(tmp_path):
+    # another run holds the file: the lock's refusal (exit code 5, naming the holder) comes first,
+    # not a verdict on rows that run is still writing
+    out = _file(tmp_path, SIG)
+    new = dict(SIG, code_digest="2" * 64)
+    lock = R.RunLock.acquire(out)
+    try:
+        assert signing.resume_signature(out, new, False, log=print) == (new, None)
+        with pytest.raises(R.ResultsLockedError):
+            R.open_for_run(out, new, {}, 2, [1.0])
+    finally:
+        lock.release()
+    with pytest.raises(ResultsFileError, match="--allow-code-change"):
+        signing.resume_signature(out, new, False, log=print)

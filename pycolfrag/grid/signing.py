@@ -186,7 +186,8 @@ def resume_signature(path, signature: dict, allow_code_change: bool, log) -> tup
     caller to extend with this run's entry. Any other difference is left to
     :func:`pycolfrag.results.open_for_run`, whose refusal lists every difference."""
     path = Path(os.path.realpath(path))
-    old = _stored_run(path)
+    # a file another run is writing: its lock refuses this run first (exit code 5, naming the holder)
+    old = None if _results.lock_held(path) else _stored_run(path)
     if old is None:
         return signature, None
     old_sig, old_attrs = old
