@@ -87,3 +87,17 @@ def test_a_plain_function_is_a_row_function_of_one_row():
     import grid_fakes
     assert fn.one is grid_fakes.fake
     assert load_function(None, grid.SYNTHETIC_ROWS) is grid.SYNTHETIC_ROWS
+
+
+def test_no_module_of_the_driver_imports_the_analysis():
+    """Every module of the grid package, imports inside functions counted (read with ast): nothing of
+    ``pycolfrag.analysis`` nor the command line that runs it after a grid (``pycolfrag.cli``); the
+    dispatcher (``pycolfrag.commands``) is allowed, since it imports no command until one runs."""
+    from test_analysis_package import _imports, _modules
+    modules = _modules()
+    driver = sorted(m for m in modules if m == "pycolfrag.grid" or m.startswith("pycolfrag.grid."))
+    assert len(driver) >= 8, driver
+    for name in driver:
+        bad = {m for m in _imports(modules[name], modules) if m.startswith(("pycolfrag.analysis", "pycolfrag.cli"))}
+        assert not bad, f"{name} imports {sorted(bad)}"
+    assert not {m for m in _imports(modules["pycolfrag.commands"], modules) if m != "pycolfrag"}
