@@ -33,7 +33,7 @@ from pycolfrag import results as R
 from pycolfrag.errors import ParameterError
 
 from test_faults import FAKE, _fresh, _kill9, _rank_pids, _start, _wait_gone, _wait_rows, tmpfs  # noqa: F401 (tmpfs: a fixture)
-from test_grid import ROOT, SCRIPT, _env, _journal_rows, _ok, _same_rows, _serial
+from test_grid import ROOT, SCRIPT, _env, _journal_rows, _mpirun, _ok, _same_rows, _serial
 
 def _partial(tmp_path, n=3, name="g.h5", extra=()):
     """A fake grid killed (SIGKILL) after ``n`` journalled rows: the state a resume starts from."""
@@ -150,6 +150,7 @@ def _run_with(package, args):
 _M_SAT = ("pycolfrag/ground_motion/rupakhety_2011.py", "M_SAT = 7.0", "M_SAT = 7.3")
 
 
+@pytest.mark.mpi
 def test_resume_after_a_change_off_the_reference_path_is_refused_unless_allowed(tmp_path):
     # Reported: kill a grid after 6 journal rows, change M_SAT 7.0 -> 7.3, rerun: it resumed, and
     # 10 of 16 rows differed from either version. The run is now signed by its code.
@@ -167,8 +168,10 @@ def test_resume_after_a_change_off_the_reference_path_is_refused_unless_allowed(
     assert f"code_digest: file has \"{digest}\"" in line and "--allow-code-change" in line, line
     _same_rows(before, R.load(out))  # untouched
     assert _journal_rows(out) == len(before)
-    # allowed: resumed, and the file names both versions with the time each began writing rows
-    p = _ok(_run_with(edited, [*FAKE, "--out", str(out), "--allow-code-change"]))
+    # allowed: resumed (on 2 MPI ranks: rank 0 reads the code, rank 1 takes its digest), and the file
+    # names both versions with the time each began writing rows
+    p = _ok(_mpirun(2, [*FAKE, "--out", str(out), "--allow-code-change"],
+                    PYTHONPATH=os.pathsep.join([str(edited), str(ROOT / "tests")])))
     assert f"{len(before)} of 16 rows already done" in p.stdout and "--allow-code-change" in p.stdout, p.stdout
     after = R.load(out)
     assert after.complete and after.attrs["code_digest"] == digest
