@@ -26,7 +26,7 @@ from ..ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
 from .probes import check_models, check_solver_options, check_space, check_work, probe_rows
 from .protocol import RunSpec
 from .rows import _key, load_function
-from .schedule import RunSummary, get_comm, run_grid
+from .schedule import RANK0_WORKS_UP_TO, RunSummary, get_comm, run_grid
 from .spec import (DEFAULT_DAMPING, DEFAULT_PERIODS_S, DEFAULT_PULSE, DEFAULT_RECORD_DT_S, DEFAULT_SAMPLES,
                    DEFAULT_SEED, PULSES, GridSpec, RecordGridSpec)
 
@@ -130,7 +130,7 @@ def build_parser(prog: str = "pycolfrag grid") -> argparse.ArgumentParser:
     a.add_argument("--mpi", choices=("auto", "yes", "no"), default="auto",
                    help="use MPI: auto = when started by mpirun/srun or 'python -m mpi4py'")
     a.add_argument("--rank0-works", choices=("auto", "yes", "no"), default="auto",
-                   help="rank 0 computes rows between serving others (auto: with at most 16 ranks)")
+                   help=f"rank 0 computes rows between serving others (auto: with at most {RANK0_WORKS_UP_TO} ranks)")
     a.add_argument("--chunk-max", type=int, default=32, help="largest chunk of rows handed to a rank (its runs go "
                    "side by side in SIMD lanes; rank 0 takes a quarter of it for itself)")
     a.add_argument("--flush-s", type=float, default=2.0, help="seconds between HDF5 writes (the journal is immediate)")
