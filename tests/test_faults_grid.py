@@ -33,7 +33,7 @@ from pycolfrag import results as R
 from pycolfrag.errors import ParameterError
 
 from test_faults import FAKE, _fresh, _kill9, _rank_pids, _start, _wait_gone, _wait_rows, tmpfs  # noqa: F401 (tmpfs: a fixture)
-from test_grid import ROOT, SCRIPT, _env, _journal_rows, _ok, _same_rows, _serial
+from test_grid import ROOT, SCRIPT, _env, _journal_rows, _mpirun, _ok, _same_rows, _serial
 
 def _partial(tmp_path, n=3, name="g.h5", extra=()):
     """A fake grid killed (SIGKILL) after ``n`` journalled rows: the state a resume starts from."""
@@ -121,6 +121,70 @@ def test_resume_across_a_code_change_is_refused(tmp_path, patch, named):
     # the same build resumes it
     p = _ok(_serial([*FAKE, "--out", str(out)]))
     assert f"{len(before)} of 16 rows already done" in p.stdout
+
+
+def _scratch_package(tmp_path, name, edit=None):
+    """A copy of the package as a checkout holds it -- ``pycolfrag/`` (sources, data, built extension)
+    beside ``csrc/`` -- in ``tmp_path/name``, with ``edit`` = (file, old text, new text) applied: another
+    version of the code, importable by putting the folder first on PYTHONPATH."""
+    import shutil
+    root = tmp_path / name
+    skip = shutil.ignore_patterns("__pycache__", "*.pyc")
+    shutil.copytree(ROOT / "pycolfrag", root / "pycolfrag", ignore=skip)
+    shutil.copytree(ROOT / "csrc", root / "csrc", ignore=skip)
+    if edit is not None:
+        rel, old, new = edit
+        text = (root / rel).read_text()
+        assert text.count(old) == 1, f"{old!r} is not once in {rel}"
+        (root / rel).write_text(text.replace(old, new))
+    return root
+
+
+def _run_with(package, args):
+    """The grid command (scripts/run_grid.py) with the package imported from ``package``."""
+    return _serial(args, PYTHONPATH=os.pathsep.join([str(package), str(ROOT / "tests")]))
+
+
+# the issue's reproduction: the pulse model's saturation magnitude, a constant off the path of the
+# short reference computation behind the result hash (Mw 7 is not above 7.0 nor 7.3)
+_M_SAT = ("pycolfrag/ground_motion/rupakhety_2011.py", "M_SAT = 7.0", "M_SAT = 7.3")
+
+
+@pytest.mark.mpi
+def test_resume_after_a_change_off_the_reference_path_is_refused_unless_allowed(tmp_path):
+    # Reported: kill a grid after 6 journal rows, change M_SAT 7.0 -> 7.3, rerun: it resumed, and
+    # 10 of 16 rows differed from either version. The run is now signed by its code.
+    out = _partial_whole(tmp_path)
+    before = R.load(out)
+    digest = before.attrs["code_digest"]
+    assert len(digest) == 64 and json.loads(before.attrs["grid_signature"])["code_digest"] == digest
+    # a copy of the same code elsewhere signs alike (the digest reads contents, not paths): it resumes
+    same = _scratch_package(tmp_path, "same")
+    edited = _scratch_package(tmp_path, "edited", _M_SAT)
+    p = _run_with(edited, [*FAKE, "--out", str(out)])
+    assert p.returncode == 2, p.stdout + p.stderr
+    line = p.stdout
+    assert "holds a different run" in line and "another build of pycolfrag" in line, line
+    assert f"code_digest: file has \"{digest}\"" in line and "--allow-code-change" in line, line
+    _same_rows(before, R.load(out))  # untouched
+    assert _journal_rows(out) == len(before)
+    # allowed: resumed (on 2 MPI ranks: rank 0 reads the code, rank 1 takes its digest), and the file
+    # names both versions with the time each began writing rows
+    p = _ok(_mpirun(2, [*FAKE, "--out", str(out), "--allow-code-change"],
+                    PYTHONPATH=os.pathsep.join([str(edited), str(ROOT / "tests")])))
+    assert f"{len(before)} of 16 rows already done" in p.stdout and "--allow-code-change" in p.stdout, p.stdout
+    after = R.load(out)
+    assert after.complete and after.attrs["code_digest"] == digest
+    _same_rows(before, after, rows=before.rows)
+    history = json.loads(after.attrs["code_digests"])
+    assert [h["code_digest"] for h in history][0] == digest and len(history) == 2
+    assert history[1]["code_digest"] != digest and history[1]["rows_done_before"] == len(before)
+    assert all(h["started"] for h in history)
+    sessions = json.loads(after.attrs["sessions"])
+    assert sessions[-1]["code_digest"] == history[1]["code_digest"]
+    # the copy of the unedited code is the file's first version: no flag needed to rerun it
+    p = _ok(_run_with(same, [*FAKE, "--out", str(out)]))
+    assert "16 of 16 rows already done" in p.stdout, p.stdout
 
 
 # ------------------------------------------------------------------------------ 4: StepWarning
@@ -330,7 +394,7 @@ def test_out_naming_a_folder_is_refused_as_such_not_called_damaged(tmp_path, cap
 
 def test_an_os_error_before_any_row_does_not_claim_rows_in_the_journal(tmp_path):
     # Reported: "Rows finished so far are in the journal" when none were.
-    from pycolfrag.grid import _os_error_line
+    from pycolfrag.grid.command import _os_error_line
     out = tmp_path / "g.h5"
     err = OSError(30, "Read-only file system", str(out))
     assert _os_error_line(err, out) == (f"run_grid: cannot write the results at {out}: Read-only file system (errno 30); "

@@ -21,7 +21,8 @@ import numpy as np
 import pytest
 
 from pycolfrag import results as R
-from pycolfrag.grid import GridSpec, _parse_values, derive_seed
+from pycolfrag.grid import GridSpec, derive_seed
+from pycolfrag.grid.command import _parse_values
 
 ROOT = Path(__file__).resolve().parent.parent
 SCRIPT = ROOT / "scripts" / "run_grid.py"

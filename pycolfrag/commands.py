@@ -1,0 +1,136 @@
+"""The ``pycolfrag`` command: one entry point over every command line of the project.
+
+    pycolfrag grid --mw 6.5 7.5 --dist 5 20 --samples 6      # = python scripts/run_grid.py ...
+    pycolfrag risk examples/site_athens.toml pulse.h5 out/    # = python -m pycolfrag.analysis.risk ...
+    pycolfrag --help                                          # the commands, one line each
+
+Each command is the ``main(argv)`` of the module that owns it, imported only when that command runs
+(:data:`COMMANDS`), so ``pycolfrag --help`` loads none of the analysis; the old commands
+(``scripts/run_grid.py``, ``python -m pycolfrag.analysis.risk``, ...) stay and do the same. Three
+commands are scripts of the repository (``scripts/make_figures.py``, ``make_validation.py``,
+``record_checks.py``), loaded from the checkout the package runs from. This module imports nothing of
+pycolfrag but its version, so any command line may take :class:`HelpFormatter` from it.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Sequence
+
+from . import __version__
+
+__all__ = ["HelpFormatter", "Command", "COMMANDS", "build_parser", "main"]
+
+#: The repository the package runs from (its ``scripts/`` hold three of the commands).
+REPO = Path(__file__).resolve().parent.parent
+
+
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """The help style of the ``pycolfrag`` commands: every option's default shown, except None ones
+    (their help text states the default that applies)."""
+
+    def _get_help_string(self, action):
+        if action.default is None:
+            return action.help
+        return super()._get_help_string(action)
+
+
+class _ListingFormatter(HelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """:class:`HelpFormatter` keeping the top level's list of commands as written."""
+
+
+@dataclass(frozen=True)
+class Command:
+    """One command: its name, the ``main(argv)`` it runs (``module:function``, or ``scripts/FILE.py:function``
+    of the repository), what it does, and the older command that does the same."""
+
+    name: str
+    target: str
+    summary: str
+    old: str
+
+    def load(self) -> Callable[[Sequence[str]], int | None]:
+        """The command's ``main``, imported now (and only now)."""
+        where, _, func = self.target.partition(":")
+        if where.endswith(".py"):
+            path = REPO / where
+            if not path.is_file():
+                raise SystemExit(f"pycolfrag {self.name}: it runs {where} of the repository, which is not at "
+                                 f"{path} (an installed package ships no scripts/): run it from a checkout")
+            spec = importlib.util.spec_from_file_location(f"_pycolfrag_script_{path.stem}", path)
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+        else:
+            module = importlib.import_module(where)
+        return getattr(module, func)
+
+
+#: Every command, in the order ``pycolfrag --help`` lists them.
+COMMANDS = {c.name: c for c in (
+    Command("grid", "pycolfrag.cli:main",
+            "run (or resume) the Monte Carlo grid, or a record suite (--records), then its summary, figures "
+            "and report (docs/grid.md)", "python scripts/run_grid.py"),
+    Command("report", "pycolfrag.analysis.report:main", "markdown report of a results file",
+            "python -m pycolfrag.analysis.report"),
+    Command("compare", "pycolfrag.analysis.compare:main",
+            "compare two results files row by row (bitwise), else by scenario statistics",
+            "python -m pycolfrag.analysis.compare"),
+    Command("risk", "pycolfrag.analysis.risk:main",
+            "annual rates and T-year probabilities of the damage levels at a site (docs/risk.md)",
+            "python -m pycolfrag.analysis.risk"),
+    Command("openquake", "pycolfrag.analysis.openquake:main",
+            "OpenQuake interchange: export fragility as NRML, classical damage from hazard curves",
+            "python -m pycolfrag.analysis.openquake"),
+    Command("record-report", "pycolfrag.analysis.record_report:main",
+            "analyse a record-suite results file: stripes, cloud, MSA, Fig. 10, report (docs/records.md)",
+            "python -m pycolfrag.analysis.record_report"),
+    Command("figures", "scripts/make_figures.py:main", "the paper's figures from a results file",
+            "python scripts/make_figures.py"),
+    Command("validation", "scripts/make_validation.py:main",
+            "docs/validation.md: the paper's quantitative statements against a results file",
+            "python scripts/make_validation.py"),
+    Command("record-checks", "scripts/record_checks.py:main",
+            "the natural-record checks: fig10, table2, demo-suite, analyse (docs/records.md)",
+            "python scripts/record_checks.py"),
+)}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The top level: the command's name, then its own arguments (``pycolfrag COMMAND --help``)."""
+    width = max(len(n) for n in COMMANDS)
+    listing = "\n".join(f"  {c.name:<{width}}  {c.summary}" for c in COMMANDS.values())
+    same = "\n".join(f"  pycolfrag {c.name:<{width}} = {c.old}" for c in COMMANDS.values())
+    p = argparse.ArgumentParser(
+        prog="pycolfrag", formatter_class=_ListingFormatter,
+        description="Seismic fragility of multidrum classical columns. Under MPI: "
+                    "mpirun -n N python -m mpi4py -m pycolfrag grid ...",
+        epilog=f"commands:\n{listing}\n\nthe same as the older commands:\n{same}\n\n"
+               "'pycolfrag COMMAND --help' gives a command's options.")
+    p.add_argument("--version", action="version", version=f"pycolfrag {__version__}")
+    p.add_argument("command", choices=list(COMMANDS), metavar="COMMAND", help="the command to run (below)")
+    p.add_argument("args", nargs=argparse.REMAINDER, help="its arguments")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``pycolfrag COMMAND ARGS...``: the command's ``main(ARGS)``; returns its exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    if not argv or argv[0].startswith("-"):
+        parser.parse_args(argv)       # --help, or a usage error
+        parser.print_usage(sys.stderr)
+        return 2
+    args = parser.parse_args(argv[:1])  # the name alone: the rest belongs to the command
+    command = COMMANDS[args.command]
+    run = command.load()
+    prog = sys.argv[0]
+    sys.argv[0] = f"pycolfrag {command.name}"   # a command's usage line and recorded command name it as run
+    try:
+        code = run(argv[1:])
+    finally:
+        sys.argv[0] = prog
+    return 0 if code is None else int(code)
