@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 
 from pycolfrag import results as R
+from pycolfrag.analysis.data import load
 from pycolfrag.errors import ParameterError
 
 from test_faults import FAKE, _fresh, _kill9, _rank_pids, _start, _wait_gone, _wait_rows, tmpfs  # noqa: F401 (tmpfs: a fixture)
@@ -53,7 +54,7 @@ def _partial_whole(tmp_path, n=3):
         out = _partial(tmp_path, n=n, name=f"g{attempt}.h5")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            R.load(out)
+            load(out)
         if not any("journal" in str(w.message) or "damaged" in str(w.message) for w in caught):
             return out
     pytest.fail("every kill landed inside a batch write")
@@ -110,13 +111,13 @@ def test_resume_across_a_code_change_is_refused(tmp_path, patch, named):
     # Reported: kill a grid, change a C default (dt_factor 0.8 -> 0.7), rebuild, rerun the same
     # command: 121 rows with the old step and 39 with the new in one file.
     out = _partial_whole(tmp_path)
-    before = R.load(out)
+    before = load(out)
     p = _main_patched(patch, [*FAKE, "--out", str(out)])
     assert p.returncode == 2, p.stdout + p.stderr
     assert "holds a different run" in p.stdout and named in p.stdout, p.stdout
     assert "another build of pycolfrag" in p.stdout and "mix rows of two versions" in p.stdout, p.stdout
-    _same_rows(before, R.load(out))  # untouched
-    sig = json.loads(R.load(out).attrs["grid_signature"])
+    _same_rows(before, load(out))  # untouched
+    sig = json.loads(load(out).attrs["grid_signature"])
     assert set(sig["build"]) == {"version", "result_hash"}
     # the same build resumes it
     p = _ok(_serial([*FAKE, "--out", str(out)]))
@@ -192,33 +193,33 @@ def test_a_changed_root_attribute_of_a_complete_file_is_damage_not_another_run(t
     # signature made the next run advise --overwrite, which deletes every row.
     out = tmp_path / "g.h5"
     _ok(_serial([*FAKE, "--out", str(out)]))
-    good = R.load(out)
+    good = load(out)
     with h5py.File(out, "r") as f:
         value = f.attrs[attr].encode()
     i = value.index(key) + len(key)
     assert value[i:i + 1].isdigit()
     _flip_in_file(out, value, i, b"9" if value[i:i + 1] != b"9" else b"8")  # still valid JSON, another value
     with pytest.raises(R.ResultsDamagedError, match=f"checksum mismatch in .*attribute {attr}\\b"):
-        R.load(out)
+        load(out)
     p = _serial([*FAKE, "--out", str(out)])
     assert p.returncode == 2, p.stdout + p.stderr
     line = p.stdout.strip().splitlines()[-1]
     assert "damaged" in line and f"attribute {attr}" in line and "holds a different run" not in line, line
     assert "its rows are intact" in line and f"mv {out} {out}.damaged" in line and "--overwrite would delete" in line
-    _same_rows(good, R.load(out, verify=False))  # the salvage path the line names
+    _same_rows(good, load(out, verify=False))  # the salvage path the line names
     assert out.exists()
 
 
 def test_a_changed_signature_of_an_interrupted_file_is_rebuilt_from_its_journal(tmp_path):
     out = _partial_whole(tmp_path, n=4)
-    before = R.load(out)
+    before = load(out)
     with h5py.File(out, "r") as f:
         value = f.attrs["grid_signature"].encode()
     key = b'"seed": 2016060'
     _flip_in_file(out, value, value.index(key) + len(key), b"9")
     p = _ok(_serial([*FAKE, "--out", str(out)]))
     assert "checksum mismatch in attribute grid_signature" in p.stdout and "rebuilding it from" in p.stdout, p.stdout
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 16
     _same_rows(before, after, rows=before.rows)
     _same_rows(_fresh(tmp_path, FAKE), after)
@@ -233,11 +234,11 @@ def test_an_edited_journal_value_is_detected_and_not_used(tmp_path):
     lines[2] = json.dumps(edited, separators=(",", ":")).encode() + b"\t" + lines[2].rsplit(b"\t", 1)[1]
     jp.write_bytes(b"\n".join(lines))
     with pytest.warns(UserWarning, match=r"line\(s\) 3 fail their checksum"):
-        r = R.load(out)
+        r = load(out)
     assert row["row"] not in r.rows.tolist() and not (r.samples["u_top"] == 123.0).any()
     p = _ok(_serial([*FAKE, "--out", str(out)]))
     assert "fail their checksum" in p.stdout, p.stdout
-    after = R.load(out)
+    after = load(out)
     assert after.complete and not (after.samples["u_top"] == 123.0).any()
     _same_rows(_fresh(tmp_path, FAKE), after)  # the edited row was recomputed
 
@@ -245,17 +246,17 @@ def test_an_edited_journal_value_is_detected_and_not_used(tmp_path):
 def test_zeroed_status_bytes_of_an_interrupted_file_are_recomputed(tmp_path):
     # Reported: zeroed status bytes gave OK rows of NaN that were never recomputed.
     out = _partial_whole(tmp_path, n=4)
-    before = R.load(out)
+    before = load(out)
     with h5py.File(out, "r") as f:
         off, n = f["samples/status"].id.get_offset(), f["samples/status"].size
     with open(out, "r+b") as fh:
         fh.seek(off)
         fh.write(b"\0" * 4 * n)  # every status 0 = "ok", pending rows included
     with pytest.warns(UserWarning, match="marked done but carry no identity"):
-        r = R.load(out)
+        r = load(out)
     assert r.rows.tolist() == before.rows.tolist()  # the journal's rows, and no "ok" row of NaN
     p = _ok(_serial([*FAKE, "--out", str(out)]))
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 16 and np.isfinite(after.samples["u_top"]).all()
     _same_rows(_fresh(tmp_path, FAKE), after)
 
@@ -362,7 +363,7 @@ def test_a_pair_of_unequal_lengths_runs_as_recorded_and_a_failing_record_says_wh
                                         "BROKEN,B_H1.AT2,,6.5,10,Broken\n")
     out = tmp_path / "r.h5"
     p = _ok(_serial(["--records", str(tmp_path / "suite.csv"), "--no-figures", "--no-progress", "--out", str(out)]))
-    r = R.load(out)
+    r = load(out)
     s = r.samples
     uneven = {s["component"][i]: i for i in range(len(r)) if s["record_id"][i] == "UNEVEN"}
     assert set(uneven) == {"h1", "h2"} and all(s["status"][i] == 0 for i in uneven.values()), s["message"]
@@ -399,7 +400,7 @@ def test_a_reader_holding_the_file_open_does_not_abort_the_run(tmp_path):
         while run.poll() is None:  # and results.load polling meanwhile
             with warnings.catch_warnings():
                 warnings.simplefilter("error", UserWarning)  # no read called the file damaged
-                seen = max(seen, len(R.load(out)))
+                seen = max(seen, len(load(out)))
             time.sleep(0.05)
         text = run.stdout.read()
         assert run.returncode == 0, text
@@ -409,7 +410,7 @@ def test_a_reader_holding_the_file_open_does_not_abort_the_run(tmp_path):
             if p is not None and p.poll() is None:
                 p.kill()
                 p.wait()
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 16
     _same_rows(_fresh(tmp_path, FAKE), after)
 
@@ -478,7 +479,7 @@ def test_suite_files_outside_the_suite_folder_are_refused_unless_allowed(tmp_pat
     out = tmp_path / "r.h5"
     p = _ok(_serial(["--records", str(_suite_csv(suite, "../secret/.token")), "--no-figures", "--no-progress",
                      "--out", str(out)]))
-    s = R.load(out).samples
+    s = load(out).samples
     assert s["status"][0] == R.STATUS_RECORD_FAILED and "outside the suite's folder" in s["message"][0]
     assert "TOKEN" not in p.stdout and not any("TOKEN" in m for m in s["message"])
 
@@ -516,12 +517,12 @@ def test_a_symlink_to_a_results_file_meets_its_lock(tmp_path):
         p = _serial([*FAKE, "--out", str(link)])
         assert p.returncode == 5 and f"pid {a.pid}" in p.stdout, p.stdout + p.stderr
         assert not R.lock_path(link).exists()
-        assert len(R.load(link)) >= 1  # readers through the link see the journal beside the real file
+        assert len(load(link)) >= 1  # readers through the link see the journal beside the real file
     finally:
         _kill9(a)
     _ok(_serial([*FAKE, "--out", str(link)]))  # resumes the real file through the link
-    assert link.is_symlink() and R.load(out).complete
-    _same_rows(_fresh(tmp_path, FAKE), R.load(out))
+    assert link.is_symlink() and load(out).complete
+    _same_rows(_fresh(tmp_path, FAKE), load(out))
 
 
 # ------------------------------------------------------------------------------ 8: full disk at creation
