@@ -3,7 +3,7 @@ counts are integers, arrays hold integers or floats. Strings that float() would 
 strings or bools are refused with a ParameterError naming the argument and the value, the same words in
 every module; numpy numbers keep working and give the same results as Python floats.
 
-Wrong files given to the readers (results.load, the report, make_figures) end with a ResultsFileError
+Wrong files given to the readers (analysis.data.load, the report, make_figures) end with a ResultsFileError
 saying what the file is, and on the command line with one line and exit status 2, never a traceback."""
 import os
 import subprocess

@@ -386,7 +386,7 @@ def test_a_pair_of_unequal_lengths_runs_as_recorded_and_a_failing_record_says_wh
 # ------------------------------------------------------------------------------ 6: readers
 
 def test_a_reader_holding_the_file_open_does_not_abort_the_run(tmp_path):
-    # Reported: h5py.File(out, "r") held open (HDF5's default file locking) or results.load polling
+    # Reported: h5py.File(out, "r") held open (HDF5's default file locking) or load polling
     # made the grid's next HDF5 write fail "unable to lock file" (exit 4).
     out = tmp_path / "g.h5"
     run = _start([*FAKE, "--out", str(out)], PCF_FAKE_SLEEP_S="0.15")
@@ -398,7 +398,7 @@ def test_a_reader_holding_the_file_open_does_not_abort_the_run(tmp_path):
                                    str(out)], stdout=subprocess.PIPE, text=True, env=_env())
         assert holder.stdout.readline().strip() == "open"  # a plain h5py reader, locks as HDF5 does by default
         seen = 0
-        while run.poll() is None:  # and results.load polling meanwhile
+        while run.poll() is None:  # and load polling meanwhile
             with warnings.catch_warnings():
                 warnings.simplefilter("error", UserWarning)  # no read called the file damaged
                 seen = max(seen, len(load(out)))
@@ -524,6 +524,24 @@ def test_a_symlink_to_a_results_file_meets_its_lock(tmp_path):
     _ok(_serial([*FAKE, "--out", str(link)]))  # resumes the real file through the link
     assert link.is_symlink() and load(out).complete
     _same_rows(_fresh(tmp_path, FAKE), load(out))
+
+
+def test_a_hard_link_to_a_results_file_meets_its_lock(tmp_path):
+    # Reported: two runs on two hard links of one file both wrote (exit 4 for both, an orphaned
+    # journal): the lock was one per name. The run's lock covers the file's inode too.
+    out = tmp_path / "g.h5"
+    link = tmp_path / "link.h5"
+    a = _start([*FAKE, "--out", str(out)], PCF_FAKE_SLEEP_S="0.5")
+    try:
+        _wait_rows(out, 1, a)
+        os.link(out, link)
+        p = _serial([*FAKE, "--out", str(link)])
+        assert p.returncode == 5 and "hard link" in p.stdout and f"pid {a.pid}" in p.stdout, p.stdout + p.stderr
+        assert not R.journal_path(link).exists() and not R.lock_path(link).exists()
+    finally:
+        _kill9(a)
+    _ok(_serial([*FAKE, "--out", str(out)]))  # the first run's name resumes it (its journal is beside it)
+    _same_rows(_fresh(tmp_path, FAKE), load(link))
 
 
 # ------------------------------------------------------------------------------ 8: full disk at creation

@@ -194,19 +194,22 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
         ``grid_signature``; fields or ``/spectra`` may be missing). Default False: such a file is
         refused (:class:`~pycolfrag.errors.ResultsFileError`).
     verify : bool
-        Check the stored checksums (every attribute; every dataset of a complete file). Default True;
-        False reads a damaged file as it is (salvage: check what you take from it).
+        Check the stored checksums (every attribute; every dataset of a complete file, each finished row of
+        another; a file of the grid without them is damaged: docs/results_format.md, "Integrity"). Default
+        True; False reads a damaged file as it is (salvage: check what you take from it).
 
     Returns
     -------
     Results
         ``samples`` (dict of 1-D arrays), ``spectra`` (dict of 2-D arrays), ``periods_s``, ``attrs``,
-        ``rows`` (row indices kept). ``collapsed`` is returned as bool.
+        ``rows`` (row indices kept), ``n_rows``, ``n_missing``, ``complete``, ``completeness_note`` (how
+        many rows the file still lacks). ``collapsed`` is returned as bool.
 
     Raises
     ------
     pycolfrag.results.ResultsDamagedError
-        The file is damaged (read error, checksum mismatch, no answer in time) and no journal of it exists.
+        The file is damaged (read error, checksum mismatch, missing checksums, no answer in time) and no
+        journal of it exists; its text says how to salvage the rows.
     ResultsFileError
         Not a pycolfrag results file.
     """
