@@ -112,16 +112,16 @@ def _lock_inode(path: Path) -> int | None:
             return None
         fcntl.fcntl(fd, fcntl.F_OFD_SETLK, _flock_arg(fcntl.F_WRLCK))
     except (BlockingIOError, PermissionError):  # EAGAIN / EACCES: another description holds it
+        st = os.fstat(fd)
         os.close(fd)
-        raise ResultsLockedError(_identity_text(path)) from None
+        raise ResultsLockedError(_identity_text(path, st)) from None
     except BaseException:
         os.close(fd)
         raise
     return fd
 
 
-def _identity_text(path: Path) -> str:
-    st = os.stat(path)
+def _identity_text(path: Path, st) -> str:
     holder = _holder_of_same_file(path, st)
     return (f"{path} is being written by another run under another name of the same file (device {st.st_dev}, "
             f"inode {st.st_ino}: a hard link){': ' + holder if holder else ''}. Two names of one file are one "
