@@ -109,6 +109,7 @@ def main() -> int:
     if shutil.which("mpirun") is None:
         raise SystemExit("mpirun not found (make system)")
     from pycolfrag import results as R
+    from pycolfrag.analysis.data import load
 
     print("== per-sample split (one sample of each of the 35 scenarios, this process) ==")
     per = phase_split(a.extra)
@@ -126,7 +127,7 @@ def main() -> int:
     for n in (1, 2):
         out = work / f"reduced_{n}.h5"
         t = run(n, [*common, "--out", str(out)], timeout=3600)
-        r = R.load(out)
+        r = load(out)
         files[n] = r
         rows.append((n, t, float(r.attrs["wall_s_last_session"])))
     print(f"\n== reduced grid: 35 scenarios x {a.samples} samples = {n_runs} runs ==")
@@ -147,7 +148,7 @@ def main() -> int:
     if a.full:
         out = work / "full_2.h5"
         t = run(2, ["--no-figures", "--no-progress", "--overwrite", *a.extra, "--out", str(out)], timeout=4 * 3600)
-        r = R.load(out)
+        r = load(out)
         print(f"full default grid on 2 ranks, measured: command {t:.0f} s = {t / 60:.1f} min, "
               f"session {float(r.attrs['wall_s_last_session']):.0f} s; failed {int((r.samples['status'] != 0).sum())}")
     print(f"(result files in {work})")

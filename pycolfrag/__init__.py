@@ -7,6 +7,10 @@ Quick tour (the public names the tests, scripts and README rely on)::
     rec = pcf.ground_motion.synthesize(6.5, 10.0, seed=1)
     res = pcf.simulate(col, rec.acc, rec.dt, history=True)
     res.u_top, res.u_d, res.collapsed
+    p = pcf.fragility.exceedance(edp, collapsed, threshold)     # Eq. (4); pycolfrag.analysis.fragility
+
+Everything that reads results files is :mod:`pycolfrag.analysis` (``pycolfrag.analysis.data.load``,
+``python -m pycolfrag.analysis.report``, ...); the writing side is :mod:`pycolfrag.results`.
 """
 __version__ = "0.1.0"
 
@@ -22,18 +26,8 @@ from .errors import (  # noqa: E402,F401
 from .column import Block, Column, JointProperties, Segment  # noqa: E402,F401
 from .options import SolverOptions  # noqa: E402,F401
 from .solver import History, Response, simulate, simulate_batch  # noqa: E402,F401
-from . import _aliases  # noqa: E402
-
-_aliases.install()  # the old names of the modules that moved into pycolfrag.analysis
-
 from . import ground_motion, intensity, names, records, results, sample  # noqa: E402,F401
-
-
-def __getattr__(name):
-    """``pcf.fragility``, ``pcf.report``, ...: the modules that moved into :mod:`pycolfrag.analysis`
-    (``_aliases.MOVED``), loaded on first use, so that ``import pycolfrag`` (and the grid's driver)
-    does not load the analysis package."""
-    if f"{__name__}.{name}" in _aliases.MOVED:
-        import importlib  # only on this path
-        return importlib.import_module(f"{__name__}.{name}")
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# ``pcf.fragility.exceedance(...)`` after ``import pycolfrag as pcf`` is public (the statistics of the
+# paper's Eqs. 1-4). A plain submodule attribute: it costs ``import pycolfrag`` the fragility module alone,
+# since scipy, which it needs, is loaded above already (docs/architecture.md).
+from .analysis import fragility  # noqa: E402,F401

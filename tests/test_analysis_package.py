@@ -1,13 +1,16 @@
 """How the analysis package sits in pycolfrag: what imports what.
 
-* the Monte Carlo driver (``pycolfrag/grid.py``) imports nothing of the analysis: the command line
+* the Monte Carlo driver (``pycolfrag.grid``) imports nothing of the analysis: the command line
   (``pycolfrag/cli.py``) runs the summary, figures and report after a grid;
-* no import circle between pycolfrag's modules, counting the imports inside functions too;
+* no import circle between pycolfrag's modules, counting the imports inside functions too -- none
+  allowed;
 * the statistics import no C binding: ``analysis.fragility``, ``analysis.data`` and ``analysis.summary``
   import (and fragility computes) with the C extension made unimportable;
-* importing the driver (``pycolfrag.grid``) loads no module of the analysis package at run time;
-* the old module names (``pycolfrag.fragility``, ``python -m pycolfrag.compare``) still work and are the
-  modules of the new home, not copies.
+* importing the package or the driver loads, of the analysis package, the statistics of
+  ``pcf.fragility`` alone (a public name of the package, a plain attribute) -- no reader, figure,
+  report or matplotlib;
+* the names from before the analysis package are gone, with nothing standing in for them: no import
+  hook, no module ``__getattr__``.
 
 The expected import graph is read from the source files with :mod:`ast`, not from the modules' own
 idea of themselves, so a new import anywhere can make these tests fail.
@@ -21,6 +24,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import pytest
+
 import pycolfrag
 
 PKG = Path(pycolfrag.__file__).resolve().parent
@@ -28,11 +33,6 @@ PKG = Path(pycolfrag.__file__).resolve().parent
 #: Modules with a ``pycolfrag`` prefix that load the C extension or sit on the driver's side.
 C_BINDINGS = {"pycolfrag._ffi", "pycolfrag._libcolfrag", "pycolfrag.solver", "pycolfrag.column",
               "pycolfrag.options", "pycolfrag.intensity"}
-
-#: The one import circle left, each edge with its reason: ``pycolfrag.results.load`` (a public name
-#: from before the reader moved) resolves to ``analysis.data.load`` on first use, and the reader
-#: imports the results layout.
-ALLOWED_BACK_EDGES = {("pycolfrag.results", "pycolfrag.analysis.data")}
 
 
 def _module_name(path: Path) -> str:
@@ -81,9 +81,11 @@ def _graph() -> dict:
 
 def test_the_driver_imports_nothing_of_the_analysis():
     modules = _modules()
-    grid = _imports(modules["pycolfrag.grid"], modules)
-    analysis = {m for m in grid if m.startswith(("pycolfrag.analysis", "pycolfrag.cli"))}
-    assert not analysis, f"pycolfrag.grid imports {sorted(analysis)}"
+    driver = [m for m in modules if m == "pycolfrag.grid" or m.startswith("pycolfrag.grid.")]  # a module or a package
+    assert driver
+    for name in driver:
+        analysis = {m for m in _imports(modules[name], modules) if m.startswith(("pycolfrag.analysis", "pycolfrag.cli"))}
+        assert not analysis, f"{name} imports {sorted(analysis)}"
     # the command line is what ties the two together
     cli = _imports(modules["pycolfrag.cli"], modules)
     assert "pycolfrag.grid" in cli and any(m.startswith("pycolfrag.analysis") for m in cli)
@@ -91,9 +93,6 @@ def test_the_driver_imports_nothing_of_the_analysis():
 
 def test_no_import_circle():
     graph = _graph()
-    for a, b in ALLOWED_BACK_EDGES:
-        assert b in graph[a], f"{a} no longer imports {b}: remove the allowance"
-        graph[a].discard(b)
     state, stack, circles = {}, [], []
 
     def visit(m):  # depth-first search; a grey node met again closes a circle
@@ -144,35 +143,43 @@ def test_fragility_runs_without_the_c_extension():
     assert abs(float(p) - 0.5) < 1e-12 and loaded.strip() == "[]"
 
 
-def test_importing_the_driver_loads_no_analysis():
-    """At run time, not only in the source: ``import pycolfrag.grid`` in a fresh interpreter leaves every
-    ``pycolfrag.analysis`` module unloaded (the package's ``__init__`` loads the moved modules on first
-    use only)."""
-    code = ("import sys, pycolfrag.grid\n"
-            "print(sorted(m for m in sys.modules if m.startswith(('pycolfrag.analysis', 'pycolfrag.cli'))))")
+def _is_fragility(module: str) -> bool:
+    """The statistics behind ``pcf.fragility``: the module, or the package and its own modules."""
+    return module == "pycolfrag.analysis.fragility" or module.startswith("pycolfrag.analysis.fragility.")
+
+
+@pytest.mark.parametrize("target", ["pycolfrag", "pycolfrag.grid"])
+def test_importing_the_package_or_the_driver_loads_only_the_statistics_of_the_analysis(target):
+    """At run time, in a fresh interpreter: ``import pycolfrag`` (and so the driver) loads
+    ``pycolfrag.analysis`` (its ``__init__`` is a docstring) and ``pycolfrag.analysis.fragility`` -- what
+    ``pcf.fragility`` names -- and no other analysis module, no command line, no matplotlib. Fragility
+    imports numpy, scipy and pycolfrag's names and checks only, which the package loads anyway."""
+    code = (f"import sys, {target}\n"
+            "print(sorted(m for m in sys.modules if m.startswith(('pycolfrag.analysis', 'pycolfrag.cli', "
+            "'matplotlib'))))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "[]", out.stdout
+    loaded = ast.literal_eval(out.stdout.strip())
+    assert "pycolfrag.analysis.fragility" in loaded, loaded
+    extra = [m for m in loaded if m != "pycolfrag.analysis" and not _is_fragility(m)]
+    assert not extra, extra
 
 
-def test_old_module_names_are_the_new_modules():
-    import pycolfrag.analysis.fragility as new
-    import pycolfrag.fragility as old
-    from pycolfrag import report
-    from pycolfrag.analysis import report as new_report
-    assert old is new and pycolfrag.fragility is new and report is new_report
-    assert new.__spec__.name == "pycolfrag.analysis.fragility"  # the module keeps its own spec
-    from pycolfrag.results import Results, load
-    from pycolfrag.analysis import data
-    assert load is data.load and Results is data.Results
-
-
-def test_old_module_names_run_with_dash_m():
-    """``python -m pycolfrag.compare`` runs the moved module as ``__main__`` with the arguments given:
-    its parser's own program name proves which code ran."""
+def test_pcf_fragility_is_a_plain_attribute_and_the_old_names_are_gone():
+    """``pcf.fragility`` (the product's public interface) is the module ``pycolfrag.analysis.fragility``
+    itself, bound by the package's ``__init__``; the old names (``pycolfrag.report``, ``python -m
+    pycolfrag.compare``, ``pycolfrag.results.load``) no longer resolve, and no hook or module
+    ``__getattr__`` is left to make them."""
+    import pycolfrag.analysis.fragility as fragility
+    from pycolfrag import results
+    assert pycolfrag.fragility is fragility and "fragility" in vars(pycolfrag)
+    assert "__getattr__" not in vars(pycolfrag) and "__getattr__" not in vars(results)
+    assert not any(type(f).__module__.startswith("pycolfrag") for f in sys.meta_path)
+    for old in ("pycolfrag.report", "pycolfrag.fragility", "pycolfrag._aliases"):
+        with pytest.raises(ModuleNotFoundError):
+            __import__(old)
+    assert not hasattr(pycolfrag, "report") and not hasattr(results, "load")
     p = subprocess.run([sys.executable, "-m", "pycolfrag.compare", "--help"], capture_output=True, text=True)
-    assert p.returncode == 0, p.stderr
-    assert p.stdout.startswith("usage: python -m pycolfrag.analysis.compare") and not p.stderr
-    p = subprocess.run([sys.executable, "-m", "pycolfrag.compare", "a_missing.h5", "b_missing.h5"],
-                       capture_output=True, text=True)
-    assert p.returncode == 3 and "a_missing.h5" in p.stderr
+    assert p.returncode == 1 and "No module named pycolfrag.compare" in p.stderr, p.stderr
+    p = subprocess.run([sys.executable, "-m", "pycolfrag.analysis.compare", "--help"], capture_output=True, text=True)
+    assert p.returncode == 0 and p.stdout.startswith("usage: python -m pycolfrag.analysis.compare"), p.stderr

@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from pycolfrag import commands
+from pycolfrag.analysis.data import load
 
 ROOT = Path(__file__).resolve().parent.parent
 from test_grid import _env, _ok, _same_rows, _serial  # noqa: E402
@@ -106,8 +107,7 @@ def test_pycolfrag_grid_is_run_grid_py(tmp_path):
     _ok(_serial([*FAKE, "--out", str(a)]))
     p = _ok(_pycolfrag("grid", *FAKE, "--out", str(b)))
     assert "6 runs computed" in p.stdout
-    from pycolfrag import results as R
-    ra, rb = R.load(a), R.load(b)
+    ra, rb = load(a), load(b)
     _same_rows(ra, rb)
     assert rb.attrs["command"].startswith("pycolfrag grid --mw 6 7")
 
@@ -124,8 +124,7 @@ def test_pycolfrag_grid_under_mpirun(tmp_path):
            "-m", "pycolfrag", "grid", *FAKE, "--out", str(two)]
     p = _ok(subprocess.run(cmd, capture_output=True, text=True, env=_env(), cwd=ROOT))
     assert "on 2 ranks" in p.stdout
-    from pycolfrag import results as R
-    _same_rows(R.load(one), R.load(two))
+    _same_rows(load(one), load(two))
 
 
 def test_the_console_script_is_installed():

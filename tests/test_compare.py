@@ -2,8 +2,9 @@
 per-scenario statistics (collapse fraction: Fisher's exact test; mean u_top, u_d: Welch's t).
 
 The files are written by hand here in the layout of docs/results_format.md (h5py, every
-``/samples`` field of ``pycolfrag.results.SAMPLE_FIELDS``, ``/spectra``, the root attributes
-``load`` needs), so the tool is tested on the format, not on the grid driver.
+``/samples`` field of ``pycolfrag.results.SAMPLE_FIELDS``, ``/spectra``, a few root attributes; as
+other code would write them: no ``grid_signature``, so no checksums are due), so the tool is tested on
+the format, not on the grid driver.
 Expected numbers come from closed forms, not from the code under test:
 * Fisher's exact test of 0/40 against 40/40: the only tables as extreme are the two
   corners, each with hypergeometric probability 1 / C(80, 40), so p = 2 / C(80, 40);
@@ -13,7 +14,6 @@ Expected numbers come from closed forms, not from the code under test:
 """
 from __future__ import annotations
 
-import json
 import math
 import subprocess
 import sys
@@ -33,9 +33,7 @@ def _rows(seed=0):
     """Plausible rows: scenario 0 rarely collapses, scenario 1 half the time."""
     rng = np.random.default_rng(seed)
     n = N_SC * N_S
-    cols = {}
-    for name, (code, fill, _) in results.SAMPLE_FIELDS.items():
-        cols[name] = np.full(n, fill, dtype=results._dtype(code))
+    cols, _ = results.empty_columns(n, PERIODS.size)
     sc = np.repeat(np.arange(N_SC), N_S)
     cols["scenario"], cols["sample"] = sc.astype("i4"), np.tile(np.arange(N_S), N_SC).astype("i4")
     cols["mw"] = np.where(sc == 0, 6.5, 7.5)
@@ -58,7 +56,6 @@ def _write(path, cols, spectra):
         sp.attrs["periods_s"] = PERIODS
         for name, v in spectra.items():
             sp.create_dataset(name, data=v)
-        f.attrs["grid_signature"] = json.dumps({"seed": 1})
         f.attrs["format_version"] = results.FORMAT_VERSION
         f.attrs["complete"] = True
     return path
@@ -165,9 +162,7 @@ def _record_rows(seed=0, n_rec=20):
     rng = np.random.default_rng(seed)
     keys = [(f"RSN{i}", c, s) for s in (1.0, 2.0) for i in range(n_rec) for c in ("h1", "h2")]
     n = len(keys)
-    cols = {}
-    for name, (code, fill, _) in results.RECORD_SAMPLE_FIELDS.items():
-        cols[name] = np.full(n, fill, dtype=results._dtype(code))
+    cols, _ = results.empty_columns(n, PERIODS.size, "records")
     cols["record_id"] = np.array([k[0].encode() for k in keys], dtype=cols["record_id"].dtype)
     cols["component"] = np.array([k[1].encode() for k in keys], dtype=cols["component"].dtype)
     cols["scale"] = np.array([k[2] for k in keys])

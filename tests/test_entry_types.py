@@ -3,7 +3,7 @@ counts are integers, arrays hold integers or floats. Strings that float() would 
 strings or bools are refused with a ParameterError naming the argument and the value, the same words in
 every module; numpy numbers keep working and give the same results as Python floats.
 
-Wrong files given to the readers (results.load, the report, make_figures) end with a ResultsFileError
+Wrong files given to the readers (analysis.data.load, the report, make_figures) end with a ResultsFileError
 saying what the file is, and on the command line with one line and exit status 2, never a traceback."""
 import os
 import subprocess
@@ -17,6 +17,7 @@ import pycolfrag as pcf
 from pycolfrag.analysis import fragility as fr
 from pycolfrag import intensity
 from pycolfrag import results as R
+from pycolfrag.analysis.data import load
 from pycolfrag.errors import ParameterError, ResultsFileError
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -102,10 +103,10 @@ def test_a_file_that_is_not_hdf5_or_a_folder_is_named_as_such(tmp_path):
     text = tmp_path / "grid.h5"
     text.write_text("mw,dist_km\n6.5,10\n")
     with pytest.raises(ResultsFileError, match="is not an HDF5 file") as info:
-        R.load(text)
+        load(text)
     assert not isinstance(info.value, R.ResultsDamagedError)       # it was never a results file
     with pytest.raises(ResultsFileError, match="is a folder, not a results file"):
-        R.load(tmp_path)
+        load(tmp_path)
     for args in (["-m", "pycolfrag.analysis.report", str(text), str(tmp_path / "r.md")],
                  ["scripts/make_figures.py", str(tmp_path), "--out", str(tmp_path / "f")]):
         p = _cli(*args)

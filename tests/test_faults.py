@@ -27,6 +27,7 @@ import numpy as np
 import pytest
 
 from pycolfrag import results as R
+from pycolfrag.analysis.data import load
 from pycolfrag.errors import ParameterError, RecordFileError, ResultsFileError
 
 from test_grid import ROOT, SCRIPT, _env, _journal_rows, _ok, _same_rows, _serial
@@ -77,7 +78,7 @@ def _fresh(tmp_path, args, name="fresh.h5"):
     """The same grid, uninterrupted, in another file: the reference for every kept row."""
     out = tmp_path / name
     _ok(_serial([*args, "--out", str(out)]))
-    return R.load(out)
+    return load(out)
 
 
 # ------------------------------------------------------------------------------ the lock
@@ -96,10 +97,10 @@ def test_second_run_on_one_path_is_refused_naming_the_holder(tmp_path):
         assert a.poll() is None  # the holder was running all along
     finally:
         _kill9(a)  # its flock dies with it; the lock file stays, naming a dead pid
-    before = R.load(out)
+    before = load(out)
     p = _ok(_serial([*FAKE, "--out", str(out)]))
     assert f"took over a stale lock on {out} left by pid {a.pid}" in p.stdout and "no longer running" in p.stdout
-    r = R.load(out)
+    r = load(out)
     assert r.complete and len(r) == 16 and not R.lock_path(out).exists()
     _same_rows(before, r, rows=before.rows)
 
@@ -135,16 +136,16 @@ def test_scenario_1_two_seeds_on_one_path_overwrite_kill_resume(tmp_path):
         assert b.returncode == 5 and f"pid {a.pid}" in b_out, b_out  # refused: run 1 holds the path
     finally:
         a.wait(timeout=60)
-    assert a.returncode == 0 and R.load(out).attrs["seed"] == 1
+    assert a.returncode == 0 and load(out).attrs["seed"] == 1
     b = _start([*seed2, "--overwrite"], PCF_FAKE_SLEEP_S="0.1")
     _wait_rows(out, 5, b)
     _kill9(b)
     n_before = _journal_rows(out)
-    before = R.load(out)
+    before = load(out)
     assert before.attrs["seed"] == 2 and 5 <= len(before) < 16
     p = _ok(_serial(seed2))
     assert f"{len(before)} of 16 rows already done" in p.stdout, p.stdout
-    after = R.load(out)
+    after = load(out)
     assert after.complete and after.attrs["seed"] == 2 and len(after) == 16 and n_before >= 5
     ref = _fresh(tmp_path, [*FAKE, "--seed", "2"])
     _same_rows(ref, after)  # every row is seed 2's: no foreign row kept
@@ -165,7 +166,7 @@ def test_a_writer_never_writes_into_a_file_another_run_replaced(tmp_path):
     w.close()
     header, rows = R.read_journal(R.journal_path(p))
     assert header["signature"] == SIG_B and rows == {}
-    assert len(R.load(p)) == 0  # nothing of run A in run B's file
+    assert len(load(p)) == 0  # nothing of run A in run B's file
 
 
 def test_finish_leaves_the_journal_of_another_run_alone(tmp_path):
@@ -197,14 +198,14 @@ def test_stale_journal_of_another_run_is_never_merged(tmp_path):
         wq.close()
         shutil.copy(R.journal_path(q), R.journal_path(p))  # the stale journal beside the file
         with pytest.warns(UserWarning, match="belongs to another run"):
-            r = R.load(p)
+            r = load(p)
         assert list(r.rows) == [0, 1] and not (r.samples["u_top"] == 99.0).any()
         msgs = []
         w = R.open_for_run(p, SIG_B, {}, 6, PERIODS, log=msgs.append)
         assert list(np.flatnonzero(w.done)) == [0, 1]
         w.close()
         assert any("set aside" in m and "another run" in m for m in msgs), msgs
-        r = R.load(p)
+        r = load(p)
         assert list(r.rows) == [0, 1] and not (r.samples["u_top"] == 99.0).any()
         assert R.read_journal(R.journal_path(p))[0]["signature"] == SIG_B  # a journal of its own again
 
@@ -225,11 +226,11 @@ def test_journal_with_a_bad_header_is_set_aside(tmp_path, content):
     aside = list(tmp_path.glob("r.h5.journal.set-aside-*"))
     assert len(aside) == 1 and aside[0].read_bytes() == content
     assert any("set aside" in m and "header" in m for m in msgs), msgs
-    assert list(R.load(p).rows) == [0]
+    assert list(load(p).rows) == [0]
     # beside a readable file, readers ignore it with a warning
     jp.write_bytes(content)
     with pytest.warns(UserWarning, match="journal is ignored"):
-        assert list(R.load(p).rows) == [0]
+        assert list(load(p).rows) == [0]
 
 
 def test_cut_journal_header_then_grid_rerun_runs(tmp_path):
@@ -237,7 +238,7 @@ def test_cut_journal_header_then_grid_rerun_runs(tmp_path):
     R.journal_path(out).write_bytes(b'{"kind": "pycolfrag-grid-journal", "n_ro')
     p = _ok(_serial([*FAKE, "--out", str(out)]))
     assert "set aside" in p.stdout and "header" in p.stdout, p.stdout
-    assert R.load(out).complete and len(R.load(out)) == 16
+    assert load(out).complete and len(load(out)) == 16
 
 
 # ------------------------------------------------------------------------------ damaged HDF5
@@ -249,10 +250,10 @@ def _zero(path, offset, n=3000):
 
 
 def _load_in_child(path, timeout_s):
-    """R.load in a child process, so that a hang fails this test instead of stalling it."""
-    code = ("import warnings, sys; from pycolfrag import results as R\n"
+    """load in a child process, so that a hang fails this test instead of stalling it."""
+    code = ("import warnings, sys; from pycolfrag import results as R; from pycolfrag.analysis.data import load\n"
             "warnings.simplefilter('ignore')\n"
-            "try:\n    r = R.load(sys.argv[1], timeout_s=float(sys.argv[2])); print('rows', len(r))\n"
+            "try:\n    r = load(sys.argv[1], timeout_s=float(sys.argv[2])); print('rows', len(r))\n"
             "except R.ResultsDamagedError as e:\n    print('damaged', e)\n")
     t0 = time.time()
     p = subprocess.run([sys.executable, "-c", code, str(path), str(timeout_s)], capture_output=True, text=True,
@@ -268,13 +269,13 @@ def test_damaged_hdf5_neither_hangs_load_nor_resume_and_is_rebuilt(tmp_path):
     b = _start(args, PCF_FAKE_SLEEP_S="0.05")
     _wait_rows(out, 6, b)
     _kill9(b)
-    before = R.load(out)
+    before = load(out)
     _zero(out, 3000)
     text, took = _load_in_child(out, 3)
     assert text == f"rows {len(before)}" and took < 30, (text, took)  # from the journal alone
     p = _ok(_serial(args, PYCOLFRAG_OPEN_TIMEOUT_S="3"))
     assert "set aside" in p.stdout and "rebuilding it from g.h5.journal" in p.stdout, p.stdout
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 16 and after.attrs["rebuilt_from_journal"]
     _same_rows(before, after, rows=before.rows)
     _same_rows(_fresh(tmp_path, FAKE), after)
@@ -297,7 +298,7 @@ def test_zeroed_data_of_a_complete_file_fail_its_checksums(tmp_path):
         off = f["samples/u_top"].id.get_offset()
     _zero(out, off, 16 * 8)
     with pytest.raises(R.ResultsDamagedError, match="checksum mismatch in samples/u_top"):
-        R.load(out)
+        load(out)
 
 
 # ------------------------------------------------------------------------------ kill -9 under MPI
@@ -341,11 +342,11 @@ def test_kill9_of_either_rank_under_mpirun_loses_no_finished_row(tmp_path, victi
         if proc.poll() is None:
             proc.kill()
             proc.wait()
-    before = R.load(out)
+    before = load(out)
     assert 4 <= len(before) < 16
     p = _ok(_serial(args))  # rank 0's lock died with it (or was released): the rerun takes the path
     assert f"{len(before)} of 16 rows already done" in p.stdout, p.stdout
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 16
     _same_rows(before, after, rows=before.rows)
     _same_rows(_fresh(tmp_path, FAKE), after)
@@ -393,11 +394,11 @@ def test_full_disk_is_one_clear_line_and_the_rerun_keeps_every_journalled_row(tm
     lines = text.strip().splitlines()
     assert "No space left on device" in lines[-1] and str(mnt) in lines[-1], text
     assert "Traceback" not in text
-    before = R.load(out)  # the journal holds every row journalled before the disk filled
+    before = load(out)  # the journal holds every row journalled before the disk filled
     assert len(before) >= 4
     filler.unlink()
     _ok(_serial(args))
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 16
     _same_rows(before, after, rows=before.rows)
     _same_rows(_fresh(tmp_path, FAKE), after)
@@ -410,7 +411,7 @@ def test_read_only_folder_is_one_clear_line_and_nothing_is_lost(tmp_path, tmpfs)
     b = _start(args, PCF_FAKE_SLEEP_S="0.05")
     _wait_rows(out, 4, b)
     _kill9(b)
-    before = R.load(out)
+    before = load(out)
     remount("ro")
     try:
         for target in (out, mnt / "sub" / "new.h5"):
@@ -418,11 +419,11 @@ def test_read_only_folder_is_one_clear_line_and_nothing_is_lost(tmp_path, tmpfs)
             assert p.returncode == 4, p.stdout + p.stderr
             line = p.stdout.strip().splitlines()[-1]
             assert "Read-only file system" in line and str(mnt) in line and "Traceback" not in p.stderr, p.stdout
-        assert R.load(out).rows.tolist() == before.rows.tolist()
+        assert load(out).rows.tolist() == before.rows.tolist()
     finally:
         remount("rw")
     _ok(_serial(args))
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 16
     _same_rows(before, after, rows=before.rows)
 
@@ -589,10 +590,10 @@ def test_ctrl_c_under_mpirun_keeps_every_journalled_row(tmp_path):
     n_journal = _journal_rows(out)
     with h5py.File(out, "r") as f:
         in_h5 = int((f["samples/status"][...] != R.STATUS_PENDING).sum())
-    before = R.load(out)
+    before = load(out)
     assert len(before) == max(n_journal, in_h5) >= 4, (n_journal, in_h5)  # readers see every finished row
     p = _ok(_serial(args))
     assert f"{len(before)} of 16 rows already done" in p.stdout, p.stdout
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 16
     _same_rows(before, after, rows=before.rows)

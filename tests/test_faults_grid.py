@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 
 from pycolfrag import results as R
+from pycolfrag.analysis.data import load
 from pycolfrag.errors import ParameterError
 
 from test_faults import FAKE, _fresh, _kill9, _rank_pids, _start, _wait_gone, _wait_rows, tmpfs  # noqa: F401 (tmpfs: a fixture)
@@ -53,7 +54,7 @@ def _partial_whole(tmp_path, n=3):
         out = _partial(tmp_path, n=n, name=f"g{attempt}.h5")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            R.load(out)
+            load(out)
         if not any("journal" in str(w.message) or "damaged" in str(w.message) for w in caught):
             return out
     pytest.fail("every kill landed inside a batch write")
@@ -110,13 +111,13 @@ def test_resume_across_a_code_change_is_refused(tmp_path, patch, named):
     # Reported: kill a grid, change a C default (dt_factor 0.8 -> 0.7), rebuild, rerun the same
     # command: 121 rows with the old step and 39 with the new in one file.
     out = _partial_whole(tmp_path)
-    before = R.load(out)
+    before = load(out)
     p = _main_patched(patch, [*FAKE, "--out", str(out)])
     assert p.returncode == 2, p.stdout + p.stderr
     assert "holds a different run" in p.stdout and named in p.stdout, p.stdout
     assert "another build of pycolfrag" in p.stdout and "mix rows of two versions" in p.stdout, p.stdout
-    _same_rows(before, R.load(out))  # untouched
-    sig = json.loads(R.load(out).attrs["grid_signature"])
+    _same_rows(before, load(out))  # untouched
+    sig = json.loads(load(out).attrs["grid_signature"])
     assert set(sig["build"]) == {"version", "result_hash"}
     # the same build resumes it
     p = _ok(_serial([*FAKE, "--out", str(out)]))
@@ -155,7 +156,7 @@ def test_resume_after_a_change_off_the_reference_path_is_refused_unless_allowed(
     # Reported: kill a grid after 6 journal rows, change M_SAT 7.0 -> 7.3, rerun: it resumed, and
     # 10 of 16 rows differed from either version. The run is now signed by its code.
     out = _partial_whole(tmp_path)
-    before = R.load(out)
+    before = load(out)
     digest = before.attrs["code_digest"]
     assert len(digest) == 64 and json.loads(before.attrs["grid_signature"])["code_digest"] == digest
     # a copy of the same code elsewhere signs alike (the digest reads contents, not paths): it resumes
@@ -166,14 +167,14 @@ def test_resume_after_a_change_off_the_reference_path_is_refused_unless_allowed(
     line = p.stdout
     assert "holds a different run" in line and "another build of pycolfrag" in line, line
     assert f"code_digest: file has \"{digest}\"" in line and "--allow-code-change" in line, line
-    _same_rows(before, R.load(out))  # untouched
+    _same_rows(before, load(out))  # untouched
     assert _journal_rows(out) == len(before)
     # allowed: resumed (on 2 MPI ranks: rank 0 reads the code, rank 1 takes its digest), and the file
     # names both versions with the time each began writing rows
     p = _ok(_mpirun(2, [*FAKE, "--out", str(out), "--allow-code-change"],
                     PYTHONPATH=os.pathsep.join([str(edited), str(ROOT / "tests")])))
     assert f"{len(before)} of 16 rows already done" in p.stdout and "--allow-code-change" in p.stdout, p.stdout
-    after = R.load(out)
+    after = load(out)
     assert after.complete and after.attrs["code_digest"] == digest
     _same_rows(before, after, rows=before.rows)
     history = json.loads(after.attrs["code_digests"])
@@ -256,33 +257,33 @@ def test_a_changed_root_attribute_of_a_complete_file_is_damage_not_another_run(t
     # signature made the next run advise --overwrite, which deletes every row.
     out = tmp_path / "g.h5"
     _ok(_serial([*FAKE, "--out", str(out)]))
-    good = R.load(out)
+    good = load(out)
     with h5py.File(out, "r") as f:
         value = f.attrs[attr].encode()
     i = value.index(key) + len(key)
     assert value[i:i + 1].isdigit()
     _flip_in_file(out, value, i, b"9" if value[i:i + 1] != b"9" else b"8")  # still valid JSON, another value
     with pytest.raises(R.ResultsDamagedError, match=f"checksum mismatch in .*attribute {attr}\\b"):
-        R.load(out)
+        load(out)
     p = _serial([*FAKE, "--out", str(out)])
     assert p.returncode == 2, p.stdout + p.stderr
     line = p.stdout.strip().splitlines()[-1]
     assert "damaged" in line and f"attribute {attr}" in line and "holds a different run" not in line, line
     assert "its rows are intact" in line and f"mv {out} {out}.damaged" in line and "--overwrite would delete" in line
-    _same_rows(good, R.load(out, verify=False))  # the salvage path the line names
+    _same_rows(good, load(out, verify=False))  # the salvage path the line names
     assert out.exists()
 
 
 def test_a_changed_signature_of_an_interrupted_file_is_rebuilt_from_its_journal(tmp_path):
     out = _partial_whole(tmp_path, n=4)
-    before = R.load(out)
+    before = load(out)
     with h5py.File(out, "r") as f:
         value = f.attrs["grid_signature"].encode()
     key = b'"seed": 2016060'
     _flip_in_file(out, value, value.index(key) + len(key), b"9")
     p = _ok(_serial([*FAKE, "--out", str(out)]))
     assert "checksum mismatch in attribute grid_signature" in p.stdout and "rebuilding it from" in p.stdout, p.stdout
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 16
     _same_rows(before, after, rows=before.rows)
     _same_rows(_fresh(tmp_path, FAKE), after)
@@ -297,29 +298,30 @@ def test_an_edited_journal_value_is_detected_and_not_used(tmp_path):
     lines[2] = json.dumps(edited, separators=(",", ":")).encode() + b"\t" + lines[2].rsplit(b"\t", 1)[1]
     jp.write_bytes(b"\n".join(lines))
     with pytest.warns(UserWarning, match=r"line\(s\) 3 fail their checksum"):
-        r = R.load(out)
+        r = load(out)
     assert row["row"] not in r.rows.tolist() and not (r.samples["u_top"] == 123.0).any()
     p = _ok(_serial([*FAKE, "--out", str(out)]))
     assert "fail their checksum" in p.stdout, p.stdout
-    after = R.load(out)
+    after = load(out)
     assert after.complete and not (after.samples["u_top"] == 123.0).any()
     _same_rows(_fresh(tmp_path, FAKE), after)  # the edited row was recomputed
 
 
 def test_zeroed_status_bytes_of_an_interrupted_file_are_recomputed(tmp_path):
-    # Reported: zeroed status bytes gave OK rows of NaN that were never recomputed.
+    # Reported: zeroed status bytes gave OK rows of NaN that were never recomputed. The pending rows
+    # now marked "ok" fail their row checksums: the file is damaged, and its journal holds every row.
     out = _partial_whole(tmp_path, n=4)
-    before = R.load(out)
+    before = load(out)
     with h5py.File(out, "r") as f:
         off, n = f["samples/status"].id.get_offset(), f["samples/status"].size
     with open(out, "r+b") as fh:
         fh.seek(off)
         fh.write(b"\0" * 4 * n)  # every status 0 = "ok", pending rows included
-    with pytest.warns(UserWarning, match="marked done but carry no identity"):
-        r = R.load(out)
+    with pytest.warns(UserWarning, match=r"checksum mismatch in \d+ finished row\(s\).*the rows come from the journal"):
+        r = load(out)
     assert r.rows.tolist() == before.rows.tolist()  # the journal's rows, and no "ok" row of NaN
     p = _ok(_serial([*FAKE, "--out", str(out)]))
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 16 and np.isfinite(after.samples["u_top"]).all()
     _same_rows(_fresh(tmp_path, FAKE), after)
 
@@ -426,7 +428,7 @@ def test_a_pair_of_unequal_lengths_runs_as_recorded_and_a_failing_record_says_wh
                                         "BROKEN,B_H1.AT2,,6.5,10,Broken\n")
     out = tmp_path / "r.h5"
     p = _ok(_serial(["--records", str(tmp_path / "suite.csv"), "--no-figures", "--no-progress", "--out", str(out)]))
-    r = R.load(out)
+    r = load(out)
     s = r.samples
     uneven = {s["component"][i]: i for i in range(len(r)) if s["record_id"][i] == "UNEVEN"}
     assert set(uneven) == {"h1", "h2"} and all(s["status"][i] == 0 for i in uneven.values()), s["message"]
@@ -448,7 +450,7 @@ def test_a_pair_of_unequal_lengths_runs_as_recorded_and_a_failing_record_says_wh
 # ------------------------------------------------------------------------------ 6: readers
 
 def test_a_reader_holding_the_file_open_does_not_abort_the_run(tmp_path):
-    # Reported: h5py.File(out, "r") held open (HDF5's default file locking) or results.load polling
+    # Reported: h5py.File(out, "r") held open (HDF5's default file locking) or load polling
     # made the grid's next HDF5 write fail "unable to lock file" (exit 4).
     out = tmp_path / "g.h5"
     run = _start([*FAKE, "--out", str(out)], PCF_FAKE_SLEEP_S="0.15")
@@ -460,10 +462,10 @@ def test_a_reader_holding_the_file_open_does_not_abort_the_run(tmp_path):
                                    str(out)], stdout=subprocess.PIPE, text=True, env=_env())
         assert holder.stdout.readline().strip() == "open"  # a plain h5py reader, locks as HDF5 does by default
         seen = 0
-        while run.poll() is None:  # and results.load polling meanwhile
+        while run.poll() is None:  # and load polling meanwhile
             with warnings.catch_warnings():
                 warnings.simplefilter("error", UserWarning)  # no read called the file damaged
-                seen = max(seen, len(R.load(out)))
+                seen = max(seen, len(load(out)))
             time.sleep(0.05)
         text = run.stdout.read()
         assert run.returncode == 0, text
@@ -473,7 +475,7 @@ def test_a_reader_holding_the_file_open_does_not_abort_the_run(tmp_path):
             if p is not None and p.poll() is None:
                 p.kill()
                 p.wait()
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 16
     _same_rows(_fresh(tmp_path, FAKE), after)
 
@@ -542,7 +544,7 @@ def test_suite_files_outside_the_suite_folder_are_refused_unless_allowed(tmp_pat
     out = tmp_path / "r.h5"
     p = _ok(_serial(["--records", str(_suite_csv(suite, "../secret/.token")), "--no-figures", "--no-progress",
                      "--out", str(out)]))
-    s = R.load(out).samples
+    s = load(out).samples
     assert s["status"][0] == R.STATUS_RECORD_FAILED and "outside the suite's folder" in s["message"][0]
     assert "TOKEN" not in p.stdout and not any("TOKEN" in m for m in s["message"])
 
@@ -580,12 +582,30 @@ def test_a_symlink_to_a_results_file_meets_its_lock(tmp_path):
         p = _serial([*FAKE, "--out", str(link)])
         assert p.returncode == 5 and f"pid {a.pid}" in p.stdout, p.stdout + p.stderr
         assert not R.lock_path(link).exists()
-        assert len(R.load(link)) >= 1  # readers through the link see the journal beside the real file
+        assert len(load(link)) >= 1  # readers through the link see the journal beside the real file
     finally:
         _kill9(a)
     _ok(_serial([*FAKE, "--out", str(link)]))  # resumes the real file through the link
-    assert link.is_symlink() and R.load(out).complete
-    _same_rows(_fresh(tmp_path, FAKE), R.load(out))
+    assert link.is_symlink() and load(out).complete
+    _same_rows(_fresh(tmp_path, FAKE), load(out))
+
+
+def test_a_hard_link_to_a_results_file_meets_its_lock(tmp_path):
+    # Reported: two runs on two hard links of one file both wrote (exit 4 for both, an orphaned
+    # journal): the lock was one per name. The run's lock covers the file's inode too.
+    out = tmp_path / "g.h5"
+    link = tmp_path / "link.h5"
+    a = _start([*FAKE, "--out", str(out)], PCF_FAKE_SLEEP_S="0.5")
+    try:
+        _wait_rows(out, 1, a)
+        os.link(out, link)
+        p = _serial([*FAKE, "--out", str(link)])
+        assert p.returncode == 5 and "hard link" in p.stdout and f"pid {a.pid}" in p.stdout, p.stdout + p.stderr
+        assert not R.journal_path(link).exists() and not R.lock_path(link).exists()
+    finally:
+        _kill9(a)
+    _ok(_serial([*FAKE, "--out", str(out)]))  # the first run's name resumes it (its journal is beside it)
+    _same_rows(_fresh(tmp_path, FAKE), load(link))
 
 
 # ------------------------------------------------------------------------------ 8: full disk at creation

@@ -23,6 +23,7 @@ import pytest
 from pycolfrag import results as R
 from pycolfrag.grid import GridSpec, derive_seed
 from pycolfrag.grid.command import _parse_values
+from pycolfrag.analysis.data import Results, load
 
 ROOT = Path(__file__).resolve().parent.parent
 SCRIPT = ROOT / "scripts" / "run_grid.py"
@@ -60,7 +61,7 @@ def _ok(proc):
     return proc
 
 
-def _same_rows(a: R.Results, b: R.Results, rows=None):
+def _same_rows(a: Results, b: Results, rows=None):
     """Every dataset equal (bitwise; NaN == NaN) except the timing field."""
     ia = np.arange(len(a)) if rows is None else np.searchsorted(a.rows, rows)
     ib = np.arange(len(b)) if rows is None else np.searchsorted(b.rows, rows)
@@ -99,7 +100,7 @@ def test_one_rank_and_two_ranks_give_identical_datasets(tmp_path):
     _ok(_serial([*SMALL, "--out", str(one)]))
     p2 = _ok(_mpirun(2, [*SMALL, "--out", str(two)]))
     assert "on 2 ranks" in p2.stdout
-    a, b = R.load(one), R.load(two)
+    a, b = load(one), load(two)
     assert len(a) == len(b) == 12 and a.complete and b.complete
     assert (a.samples["status"] == 0).all(), a.samples["message"]
     _same_rows(a, b)
@@ -137,7 +138,7 @@ def test_worker_gets_the_first_chunk_before_rank_0_computes(tmp_path):
     args = ["--mw", "6", "7.5", "--dist", "5", "15", "--samples", "3", "--sample-function", "grid_fakes:ranked",
             "--no-figures", "--no-progress", "--out", str(out)]
     _ok(_mpirun(2, args, PCF_FAKE_SLEEP_S="0.2"))
-    res = R.load(out)
+    res = load(out)
     first = GridSpec(mw=(6.0, 7.5), dist_km=(5.0, 15.0), samples=3).order(range(12))[0]
     by_row = dict(zip(res.samples["scenario"] * 3 + res.samples["sample"], res.samples["message"]))
     assert sorted(set(by_row.values())) == ["rank 0", "rank 1"]  # both ranks computed rows
@@ -169,14 +170,14 @@ def test_killed_run_resumes_and_keeps_finished_rows(tmp_path):
     args = ["--mw", "6", "7", "--dist", "5", "10", "15", "--samples", "8", "--sample-function", "grid_fakes:fake",
             "--no-figures", "--no-progress", "--flush-s", "0.2", "--out", str(out)]
     _kill_after([sys.executable, str(SCRIPT), *args], _env(PCF_FAKE_SLEEP_S="0.05"), out, 12, signal.SIGKILL)
-    before = R.load(out)  # HDF5 + journal: every row that reached rank 0
+    before = load(out)  # HDF5 + journal: every row that reached rank 0
     n_before = len(before)
     assert 12 <= n_before < 48, n_before
     assert R.journal_path(out).exists()
     # rerun the same command: computes only what is missing
     p = _ok(_serial(args, PCF_FAKE_SLEEP_S="0"))
     assert f"{n_before} of 48 rows already done, {48 - n_before} to compute" in p.stdout
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 48 and (after.samples["status"] == 0).all()
     pairs = set(zip(after.samples["scenario"].tolist(), after.samples["sample"].tolist()))
     assert len(pairs) == 48  # each (scenario, sample) exactly once
@@ -187,7 +188,7 @@ def test_killed_run_resumes_and_keeps_finished_rows(tmp_path):
     # and a fresh uninterrupted run agrees on every row
     fresh = tmp_path / "fresh.h5"
     _ok(_serial([*args[:-1], str(fresh)]))
-    _same_rows(R.load(fresh), after)
+    _same_rows(load(fresh), after)
     sessions = json.loads(after.attrs["sessions"])
     assert len(sessions) == 1 and sessions[0]["rows_computed"] == 48 - n_before  # the killed one never closed
 
@@ -202,10 +203,10 @@ def test_sigterm_under_mpirun_then_resume(tmp_path):
     cmd = ["timeout", "-k", "10", "120", "mpirun", "--allow-run-as-root", "-n", "2", sys.executable, "-m", "mpi4py",
            str(SCRIPT), *args]
     _kill_after(cmd, _env(PCF_FAKE_SLEEP_S="0.1"), out, 6, signal.SIGTERM)
-    before = R.load(out)
+    before = load(out)
     assert 6 <= len(before) < 40
     _ok(_mpirun(2, args, PCF_FAKE_SLEEP_S="0"))
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 40 and (after.samples["status"] == 0).all()
     _same_rows(before, after, rows=before.rows)
 
@@ -213,7 +214,7 @@ def test_sigterm_under_mpirun_then_resume(tmp_path):
 def test_failed_sample_is_recorded_and_the_others_complete(tmp_path):
     out = tmp_path / "fail.h5"
     p = _ok(_serial([*SMALL, "--sample-function", "grid_fakes:failing", "--out", str(out)], PCF_FAIL_ROWS="4"))
-    r = R.load(out)
+    r = load(out)
     assert len(r) == 12 and r.complete
     assert r.samples["status"][4] == R.STATUS_OTHER_FAILED
     assert "forced failure of row 4" in r.samples["message"][4]
@@ -241,7 +242,7 @@ def test_a_no_pulse_grid_outside_the_pulse_models_range_runs(tmp_path):
     base = ["--mw", "4.5", "--dist", "5", "--samples", "2", "--no-figures", "--no-progress"]
     out = tmp_path / "np.h5"
     _ok(_serial([*base, "--pulse", "none", "--out", str(out)]))
-    r = R.load(out)
+    r = load(out)
     assert r.complete and (r.samples["status"] == 0).all() and np.isnan(r.samples["tp_s"]).all()
     p = _serial([*base, "--out", str(tmp_path / "p.h5")])
     assert p.returncode == 2 and "outside the pulse model's range" in p.stdout, p.stdout + p.stderr
@@ -252,19 +253,19 @@ def test_mismatched_arguments_are_refused(tmp_path):
     base = ["--mw", "6", "--dist", "5", "10", "--samples", "2", "--sample-function", "grid_fakes:fake",
             "--no-figures", "--no-progress", "--out", str(out)]
     _ok(_serial(base))
-    stamp = R.load(out).attrs["created"]
+    stamp = load(out).attrs["created"]
     for change in (["--samples", "3"], ["--seed", "5"], ["--mw", "6.5"], ["--kn", "2e9"], ["--vp-scale", "1.2"],
                    ["--pulse", "none"], ["--tp-model", "baker_2007"]):
         p = _serial([*base, *change])
         assert p.returncode == 2, (change, p.stdout, p.stderr)
         assert "holds a different run" in p.stdout and "--overwrite" in p.stdout, p.stdout
-    assert R.load(out).attrs["created"] == stamp  # untouched
+    assert load(out).attrs["created"] == stamp  # untouched
     # the same command on a complete file computes nothing
     p = _ok(_serial(base))
     assert "4 of 4 rows already done, 0 to compute" in p.stdout
     # --overwrite replaces it
     _ok(_serial([*base, "--samples", "3", "--overwrite"]))
-    assert len(R.load(out)) == 6
+    assert len(load(out)) == 6
 
 
 def test_not_a_results_file_is_refused(tmp_path):

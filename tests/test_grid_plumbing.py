@@ -13,6 +13,7 @@ import pytest
 
 import pycolfrag as pcf
 from pycolfrag import cli, grid, results as R
+from pycolfrag.analysis.data import load
 from pycolfrag.analysis.summary import format_table, summary_table
 
 
@@ -159,7 +160,7 @@ def test_solver_failure_becomes_status_3_and_run_goes_on(fake_physics, tmp_path)
                          solver_options={"unstable_tolerance": 1e-9})
     summary = grid.run_grid(spec, tmp_path / "g.h5", progress=False, log=lambda s: None)
     assert summary.computed == 2 and summary.failed == 2
-    r = R.load(tmp_path / "g.h5")
+    r = load(tmp_path / "g.h5")
     assert (r.samples["status"] == R.STATUS_SOLVER_FAILED).all()
     assert r.samples["message"][0] == "SolverError: instability at t = 1.2 s"
     assert np.isfinite(r.samples["pga_g"]).all() and np.isnan(r.samples["u_top"]).all()
@@ -171,7 +172,7 @@ def test_in_process_run_writes_summary_and_collapse_fields(fake_physics, tmp_pat
     assert summary.n_ranks == 1 and summary.computed == 6
     table = summary_table(summary.path)
     assert len(table) == 2
-    r = R.load(tmp_path / "g.h5")
+    r = load(tmp_path / "g.h5")
     c = r.samples["collapsed"]
     assert (r.samples["collapse_block"][c] == 4).all() and (r.samples["collapse_block"][~c] == -1).all()
     assert np.isnan(r.samples["collapse_time_s"][~c]).all()

@@ -129,7 +129,10 @@ def test_a_new_edp_in_the_registry_reaches_row_layout_and_labels():
         from pycolfrag import names
         names.EDPS["top_m"] = names.Quantity("top_m", "m", "peak top displacement (m)", "top",
                                              description="peak top displacement", response="max_top_disp")
-        from pycolfrag import figures, results, sample
+        from pycolfrag import results, sample
+        from pycolfrag.analysis import figures
+        from pycolfrag.results import layout
+        importlib.reload(layout)
         R = importlib.reload(results)
         assert R.SAMPLE_FIELDS["top_m"] == ("f8", R.SAMPLE_FIELDS["u_top"][1], "peak top displacement, m")
         assert R.RECORD_SAMPLE_FIELDS["top_m"] == R.SAMPLE_FIELDS["top_m"]

@@ -20,6 +20,7 @@ import record_suite as rs  # noqa: E402
 from test_grid import SCRIPT, _env, _kill_after, _mpirun, _ok, _same_rows, _serial  # noqa: E402
 
 from pycolfrag import grid, results as R  # noqa: E402
+from pycolfrag.analysis.data import Results, load  # noqa: E402
 from pycolfrag.analysis.summary import format_table, summary_table  # noqa: E402
 
 QUIET = ["--no-figures", "--no-progress"]
@@ -30,7 +31,7 @@ def suite(tmp_path):
     return rs.write_suite(tmp_path / "suite")
 
 
-def _rows_by_key(r: R.Results):
+def _rows_by_key(r: Results):
     s = r.samples
     return {(s["record_id"][i], s["component"][i], float(s["scale"][i])): i for i in range(len(r))}
 
@@ -45,7 +46,7 @@ def test_record_grid_one_and_two_ranks_identical(suite, tmp_path):
     p2 = _ok(_mpirun(2, [*args, "--out", str(two)]))
     assert "3 records x h1/h2 x 2 scales = 12 runs on 1 rank" in p1.stdout
     assert "on 2 ranks" in p2.stdout
-    a, b = R.load(one), R.load(two)
+    a, b = load(one), load(two)
     assert len(a) == len(b) == 12 and a.complete and b.complete
     assert (a.samples["status"] == 0).all(), a.samples["message"]
     _same_rows(a, b)
@@ -72,7 +73,7 @@ def test_scale_rows_and_closing_table(suite, tmp_path):
     the AT2 file's 8 significant digits), metadata from its _SearchResults.csv line."""
     out = tmp_path / "s.h5"
     p = _ok(_serial(["--records", str(suite), "--scale", "1", "2", *QUIET, "--out", str(out)]))
-    r = R.load(out)
+    r = load(out)
     s = r.samples
     assert len(r) == 12
     keys = _rows_by_key(r)
@@ -102,17 +103,17 @@ def test_record_grid_kill_and_resume_equals_uninterrupted(suite, tmp_path):
     args = ["--records", str(suite), "--scale", "0.5", "1", "--sample-function", "record_grid_fakes:slow",
             "--flush-s", "0.2", *QUIET, "--out", str(out)]
     _kill_after([sys.executable, str(SCRIPT), *args], _env(PCF_FAKE_SLEEP_S="0.15"), out, 4, signal.SIGKILL)
-    before = R.load(out)
+    before = load(out)
     n_before = len(before)
     assert 4 <= n_before < 12, n_before
     p = _ok(_serial(args, PCF_FAKE_SLEEP_S="0"))
     assert f"{n_before} of 12 rows already done, {12 - n_before} to compute" in p.stdout
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 12 and (after.samples["status"] == 0).all()
     _same_rows(before, after, rows=before.rows)
     fresh = tmp_path / "fresh.h5"
     _ok(_serial([*args[:-1], str(fresh)], PCF_FAKE_SLEEP_S="0"))
-    _same_rows(R.load(fresh), after)
+    _same_rows(load(fresh), after)
 
 
 def test_a_different_suite_or_options_is_refused(suite, tmp_path):
@@ -122,7 +123,7 @@ def test_a_different_suite_or_options_is_refused(suite, tmp_path):
     out = tmp_path / "r.h5"
     base = ["--records", str(suite), *QUIET, "--out", str(out)]
     _ok(_serial(base))
-    stamp = R.load(out).attrs["created"]
+    stamp = load(out).attrs["created"]
     for change in (["--components", "both"], ["--scale", "2"]):
         p = _serial([*base, *change])
         assert p.returncode == 2 and "holds a different run" in p.stdout, (change, p.stdout, p.stderr)
@@ -135,7 +136,7 @@ def test_a_different_suite_or_options_is_refused(suite, tmp_path):
     at2.write_text("\n".join(lines) + "\n")
     p = _serial(["--records", str(moved), *QUIET, "--out", str(out)])
     assert p.returncode == 2 and "holds a different run" in p.stdout and "suite" in p.stdout, p.stdout
-    assert R.load(out).attrs["created"] == stamp  # untouched
+    assert load(out).attrs["created"] == stamp  # untouched
     # options of the synthetic grid make no sense with --records
     p = _serial([*base, "--mw", "6.5"])
     assert p.returncode == 2 and "--mw describe the synthetic grid" in p.stdout, p.stdout
@@ -152,7 +153,7 @@ def test_a_corrupt_record_is_recorded_and_the_others_run(suite, tmp_path):
     out = tmp_path / "bad.h5"
     p = _ok(_serial(["--records", str(suite), *QUIET, "--out", str(out)]))
     assert "record RSN9002 cannot be read" in p.stdout and "2 failed" in p.stdout
-    r = R.load(out)
+    r = load(out)
     s = r.samples
     assert len(r) == 6 and r.complete
     bad = s["record_id"] == "RSN9002"
@@ -171,7 +172,7 @@ def test_in_process_rows_equal_run_suite_and_a_raising_function_keeps_the_identi
     spec = grid.RecordGridSpec(records=str(suite), scales=(1.0,), periods_s=(0.5, 1.0))
     out = tmp_path / "p.h5"
     grid.run_grid(spec, out, progress=False, log=lambda s: None)
-    r = R.load(out)
+    r = load(out)
     t = sample.run_suite(spec.suite, periods_s=(0.5, 1.0))
     for k in ("pga_g", "pgv_cm_s", "u_top", "u_d", "n_steps", "scale", "mw"):
         np.testing.assert_array_equal(r.samples[k], t[k], err_msg=k)
@@ -184,7 +185,7 @@ def test_in_process_rows_equal_run_suite_and_a_raising_function_keeps_the_identi
         return grid.run_record_row(ctx, row)
     out2 = tmp_path / "q.h5"
     grid.run_grid(spec, out2, sample_fn=boom, progress=False, log=lambda s: None)
-    s = R.load(out2).samples
+    s = load(out2).samples
     assert s["status"][3] == R.STATUS_OTHER_FAILED and "forced failure of row 3" in s["message"][3]
     assert (s["record_id"][3], s["component"][3], s["scale"][3], s["record"][3]) == ("RSN9002", "h2", 1.0, 1)
     assert s["mw"][3] == 7.0 and (np.delete(s["status"], 3) == 0).all()
@@ -202,12 +203,12 @@ def test_record_file_rebuilt_from_its_journal(tmp_path):
     w.close()   # no finish: the journal holds the row
     out.unlink()
     with pytest.warns(UserWarning, match="from the journal"):
-        r = R.load(out)
+        r = load(out)
     assert r.attrs["layout"] == "records" and list(r.rows) == [1]
     assert r.samples["event"][0] == "Événement" and r.samples["scale"][0] == 2.0
     w = R.open_for_run(out, sig, {"layout": "records"}, 2, [1.0], log=lambda s: None)
     w.close()
-    r = R.load(out)
+    r = load(out)
     assert set(r.samples) == set(R.RECORD_SAMPLE_FIELDS) and r.samples["component"][0] == "h2"
     assert r.spectra["sa_g"][0, 0] == 1.5
 
@@ -224,15 +225,15 @@ def test_record_grid_sigterm_under_mpirun_then_resume_on_two_ranks(suite, tmp_pa
     cmd = ["timeout", "-k", "10", "120", "mpirun", "--allow-run-as-root", "-n", "2", sys.executable, "-m", "mpi4py",
            str(SCRIPT), *args]
     _kill_after(cmd, _env(PCF_FAKE_SLEEP_S="0.15"), out, 4, signal.SIGTERM)
-    before = R.load(out)
+    before = load(out)
     assert 4 <= len(before) < 18, len(before)
     _ok(_mpirun(2, args, PCF_FAKE_SLEEP_S="0"))
-    after = R.load(out)
+    after = load(out)
     assert after.complete and len(after) == 18 and (after.samples["status"] == 0).all()
     _same_rows(before, after, rows=before.rows)
     fresh = tmp_path / "fresh.h5"
     _ok(_serial([*args[:-1], str(fresh)]))
-    _same_rows(R.load(fresh), after)
+    _same_rows(load(fresh), after)
 
 
 def test_ranks_that_read_another_suite_are_refused(suite, tmp_path):

@@ -11,6 +11,7 @@ import pytest
 
 from pycolfrag import ResultsFileError
 from pycolfrag import results as R
+from pycolfrag.analysis.data import load
 
 SIG = {"grid": "tiny", "samples": 3}
 PERIODS = [0.5, 1.0, 2.0]
@@ -40,7 +41,7 @@ def test_new_file_has_pending_rows_and_every_field(tmp_path):
         assert f["spectra/sa_g"].shape == (6, 3)
         assert list(f["spectra"].attrs["periods_s"]) == PERIODS
         assert f.attrs["seed"] == 1 and not f.attrs["complete"]
-    assert len(R.load(p)) == 0 and len(R.load(p, pending=True)) == 6
+    assert len(load(p)) == 0 and len(load(p, pending=True)) == 6
 
 
 def test_rows_round_trip_exactly_through_journal_and_hdf5(tmp_path):
@@ -48,11 +49,11 @@ def test_rows_round_trip_exactly_through_journal_and_hdf5(tmp_path):
     w = _new(p)
     x = 0.1 + 0.2  # not representable in few digits: JSON must keep every bit
     w.add([_row(1, u_top=x, message="ValueError: é" * 50), _row(4, status=3, u_top=math.nan)])
-    lagging = R.load(p, journal=False)  # not flushed yet: only the journal has them
+    lagging = load(p, journal=False)  # not flushed yet: only the journal has them
     assert len(lagging) == 0
-    via_journal = R.load(p)
+    via_journal = load(p)
     w.flush()
-    via_h5 = R.load(p, journal=False)
+    via_h5 = load(p, journal=False)
     for r in (via_journal, via_h5):
         assert list(r.rows) == [1, 4]
         assert r.samples["u_top"][0] == x and math.isnan(r.samples["u_top"][1])
@@ -69,7 +70,7 @@ def test_complete_run_deletes_the_journal(tmp_path):
     w = _new(p, n=2)
     w.add([_row(0), _row(1)])
     w.finish({"n_ranks": 2})
-    r = R.load(p)
+    r = load(p)
     assert r.complete and r.attrs["n_ranks"] == 2 and r.attrs["n_done"] == 2
     assert not R.journal_path(p).exists()
 
@@ -82,12 +83,12 @@ def test_unreadable_hdf5_is_rebuilt_from_the_journal(tmp_path):
     w.add([_row(5)])  # journalled only
     w.close()
     p.write_bytes(p.read_bytes()[:300])  # a kill in the middle of an HDF5 write
-    r = R.load(p)  # readers fall back to the journal
+    r = load(p)  # readers fall back to the journal
     assert list(r.rows) == [0, 2, 5]
     w = R.open_for_run(p, SIG, {}, 6, PERIODS)
     assert list(np.flatnonzero(w.done)) == [0, 2, 5]
     w.close()
-    r = R.load(p, journal=False)
+    r = load(p, journal=False)
     assert list(r.rows) == [0, 2, 5] and r.attrs["rebuilt_from_journal"]
     assert r.samples["collapsed"][1] and r.attrs["seed"] == 1
 
@@ -114,19 +115,20 @@ def test_other_run_and_foreign_files_are_refused(tmp_path):
     with pytest.raises(ResultsFileError, match="samples: file has 3, this run asks for 4"):
         R.open_for_run(p, {"grid": "tiny", "samples": 4}, {}, 8, PERIODS)
     R.open_for_run(p, {"grid": "tiny", "samples": 4}, {}, 8, PERIODS, overwrite=True).close()
-    assert len(R.load(p, pending=True)) == 8
+    assert len(load(p, pending=True)) == 8
     q = tmp_path / "foreign.h5"
     with h5py.File(q, "w") as f:
         f["x"] = 1
     with pytest.raises(ResultsFileError, match="not a pycolfrag grid results file"):
         R.open_for_run(q, SIG, {}, 6, PERIODS)
     with pytest.raises(ResultsFileError):
-        R.load(q)
+        load(q)
 
 
-def test_journal_wins_over_a_half_written_hdf5_batch(tmp_path):
-    # a kill in the middle of an HDF5 batch can leave some fields of a row written and others not;
-    # readers and the resume take every journalled row from the journal
+def test_journal_wins_over_a_damaged_hdf5_row(tmp_path):
+    # a field of a finished row changed in the HDF5 file (a kill mid-batch leaves its rows pending, since
+    # status is written last; this is damage): the row fails its checksum, and readers and the resume
+    # take every journalled row from the journal
     p = tmp_path / "r.h5"
     w = _new(p)
     w.add([_row(1, gamma=2.5)])
@@ -134,10 +136,14 @@ def test_journal_wins_over_a_half_written_hdf5_batch(tmp_path):
     w.close()
     with h5py.File(p, "r+") as f:
         f["samples/gamma"][1] = np.nan
-    assert math.isnan(R.load(p, journal=False).samples["gamma"][0])
-    assert R.load(p).samples["gamma"][0] == 2.5
-    R.open_for_run(p, SIG, {}, 6, PERIODS).close()  # resume replays the journal into the file
-    assert R.load(p, journal=False).samples["gamma"][0] == 2.5
+    with pytest.raises(R.ResultsDamagedError, match=r"checksum mismatch in 1 finished row\(s\) \(1\)"):
+        load(p, journal=False)
+    assert math.isnan(load(p, journal=False, verify=False).samples["gamma"][0])
+    with pytest.warns(UserWarning, match="the rows come from the journal"):
+        assert load(p).samples["gamma"][0] == 2.5
+    with pytest.warns(UserWarning, match="rebuilding it from r.h5.journal"):
+        R.open_for_run(p, SIG, {}, 6, PERIODS).close()  # the resume rebuilds the file from the journal
+    assert load(p, journal=False).samples["gamma"][0] == 2.5
 
 
 def test_resuming_a_finished_file_journals_its_rows_first(tmp_path):
@@ -148,13 +154,13 @@ def test_resuming_a_finished_file_journals_its_rows_first(tmp_path):
     w.add([_row(0), _row(1, status=3, message="SolverError: x"), _row(2, gamma=0.1 + 0.2)])
     w.finish()
     assert not R.journal_path(p).exists()
-    before = R.load(p)
+    before = load(p)
     R.open_for_run(p, SIG, {}, 3, PERIODS).close()  # resumed, then killed before finish()
     p.write_bytes(p.read_bytes()[:300])  # ... in the middle of an HDF5 write
     w = R.open_for_run(p, SIG, {}, 3, PERIODS)
     assert w.done.all()
     w.close()
-    after = R.load(p, journal=False)
+    after = load(p, journal=False)
     assert after.attrs["rebuilt_from_journal"] and after.attrs["seed"] == 1
     for name, v in before.samples.items():
         assert np.array_equal(v, after.samples[name], equal_nan=v.dtype.kind == "f"), name

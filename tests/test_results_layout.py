@@ -47,13 +47,15 @@ def test_record_layout_is_the_documented_one():
 
 def test_a_new_im_in_the_registry_reaches_both_layouts():
     """Declaring an IM in pycolfrag.names is enough for the writer: a child interpreter adds one
-    and (re)loads pycolfrag.results, and finds it in both layouts with its description."""
+    and (re)loads the layout of pycolfrag.results, and finds it in both layouts with its description."""
     code = textwrap.dedent("""
         import importlib
         from pycolfrag import names
         names.IMS["cav_m_s"] = names.Quantity("cav_m_s", "m/s", "CAV (m/s)", "CAV", description="cumulative absolute velocity")
         from pycolfrag import results as R
-        R = importlib.reload(R)
+        from pycolfrag.results import layout
+        importlib.reload(layout)
+        R = importlib.reload(R)     # the package's names are the layout's
         for fields in (R.SAMPLE_FIELDS, R.RECORD_SAMPLE_FIELDS):
             assert fields["cav_m_s"] == ("f8", fields["pga_g"][1], "cumulative absolute velocity, m/s"), fields.get("cav_m_s")
         print("ok")

@@ -12,6 +12,6 @@
 * :mod:`~pycolfrag.analysis.compare` -- two results files, row by row.
 
 No module here imports the grid driver, and the statistics (``fragility``, ``summary``, ``data``) import
-no C binding (tests/test_analysis_package.py). The old names (``pycolfrag.fragility``,
-``python -m pycolfrag.report``, ...) still work: :mod:`pycolfrag._aliases`.
+no C binding (tests/test_analysis_package.py). ``import pycolfrag`` loads ``fragility`` (the public
+``pcf.fragility``) and nothing else of this package.
 """

@@ -2,7 +2,8 @@
 per-scenario statistics agree within their sampling error?
 
 Run as ``python -m pycolfrag.analysis.compare A.h5 B.h5`` (options: ``--alpha``, ``--quiet``), or call
-:func:`compare_results`. See docs/reproducibility.md for when two files should be bitwise equal
+:func:`compare_results`. A file in the documented layout that ``run_grid.py`` did not write (no
+``grid_signature``) is compared too; a grid's file is verified against its checksums first. See docs/reproducibility.md for when two files should be bitwise equal
 (same pycolfrag version and grid arguments on any x86-64 CPU) and when only statistically.
 
 Rows are matched by their (scenario, sample) key (a record suite: (record_id, component, scale), statistics per scale); every ``/samples`` field except ``wall_s``
@@ -33,7 +34,7 @@ from scipy import stats
 
 from .. import results as _results
 from ..errors import ParameterError, PycolfragError
-from .data import as_results
+from .data import Results, load
 
 __all__ = ["compare_results", "Comparison", "ScenarioStats", "main"]
 
@@ -220,7 +221,7 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
     """
     if not 0.0 < float(alpha) < 1.0:
         raise ParameterError(f"alpha must be in (0, 1), got {alpha!r}")
-    ra, rb = as_results(a), as_results(b)
+    ra, rb = (x if isinstance(x, Results) else load(x, any_layout=True) for x in (a, b))
     sa, sb = ra.samples, rb.samples
     keys_a, group_a = _row_keys(sa)
     keys_b, group_b = _row_keys(sb)

@@ -9,6 +9,10 @@
   fragility fits);
 * :func:`as_results`, :func:`as_data`: the same, passing through what was read already.
 
+Both say whether the file is complete: ``n_missing`` rows not computed yet (an interrupted or running
+grid), ``complete`` (none missing), ``completeness_note`` (one line for an output to carry), and
+:meth:`ResultsData.require_complete` (the one refusal of an incomplete file, with the way around it).
+
 This module imports no C binding and nothing of the grid driver: only the results layout and its
 crash-safe reading (:mod:`pycolfrag.results`).
 """
@@ -27,11 +31,45 @@ from .. import results as _results
 from ..errors import ResultsFileError
 from ..results import STATUS_OK, STATUS_PENDING
 
-__all__ = ["Results", "load", "as_results", "ResultsData", "read_results", "as_data", "read_table"]
+__all__ = ["Results", "load", "as_results", "ResultsData", "read_results", "as_data", "read_table",
+           "IncompleteResultsError", "completeness_note"]
+
+
+class IncompleteResultsError(ResultsFileError):
+    """A results file with rows not computed yet, given to an output that needs every row."""
+
+
+def completeness_note(n_rows: int, n_missing: int) -> str:
+    """One line saying that a file is incomplete and by how much (empty for a complete file): the mark an
+    output computed from an incomplete file carries."""
+    if n_missing <= 0:
+        return ""
+    return (f"INCOMPLETE: {n_rows - n_missing} of {n_rows} rows computed, {n_missing} missing (an interrupted or "
+            "running grid: rerun its command to finish it); numbers from it are not those of the full grid")
+
+
+class _Completeness:
+    """``n_missing``, ``complete`` and ``completeness_note`` from ``n_rows`` and the finished rows."""
+
+    @property
+    def n_missing(self) -> int:
+        """Rows of the file not computed yet (``status == -1``): 0 for a complete file."""
+        return int(self.n_rows - self.n_finished)
+
+    @property
+    def complete(self) -> bool:
+        """Every row of the file is computed (ok or failed). The run's own seal is ``attrs["complete"]``:
+        it stays False in a file whose run was killed after its last row, whose rows are all here."""
+        return self.n_missing == 0
+
+    @property
+    def completeness_note(self) -> str:
+        """One line for an output computed from this file: empty when it is complete."""
+        return completeness_note(self.n_rows, self.n_missing)
 
 
 @dataclass
-class Results:
+class Results(_Completeness):
     """A results file in memory (see :func:`load`).
 
     Attributes
@@ -46,6 +84,8 @@ class Results:
         Root attributes; ``column``, ``solver`` and ``grid_signature`` are JSON strings.
     rows : ndarray of int
         Row index of each entry in the file (all rows for a complete file).
+    n_rows : int
+        Rows the file holds, computed or not (``n_missing``: those not computed yet).
     """
 
     samples: dict
@@ -53,18 +93,24 @@ class Results:
     periods_s: np.ndarray
     attrs: dict
     rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    n_rows: int = -1
+
+    def __post_init__(self):
+        if self.n_rows < 0:
+            self.n_rows = len(self)
 
     def __len__(self) -> int:
         return len(self.samples["status"])
 
     @property
+    def n_finished(self) -> int:
+        """Rows computed (ok or failed)."""
+        return int(np.count_nonzero(np.asarray(self.samples["status"]) != STATUS_PENDING))
+
+    @property
     def ok(self) -> np.ndarray:
         """Mask of successful runs (``status == 0``)."""
         return self.samples["status"] == STATUS_OK
-
-    @property
-    def complete(self) -> bool:
-        return bool(self.attrs.get("complete", False))
 
     def scenario_table(self) -> list[dict]:
         """One dict per scenario present: mw, dist_km, n, ok, failed, collapses, rows (indices)."""
@@ -90,12 +136,13 @@ def _results_from_raw(raw, pending: bool, header: Mapping | None = None, jrows: 
     if "collapsed" in samples:
         samples["collapsed"] = samples["collapsed"].astype(bool)
     rows = np.arange(len(samples["status"]))
+    n_rows = rows.size
     if not pending:
         keep = samples["status"] != STATUS_PENDING
         samples = {k: v[keep] for k, v in samples.items()}
         spectra = {k: v[keep] for k, v in spectra.items()}
         rows = rows[keep]
-    return Results(samples=samples, spectra=spectra, periods_s=periods, attrs=attrs, rows=rows)
+    return Results(samples=samples, spectra=spectra, periods_s=periods, attrs=attrs, rows=rows, n_rows=n_rows)
 
 
 def _refuse_non_hdf5(path: Path) -> None:
@@ -147,19 +194,22 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
         ``grid_signature``; fields or ``/spectra`` may be missing). Default False: such a file is
         refused (:class:`~pycolfrag.errors.ResultsFileError`).
     verify : bool
-        Check the stored checksums (every attribute; every dataset of a complete file). Default True;
-        False reads a damaged file as it is (salvage: check what you take from it).
+        Check the stored checksums (every attribute; every dataset of a complete file, each finished row of
+        another; a file of the grid without them is damaged: docs/results_format.md, "Integrity"). Default
+        True; False reads a damaged file as it is (salvage: check what you take from it).
 
     Returns
     -------
     Results
         ``samples`` (dict of 1-D arrays), ``spectra`` (dict of 2-D arrays), ``periods_s``, ``attrs``,
-        ``rows`` (row indices kept). ``collapsed`` is returned as bool.
+        ``rows`` (row indices kept), ``n_rows``, ``n_missing``, ``complete``, ``completeness_note`` (how
+        many rows the file still lacks). ``collapsed`` is returned as bool.
 
     Raises
     ------
     pycolfrag.results.ResultsDamagedError
-        The file is damaged (read error, checksum mismatch, no answer in time) and no journal of it exists.
+        The file is damaged (read error, checksum mismatch, missing checksums, no answer in time) and no
+        journal of it exists; its text says how to salvage the rows.
     ResultsFileError
         Not a pycolfrag results file.
     """
@@ -174,22 +224,14 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
     if header is None:
         _refuse_non_hdf5(path)
     try:
-        for attempt in range(4):
-            try:
-                raw = _results.read_h5_bounded(path, timeout_s, any_layout, verify)
-                break
-            except _results.ResultsDamagedError:
-                # a run writing the file right now (its lock is held): a read that met a batch
-                # half-written is not damage; read again after the batch
-                if attempt == 3 or (attempt > 0 and not _results.lock_held(path)):
-                    raise  # read twice (the run may have just finished its last batch), more while it runs
-                time.sleep(0.2)
+        raw = _read_while_written(path, timeout_s, any_layout, verify)
     except (_results.ResultsDamagedError, FileNotFoundError) as exc:
         if header is None:
             if isinstance(exc, _results.ResultsDamagedError):
-                raise
+                raise  # its text says how to salvage the rows
             raise ResultsFileError(f"cannot read results file {path}: {exc}") from None
-        warnings.warn(f"{exc}; the rows come from the journal {jp} alone", stacklevel=2)
+        reason = exc.reason if isinstance(exc, _results.ResultsDamagedError) else str(exc)
+        warnings.warn(f"{reason}; the rows come from the journal {jp} alone", stacklevel=2)
         return _results_from_raw(None, pending, header, jrows)
     if header is not None:
         diffs = _results.journal_mismatch(header, raw["attrs"])
@@ -200,8 +242,22 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
     return _results_from_raw(raw, pending, header, jrows)
 
 
+def _read_while_written(path: Path, timeout_s, any_layout: bool, verify: bool) -> dict:
+    """:func:`pycolfrag.results.read_h5_bounded`, read again while a run holds the file's lock: a read that
+    met a batch half-written by the run writing it now is not damage."""
+    attempt = 0
+    while True:
+        try:
+            return _results.read_h5_bounded(path, timeout_s, any_layout, verify)
+        except _results.ResultsDamagedError:
+            if attempt == 3 or (attempt > 0 and not _results.lock_held(path)):
+                raise  # read twice (the run may have just finished its last batch), more while it runs
+            attempt += 1
+            time.sleep(0.2)
+
+
 @dataclass
-class ResultsData:
+class ResultsData(_Completeness):
     """Successful samples of a results file, ready for the fragility analysis.
 
     Attributes
@@ -217,6 +273,8 @@ class ResultsData:
     failures : dict of int -> int
         Failed rows by status code.
     path : str
+    n_rows : int
+        Rows the file holds, computed or not; ``n_missing = n_rows - n_total`` are not computed yet.
     """
 
     samples: dict
@@ -228,6 +286,25 @@ class ResultsData:
     n_failed: int
     failures: dict = field(default_factory=dict)
     path: str = ""
+    n_rows: int = -1
+
+    def __post_init__(self):
+        if self.n_rows < 0:
+            self.n_rows = self.n_total
+
+    @property
+    def n_finished(self) -> int:
+        return self.n_total
+
+    def require_complete(self, allow_incomplete: bool = False) -> None:
+        """Refuse an incomplete file (:class:`IncompleteResultsError`, naming what is missing and the way
+        around it) unless ``allow_incomplete``; an output that goes on must then carry
+        :attr:`completeness_note`."""
+        if self.n_missing and not allow_incomplete:
+            raise IncompleteResultsError(
+                f"{self.path}: {self.n_missing} of {self.n_rows} rows are not computed yet (an interrupted or running "
+                "grid): rerun the grid's command to finish it, or pass --allow-incomplete to analyse the rows there "
+                "are (the outputs are then marked INCOMPLETE)")
 
     @property
     def n(self) -> int:
@@ -281,7 +358,7 @@ def read_results(path) -> ResultsData:
         raise ResultsFileError(f"{path}: no successful runs (status == 0) to analyse")
     sa = np.asarray(spectra["sa_g"])[ok] if "sa_g" in spectra else None
     sv = np.asarray(spectra["sv_cm_s"])[ok] if "sv_cm_s" in spectra else None
-    return ResultsData(s, sa, sv, periods, dict(attrs), n_total, int(n_total - ok.sum()), failures, path)
+    return ResultsData(s, sa, sv, periods, dict(attrs), n_total, int(n_total - ok.sum()), failures, path, r.n_rows)
 
 
 def as_data(data) -> ResultsData:
