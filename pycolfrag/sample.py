@@ -428,13 +428,13 @@ def _record_run(record, component, scale, vertical, rotation_deg, spectral, max_
     of a pair (else None); the motion is None (and the row says why) when the record or the IMs of a
     pair failed. An unreadable suite member's row fails with its reason."""
     out = _record_row(record, component, rotation_deg)
-    if not record.readable:
-        out["status"], out["message"] = STATUS["record"], record.error
-        return out, None, None
     try:
         if component not in COMPONENTS:
             raise ParameterError(f"component must be one of {COMPONENTS}, got {component!r}")
-        out["scale"] = f = positive_float(scale, "scale")
+        out["scale"] = f = positive_float(scale, "scale")   # the row's field, also when its run fails
+        if not record.readable:
+            out["status"], out["message"] = STATUS["record"], record.error
+            return out, None, None
         rec = record.rotated(rotation_deg) if rotation_deg is not None else record
         cut = None if max_record_s is None else int(round(max_record_s / rec.dt)) + 1
         motion = rec.motion(component, f, vertical=vertical, max_samples=cut)

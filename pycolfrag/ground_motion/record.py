@@ -214,14 +214,14 @@ class Record(RecordMetadata):
             peak = max(float(np.max(np.abs(a), initial=0.0)) for a in (x, y, z) if a is not None)
             if not math.isfinite(peak):
                 raise ParameterError(f"scale {scale!r} makes record {self.record_id or '(unnamed)'} overflow")
-        return Record._checked(x, self.dt, self.meta, h2=y, v=z, record_id=self.record_id)
+        return Record._checked(x, self.dt, dict(self.meta), h2=y, v=z, record_id=self.record_id)
 
     def horizontals(self) -> tuple["Record", "Record"]:
         """The two horizontal components as one-component Records (H1, H2) on the whole time axis,
         e.g. for the IMs of each (nothing is checked or copied again)."""
         h2 = self.component("h2")
-        return (Record._checked(self.acc, self.dt, self.meta, record_id=self.record_id),
-                Record._checked(h2, self.dt, self.meta, record_id=self.record_id))
+        return (Record._checked(self.acc, self.dt, dict(self.meta), record_id=self.record_id),
+                Record._checked(h2, self.dt, dict(self.meta), record_id=self.record_id))
 
     # ------------------------------------------------------------------ integrals and measures
     def velocity(self) -> np.ndarray:
