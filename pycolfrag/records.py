@@ -105,6 +105,8 @@ class RecordSet(Sequence):
         for i, r in enumerate(self.records):
             if not isinstance(r, (Record, UnreadableRecord)):
                 raise ParameterError(f"RecordSet holds Record objects, item {i} is {type(r).__name__}")
+            if not r.record_id:
+                raise ParameterError(f"item {i} of a RecordSet has no record_id (a suite member is named)")
             if r.record_id in seen:
                 raise ParameterError(f"duplicate record_id {r.record_id!r} (items {seen[r.record_id]} and {i})")
             seen[r.record_id] = i

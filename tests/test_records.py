@@ -314,6 +314,8 @@ def test_suite_member_validation():
         Record(np.zeros(4), 0.01, record_id=7)
     with pytest.raises(ParameterError, match="duplicate record_id 'A'"):
         R.RecordSet([Record(np.zeros(4), 0.01, record_id="A"), Record(np.zeros(4), 0.01, record_id="A")])
+    with pytest.raises(ParameterError, match="item 0 of a RecordSet has no record_id"):
+        R.RecordSet([Record(np.zeros(4), 0.01)])
     with pytest.raises(ParameterError, match="RecordSet holds Record objects, item 0 is dict"):
         R.RecordSet([{"acc": np.zeros(4), "dt": 0.01}])
     with pytest.raises(ParameterError, match="record A has no h2 component"):
