@@ -110,6 +110,17 @@ int cf_spectra_nj_coefficients(double period, double damping, double dt, double 
     return CF_OK;
 }
 
+/* One step of the recurrence: the state (x, v) at sample i - 1 -> at sample i, for the
+ * ground accelerations a0 = acc[i - 1] and a1 = acc[i]. The one text of the step, shared by
+ * the spectra and the displacement history, so that max |x| of the history is SD bit for bit. */
+static void nj_step(const double *c, double a0, double a1, double *x, double *v)
+{
+    double x1 = c[0] * *x + c[1] * *v + c[4] * a0 + c[5] * a1;
+    double v1 = c[2] * *x + c[3] * *v + c[6] * a0 + c[7] * a1;
+    *x = x1;
+    *v = v1;
+}
+
 int cf_spectra_response(const double *acc, int n, double dt, const double *periods, int n_periods,
                         double damping, double *sd, double *sv, double *sa)
 {
@@ -125,12 +136,8 @@ int cf_spectra_response(const double *acc, int n, double dt, const double *perio
         double w = 2.0 * CF_PI / periods[j], k2 = w * w, k1 = 2.0 * damping * w;
         cf_spectra_nj_coefficients(periods[j], damping, dt, c);
         for (i = 1; i < n; i++) {
-            double a0 = acc[i - 1], a1 = acc[i];
-            double x1 = c[0] * x + c[1] * v + c[4] * a0 + c[5] * a1;
-            double v1 = c[2] * x + c[3] * v + c[6] * a0 + c[7] * a1;
             double aa;
-            x = x1;
-            v = v1;
+            nj_step(c, acc[i - 1], acc[i], &x, &v);
             aa = fabs(k1 * v + k2 * x);             /* |x'' + a_g| */
             if (fabs(x) > xm) xm = fabs(x);
             if (fabs(v) > vm) vm = fabs(v);
@@ -139,6 +146,22 @@ int cf_spectra_response(const double *acc, int n, double dt, const double *perio
         if (sd) sd[j] = xm;
         if (sv) sv[j] = vm;
         if (sa) sa[j] = am;
+    }
+    return CF_OK;
+}
+
+int cf_spectra_displacement(const double *acc, int n, double dt, double period, double damping, double *x)
+{
+    double c[8], xi = 0.0, vi = 0.0;
+    int i;
+    if (acc == NULL || x == NULL || n < 1 || !(dt > 0.0) || !isfinite(dt) || !(period > 0.0)
+        || !isfinite(period) || !(damping >= 0.0) || !(damping < 1.0))
+        return CF_EINVAL;
+    cf_spectra_nj_coefficients(period, damping, dt, c);
+    x[0] = 0.0;
+    for (i = 1; i < n; i++) {
+        nj_step(c, acc[i - 1], acc[i], &xi, &vi);
+        x[i] = xi;
     }
     return CF_OK;
 }

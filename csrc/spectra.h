@@ -46,6 +46,11 @@ int cf_spectra_peaks(const double *acc, int n, double dt, double g, cf_spectra_i
 int cf_spectra_response(const double *acc, int n, double dt, const double *periods, int n_periods,
                         double damping, double *sd, double *sv, double *sa);
 
+/* Relative displacement history x[0..n-1] (m) of one oscillator (period s > 0, damping ratio
+ * in [0, 1)) under acc, from rest: x[0] = 0, then the steps of cf_spectra_response, so that
+ * max |x| is its sd bit for bit. What RotD of SA needs: the pair's histories, rotated. */
+int cf_spectra_displacement(const double *acc, int n, double dt, double period, double damping, double *x);
+
 /* Nigam & Jennings (1969) step matrices for one period: state (x, x') advances as
  * x1 = a11 x0 + a12 v0 + b11 ag0 + b12 ag1, v1 = a21 x0 + a22 v0 + b21 ag0 + b22 ag1.
  * coef = {a11, a12, a21, a22, b11, b12, b21, b22}. Exposed for the tests. */

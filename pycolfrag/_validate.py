@@ -5,7 +5,8 @@
   wrong, e.g. a quoted number in a file), and so are ``bool`` and ``numpy.bool_`` (``True`` would
   silently become 1), complex numbers and None.
 * An integer (a seed, a count) is an ``int`` or numpy integer: not a bool, not ``10.0``.
-* A flag is ``True``/``False`` (numpy's too) or the integer 0 / 1.
+* A flag is ``True`` or ``False`` (Python's or numpy's bool) and nothing else: an integer where a
+  yes/no is asked (``history=1``) is as likely a misplaced count as a flag.
 * An array of numbers holds integers or floats (numpy dtype kinds ``i``, ``u``, ``f``, or Python
   numbers in a list): string, bool, complex, object and masked arrays are refused, then the values must
   be finite (unless a caller allows NaN, e.g. for the EDPs of collapsed runs).
@@ -68,8 +69,8 @@ def integer(value, name: str, minimum: int | None = None, maximum: int | None = 
 
 
 def flag(value, name: str) -> bool:
-    """``value`` as a bool if it is True/False or the integer 0 / 1."""
-    if _is_bool(value) or (isinstance(value, numbers.Integral) and value in (0, 1)):
+    """``value`` as a bool if it is True or False (Python's or numpy's)."""
+    if _is_bool(value):
         return bool(value)
     raise ParameterError(f"{name} must be True or False, got {type(value).__name__} {value!r}")
 

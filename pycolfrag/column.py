@@ -29,6 +29,7 @@ from dataclasses import dataclass, replace
 from importlib import resources
 from typing import Iterable, Sequence
 
+from . import input_files
 from ._ffi import lib as _lib
 from ._validate import positive_float, real
 from .errors import ParameterError
@@ -282,6 +283,9 @@ class Column:
 
     def __init__(self, blocks: Sequence[Block], density: float = 2700.0,
                  joints: JointProperties | None = None, name: str = "custom", joint_overrides=None):
+        if isinstance(blocks, (str, bytes)) or not isinstance(blocks, Iterable):
+            raise ParameterError(f"blocks must be a sequence of Block (from the bottom up), got "
+                                 f"{type(blocks).__name__} {blocks!r}")
         blocks = tuple(blocks)
         if not blocks:
             raise ParameterError("a column needs at least one block")
@@ -467,19 +471,18 @@ class Column:
 
     @classmethod
     def from_file(cls, path: str | os.PathLike) -> "Column":
-        """Read a column from a ``.json`` or ``.toml`` file (format: ``docs/column_format.md``)."""
-        path = os.fspath(path)
-        if not os.path.exists(path):
-            raise FileNotFoundError(f"column file not found: {path}")
+        """Read a column from a ``.json`` or ``.toml`` file (format: ``docs/column_format.md``).
+
+        The file is read by the one policy for files a user names (:mod:`pycolfrag.input_files`): a
+        path (``str`` or ``os.PathLike``), a regular file (a folder, FIFO or device is refused before
+        it is read), at most ``input_files.LIMITS["column file"]`` bytes (16 MiB), UTF-8 text. Every
+        refusal is a ParameterError naming the path; a missing file is also a FileNotFoundError."""
+        text = input_files.read_text(path, "column file")
+        name = os.fspath(path)
         try:
-            if path.lower().endswith(".toml"):
-                with open(path, "rb") as fh:
-                    d = tomllib.load(fh)
-            else:
-                with open(path, encoding="utf-8") as fh:
-                    d = json.load(fh)
-        except (ValueError, UnicodeDecodeError) as exc:  # JSONDecodeError and TOMLDecodeError are ValueErrors
-            raise ParameterError(f"cannot parse column file {path}: {exc}") from None
+            d = tomllib.loads(text) if name.lower().endswith(".toml") else json.loads(text)
+        except ValueError as exc:  # JSONDecodeError and TOMLDecodeError are ValueErrors
+            raise ParameterError(f"cannot parse column file {name}: {exc}") from None
         return cls.from_dict(d)
 
     def to_dict(self) -> dict:

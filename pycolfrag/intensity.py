@@ -19,6 +19,12 @@ All numbers come from the C kernels in ``csrc/spectra.c``:
   between samples, s.
 
 ``g`` = :data:`pycolfrag.names.G` (9.81 m/s², the solver's default).
+
+Arguments are checked where they enter: :func:`measures`, :func:`response_spectrum`,
+:func:`integrate` and :func:`sdof_displacement` check theirs; :class:`SpectralOptions` checks the
+periods and damping once when it is made, and :func:`record_measures` trusts a
+:class:`~pycolfrag.ground_motion.Record` (checked when it was made) and a SpectralOptions, so that
+a grid row's record is not checked again here.
 """
 from __future__ import annotations
 
@@ -29,7 +35,8 @@ from ._validate import finite_float, float_array, positive_float
 from .errors import ParameterError
 from .names import G
 
-__all__ = ["G", "DEFAULT_PERIODS_S", "measures", "response_spectrum", "integrate"]
+__all__ = ["G", "DEFAULT_PERIODS_S", "SpectralOptions", "measures", "record_measures", "response_spectrum",
+           "integrate", "sdof_displacement"]
 
 #: Periods of :func:`measures` by default, s (the paper's).
 DEFAULT_PERIODS_S = (0.2, 0.5, 1.0, 2.0, 3.0)
@@ -58,6 +65,24 @@ def _damping(damping):
     if not 0.0 <= z < 1.0:
         raise ParameterError(f"damping must be a ratio in [0, 1), got {damping!r}")
     return z
+
+
+class SpectralOptions:
+    """The spectral periods (s, > 0) and damping ratio (in [0, 1)) of the IMs, checked once when made.
+
+    Attributes: ``periods_s`` (read-only float64 array), ``damping`` (float).
+    """
+
+    __slots__ = ("periods_s", "damping")
+
+    def __init__(self, periods=DEFAULT_PERIODS_S, damping=0.05):
+        p = np.array(_periods(periods), copy=True)   # a copy: the caller's array stays writable
+        p.flags.writeable = False
+        self.periods_s = p
+        self.damping = _damping(damping)
+
+    def __repr__(self) -> str:
+        return f"SpectralOptions(periods_s={self.periods_s.tolist()}, damping={self.damping!r})"
 
 
 def integrate(acc, dt):
@@ -123,8 +148,18 @@ def measures(acc, dt, periods=DEFAULT_PERIODS_S, damping=0.05):
         (relative velocity), ``psv_cm_s``, ``sd_cm``, ``sa_abs_g`` (arrays).
     """
     a, d = _record(acc, dt)
-    p = _periods(periods)
-    z = _damping(damping)
+    return _measures(a, d, SpectralOptions(periods, damping))
+
+
+def record_measures(record, spectral: SpectralOptions) -> dict:
+    """:func:`measures` of a :class:`~pycolfrag.ground_motion.Record`'s ``acc`` (its first horizontal
+    component) for ``spectral``: nothing is checked again (both were checked when they were made)."""
+    return _measures(record.acc, record.dt, spectral)
+
+
+def _measures(a, d, spectral: SpectralOptions) -> dict:
+    """The IMs of checked arguments: ``a`` a finite C-contiguous float64 1-D array, ``d`` > 0 s."""
+    p, z = spectral.periods_s, spectral.damping
     out = ffi.new("cf_spectra_ims *")
     check(lib.cf_spectra_peaks(ptr(a), a.size, d, G, out), what="measures")
     sd, sv, sa = _sdof_peaks(a, d, p, z, "measures")
@@ -132,7 +167,21 @@ def measures(acc, dt, periods=DEFAULT_PERIODS_S, damping=0.05):
     return {
         "pga_g": out.pga / G, "pgv_cm_s": 100.0 * out.pgv, "pgd_cm": 100.0 * out.pgd,
         "arias_m_s": out.arias, "d5_95_s": out.d5_95, "t5_s": out.t5, "t95_s": out.t95,
-        "periods_s": p, "damping": z,
+        "periods_s": p.copy(), "damping": z,
         "sa_g": w * w * sd / G, "sv_cm_s": 100.0 * sv, "psv_cm_s": 100.0 * w * sd,
         "sd_cm": 100.0 * sd, "sa_abs_g": sa / G,
     }
+
+
+def sdof_displacement(acc, dt, period, damping=0.05) -> np.ndarray:
+    """Relative displacement history x(t) (m) of the damped oscillator of ``period`` (s) under ``acc``
+    (m/s², sampled at ``dt`` s), from rest: the recurrence of the spectra (``cf_spectra_displacement``,
+    the same steps as :func:`response_spectrum`), so ``max |x|`` is its ``sd_m`` bit for bit. An array
+    of the record's length (``x[0] = 0``); what RotD of SA rotates
+    (:func:`pycolfrag.ground_motion.rotation.rotd`)."""
+    a, d = _record(acc, dt)
+    T = positive_float(period, "period (s)")
+    z = _damping(damping)
+    x = np.empty_like(a)
+    check(lib.cf_spectra_displacement(ptr(a), a.size, d, T, z, ptr(x)), what="sdof_displacement")
+    return x

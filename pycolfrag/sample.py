@@ -12,6 +12,13 @@ row holds is decided here, for both kinds of sample:
 Both fill the IMs and EDPs by iterating over the registry :mod:`pycolfrag.names`, through the
 shared :func:`response_row`, and never raise for a failing sample: ``status`` (the codes of
 :mod:`pycolfrag.results`) and ``message`` say which phase failed.
+
+The motion of every run is a :class:`~pycolfrag.ground_motion.Record` (:meth:`Record.motion
+<pycolfrag.ground_motion.Record.motion>` of a suite member, or a synthetic record), checked once when
+it was made; the periods and damping are checked once per call (:class:`~pycolfrag.intensity.SpectralOptions`)
+and the solver options once (:class:`~pycolfrag.options.SolverOptions`), so the IMs
+(:func:`pycolfrag.intensity.record_measures`) and the runs (:func:`pycolfrag.solver.simulate_batch`)
+take them as they are.
 """
 from __future__ import annotations
 
@@ -27,7 +34,10 @@ from . import results as _r
 from . import solver as _solver   # called through the module, so a test's fake of simulate takes effect
 from .column import Column
 from .errors import ParameterError
+from ._validate import positive_float
+from .ground_motion.record import COMPONENTS, Record
 from .ground_motion.registry import PULSE_FIELDS
+from .intensity import SpectralOptions
 from .options import SolverOptions
 from .solver import EnergyWarning, StepWarning
 
@@ -40,8 +50,6 @@ DEFAULT_PERIODS_S = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0)
 DEFAULT_DAMPING = 0.05
 #: Runs of :func:`run_suite` integrated together (side by side in SIMD lanes, lanes refilled).
 _SUITE_BATCH = 64
-#: Component choices of a record sample.
-COMPONENTS = ("h1", "h2", "both")
 
 
 #: Status codes of a row by phase (0 ok; see :mod:`pycolfrag.results`).
@@ -61,18 +69,26 @@ def _meta(meta: dict, *keys, default=math.nan) -> float:
 
 def record_identity(record, component, scale) -> dict:
     """The fields that name a record row: record_id, event, station, component, mw, rrup_km (also as
-    dist_km, the synthetic grid's distance) and scale. Kept in a row whose run failed."""
-    meta = dict(getattr(record, "meta", {}) or {})
-    rrup = _meta(meta, "rrup_km")
-    return {"record_id": str(getattr(record, "record_id", "")), "event": str(meta.get("event", "")),
-            "station": str(meta.get("station", "")), "component": str(component), "mw": _meta(meta, "mw"),
-            "rrup_km": rrup, "dist_km": rrup, "scale": scale}
+    dist_km, the synthetic grid's distance) and scale. Kept in a row whose run failed. ``record``: a
+    suite member (a Record or an unreadable member's marker)."""
+    rrup = _meta(record.meta, "rrup_km")
+    return {"record_id": record.record_id, "event": str(record.event), "station": str(record.station),
+            "component": str(component), "mw": _meta(record.meta, "mw"), "rrup_km": rrup, "dist_km": rrup,
+            "scale": scale}
 
 
 def ims_row(acc, dt, periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_DAMPING) -> dict:
     """Every IM of :data:`pycolfrag.names.IMS` of one record: scalars as floats, spectral ones as
     arrays over ``periods_s`` (:func:`pycolfrag.intensity.measures`)."""
-    ims = intensity.measures(acc, dt, periods=periods_s, damping=damping)
+    return _ims_of(intensity.measures(acc, dt, periods=periods_s, damping=damping))
+
+
+def _ims(motion: Record, spectral: SpectralOptions) -> dict:
+    """:func:`ims_row` of a run's motion (its ``acc``) for checked periods and damping."""
+    return _ims_of(intensity.record_measures(motion, spectral))
+
+
+def _ims_of(ims: dict) -> dict:
     out = {}
     for name, q in names.IMS.items():
         out[name] = np.asarray(ims[name], dtype=float) if q.spectral else float(ims[name])
@@ -107,12 +123,24 @@ def _edp_row(res) -> dict:
     return out
 
 
-def _ims_phase(out, acc_x, dt, ims, periods_s, damping) -> bool:
-    """The IMs of a row (``ims`` when given, else those of ``acc_x``); False (and ``status``) when they failed."""
+def _spectral(periods_s, damping):
+    """The checked periods and damping of a call's rows, or the exception that refuses them (each
+    row then fails in its IM phase with it: a failing sample is a row, not an exception)."""
+    try:
+        return SpectralOptions(periods_s, damping)
+    except Exception as exc:
+        return exc
+
+
+def _ims_phase(out, motion, ims, spectral) -> bool:
+    """The IMs of a row (``ims`` when given, else those of the motion's ``acc``); False (and
+    ``status``) when they failed."""
     out.setdefault("status", STATUS["ok"])
     out.setdefault("message", "")
     try:
-        out.update(ims_row(acc_x, dt, periods_s, damping) if ims is None else ims)
+        if isinstance(spectral, Exception):
+            raise spectral
+        out.update(_ims(motion, spectral) if ims is None else ims)
     except Exception as exc:  # a failed sample is a result (status, message), not the end of the run
         out["status"] = STATUS["im"]
         out["message"] = f"{type(exc).__name__}: {exc}"
@@ -137,12 +165,15 @@ def _response_phase(out, res, steps=()) -> None:
         out["message"] = "StepWarning: " + "; ".join(steps)
 
 
-def _solver_kw(solver_options) -> dict:
-    """simulate()'s keywords for a row's solver options: a resolved SolverOptions (what the grid
-    passes) or a dict of overrides."""
+def _options(solver_options):
+    """A call's solver options, resolved once: a SolverOptions (what the grid passes) as it is, a
+    dict of overrides on the defaults, or the exception that refuses them (each run then fails with it)."""
     if isinstance(solver_options, SolverOptions):
-        return {"options": solver_options}
-    return dict(solver_options or {})
+        return solver_options
+    try:
+        return SolverOptions().replace(**dict(solver_options or {}))
+    except Exception as exc:
+        return exc
 
 
 def _caught(run):
@@ -160,36 +191,51 @@ def _caught(run):
     return res, [str(w.message) for w in caught if issubclass(w.category, StepWarning)]
 
 
-def _simulate(column, acc_x, dt, acc_y, acc_z, solver_options):
+def _simulate(column, motion: Record, options):
     """One run as a row needs it: (the Response or the exception, its step-warning texts)."""
-    return _caught(lambda: _solver.simulate(column, acc_x, dt, acc_y=acc_y, acc_z=acc_z, **_solver_kw(solver_options)))
+    if isinstance(options, Exception):
+        return options, []
+    return _caught(lambda: _solver.simulate(column, motion, options=options))
 
 
-def response_row(column, acc_x, dt, *, acc_y=None, acc_z=None, ims=None, periods_s=DEFAULT_PERIODS_S,
-                 damping=DEFAULT_DAMPING, solver_options=None, out=None) -> dict:
+def _motion_of(motion) -> Record:
+    if not isinstance(motion, Record):
+        raise ParameterError(f"a run's motion must be a Record (acc along x, h2 along y, v vertical), "
+                             f"got {type(motion).__name__}")
+    return motion
+
+
+def response_row(column, motion, *, ims=None, periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_DAMPING,
+                 solver_options=None, out=None) -> dict:
     """IMs then the column's response: the shared body of every sample.
 
-    ``ims``: precomputed IMs (else those of ``acc_x``). ``out``: a row dict to fill (its
-    ``status``/``message`` are set by the phase that fails; nothing is raised).
+    ``motion``: the run's ground motion, a :class:`~pycolfrag.ground_motion.Record` (``acc`` along x,
+    ``h2`` along y, ``v`` vertical). ``ims``: precomputed IMs (else those of ``motion.acc``).
+    ``out``: a row dict to fill (its ``status``/``message`` are set by the phase that fails; nothing
+    is raised).
     """
-    out = {} if out is None else out
-    if _ims_phase(out, acc_x, dt, ims, periods_s, damping):
-        _response_phase(out, *_simulate(column, acc_x, dt, acc_y, acc_z, solver_options))
+    return _response_row(column, _motion_of(motion), ims, _spectral(periods_s, damping), _options(solver_options),
+                         {} if out is None else out)
+
+
+def _response_row(column, motion: Record, ims, spectral, options, out: dict) -> dict:
+    """:func:`response_row` of resolved periods, damping and options (:func:`_spectral`, :func:`_options`)."""
+    if _ims_phase(out, motion, ims, spectral):
+        _response_phase(out, *_simulate(column, motion, options))
     return out
 
 
-def _simulate_many(column, runs, solver_options) -> list:
-    """The runs (dicts of acc_x, dt, acc_y, acc_z) on one column: (Response or exception, step-warning
-    texts) each, the Response bitwise what :func:`_simulate` gives, through
-    :func:`pycolfrag.solver.simulate_batch` (runs in SIMD lanes). Where the batch cannot start (options
-    the set-up refuses) or warns about the step (an explicit dt_solver above the stability limit or a
-    record's dt: rare, the grid refuses both), every run alone, so that each row gets the message and
-    the warnings of its own run."""
-    if len(runs) < 2:
-        return [_simulate(column, r["acc_x"], r["dt"], r["acc_y"], r["acc_z"], solver_options) for r in runs]
-    res, steps = _caught(lambda: _solver.simulate_batch(column, runs, errors="return", **_solver_kw(solver_options)))
+def _simulate_many(column, motions: list, options) -> list:
+    """The runs (Records) on one column: (Response or exception, step-warning texts) each, the
+    Response bitwise what :func:`_simulate` gives, through :func:`pycolfrag.solver.simulate_batch`
+    (runs in SIMD lanes). Where the batch cannot start (options the set-up refuses) or warns about
+    the step (an explicit dt_solver above the stability limit or a record's dt: rare, the grid
+    refuses both), every run alone, so that each row gets the message and the warnings of its own run."""
+    if len(motions) < 2 or isinstance(options, Exception):
+        return [_simulate(column, m, options) for m in motions]
+    res, steps = _caught(lambda: _solver.simulate_batch(column, motions, errors="return", options=options))
     if isinstance(res, Exception) or steps:
-        return [_simulate(column, r["acc_x"], r["dt"], r["acc_y"], r["acc_z"], solver_options) for r in runs]
+        return [_simulate(column, m, options) for m in motions]
     return [(x, []) for x in res]
 
 
@@ -198,27 +244,32 @@ def response_rows(column, rows, *, periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_
     """:func:`response_row` for many rows at once, their runs in one batch: each row gets bitwise what
     :func:`response_row` gives it.
 
-    ``rows``: dicts with ``out`` (the row to fill), ``acc_x``, ``dt`` and optionally ``acc_y``,
-    ``acc_z``, ``ims``. ``times`` (list, one per row, or None): each row's own seconds are added to
-    it -- its IMs, and of the batch's solver time the share of its steps.
+    ``rows``: (row dict to fill, motion (a Record), precomputed IMs or None) of each. ``times`` (list,
+    one per row, or None): each row's own seconds are added to it -- its IMs, and of the batch's
+    solver time the share of its steps.
     """
+    rows = [(out, _motion_of(motion), ims) for out, motion, ims in rows]
+    _response_rows(column, rows, _spectral(periods_s, damping), _options(solver_options), times)
+
+
+def _response_rows(column, rows: list, spectral, options, times) -> None:
+    """:func:`response_rows` of resolved periods, damping and options (:func:`_spectral`, :func:`_options`)."""
     t_ims, todo = [], []
-    for r in rows:
+    for out, motion, ims in rows:
         t0 = time.perf_counter()
-        if _ims_phase(r["out"], r["acc_x"], r["dt"], r.get("ims"), periods_s, damping):
-            todo.append(r)
+        if _ims_phase(out, motion, ims, spectral):
+            todo.append((out, motion))
         t_ims.append(time.perf_counter() - t0)
     t0 = time.perf_counter()
-    res = _simulate_many(column, [{"acc_x": r["acc_x"], "dt": r["dt"], "acc_y": r.get("acc_y"),
-                                   "acc_z": r.get("acc_z")} for r in todo], solver_options)
+    res = _simulate_many(column, [m for _, m in todo], options)
     t_run = time.perf_counter() - t0
-    for r, (x, warned) in zip(todo, res):
-        _response_phase(r["out"], x, warned)
+    for (out, _), (x, warned) in zip(todo, res):
+        _response_phase(out, x, warned)
     if times is not None:
-        steps = {id(r): float(getattr(x, "n_steps", 0)) for r, (x, _) in zip(todo, res)}
+        steps = {id(out): float(getattr(x, "n_steps", 0)) for (out, _), (x, _) in zip(todo, res)}
         total = sum(steps.values())
-        for i, r in enumerate(rows):
-            share = steps.get(id(r), 0.0) / total if total > 0 else (1.0 / len(todo) if id(r) in steps else 0.0)
+        for i, (out, _, _) in enumerate(rows):
+            share = steps.get(id(out), 0.0) / total if total > 0 else (1.0 / len(todo) if id(out) in steps else 0.0)
             times[i] += t_ims[i] + share * t_run
 
 
@@ -235,7 +286,7 @@ def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.0
     pulse : dict -- a row of :func:`pycolfrag.ground_motion.sample_pulse_parameters`
     record_dt_s, vp_scale : see :func:`pycolfrag.ground_motion.synthesize`
     periods_s, damping : spectral periods (s) and damping ratio of the IMs
-    solver_options : dict of :func:`pycolfrag.simulate` keywords
+    solver_options : SolverOptions, or a dict of :func:`pycolfrag.simulate` keywords
     max_record_s : float or None -- cut the record (tests and quick looks only)
     with_pulse : bool -- False: the high-frequency record alone (:func:`pycolfrag.ground_motion.stochastic`
         with the same ``hf_seed``: the no-pulse branch of a site's motions); ``pulse`` and ``vp_scale``
@@ -249,33 +300,39 @@ def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.0
     ``scenario`` and ``sample``.
     """
     t0 = time.perf_counter()
-    out, acc, dt = _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse)
-    if acc is not None:
-        response_row(column, acc, dt, periods_s=periods_s, damping=damping, solver_options=solver_options, out=out)
+    out, motion = _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse)
+    if motion is not None:
+        _response_row(column, motion, None, _spectral(periods_s, damping), _options(solver_options), out)
     out["wall_s"] = time.perf_counter() - t0
     return out
 
 
-def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse=True):
-    """The record of a synthetic sample and its row so far: (row, acc, dt); acc is None (and the row
-    says why) when the record failed."""
+def _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse=True):
+    """The record of a synthetic sample and its row so far: (row, the run's motion, a Record); the
+    motion is None (and the row says why) when the record failed."""
     out = {"mw": float(mw), "dist_km": float(dist_km), "status": STATUS["ok"], "message": ""}
     try:
         if with_pulse:
             rec = ground_motion.synthesize(mw, dist_km, hf_seed, dt=record_dt_s, vp_scale=vp_scale, pulse=pulse)
         else:
             rec = ground_motion.stochastic(mw, dist_km, hf_seed, dt=record_dt_s)
-        acc, dt, meta = np.asarray(rec.acc, dtype=float), float(rec.dt), dict(rec.meta)
-        if max_record_s is not None:
-            acc = acc[: int(round(max_record_s / dt)) + 1]
-        out["record_s"] = len(acc) * dt
+        cut = None if max_record_s is None else int(round(max_record_s / rec.dt)) + 1
+        motion = rec.motion("h1", max_samples=cut)
+        out["record_s"] = motion.n * motion.dt
         if with_pulse:
-            out.update({p.row_field: _meta(meta, p.meta_key) for p in PULSE_FIELDS})
+            out.update({p.row_field: _meta(rec.meta, p.meta_key) for p in PULSE_FIELDS})
     except Exception as exc:
         out["status"] = STATUS["record"]
         out["message"] = f"{type(exc).__name__}: {exc}"
-        return out, None, None
-    return out, acc, dt
+        return out, None
+    return out, motion
+
+
+def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse=True):
+    """:func:`_synthetic_motion` as arrays: (row, acc, dt), acc and dt None when the record failed
+    (the grid's pre-run probe makes a row's record this way)."""
+    out, motion = _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse)
+    return (out, None, None) if motion is None else (out, motion.acc, motion.dt)
 
 
 def run_synthetic_samples(column, samples, *, record_dt_s=0.005, vp_scale=1.0, periods_s=DEFAULT_PERIODS_S,
@@ -287,29 +344,28 @@ def run_synthetic_samples(column, samples, *, record_dt_s=0.005, vp_scale=1.0, p
     as :func:`run_synthetic_sample`. ``wall_s`` of a row: its record and IMs, and of the batch's
     solver time the share of its steps."""
     def prepare(mw, dist_km, hf_seed, pulse):
-        out, acc, dt = _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s,
-                                         with_pulse)
-        return out, (None if acc is None else {"acc_x": acc, "dt": dt})
-    return _batch_rows(column, samples, prepare, periods_s, damping, solver_options)
+        out, motion = _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s,
+                                        with_pulse)
+        return out, motion, None
+    return _batch_rows(column, samples, prepare, _spectral(periods_s, damping), _options(solver_options))
 
 
-def _batch_rows(column, samples, prepare, periods_s, damping, solver_options) -> list[dict]:
-    """Rows of many samples: ``prepare(*sample)`` gives each its row so far and its run (None when it
-    failed before the run), then :func:`response_rows` runs them together; ``wall_s`` of a row: its
-    own preparation and IMs, and the share of its steps of the batch's solver time."""
+def _batch_rows(column, samples, prepare, spectral, options) -> list[dict]:
+    """Rows of many samples: ``prepare(*sample)`` gives each its row so far, its run's motion (None
+    when it failed before the run) and precomputed IMs (or None), then :func:`response_rows` runs them
+    together; ``wall_s`` of a row: its own preparation and IMs, and the share of its steps of the
+    batch's solver time."""
     rows, runs, owner, times = [], [], [], []
     for i, smp in enumerate(samples):
         t0 = time.perf_counter()
-        out, run = prepare(*smp)
+        out, motion, ims = prepare(*smp)
         rows.append(out)
         times.append(time.perf_counter() - t0)
-        if run is not None:
-            run["out"] = out
-            runs.append(run)
+        if motion is not None:
+            runs.append((out, motion, ims))
             owner.append(i)
     run_times = [0.0] * len(runs)
-    response_rows(column, runs, periods_s=periods_s, damping=damping, solver_options=solver_options,
-                  times=run_times)
+    _response_rows(column, runs, spectral, options, run_times)
     for i, t in zip(owner, run_times):
         times[i] += t
     for out, t in zip(rows, times):
@@ -324,7 +380,8 @@ def run_record_sample(record, *, column, component="h1", scale=1.0, vertical=Fal
 
     Parameters
     ----------
-    record : :class:`~pycolfrag.records.SuiteRecord`
+    record : :class:`~pycolfrag.ground_motion.Record` (a suite member) or
+        :class:`~pycolfrag.records.UnreadableRecord` (the row fails with its reason)
     column : Column
     component : "h1", "h2" or "both"
         One horizontal component along the solver's x axis (the paper's Fig. 10 runs each on its own),
@@ -334,7 +391,7 @@ def run_record_sample(record, *, column, component="h1", scale=1.0, vertical=Fal
     vertical : bool
         Add the vertical component (acc_z) when the record has one.
     rotation_deg : float or None
-        Rotate the pair first (:meth:`~pycolfrag.records.SuiteRecord.rotated`); ``component`` then
+        Rotate the pair first (:meth:`~pycolfrag.ground_motion.Record.rotated`); ``component`` then
         refers to the rotated axes.
     periods_s, damping, solver_options, max_record_s : as in :func:`run_synthetic_sample`.
 
@@ -348,53 +405,56 @@ def run_record_sample(record, *, column, component="h1", scale=1.0, vertical=Fal
     values (the convention of the NGA GMPEs before RotD50).
     """
     t0 = time.perf_counter()
-    out, run = _record_run(record, component, scale, vertical, rotation_deg, periods_s, damping, max_record_s)
-    if run is not None:
-        response_row(column, run["acc_x"], run["dt"], acc_y=run["acc_y"], acc_z=run["acc_z"], ims=run["ims"],
-                     periods_s=periods_s, damping=damping, solver_options=solver_options, out=out)
+    spectral = _spectral(periods_s, damping)
+    out, motion, ims = _record_run(record, component, scale, vertical, rotation_deg, spectral, max_record_s)
+    if motion is not None:
+        _response_row(column, motion, ims, spectral, _options(solver_options), out)
     out["wall_s"] = time.perf_counter() - t0
     return out
 
 
-def _record_run(record, component, scale, vertical, rotation_deg, periods_s, damping, max_record_s):
-    """A natural-record sample up to its run: (row, run) with run the dict of acc_x, dt, acc_y, acc_z and
-    ims (the combined IMs of a pair, else None); run is None (and the row says why) when the record or
-    the IMs of a pair failed."""
-    meta = dict(getattr(record, "meta", {}) or {})
-    out = {**record_identity(record, component, math.nan), "rjb_km": _meta(meta, "rjb_km"),
-           "vs30_m_s": _meta(meta, "vs30_m_s"), "tp_s": _meta(meta, "tp_s"), "year": _meta(meta, "year"),
-           "mechanism": str(meta.get("mechanism", "")), "rotation_deg": math.nan if rotation_deg is None
-           else float(rotation_deg), "status": STATUS["ok"], "message": ""}
+def _record_row(record, component, rotation_deg) -> dict:
+    """A record row's fields before its run: the record's identity and metadata."""
+    meta = record.meta
+    return {**record_identity(record, component, math.nan), "rjb_km": _meta(meta, "rjb_km"),
+            "vs30_m_s": _meta(meta, "vs30_m_s"), "tp_s": _meta(meta, "tp_s"), "year": _meta(meta, "year"),
+            "mechanism": str(record.mechanism), "rotation_deg": math.nan if rotation_deg is None
+            else float(rotation_deg), "status": STATUS["ok"], "message": ""}
+
+
+def _record_run(record, component, scale, vertical, rotation_deg, spectral, max_record_s):
+    """A natural-record sample up to its run: (row, motion, ims) with the motion a Record (the chosen
+    components, scaled, cut: :meth:`~pycolfrag.ground_motion.Record.motion`) and ims the combined IMs
+    of a pair (else None); the motion is None (and the row says why) when the record or the IMs of a
+    pair failed. An unreadable suite member's row fails with its reason."""
+    out = _record_row(record, component, rotation_deg)
     try:
         if component not in COMPONENTS:
             raise ParameterError(f"component must be one of {COMPONENTS}, got {component!r}")
-        f = float(scale)
-        if not (math.isfinite(f) and f > 0):
-            raise ParameterError(f"scale must be finite and > 0, got {scale!r}")
-        out["scale"] = f
+        out["scale"] = f = positive_float(scale, "scale")   # the row's field, also when its run fails
+        if not record.readable:
+            out["status"], out["message"] = STATUS["record"], record.error
+            return out, None, None
         rec = record.rotated(rotation_deg) if rotation_deg is not None else record
-        dt = float(rec.dt)
-        # one component alone runs as recorded (without the zeros that padded it to its pair's length)
-        n = rec.n if component == "both" else rec.recorded(component).size
-        n = n if max_record_s is None else min(n, int(round(max_record_s / dt)) + 1)
-        x = f * rec.component("h2" if component == "h2" else "h1")[:n]
-        y = f * rec.component("h2")[:n] if component == "both" else None
-        z = f * rec.v[:n] if (vertical and rec.v is not None) else None
-        out.update(record_s=n * dt, dt_s=dt)
+        cut = None if max_record_s is None else int(round(max_record_s / rec.dt)) + 1
+        motion = rec.motion(component, f, vertical=vertical, max_samples=cut)
+        out.update(record_s=motion.n * motion.dt, dt_s=motion.dt)
     except Exception as exc:
         out["status"] = STATUS["record"]
-        text = str(exc)  # an unreadable record's error already names its type
-        out["message"] = text if text.startswith(f"{type(exc).__name__}: ") else f"{type(exc).__name__}: {text}"
-        return out, None
+        out["message"] = f"{type(exc).__name__}: {exc}"
+        return out, None, None
     ims = None
-    if y is not None:
+    if motion.h2 is not None:
         try:
-            ims = _combine_ims(ims_row(x, dt, periods_s, damping), ims_row(y, dt, periods_s, damping))
+            if isinstance(spectral, Exception):
+                raise spectral
+            x, y = motion.horizontals()
+            ims = _combine_ims(_ims(x, spectral), _ims(y, spectral))
         except Exception as exc:
             out["status"] = STATUS["im"]
             out["message"] = f"{type(exc).__name__}: {exc}"
-            return out, None
-    return out, {"acc_x": x, "dt": dt, "acc_y": y, "acc_z": z, "ims": ims}
+            return out, None, None
+    return out, motion, ims
 
 
 def run_record_samples(samples, *, column, vertical=False, rotation_deg=None, periods_s=DEFAULT_PERIODS_S,
@@ -404,9 +464,11 @@ def run_record_samples(samples, *, column, vertical=False, rotation_deg=None, pe
     :func:`run_record_sample` of its sample, but faster. ``samples``: (record, component, scale) of
     each; the other arguments as :func:`run_record_sample`. ``wall_s`` as in
     :func:`run_synthetic_samples`."""
+    spectral = _spectral(periods_s, damping)
+
     def prepare(record, component, scale):
-        return _record_run(record, component, scale, vertical, rotation_deg, periods_s, damping, max_record_s)
-    return _batch_rows(column, samples, prepare, periods_s, damping, solver_options)
+        return _record_run(record, component, scale, vertical, rotation_deg, spectral, max_record_s)
+    return _batch_rows(column, samples, prepare, spectral, _options(solver_options))
 
 
 def rows_to_table(rows) -> dict:
@@ -446,7 +508,7 @@ def record_jobs(suite, components=("h1", "h2"), scales=(1.0,)) -> list[tuple[int
     if not scales or any(not (math.isfinite(f) and f > 0) for f in scales) or len(set(scales)) != len(scales):
         raise ParameterError(f"scales must be distinct finite numbers > 0, got {scales!r}")
     return [(k, c, f) for k, r in enumerate(suite) for c in components for f in scales
-            if not (c in ("h2", "both") and r.h2 is None)]
+            if not (c in ("h2", "both") and not r.has_h2)]
 
 
 def run_suite(records, *, column=None, components=("h1", "h2"), scales=(1.0,), periods_s=DEFAULT_PERIODS_S,

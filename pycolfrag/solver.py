@@ -3,8 +3,13 @@
 The physics lives in C (``csrc/solver.c``, documented in ``docs/solver.md``): rigid
 blocks with soft Coulomb joints, leapfrog integration in the frame that moves with
 the ground, step from the stability limit of the whole linearised stack. This module
-validates the input, passes it to C and wraps the output in :class:`Response` and
+checks the input, passes it to C and wraps the output in :class:`Response` and
 :class:`History`.
+
+A run's ground motion is given as arrays and a step (checked here, with the messages of
+:func:`simulate`) or as a :class:`~pycolfrag.ground_motion.Record`, whose arrays and step were
+checked when it was made and are not checked again; either way the accelerations must be within
+:data:`MAX_ABS_ACC`, the solver's own range.
 
 Example::
 
@@ -28,6 +33,7 @@ from ._ffi import check, ffi, lib, ptr
 from ._validate import flag, float_array, positive_float
 from .column import Column
 from .errors import ParameterError
+from .ground_motion.record import Record
 from .options import CONTACT_OPTIONS, SolverOptions
 
 __all__ = ["simulate", "simulate_batch", "batch_width", "Response", "History", "EnergyWarning", "StepWarning", "CONTACT_OPTIONS", "MAX_ABS_ACC",
@@ -149,13 +155,38 @@ def _acc(a, name, n_expected=None):
     if n_expected is not None and arr.size != n_expected:
         raise ParameterError(f"{name} has {arr.size} samples but acc_x has {n_expected}: components must "
                              "share one time axis")
-    big = np.abs(arr) > MAX_ABS_ACC
-    if big.any():
-        i = int(np.argmax(big))
-        raise ParameterError(
-            f"{name}[{i}] = {arr[i]!r} m/s^2 exceeds {MAX_ABS_ACC:g} m/s^2 (about 10 g): accelerations must be in "
-            "m/s^2 (a record in cm/s^2 or a g-factor applied twice?)")
     return arr
+
+
+def _within_range(arrays) -> None:
+    """The solver's range of a run's accelerations (|a| <= MAX_ABS_ACC), named by the argument."""
+    for name, arr in arrays:
+        if arr is None:
+            continue
+        big = np.abs(arr) > MAX_ABS_ACC
+        if big.any():
+            i = int(np.argmax(big))
+            raise ParameterError(
+                f"{name}[{i}] = {arr[i]!r} m/s^2 exceeds {MAX_ABS_ACC:g} m/s^2 (about 10 g): accelerations must be "
+                "in m/s^2 (a record in cm/s^2 or a g-factor applied twice?)")
+
+
+def _motion(acc_x, dt, acc_y, acc_z, what: str = "") -> tuple:
+    """A run's ground motion as (acc_x, dt, acc_y, acc_z): a Record's arrays and step as they are
+    (checked when it was made), or arrays and a step checked here; then the solver's range."""
+    if isinstance(acc_x, Record):
+        if dt is not None or acc_y is not None or acc_z is not None:
+            raise ParameterError(f"{what}a Record carries its step and components: give it alone, or arrays "
+                                 "acc_x, dt (and acc_y, acc_z)")
+        run = (acc_x.acc, acc_x.dt, acc_x.h2, acc_x.v)
+    else:
+        dt = positive_float(dt, "dt (record sampling interval, s)")
+        if acc_x is None:
+            raise ParameterError("acc_x must be an array of accelerations (m/s^2), got None")
+        ax = _acc(acc_x, "acc_x")
+        run = (ax, dt, _acc(acc_y, "acc_y", ax.size), _acc(acc_z, "acc_z", ax.size))
+    _within_range(zip(("acc_x", "acc_y", "acc_z"), (run[0], run[2], run[3])))
+    return run
 
 
 def _segments(col: Column, monolithic: bool):
@@ -205,17 +236,11 @@ def _setup(col, options, overrides, caller):
 
 
 class _Job:
-    """One record checked for a run, with the C buffers of its outputs."""
+    """One run's ground motion (:func:`_motion`), with the C buffers of its outputs."""
 
-    def __init__(self, solver, col, options, acc_x, dt, acc_y, acc_z, history, caller):
-        dt = float(positive_float(dt, "dt (record sampling interval, s)"))
-        if acc_x is None:
-            raise ParameterError("acc_x must be an array of accelerations (m/s^2), got None")
-        self.ax = ax = _acc(acc_x, "acc_x")
-        self.ay = ay = _acc(acc_y, "acc_y", ax.size)
-        self.az = _acc(acc_z, "acc_z", ax.size)
-        self.dt = dt
-        self.history = history = flag(history, "history")
+    def __init__(self, solver, col, options, motion: tuple, history: bool, caller):
+        self.ax, self.dt, self.ay, self.az = ax, dt, ay, _ = motion
+        self.history = history
         if options.planar and ay is not None:
             raise ParameterError("planar=True takes one horizontal component: acc_y must be None")
         if options.dt_solver is not None and options.dt_solver > dt:
@@ -273,21 +298,23 @@ class _Job:
             history=hist, message=message, at_rest_exit=bool(r.at_rest_exit), max_top_disp=float(r.max_top_disp))
 
 
-def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, options=None, **overrides) -> Response:
+def simulate(col, acc_x, dt=None, acc_y=None, acc_z=None, history=False, options=None, **overrides) -> Response:
     """Simulate the column under one ground-motion record.
 
     Parameters
     ----------
     col : Column
         The column (blocks, density, joint properties).
-    acc_x : array (n,)
-        Horizontal ground acceleration along x, m/s^2 (the paper's fault-normal component).
+    acc_x : array (n,) or Record
+        Horizontal ground acceleration along x, m/s^2 (the paper's fault-normal component). Or a
+        :class:`~pycolfrag.ground_motion.Record`, given alone: its ``acc`` along x, its ``h2`` along y
+        and its ``v`` vertical, at its ``dt`` (e.g. ``record.motion("both", 0.5)``).
     dt : float
         Sampling interval of the record, s (> 0). The record is interpolated linearly to the
         solver step; after its end the ground is at rest.
     acc_y, acc_z : array (n,), optional
         Second horizontal and vertical components, m/s^2, on the same time axis.
-    history : bool
+    history : bool (True or False)
         Also return time histories (:class:`History`) sampled every ``history_dt``.
     options : SolverOptions, optional
         The solver options (default ``SolverOptions()``, whose defaults are the C library's).
@@ -317,12 +344,10 @@ def simulate(col, acc_x, dt, acc_y=None, acc_z=None, history=False, options=None
     """
     if not isinstance(col, Column):
         raise ParameterError(f"col must be a Column, got {type(col).__name__}")
-    # the record is checked before the set-up (a bad record fails fast)
-    positive_float(dt, "dt (record sampling interval, s)")
-    if acc_x is None:
-        raise ParameterError("acc_x must be an array of accelerations (m/s^2), got None")
+    motion = _motion(acc_x, dt, acc_y, acc_z)   # before the set-up: a bad record fails fast
+    history = flag(history, "history")
     solver, options = _setup(col, options, overrides, "simulate")
-    job = _Job(solver, col, options, acc_x, dt, acc_y, acc_z, history, "simulate")
+    job = _Job(solver, col, options, motion, history, "simulate")
     h = job.h
     if h is not None:
         check(lib.cf_solver_set_history(solver, job.cap, ptr(h["t"]), ptr(h["top"]), ptr(h["pos"]), ptr(h["quat"]),
@@ -353,6 +378,48 @@ def batch_width(col=None, options=None, n_runs=None, **overrides) -> int:
     return int(lib.cf_solver_batch_width(solver, int(n_runs)))
 
 
+def _batch_entry(i: int, rec) -> tuple:
+    """A run's ground motion (:func:`_motion`) from entry ``i`` of simulate_batch's records."""
+    if isinstance(rec, Record):
+        return _motion(rec, None, None, None, f"records[{i}]: ")
+    if isinstance(rec, dict):
+        unknown = set(rec) - {"acc_x", "dt", "acc_y", "acc_z"}
+        if unknown:
+            raise ParameterError(f"records[{i}] has unknown keys {sorted(unknown)} (acc_x, dt, acc_y, acc_z)")
+        args = (rec.get("acc_x"), rec.get("dt"), rec.get("acc_y"), rec.get("acc_z"))
+    elif isinstance(rec, (tuple, list)) and len(rec) in (2, 4):
+        args = (rec[0], rec[1], *(rec[2:] if len(rec) == 4 else (None, None)))
+    else:
+        raise ParameterError(f"records[{i}] must be a Record, a dict (acc_x, dt[, acc_y, acc_z]) or a tuple "
+                             f"(acc_x, dt) or (acc_x, dt, acc_y, acc_z), got {type(rec).__name__}")
+    if args[1] is None:
+        raise ParameterError(f"records[{i}] has no dt (record sampling interval, s)")
+    if isinstance(args[0], Record):
+        raise ParameterError(f"records[{i}]: a Record is an entry of its own, not an acc_x")
+    return _motion(*args)
+
+
+def _run_batch(solver, options, width: int, jobs: list, out: list) -> None:
+    """Run the jobs ((index, _Job) pairs) side by side; each one's Response (or exception) into ``out``."""
+    cjobs = ffi.new("cf_solver_batch_job[]", len(jobs))
+    couts = ffi.new("cf_solver_batch_out[]", len(jobs))
+    for c, (_, job) in zip(cjobs, jobs):
+        job.fill(c)
+    with _interruptible(solver):
+        st = lib.cf_solver_batch_run(solver, int(width), len(jobs), cjobs, couts)
+    check(st, lib.cf_solver_message(solver), "simulate_batch")
+    for o, (i, job) in zip(couts, jobs):
+        message = ffi.string(o.message).decode(errors="replace")
+        try:   # a run's error reads as simulate's
+            check(o.status, message, "simulate")
+        except Exception as exc:
+            out[i] = exc
+            continue
+        if o.result.energy_warning:
+            warnings.warn(f"simulate_batch: run {i}: {message}", EnergyWarning, stacklevel=3)
+        out[i] = job.response(o.result, message, options)
+
+
 def simulate_batch(col, records, history=False, options=None, *, width=None, errors="raise",
                    **overrides) -> list:
     """Simulate the column under many records at once: one run per SIMD lane.
@@ -366,8 +433,9 @@ def simulate_batch(col, records, history=False, options=None, *, width=None, err
     ----------
     col : Column
     records : sequence
-        One entry per run: a mapping with ``acc_x`` and ``dt`` (and optionally ``acc_y``, ``acc_z``),
-        or a tuple ``(acc_x, dt)`` / ``(acc_x, dt, acc_y, acc_z)`` -- as :func:`simulate` takes them.
+        One entry per run: a :class:`~pycolfrag.ground_motion.Record` (as :func:`simulate` takes one),
+        a mapping with ``acc_x`` and ``dt`` (and optionally ``acc_y``, ``acc_z``), or a tuple
+        ``(acc_x, dt)`` / ``(acc_x, dt, acc_y, acc_z)`` -- as :func:`simulate` takes them.
     history, options, **overrides
         As :func:`simulate`, for every run.
     width : int, optional
@@ -388,9 +456,10 @@ def simulate_batch(col, records, history=False, options=None, *, width=None, err
     """
     if errors not in ("raise", "return"):
         raise ParameterError(f"errors must be 'raise' or 'return', got {errors!r}")
-    if isinstance(records, (str, bytes)) or not hasattr(records, "__iter__"):
+    if isinstance(records, (str, bytes, Record)) or not hasattr(records, "__iter__"):
         raise ParameterError(f"records must be a sequence of records, got {type(records).__name__}")
     records = list(records)
+    history = flag(history, "history")
     solver, options = _setup(col, options, overrides, "simulate_batch")
     widest = int(lib.cf_solver_batch_max_width(solver))
     if width is None:
@@ -402,40 +471,11 @@ def simulate_batch(col, records, history=False, options=None, *, width=None, err
     jobs = []
     for i, rec in enumerate(records):
         try:
-            if isinstance(rec, dict):
-                unknown = set(rec) - {"acc_x", "dt", "acc_y", "acc_z"}
-                if unknown:
-                    raise ParameterError(f"records[{i}] has unknown keys {sorted(unknown)} (acc_x, dt, acc_y, acc_z)")
-                args = (rec.get("acc_x"), rec.get("dt"), rec.get("acc_y"), rec.get("acc_z"))
-            elif isinstance(rec, (tuple, list)) and len(rec) in (2, 4):
-                args = (rec[0], rec[1], *(rec[2:] if len(rec) == 4 else (None, None)))
-            else:
-                raise ParameterError(f"records[{i}] must be a dict (acc_x, dt[, acc_y, acc_z]) or a tuple (acc_x, dt) "
-                                     f"or (acc_x, dt, acc_y, acc_z), got {type(rec).__name__}")
-            if args[1] is None:
-                raise ParameterError(f"records[{i}] has no dt (record sampling interval, s)")
-            jobs.append((i, _Job(solver, col, options, args[0], args[1], args[2], args[3], history,
-                                 "simulate_batch")))
+            jobs.append((i, _Job(solver, col, options, _batch_entry(i, rec), history, "simulate_batch")))
         except Exception as exc:   # a bad record is that run's error, as simulate would raise it
             out[i] = exc
     if jobs:
-        cjobs = ffi.new("cf_solver_batch_job[]", len(jobs))
-        couts = ffi.new("cf_solver_batch_out[]", len(jobs))
-        for c, (_, job) in zip(cjobs, jobs):
-            job.fill(c)
-        with _interruptible(solver):
-            st = lib.cf_solver_batch_run(solver, int(width), len(jobs), cjobs, couts)
-        check(st, lib.cf_solver_message(solver), "simulate_batch")
-        for o, (i, job) in zip(couts, jobs):
-            message = ffi.string(o.message).decode(errors="replace")
-            try:   # a run's error reads as simulate's
-                check(o.status, message, "simulate")
-            except Exception as exc:
-                out[i] = exc
-                continue
-            if o.result.energy_warning:
-                warnings.warn(f"simulate_batch: run {i}: {message}", EnergyWarning, stacklevel=2)
-            out[i] = job.response(o.result, message, options)
+        _run_batch(solver, options, width, jobs, out)
     if errors == "raise":
         for r in out:
             if isinstance(r, BaseException):

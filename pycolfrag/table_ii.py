@@ -105,7 +105,7 @@ def table_ii(records, column=None, *, component="h1", damping_alpha=DEFAULT_TABL
 
     Parameters
     ----------
-    records : RecordSet, sequence of SuiteRecord, or a source for :func:`pycolfrag.records.load_records`
+    records : RecordSet, sequence of Record, or a source for :func:`pycolfrag.records.load_records`
     column : Column, optional (default ``Column.parthenon()``)
     component : "h1" or "h2"
     damping_alpha : float, 1/s (>= 0)

@@ -103,6 +103,23 @@ def test_two_component_batch_equals_single_runs():
         _assert_same(a, b, f"two components, run {i}")
 
 
+def test_a_record_runs_as_its_arrays():
+    """A Record (its acc along x, h2 along y, v vertical, at its dt) is a run of simulate and an entry of
+    simulate_batch: bitwise the run of its arrays. Given with a dt or components besides, it is refused:
+    the Record carries them."""
+    from pycolfrag.ground_motion import Record
+    x, y, z = _sine(0.3, 2.0, 2.0), _sine(0.2, 1.3, 2.0, 0.4), _sine(0.1, 5.0, 2.0)
+    rec = Record(x, DT, h2=y, v=z)
+    ref = pcf.simulate(COL, x, DT, acc_y=y, acc_z=z)
+    _assert_same(pcf.simulate(COL, rec), ref, "simulate(col, Record)")
+    for i, r in enumerate(simulate_batch(COL, [rec, (x, DT, y, z), rec])):
+        _assert_same(r, ref, f"batch entry {i}")
+    with pytest.raises(ParameterError, match="a Record carries its step and components"):
+        pcf.simulate(COL, rec, DT)
+    with pytest.raises(ParameterError, match="exceeds 100 m/s\\^2"):      # the solver's range, for a Record too
+        pcf.simulate(COL, Record(200.0 * np.ones(10), DT))
+
+
 def test_batch_errors_are_those_of_simulate():
     """A bad record fails its own run with simulate's exception and message; the others run."""
     recs = [(_sine(0.2, 2.0, 1.0), DT), (np.array([1.0, np.nan]), DT), (_sine(0.2, 2.0, 1.0), DT, None, None)]
@@ -117,7 +134,7 @@ def test_batch_errors_are_those_of_simulate():
         simulate_batch(COL, recs[:1], width=3)
     with pytest.raises(ParameterError, match="errors must be"):
         simulate_batch(COL, recs[:1], errors="ignore")
-    with pytest.raises(ParameterError, match=r"records\[0\] must be a dict"):
+    with pytest.raises(ParameterError, match=r"records\[0\] must be a Record, a dict"):
         simulate_batch(COL, [np.zeros(3)])
     # an unstable run (a step far beyond the stability limit) fails alone, as simulate's SolverError
     with pytest.warns(pcf.solver.StepWarning):

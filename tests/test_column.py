@@ -433,15 +433,15 @@ def test_toml_nan_height(tmp_path):
         Column.from_file(p)
 
 
-@pytest.mark.parametrize("name,content", [
-    ("bad.json", "{\"shaft\": {"),
-    ("bad.toml", "[shaft\ndrum_heights = 1"),
-    ("bin.json", b"\xff\xfe\x00\x81garbage"),
+@pytest.mark.parametrize("name,content,needle", [
+    ("bad.json", "{\"shaft\": {", "cannot parse column file .*bad.json"),
+    ("bad.toml", "[shaft\ndrum_heights = 1", "cannot parse column file .*bad.toml"),
+    ("bin.json", b"\xff\xfe\x00\x81garbage", r"column file .*bin.json is not UTF-8 text \(byte 0 is 0xff\)"),
 ])
-def test_unreadable_file(tmp_path, name, content):
+def test_unreadable_file(tmp_path, name, content, needle):
     p = tmp_path / name
     (p.write_bytes if isinstance(content, bytes) else p.write_text)(content)
-    with pytest.raises(ParameterError, match="cannot parse column file.*" + name):
+    with pytest.raises(ParameterError, match=needle):
         Column.from_file(p)
 
 

@@ -225,7 +225,8 @@ def test_a_step_longer_than_the_records_dt_is_refused(tmp_path, capsys):
 def test_a_row_keeps_the_step_warning_in_its_message():
     # outside the grid (run_suite, run_record_sample) a row computed with such a step says so
     from pycolfrag import Column, sample
-    row = sample.response_row(Column.parthenon(), np.zeros(40), 0.01, solver_options={"dt_solver": 0.00102})
+    from pycolfrag.ground_motion import Record
+    row = sample.response_row(Column.parthenon(), Record(np.zeros(40), 0.01), solver_options={"dt_solver": 0.00102})
     assert row["status"] == 0 and row["message"].startswith("StepWarning: simulate: dt_solver = 0.00102 s exceeds"), row
 
 
@@ -551,24 +552,24 @@ def test_suite_files_outside_the_suite_folder_are_refused_unless_allowed(tmp_pat
 
 def test_devices_are_refused_as_tables_and_record_files(tmp_path):
     # Reported: /dev/zero was hashed without bound.
-    from pycolfrag import records
+    from pycolfrag import record_tables, records
     with pytest.raises(records.RecordFileError, match="suite table /dev/zero is not a regular file"):
         records.load_records("/dev/zero")
     csv = _suite_csv(tmp_path, "/dev/zero")
     with pytest.raises(records.RecordFileError, match="'/dev/zero' is not a regular file"):
         records.load_records(csv, allow_outside=True)
-    assert len(records._files_sha1(["/dev/zero"])) == 40  # a device hashes as its name, at once
+    assert len(record_tables.files_sha1(["/dev/zero"])) == 40  # a device hashes as its name, at once
 
 
 def test_record_file_hash_is_that_of_its_bytes_and_bounded(tmp_path, monkeypatch):
     import hashlib
-    from pycolfrag import records
+    from pycolfrag import record_tables
     p = tmp_path / "a.bin"
     data = bytes(range(256)) * 40
     p.write_bytes(data)
-    assert records._files_sha1([p]) == hashlib.sha1(data + b"\0").hexdigest()  # whole small files, as before
-    monkeypatch.setattr(records, "MAX_HASH_BYTES", 1000)
-    assert records._files_sha1([p]) == hashlib.sha1(data[:1000] + b"size:10240" + b"\0").hexdigest()
+    assert record_tables.files_sha1([p]) == hashlib.sha1(data + b"\0").hexdigest()  # whole small files, as before
+    monkeypatch.setattr(record_tables, "MAX_HASH_BYTES", 1000)
+    assert record_tables.files_sha1([p]) == hashlib.sha1(data[:1000] + b"size:10240" + b"\0").hexdigest()
 
 
 def test_a_symlink_to_a_results_file_meets_its_lock(tmp_path):

@@ -34,19 +34,24 @@ def fake_physics(monkeypatch):
         acc = np.random.default_rng(seed).normal(size=2001)
         # the keys the real synthesize derives (Tp = 1/fp, A, Ap): the row copies every declared key
         meta = dict(pulse, A_cm_s=12.0, Ap_g=0.3, Tp_s=1.0 / pulse["fp_hz"], Mw=Mw, dist_km=dist_km)
-        return SimpleNamespace(acc=acc, dt=dt, meta=meta)
+        return pcf.ground_motion.Record(acc, dt, meta)
 
     def stochastic(Mw, dist_km, seed, dt=0.005):
         calls.setdefault("stochastic", []).append((Mw, dist_km, seed, dt))
-        return SimpleNamespace(acc=0.5 * np.random.default_rng(seed).normal(size=1501), dt=dt,
-                               meta={"Mw": Mw, "dist_km": dist_km})
+        return pcf.ground_motion.Record(0.5 * np.random.default_rng(seed).normal(size=1501), dt,
+                                        {"Mw": Mw, "dist_km": dist_km})
 
     def measures(acc, dt, periods=(0.2, 0.5, 1.0, 2.0, 3.0), damping=0.05):
         p = np.asarray(periods)
         return {"pga_g": float(np.abs(acc).max() / 9.81), "pgv_cm_s": 11.0, "pgd_cm": 3.0, "arias_m_s": 0.2,
                 "d5_95_s": 7.0, "sa_g": p * 2, "sv_cm_s": p * 3, "periods_s": p}
 
-    def simulate(col, acc_x, dt, options=None, **opts):
+    def record_measures(record, spectral):
+        return measures(record.acc, record.dt, spectral.periods_s, spectral.damping)
+
+    def simulate(col, acc_x, dt=None, options=None, **opts):
+        if isinstance(acc_x, pcf.ground_motion.Record):   # a run's motion: its acc and dt
+            acc_x, dt = acc_x.acc, acc_x.dt
         opts = {**(options.to_dict() if options is not None else {}), **opts}
         if opts.get("unstable_tolerance", 0.5) < 1e-6:   # the real solver would stop such runs as unstable
             raise pcf.SolverError("instability at t = 1.2 s")
@@ -59,12 +64,13 @@ def fake_physics(monkeypatch):
     monkeypatch.setattr(pcf.ground_motion, "synthesize", synthesize, raising=False)
     monkeypatch.setattr(pcf.ground_motion, "stochastic", stochastic, raising=False)
     monkeypatch.setattr(pcf.intensity, "measures", measures, raising=False)
+    monkeypatch.setattr(pcf.intensity, "record_measures", record_measures, raising=False)
     def simulate_batch(col, records, history=False, options=None, *, width=None, errors="raise", **opts):
         calls.setdefault("batch", []).append(len(records))
         out = []
         for r in records:
             try:
-                out.append(simulate(col, r["acc_x"], r["dt"], options=options, **opts))
+                out.append(simulate(col, r, options=options, **opts))
             except Exception as exc:
                 if errors == "raise":
                     raise

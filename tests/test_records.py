@@ -1,4 +1,5 @@
-"""pycolfrag.records: PEER folders, plain CSV, FEMA P695, units, pairs, errors, rotation, RotD.
+"""pycolfrag.records: PEER folders, plain CSV, FEMA P695, units, pairs, errors; the suite member (a
+Record); rotation and RotD (pycolfrag.ground_motion.rotation).
 
 The suite is written by the test itself (pycolfrag.demo_records): closed-form sines and pulses in AT2
 files of the PEER layout, a ``_SearchResults.csv`` laid out like a real NGA-West2 download (header
@@ -18,8 +19,11 @@ sys.path.insert(0, os.path.dirname(__file__))
 import record_suite as rs  # noqa: E402
 
 from pycolfrag import records as R  # noqa: E402
+from pycolfrag import record_tables as T  # noqa: E402
 from pycolfrag.errors import ParameterError, RecordFileError  # noqa: E402
-from pycolfrag.intensity import measures, response_spectrum  # noqa: E402
+from pycolfrag.ground_motion import Record  # noqa: E402
+from pycolfrag.ground_motion import rotation as rot  # noqa: E402
+from pycolfrag.intensity import measures, response_spectrum, sdof_displacement  # noqa: E402
 from pycolfrag.names import G  # noqa: E402
 
 
@@ -36,14 +40,15 @@ def test_peer_metadata_parsed(suite):
     assert s.ids == ["RSN9001", "RSN9002", "RSN9003"]
     r = s["RSN9002"]
     # the values written into the table by record_suite.RECORDS
+    assert isinstance(r, Record) and r.record_id == "RSN9002"
     assert r.event == "Pulse Quake" and r.year == 2002 and r.mw == 7.0 and r.mechanism == "Reverse"
     assert r.station == "Station B_ North"          # PEER writes commas in names as "_"
     assert (r.rjb_km, r.rrup_km, r.vs30_m_s, r.tp_s) == (15.5, 16.0, 760.0, 1.0)
-    assert r.file_h1 == "RSN9002_PULSE_B-N.AT2" and r.file_v == "" and r.v is None
+    assert r.meta["file_h1"] == "RSN9002_PULSE_B-N.AT2" and r.meta["file_v"] == "" and r.v is None
     assert math.isnan(s["RSN9001"].tp_s)            # "-" in the pulse-period column: no pulse period
     assert s["RSN9001"].v is not None
-    assert s["RSN9003"].azimuth_h1_deg == 45.0      # from the file name ..._C045.AT2
-    assert r.peer_scale_factor == pytest.approx(1.4457)  # kept, never applied
+    assert s["RSN9003"].meta["azimuth_h1_deg"] == 45.0      # from the file name ..._C045.AT2
+    assert r.meta["peer_scale_factor"] == pytest.approx(1.4457)  # kept, never applied
     # the other columns are kept as metadata
     assert r.meta["lowest_usable_frequency_hz"] == 0.07
 
@@ -57,7 +62,7 @@ def test_plain_csv_reads_the_same_records(suite):
         assert (a.h2 is None) == (b.h2 is None) and (a.v is None) == (b.v is None)
         assert a.dt == b.dt and a.mw == b.mw and a.rrup_km == b.rrup_km
     assert c["RSN9002"].station == "Station B, North"     # quoted comma survives
-    assert c["RSN9001"].note == "plain note 1"            # unknown column kept as metadata
+    assert c["RSN9001"].meta["note"] == "plain note 1"    # unknown column kept as metadata
     # the PEER csv itself is recognised as PEER's
     assert R.load_records(suite / "_SearchResults.csv").ids == p.ids
 
@@ -98,7 +103,7 @@ def test_pairs_kept_together(suite):
 def test_azimuth_from_peer_file_names():
     """Bearings as PEER file names write them (RSN864_LANDERS_JOS090, RSN6915_DARFIELD_HVSCS26W,
     RSN1614_DUZCE_1061-N): azimuth clockwise from north; an unreadable name gives NaN."""
-    az = R._azimuth_from_name
+    az = T.azimuth_from_name
     assert az("RSN864_LANDERS_JOS090.AT2") == 90.0
     assert (az("X_HVSCS26W.AT2"), az("X_SPFSN73W.AT2"), az("X_S64E.AT2"), az("X_N17E.AT2")) == (206.0, 287.0, 116.0, 17.0)
     assert az("RSN1614_DUZCE_1061-E.AT2") == 90.0
@@ -223,28 +228,28 @@ def test_rotation_round_trip_and_quarter_turn():
     rng = np.random.default_rng(3)
     a1, a2 = rng.normal(size=500), rng.normal(size=500)
     for theta in (0.0, 17.0, 90.0, 233.5, -41.0):
-        b1, b2 = R.rotate_pair(*R.rotate_pair(a1, a2, theta), -theta)
+        b1, b2 = rot.rotate_pair(*rot.rotate_pair(a1, a2, theta), -theta)
         np.testing.assert_allclose(b1, a1, atol=1e-12)
         np.testing.assert_allclose(b2, a2, atol=1e-12)
-    q1, q2 = R.rotate_pair(a1, a2, 90.0)
+    q1, q2 = rot.rotate_pair(a1, a2, 90.0)
     np.testing.assert_allclose(q1, a2, atol=1e-12)
     np.testing.assert_allclose(q2, -a1, atol=1e-12)
     with pytest.raises(ParameterError):
-        R.rotate_pair(a1, a2[:-1], 10.0)
+        rot.rotate_pair(a1, a2[:-1], 10.0)
 
 
 def test_fault_normal_parallel():
     """A motion purely along azimuth 120 (H1 at 30, so it is H2): with strike 30 it is fault-normal."""
     rng = np.random.default_rng(4)
     a = rng.normal(size=300)
-    fn, fp = R.fault_normal_parallel(np.zeros(300), a, strike_deg=30.0, azimuth_h1_deg=30.0)
+    fn, fp = rot.fault_normal_parallel(np.zeros(300), a, strike_deg=30.0, azimuth_h1_deg=30.0)
     np.testing.assert_allclose(fn, a, atol=1e-12)
     np.testing.assert_allclose(fp, 0.0, atol=1e-12)
-    rec = R.SuiteRecord("X", 0.01, np.zeros(300), a, meta={"strike_deg": 120.0, "azimuth_h1_deg": 30.0})
+    rec = Record(np.zeros(300), 0.01, {"strike_deg": 120.0, "azimuth_h1_deg": 30.0}, h2=a, record_id="X")
     fn, fp = rec.fault_normal_parallel()
     np.testing.assert_allclose(fp, a, atol=1e-12)      # strike along 120: now the motion is fault-parallel
     with pytest.raises(ParameterError, match="needs the strike"):
-        R.SuiteRecord("Y", 0.01, a, a).fault_normal_parallel()
+        Record(a, 0.01, h2=a, record_id="Y").fault_normal_parallel()
 
 
 def test_rotd_of_known_pairs(suite):
@@ -254,13 +259,13 @@ def test_rotd_of_known_pairs(suite):
     circle: 0.5 Hz at dt = 0.01 s puts a sample every 1.8 deg, peak >= A cos 0.9 deg, 1.3e-4)."""
     s = R.load_records(suite)
     a = s["RSN9002"].h1
-    r = R.rotd(a, np.zeros_like(a), 0.005)
+    r = rot.rotd(a, np.zeros_like(a), 0.005)
     assert r["rotd100"] == pytest.approx(0.40, rel=1e-7)
     assert r["rotd50"] == pytest.approx(0.40 * math.cos(math.radians(45)), rel=1e-7)
     assert r["angle_max_deg"] == 0.0
     # SA: the same geometry on the oscillator's response; RotD100 equals the C kernel's SA (1e-9)
     ref = response_spectrum(a, 0.005, [1.0])["psa_m_s2"][0] / G
-    r = R.rotd(a, np.zeros_like(a), 0.005, measure=1.0)
+    r = rot.rotd(a, np.zeros_like(a), 0.005, measure=1.0)
     assert r["rotd100"] == pytest.approx(ref, rel=1e-9)
     assert r["rotd50"] == pytest.approx(ref * math.cos(math.radians(45)), rel=1e-9)
     c = s["RSN9003"].rotd("pga", percentiles=(0, 50, 100))
@@ -270,33 +275,77 @@ def test_rotd_of_known_pairs(suite):
     # direction (26.57 deg) is 0.43 deg off the 1-degree grid: 1 - cos(0.43 deg) = 2.8e-5 below
     assert v["unit"] == "cm/s"
     assert v["rotd100"] == pytest.approx(math.sqrt(1.25) * measures(a, 0.005, (1.0,))["pgv_cm_s"], rel=3e-5)
-    exact = R.rotd(a, s["RSN9002"].h2, 0.005, "pgv", angles_deg=[math.degrees(math.atan(0.5))])
+    exact = rot.rotd(a, s["RSN9002"].h2, 0.005, "pgv", angles_deg=[math.degrees(math.atan(0.5))])
     assert exact["rotd100"] == pytest.approx(math.sqrt(1.25) * measures(a, 0.005, (1.0,))["pgv_cm_s"], rel=1e-7)
 
 
-def test_sdof_history_matches_the_c_kernel():
-    """max |x| of the filtered history equals the C kernel's SD (same recurrence; rounding only)."""
+def test_sdof_history_against_the_closed_form_and_the_spectrum():
+    """The oscillator's displacement under a constant ground acceleration c from rest is the step
+    response x(t) = -(c/w^2) [1 - e^(-z w t) (cos wd t + z/sqrt(1 - z^2) sin wd t)] (Chopra, Dynamics of
+    Structures, Sec. 4.3 for a step force), which the piecewise-linear recurrence reproduces to rounding:
+    1e-9 of the static displacement c/w^2 over 3000 steps. On an irregular record, max |x| is the
+    spectrum's SD to the last bit (the same C steps, cf_spectra_displacement and cf_spectra_response)."""
+    T, z, dt, c = 1.0, 0.05, 0.01, 0.7
+    w = 2 * math.pi / T
+    wd = w * math.sqrt(1 - z * z)
+    t = np.arange(3000) * dt
+    x = sdof_displacement(np.full(3000, c), dt, T, z)
+    exact = -(c / w**2) * (1 - np.exp(-z * w * t) * (np.cos(wd * t) + z / math.sqrt(1 - z * z) * np.sin(wd * t)))
+    np.testing.assert_allclose(x, exact, rtol=0, atol=1e-9 * c / w**2)
     rng = np.random.default_rng(1)
     a = rng.normal(size=3000)
     a[0] = 0.7                          # a non-zero first sample: the initial step is exercised too
-    x = R.sdof_displacement(a, 0.01, [0.1, 1.0, 3.0], 0.05)
-    np.testing.assert_allclose(np.abs(x).max(axis=1), response_spectrum(a, 0.01, [0.1, 1.0, 3.0])["sd_m"],
-                               rtol=1e-9)
+    for period in (0.1, 1.0, 3.0):
+        sd = response_spectrum(a, 0.01, [period])["sd_m"][0]
+        assert np.abs(sdof_displacement(a, 0.01, period)).max() == sd
+    with pytest.raises(ParameterError, match="period"):
+        sdof_displacement(a, 0.01, -1.0)
 
 
-def test_record_validation():
-    with pytest.raises(ParameterError, match="h2 has 3 samples, h1 has 4"):
-        R.SuiteRecord("A", 0.01, np.zeros(4), np.zeros(3))
-    with pytest.raises(ParameterError, match="dt must be finite"):
-        R.SuiteRecord("A", 0.0, np.zeros(4))
+def test_suite_member_validation():
+    """A suite member is a Record: its components are checked when it is made, named in the message."""
+    with pytest.raises(ParameterError, match="h2 has 3 samples, the record 4"):
+        Record(np.zeros(4), 0.01, h2=np.zeros(3), record_id="A")
+    with pytest.raises(ParameterError, match="dt must be finite and > 0"):
+        Record(np.zeros(4), 0.0, record_id="A")
+    with pytest.raises(ParameterError, match="v has a non-finite value nan at index"):
+        Record(np.zeros(4), 0.01, v=[0.0, np.nan, 0.0, 0.0])
+    with pytest.raises(ParameterError, match="record_id must be a str"):
+        Record(np.zeros(4), 0.01, record_id=7)
     with pytest.raises(ParameterError, match="duplicate record_id 'A'"):
-        R.RecordSet([R.SuiteRecord("A", 0.01, np.zeros(4)), R.SuiteRecord("A", 0.01, np.zeros(4))])
-    with pytest.raises(ParameterError, match="has no h2 component"):
-        R.SuiteRecord("A", 0.01, np.zeros(4)).component("h2")
+        R.RecordSet([Record(np.zeros(4), 0.01, record_id="A"), Record(np.zeros(4), 0.01, record_id="A")])
+    with pytest.raises(ParameterError, match="item 0 of a RecordSet has no record_id"):
+        R.RecordSet([Record(np.zeros(4), 0.01)])
+    with pytest.raises(ParameterError, match="RecordSet holds Record objects, item 0 is dict"):
+        R.RecordSet([{"acc": np.zeros(4), "dt": 0.01}])
+    with pytest.raises(ParameterError, match="record A has no h2 component"):
+        Record(np.zeros(4), 0.01, record_id="A").component("h2")
     # records cross process boundaries (MPI ranks pickle what they send): metadata survive
     import pickle
-    r = pickle.loads(pickle.dumps(R.SuiteRecord("A", 0.01, np.arange(4.0), meta={"mw": 6.5})))
-    assert r.mw == 6.5 and np.array_equal(r.h1, np.arange(4.0))
+    r = pickle.loads(pickle.dumps(Record(np.arange(4.0), 0.01, {"mw": 6.5}, h2=np.ones(4), record_id="A")))
+    assert r.mw == 6.5 and r.record_id == "A" and np.array_equal(r.h1, np.arange(4.0)) and r.has_h2
+    assert math.isnan(r.rrup_km) and r.event == ""      # a key the table did not give: its stated default
+
+
+def test_motion_of_a_run():
+    """Record.motion: the component (as recorded: the padding of a shorter one left out), scaled and
+    cut, as a new Record; the pair's H2 becomes its h2. Numbers: a record of ones and twos, so every
+    expected sample is written down here."""
+    rec = Record(np.ones(6), 0.01, {"recorded_samples": {"h1": 6, "h2": 4}}, h2=[2, 2, 2, 2, 0, 0],
+                 v=np.full(6, 3.0), record_id="P")
+    m = rec.motion("h2", 0.5)
+    assert m.record_id == "P" and m.dt == 0.01 and m.h2 is None and m.v is None
+    np.testing.assert_array_equal(m.acc, [1.0, 1.0, 1.0, 1.0])          # 4 recorded samples, x 0.5
+    both = rec.motion("both", 2.0, vertical=True, max_samples=5)
+    np.testing.assert_array_equal(both.acc, [2.0] * 5)
+    np.testing.assert_array_equal(both.h2, [4.0, 4.0, 4.0, 4.0, 0.0])   # the pair keeps the padded length
+    np.testing.assert_array_equal(both.v, [6.0] * 5)
+    x, y = both.horizontals()
+    assert x.h2 is None and np.array_equal(y.acc, both.h2)
+    for args, needle in ((("x", 1.0), "component must be one of"), (("h1", 0.0), "scale must be finite"),
+                         (("h1", "2"), "scale must be a real number"), (("h2", 1e308), "overflow")):
+        with pytest.raises(ParameterError, match=needle):
+            rec.motion(*args)                 # 2 x 1e308 is beyond the largest double: inf
 
 
 # ------------------------------------------------------------------ FEMA P695 (optional extra)

