@@ -34,7 +34,7 @@ from .errors import ParameterError
 from .site_models import (DISTANCE_MODELS, MAGNITUDE_MODELS, PULSE_MODELS, Table)
 
 __all__ = ["Events", "SiteSource", "SOURCE_TYPES", "source_type", "MagnitudeDistanceSource", "Site",
-           "DEFAULT_YEARS", "OUTSIDE_CHOICES", "DEFAULT_SOURCE_TYPE", "load_site", "site_from_dict"]
+           "DEFAULT_YEARS", "OUTSIDE_CHOICES", "DEFAULT_SOURCE_TYPE", "load_site", "site_from_dict", "read_pulse_model"]
 
 #: Time horizons always reported, years (475: the return period of the 10 %-in-50-years design level,
 #: used here as a horizon like the others).
@@ -177,7 +177,9 @@ _SITE_KEYS = ("name", "description", "outside", "years", "pulse", "sources")
 _COMMON_KEYS = ("type", "name", "rate", "pulse")
 
 
-def _pulse(t: Table):
+def read_pulse_model(t: Table):
+    """The pulse-occurrence model of a site file's pulse table (``probability = p`` is short for
+    ``model = "probability"``)."""
     if "model" not in t.d and "probability" in t.d:        # the short form: probability = p
         t = Table({**t.d, "model": "probability"}, t.origin, t.path)
     return t.choice("model", PULSE_MODELS, "pulse-occurrence models")(t)
@@ -195,7 +197,7 @@ def _source(raw, i: int, origin: str, default_pulse, names):
         raise ParameterError(f"{t.where('name')} {name!r} is the name of an earlier source; "
                              "give every source its own name")
     rate = t.number("rate", (0.0, float("inf")))
-    pulse = _pulse(t.sub("pulse")) if "pulse" in t.d else default_pulse
+    pulse = read_pulse_model(t.sub("pulse")) if "pulse" in t.d else default_pulse
     if pulse is None:
         raise ParameterError(
             f"{t.where()} ({name}): no pulse model. Every motion of a grid carries a velocity "
@@ -217,7 +219,7 @@ def site_from_dict(d: dict, origin: str = "") -> Site:
     if not isinstance(years, list):
         raise ParameterError(f"{top.where('years')} must be a list of years, got {years!r}")
     extra = [top.number("years", (0.0, float("inf")), low_open=True, value=y) for y in years]
-    default_pulse = _pulse(top.sub("pulse")) if "pulse" in d else None
+    default_pulse = read_pulse_model(top.sub("pulse")) if "pulse" in d else None
     raw = d.get("sources")
     if not isinstance(raw, list) or not raw:
         raise ParameterError(f"{top.where('sources')}: at least one [[sources]] table is needed")

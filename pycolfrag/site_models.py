@@ -38,9 +38,9 @@ MW_RANGE = (0.0, 10.0)
 #: floating-point range long before 1e154 km.
 R_RANGE_KM = (0.0, 20000.0)
 #: Gutenberg-Richter b-values accepted: > 0 (b -> 0 is the uniform density, computed with expm1
-#: so that a tiny b gives that limit, not 0/0), and at most 5: beyond it the density falls by more
-#: than 1e5 per unit of magnitude, and 12 Gauss-Legendre points on a segment between grid nodes
-#: (up to two magnitude units wide) no longer integrate it to round-off.
+#: so that a tiny b gives that limit, not 0/0 or inf), and at most 5, far above the b of any
+#: catalogue (about 0.5-2): the quadrature cuts the magnitude range into pieces 2/beta wide, so
+#: that bound also keeps it to a few dozen pieces.
 B_RANGE = (0.0, 5.0)
 
 
@@ -114,13 +114,19 @@ def _register(registry: dict, name: str):
     return add
 
 
-def quadrature(pdf, lo, hi, breaks, n=QUAD_POINTS):
-    """Points and weights of int_lo^hi g(x) pdf(x) dx: Gauss-Legendre on each segment between breaks."""
+def quadrature(pdf, lo, hi, breaks, n=QUAD_POINTS, max_width=math.inf):
+    """Points and weights of int_lo^hi g(x) pdf(x) dx: Gauss-Legendre on each segment between breaks,
+    a segment wider than ``max_width`` cut into equal pieces no wider (for a density that changes by
+    many e-folds over a segment)."""
     x0, w0 = np.polynomial.legendre.leggauss(n)
     inner = [b for b in np.asarray(breaks, dtype=float) if lo < b < hi]
-    edges = np.array([lo] + sorted(inner) + [hi])
-    xs, ws = [], []
+    edges = [lo] + sorted(inner) + [hi]
+    cuts = [edges[0]]
     for a, b in zip(edges[:-1], edges[1:]):
+        k = max(1, math.ceil((b - a) / max_width))
+        cuts += list(np.linspace(a, b, k + 1)[1:])
+    xs, ws = [], []
+    for a, b in zip(cuts[:-1], cuts[1:]):
         x = 0.5 * (b - a) * x0 + 0.5 * (a + b)
         xs.append(x)
         ws.append(0.5 * (b - a) * w0 * pdf(x))
@@ -168,7 +174,9 @@ class GutenbergRichter:
         return np.where(inside, self.beta * np.exp(-self.beta * (m - self.m_min)) / norm, 0.0)
 
     def points(self, breaks=()):
-        return quadrature(self.pdf, self.m_min, self.m_max, breaks)
+        """Quadrature on pieces at most two e-folds of the density wide (2 / beta magnitude units), where
+        12 Gauss-Legendre points integrate the exponential times a linear surface to round-off."""
+        return quadrature(self.pdf, self.m_min, self.m_max, breaks, max_width=2.0 / self.beta)
 
     def sample(self, n, rng):
         """Inverse of the truncated exponential CDF at n uniform draws."""
@@ -350,11 +358,19 @@ class Spread:
     def fixed(self) -> bool:
         return self.lo == self.hi
 
-    def nodes(self):
-        """Gauss-Legendre points and weights (summing to 1) of the uniform density; one point when fixed."""
+    def nodes(self, sqrt=False):
+        """Gauss-Legendre points and weights (summing to 1) of the uniform density; one point when fixed.
+
+        ``sqrt``: place them in u = sqrt(x) (x = u^2, dx = 2u du), for integrands smooth in sqrt(x)
+        but not in x at 0, as the logistic pulse models' sqrt(s) term: 12 points then integrate it
+        to round-off instead of to 5e-6."""
         if self.fixed:
             return np.array([self.lo]), np.array([1.0])
         x, w = np.polynomial.legendre.leggauss(QUAD_POINTS)
+        if sqrt:
+            a, b = math.sqrt(self.lo), math.sqrt(self.hi)
+            u = 0.5 * (b - a) * x + 0.5 * (a + b)
+            return u * u, 0.5 * (b - a) * w * 2.0 * u / (self.hi - self.lo)
         return 0.5 * (self.hi - self.lo) * x + 0.5 * (self.hi + self.lo), 0.5 * w
 
     def sample(self, n, rng):
@@ -446,7 +462,7 @@ class ShahiBakerPulse:
 
     def mean_probability(self, r_km):
         r = np.asarray(r_km, dtype=float)
-        (s, ws), (a, wa) = self.s_km.nodes(), self.angle_deg.nodes()
+        (s, ws), (a, wa) = self.s_km.nodes(sqrt=True), self.angle_deg.nodes()
         S, A = np.meshgrid(s, a, indexing="ij")
         w = np.outer(ws, wa)
         p = self.module.pulse_probability(r[..., None, None], S, A, self.mechanism)

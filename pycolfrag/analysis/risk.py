@@ -29,14 +29,15 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import tomllib
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from . import fragility as fr
 from ..errors import ParameterError, PycolfragError
-from ..site import OUTSIDE_CHOICES, Site, load_site
-from ..site_models import PulseOnly
+from ..site import OUTSIDE_CHOICES, Site, load_site, read_pulse_model
+from ..site_models import PulseOnly, Table
 from .data import as_data
 from .risk_branches import check_branches, check_complete, code_identity, declared_pulse
 from .risk_cells import BranchCell, grid_cells, surface_draws
@@ -128,9 +129,14 @@ def _check_settings(estimator, uncertainty, misfit, confidence, n_draws, rng):
     return method, fr.as_rng(rng)
 
 
-def _resolve_site(site, pulse_only, outside, years):
+def _resolve_site(site, pulse_only, pulse_model, outside, years):
     if not isinstance(site, Site):
         site = load_site(site)
+    if pulse_model is not None:
+        if isinstance(pulse_model, str):
+            pulse_model = _inline_table(pulse_model)
+        model = read_pulse_model(Table(pulse_model, "--pulse-model", "pulse"))
+        site = replace(site, sources=tuple(replace(s, pulse=model) for s in site.sources))
     if pulse_only:
         site = replace(site, sources=tuple(replace(s, pulse=PulseOnly()) for s in site.sources))
     if outside is not None:
@@ -142,6 +148,14 @@ def _resolve_site(site, pulse_only, outside, years):
            for y in extra):
         raise ParameterError(f"years must be positive numbers, got {list(years)!r}")
     return replace(site, years=tuple(sorted(set(site.years) | {float(y) for y in extra})))
+
+
+def _inline_table(text: str) -> dict:
+    try:
+        return tomllib.loads(f"pulse = {text}")["pulse"]
+    except tomllib.TOMLDecodeError as exc:
+        raise ParameterError(f"--pulse-model must be a TOML inline table such as '{{model = \"probability\", "
+                             f"probability = 0.2}}', got {text!r} ({exc})") from None
 
 
 def _read_branches(site, pulse_results, no_pulse_results, allow_incomplete):
@@ -172,8 +186,7 @@ def _context(site, branches, estimator, method, misfit, confidence, g, n_draws):
     if need > MAX_DRAW_BYTES:
         raise ParameterError(f"n_draws = {n_draws} would take {need / 2**30:.1f} GiB of draws per level "
                              f"({mws.size * ds.size} cells x {len(branches)} branches x 8 bytes), more than the "
-                             f"{MAX_DRAW_BYTES / 2**30:g} GiB allowed; 2000 draws put the 5 % and 95 % "
-                             "percentiles within about 1 % of their limits")
+                             f"{MAX_DRAW_BYTES / 2**30:g} GiB allowed (the default is 2000)")
     weights, per_source = {}, {}
     reports = None
     for b in branches:
@@ -235,8 +248,8 @@ def _rate(ctx, threshold, edp, label, n_draws):
 
 
 def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, estimator=DEFAULT_ESTIMATOR,
-              uncertainty=DEFAULT_UNCERTAINTY, eq4_misfit="fallback", outside=None, years=(), n_draws=2000,
-              confidence=0.90, rng=0, curves=True, curve_draws=200, allow_incomplete=False) -> SiteRisk:
+              uncertainty=DEFAULT_UNCERTAINTY, eq4_misfit="fallback", pulse_model=None, outside=None, years=(),
+              n_draws=2000, confidence=0.90, rng=0, curves=True, curve_draws=200, allow_incomplete=False) -> SiteRisk:
     """Annual rates and T-year probabilities of every Table III/IV level and of collapse at a site.
 
     Parameters
@@ -248,6 +261,9 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
         the second is required unless every source is pulse-only.
     pulse_only : bool
         Ask for the pulse branch alone (p_pulse = 1 for every source); the outputs say so.
+    pulse_model : dict or str, optional
+        A pulse-occurrence model for every source instead of the site file's, as a site file's
+        ``[pulse]`` table (a dict, or its TOML inline-table text): another epistemic branch.
     estimator : {"empirical", "eq4"}
         A cell's probability: the share of its runs that exceeded, or the paper's Eq. (4).
     uncertainty : str
@@ -266,7 +282,7 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
         Compute from a results file that lacks rows (refused otherwise); every output says so.
     """
     method, g = _check_settings(estimator, uncertainty, eq4_misfit, confidence, n_draws, rng)
-    site = _resolve_site(site, pulse_only, outside, years)
+    site = _resolve_site(site, pulse_only, pulse_model, outside, years)
     branches, incomplete = _read_branches(site, pulse_results, no_pulse_results, allow_incomplete)
     ctx, reports = _context(site, branches, estimator, method, eq4_misfit, confidence, g, n_draws)
     deg = _degeneracy(ctx) if estimator == "eq4" else Degeneracy()
@@ -292,8 +308,10 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
 
 
 def _identity(branches) -> dict:
+    """Per branch: its seed, its code identity, its successful runs and how many collapsed."""
     return {b: {"seed": None if d.attrs.get("seed") is None else str(d.attrs.get("seed")),
-                "code": None if code_identity(d.attrs) is None else str(code_identity(d.attrs)[1])}
+                "code": None if code_identity(d.attrs) is None else str(code_identity(d.attrs)[1]),
+                "runs": d.n, "collapses": int(np.sum(np.asarray(d["collapsed"], dtype=bool)))}
             for b, d in branches.items()}
 
 
@@ -326,6 +344,10 @@ def _parser():
     ap.add_argument("--eq4-misfit", choices=MISFIT_CHOICES, default="fallback",
                     help=f"under Eq. (4), a cell whose fit test fails at {EQ4_FIT_ALPHA:g} takes the empirical "
                          "ratio (fallback) or keeps Eq. (4) with a mark (warn)")
+    ap.add_argument("--pulse-model", metavar="TABLE",
+                    help="pulse-occurrence model of every source instead of the site file's, as a TOML inline "
+                         "table, e.g. '{model = \"shahi_baker_earlier\", mechanism = \"non-strike-slip\", "
+                         "s_km = 5.0, angle_deg = 30.0}'")
     ap.add_argument("--outside", choices=OUTSIDE_CHOICES, help="override the site file's choice")
     ap.add_argument("--years", type=float, nargs="*", default=[], help="more horizons (50, 100, 475 always)")
     ap.add_argument("--draws", type=int, default=2000, help="draws per grid cell for the intervals")
@@ -343,7 +365,8 @@ def main(argv=None):
         from .risk_report import check_outdir
         check_outdir(a.outdir)
         risk = site_risk(a.site, a.results, a.no_pulse, pulse_only=a.pulse_only, estimator=a.estimator,
-                         uncertainty=a.uncertainty, eq4_misfit=a.eq4_misfit, outside=a.outside, years=a.years,
+                         uncertainty=a.uncertainty, eq4_misfit=a.eq4_misfit, pulse_model=a.pulse_model,
+                         outside=a.outside, years=a.years,
                          n_draws=a.draws, rng=a.seed, allow_incomplete=a.allow_incomplete)
         paths = write_outputs(risk, a.outdir, figures=not a.no_figures)
     except PycolfragError as exc:       # a bad site file, results file or folder: its message, not a traceback
