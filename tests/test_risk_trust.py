@@ -221,3 +221,39 @@ def test_a_full_disk_leaves_no_half_file(tmp_path, capsys, monkeypatch):
     err = capsys.readouterr().err
     assert "cannot write the risk outputs into" in err and "No space left on device" in err
     assert sorted(p.name for p in out.iterdir()) == []        # no risk.md, no leftover temporary file
+
+
+# --------------------------------------------------------------------------- the docs' example numbers
+
+def test_example_numbers_are_written_from_the_risk_files(tmp_path):
+    """scripts/risk_example.py builds docs/risk.md's example block from risk.json files: the collapse
+    share of the top cell is the deaggregation's maximum (equal weights at R 10 and 20 km, p = 0.3:
+    0.3 x 10/40 + 0.7 x 1/40 = 0.0925 at 10 km against 0.3 x 2/40 + 0.7 x 0 = 0.015 at 20 km, so 86 %),
+    the pulse-alone ratio is the two files' rates' ratio,
+    and --write replaces the block and nothing else. docs/risk.md carries exactly one block."""
+    import importlib.util
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("risk_example", root / "scripts" / "risk_example.py")
+    ex = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ex)
+    pulse, nopulse = _pair(tmp_path)
+    sf = tmp_path / "site.toml"
+    sf.write_text('[pulse]\nprobability = 0.3\n[[sources]]\nname = "f"\nrate = 0.004\n'
+                  'magnitude = { type = "characteristic", mw = 7.0 }\n'
+                  'distance = { type = "discrete", r_km = [10.0, 20.0], weights = [0.5, 0.5] }\n')
+    out = tmp_path / "risk"
+    assert risk.main([str(sf), pulse, str(out), "--no-pulse", nopulse, "--no-figures", "--draws", "20"]) == 0
+    assert risk.main([str(sf), pulse, str(out / "pulse_only"), "--pulse-only", "--no-figures", "--draws", "20"]) == 0
+    text = ex.block(out)
+    base = json.loads((out / "risk.json").read_text())
+    alone = json.loads((out / "pulse_only" / "risk.json").read_text())
+    assert "86 % of the collapse rate comes from Mw 7, R 10 km" in text
+    ratio = alone["rate_per_year"]["collapse"][0] / base["rate_per_year"]["collapse"][0]
+    assert f"(collapse {ratio:.2f})" in text and "Collapses: 12 in the 80 pulse runs, 1 in the 80 no-pulse" in text
+    page = tmp_path / "page.md"
+    page.write_text(f"before\n{ex.BEGIN}\nold\n{ex.END}\nafter\n")
+    assert ex.main([str(out), "--write", str(page)]) == 0
+    assert page.read_text() == "before\n" + text.rstrip("\n") + "\nafter\n"
+    doc = (root / "docs" / "risk.md").read_text()
+    assert doc.count(ex.BEGIN) == 1 and doc.count(ex.END) == 1
