@@ -163,6 +163,28 @@ def test_eq4_failing_its_fit_test_falls_back_to_the_count(tmp_path):
     assert fb.to_json()["checks"]["u_d > 0.02"]["eq4_fit"][0]["failed"] == [[True]]
 
 
+def test_a_row_fails_where_no_single_cell_can(tmp_path):
+    """Five cells of one magnitude, each the same 40 lognormal quantiles of u_d (median e^-5.112, beta
+    0.6) with the one value above 0.02 lowered to 0.0199: Eq. (4) expects about 0.8 exceedances of
+    u_d > 0.02 per cell and none happen. A cell alone cannot tell (scipy.stats.binomtest(0, 40, P)
+    p 0.4), the row can: its total is Binomial(200, P) since the cells are equal, binomtest(0, 200, P)
+    p < 0.05. The cells then fall back to the count (0) under Eq. (4)."""
+    z = stats.norm.ppf((np.arange(40) + 0.5) / 40)
+    u_d = np.minimum(np.exp(-5.112 + 0.6 * z), 0.0199)
+    cells = {(7.0, r): (40, 0, 0.1) for r in (5.0, 7.5, 10.0, 15.0, 20.0)}
+    h5 = write_cells(tmp_path / "p.h5", cells)
+    with h5py.File(h5, "r+") as f:
+        f["samples/u_d"][...] = np.tile(u_d, 5)
+        f["samples/u_top"][...] = np.tile(50 * u_d, 5)
+    P = fr.exceedance(u_d, np.zeros(40, bool), 0.02)
+    assert stats.binomtest(0, 40, P).pvalue > 0.3 and stats.binomtest(0, 200, P).pvalue < 0.05
+    res = risk.site_risk(site([char_source(7.0, 10.0)]), h5, estimator="eq4", curves=False, n_draws=50)
+    fit = res.checks["u_d > 0.02"]["fits"][0]
+    assert fit.p_row[0] == pytest.approx(stats.binomtest(0, 200, P).pvalue, rel=1e-9)
+    assert np.all(fit.p_cell > 0.3) and np.all(fit.failed)
+    assert res.rate["u_d > 0.02"][0] == 0.0
+
+
 def test_row_p_value_is_the_exact_poisson_binomial_one():
     """Two cells of the same p: their total is Binomial(n1 + n2, p), so the row's p-value equals
     scipy.stats.binomtest's; a single cell is binomtest itself."""
