@@ -4,6 +4,7 @@
 #   make build   rebuild the C extension after editing csrc/ (editable installs do not)
 #   make records a record-suite grid on 2 MPI ranks, its analysis and Fig. 10 (docs/records.md)
 #   make risk    site risk (annual rates, 50-year probabilities) of an example site (docs/risk.md)
+#   make risk-docs  the example's branches and the numbers of docs/risk.md (scripts/risk_example.py)
 include csrc/flags.mk
 
 PY      := .venv/bin/python
@@ -17,7 +18,7 @@ GRID_ARGS ?=
 # Open MPI refuses root without these; set only for our own commands.
 MPIENV  := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 
-.PHONY: setup system build ctest ctest-bin ctest-asan pytest test grid analysis figures validation records risk bench clean
+.PHONY: setup system build ctest ctest-bin ctest-asan pytest test grid analysis figures validation records risk risk-docs bench clean
 
 setup: system .venv/.installed build
 
@@ -141,6 +142,23 @@ risk: setup
 	$(RUN_GRID) $(RISK_GRID) --out $(RISK_DIR)/pulse.h5
 	$(RUN_GRID) $(RISK_GRID) --pulse none --out $(RISK_DIR)/nopulse.h5
 	$(PCF) risk $(SITE) $(RISK_DIR)/pulse.h5 $(RISK_DIR) --no-pulse $(RISK_DIR)/nopulse.h5
+
+# The example's branches for docs/risk.md (scripts/risk_example.py writes its table from them):
+# the part outside the grid clamped, the pulse branch alone, Baker (2007) pulse periods (a third
+# grid), the earlier Shahi & Baker pulse model, the directivity geometry drawn per event, Eq. (4).
+RISK_CMD = $(PY) -m pycolfrag.analysis.risk $(SITE) $(RISK_DIR)/pulse.h5
+RISK_NP  = --no-pulse $(RISK_DIR)/nopulse.h5 --no-figures
+risk-docs: risk
+	$(RUN_GRID) $(RISK_GRID) --tp-model baker_2007 --out $(RISK_DIR)/baker.h5
+	$(RISK_CMD) $(RISK_DIR)/clamp $(RISK_NP) --outside clamp
+	$(RISK_CMD) $(RISK_DIR)/pulse_only --pulse-only --no-figures
+	$(PY) -m pycolfrag.analysis.risk $(SITE) $(RISK_DIR)/baker.h5 $(RISK_DIR)/baker $(RISK_NP)
+	$(RISK_CMD) $(RISK_DIR)/earlier $(RISK_NP) --pulse-model \
+	  '{model = "shahi_baker_earlier", mechanism = "non-strike-slip", s_km = 5.0, angle_deg = 30.0}'
+	$(RISK_CMD) $(RISK_DIR)/geometry $(RISK_NP) --pulse-model \
+	  '{model = "shahi_baker_2014", mechanism = "non-strike-slip", s_km = {min = 0.0, max = 10.0}, angle_deg = {min = 0.0, max = 90.0}}'
+	$(RISK_CMD) $(RISK_DIR)/eq4 $(RISK_NP) --estimator eq4
+	$(PY) scripts/risk_example.py $(RISK_DIR)
 
 bench: setup
 	$(PY) bench/solver_speed.py

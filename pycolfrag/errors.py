@@ -33,3 +33,8 @@ class ResultsFileError(PycolfragError, ValueError):
 
 class HazardFileError(PycolfragError, ValueError):
     """A hazard-curve file (OpenQuake CSV) or fragility model file (NRML) that cannot be used as it is."""
+
+
+class OutputError(PycolfragError, OSError):
+    """An output folder or file that cannot be written (a file in the folder's place, no permission,
+    a full disk)."""

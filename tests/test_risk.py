@@ -18,6 +18,7 @@ from pycolfrag.analysis import fragility as fr
 from pycolfrag.analysis import risk
 from pycolfrag.analysis.data import read_results
 from pycolfrag import site as site_file
+from pycolfrag import site_models as models
 from pycolfrag.errors import ParameterError
 from pycolfrag.ground_motion import shahi_baker_2014 as sb14
 
@@ -54,6 +55,7 @@ def write_cells(path, cells, pulse=None, seed=0):
         g["message"] = np.array([b""] * rows, dtype="S64")
         f.attrs["column"] = json.dumps({"name": "test column"})
         f.attrs["grid_signature"] = json.dumps({"synthetic": True})
+        f.attrs["complete"] = True
         if pulse is not None:
             f.attrs["pulse"] = pulse
     return str(path)
@@ -86,7 +88,7 @@ def test_single_source_on_a_grid_point_gives_nu_times_p_exactly(tmp_path):
                                          (7.5, 5.0): (40, 9, 0.3), (7.5, 10.0): (40, 4, 0.2)})
     nu = 0.0021
     s = site([char_source(7.5, 10.0, rate=nu)])
-    res = risk.site_risk(s, h5, n_draws=50, curves=False)
+    res = risk.site_risk(s, h5, n_draws=50, curves=False, estimator="eq4")
     u_top, u_d, c = _cell(h5, 7.5, 10.0)
     for q in risk.QUANTITIES:
         if q.level is None:
@@ -120,9 +122,8 @@ def test_truncated_gutenberg_richter_against_closed_form():
         return (F(bb) - F(a)) / C
 
     expected = nu * (seg(5.5, 6.5, 0.0, 0.2) + seg(6.5, 7.5, 0.2, 1.0))
-    src = site_file.Source("gr", nu, site_file.GutenbergRichter(b, m0, m1),
-                           site_file.Distance("fixed", (10.0,), (1.0,)),
-                           site_file.PulseModel("pulse-only"))
+    src = site_file.MagnitudeDistanceSource("gr", nu, models.GutenbergRichter(b, m0, m1),
+                                            models.FixedDistance(10.0), models.PulseOnly())
     W, _, rep = risk.node_weights([src], mws, ds)
     assert np.sum(W * P) == pytest.approx(expected, rel=1e-12)
     assert np.sum(W) == pytest.approx(nu, rel=1e-12)          # the pdf integrates to 1
@@ -158,9 +159,8 @@ def test_uniform_distance_integral_against_closed_form():
     mws, ds = np.array([6.0, 7.0]), np.array([5.0, 10.0, 20.0])
     a, c, nu = 0.4, -0.1, 0.01
     P = np.tile(a + c * np.log(ds), (2, 1))
-    src = site_file.Source("u", nu, site_file.Characteristic(6.0),
-                           site_file.Distance("uniform", min_km=5.0, max_km=20.0),
-                           site_file.PulseModel("pulse-only"))
+    src = site_file.MagnitudeDistanceSource("u", nu, models.Characteristic(6.0),
+                                            models.UniformDistance(5.0, 20.0), models.PulseOnly())
     W, _, _ = risk.node_weights([src], mws, ds)
     e_ln = ((20 * math.log(20) - 20) - (5 * math.log(5) - 5)) / 15
     assert np.sum(W * P) == pytest.approx(nu * (a + c * e_ln), rel=1e-12)
@@ -227,7 +227,8 @@ def test_bootstrap_interval_of_a_proportion_is_the_binomial_one(tmp_path):
     neighbours: tolerance one count (nu / n)."""
     n, k, nu = 40, 8, 0.003
     h5 = write_cells(tmp_path / "p.h5", {(7.0, 10.0): (n, k, 0.2)})
-    res = risk.site_risk(site([char_source(7.0, 10.0, rate=nu)]), h5, n_draws=20000, curves=False, rng=1)
+    res = risk.site_risk(site([char_source(7.0, 10.0, rate=nu)]), h5, n_draws=20000, curves=False, rng=1,
+                         uncertainty="bootstrap")
     lam, lo, hi = res.rate["collapse"]
     assert lam == nu * k / n
     q = stats.binom(n, k / n).ppf([0.05, 0.95]) / n
@@ -288,7 +289,7 @@ def test_paired_branches_are_resampled_together(tmp_path):
             del f["samples"][key]
             f["samples"][key] = v
     res = risk.site_risk(site([char_source(7.0, 10.0, rate=nu)], pulse={"probability": 0.5}), pulse, nopulse,
-                         n_draws=20000, curves=False, rng=1)
+                         n_draws=20000, curves=False, rng=1, uncertainty="bootstrap")
     lam, lo, hi = res.rate["collapse"]
     assert lam == pytest.approx(nu * k / n, rel=1e-15)
     q = stats.binom(n, k / n).ppf([0.05, 0.95]) / n
@@ -335,7 +336,7 @@ def test_branches_combine_with_the_given_probability(tmp_path):
     pulse, nopulse = _two_branches(tmp_path)
     nu, p = 0.004, 0.3
     res = risk.site_risk(site([char_source(7.0, 10.0, rate=nu)], pulse={"probability": p}), pulse, nopulse,
-                         n_draws=50, curves=False)
+                         n_draws=50, curves=False, estimator="eq4", eq4_misfit="warn")
     up, dp, cp = _cell(pulse, 7.0, 10.0)
     un, dn, cn = _cell(nopulse, 7.0, 10.0)
     for q in risk.QUANTITIES:
@@ -428,12 +429,12 @@ def _with(path, value):
 @pytest.mark.parametrize("src, match", [
     (_with(["rate"], -0.1), r"sources\[0\]\.rate must be >= 0, got -0\.1"),
     (_with(["magnitude", "m_max"], 5.0), r"m_max = 5 must be > m_min = 5\.5"),
-    (_with(["magnitude", "b"], 0.0), r"magnitude\.b must be > 0, got 0"),
+    (_with(["magnitude", "b"], 0.0), r"magnitude\.b must be in \(0, 5\], got 0"),
     (_with(["magnitude", "type"], "GR"), r"magnitude\.type must be .* got 'GR'"),
     (_with(["magnitud"], {}), r"unknown key\(s\) 'magnitud'"),
     (_with(["distance", "max_km"], 4.0), r"max_km = 4 must be > min_km = 5"),
     (_with(["distance"], {"type": "discrete", "r_km": [5, 10], "weights": [0.5, 0.4]}), r"weights must sum to 1.*0\.9"),
-    (_with(["distance"], {"type": "fixed", "r_km": -3}), r"r_km must be > 0, got -3"),
+    (_with(["distance"], {"type": "fixed", "r_km": -3}), r"r_km must be in \(0, 20000\], got -3"),
     (_with(["distance"], KeyError), r"missing 'distance'"),
     (_with(["pulse"], {"probability": 1.5}), r"pulse\.probability must be in \[0, 1\], got 1\.5"),
     (_with(["pulse"], {"model": "shahi_baker_2014", "mechanism": "strike-slip", "s_km": 5, "angle_deg": 120}),
@@ -522,6 +523,8 @@ def test_report_carries_the_risk_section(tmp_path):
     from test_figures import write_results
     from pycolfrag.analysis import report
     h5 = write_results(tmp_path / "g.h5")
+    with h5py.File(h5, "r+") as f:                   # a finished grid's file (the risk refuses others)
+        f.attrs["complete"] = True
     res = risk.site_risk(site([char_source(7.0, 10.0)]), h5, n_draws=20, curves=False)
     text = open(report.write_report(h5, tmp_path / "r.md", n_boot=20, risk=res)).read()
     assert "## Site risk: test site" in text and "PULSE-ONLY" in text

@@ -29,6 +29,8 @@ def _title(risk):
     t = risk.site.name
     if risk.pulse_only:
         t += " -- PULSE-ONLY (overstates the risk)"
+    if risk.incomplete:
+        t += " -- INCOMPLETE results"
     return t
 
 

@@ -13,6 +13,7 @@ Modules, one per published model (docs/ground_motion.md):
 * :mod:`.rupakhety_2011` -- mean pulse amplitude and frequency (Eqs. 6-7);
 * :mod:`.baker_2007` -- an alternative pulse-period relation (``--tp-model baker_2007``);
 * :mod:`.shahi_baker_2014` -- the probability that a near-fault motion carries a pulse;
+  :mod:`.shahi_baker_earlier` -- the earlier model of the same form, its epistemic alternative;
 * :mod:`.registry` -- the models that declare their parameters (``PARAMETERS``) and what is built
   from them (the pulse fields of a sample row, the ``--tp-model`` choices);
 * :mod:`.combine` -- Fourier-amplitude combination (steps 3-6);

@@ -21,7 +21,7 @@ loads, and it adds no row field; it declares its ``PARAMETERS`` all the same.)
 from __future__ import annotations
 
 from ..errors import ParameterError
-from . import baker_2007, mavroeidis_papageorgiou_2003, record, rupakhety_2011, shahi_baker_2014
+from . import baker_2007, mavroeidis_papageorgiou_2003, record, rupakhety_2011, shahi_baker_2014, shahi_baker_earlier
 
 __all__ = ["MODELS", "KINDS", "PULSE_FIELDS", "TP_MODELS", "DEFAULT_TP_MODEL", "tp_model_of", "markdown_table",
            "docs_section"]
@@ -32,6 +32,7 @@ _LISTED = (
     rupakhety_2011,
     baker_2007,
     shahi_baker_2014,
+    shahi_baker_earlier,
 )
 #: Every declared model, one line each above (name -> module).
 MODELS = {m.NAME: m for m in _LISTED}

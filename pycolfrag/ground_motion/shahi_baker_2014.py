@@ -41,10 +41,16 @@ import numpy as np
 from ..errors import ParameterError
 from ..names import Parameter
 
-__all__ = ["NAME", "KIND", "PARAMETERS", "COEFFICIENTS", "MECHANISMS", "pulse_probability"]
+__all__ = ["NAME", "KIND", "CITATION", "PROVENANCE", "PARAMETERS", "COEFFICIENTS", "MECHANISMS",
+           "pulse_probability", "logistic_probability"]
 
 #: Name in the registry (:mod:`pycolfrag.ground_motion.registry`).
 NAME = "shahi_baker_2014"
+#: How the outputs of a site risk cite the model.
+CITATION = "Shahi & Baker (2014)"
+#: Where the coefficients come from (printed with every site risk that uses them).
+PROVENANCE = ("coefficients transcribed from NHERI SimCenter smelt (src/dabaghi_der_kiureghian.cc, "
+              "simulate_pulse_type), not checked against the paper")
 #: The probability that a near-fault motion carries a pulse (weights a site's pulse branch).
 KIND = "pulse_occurrence"
 #: The inputs of the logistic model, with the ranges of its directivity geometry (Somerville et al.
@@ -84,9 +90,17 @@ def pulse_probability(r_km, s_km, angle_deg, mechanism="strike-slip"):
         P(pulse) in (0, 1), broadcast over the inputs.
     """
     try:
-        c0, c1, c2, c3 = COEFFICIENTS[mechanism]
+        coefficients = COEFFICIENTS[mechanism]
     except (KeyError, TypeError):
         raise ParameterError(f"mechanism must be one of {', '.join(MECHANISMS)}, got {mechanism!r}") from None
+    return logistic_probability(coefficients, r_km, s_km, angle_deg)
+
+
+def logistic_probability(coefficients, r_km, s_km, angle_deg):
+    """1 / (1 + exp(c0 + c1 r - c2 sqrt(s) + c3 angle)) for ``coefficients`` (c0, c1, c2, c3), after the
+    range checks of :data:`PARAMETERS`: the form every model of this family shares (the earlier one,
+    :mod:`pycolfrag.ground_motion.shahi_baker_earlier`, too)."""
+    c0, c1, c2, c3 = coefficients
     r, s, a = (np.asarray(v, dtype=float) for v in (r_km, s_km, angle_deg))
     for name, v, p in zip(("r_km", "s_km", "angle_deg"), (r, s, a), PARAMETERS):
         lo, hi = p.range
