@@ -5,21 +5,11 @@
  * docs/architecture.md describe the method and the layout.
  */
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "solver_internal.h"
-
-int cf_solver_fail(cf_solver *s, int st, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(s->msg, CF_MSG_LEN, fmt, ap);
-    va_end(ap);
-    return st;
-}
 
 /* The default gravity is compiled in from pycolfrag/data/constants.json, the one home of the value that
    Python's intensity measures (in g) also read: csrc/flags.mk and pycolfrag/_build.py pass it. */
@@ -53,6 +43,8 @@ void cf_solver_def_default(cf_solver_def *d)
 static void release(cf_solver *s)
 {
     char msg[CF_MSG_LEN];
+    if (s->model && s->model->free && s->contact) s->model->free(s->contact);   /* the model's own state */
+    s->contact = NULL;
     cf_solver_stack_release(s);
     memcpy(msg, s->msg, CF_MSG_LEN);
     memset(s, 0, sizeof *s);
@@ -173,6 +165,7 @@ int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int nblk, con
     s->lanes = cf_solver_points_lanes_widest();
     s->density = density;
     st = cf_solver_stack_build(s, nblk, nseg, segs, kn, ks, mu);
+    if (!st && s->model->create) st = s->model->create(s, &s->contact);   /* the contact model's own state */
     if (!st) {
         /* the stiffness is assembled at the untilted rest state */
         double tilt = s->def.initial_tilt_rad;
@@ -367,6 +360,7 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
     st = cf_solver_run_check(s, &r, ax, ay, az, nrec, dtr);
     if (st) return st;
     cf_solver_stack_reset(s);
+    if (s->model->reset) s->model->reset(s, s->contact);
     for (i = 0; i < s->nbody; i++) quat_to_mat(s->q + 4 * i, s->R + 9 * i);
     st = cf_solver_run_begin(s, &r);   /* reads the rest state: after the reset */
     if (st) return st;
