@@ -153,10 +153,11 @@ static void joint_exact(cf_solver *s, void *state, const cf_joint *J, const doub
 }
 
 /* The state: the joints' polar moments (of the smaller face, the joint area), no shear or torsion. */
-static int exact_create(cf_solver *s, void **state)
+static int exact_create(cf_solver *s, const double *opt, void **state)
 {
     exact_joint *ej = (exact_joint *)calloc((size_t)(s->nj > 0 ? s->nj : 1), sizeof *ej);
     int j;
+    (void)opt;   /* no options */
     if (!ej) return cf_solver_fail(s, CF_ENOMEM, "out of memory");
     for (j = 0; j < s->nj; j++) {
         const cf_joint *J = &s->jt[j];
@@ -208,5 +209,6 @@ const cf_solver_contact_model cf_solver_exact_model = {
     "Exact interface: kn * overlap integrated over the compressed part of the face overlap "
     "polygon; one joint-level shear spring with the law of contact_law.h and a torsional "
     "spring, both capped by Coulomb friction.",
+    NULL, 0,
     exact_create, exact_reset, exact_free, exact_stiffness, joint_exact, NULL, 0,
 };

@@ -131,9 +131,14 @@ static inline void cf_springs_add_contact(cf_springs *K, const cf_joint *J, cons
 typedef struct cf_solver_contact_model {
     const char *name;
     const char *doc;                /* one sentence, exported (cf_solver_contact_model_doc) */
-    /* its own state: created once the bodies and joints are built (cf_solver_setup), allocated by
-     * the model and freed by free through cf_solver_free (or a new set-up); NULL create: none */
-    int (*create)(struct cf_solver *s, void **state);
+    /* its options, declared as data (name, kind, range, default, unit, doc): the range checks,
+     * Python's SolverOptions and the docs take them from here (solver_options.c) */
+    const cf_solver_option *options;
+    int n_options;
+    /* its own state: created once the bodies and joints are built (cf_solver_setup) from the
+     * values of its options (opt, in the order of `options`), allocated by the model and freed by
+     * free through cf_solver_free (or a new set-up); NULL create: none */
+    int (*create)(struct cf_solver *s, const double *opt, void **state);
     /* optional: the state to its value at the start of every run */
     void (*reset)(const struct cf_solver *s, void *state);
     void (*free)(void *state);
@@ -152,6 +157,13 @@ typedef struct cf_solver_contact_model {
 
 /* the registry (solver_contact_model.c): cf_solver_contact_model_table[def.contact] */
 extern const cf_solver_contact_model *const cf_solver_contact_model_table[];
+
+/* solver_options.c: the option tables read (cf_solver_def_default and cf_solver_check_def of
+ * solver.c; the check's message into msg), and the values of contact model m's options in d, in
+ * the order of its table (n_options of them). */
+void cf_solver_options_default(cf_solver_def *d);
+int cf_solver_options_check(const cf_solver_def *d, char *msg);
+void cf_solver_options_of_model(const cf_solver_def *d, int m, double *out);
 
 struct cf_solver {
     char msg[CF_MSG_LEN];

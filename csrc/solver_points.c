@@ -416,16 +416,34 @@ static int points_create(cf_solver *s, int mm, double contact_tolerance, double 
     return CF_OK;
 }
 
-/* Set-up of the two points models: the points at the polygon vertices, or m per edge of a
- * refined face mesh (points_per_edge). */
-static int vertex_create(cf_solver *s, void **state)
+/* The points models' options: the two they share first, then perimeter's mesh (the order of opt
+ * in their create hooks). */
+#define POINTS_OPTIONS                                                                                        \
+    {"contact_tolerance", CF_SOLVER_OPTION_REAL, 0.0, 0.1, 0, 1, 1e-2, "-",                                  \
+     "A sub-contact overhanging the other face by less than this fraction of the face's circumradius still " \
+     "bears."},                                                                                              \
+    {"reentry_depth", CF_SOLVER_OPTION_REAL, 0.0, 0.1, 0, 0, 0.0, "-",                                       \
+     "A point that was off the face (beside it, below its plane) and comes back onto it at most this "       \
+     "fraction of the face's circumradius deep takes contact with its spring compressed to that depth (the " \
+     "energy it brings is booked as contact_switch); a deeper one takes contact with its spring "            \
+     "unstretched. 0: every re-entry unstretched (docs/accuracy.md, \"Two-component motion\")."}
+static const cf_solver_option vertex_options[] = {POINTS_OPTIONS};
+static const cf_solver_option perimeter_options[] = {
+    POINTS_OPTIONS,
+    {"points_per_edge", CF_SOLVER_OPTION_INT, 1, 64, 0, 0, 1, "-",
+     "Points per polygon edge of the refined face mesh (its interior nodes too)."},
+};
+
+/* Set-up of the two points models: the points at the polygon vertices, or points_per_edge per
+ * edge of a refined face mesh. */
+static int vertex_create(cf_solver *s, const double *opt, void **state)
 {
-    return points_create(s, 0, s->def.contact_tolerance, s->def.reentry_depth, state);
+    return points_create(s, 0, opt[0], opt[1], state);
 }
 
-static int perimeter_create(cf_solver *s, void **state)
+static int perimeter_create(cf_solver *s, const double *opt, void **state)
 {
-    return points_create(s, s->def.points_per_edge, s->def.contact_tolerance, s->def.reentry_depth, state);
+    return points_create(s, (int)opt[2], opt[0], opt[1], state);
 }
 
 /* The points' state at the start of a run: no shear, open, no offset; the polygon tests'
@@ -466,6 +484,7 @@ const cf_solver_contact_model cf_solver_points_vertex = {
     "vertex",
     "Sub-contact points at the polygon vertices of both faces (3DEC-like), each with the soft "
     "Coulomb law of contact_law.h.",
+    vertex_options, (int)(sizeof vertex_options / sizeof vertex_options[0]),
     vertex_create, points_reset, points_free, points_stiffness, points_joint, points_all, 1,
 };
 
@@ -474,5 +493,6 @@ const cf_solver_contact_model cf_solver_points_perimeter = {
     "Sub-contact points on a refined face mesh (points_per_edge per polygon edge, interior "
     "nodes too) with lumped area weights, each with the soft Coulomb law of contact_law.h; "
     "converges to the exact interface as points_per_edge grows.",
+    perimeter_options, (int)(sizeof perimeter_options / sizeof perimeter_options[0]),
     perimeter_create, points_reset, points_free, points_stiffness, points_joint, points_all, 1,
 };
