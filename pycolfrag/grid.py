@@ -79,9 +79,9 @@ DEFAULT_DIST_KM = (5.0, 7.5, 10.0, 12.5, 15.0, 17.5, 20.0)
 DEFAULT_SAMPLES = 100
 DEFAULT_SEED = 20160601
 DEFAULT_RECORD_DT_S = 0.005
-#: Pulse choices of a synthetic grid: "mp03" adds the Mavroeidis-Papageorgiou pulse (the paper's
-#: records), "none" runs the high-frequency record alone with the same seeds (the no-pulse branch).
-PULSES = ("mp03", "none")
+#: Pulse choices of a synthetic grid: a pulse shape of the registry ("mp03" adds the Mavroeidis-Papageorgiou
+#: pulse, the paper's records), or "none": the high-frequency record alone with the same seeds (the no-pulse branch).
+PULSES = (*_gm.registry.PULSE_SHAPES, _gm.registry.NO_PULSE)
 DEFAULT_PULSE = "mp03"
 #: Largest root seed: it is stored as a signed 64-bit HDF5 attribute.
 SEED_MAX = 2**63 - 1
@@ -347,7 +347,8 @@ class SampleContext:
         if scenario not in self._lhs:
             mw, dist = self.spec.scenarios[scenario]
             table = _gm.sample_pulse_parameters(mw, dist, self.spec.samples, self.lhs_seed(scenario),
-                                            vp_scale=self.spec.vp_scale, tp_model=self.spec.tp_model)
+                                            vp_scale=self.spec.vp_scale, tp_model=self.spec.tp_model,
+                                            shape=self.spec.pulse)
             self._lhs[scenario] = {k: np.asarray(v) for k, v in table.items()}
             while len(self._lhs) > 8:
                 self._lhs.popitem(last=False)
@@ -382,7 +383,7 @@ def run_samples(ctx: SampleContext, rows) -> list[dict]:
     done = _sample.run_synthetic_samples(
         ctx.column, samples, record_dt_s=spec.record_dt_s, vp_scale=spec.vp_scale, periods_s=spec.periods_s,
         damping=spec.damping, solver_options=spec.solver_options, max_record_s=spec.max_record_s,
-        with_pulse=with_pulse)
+        with_pulse=with_pulse, pulse_shape=spec.pulse)
     for out, d, t in zip(owner, done, t_seed):
         out.update(d)
         out["wall_s"] += t
@@ -772,10 +773,10 @@ def probe_rows(spec) -> list[tuple[str, float]]:
             p = None
             if with_pulse:
                 table = _gm.sample_pulse_parameters(m, r, min(spec.samples, 8), ctx.lhs_seed(scenario),
-                                                vp_scale=spec.vp_scale, tp_model=spec.tp_model)
+                                                vp_scale=spec.vp_scale, tp_model=spec.tp_model, shape=spec.pulse)
                 p = {k: (np.asarray(v)[0] if np.ndim(v) else v).item() for k, v in table.items()}
             out, a, d = _sample._synthetic_record(m, r, ctx.hf_seed(scenario, 0), p, spec.record_dt_s, spec.vp_scale,
-                                                  None, with_pulse)
+                                                  None, with_pulse, spec.pulse)
             if a is None:
                 raise RuntimeError(out["message"])
             return a, d

@@ -27,7 +27,7 @@ from . import results as _r
 from . import solver as _solver   # called through the module, so a test's fake of simulate takes effect
 from .column import Column
 from .errors import ParameterError
-from .ground_motion.registry import PULSE_FIELDS
+from .ground_motion.registry import DEFAULT_PULSE_SHAPE, PULSE_FIELDS
 from .options import SolverOptions
 from .solver import EnergyWarning, StepWarning
 
@@ -224,7 +224,7 @@ def response_rows(column, rows, *, periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_
 
 def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.005, vp_scale=1.0,
                          periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_DAMPING, solver_options=None,
-                         max_record_s=None, with_pulse=True) -> dict:
+                         max_record_s=None, with_pulse=True, pulse_shape=DEFAULT_PULSE_SHAPE) -> dict:
     """One synthetic sample of the paper's grid (what :func:`pycolfrag.grid.run_sample` computes).
 
     Parameters
@@ -240,6 +240,8 @@ def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.0
     with_pulse : bool -- False: the high-frequency record alone (:func:`pycolfrag.ground_motion.stochastic`
         with the same ``hf_seed``: the no-pulse branch of a site's motions); ``pulse`` and ``vp_scale``
         are then unused and the pulse fields stay NaN
+    pulse_shape : str -- the pulse's shape (:data:`pycolfrag.ground_motion.registry.PULSE_SHAPES`), of
+        which ``pulse`` is a row
 
     Returns
     -------
@@ -249,20 +251,23 @@ def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.0
     ``scenario`` and ``sample``.
     """
     t0 = time.perf_counter()
-    out, acc, dt = _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse)
+    out, acc, dt = _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse,
+                                     pulse_shape)
     if acc is not None:
         response_row(column, acc, dt, periods_s=periods_s, damping=damping, solver_options=solver_options, out=out)
     out["wall_s"] = time.perf_counter() - t0
     return out
 
 
-def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse=True):
+def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse=True,
+                      pulse_shape=DEFAULT_PULSE_SHAPE):
     """The record of a synthetic sample and its row so far: (row, acc, dt); acc is None (and the row
     says why) when the record failed."""
     out = {"mw": float(mw), "dist_km": float(dist_km), "status": STATUS["ok"], "message": ""}
     try:
         if with_pulse:
-            rec = ground_motion.synthesize(mw, dist_km, hf_seed, dt=record_dt_s, vp_scale=vp_scale, pulse=pulse)
+            rec = ground_motion.synthesize(mw, dist_km, hf_seed, dt=record_dt_s, vp_scale=vp_scale, pulse=pulse,
+                                           shape=pulse_shape)
         else:
             rec = ground_motion.stochastic(mw, dist_km, hf_seed, dt=record_dt_s)
         acc, dt, meta = np.asarray(rec.acc, dtype=float), float(rec.dt), dict(rec.meta)
@@ -280,7 +285,7 @@ def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_re
 
 def run_synthetic_samples(column, samples, *, record_dt_s=0.005, vp_scale=1.0, periods_s=DEFAULT_PERIODS_S,
                           damping=DEFAULT_DAMPING, solver_options=None, max_record_s=None,
-                          with_pulse=True) -> list[dict]:
+                          with_pulse=True, pulse_shape=DEFAULT_PULSE_SHAPE) -> list[dict]:
     """Many synthetic samples of one column, their runs side by side in SIMD lanes
     (:func:`pycolfrag.solver.simulate_batch`): each row bitwise the :func:`run_synthetic_sample` of
     its sample, but faster. ``samples``: (mw, dist_km, hf_seed, pulse) of each; the other arguments
@@ -288,7 +293,7 @@ def run_synthetic_samples(column, samples, *, record_dt_s=0.005, vp_scale=1.0, p
     solver time the share of its steps."""
     def prepare(mw, dist_km, hf_seed, pulse):
         out, acc, dt = _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s,
-                                         with_pulse)
+                                         with_pulse, pulse_shape)
         return out, (None if acc is None else {"acc_x": acc, "dt": dt})
     return _batch_rows(column, samples, prepare, periods_s, damping, solver_options)
 
