@@ -5,20 +5,24 @@
  * from it, as are each model's own options (solver_options.c). Each entry owns its options,
  * its state (create, reset, free), its stiffness for the stability limit and its step hook
  * (cf_solver_contact_model, solver_internal.h). A new model is its own .c file defining its
- * entry, and one line here. The order is that of CF_SOLVER_CONTACT_* (solver.h).
+ * entry, and one line in CF_CONTACT_MODELS here. The order is that of CF_SOLVER_CONTACT_* (solver.h).
  */
 #include <stddef.h>
 
 #include "solver_internal.h"
 
-extern const cf_solver_contact_model cf_solver_points_vertex, cf_solver_points_perimeter;   /* solver_points.c */
-extern const cf_solver_contact_model cf_solver_exact_model;                               /* solver_exact.c */
+/* The registry, one line per model: the name of its entry (defined in the model's own file), from
+ * which the entries' declarations and the table below are written. */
+#define CF_CONTACT_MODELS(X)                                    \
+    X(cf_solver_points_vertex)      /* solver_points.c */       \
+    X(cf_solver_points_perimeter)   /* solver_points.c */       \
+    X(cf_solver_exact_model)        /* solver_exact.c */
 
-const cf_solver_contact_model *const cf_solver_contact_model_table[] = {
-    &cf_solver_points_vertex,
-    &cf_solver_points_perimeter,
-    &cf_solver_exact_model,
-};
+#define CF_DECLARE(entry) extern const cf_solver_contact_model entry;
+#define CF_ADDRESS(entry) &entry,
+CF_CONTACT_MODELS(CF_DECLARE)
+
+const cf_solver_contact_model *const cf_solver_contact_model_table[] = {CF_CONTACT_MODELS(CF_ADDRESS)};
 
 int cf_solver_contact_model_count(void)
 {
