@@ -16,7 +16,8 @@
 #define CF_CONTACT_MODELS(X)                                    \
     X(cf_solver_points_vertex)      /* solver_points.c */       \
     X(cf_solver_points_perimeter)   /* solver_points.c */       \
-    X(cf_solver_exact_model)        /* solver_exact.c */
+    X(cf_solver_exact_model)        /* solver_exact.c */        \
+    /* a new model: its line above this one */
 
 #define CF_DECLARE(entry) extern const cf_solver_contact_model entry;
 #define CF_ADDRESS(entry) &entry,
