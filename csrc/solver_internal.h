@@ -3,12 +3,15 @@
  * (never in a cffi region; see docs/architecture.md for the map of the files).
  *
  *   solver.c            public API: definition defaults and checks, set-up, the run loop
- *   solver_stack.c      bodies, mass properties, joints, faces, contact points, equilibrium
+ *   solver_options.c    the options as data: the solver's own table and the models' (defaults,
+ *                       ranges, messages, options by name)
+ *   solver_stack.c      bodies, mass properties, joints, faces, equilibrium
+ *   solver_face_points.c  the sub-contact points of the faces, for the models that carry points
  *   solver_timestep.c   stability limit of the whole linearised stack -> time step
  *   solver_step.c       the integrator step, as named phases
  *   solver_contact_model.c  the registry of contact models (cf_solver_contact_model)
- *   solver_points.c     contact models: sub-contact points (vertex / perimeter), scalar
- *                       runner, the SIMD width from CPUID
+ *   solver_points.c     contact models: sub-contact points (vertex / perimeter), their state
+ *                       cf_points, the SIMD width from CPUID
  *   solver_points_wide.h  the same models' runner written once over the lane operators of
  *                       solver_lanes.h, instantiated by solver_points_w2.c, _w4.c, _w8.c (two,
  *                       four, eight points per instruction); every width gives the same bits
@@ -18,8 +21,8 @@
  *
  * Bodies: index 0 is the ground (fixed in the frame that moves with the ground),
  * 1.. are the moving rigid bodies (one per block, or one for a monolithic column).
- * Joint j has a lower body and an upper body; its sub-contacts are kept in
- * structure-of-arrays form with their persistent shear forces.
+ * Joint j has a lower body and an upper body and their faces; what a contact model keeps on
+ * it (points, shear forces) is the model's own state (s->contact).
  */
 #ifndef CF_SOLVER_INTERNAL_H
 #define CF_SOLVER_INTERNAL_H
