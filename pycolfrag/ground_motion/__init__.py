@@ -123,6 +123,19 @@ def _pulse_row(Mw, dist_km, seed, vp_scale, pulse, shape):
     return tuple(p.check(pulse[p.meta_key], f"pulse[{p.meta_key!r}]", error=ParameterError) for p in inputs)
 
 
+def _place(prepared, hf, dt, t_peak):
+    """The pulse's epoch t0 that puts its velocity peak at t_peak (s), the HF record padded with whole
+    samples of zeros where the pulse's support reaches past it, and the times counted from the first
+    sample: (hf, t0, t_peak, n_pre, n_post)."""
+    t0 = t_peak - prepared.peak_offset_s
+    n_pre = max(0, int(math.ceil((prepared.before_s - t0) / dt - 1e-9)))
+    t_last = (hf.size - 1) * dt
+    n_post = max(0, int(math.ceil((t0 + prepared.after_s - t_last) / dt - 1e-9)))
+    if n_pre or n_post:
+        hf = np.concatenate([np.zeros(n_pre), hf, np.zeros(n_post)])
+    return hf, t0 + n_pre * dt, t_peak + n_pre * dt, n_pre, n_post
+
+
 def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_polarity=True,
                shape=registry.DEFAULT_PULSE_SHAPE) -> Record:
     """A near-fault record: stochastic HF part plus a velocity pulse (the paper's steps 1-6).
@@ -190,16 +203,8 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_pola
     if match_polarity and prepared.peak_sign * vel_hf[k_peak] < 0:
         polarity = -1.0
         hf = -hf
-    t0 = t_peak - prepared.peak_offset_s
-    n_pre = max(0, int(math.ceil((prepared.before_s - t0) / dt - 1e-9)))
-    t_last = (hf.size - 1) * dt
-    n_post = max(0, int(math.ceil((t0 + prepared.after_s - t_last) / dt - 1e-9)))
-    if n_pre or n_post:
-        hf = np.concatenate([np.zeros(n_pre), hf, np.zeros(n_post)])
-    t0 += n_pre * dt
-    t_peak += n_pre * dt
-    t = np.arange(hf.size) * dt
-    pulse_acc = prepared.acceleration(t, t0)                                        # m/s^2
+    hf, t0, t_peak, n_pre, n_post = _place(prepared, hf, dt, t_peak)
+    pulse_acc = prepared.acceleration(np.arange(hf.size) * dt, t0)                 # m/s^2
 
     acc = combine(hf, pulse_acc)                                                    # steps 3-6
     meta = {**_keyed(record.PARAMETERS, (Mw_f, dist_f, seed, dt)), "kind": "near-fault", "vp_scale": vp_scale_f,
