@@ -79,7 +79,7 @@ int main(int argc, char **argv)
     def.early_exit = 0;
     for (a = 1; a < argc; a++) {
         if (!strcmp(argv[a], "vertex")) def.contact = CF_SOLVER_CONTACT_VERTEX;
-        else if (!strncmp(argv[a], "perimeter", 9)) { def.contact = CF_SOLVER_CONTACT_PERIMETER; def.points_per_edge = atoi(argv[a] + 9) > 0 ? atoi(argv[a] + 9) : 1; }
+        else if (!strncmp(argv[a], "perimeter", 9)) { def.contact = CF_SOLVER_CONTACT_PERIMETER; cf_solver_options_set(&def, "points_per_edge", atoi(argv[a] + 9) > 0 ? atoi(argv[a] + 9) : 1); }
         else if (!strcmp(argv[a], "exact")) def.contact = CF_SOLVER_CONTACT_EXACT;
         else if (!strcmp(argv[a], "planar")) def.planar = 1;
         else if (!strcmp(argv[a], "mono")) def.monolithic = 1;

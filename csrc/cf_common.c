@@ -1,4 +1,7 @@
-/* cf_common.c -- status names and library version. */
+/* cf_common.c -- status names, library version, and the message of a failure. */
+#include <stdarg.h>
+#include <stdio.h>
+
 #include "cf_common.h"
 
 #define CF_VERSION "0.1.0"
@@ -20,3 +23,12 @@ const char *cf_common_status_name(int status)
 const char *cf_common_version(void) { return CF_VERSION; }
 
 double cf_common_fma_probe(double a, double b, double c) { return a * b + c; }
+
+int cf_common_fail(char *msg, int status, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, CF_MSG_LEN, fmt, ap);
+    va_end(ap);
+    return status;
+}

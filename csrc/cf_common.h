@@ -39,4 +39,14 @@ const char *cf_common_version(void);
 double cf_common_fma_probe(double a, double b, double c);
 /* cffi:end */
 
+/* The library's one way of failing with a message: formats it (printf-style, cut at CF_MSG_LEN)
+ * into msg, the message buffer of the object that failed, and returns status. At the bottom of
+ * the layering, so any file can report a failure without calling up into the file that owns
+ * the object's public API. Not in the cffi region: Python reads the messages, not this. */
+int cf_common_fail(char *msg, int status, const char *fmt, ...)
+#ifdef __GNUC__
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
 #endif

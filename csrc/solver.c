@@ -5,54 +5,22 @@
  * docs/architecture.md describe the method and the layout.
  */
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "solver_internal.h"
 
-int cf_solver_fail(cf_solver *s, int st, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(s->msg, CF_MSG_LEN, fmt, ap);
-    va_end(ap);
-    return st;
-}
-
-/* The default gravity is compiled in from pycolfrag/data/constants.json, the one home of the value that
-   Python's intensity measures (in g) also read: csrc/flags.mk and pycolfrag/_build.py pass it. */
-#ifndef CF_G_M_S2
-#error "CF_G_M_S2 (gravity, m/s^2) is not defined: compile with the CFLAGS of csrc/flags.mk"
-#endif
-
 void cf_solver_def_default(cf_solver_def *d)
 {
-    memset(d, 0, sizeof *d);
-    d->contact = CF_SOLVER_CONTACT_VERTEX;
-    d->points_per_edge = 1;
-    d->dt = 0.0;
-    d->dt_factor = 0.8;
-    d->tail_s = 3.0;
-    d->residual_window_s = 2.0;
-    d->planar = 0;
-    d->monolithic = 0;
-    d->early_exit = 1;
-    d->damping_alpha = 0.0;
-    d->damping_start_s = 0.0;
-    d->history_dt = 0.01;
-    d->g = CF_G_M_S2;
-    d->energy_tolerance = 0.05;
-    d->unstable_tolerance = 0.5;
-    d->initial_tilt_rad = 0.0;
-    d->contact_tolerance = 1e-2;
-    d->reentry_depth = 0.0;
+    if (d) cf_solver_options_default(d);   /* the defaults of the option tables (solver_options.c) */
 }
 
 static void release(cf_solver *s)
 {
     char msg[CF_MSG_LEN];
+    if (s->model && s->model->free && s->contact) s->model->free(s->contact);   /* the model's own state */
+    s->contact = NULL;
     cf_solver_stack_release(s);
     memcpy(msg, s->msg, CF_MSG_LEN);
     memset(s, 0, sizeof *s);
@@ -87,38 +55,11 @@ double cf_solver_dt(const cf_solver *s) { return s && s->ready ? s->dt : NAN; }
 
 /* ---- set-up --------------------------------------------------------------------- */
 
-/* A contact field out of range: the message names every model of the registry. */
-static int contact_range_fail(cf_solver *s, int contact)
-{
-    char list[CF_MSG_LEN] = "";
-    size_t u = 0;
-    int i, n = cf_solver_contact_model_count();
-    for (i = 0; i < n && u < sizeof list; i++)
-        u += (size_t)snprintf(list + u, sizeof list - u, "%s%d (%s)", i == 0 ? "" : i == n - 1 ? " or " : ", ", i,
-                              cf_solver_contact_model_name(i));
-    return cf_solver_fail(s, CF_EINVAL, "contact must be %s, got %d", list, contact);
-}
-
 int cf_solver_check_def(cf_solver *s, const cf_solver_def *d)
 {
     if (!s) return CF_EINVAL;
     if (!d) return cf_solver_fail(s, CF_EINVAL, "no solver definition");
-    if (d->contact < 0 || d->contact >= cf_solver_contact_model_count()) return contact_range_fail(s, d->contact);
-    if (d->points_per_edge < 1 || d->points_per_edge > 64) return cf_solver_fail(s, CF_EINVAL, "points_per_edge must be in [1, 64], got %d", d->points_per_edge);
-    if (!(d->dt >= 0.0) || !isfinite(d->dt)) return cf_solver_fail(s, CF_EINVAL, "dt must be >= 0 (0 = automatic), got %g", d->dt);
-    if (!(d->dt_factor > 0.0) || !(d->dt_factor <= 4.0)) return cf_solver_fail(s, CF_EINVAL, "dt_factor must be in (0, 4], got %g", d->dt_factor);
-    if (!(d->tail_s >= 0.0) || !isfinite(d->tail_s)) return cf_solver_fail(s, CF_EINVAL, "tail_s must be >= 0, got %g", d->tail_s);
-    if (!(d->residual_window_s > 0.0) || !isfinite(d->residual_window_s)) return cf_solver_fail(s, CF_EINVAL, "residual_window_s must be > 0, got %g", d->residual_window_s);
-    if (!(d->damping_alpha >= 0.0) || !isfinite(d->damping_alpha)) return cf_solver_fail(s, CF_EINVAL, "damping_alpha must be >= 0, got %g", d->damping_alpha);
-    if (!isfinite(d->damping_start_s)) return cf_solver_fail(s, CF_EINVAL, "damping_start_s must be finite, got %g", d->damping_start_s);
-    if (!(d->history_dt > 0.0) || !isfinite(d->history_dt)) return cf_solver_fail(s, CF_EINVAL, "history_dt must be > 0, got %g", d->history_dt);
-    if (!(d->g > 0.0) || !isfinite(d->g)) return cf_solver_fail(s, CF_EINVAL, "g must be > 0, got %g", d->g);
-    if (!(d->energy_tolerance > 0.0)) return cf_solver_fail(s, CF_EINVAL, "energy_tolerance must be > 0, got %g", d->energy_tolerance);
-    if (!(d->unstable_tolerance > 0.0)) return cf_solver_fail(s, CF_EINVAL, "unstable_tolerance must be > 0, got %g", d->unstable_tolerance);
-    if (!isfinite(d->initial_tilt_rad) || fabs(d->initial_tilt_rad) > 1.0) return cf_solver_fail(s, CF_EINVAL, "initial_tilt_rad must be in [-1, 1], got %g", d->initial_tilt_rad);
-    if (!(d->contact_tolerance >= 0.0) || !(d->contact_tolerance < 0.1)) return cf_solver_fail(s, CF_EINVAL, "contact_tolerance must be in [0, 0.1), got %g", d->contact_tolerance);
-    if (!(d->reentry_depth >= 0.0) || !(d->reentry_depth <= 0.1)) return cf_solver_fail(s, CF_EINVAL, "reentry_depth must be in [0, 0.1], got %g", d->reentry_depth);
-    return CF_OK;
+    return cf_solver_options_check(d, s->msg);   /* the ranges of the option tables (solver_options.c) */
 }
 
 int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int *nseg,
@@ -173,6 +114,12 @@ int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int nblk, con
     s->lanes = cf_solver_points_lanes_widest();
     s->density = density;
     st = cf_solver_stack_build(s, nblk, nseg, segs, kn, ks, mu);
+    if (!st && s->model->create) {
+        /* the contact model's own state, from the values of its options */
+        double opt[CF_SOLVER_MAX_MODEL_OPTIONS];
+        cf_solver_options_of_model(&s->def, def->contact, opt);
+        st = s->model->create(s, opt, &s->contact);
+    }
     if (!st) {
         /* the stiffness is assembled at the untilted rest state */
         double tilt = s->def.initial_tilt_rad;
@@ -367,6 +314,7 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
     st = cf_solver_run_check(s, &r, ax, ay, az, nrec, dtr);
     if (st) return st;
     cf_solver_stack_reset(s);
+    if (s->model->reset) s->model->reset(s, s->contact);
     for (i = 0; i < s->nbody; i++) quat_to_mat(s->q + 4 * i, s->R + 9 * i);
     st = cf_solver_run_begin(s, &r);   /* reads the rest state: after the reset */
     if (st) return st;

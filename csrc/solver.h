@@ -39,30 +39,62 @@ const char *cf_solver_contact_model_doc(int i);
 #define CF_SOLVER_MAX_HISTORY 100000000     /* history samples at most */
 #define CF_SOLVER_N_ENERGY 8
 
+/* The options of the solver, declared as data: one table of the solver's own options
+ * (solver_options.c) and one per contact model (its registry entry), read by the defaults, the
+ * range checks and their messages, Python's SolverOptions and the docs. An option's kind: */
+#define CF_SOLVER_OPTION_REAL 0      /* a real number in the range */
+#define CF_SOLVER_OPTION_INT 1       /* an integer in the range */
+#define CF_SOLVER_OPTION_FLAG 2      /* 0 or 1 */
+#define CF_SOLVER_OPTION_STEP 3      /* a real number in the range, 0 meaning "automatic" */
+#define CF_SOLVER_OPTION_MODEL 4     /* the index of a contact model of the registry */
+
 typedef struct {
-    int contact;               /* contact model: an index of cf_solver_contact_model_name; default VERTEX */
-    int points_per_edge;       /* refined face mesh subdivisions (PERIMETER), >= 1; default 1 */
-    double dt;                 /* solver step, s; 0 = automatic dt_factor * dt_crit; default 0 */
-    double dt_factor;          /* fraction of the whole-stack stability limit; default 0.8 */
-    double tail_s;             /* free response after the record, s; default 3.0 */
-    double residual_window_s;  /* averaging window of the residual dislocation, s; default 2.0 */
-    int planar;                /* 1: motion restricted to the x-z plane; default 0 */
-    int monolithic;            /* 1: the whole column as one rigid body; default 0 */
-    int early_exit;            /* 1: stop at collapse or at rest after the record; default 1 */
-    double damping_alpha;      /* mass-proportional damping, 1/s; default 0 */
-    double damping_start_s;    /* damping acts from this time on, s; default 0 */
-    double history_dt;         /* history sampling interval, s; default 0.01 */
-    double g;                  /* gravity, m/s^2; default CF_G_M_S2 (pycolfrag/data/constants.json) */
-    double energy_tolerance;   /* relative balance error that sets energy_warning; default 0.05 */
-    double unstable_tolerance; /* relative balance error that aborts with CF_EUNSTABLE; default 0.5 */
-    double initial_tilt_rad;   /* rigid initial tilt about the +x base edge (y axis), rad; default 0 */
-    double contact_tolerance;  /* a point overhanging the other face by less than this fraction of its
-                                  circumradius still counts as inside; default 1e-2 */
-    double reentry_depth;      /* a sub-contact not in contact that comes onto a face at most this fraction
-                                  of the face's circumradius deep takes contact with its spring stretched to
-                                  that depth (energy booked as contact_switch); deeper, unstretched;
-                                  in [0, 0.1]; default 0 (every re-entry unstretched) */
+    const char *name;     /* a field of cf_solver_def, or a contact model's option (cf_solver_options_set) */
+    int kind;             /* CF_SOLVER_OPTION_* */
+    double lo, hi;        /* the accepted range (+-INFINITY: unbounded; not read for FLAG and MODEL) */
+    int lo_open, hi_open; /* 1: the bound itself is refused (an infinite bound that is open: finite values only) */
+    double value;         /* the default */
+    const char *unit;     /* "s", "1/s", "m/s^2", "rad"; "-" for a number without unit */
+    const char *doc;      /* what it does, one or two sentences */
+} cf_solver_option;
+
+/* The contact models' options travel in the definition by name (cf_solver_options_set), at
+ * most this many different ones over the whole registry. */
+#define CF_SOLVER_MAX_MODEL_OPTIONS 16
+
+/* The definition of a run: the solver's own options as fields, the contact models' options in
+ * model_options. Every option's unit, range, default and meaning are declared once, in the
+ * option tables (cf_solver_options_get); cf_solver_def_default fills them in. */
+typedef struct {
+    int contact;               /* the contact model, an index of the registry */
+    double dt;                 /* s */
+    double dt_factor;          /* - */
+    double tail_s;             /* s */
+    double residual_window_s;  /* s */
+    int planar;                /* flag */
+    int monolithic;            /* flag */
+    int early_exit;            /* flag */
+    double damping_alpha;      /* 1/s */
+    double damping_start_s;    /* s */
+    double history_dt;         /* s */
+    double g;                  /* m/s^2 (its default: CF_G_M_S2, from pycolfrag/data/constants.json) */
+    double energy_tolerance;   /* - */
+    double unstable_tolerance; /* - */
+    double initial_tilt_rad;   /* rad */
+    double model_options[CF_SOLVER_MAX_MODEL_OPTIONS];   /* the contact models' options, by name */
 } cf_solver_def;
+
+/* Every option (the solver's own, then each contact model's in the registry's order, an option
+ * that two models declare counted once): how many, the i-th (NULL outside). */
+int cf_solver_options_count(void);
+const cf_solver_option *cf_solver_options_get(int i);
+/* The options contact model m declares (its registry entry), k of them in its order. */
+int cf_solver_contact_model_n_options(int m);
+const cf_solver_option *cf_solver_contact_model_option(int m, int k);
+/* Set or read an option of a definition by name: CF_EINVAL for an unknown name, or for a value
+ * that an integer kind cannot hold. Ranges are cf_solver_check_def's. */
+int cf_solver_options_set(cf_solver_def *d, const char *name, double value);
+int cf_solver_options_value(const cf_solver_def *d, const char *name, double *value);
 
 typedef struct {
     double u_top;             /* max horizontal top displacement / base diameter */

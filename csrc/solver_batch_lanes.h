@@ -5,6 +5,10 @@
  * CF_BW_SEL, ld / st / splat / mask) it is written over. Included without CF_BW (as the
  * Python build includes every header) it is empty.
  *
+ * The runs side by side are those of a points model (batch_lanes of its registry entry): the
+ * points' fixed data are read from its state (cf_points, solver_points_internal.h), each lane
+ * keeps the points' per-run state of its own here.
+ *
  * Layout: every quantity of a run is a vector of CF_BW doubles, lane l the run in lane
  * l, indexed as the single run indexes its double (body i's x at x[3 i + c], point k's
  * shear at fsx[k], ...). Each phase is the single run's text: solver_phases.h for the
@@ -67,6 +71,7 @@ static inline void CF_BN(hint_edges)(CF_BN(batch) *B, int k, int l)
 /* Lane l to the rest state of the column (what cf_solver_stack_reset gives a run). */
 static void CF_BN(lane_reset)(const cf_solver *s, CF_BN(batch) *B, int l)
 {
+    const cf_points *pts = (const cf_points *)s->contact;
     int i, c, k;
     for (i = 0; i < s->nbody; i++) {
         double R[9];
@@ -80,7 +85,7 @@ static void CF_BN(lane_reset)(const cf_solver *s, CF_BN(batch) *B, int l)
         for (c = 0; c < 4; c++) B->b.q[4 * i + c][l] = s->q0[4 * i + c];
         for (c = 0; c < 9; c++) B->b.R[9 * i + c][l] = R[c];
     }
-    for (k = 0; k < s->np; k++) {
+    for (k = 0; k < pts->np; k++) {
         B->fsx[k * CF_BW + l] = 0; B->fsy[k * CF_BW + l] = 0; B->pst[k * CF_BW + l] = 0;
         B->pen0[k * CF_BW + l] = 0; B->hint[k * CF_BW + l] = 0;
         CF_BN(hint_edges)(B, k, l);
@@ -140,13 +145,15 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                                                                       VD *e_dswitch, const int need)
 {
     const VD zero = {0};
+    const cf_points *pts = (const cf_points *)s->contact;
     int i, j, l, nb = s->nbody;
     CF_BN(state) *b = &B->b;
     for (i = 0; i < 3 * nb; i++) { b->F[i] = zero; b->T[i] = zero; }
     *e_vs = zero; *e_dslip = zero; *e_dswitch = zero;
     for (j = 0; j < s->nj; j++) {
         const cf_joint *J = &s->jt[j];
-        int bl = J->bl, bu = J->bu, side, end = J->p0 + J->np;
+        const cf_points_joint *PJ = &pts->jt[j];
+        int bl = J->bl, bu = J->bu, side, end = PJ->p0 + PJ->np;
         VD s6 = zero, s7 = zero, dslip = zero, dswitch = zero;
         for (i = 0; i < 9; i++) { CF_BN(st)(C->RL[i], b->R[9 * bl + i]); CF_BN(st)(C->RU[i], b->R[9 * bu + i]); }
         for (i = 0; i < 3; i++) {
@@ -156,11 +163,11 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
             CF_BN(st)(C->fcl[i], CF_BN(splat)(J->fl.c[i])); CF_BN(st)(C->fcu[i], CF_BN(splat)(J->fu.c[i]));
         }
         /* whole vectors (the lane functions load them as such: no store forwarding from doubles) */
-        CF_BN(st)(C->lz[0], CF_BN(splat)(J->lz[0])); CF_BN(st)(C->lz[1], CF_BN(splat)(J->lz[1]));
+        CF_BN(st)(C->lz[0], CF_BN(splat)(PJ->lz[0])); CF_BN(st)(C->lz[1], CF_BN(splat)(PJ->lz[1]));
         CF_BN(st)(C->gl, CF_BN(splat)(bl != 0 ? 1.0 : 0.0));
         before(C, CF_BW, s->dt);
         for (side = 0; side < 2; side++) {
-            int k0 = side == 0 ? J->p0 : J->p0 + J->n0, k1 = side == 0 ? J->p0 + J->n0 : end, k, built = 0;
+            int k0 = side == 0 ? PJ->p0 : PJ->p0 + PJ->n0, k1 = side == 0 ? PJ->p0 + PJ->n0 : end, k, built = 0;
             cf_face_pass P, PL[CF_BW];
             VD Mx0, Mx1, My0, My1, Mz0, Mz1, z0, z1, z2, t0, t1, t2, A0, A1, W0, W1, W2;
             VD s0 = zero, s1 = zero, s2 = zero, s3 = zero, s4 = zero, s5 = zero;
@@ -171,7 +178,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                 for (i = 0; i < 6; i++) CF_BN(st)(C->sm[side][i], zero);
                 continue;
             }
-            cf_face_pass_set(s, J, side, &P);
+            cf_face_pass_set(pts, J, side, &P);
             ff = P.ff;
             apo2 = ff->apo * ff->apo; apotol = ff->apo + P.tol;
             /* the frame map: side 0 in the lower face's frame (M0), side 1 in the upper's (M0^T) */
@@ -183,7 +190,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
             A0 = CF_BN(ld)(C->A[side][0]); A1 = CF_BN(ld)(C->A[side][1]);
             W0 = CF_BN(ld)(C->W[side][0]); W1 = CF_BN(ld)(C->W[side][1]); W2 = CF_BN(ld)(C->W[side][2]);
             for (k = k0; k < k1; k++) {
-                const double lx = s->p_lx[k], ly = s->p_ly[k];
+                const double lx = pts->lx[k], ly = pts->ly[k];
                 double *pfsx = B->fsx + (size_t)k * CF_BW, *pfsy = B->fsy + (size_t)k * CF_BW;
                 double *pst = B->pst + (size_t)k * CF_BW;
                 /* the point in the face frame, as cf_point_law_at */
@@ -191,7 +198,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                 CF_POINT_AT(Mx0, Mx1, My0, My1, Mz0, Mz1, z0, z1, z2, t0, t1, t2, lx, ly, X, Y, Z);
                 VD pen = P.sgn * Z, st = CF_BN(ld)(pst), fsx0, fsy0, f, lim, fx, fy, m2, mx, my, mz, vs, dux, duy;
                 VM pos = pen > 0.0, act, in, out, st0, st1, ok, open, lift, slip, nz;
-                const double ksw = s->p_ksw[k], ihkw = s->p_ihkw[k];
+                const double ksw = pts->ksw[k], ihkw = pts->ihkw[k];
                 int bits, fb;
                 st0 = cf_point_state_is(st, CF_POINT_OPEN);
                 open = ~pos & st0;
@@ -202,8 +209,8 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                 out = (VM)zero;
                 if (P.unbounded) in = ~(VM)zero;
                 else {
-                    VD dhx = X - s->p_hx[k], dhy = Y - s->p_hy[k];
-                    in = CF_LANES_QUICK_IN(dhx, dhy, s->p_fast[k], X, Y, apo2);
+                    VD dhx = X - pts->hx[k], dhy = Y - pts->hy[k];
+                    in = CF_LANES_QUICK_IN(dhx, dhy, pts->fast[k], X, Y, apo2);
                     if (CF_BW_BITS(act & ~in)) {
                         /* the polygon test where the lane's hint edge is still its most distant
                          * edge (cf_face_inside_hint would stay there and leave the hint): inside
@@ -221,7 +228,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                 }
                 CF_POINT_DU(A0, A1, W0, W1, W2, X, Y, Z, dux, duy);
                 fsx0 = CF_BN(ld)(pfsx); fsy0 = CF_BN(ld)(pfsy);
-                CF_LAW_TRIAL(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, pen, dux, duy, s->p_knw[k], ksw, P.mu,
+                CF_LAW_TRIAL(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, pen, dux, duy, pts->knw[k], ksw, P.mu,
                              fsx0, fsy0, f, lim, fx, fy, m2);
                 /* in contact (from state 1, or taking contact from state 0): the law of
                  * cf_law_update, sticking or slipping; the point is in state 1 after it */
@@ -270,7 +277,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                             built |= 1 << l;
                         }
                         S.dslip = dsl[l]; S.dswitch = dsw[l];
-                        if (cf_point_law_at(s, &PL[l], k, pfsx + l, pfsy + l, pst + l,
+                        if (cf_point_law_at(pts, &PL[l], k, pfsx + l, pfsy + l, pst + l,
                                             B->pen0 + (size_t)k * CF_BW + l, B->hint + (size_t)k * CF_BW + l, &S, t))
                             for (i = 0; i < 8; i++) sa[i][l] += t[i];
                         dsl[l] = S.dslip; dsw[l] = S.dswitch;
@@ -351,7 +358,8 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
     cf_joint_chunk *C;
     cf_chunk_before_fn before;
     cf_chunk_after_fn after;
-    int nb = s->nbody, np = s->np, nj = s->nj, l, j, next = 0, active, nomem = 0;
+    const cf_points *pts = (const cf_points *)s->contact;
+    int nb = s->nbody, np = pts->np, nj = s->nj, l, j, next = 0, active, nomem = 0;
     long steps = 0;
     size_t bytes = CF_BN(layout)(NULL, NULL, nb, nj, np) + 64, nview = CF_BN(view_layout)(NULL, NULL, nb, nj);
     unsigned char *raw;
@@ -373,8 +381,9 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
     CF_BN(layout)(B, raw + (64 - (uintptr_t)raw % 64) % 64, nb, nj, np);
     for (j = 0; j < nj; j++) {
         const cf_joint *J = &s->jt[j];
+        const cf_points_joint *PJ = &pts->jt[j];
         int k;
-        for (k = J->p0; k < J->p0 + J->np; k++) B->pface[k] = k < J->p0 + J->n0 ? &J->fl : &J->fu;
+        for (k = PJ->p0; k < PJ->p0 + PJ->np; k++) B->pface[k] = k < PJ->p0 + PJ->n0 ? &J->fl : &J->fu;
     }
     cf_solver_points_chunk_fns(CF_BW, &before, &after);
     for (l = 0; l < CF_BW; l++) {

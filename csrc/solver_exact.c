@@ -7,11 +7,21 @@
  */
 #include <math.h>
 #include <stddef.h>
+#include <stdlib.h>
 
+#include "cf_math.h"
 #include "contact.h"
 #include "contact_law.h"
 #include "solver_internal.h"
 #include "solver_math_internal.h"
+
+/* The model's own state, one entry per joint: the joint-level shear force (N, lower face frame)
+ * and torsional moment (N m) carried from step to step, and the polar moment of the joint area
+ * about its centre (m^4; fixed at set-up). */
+typedef struct {
+    double fs[2], mt;
+    double polar;
+} exact_joint;
 
 static inline void apply_pair(cf_solver *s, int bl, int bu, const double *p, const double *Fw)
 {
@@ -44,6 +54,39 @@ static inline void rel_vel(const cf_solver *s, int bl, int bu, const double *wwl
     }
 }
 
+/* The compressed overlap of joint J's faces at this step (cf_contact_exact: force, centre of
+ * pressure, area, energy into r), with the lower face's centre cL and normal nL (world); returns
+ * the overlap polygon's vertex count, 0 when the faces do not press on each other. */
+static int exact_overlap(const cf_solver *s, const cf_joint *J, double *cL, double *nL, cf_contact_exact_result *r)
+{
+    int bl = J->bl, bu = J->bu, k;
+    const double *RL = s->R + 9 * bl, *RU = s->R + 9 * bu;
+    double cU[3], nU[3], up[2 * CF_MAXS], m[3], X0[3], d[3], p0, px, py;
+    cf_face_world(s, bl, &J->fl, cL, nL);
+    cf_face_world(s, bu, &J->fu, cU, nU);
+    mat_tvec(RL, nU, m);
+    d[0] = cU[0] - cL[0]; d[1] = cU[1] - cL[1]; d[2] = cU[2] - cL[2];
+    mat_tvec(RL, d, X0);
+    if (!(m[2] > 0.1)) return 0;
+    for (k = 0; k < J->fu.n; k++) {
+        double loc[3], pw[3], X[3];
+        loc[0] = J->fu.c[0] + J->fu.vx[k]; loc[1] = J->fu.c[1] + J->fu.vy[k]; loc[2] = J->fu.c[2];
+        mat_vec(RU, loc, pw);
+        pw[0] += s->x[3 * bu] - cL[0]; pw[1] += s->x[3 * bu + 1] - cL[1]; pw[2] += s->x[3 * bu + 2] - cL[2];
+        mat_tvec(RL, pw, X);
+        up[2 * k] = X[0]; up[2 * k + 1] = X[1];
+    }
+    px = m[0] / m[2]; py = m[1] / m[2];
+    p0 = -X0[2] - px * X0[0] - py * X0[1];
+    /* as for sub-contacts: a face sunk deeper than a tenth of its radius has passed
+     * beside or through the other one (tumbling blocks after a collapse) */
+    for (k = 0; k < J->fu.n; k++)
+        if (p0 + px * up[2 * k] + py * up[2 * k + 1] > 0.1 * J->fl.rc) return 0;
+    /* the ground is unbounded: the overlap is the upper face itself */
+    if (bl == 0) return cf_contact_exact(up, J->fu.n, up, J->fu.n, p0, px, py, J->kn, r);
+    return cf_contact_exact(J->fl.poly, J->fl.n, up, J->fu.n, p0, px, py, J->kn, r);
+}
+
 /* Exact interface: normal pressure integrated over the compressed overlap polygon;
  * shear as one joint-level incremental spring acting at the centre of the lower
  * face (so that its lever arms, hence the stability limit, do not change as the
@@ -52,46 +95,22 @@ static inline void rel_vel(const cf_solver *s, int bl, int bu, const double *wwl
  * torsional stiffnesses are those of the whole joint face (ks A, ks J_polar): with a
  * stiffness that followed the compressed area the stored force would carry an energy
  * that jumps without work as the joint opens; the cap mu N governs an open joint. */
-static void joint_exact(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
+static void joint_exact(cf_solver *s, void *state, const cf_joint *J, const double *ww, double dt,
+                        cf_step_energy *e)
 {
-    int bl = J->bl, bu = J->bu, k, sl, nv;
-    const double *RL = s->R + 9 * bl, *RU = s->R + 9 * bu;
-    double cL[3], nL[3], cU[3], nU[3], up[2 * CF_MAXS], m[3], X0[3], d[3];
-    double p0, px, py, fn, kn = J->kn, ks = J->ks, mu = J->mu;
+    exact_joint *ej = (exact_joint *)state + (J - s->jt);
+    int bl = J->bl, bu = J->bu, sl, nv;
+    const double *RL = s->R + 9 * bl;
+    double cL[3], nL[3], fn, kn = J->kn, ks = J->ks, mu = J->mu;
     cf_contact_exact_result r;
     s->jfn[J - s->jt] = 0.0;
-    cf_face_world(s, bl, &J->fl, cL, nL);
-    cf_face_world(s, bu, &J->fu, cU, nU);
-    mat_tvec(RL, nU, m);
-    d[0] = cU[0] - cL[0]; d[1] = cU[1] - cL[1]; d[2] = cU[2] - cL[2];
-    mat_tvec(RL, d, X0);
-    nv = 0;
-    if (m[2] > 0.1) {
-        for (k = 0; k < J->fu.n; k++) {
-            double loc[3], pw[3], X[3];
-            loc[0] = J->fu.c[0] + J->fu.vx[k]; loc[1] = J->fu.c[1] + J->fu.vy[k]; loc[2] = J->fu.c[2];
-            mat_vec(RU, loc, pw);
-            pw[0] += s->x[3 * bu] - cL[0]; pw[1] += s->x[3 * bu + 1] - cL[1]; pw[2] += s->x[3 * bu + 2] - cL[2];
-            mat_tvec(RL, pw, X);
-            up[2 * k] = X[0]; up[2 * k + 1] = X[1];
-        }
-        px = m[0] / m[2]; py = m[1] / m[2];
-        p0 = -X0[2] - px * X0[0] - py * X0[1];
-        /* as for sub-contacts: a face sunk deeper than a tenth of its radius has passed
-         * beside or through the other one (tumbling blocks after a collapse) */
-        for (k = 0; k < J->fu.n; k++)
-            if (p0 + px * up[2 * k] + py * up[2 * k + 1] > 0.1 * J->fl.rc) m[2] = -1.0;
-        /* the ground is unbounded: the overlap is the upper face itself */
-        if (m[2] <= 0.0) nv = 0;
-        else if (bl == 0) nv = cf_contact_exact(up, J->fu.n, up, J->fu.n, p0, px, py, kn, &r);
-        else nv = cf_contact_exact(J->fl.poly, J->fl.n, up, J->fu.n, p0, px, py, kn, &r);
-    }
+    nv = exact_overlap(s, J, cL, nL, &r);
     if (nv == 0 || !(r.force > 0.0)) {
         /* released: stored shear and torsion energy counted as dissipated */
-        e->dslip += cf_law_release(&J->fs[0], &J->fs[1], 0.5 / (ks * J->area));
-        if (J->mt != 0.0) {
-            e->dslip += 0.5 * J->mt * J->mt / (ks * J->polar);
-            J->mt = 0.0;
+        e->dslip += cf_law_release(&ej->fs[0], &ej->fs[1], 0.5 / (ks * J->area));
+        if (ej->mt != 0.0) {
+            e->dslip += 0.5 * ej->mt * ej->mt / (ks * ej->polar);
+            ej->mt = 0.0;
         }
         return;
     }
@@ -106,47 +125,67 @@ static void joint_exact(cf_solver *s, cf_joint *J, const double *ww, double dt, 
          * equivalent uniform overlap carries the integrated normal force */
         mat_tvec(RL, du, duf);
         pen_eq = r.force / (kn * J->area);
-        e->dslip += cf_law_update(pen_eq, duf[0], duf[1], kn * J->area, ks * J->area, mu, J->fs, &fn, &sl);
+        e->dslip += cf_law_update(pen_eq, duf[0], duf[1], kn * J->area, ks * J->area, mu, ej->fs, &fn, &sl);
         s->jfn[J - s->jt] = fn;
         Fw[0] = fn * nL[0]; Fw[1] = fn * nL[1]; Fw[2] = fn * nL[2];
         apply_pair(s, bl, bu, P, Fw);
-        fsf[0] = J->fs[0]; fsf[1] = J->fs[1]; fsf[2] = 0.0;
+        fsf[0] = ej->fs[0]; fsf[1] = ej->fs[1]; fsf[2] = 0.0;
         mat_vec(RL, fsf, Fs);
         apply_pair(s, bl, bu, cL, Fs);
         /* torsion about the joint normal */
-        kt = ks * J->polar;
+        kt = ks * ej->polar;
         wr = v3_dot(ww + 3 * bu, nL) - (bl ? v3_dot(ww + 3 * bl, nL) : 0.0);
-        mt_trial = J->mt - kt * wr * dt;
+        mt_trial = ej->mt - kt * wr * dt;
         req = sqrt(r.area / CF_PI);
         lim = mu * fn * (2.0 / 3.0) * req;
         if (fabs(mt_trial) > lim) {
             double capped = mt_trial > 0 ? lim : -lim;
             /* trapezoidal work on the torsional spring minus its elastic energy change */
-            e->dslip += -0.5 * (J->mt + capped) * wr * dt - 0.5 * (capped * capped - J->mt * J->mt) / kt;
+            e->dslip += -0.5 * (ej->mt + capped) * wr * dt - 0.5 * (capped * capped - ej->mt * ej->mt) / kt;
             mt_trial = capped;
         }
-        J->mt = mt_trial;
-        s->T[3 * bu] += J->mt * nL[0]; s->T[3 * bu + 1] += J->mt * nL[1]; s->T[3 * bu + 2] += J->mt * nL[2];
-        if (bl) { s->T[3 * bl] -= J->mt * nL[0]; s->T[3 * bl + 1] -= J->mt * nL[1]; s->T[3 * bl + 2] -= J->mt * nL[2]; }
-        e->vs += r.energy + 0.5 * (J->fs[0] * J->fs[0] + J->fs[1] * J->fs[1]) / (ks * J->area)
-               + 0.5 * J->mt * J->mt / kt;
+        ej->mt = mt_trial;
+        s->T[3 * bu] += ej->mt * nL[0]; s->T[3 * bu + 1] += ej->mt * nL[1]; s->T[3 * bu + 2] += ej->mt * nL[2];
+        if (bl) { s->T[3 * bl] -= ej->mt * nL[0]; s->T[3 * bl + 1] -= ej->mt * nL[1]; s->T[3 * bl + 2] -= ej->mt * nL[2]; }
+        e->vs += r.energy + 0.5 * (ej->fs[0] * ej->fs[0] + ej->fs[1] * ej->fs[1]) / (ks * J->area)
+               + 0.5 * ej->mt * ej->mt / kt;
     }
 }
 
-/* The joints' shear force and torsional moment at the start of a run: none. */
-static void exact_reset(cf_solver *s)
+/* The state: the joints' polar moments (of the smaller face, the joint area), no shear or torsion. */
+static int exact_create(cf_solver *s, const double *opt, void **state)
 {
+    exact_joint *ej = (exact_joint *)calloc((size_t)(s->nj > 0 ? s->nj : 1), sizeof *ej);
     int j;
-    for (j = 0; j < s->nj; j++) { s->jt[j].fs[0] = s->jt[j].fs[1] = 0; s->jt[j].mt = 0; }
+    (void)opt;   /* no options */
+    if (!ej) return cf_solver_fail(s, CF_ENOMEM, "out of memory");
+    for (j = 0; j < s->nj; j++) {
+        const cf_joint *J = &s->jt[j];
+        const cf_face *fa = J->fl.area < J->fu.area ? &J->fl : &J->fu;
+        ej[j].polar = fa->area * fa->rc * fa->rc * (2.0 + cf_math_cos(2.0 * CF_PI / fa->n)) / 6.0;
+    }
+    *state = ej;
+    return CF_OK;
 }
+
+/* The joints' shear force and torsional moment at the start of a run: none. */
+static void exact_reset(const cf_solver *s, void *state)
+{
+    exact_joint *ej = (exact_joint *)state;
+    int j;
+    for (j = 0; j < s->nj; j++) { ej[j].fs[0] = ej[j].fs[1] = 0; ej[j].mt = 0; }
+}
+
+static void exact_free(void *state) { free(state); }
 
 /* For the stability limit: the face integral by the edge-midpoint rule on the fan
  * triangles (exact for the quadratic integrands of the stiffness). */
-static void exact_stiffness(const cf_solver *s, const cf_joint *J, struct cf_stiffness *K)
+static void exact_stiffness(const cf_solver *s, const void *state, const cf_joint *J, cf_springs *K)
 {
     const cf_face *f = &J->fu;
     double wq = J->area / f->n / 3.0;
     int k, t;
+    (void)state;
     for (k = 0; k < f->n; k++) {
         int k1 = (k + 1) % f->n;
         double mids[3][2];
@@ -158,17 +197,18 @@ static void exact_stiffness(const cf_solver *s, const cf_joint *J, struct cf_sti
             p[0] = s->x0[3 * J->bu] + f->c[0] + mids[t][0];
             p[1] = s->x0[3 * J->bu + 1] + f->c[1] + mids[t][1];
             p[2] = s->x0[3 * J->bu + 2] + f->c[2];
-            cf_solver_timestep_add_contact(s, K, J, p, wq);
+            cf_springs_add_contact(K, J, p, wq);
         }
     }
 }
 
-/* No set-up of its own (the joints' polygons and polar moments are the stack's); run one
+/* Its state is the joints' shear, torsion and polar moments (the polygons are the stack's); run one
  * after the other by the batch (its work is the polygon clipping of contact.c). */
 const cf_solver_contact_model cf_solver_exact_model = {
     "exact",
     "Exact interface: kn * overlap integrated over the compressed part of the face overlap "
     "polygon; one joint-level shear spring with the law of contact_law.h and a torsional "
     "spring, both capped by Coulomb friction.",
-    NULL, exact_reset, exact_stiffness, joint_exact, NULL, 0,
+    NULL, 0,
+    exact_create, exact_reset, exact_free, exact_stiffness, joint_exact, NULL, 0,
 };

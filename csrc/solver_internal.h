@@ -3,12 +3,15 @@
  * (never in a cffi region; see docs/architecture.md for the map of the files).
  *
  *   solver.c            public API: definition defaults and checks, set-up, the run loop
- *   solver_stack.c      bodies, mass properties, joints, faces, contact points, equilibrium
+ *   solver_options.c    the options as data: the solver's own table and the models' (defaults,
+ *                       ranges, messages, options by name)
+ *   solver_stack.c      bodies, mass properties, joints, faces, equilibrium
+ *   solver_face_points.c  the sub-contact points of the faces, for the models that carry points
  *   solver_timestep.c   stability limit of the whole linearised stack -> time step
  *   solver_step.c       the integrator step, as named phases
  *   solver_contact_model.c  the registry of contact models (cf_solver_contact_model)
- *   solver_points.c     contact models: sub-contact points (vertex / perimeter), scalar
- *                       runner, the SIMD width from CPUID
+ *   solver_points.c     contact models: sub-contact points (vertex / perimeter), their state
+ *                       cf_points, the SIMD width from CPUID
  *   solver_points_wide.h  the same models' runner written once over the lane operators of
  *                       solver_lanes.h, instantiated by solver_points_w2.c, _w4.c, _w8.c (two,
  *                       four, eight points per instruction); every width gives the same bits
@@ -18,11 +21,13 @@
  *
  * Bodies: index 0 is the ground (fixed in the frame that moves with the ground),
  * 1.. are the moving rigid bodies (one per block, or one for a monolithic column).
- * Joint j has a lower body and an upper body; its sub-contacts are kept in
- * structure-of-arrays form with their persistent shear forces.
+ * Joint j has a lower body and an upper body and their faces; what a contact model keeps on
+ * it (points, shear forces) is the model's own state (s->contact).
  */
 #ifndef CF_SOLVER_INTERNAL_H
 #define CF_SOLVER_INTERNAL_H
+
+#include <stdlib.h>
 
 #include "cf_common.h"
 #include "geometry.h"
@@ -67,10 +72,6 @@ typedef struct {
     cf_face fl, fu;         /* lower body's top face, upper body's bottom face */
     double area;            /* joint area, m^2 */
     double kn, ks, mu;      /* normal and shear stiffness (Pa/m), friction coefficient of this joint */
-    int p0, np, n0;         /* its sub-contacts: [p0, p0 + np), the first n0 on the upper face */
-    double fs[2], mt;       /* exact mode: joint shear force (N, lower face frame), torsional moment (N m) */
-    double polar;           /* exact mode: polar moment of the joint area about its centre, m^4 */
-    double lz[2];           /* body-frame z of the points of side 0 (upper face) and side 1 (lower face) */
 } cf_joint;
 
 /* What the contacts of one step add to the energy ledger. */
@@ -83,44 +84,89 @@ typedef struct {
 
 struct cf_solver;
 
-/* The stiffness of the stack at rest, for the stability limit (solver_timestep.c): a contact
- * model adds its springs with cf_solver_timestep_add_spring. */
-struct cf_stiffness;
-/* a spring of stiffness k (N/m) along the unit vector e at world point p (at rest) between bodies bl, bu */
-void cf_solver_timestep_add_spring(const struct cf_solver *s, struct cf_stiffness *S, int bl, int bu, const double *p,
-                             const double *e, double k);
+/* The springs a contact model puts into the stiffness of the stability limit (solver_timestep.c),
+ * joint by joint: its stiffness hook appends them here (cf_springs_add, cf_springs_add_contact),
+ * the time step assembles them in that order. A spring of stiffness k (N/m) along the unit vector
+ * e at world point p (at rest) between the joint's bodies. */
+typedef struct {
+    double p[3], e[3], k;
+} cf_spring;
+
+typedef struct {
+    cf_spring *v;
+    int n, cap;
+    int nomem;                      /* 1: a spring did not fit in memory (the limit fails with CF_ENOMEM) */
+} cf_springs;
+
+static inline void cf_springs_add(cf_springs *K, const double *p, const double *e, double k)
+{
+    cf_spring *sp;
+    if (K->n == K->cap) {
+        int cap = K->cap > 0 ? 2 * K->cap : 64;
+        cf_spring *v = (cf_spring *)realloc(K->v, sizeof(cf_spring) * (size_t)cap);
+        if (!v) { K->nomem = 1; return; }
+        K->v = v; K->cap = cap;
+    }
+    sp = &K->v[K->n++];
+    sp->p[0] = p[0]; sp->p[1] = p[1]; sp->p[2] = p[2];
+    sp->e[0] = e[0]; sp->e[1] = e[1]; sp->e[2] = e[2];
+    sp->k = k;
+}
+
 /* the three springs of a contact of area share w (m^2) of joint J at world point p (at rest):
  * normal kn w along z, shear ks w along x and along y */
-void cf_solver_timestep_add_contact(const struct cf_solver *s, struct cf_stiffness *S, const cf_joint *J, const double *p,
-                              double w);
+static inline void cf_springs_add_contact(cf_springs *K, const cf_joint *J, const double *p, double w)
+{
+    static const double ex[3] = {1, 0, 0}, ey[3] = {0, 1, 0}, ez[3] = {0, 0, 1};
+    cf_springs_add(K, p, ez, J->kn * w);
+    cf_springs_add(K, p, ex, J->ks * w);
+    cf_springs_add(K, p, ey, J->ks * w);
+}
 
 /* A contact model: one entry of the registry (solver_contact_model.c, the way REBOUND keeps
  * its integrators, gravity and collision modules: a table of entries, each owning its
- * functions). The definition's `contact` field is the entry's index; its name is the
- * option's value in Python (read through cf_solver_contact_model_name). */
-typedef struct {
+ * functions and its state). The definition's `contact` field is the entry's index; its name is
+ * the option's value in Python (read through cf_solver_contact_model_name). The solver calls the
+ * hooks; a model calls nothing of the files that call it (the stack, the time step, the step,
+ * solver.c): what it needs is in the solver's state it is handed (bodies, joints and their faces,
+ * the definition) or comes from the files below it (solver_face_points.c: the sub-contact points
+ * of the faces; contact.c, cf_math.c). scripts/check_c_calls.py checks that no call goes up. */
+typedef struct cf_solver_contact_model {
     const char *name;
     const char *doc;                /* one sentence, exported (cf_solver_contact_model_doc) */
-    /* optional: set-up, once the bodies and joints are built (cf_solver_setup): the
-     * model's contact points or joint data and its per-run state, in the solver's own
-     * arrays (s->p_*, the joints), which cf_solver_stack_release frees; an entry has no
-     * release hook, so a model must not allocate memory of its own */
-    int (*setup)(struct cf_solver *s);
-    /* optional: the model's per-run state to its rest value (the start of every run) */
-    void (*reset)(struct cf_solver *s);
+    /* its options, declared as data (name, kind, range, default, unit, doc): the range checks,
+     * Python's SolverOptions and the docs take them from here (solver_options.c) */
+    const cf_solver_option *options;
+    int n_options;
+    /* its own state: created once the bodies and joints are built (cf_solver_setup) from the
+     * values of its options (opt, in the order of `options`), allocated by the model and freed by
+     * free through cf_solver_free (or a new set-up); NULL create: none */
+    int (*create)(struct cf_solver *s, const double *opt, void **state);
+    /* optional: the state to its value at the start of every run */
+    void (*reset)(const struct cf_solver *s, void *state);
+    void (*free)(void *state);
     /* the springs joint J contributes to the stiffness of the stability limit */
-    void (*stiffness)(const struct cf_solver *s, const cf_joint *J, struct cf_stiffness *K);
+    void (*stiffness)(const struct cf_solver *s, const void *state, const cf_joint *J, cf_springs *K);
     /* the step hook: the forces of one joint */
-    void (*joint)(struct cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e);
+    void (*joint)(struct cf_solver *s, void *state, const cf_joint *J, const double *ww, double dt,
+                  cf_step_energy *e);
     /* optional: the forces of every joint at once (NULL: joint by joint); the same bits */
-    void (*all)(struct cf_solver *s, const double *ww, double dt, cf_step_energy *e);
-    /* 1: the batch integrator (solver_batch_lanes.h, which writes the points law in lanes)
-     * runs this model's runs side by side; 0: one after the other */
+    void (*all)(struct cf_solver *s, void *state, const double *ww, double dt, cf_step_energy *e);
+    /* 1: the batch integrator (solver_batch_lanes.h, which writes the points law in lanes over
+     * the points' state, cf_points of solver_points_internal.h) runs this model's runs side by
+     * side; 0: one after the other */
     int batch_lanes;
 } cf_solver_contact_model;
 
 /* the registry (solver_contact_model.c): cf_solver_contact_model_table[def.contact] */
 extern const cf_solver_contact_model *const cf_solver_contact_model_table[];
+
+/* solver_options.c: the option tables read (cf_solver_def_default and cf_solver_check_def of
+ * solver.c; the check's message into msg), and the values of contact model m's options in d, in
+ * the order of its table (n_options of them). */
+void cf_solver_options_default(cf_solver_def *d);
+int cf_solver_options_check(const cf_solver_def *d, char *msg);
+void cf_solver_options_of_model(const cf_solver_def *d, int m, double *out);
 
 struct cf_solver {
     char msg[CF_MSG_LEN];
@@ -145,19 +191,7 @@ struct cf_solver {
     double base_diam, total_mass, total_h, com_h;
     /* joints */
     cf_joint *jt;
-    /* sub-contacts */
-    int np;
-    int *p_side, *p_hint;
-    double *p_loc, *p_w, *p_ihkw;   /* body-frame position (3), area share (m^2), 1 / (2 ks w) */
-    /* the hot loop's view of the same points, structure of arrays (one entry per point):
-     * body-frame x, y (z is that of the face, shared), rest position in the other
-     * face's frame, the squared radius of the cheap inside test around it (-1: none),
-     * kn w and ks w, and the persistent state: shear force (N, face frame) and contact
-     * state (0 open, 1 in contact, 2 over the plane but off the polygon, 3 too deep,
-     * 4 in contact with an offset; see cf_point_law) */
-    double *p_lx, *p_ly, *p_hx, *p_hy, *p_fast, *p_knw, *p_ksw;
-    double *p_fsx, *p_fsy, *p_state;
-    double *p_pen0;                 /* state 4: depth at which the point's normal spring is unstretched, m */
+    void *contact;                  /* the contact model's own state (its create / free) */
     double dt_crit, dt;
     /* scratch of the time loop (nbody): world omegas, velocities of the last half step */
     double *ww, *vold, *wold;
@@ -167,15 +201,32 @@ struct cf_solver {
     double *jfn;                    /* normal force of each joint this step, N */
 };
 
-int cf_solver_fail(struct cf_solver *s, int status, const char *fmt, ...);
+/* Fail with a message on the solver s (its msg buffer) and return status: cf_common_fail, the
+ * library's one failure writer at the bottom of the layering, so that every solver file reports
+ * a failure without calling up into solver.c. */
+#define cf_solver_fail(s, status, ...) cf_common_fail((s)->msg, (status), __VA_ARGS__)
 
 /* solver_stack.c */
 int cf_solver_stack_build(struct cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs,
                           const double *kn, const double *ks, const double *mu);
 void cf_solver_stack_release(struct cf_solver *s);
 void cf_solver_stack_reset(struct cf_solver *s);
-/* the sub-contact points of every joint, mm per edge (0: the polygon vertices) */
-int cf_solver_stack_points(struct cf_solver *s, int mm);
+
+/* solver_face_points.c: the sub-contact points of every joint's faces, for the contact models that
+ * carry points. The upper face's points are tested against the lower face (side 0), the lower
+ * face's against the upper face (side 1), each set carrying half of the joint area (the ground's
+ * joint: the upper face's alone, all of it); m per edge (0: the polygon vertices). In planar mode
+ * with faces symmetric about the x-z plane one of each mirrored pair is kept with twice its
+ * weight; a face none of whose points lies on the other face at rest is dropped (its half of the
+ * area to the other face's points). */
+typedef struct {
+    int np;                         /* points in all */
+    int *side;                      /* np: 0 on the upper face, 1 on the lower face */
+    double *loc, *w;                /* np: body-frame position (3 each), m; area share, m^2 */
+    int *p0, *n, *n0;               /* per joint: its points [p0, p0 + n), the first n0 on the upper face */
+} cf_face_points;
+int cf_solver_face_points_make(struct cf_solver *s, int mm, cf_face_points *fp);
+void cf_solver_face_points_free(cf_face_points *fp);
 
 /* solver_timestep.c */
 int cf_solver_timestep_limit(struct cf_solver *s);

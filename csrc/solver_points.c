@@ -11,6 +11,7 @@
  * wide runner (solver_points_wide.h, one instance per width) gives the same bits, two,
  * four or eight points at a time.
  */
+#include <stdlib.h>
 #include <string.h>
 
 #include "solver_math_internal.h"
@@ -198,7 +199,8 @@ void cf_solver_points_chunk_fns(int lanes, cf_chunk_before_fn *before, cf_chunk_
 
 /* The face runner of the solver's width (s->lanes, chosen at set-up); every width gives
  * the same bits. */
-static void points_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
+static void points_run(const cf_solver *s, cf_points *pts, const cf_face_pass *P, int k0, int k1, cf_face_sums *S,
+                       int need)
 {
     switch (s->lanes) {
 #ifdef CF_SOLVER_AVX512
@@ -206,155 +208,272 @@ static void points_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_f
         /* eight lanes pay off on long faces only: a 10-point face runs 8 + 2 lanes as two
          * 512-bit blocks, slower than three 256-bit ones where AVX-512 executes as two
          * halves (measured on an AMD EPYC, Zen 4) */
-        if (k1 - k0 >= 16) cf_solver_points_w8_run(s, P, k0, k1, S, need);
-        else cf_solver_points_w4_run(s, P, k0, k1, S, need);
+        if (k1 - k0 >= 16) cf_solver_points_w8_run(pts, P, k0, k1, S, need);
+        else cf_solver_points_w4_run(pts, P, k0, k1, S, need);
         return;
 #endif
 #ifdef CF_SOLVER_AVX2
-    case 4: cf_solver_points_w4_run(s, P, k0, k1, S, need); return;
+    case 4: cf_solver_points_w4_run(pts, P, k0, k1, S, need); return;
 #endif
 #ifdef CF_SOLVER_SIMD
-    case 2: cf_solver_points_w2_run(s, P, k0, k1, S, need); return;
+    case 2: cf_solver_points_w2_run(pts, P, k0, k1, S, need); return;
 #endif
-    default: cf_solver_points_run_scalar(s, P, k0, k1, S, need);
+    default: cf_points_run_scalar(pts, P, k0, k1, S, need);
+    }
+}
+
+/* Gather joints [c0, c0 + lanes) of s into the chunk's lanes (the lanes past the m joints copy the
+ * last one and are ignored). */
+static void chunk_gather(const cf_solver *s, const cf_points *pts, const double *ww, int c0, int m, int lanes,
+                         cf_joint_chunk *C)
+{
+    int l, i;
+    for (l = 0; l < lanes; l++) {
+        int j = c0 + (l < m ? l : m - 1);
+        const cf_joint *J = &s->jt[j];
+        int bl = J->bl, bu = J->bu;
+        for (i = 0; i < 9; i++) { C->RL[i][l] = s->R[9 * bl + i]; C->RU[i][l] = s->R[9 * bu + i]; }
+        for (i = 0; i < 3; i++) {
+            C->xl[i][l] = s->x[3 * bl + i]; C->xu[i][l] = s->x[3 * bu + i];
+            C->vl[i][l] = s->v[3 * bl + i]; C->vu[i][l] = s->v[3 * bu + i];
+            C->wl[i][l] = ww[3 * bl + i]; C->wu[i][l] = ww[3 * bu + i];
+            C->fcl[i][l] = J->fl.c[i]; C->fcu[i][l] = J->fu.c[i];
+        }
+        C->lz[0][l] = pts->jt[j].lz[0]; C->lz[1][l] = pts->jt[j].lz[1];
+        C->gl[l] = bl != 0 ? 1.0 : 0.0;
+    }
+}
+
+/* The points of joint j, side by side, in order, through the face runner: the sums of each side
+ * into lane l of the chunk, the energies into e, the joint's normal force into s->jfn. */
+static void joint_points(cf_solver *s, cf_points *pts, int j, cf_joint_chunk *C, int l, cf_step_energy *e)
+{
+    const cf_joint *J = &s->jt[j];
+    const cf_points_joint *PJ = &pts->jt[j];
+    int side, i, end = PJ->p0 + PJ->np;
+    cf_face_sums S;
+    S.dslip = 0.0; S.dswitch = 0.0;
+    S.sm[6] = S.sm[7] = 0.0;
+    for (side = 0; side < 2; side++) {
+        int k0 = side == 0 ? PJ->p0 : PJ->p0 + PJ->n0, k1 = side == 0 ? PJ->p0 + PJ->n0 : end;
+        cf_face_pass P;
+        C->has[side][l] = k1 > k0 ? 1.0 : 0.0;
+        if (k1 <= k0) {
+            for (i = 0; i < 6; i++) C->sm[side][i][l] = 0.0;
+            continue;
+        }
+        cf_face_pass_set(pts, J, side, &P);
+        cf_face_pass_lane(C, side, l, &P);
+        S.sm[0] = S.sm[1] = S.sm[2] = S.sm[3] = S.sm[4] = S.sm[5] = 0.0;
+        points_run(s, pts, &P, k0, k1, &S, e->need);
+        for (i = 0; i < 6; i++) C->sm[side][i][l] = S.sm[i];
+    }
+    e->vs += S.sm[6];
+    /* the joint's normal force: summed at energy/history steps only (read at history samples) */
+    s->jfn[j] = S.sm[7];
+    e->dslip += S.dslip;
+    e->dswitch += S.dswitch;
+}
+
+/* Apply joint j's forces from lane l of the chunk, as the single run does: force F at the face
+ * centre with moment M, on the upper body; the opposite on the lower body. */
+static void joint_apply(cf_solver *s, int j, const cf_joint_chunk *C, int l)
+{
+    const cf_joint *J = &s->jt[j];
+    int bl = J->bl, bu = J->bu, side;
+    for (side = 0; side < 2; side++) {
+        s->F[3 * bu] += C->Fw[side][0][l]; s->F[3 * bu + 1] += C->Fw[side][1][l];
+        s->F[3 * bu + 2] += C->Fw[side][2][l];
+        s->T[3 * bu] += C->Tu[side][0][l]; s->T[3 * bu + 1] += C->Tu[side][1][l];
+        s->T[3 * bu + 2] += C->Tu[side][2][l];
+        if (bl != 0) {
+            s->F[3 * bl] -= C->Fw[side][0][l]; s->F[3 * bl + 1] -= C->Fw[side][1][l];
+            s->F[3 * bl + 2] -= C->Fw[side][2][l];
+            s->T[3 * bl] -= C->Tl[side][0][l]; s->T[3 * bl + 1] -= C->Tl[side][1][l];
+            s->T[3 * bl + 2] -= C->Tl[side][2][l];
+        }
     }
 }
 
 /* Joints [j0, j0 + n) through the face runner, in chunks of CF_JCH. */
-static void points_joints(cf_solver *s, int j0, int n, const double *ww, double dt, cf_step_energy *e)
+static void points_joints(cf_solver *s, cf_points *pts, int j0, int n, const double *ww, double dt,
+                          cf_step_energy *e)
 {
     cf_chunk_before_fn before;
     cf_chunk_after_fn after;
     cf_joint_chunk C;
-    int need = e->need, c0;
+    int c0;
     chunk_fns(s->lanes, &before, &after);
     for (c0 = j0; c0 < j0 + n; c0 += CF_JCH) {
         int m = j0 + n - c0 < CF_JCH ? j0 + n - c0 : CF_JCH, l, i;
-        /* gather the chunk; from 8 joints on, a whole chunk (a fixed trip count, no
-         * remainder loop: the lanes past the last joint copy it and are ignored) */
+        /* from 8 joints on, a whole chunk (a fixed trip count, no remainder loop) */
         int lanes = m >= 8 ? CF_JCH : m;
-        for (l = 0; l < lanes; l++) {
-            const cf_joint *J = &s->jt[c0 + (l < m ? l : m - 1)];
-            int bl = J->bl, bu = J->bu;
-            for (i = 0; i < 9; i++) { C.RL[i][l] = s->R[9 * bl + i]; C.RU[i][l] = s->R[9 * bu + i]; }
-            for (i = 0; i < 3; i++) {
-                C.xl[i][l] = s->x[3 * bl + i]; C.xu[i][l] = s->x[3 * bu + i];
-                C.vl[i][l] = s->v[3 * bl + i]; C.vu[i][l] = s->v[3 * bu + i];
-                C.wl[i][l] = ww[3 * bl + i]; C.wu[i][l] = ww[3 * bu + i];
-                C.fcl[i][l] = J->fl.c[i]; C.fcu[i][l] = J->fu.c[i];
-            }
-            C.lz[0][l] = J->lz[0]; C.lz[1][l] = J->lz[1];
-            C.gl[l] = bl != 0 ? 1.0 : 0.0;
-        }
+        chunk_gather(s, pts, ww, c0, m, lanes, &C);
         before(&C, lanes, dt);
-        /* the points, joint by joint, side by side, in order */
-        for (l = 0; l < m; l++) {
-            cf_joint *J = &s->jt[c0 + l];
-            int side, end = J->p0 + J->np;
-            cf_face_sums S;
-            S.dslip = 0.0; S.dswitch = 0.0;
-            S.sm[6] = S.sm[7] = 0.0;
-            for (side = 0; side < 2; side++) {
-                int k0 = side == 0 ? J->p0 : J->p0 + J->n0, k1 = side == 0 ? J->p0 + J->n0 : end;
-                cf_face_pass P;
-                C.has[side][l] = k1 > k0 ? 1.0 : 0.0;
-                if (k1 <= k0) {
-                    for (i = 0; i < 6; i++) C.sm[side][i][l] = 0.0;
-                    continue;
-                }
-                cf_face_pass_set(s, J, side, &P);
-                cf_face_pass_lane(&C, side, l, &P);
-                S.sm[0] = S.sm[1] = S.sm[2] = S.sm[3] = S.sm[4] = S.sm[5] = 0.0;
-                points_run(s, &P, k0, k1, &S, need);
-                for (i = 0; i < 6; i++) C.sm[side][i][l] = S.sm[i];
-            }
-            e->vs += S.sm[6];
-            /* the joint's normal force: summed at energy/history steps only (read at history samples) */
-            s->jfn[J - s->jt] = S.sm[7];
-            e->dslip += S.dslip;
-            e->dswitch += S.dswitch;
-        }
+        for (l = 0; l < m; l++) joint_points(s, pts, c0 + l, &C, l, e);
         for (l = m; l < lanes; l++) {   /* lanes past the last joint: defined values */
             C.has[0][l] = C.has[1][l] = 0.0;
             for (i = 0; i < 6; i++) C.sm[0][i][l] = C.sm[1][i][l] = 0.0;
         }
         after(&C, lanes);
-        /* apply, in joint order: force F at the face centre with moment M, on the upper
-         * body; the opposite on the lower body */
-        for (l = 0; l < m; l++) {
-            const cf_joint *J = &s->jt[c0 + l];
-            int bl = J->bl, bu = J->bu, side;
-            for (side = 0; side < 2; side++) {
-                s->F[3 * bu] += C.Fw[side][0][l]; s->F[3 * bu + 1] += C.Fw[side][1][l];
-                s->F[3 * bu + 2] += C.Fw[side][2][l];
-                s->T[3 * bu] += C.Tu[side][0][l]; s->T[3 * bu + 1] += C.Tu[side][1][l];
-                s->T[3 * bu + 2] += C.Tu[side][2][l];
-                if (bl != 0) {
-                    s->F[3 * bl] -= C.Fw[side][0][l]; s->F[3 * bl + 1] -= C.Fw[side][1][l];
-                    s->F[3 * bl + 2] -= C.Fw[side][2][l];
-                    s->T[3 * bl] -= C.Tl[side][0][l]; s->T[3 * bl + 1] -= C.Tl[side][1][l];
-                    s->T[3 * bl + 2] -= C.Tl[side][2][l];
-                }
-            }
-        }
+        for (l = 0; l < m; l++) joint_apply(s, c0 + l, &C, l);   /* in joint order */
     }
 }
 
-static void points_joint(cf_solver *s, cf_joint *J, const double *ww, double dt, cf_step_energy *e)
+static void points_joint(cf_solver *s, void *state, const cf_joint *J, const double *ww, double dt,
+                         cf_step_energy *e)
 {
-    points_joints(s, (int)(J - s->jt), 1, ww, dt, e);
+    points_joints(s, (cf_points *)state, (int)(J - s->jt), 1, ww, dt, e);
 }
 
-static void points_all(cf_solver *s, const double *ww, double dt, cf_step_energy *e)
+static void points_all(cf_solver *s, void *state, const double *ww, double dt, cf_step_energy *e)
 {
-    points_joints(s, 0, s->nj, ww, dt, e);
+    points_joints(s, (cf_points *)state, 0, s->nj, ww, dt, e);
 }
 
-/* The scalar runner: every point through the full law, in order. */
-void cf_solver_points_run_scalar(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
+/* ---- the points' state: create, reset, free --------------------------------------- */
+
+static void points_free(void *state)
 {
+    cf_points *p = (cf_points *)state;
+    if (!p) return;
+    free(p->jt); free(p->side); free(p->hint); free(p->loc); free(p->w); free(p->ihkw);
+    free(p->lx); free(p->ly); free(p->hx); free(p->hy); free(p->fast); free(p->knw); free(p->ksw);
+    free(p->fsx); free(p->fsy); free(p->state); free(p->pen0);
+    free(p);
+}
+
+/* The arrays of np points and nj joints (zeroed); NULL when out of memory. */
+static cf_points *points_alloc(int np, int nj)
+{
+    cf_points *p = (cf_points *)calloc(1, sizeof *p);
+    size_t n = (size_t)(np > 0 ? np : 1);
+    int bad;
+    if (!p) return NULL;
+    p->np = np;
+    p->jt = (cf_points_joint *)calloc((size_t)(nj > 0 ? nj : 1), sizeof *p->jt);
+    p->side = (int *)calloc(n, sizeof(int)); p->hint = (int *)calloc(n, sizeof(int));
+    p->loc = (double *)calloc(3 * n, sizeof(double));
+    bad = !p->jt || !p->side || !p->hint || !p->loc;
+#define POINTS_ARRAY(a) do { p->a = (double *)calloc(n, sizeof(double)); bad |= !p->a; } while (0)
+    POINTS_ARRAY(w); POINTS_ARRAY(ihkw); POINTS_ARRAY(lx); POINTS_ARRAY(ly); POINTS_ARRAY(hx); POINTS_ARRAY(hy);
+    POINTS_ARRAY(fast); POINTS_ARRAY(knw); POINTS_ARRAY(ksw); POINTS_ARRAY(fsx); POINTS_ARRAY(fsy);
+    POINTS_ARRAY(state); POINTS_ARRAY(pen0);
+#undef POINTS_ARRAY
+    if (bad) { points_free(p); return NULL; }
+    return p;
+}
+
+/* The hot loop's view of the points of joint j: rest position of each point in the frame of the
+ * face it touches (face centres aligned); a point within contact_tolerance of a home that lies
+ * inside that face is inside the grown polygon: the cheap test of the hot loop. */
+static void points_derived(const cf_joint *J, cf_points *p, int j)
+{
+    const cf_points_joint *PJ = &p->jt[j];
     int k;
-    double t[8];
-    for (k = k0; k < k1; k++)
-        if (cf_point_law(s, P, k, S, s->p_hint + k, t)) cf_sums_add(S, t, need);
+    for (k = PJ->p0; k < PJ->p0 + PJ->np; k++) {
+        const cf_face *own = p->side[k] == 0 ? &J->fu : &J->fl, *oth = p->side[k] == 0 ? &J->fl : &J->fu;
+        double hx = p->loc[3 * k] - own->c[0], hy = p->loc[3 * k + 1] - own->c[1];
+        double tol = p->contact_tolerance * oth->rc;
+        int homein = cf_face_inside(oth, hx, hy, 1e-9 * oth->rc);
+        p->lx[k] = p->loc[3 * k]; p->ly[k] = p->loc[3 * k + 1];
+        p->hx[k] = hx; p->hy[k] = hy;
+        /* squared radius of the cheap test (-1: none; the point then takes the polygon test) */
+        p->fast[k] = (homein && tol > 2e-9 * oth->rc) ? (tol - 1e-9 * oth->rc) * (tol - 1e-9 * oth->rc) : -1.0;
+        p->knw[k] = J->kn * p->w[k]; p->ksw[k] = J->ks * p->w[k];
+        p->ihkw[k] = 0.5 / (J->ks * p->w[k]);
+    }
 }
 
-/* Set-up of the two points models: the points at the polygon vertices, or m per edge of a
- * refined face mesh (points_per_edge). */
-static int vertex_setup(cf_solver *s)
+/* The state of a points model: the face points at the polygon vertices (mm = 0) or mm per edge of
+ * a refined face mesh (solver_face_points.c), what the hot loop reads of each, its options. */
+static int points_create(cf_solver *s, int mm, double contact_tolerance, double reentry_depth, void **state)
 {
-    return cf_solver_stack_points(s, 0);
+    cf_face_points fp;
+    cf_points *p;
+    int j, k, st = cf_solver_face_points_make(s, mm, &fp);
+    if (st) return st;
+    p = points_alloc(fp.np, s->nj);
+    if (!p) { cf_solver_face_points_free(&fp); return cf_solver_fail(s, CF_ENOMEM, "out of memory"); }
+    p->contact_tolerance = contact_tolerance;
+    p->reentry_depth = reentry_depth;
+    memcpy(p->side, fp.side, sizeof(int) * (size_t)fp.np);
+    memcpy(p->loc, fp.loc, sizeof(double) * 3 * (size_t)fp.np);
+    memcpy(p->w, fp.w, sizeof(double) * (size_t)fp.np);
+    for (j = 0; j < s->nj; j++) {
+        const cf_joint *J = &s->jt[j];
+        cf_points_joint *PJ = &p->jt[j];
+        PJ->p0 = fp.p0[j]; PJ->np = fp.n[j]; PJ->n0 = fp.n0[j];
+        points_derived(J, p, j);
+        /* every point of a face lies in that face's plane: one body-frame z per face */
+        PJ->lz[0] = J->fu.c[2]; PJ->lz[1] = J->fl.c[2];
+        for (k = PJ->p0; k < PJ->p0 + PJ->np; k++)
+            if (p->loc[3 * k + 2] != PJ->lz[p->side[k]]) st = cf_solver_fail(s, CF_EINVAL, "internal: point off its face plane");
+    }
+    cf_solver_face_points_free(&fp);
+    if (st) { points_free(p); return st; }
+    *state = p;
+    return CF_OK;
 }
 
-static int perimeter_setup(cf_solver *s)
+/* The points models' options: the two they share first, then perimeter's mesh (the order of opt
+ * in their create hooks). */
+#define POINTS_OPTIONS                                                                                        \
+    {"contact_tolerance", CF_SOLVER_OPTION_REAL, 0.0, 0.1, 0, 1, 1e-2, "-",                                  \
+     "A sub-contact overhanging the other face by less than this fraction of the face's circumradius still " \
+     "bears."},                                                                                              \
+    {"reentry_depth", CF_SOLVER_OPTION_REAL, 0.0, 0.1, 0, 0, 0.0, "-",                                       \
+     "A point that was off the face (beside it, below its plane) and comes back onto it at most this "       \
+     "fraction of the face's circumradius deep takes contact with its spring compressed to that depth (the " \
+     "energy it brings is booked as contact_switch); a deeper one takes contact with its spring "            \
+     "unstretched. 0: every re-entry unstretched (docs/accuracy.md, \"Two-component motion\")."}
+static const cf_solver_option vertex_options[] = {POINTS_OPTIONS};
+static const cf_solver_option perimeter_options[] = {
+    POINTS_OPTIONS,
+    {"points_per_edge", CF_SOLVER_OPTION_INT, 1, 64, 0, 0, 1, "-",
+     "Points per polygon edge of the refined face mesh (its interior nodes too)."},
+};
+
+/* Set-up of the two points models: the points at the polygon vertices, or points_per_edge per
+ * edge of a refined face mesh. */
+static int vertex_create(cf_solver *s, const double *opt, void **state)
 {
-    return cf_solver_stack_points(s, s->def.points_per_edge);
+    return points_create(s, 0, opt[0], opt[1], state);
+}
+
+static int perimeter_create(cf_solver *s, const double *opt, void **state)
+{
+    return points_create(s, (int)opt[2], opt[0], opt[1], state);
 }
 
 /* The points' state at the start of a run: no shear, open, no offset; the polygon tests'
  * starting edges too (a run does not depend on the runs before it). */
-static void points_reset(cf_solver *s)
+static void points_reset(const cf_solver *s, void *state)
 {
-    size_t n = (size_t)s->np;
+    cf_points *p = (cf_points *)state;
+    size_t n = (size_t)p->np;
+    (void)s;
     if (n == 0) return;
-    memset(s->p_fsx, 0, sizeof(double) * n);
-    memset(s->p_fsy, 0, sizeof(double) * n);
-    memset(s->p_state, 0, sizeof(double) * n);   /* 0.0 is CF_POINT_OPEN */
-    memset(s->p_pen0, 0, sizeof(double) * n);
-    memset(s->p_hint, 0, sizeof(int) * n);
+    memset(p->fsx, 0, sizeof(double) * n);
+    memset(p->fsy, 0, sizeof(double) * n);
+    memset(p->state, 0, sizeof(double) * n);   /* 0.0 is CF_POINT_OPEN */
+    memset(p->pen0, 0, sizeof(double) * n);
+    memset(p->hint, 0, sizeof(int) * n);
 }
 
 /* For the stability limit: every point's springs at its rest position. */
-static void points_stiffness(const cf_solver *s, const cf_joint *J, struct cf_stiffness *K)
+static void points_stiffness(const cf_solver *s, const void *state, const cf_joint *J, cf_springs *K)
 {
+    const cf_points *p = (const cf_points *)state;
+    const cf_points_joint *PJ = &p->jt[J - s->jt];
     int k;
-    for (k = J->p0; k < J->p0 + J->np; k++) {
-        int b = s->p_side[k] == 0 ? J->bu : J->bl;
-        double p[3];
-        p[0] = s->x0[3 * b] + s->p_loc[3 * k];
-        p[1] = s->x0[3 * b + 1] + s->p_loc[3 * k + 1];
-        p[2] = s->x0[3 * b + 2] + s->p_loc[3 * k + 2];
-        cf_solver_timestep_add_contact(s, K, J, p, s->p_w[k]);
+    for (k = PJ->p0; k < PJ->p0 + PJ->np; k++) {
+        int b = p->side[k] == 0 ? J->bu : J->bl;
+        double q[3];
+        q[0] = s->x0[3 * b] + p->loc[3 * k];
+        q[1] = s->x0[3 * b + 1] + p->loc[3 * k + 1];
+        q[2] = s->x0[3 * b + 2] + p->loc[3 * k + 2];
+        cf_springs_add_contact(K, J, q, p->w[k]);
     }
 }
 
@@ -365,7 +484,8 @@ const cf_solver_contact_model cf_solver_points_vertex = {
     "vertex",
     "Sub-contact points at the polygon vertices of both faces (3DEC-like), each with the soft "
     "Coulomb law of contact_law.h.",
-    vertex_setup, points_reset, points_stiffness, points_joint, points_all, 1,
+    vertex_options, (int)(sizeof vertex_options / sizeof vertex_options[0]),
+    vertex_create, points_reset, points_free, points_stiffness, points_joint, points_all, 1,
 };
 
 const cf_solver_contact_model cf_solver_points_perimeter = {
@@ -373,5 +493,6 @@ const cf_solver_contact_model cf_solver_points_perimeter = {
     "Sub-contact points on a refined face mesh (points_per_edge per polygon edge, interior "
     "nodes too) with lumped area weights, each with the soft Coulomb law of contact_law.h; "
     "converges to the exact interface as points_per_edge grows.",
-    perimeter_setup, points_reset, points_stiffness, points_joint, points_all, 1,
+    perimeter_options, (int)(sizeof perimeter_options / sizeof perimeter_options[0]),
+    perimeter_create, points_reset, points_free, points_stiffness, points_joint, points_all, 1,
 };

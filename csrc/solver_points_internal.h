@@ -12,6 +12,30 @@
 #include "contact_law.h"
 #include "solver_internal.h"
 
+/* The state of the points models ("vertex", "perimeter": solver_points.c), theirs alone: created
+ * at set-up, reset at the start of a run, freed with the solver. Per joint, its points' range and
+ * the body-frame z of each side's face; per point, in structure-of-arrays form: the fixed data
+ * (face side, body-frame position, area share w, 1 / (2 ks w), the hot loop's body-frame x and y,
+ * rest position in the other face's frame, the squared radius of the cheap inside test around it
+ * (-1: none), kn w and ks w) and the per-run state (polygon-test hint, shear force in the face
+ * frame, contact state: cf_point_state, the offset depth of state CF_POINT_OFFSET); the model's
+ * options. */
+typedef struct {
+    int p0, np, n0;                 /* its points [p0, p0 + np), the first n0 on the upper face */
+    double lz[2];                   /* body-frame z of the points of side 0 (upper face) and side 1 (lower face) */
+} cf_points_joint;
+
+typedef struct {
+    int np;
+    cf_points_joint *jt;            /* one per joint */
+    int *side, *hint;
+    double *loc, *w, *ihkw;
+    double *lx, *ly, *hx, *hy, *fast, *knw, *ksw;
+    double *fsx, *fsy, *state, *pen0;
+    double contact_tolerance;       /* the option: overhang that still bears / the face's circumradius */
+    double reentry_depth;           /* the option: deepest stretched re-entry / the face's circumradius */
+} cf_points;
+
 /* The constants of one face's pass over the points that touch it: the frame map and
  * the relative displacement field over the step (both in the face frame), the face's
  * thresholds. */
@@ -61,15 +85,15 @@ void cf_solver_points_chunk_fns(int lanes, cf_chunk_before_fn *before, cf_chunk_
 
 /* The face's part of a pass (side 0: the upper body's points against the lower face,
  * side 1: the lower body's points against the upper face): thresholds and joint law. */
-static inline void cf_face_pass_set(const cf_solver *s, const cf_joint *J, int side, cf_face_pass *P)
+static inline void cf_face_pass_set(const cf_points *pts, const cf_joint *J, int side, cf_face_pass *P)
 {
     const cf_face *ff = side == 0 ? &J->fl : &J->fu;
     /* a point deeper than a tenth of the face's radius is not in contact with it:
      * it has passed beside or through the face (a tumbling block after a collapse) */
     P->pmax = 0.1 * ff->rc;
     /* a point coming back onto the face deeper than this starts unstretched (reentry_depth) */
-    P->pent = s->def.reentry_depth * ff->rc;
-    P->tol = s->def.contact_tolerance * ff->rc;
+    P->pent = pts->reentry_depth * ff->rc;
+    P->tol = pts->contact_tolerance * ff->rc;
     P->sgn = side == 0 ? -1.0 : 1.0;
     P->kn = J->kn; P->mu = J->mu;
     P->unbounded = side == 0 && J->bl == 0;
@@ -88,13 +112,12 @@ static inline void cf_face_pass_lane(const cf_joint_chunk *C, int side, int l, c
     }
 }
 
-/* The face runners: the points [k0, k1) against the face of P, adding to S in point order;
- * scalar (solver_points.c), and CF_BW points per instruction
- * (solver_points_wide.h, one per width the build has: solver_points_w2.c, _w4.c, _w8.c) */
-void cf_solver_points_run_scalar(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
-void cf_solver_points_w2_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
-void cf_solver_points_w4_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
-void cf_solver_points_w8_run(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+/* The wide face runners: the points [k0, k1) against the face of P, adding to S in point order,
+ * CF_BW points per instruction (solver_points_wide.h, one per width the build has:
+ * solver_points_w2.c, _w4.c, _w8.c); the scalar one is cf_points_run_scalar below. */
+void cf_solver_points_w2_run(cf_points *pts, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+void cf_solver_points_w4_run(cf_points *pts, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
+void cf_solver_points_w8_run(cf_points *pts, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
 
 /* Regular polygon test with a hint: the projection of (X, Y) on the edge normals is
  * unimodal around the polygon, so walking from the last maximising edge finds the
@@ -118,7 +141,7 @@ static inline int cf_face_inside_hint(const cf_face *f, double X, double Y, doub
     return best <= f->apo + tol;
 }
 
-/* The contact state of a sub-contact point. It is stored as a double (s->p_state, the
+/* The contact state of a sub-contact point. It is stored as a double (cf_points.state, the
  * batch's lanes) so that the wide runners compare it in lane vectors: cf_point_state_is. */
 typedef enum {
     CF_POINT_OPEN = 0,      /* not overlapping the face's plane */
@@ -196,21 +219,21 @@ static inline double cf_point_spring_energy(double kn, double w, double pe)
 /* One sub-contact k against the face of P, any state: position in the face frame, the
  * state's transition (cf_point_next) with its energy bookkeeping, then the contact law.
  * Returns 1 and its terms in t (fx, fy, fn, mx, my, mz, vs, fn) when it carries force, 0
- * when it is open, too deep or off the face. The point's fixed data are those of s; its
+ * when it is open, too deep or off the face. The point's fixed data are those of pts; its
  * state (shear force, contact state, offset depth, polygon hint) is where the pointers
- * say: s's own arrays for one run, a lane of the batch's arrays for a run of a batch
+ * say: pts's own arrays for one run, a lane of the batch's arrays for a run of a batch
  * (solver_batch.c). Every transition keeps the energy ledger closed. */
-static inline int cf_point_law_at(const cf_solver *s, const cf_face_pass *P, int k, double *fsx, double *fsy,
+static inline int cf_point_law_at(const cf_points *pts, const cf_face_pass *P, int k, double *fsx, double *fsy,
                                   double *state, double *pen0, int *hint, cf_face_sums *S, double *t)
 {
-    double lx = s->p_lx[k], ly = s->p_ly[k], w = s->p_w[k], fs[2], fn, dux, duy, fs2, pe, X, Y, Z, pen, dhx, dhy;
+    double lx = pts->lx[k], ly = pts->ly[k], w = pts->w[k], fs[2], fn, dux, duy, fs2, pe, X, Y, Z, pen, dhx, dhy;
     cf_point_state st = (cf_point_state)(int)*state, nx;
     int slipping, inside;
     CF_POINT_AT(P->M[0], P->M[1], P->M[3], P->M[4], P->M[6], P->M[7], P->mz[0], P->mz[1], P->mz[2], P->t[0], P->t[1],
                 P->t[2], lx, ly, X, Y, Z);
-    pen = P->sgn * Z; dhx = X - s->p_hx[k]; dhy = Y - s->p_hy[k];
+    pen = P->sgn * Z; dhx = X - pts->hx[k]; dhy = Y - pts->hy[k];
     inside = pen > 0.0 && !(pen > P->pmax)
-                 && (P->unbounded || dhx * dhx + dhy * dhy <= s->p_fast[k]
+                 && (P->unbounded || dhx * dhx + dhy * dhy <= pts->fast[k]
                      || cf_face_inside_hint(P->ff, X, Y, P->tol, hint));
     nx = cf_point_next(st, pen, inside, P->pmax, P->pent);
     *state = (double)nx;
@@ -219,7 +242,7 @@ static inline int cf_point_law_at(const cf_solver *s, const cf_face_pass *P, int
          * the model (booked as contact_switch, not as a balance error) */
         if (nx != CF_POINT_OPEN && cf_point_loaded(st))
             S->dswitch += cf_point_spring_energy(P->kn, w, st == CF_POINT_OFFSET ? pen - *pen0 : pen);
-        S->dslip += cf_law_release(fsx, fsy, s->p_ihkw[k]);
+        S->dslip += cf_law_release(fsx, fsy, pts->ihkw[k]);
         return 0;
     }
     if (nx == CF_POINT_OFFSET && st != CF_POINT_OFFSET) *pen0 = pen;
@@ -233,21 +256,21 @@ static inline int cf_point_law_at(const cf_solver *s, const cf_face_pass *P, int
     }
     CF_POINT_DU(P->A[0], P->A[1], P->W[0], P->W[1], P->W[2], X, Y, Z, dux, duy);
     fs[0] = *fsx; fs[1] = *fsy;
-    S->dslip += cf_law_update(pe, dux, duy, s->p_knw[k], s->p_ksw[k], P->mu, fs, &fn, &slipping);
+    S->dslip += cf_law_update(pe, dux, duy, pts->knw[k], pts->ksw[k], P->mu, fs, &fn, &slipping);
     *fsx = fs[0]; *fsy = fs[1];
     fs2 = fs[0] * fs[0] + fs[1] * fs[1];
     /* on both sides the force on the upper body is +fn along the frame's z */
     t[0] = fs[0]; t[1] = fs[1]; t[2] = fn;
-    CF_LAW_TERMS(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, 0.5, X, Y, Z, pe, fn, fs[0], fs[1], fs2, s->p_ihkw[k],
+    CF_LAW_TERMS(CF_LAW_SADD, CF_LAW_SSUB, CF_LAW_SMUL, 0.5, X, Y, Z, pe, fn, fs[0], fs[1], fs2, pts->ihkw[k],
                  t[3], t[4], t[5], t[6]);
     t[7] = fn;
     return 1;
 }
 
-/* cf_point_law_at on s's own state of point k */
-static inline int cf_point_law(cf_solver *s, const cf_face_pass *P, int k, cf_face_sums *S, int *hint, double *t)
+/* cf_point_law_at on pts's own state of point k */
+static inline int cf_point_law(cf_points *pts, const cf_face_pass *P, int k, cf_face_sums *S, int *hint, double *t)
 {
-    return cf_point_law_at(s, P, k, s->p_fsx + k, s->p_fsy + k, s->p_state + k, s->p_pen0 + k, hint, S, t);
+    return cf_point_law_at(pts, P, k, pts->fsx + k, pts->fsy + k, pts->state + k, pts->pen0 + k, hint, S, t);
 }
 
 /* add the terms t[0..7] of one point (same order as cf_face_sums) */
@@ -255,6 +278,17 @@ static inline void cf_sums_add(cf_face_sums *S, const double *t, int need)
 {
     S->sm[0] += t[0]; S->sm[1] += t[1]; S->sm[2] += t[2]; S->sm[3] += t[3]; S->sm[4] += t[4]; S->sm[5] += t[5];
     if (need) { S->sm[6] += t[6]; S->sm[7] += t[7]; }
+}
+
+/* The scalar face runner: every point of [k0, k1) through the full law, in order (the reference
+ * the wide runners equal bit for bit, and the last points of the arrays after them). */
+static inline void cf_points_run_scalar(cf_points *pts, const cf_face_pass *P, int k0, int k1, cf_face_sums *S,
+                                        int need)
+{
+    int k;
+    double t[8];
+    for (k = k0; k < k1; k++)
+        if (cf_point_law(pts, P, k, S, pts->hint + k, t)) cf_sums_add(S, t, need);
 }
 
 #ifdef CF_SOLVER_SIMD
@@ -292,7 +326,7 @@ static inline void cf_simd_sums_add(cf_simd_sums *V, const double *t, int need)
  * time, in order -- a sticking lane (bit set in bits) from its vector results (vx ... vvs, the
  * lanes stored to memory), an open lane (bit set in open) skipped, any other through the full
  * law. */
-static inline void cf_simd_lanes_in_order(cf_solver *s, const cf_face_pass *P, cf_face_sums *S, cf_simd_sums *V,
+static inline void cf_simd_lanes_in_order(cf_points *pts, const cf_face_pass *P, cf_face_sums *S, cf_simd_sums *V,
                                           int k, int nl, int open, int bits, const double *vx, const double *vy,
                                           const double *vf, const double *vmx, const double *vmy,
                                           const double *vmz, const double *vvs, int need)
@@ -302,11 +336,11 @@ static inline void cf_simd_lanes_in_order(cf_solver *s, const cf_face_pass *P, c
     for (l = 0; l < nl; l++) {
         if (open & (1 << l)) continue;
         if (bits & (1 << l)) {
-            s->p_fsx[k + l] = vx[l]; s->p_fsy[k + l] = vy[l];
+            pts->fsx[k + l] = vx[l]; pts->fsy[k + l] = vy[l];
             t[0] = vx[l]; t[1] = vy[l]; t[2] = vf[l]; t[3] = vmx[l]; t[4] = vmy[l]; t[5] = vmz[l];
             t[6] = vvs[l]; t[7] = vf[l];
             cf_simd_sums_add(V, t, need);
-        } else if (cf_point_law(s, P, k + l, S, s->p_hint + k + l, t)) {
+        } else if (cf_point_law(pts, P, k + l, S, pts->hint + k + l, t)) {
             cf_simd_sums_add(V, t, need);
         }
     }

@@ -13,7 +13,7 @@
  * point takes its points one at a time (cf_point_law for the hard ones). A face's last
  * points run as a block whose extra lanes (the next points of the arrays) are never active;
  * at the very end of the arrays the next narrower runner takes them. So the results are
- * bitwise those of the scalar runner (solver_points.c); scripts/check_result_hashes.sh
+ * bitwise those of the scalar runner (cf_points_run_scalar, solver_points_internal.h); scripts/check_result_hashes.sh
  * compares the default build with the AVX2-capped, SSE2-only and scalar builds.
  */
 #include "solver_internal.h"
@@ -31,7 +31,7 @@
 #define CF_NARROWER cf_solver_points_w2_run
 #else
 #define CF_POINTS_RUN cf_solver_points_w2_run
-#define CF_NARROWER cf_solver_points_run_scalar
+#define CF_NARROWER cf_points_run_scalar
 #endif
 
 /* add the terms of the block's points to a pair of face sums, (a, b) point by point, in point order */
@@ -42,13 +42,13 @@ static inline cf_v2 CF_BN(add_pairs)(cf_v2 acc, VD a, VD b)
     return acc;
 }
 
-void CF_POINTS_RUN(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
+void CF_POINTS_RUN(cf_points *pts, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need)
 {
     int k = k0, l;
     cf_simd_sums V;
-    const double *lx = s->p_lx, *ly = s->p_ly, *hx = s->p_hx, *hy = s->p_hy, *fast = s->p_fast;
-    const double *knw = s->p_knw, *ksw = s->p_ksw, *ihkw = s->p_ihkw, *state = s->p_state;
-    double *fsx = s->p_fsx, *fsy = s->p_fsy;
+    const double *lx = pts->lx, *ly = pts->ly, *hx = pts->hx, *hy = pts->hy, *fast = pts->fast;
+    const double *knw = pts->knw, *ksw = pts->ksw, *ihkw = pts->ihkw, *state = pts->state;
+    double *fsx = pts->fsx, *fsy = pts->fsy;
     const double M0 = P->M[0], M1 = P->M[1], M3 = P->M[3], M4 = P->M[4], M6 = P->M[6], M7 = P->M[7];
     const double apo2 = P->ff->apo * P->ff->apo, apotol = P->ff->apo + P->tol;
     const VD zero = {0}, half = zero + 0.5, mu = zero + P->mu;
@@ -64,7 +64,7 @@ void CF_POINTS_RUN(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_
         VD vlx, vly;
         int inval = 0, bits, open;
         if (k + CF_BW - 1 >= k1) {
-            if (k + CF_BW > s->np) break;   /* before any load: the block would read past the arrays */
+            if (k + CF_BW > pts->np) break;   /* before any load: the block would read past the arrays */
             inval = full & ~((1 << (k1 - k)) - 1);
             for (l = k1 - k; l < CF_BW; l++) valid[l] = 0;
         }
@@ -86,7 +86,7 @@ void CF_POINTS_RUN(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_
              * (face_inside_hint's walk would stay there), inside iff within apo + tol of
              * it; else (the walk moves) leave the point to cf_point_law */
             const cf_face *ff = P->ff;
-            const int *h = s->p_hint + k;
+            const int *h = pts->hint + k;
             VD c0, s0, c1, s1, c2, s2, best;
             VM stay;
             for (l = 0; l < CF_BW; l++) {
@@ -127,12 +127,12 @@ void CF_POINTS_RUN(cf_solver *s, const cf_face_pass *P, int k0, int k1, cf_face_
             double vx[CF_BW], vy[CF_BW], vf[CF_BW], vmx[CF_BW], vmy[CF_BW], vmz[CF_BW], vvs[CF_BW];
             CF_BN(st)(vx, fx); CF_BN(st)(vy, fy); CF_BN(st)(vf, f); CF_BN(st)(vmx, mx);
             CF_BN(st)(vmy, my); CF_BN(st)(vmz, mz); CF_BN(st)(vvs, vs);
-            cf_simd_lanes_in_order(s, P, S, &V, k, CF_BW, open, bits, vx, vy, vf, vmx, vmy, vmz, vvs, need);
+            cf_simd_lanes_in_order(pts, P, S, &V, k, CF_BW, open, bits, vx, vy, vf, vmx, vmy, vmz, vvs, need);
         }
     }
     cf_simd_sums_store(&V, S);
     /* the last points of the arrays: the next narrower runner */
-    if (k < k1) CF_NARROWER(s, P, k, k1, S, need);
+    if (k < k1) CF_NARROWER(pts, P, k, k1, S, need);
 }
 
 #undef CF_POINTS_RUN

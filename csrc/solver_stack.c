@@ -1,8 +1,9 @@
 /*
  * solver_stack.c -- the column as the solver sees it: rigid bodies and their mass
- * properties, joints and their polygonal faces, the sub-contact points of each face,
- * and the initial state (exact static equilibrium). Everything here runs once per
- * cf_solver_setup; nothing here runs in the time loop except cf_solver_stack_reset.
+ * properties, joints and their polygonal faces, and the initial state (exact static
+ * equilibrium). The contact models build what they carry on the joints themselves.
+ * Everything here runs once per cf_solver_setup; nothing here runs in the time loop
+ * except cf_solver_stack_reset.
  */
 #include <math.h>
 #include <stdlib.h>
@@ -19,24 +20,18 @@ void cf_solver_stack_release(cf_solver *s)
     free(s->m); free(s->inertia); free(s->x); free(s->v); free(s->q); free(s->w); free(s->R);
     free(s->F); free(s->T); free(s->x0); free(s->q0); free(s->fext_prev); free(s->fdamp_prev);
     free(s->tdamp_prev); free(s->blk_body); free(s->blk_off); free(s->blk_top); free(s->blk_bot);
-    free(s->blk_h); free(s->blk_m); free(s->joint_diam); free(s->blk_rc); free(s->jt); free(s->p_side);
-    free(s->p_hint); free(s->p_ihkw); free(s->p_loc); free(s->p_w); free(s->jfn);
-    free(s->p_lx); free(s->p_ly); free(s->p_hx); free(s->p_hy); free(s->p_fast); free(s->p_knw); free(s->p_ksw);
-    free(s->p_fsx); free(s->p_fsy); free(s->p_state); free(s->p_pen0);
+    free(s->blk_h); free(s->blk_m); free(s->joint_diam); free(s->blk_rc); free(s->jt); free(s->jfn);
     free(s->ww); free(s->vold); free(s->wold);
     s->ww = s->vold = s->wold = NULL;
     s->m = s->inertia = s->x = s->v = s->q = s->w = s->R = s->F = s->T = s->x0 = s->q0 = NULL;
     s->fext_prev = s->fdamp_prev = s->tdamp_prev = NULL;
     s->blk_body = NULL;
     s->blk_off = s->blk_top = s->blk_bot = s->blk_h = s->blk_m = s->joint_diam = s->blk_rc = NULL;
-    s->jt = NULL; s->p_side = s->p_hint = NULL;
-    s->p_ihkw = s->p_loc = s->p_w = s->jfn = NULL;
-    s->p_lx = s->p_ly = s->p_hx = s->p_hy = s->p_fast = s->p_knw = s->p_ksw = NULL;
-    s->p_fsx = s->p_fsy = s->p_state = s->p_pen0 = NULL;
-    s->np = s->nj = s->nbody = s->nblk = 0;
+    s->jt = NULL; s->jfn = NULL;
+    s->nj = s->nbody = s->nblk = 0;
 }
 
-/* ---- faces and their sub-contact points ------------------------------------------ */
+/* ---- faces ---------------------------------------------------------------------- */
 
 static void make_face(cf_face *f, int n, double r, double phase, double cz)
 {
@@ -55,52 +50,6 @@ static void make_face(cf_face *f, int n, double r, double phase, double cz)
         int m = (k + n - 1) % n;
         f->ecw[k] = f->ec[m]; f->esw[k] = f->es[m];
     }
-}
-
-/* Sub-contact points of one face (body frame), weights summing to wsum.
- * m = 0: the n vertices; m >= 1: nodes of the fan triangulation refined m times (m
- * points per polygon edge, interior nodes too), lumped (trapezoidal) area weights,
- * which converge to the exact interface as m grows.
- * Writes up to count_face_points() entries; returns the count. */
-static int count_face_points(int n, int m)
-{
-    if (m == 0) return n;
-    return 1 + n * m * (m + 1) / 2;
-}
-
-static int face_points(const cf_face *f, int m, double wsum, double *loc, double *wt)
-{
-    int k, c = 0, ring, t;
-    if (m == 0) {
-        for (k = 0; k < f->n; k++) {
-            loc[3 * c] = f->c[0] + f->vx[k]; loc[3 * c + 1] = f->c[1] + f->vy[k]; loc[3 * c + 2] = f->c[2];
-            wt[c++] = wsum / f->n;
-        }
-        return c;
-    }
-    {
-        double at = wsum / f->n / ((double)m * m) / 3.0;   /* one third of a sub-triangle */
-        loc[0] = f->c[0]; loc[1] = f->c[1]; loc[2] = f->c[2];
-        wt[0] = at * f->n;
-        c = 1;
-        for (ring = 1; ring <= m; ring++) {
-            double sc = (double)ring / m;
-            for (k = 0; k < f->n; k++) {
-                int k1 = (k + 1) % f->n;
-                for (t = 0; t < ring; t++) {
-                    double u = (double)t / ring;
-                    int cnt;
-                    loc[3 * c] = f->c[0] + sc * (f->vx[k] + u * (f->vx[k1] - f->vx[k]));
-                    loc[3 * c + 1] = f->c[1] + sc * (f->vy[k] + u * (f->vy[k1] - f->vy[k]));
-                    loc[3 * c + 2] = f->c[2];
-                    if (ring < m) cnt = 6;
-                    else cnt = (t == 0) ? 2 : 3;
-                    wt[c++] = at * cnt;
-                }
-            }
-        }
-    }
-    return c;
 }
 
 /* ---- bodies --------------------------------------------------------------------- */
@@ -209,149 +158,8 @@ static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometr
                 make_face(&J->fl, top->n_sides, top->r_top, top->phase_rad, s->blk_top[3 * (j - 1) + 2]);
             }
             J->area = J->fl.area < J->fu.area ? J->fl.area : J->fu.area;
-            {
-                const cf_face *fa = J->fl.area < J->fu.area ? &J->fl : &J->fu;
-                J->polar = fa->area * fa->rc * fa->rc * (2.0 + cf_math_cos(2.0 * CF_PI / fa->n)) / 6.0;
-            }
         }
         free(first); free(last);
-    }
-    return CF_OK;
-}
-
-/* A joint whose faces differ much in size (a narrow block on a wide drum): when none
- * of one face's points lies on the other face at rest, those points would never bear
- * and their half of the joint area would be lost (halving the joint's stiffness: a
- * slender block then rocks on springs too soft to hold it up). They are dropped and
- * the other face's points carry the whole area. When both faces have points on the
- * other (every joint of the default column), nothing changes. Returns the new count. */
-static int drop_faces_off_the_other(cf_solver *s)
-{
-    int j, k, c = 0;
-    for (j = 0; j < s->nj; j++) {
-        cf_joint *J = &s->jt[j];
-        int in[2] = {0, 0}, drop = -1, start = c, n0 = 0;
-        for (k = J->p0; k < J->p0 + J->np; k++) {
-            int side = s->p_side[k];
-            const cf_face *own = side == 0 ? &J->fu : &J->fl, *oth = side == 0 ? &J->fl : &J->fu;
-            in[side] += cf_face_inside(oth, s->p_loc[3 * k] - own->c[0], s->p_loc[3 * k + 1] - own->c[1],
-                                       1e-9 * oth->rc);
-        }
-        if (J->bl != 0 && J->n0 > 0 && J->np > J->n0) {
-            if (in[1] == 0 && in[0] > 0) drop = 1;
-            else if (in[0] == 0 && in[1] > 0) drop = 0;
-        }
-        for (k = J->p0; k < J->p0 + J->np; k++) {
-            if (s->p_side[k] == drop) continue;
-            s->p_side[c] = s->p_side[k];
-            memmove(s->p_loc + 3 * c, s->p_loc + 3 * k, 3 * sizeof(double));
-            s->p_w[c] = drop >= 0 ? 2.0 * s->p_w[k] : s->p_w[k];
-            if (s->p_side[c] == 0) n0++;
-            c++;
-        }
-        J->p0 = start; J->np = c - start; J->n0 = n0;
-    }
-    return c;
-}
-
-/* Sub-contacts of the points models (their set-up, solver_points.c): the upper face's points
- * tested against the lower face (side 0) and the lower face's points tested against the upper
- * face (side 1), each set carrying half of the joint area, m per edge (face_points); then the
- * hot loop's arrays. */
-int cf_solver_stack_points(cf_solver *s, int mm)
-{
-    int j, k, np, nj = s->nj;
-    const cf_solver_def *def = &s->def;
-    np = 0;
-    for (j = 0; j < nj; j++)
-        np += count_face_points(s->jt[j].fu.n, mm) + (j == 0 ? 0 : count_face_points(s->jt[j].fl.n, mm));
-    s->np = np;
-    ALLOC(s->p_side, int, np); ALLOC(s->p_hint, int, np); ALLOC(s->p_ihkw, double, np);
-    ALLOC(s->p_loc, double, 3 * np); ALLOC(s->p_w, double, np);
-    {
-        int c = 0, n1, n2;
-        /* filled below, then 1 / (2 ks w) per point */
-        for (j = 0; j < nj; j++) {
-            cf_joint *J = &s->jt[j];
-            J->p0 = c;
-            /* the ground (joint 0) is unbounded: the block's own points carry the whole area */
-            n1 = face_points(&J->fu, mm, (j == 0 ? 1.0 : 0.5) * J->area, s->p_loc + 3 * c, s->p_w + c);
-            for (k = 0; k < n1; k++) s->p_side[c + k] = 0;
-            c += n1;
-            n2 = j == 0 ? 0 : face_points(&J->fl, mm, 0.5 * J->area, s->p_loc + 3 * c, s->p_w + c);
-            for (k = 0; k < n2; k++) s->p_side[c + k] = 1;
-            c += n2;
-            J->np = n1 + n2;
-            J->n0 = n1;
-        }
-    }
-    /* planar mode with faces symmetric about the x-z plane: the motion is symmetric, so
-     * a point at -y mirrors its twin at +y; keep one of each pair with twice its weight
-     * (the out-of-plane force and moments they would cancel are discarded anyway) */
-    if (def->planar) {
-        int sym = 1;
-        for (j = 0; j < nj && sym; j++) {
-            const cf_face *ff[2];
-            int t;
-            ff[0] = &s->jt[j].fl; ff[1] = &s->jt[j].fu;
-            for (t = 0; t < 2; t++) {
-                const cf_face *f = ff[t];
-                int m2;
-                for (k = 0; k < f->n; k++) {   /* every vertex has a mirror vertex */
-                    for (m2 = 0; m2 < f->n; m2++)
-                        if (fabs(f->vx[m2] - f->vx[k]) < 1e-12 * f->rc && fabs(f->vy[m2] + f->vy[k]) < 1e-12 * f->rc) break;
-                    if (m2 == f->n) { sym = 0; break; }
-                }
-            }
-        }
-        if (sym) {
-            int c = 0;
-            for (j = 0; j < nj; j++) {
-                cf_joint *J = &s->jt[j];
-                int start = c, n0 = 0;
-                for (k = J->p0; k < J->p0 + J->np; k++) {
-                    double y = s->p_loc[3 * k + 1], scale = 1.0;
-                    double r = J->fu.rc;
-                    if (y < -1e-9 * r) continue;
-                    if (y > 1e-9 * r) scale = 2.0;
-                    s->p_side[c] = s->p_side[k];
-                    memmove(s->p_loc + 3 * c, s->p_loc + 3 * k, 3 * sizeof(double));
-                    s->p_w[c] = scale * s->p_w[k];
-                    if (k < J->p0 + J->n0) n0++;
-                    c++;
-                }
-                J->p0 = start; J->np = c - start; J->n0 = n0;
-            }
-            s->np = np = c;
-        }
-    }
-    s->np = np = drop_faces_off_the_other(s);
-    ALLOC(s->p_lx, double, np); ALLOC(s->p_ly, double, np); ALLOC(s->p_hx, double, np);
-    ALLOC(s->p_hy, double, np); ALLOC(s->p_fast, double, np); ALLOC(s->p_knw, double, np);
-    ALLOC(s->p_ksw, double, np); ALLOC(s->p_fsx, double, np); ALLOC(s->p_fsy, double, np);
-    ALLOC(s->p_state, double, np); ALLOC(s->p_pen0, double, np);
-    /* rest position of each point in the frame of the face it touches (face centres
-     * aligned); a point within contact_tolerance of a home that lies inside that face
-     * is inside the grown polygon: the cheap test of the hot loop */
-    for (j = 0; j < nj; j++) {
-        cf_joint *J = &s->jt[j];
-        for (k = J->p0; k < J->p0 + J->np; k++) {
-            const cf_face *own = s->p_side[k] == 0 ? &J->fu : &J->fl, *oth = s->p_side[k] == 0 ? &J->fl : &J->fu;
-            double hx = s->p_loc[3 * k] - own->c[0], hy = s->p_loc[3 * k + 1] - own->c[1];
-            double tol = def->contact_tolerance * oth->rc;
-            int homein;
-            homein = cf_face_inside(oth, hx, hy, 1e-9 * oth->rc);
-            s->p_lx[k] = s->p_loc[3 * k]; s->p_ly[k] = s->p_loc[3 * k + 1];
-            s->p_hx[k] = hx; s->p_hy[k] = hy;
-            /* squared radius of the cheap test (-1: none; the point then takes the polygon test) */
-            s->p_fast[k] = (homein && tol > 2e-9 * oth->rc) ? (tol - 1e-9 * oth->rc) * (tol - 1e-9 * oth->rc) : -1.0;
-            s->p_knw[k] = J->kn * s->p_w[k]; s->p_ksw[k] = J->ks * s->p_w[k];
-            s->p_ihkw[k] = 0.5 / (J->ks * s->p_w[k]);
-        }
-        /* every point of a face lies in that face's plane: one body-frame z per face */
-        J->lz[0] = J->fu.c[2]; J->lz[1] = J->fl.c[2];
-        for (k = J->p0; k < J->p0 + J->np; k++)
-            if (s->p_loc[3 * k + 2] != J->lz[s->p_side[k]]) { return cf_solver_fail(s, CF_EINVAL, "internal: point off its face plane"); }
     }
     return CF_OK;
 }
@@ -416,14 +224,13 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
         int j;
         for (j = 0; j < s->nj; j++) { s->jt[j].kn = kn[j]; s->jt[j].ks = ks[j]; s->jt[j].mu = mu[j]; }
     }
-    if (!st && s->model->setup) st = s->model->setup(s);   /* the contact model's points or joint data */
     if (!st) equilibrium(s, nblk, bp, zbot);
     free(bp); free(zbot);
     return st;
 }
 
-/* The state at the start of a run: the initial equilibrium, at rest, no stored shear,
- * the state of a freshly set-up solver. */
+/* The bodies' state at the start of a run: the initial equilibrium, at rest, the state of a
+ * freshly set-up solver (the contact model resets its own state: cf_solver_run). */
 void cf_solver_stack_reset(cf_solver *s)
 {
     int nb = s->nbody;
@@ -434,5 +241,4 @@ void cf_solver_stack_reset(cf_solver *s)
     memset(s->fext_prev, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->fdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);
     memset(s->tdamp_prev, 0, sizeof(double) * 3 * (size_t)nb);
-    if (s->model->reset) s->model->reset(s);   /* the contact model's state */
 }

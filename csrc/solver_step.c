@@ -40,8 +40,8 @@ void cf_solver_step_contacts(cf_solver *s, double dt, cf_step_energy *e)
     memset(s->F, 0, sizeof(double) * 3 * (size_t)s->nbody);
     memset(s->T, 0, sizeof(double) * 3 * (size_t)s->nbody);
     e->vs = 0; e->dslip = 0; e->dswitch = 0;
-    if (s->model->all) { s->model->all(s, s->ww, dt, e); return; }
-    for (j = 0; j < s->nj; j++) s->model->joint(s, &s->jt[j], s->ww, dt, e);
+    if (s->model->all) { s->model->all(s, s->contact, s->ww, dt, e); return; }
+    for (j = 0; j < s->nj; j++) s->model->joint(s, s->contact, &s->jt[j], s->ww, dt, e);
 }
 
 /* 3. velocities (solver_phases.h), the ledger terms into the monitor */

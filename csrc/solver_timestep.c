@@ -97,8 +97,7 @@ static inline void stiff_add(stiffness *S, int i, int j, double v)
 }
 
 /* Add a spring of stiffness k along e at world point p between bodies bl, bu (at rest). */
-void cf_solver_timestep_add_spring(const cf_solver *s, stiffness *S, int bl, int bu, const double *p, const double *e,
-                             double k)
+static void add_spring(const cf_solver *s, stiffness *S, int bl, int bu, const double *p, const double *e, double k)
 {
     double b[12];
     int idx[12], nb = 0, i, j;
@@ -117,14 +116,19 @@ void cf_solver_timestep_add_spring(const cf_solver *s, stiffness *S, int bl, int
         for (j = 0; j < nb; j++) stiff_add(S, idx[i], idx[j], k * b[i] * b[j]);
 }
 
-/* The three springs of a contact of area share w (m^2) of joint J at world point p (at rest):
- * normal kn w along z, shear ks w along x and along y. */
-void cf_solver_timestep_add_contact(const cf_solver *s, stiffness *S, const cf_joint *J, const double *p, double w)
+/* The contact model's springs, joint by joint, in the order its stiffness hook gives them. */
+static int add_model_springs(cf_solver *s, stiffness *S)
 {
-    static const double ex[3] = {1, 0, 0}, ey[3] = {0, 1, 0}, ez[3] = {0, 0, 1};
-    cf_solver_timestep_add_spring(s, S, J->bl, J->bu, p, ez, J->kn * w);
-    cf_solver_timestep_add_spring(s, S, J->bl, J->bu, p, ex, J->ks * w);
-    cf_solver_timestep_add_spring(s, S, J->bl, J->bu, p, ey, J->ks * w);
+    cf_springs K = {NULL, 0, 0, 0};
+    int j, i;
+    for (j = 0; j < s->nj && !K.nomem; j++) {
+        const cf_joint *J = &s->jt[j];
+        K.n = 0;
+        s->model->stiffness(s, s->contact, J, &K);
+        for (i = 0; i < K.n; i++) add_spring(s, S, J->bl, J->bu, K.v[i].p, K.v[i].e, K.v[i].k);
+    }
+    free(K.v);
+    return K.nomem ? cf_solver_fail(s, CF_ENOMEM, "out of memory (contact springs)") : CF_OK;
 }
 
 int cf_solver_timestep_limit(cf_solver *s)
@@ -138,7 +142,7 @@ int cf_solver_timestep_limit(cf_solver *s)
     stiffness S;
     if (!K) return cf_solver_fail(s, CF_ENOMEM, "out of memory (stiffness matrix)");
     S.K = K; S.nd = nd; S.band = band;
-    for (j = 0; j < s->nj; j++) s->model->stiffness(s, &s->jt[j], &S);   /* the contact model's springs */
+    if (add_model_springs(s, &S)) { free(K); return CF_ENOMEM; }
     sel = (int *)malloc(sizeof(int) * (size_t)nd);
     A = (double *)malloc(sizeof(double) * nK);
     if (!sel || !A) { free(K); free(sel); free(A); return cf_solver_fail(s, CF_ENOMEM, "out of memory (eigen)"); }

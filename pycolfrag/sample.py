@@ -36,7 +36,7 @@ from .column import Column
 from .errors import ParameterError
 from ._validate import positive_float
 from .ground_motion.record import COMPONENTS, Record
-from .ground_motion.registry import PULSE_FIELDS
+from .ground_motion.registry import DEFAULT_PULSE_SHAPE, PULSE_FIELDS
 from .intensity import SpectralOptions
 from .options import SolverOptions
 from .solver import EnergyWarning, StepWarning
@@ -275,7 +275,7 @@ def _response_rows(column, rows: list, spectral, options, times) -> None:
 
 def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.005, vp_scale=1.0,
                          periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_DAMPING, solver_options=None,
-                         max_record_s=None, with_pulse=True) -> dict:
+                         max_record_s=None, with_pulse=True, pulse_shape=DEFAULT_PULSE_SHAPE) -> dict:
     """One synthetic sample of the paper's grid (what :func:`pycolfrag.grid.run_sample` computes).
 
     Parameters
@@ -291,6 +291,8 @@ def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.0
     with_pulse : bool -- False: the high-frequency record alone (:func:`pycolfrag.ground_motion.stochastic`
         with the same ``hf_seed``: the no-pulse branch of a site's motions); ``pulse`` and ``vp_scale``
         are then unused and the pulse fields stay NaN
+    pulse_shape : str -- the pulse's shape (:data:`pycolfrag.ground_motion.registry.PULSE_SHAPES`), of
+        which ``pulse`` is a row
 
     Returns
     -------
@@ -300,20 +302,23 @@ def run_synthetic_sample(column, mw, dist_km, hf_seed, pulse, *, record_dt_s=0.0
     ``scenario`` and ``sample``.
     """
     t0 = time.perf_counter()
-    out, motion = _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse)
+    out, motion = _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse,
+                                    pulse_shape)
     if motion is not None:
         _response_row(column, motion, None, _spectral(periods_s, damping), _options(solver_options), out)
     out["wall_s"] = time.perf_counter() - t0
     return out
 
 
-def _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse=True):
+def _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse=True,
+                      pulse_shape=DEFAULT_PULSE_SHAPE):
     """The record of a synthetic sample and its row so far: (row, the run's motion, a Record); the
     motion is None (and the row says why) when the record failed."""
     out = {"mw": float(mw), "dist_km": float(dist_km), "status": STATUS["ok"], "message": ""}
     try:
         if with_pulse:
-            rec = ground_motion.synthesize(mw, dist_km, hf_seed, dt=record_dt_s, vp_scale=vp_scale, pulse=pulse)
+            rec = ground_motion.synthesize(mw, dist_km, hf_seed, dt=record_dt_s, vp_scale=vp_scale, pulse=pulse,
+                                           shape=pulse_shape)
         else:
             rec = ground_motion.stochastic(mw, dist_km, hf_seed, dt=record_dt_s)
         cut = None if max_record_s is None else int(round(max_record_s / rec.dt)) + 1
@@ -328,16 +333,18 @@ def _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_re
     return out, motion
 
 
-def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse=True):
+def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse=True,
+                      pulse_shape=DEFAULT_PULSE_SHAPE):
     """:func:`_synthetic_motion` as arrays: (row, acc, dt), acc and dt None when the record failed
     (the grid's pre-run probe makes a row's record this way)."""
-    out, motion = _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse)
+    out, motion = _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse,
+                                    pulse_shape)
     return (out, None, None) if motion is None else (out, motion.acc, motion.dt)
 
 
 def run_synthetic_samples(column, samples, *, record_dt_s=0.005, vp_scale=1.0, periods_s=DEFAULT_PERIODS_S,
                           damping=DEFAULT_DAMPING, solver_options=None, max_record_s=None,
-                          with_pulse=True) -> list[dict]:
+                          with_pulse=True, pulse_shape=DEFAULT_PULSE_SHAPE) -> list[dict]:
     """Many synthetic samples of one column, their runs side by side in SIMD lanes
     (:func:`pycolfrag.solver.simulate_batch`): each row bitwise the :func:`run_synthetic_sample` of
     its sample, but faster. ``samples``: (mw, dist_km, hf_seed, pulse) of each; the other arguments
@@ -345,7 +352,7 @@ def run_synthetic_samples(column, samples, *, record_dt_s=0.005, vp_scale=1.0, p
     solver time the share of its steps."""
     def prepare(mw, dist_km, hf_seed, pulse):
         out, motion = _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s,
-                                        with_pulse)
+                                        with_pulse, pulse_shape)
         return out, motion, None
     return _batch_rows(column, samples, prepare, _spectral(periods_s, damping), _options(solver_options))
 

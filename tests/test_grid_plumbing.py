@@ -22,14 +22,14 @@ def fake_physics(monkeypatch):
     grid.build_identity()  # the build's result hash comes from the real physics (computed once per process)
     calls = {"lhs": [], "synth": []}
 
-    def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model="rupakhety_2011"):
+    def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model="rupakhety_2011", shape="mp03"):
         calls["lhs"].append((Mw, dist_km, n, seed, vp_scale))
         calls.setdefault("tp_model", []).append(tp_model)
         rng = np.random.default_rng(seed)
         return {"Vp_cm_s": 30 + 10 * rng.random(n), "fp_hz": 0.5 + rng.random(n), "nu_rad": rng.random(n),
                 "gamma": 2 + rng.random(n), "t0_s": 5 + rng.random(n)}
 
-    def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None):
+    def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, shape="mp03"):
         calls["synth"].append((Mw, dist_km, seed, dt, vp_scale, dict(pulse)))
         acc = np.random.default_rng(seed).normal(size=2001)
         # the keys the real synthesize derives (Tp = 1/fp, A, Ap): the row copies every declared key

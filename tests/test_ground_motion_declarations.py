@@ -138,8 +138,17 @@ def test_tp_model_choices_are_the_declared_pulse_period_models():
 
 
 def test_declared_names_are_unique():
-    fields = [p.row_field for m in registry.MODELS.values() for p in m.PARAMETERS if p.row_field]
+    """A row field belongs to one model, except that pulse shapes share the fields they have in common
+    (the meaning, meta key and unit the same: a row of either shape fills the same /samples column)."""
+    fields = [p.row_field for m in registry.MODELS.values() if m.KIND != "pulse" for p in m.PARAMETERS
+              if p.row_field]
+    fields += [p.row_field for p in registry.PULSE_FIELDS]
     assert len(fields) == len(set(fields))
+    for m in registry.PULSE_SHAPES.values():
+        for p in m.PARAMETERS:
+            if p.row_field:
+                q = next(f for f in registry.PULSE_FIELDS if f.row_field == p.row_field)
+                assert (q.meta_key, q.unit, q.field_description) == (p.meta_key, p.unit, p.field_description)
     for m in registry.MODELS.values():
         assert m.KIND in registry.KINDS and registry.MODELS[m.NAME] is m
     # every listed module kept its entry (the registry refuses to import with two models of one NAME)

@@ -27,8 +27,8 @@ def test_one_g_everywhere():
     assert names.G == g
     assert intensity.G == names.G and at2.G == names.G
     assert solver.SolverOptions().g == names.G   # compiled from the same file (a stale build fails here)
-    text = (root / "csrc" / "solver.c").read_text()
-    assert re.search(r"d->g\s*=\s*(\w+)\s*;", text).group(1) == "CF_G_M_S2"
+    text = (root / "csrc" / "solver_options.c").read_text()   # the option table: g's default is its 7th item
+    assert re.search(r'\{\{"g",(?:[^,]*,){5}\s*(\w+)\s*,', text).group(1) == "CF_G_M_S2"
     flags = subprocess.run(["make", "-s", "-f", "csrc/flags.mk", "-f", "-", "p"], cwd=root, text=True, check=True,
                            input="p: ; @echo $(CFLAGS)\n", capture_output=True).stdout.split()
     assert f"-DCF_G_M_S2={g:g}" in flags
@@ -39,7 +39,8 @@ def test_c_without_the_gravity_define_does_not_compile(tmp_path):
     if shutil.which("gcc") is None:
         pytest.skip("no gcc")
     root = Path(__file__).resolve().parents[1]
-    p = subprocess.run(["gcc", "-std=c99", "-fsyntax-only", "-I", str(root / "csrc"), str(root / "csrc" / "solver.c")],
+    p = subprocess.run(["gcc", "-std=c99", "-fsyntax-only", "-I", str(root / "csrc"),
+                        str(root / "csrc" / "solver_options.c")],
                        capture_output=True, text=True)
     assert p.returncode != 0 and "CF_G_M_S2" in p.stderr
 

@@ -1,16 +1,21 @@
-"""SolverOptions: the one home of the solver's options (defaults from C, one validation,
-results-file round trip), and simulate's keyword compatibility.
+"""SolverOptions: the solver's options built from the C library's option tables (fields, defaults,
+types, ranges, docs), the results-file round trip, and simulate's keyword compatibility.
 
-Expected values: the paper's definitions (residual dislocation averaged over the last 2 s;
-no damping by default) and the C library's own range checks."""
+Expected values: the paper's definitions (residual dislocation averaged over the last 2 s; no
+damping by default); the ranges and defaults each option declares in C, read from the
+declarations themselves, so that an option or a contact model added there is tested here without
+an edit."""
+import dataclasses
 import json
+import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag.options import SolverOptions
+from pycolfrag.options import CONTACT_DOCS, CONTACT_OPTIONS, OPTIONS, SolverOptions
 
 G = 9.81
 
@@ -36,20 +41,95 @@ def test_round_trip_through_a_results_attribute():
     assert SolverOptions.from_dict({}) == SolverOptions()
 
 
-@pytest.mark.parametrize("changes, word", [
-    (dict(dt_factor=10.0), "dt_factor"), (dict(dt_factor=0.0), "dt_factor"),
-    (dict(points_per_edge=None), "points_per_edge"), (dict(points_per_edge=float("nan")), "points_per_edge"),
-    (dict(points_per_edge=65), "points_per_edge"), (dict(contact=["vertex"]), "contact"),
-    (dict(contact="soft"), "contact"), (dict(tail_s="3"), "tail_s"), (dict(planar=2), "planar"),
-    (dict(dt_solver=0.0), "dt_solver"), (dict(dt_solver=-1e-3), "dt_solver"),
-    (dict(unstable_tolerance=0.0), "unstable_tolerance"), (dict(history_dt=float("inf")), "history_dt"),
-    (dict(contact_tolerance=0.5), "contact_tolerance"), (dict(bogus=1), "bogus"),
-    (dict(reentry_depth=0.11), "reentry_depth"), (dict(reentry_depth=-1e-3), "reentry_depth"),
-    (dict(reentry_depth=float("nan")), "reentry_depth"),
-])
-def test_bad_options_fail_when_built_naming_the_option(changes, word):
-    with pytest.raises(pcf.ParameterError, match=word):
-        SolverOptions().replace(**changes)
+def _outside(opt):
+    """Values just outside each declared bound of an option (the bound itself where it is open), and
+    the closed finite bounds, which are accepted: what the C library's check must enforce, read from
+    the declaration itself."""
+    bad, good = [], []
+    integer = opt.kind == "int"
+    if opt.kind in ("model", "flag"):
+        return bad, good
+    if math.isfinite(opt.lo):
+        bad.append(opt.lo if opt.lo_open or opt.kind == "step" else opt.lo - 1 if integer
+                   else np.nextafter(opt.lo, -np.inf))
+        if not opt.lo_open and opt.kind != "step":
+            good.append(opt.lo)
+    if math.isfinite(opt.hi):
+        bad.append(opt.hi if opt.hi_open else opt.hi + 1 if integer else np.nextafter(opt.hi, np.inf))
+        if not opt.hi_open:
+            good.append(opt.hi)
+    return bad, good
+
+
+_RANGES = [(name, v, ok) for name, opt in OPTIONS.items() for ok, vs in zip((False, True), _outside(opt))
+           for v in vs]
+
+
+@pytest.mark.parametrize("name, value, ok", _RANGES, ids=[f"{n}={v!r}" for n, v, _ in _RANGES])
+def test_every_declared_range_holds_in_python(name, value, ok):
+    """Every bound of every option as its C declaration gives it: just outside refused with a
+    ParameterError naming the option (its Python name: dt_solver for C's dt), the closed bound accepted."""
+    if ok:
+        assert getattr(SolverOptions().replace(**{name: value}), name) == value
+    else:
+        with pytest.raises(pcf.ParameterError, match=rf"\b{name}\b"):
+            SolverOptions().replace(**{name: value})
+
+
+# Values of the wrong type for each kind of option (any option of that kind refuses them, naming itself).
+_WRONG_TYPE = {"real": ["3", [1.0], float("nan"), float("inf"), True], "int": [None, float("nan"), 2.5, "2", True],
+               "flag": [2, 1.0, "yes", None], "step": [0.0, -1e-3, "0.01"], "model": [["vertex"], "no_such_model", 0]}
+
+
+@pytest.mark.parametrize("name", list(OPTIONS))
+def test_bad_types_fail_when_built_naming_the_option(name):
+    for v in _WRONG_TYPE[OPTIONS[name].kind]:
+        with pytest.raises(pcf.ParameterError, match=rf"\b{name}\b"):
+            SolverOptions().replace(**{name: v})
+    with pytest.raises(pcf.ParameterError, match="bogus"):
+        SolverOptions().replace(bogus=1)
+
+
+def test_fields_defaults_and_c_definition_are_the_c_tables():
+    """SolverOptions has one field per option of the C tables, in their order, with the default the C
+    definition holds (cf_solver_def_default read back by name), and to_c puts every field where C reads
+    it: a non-default value of each option, read back by name from the definition."""
+    from pycolfrag._ffi import ffi, lib
+    c_names = [ffi.string(lib.cf_solver_options_get(i).name).decode() for i in range(lib.cf_solver_options_count())]
+    assert [o.c_name for o in OPTIONS.values()] == c_names
+    assert [f.name for f in dataclasses.fields(SolverOptions)] == list(OPTIONS) == list(SolverOptions.names())
+    d = ffi.new("cf_solver_def *")
+    lib.cf_solver_def_default(d)
+    v = ffi.new("double *")
+    for name, opt in OPTIONS.items():
+        assert getattr(SolverOptions(), name) == opt.default
+        assert lib.cf_solver_options_value(d, opt.c_name.encode(), v) == lib.CF_OK
+        assert v[0] == {"model": lambda x: CONTACT_OPTIONS[x], "step": lambda x: 0.0 if x is None else x}.get(
+            opt.kind, float)(opt.default)
+    for name, opt in OPTIONS.items():
+        _, good = _outside(opt)
+        other = {"model": list(CONTACT_OPTIONS)[-1], "flag": not opt.default, "step": 1e-4}.get(
+            opt.kind, good[-1] if good and good[-1] != opt.default else opt.default)
+        if other == opt.default and opt.kind in ("real", "int"):
+            other = opt.default + 1 if opt.kind == "int" else opt.default * 0.5 + (opt.hi if math.isfinite(opt.hi)
+                                                                                   else 1.0) * 0.5
+        d2 = SolverOptions().replace(**{name: other}).to_c()
+        assert lib.cf_solver_options_value(d2, opt.c_name.encode(), v) == lib.CF_OK
+        expect = CONTACT_OPTIONS[other] if opt.kind == "model" else float(other)
+        assert v[0] == expect and other != opt.default, name
+
+
+def test_docs_table_is_the_c_tables():
+    """docs/solver.md's options table is options.docs_table() (printed from the C tables): paste it
+    again when an option or a contact model changes."""
+    from pycolfrag.options import docs_table
+    text = (Path(__file__).resolve().parents[1] / "docs" / "solver.md").read_text()
+    assert docs_table() in text, "docs/solver.md's options table differs from pycolfrag.options.docs_table()"
+
+
+def test_the_docstring_names_every_option_with_its_default():
+    for name, opt in OPTIONS.items():
+        assert f"\n{name} : " in SolverOptions.__doc__ and opt.doc in SolverOptions.__doc__
 
 
 def test_keywords_and_options_give_the_same_bits(col):
@@ -131,15 +211,19 @@ def test_numpy_scalars_and_ranges():
 
 
 def test_contact_options_are_the_c_registry():
-    """The contact option's names and codes come from the C library's registry of contact
-    models, in the order of its C names (CF_SOLVER_CONTACT_*), each with its description."""
-    from pycolfrag._ffi import lib
-    from pycolfrag.options import CONTACT_DOCS, CONTACT_OPTIONS
-    # the models this package ships; a model added to the registry adds an entry without editing this test
-    shipped = {"vertex": lib.CF_SOLVER_CONTACT_VERTEX, "perimeter": lib.CF_SOLVER_CONTACT_PERIMETER,
-               "exact": lib.CF_SOLVER_CONTACT_EXACT}
-    assert {k: CONTACT_OPTIONS[k] for k in shipped} == shipped
-    assert sorted(CONTACT_OPTIONS.values()) == list(range(lib.cf_solver_contact_model_count()))
-    assert set(CONTACT_DOCS) == set(CONTACT_OPTIONS) and "points_per_edge" in CONTACT_DOCS["perimeter"]
+    """The contact option's names and codes come from the C library's registry of contact models: every
+    entry, in its order, each with its description; the C callers' names of the first entries
+    (CF_SOLVER_CONTACT_*) index the models they name; a model's options name it."""
+    from pycolfrag._ffi import ffi, lib
+    n = lib.cf_solver_contact_model_count()
+    assert CONTACT_OPTIONS == {ffi.string(lib.cf_solver_contact_model_name(i)).decode(): i for i in range(n)}
+    assert set(CONTACT_DOCS) == set(CONTACT_OPTIONS) and all(len(d) > 20 for d in CONTACT_DOCS.values())
+    for const in ("VERTEX", "PERIMETER", "EXACT"):
+        assert CONTACT_OPTIONS[const.lower()] == getattr(lib, f"CF_SOLVER_CONTACT_{const}")
+    for name, opt in OPTIONS.items():
+        for model in opt.models:
+            m = CONTACT_OPTIONS[model]
+            assert opt.c_name in [ffi.string(lib.cf_solver_contact_model_option(m, k).name).decode()
+                                  for k in range(lib.cf_solver_contact_model_n_options(m))]
     with pytest.raises(pcf.errors.ParameterError, match="contact must be one of"):
-        SolverOptions(contact="toy")
+        SolverOptions(contact="no_such_model")

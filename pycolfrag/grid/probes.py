@@ -140,12 +140,14 @@ def _synthetic_probe_record(spec, ctx, scenario):
     from a small LHS of the scenario (a representative row, at once)."""
     m, r = spec.scenarios[scenario]
     p = None
-    if spec.pulse != "none":
+    with_pulse = spec.pulse != _gm.registry.NO_PULSE
+    if with_pulse:
         table = _gm.sample_pulse_parameters(m, r, min(spec.samples, 8), ctx.lhs_seed(scenario),
-                                            vp_scale=spec.vp_scale, tp_model=spec.tp_model)
+                                            vp_scale=spec.vp_scale, tp_model=spec.tp_model, shape=spec.pulse)
         p = {k: (np.asarray(v)[0] if np.ndim(v) else v).item() for k, v in table.items()}
     out, a, d = _sample._synthetic_record(m, r, ctx.hf_seed(scenario, 0), p, spec.record_dt_s, spec.vp_scale,
-                                          None, spec.pulse != "none")
+                                          None, with_pulse,
+                                          spec.pulse if with_pulse else _gm.registry.DEFAULT_PULSE_SHAPE)
     if a is None:
         raise RuntimeError(out["message"])
     return a, d

@@ -83,7 +83,8 @@ class SampleContext:
         if scenario not in self._lhs:
             mw, dist = self.spec.scenarios[scenario]
             table = _gm.sample_pulse_parameters(mw, dist, self.spec.samples, self.lhs_seed(scenario),
-                                                vp_scale=self.spec.vp_scale, tp_model=self.spec.tp_model)
+                                                vp_scale=self.spec.vp_scale, tp_model=self.spec.tp_model,
+                                                shape=self.spec.pulse)
             self._lhs[scenario] = {k: np.asarray(v) for k, v in table.items()}
             while len(self._lhs) > _LHS_CACHE:
                 self._lhs.popitem(last=False)
@@ -102,7 +103,8 @@ def run_samples(ctx: SampleContext, rows) -> list[dict]:
     (:func:`pycolfrag.sample.run_synthetic_samples`): the same rows, faster."""
     outs, samples, owner, t_seed = [], [], [], []
     spec = ctx.spec
-    with_pulse = spec.pulse != "none"
+    with_pulse = spec.pulse != _gm.registry.NO_PULSE
+    shape = spec.pulse if with_pulse else _gm.registry.DEFAULT_PULSE_SHAPE   # unused without a pulse
     for row in rows:
         sc, k, mw, dist = ctx.locate(row)
         out = {"row": int(row), "scenario": sc, "sample": k}
@@ -118,7 +120,7 @@ def run_samples(ctx: SampleContext, rows) -> list[dict]:
     done = _sample.run_synthetic_samples(
         ctx.column, samples, record_dt_s=spec.record_dt_s, vp_scale=spec.vp_scale, periods_s=spec.periods_s,
         damping=spec.damping, solver_options=spec.solver_options, max_record_s=spec.max_record_s,
-        with_pulse=with_pulse)
+        with_pulse=with_pulse, pulse_shape=shape)
     for out, d, t in zip(owner, done, t_seed):
         out.update(d)
         out["wall_s"] += t

@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import sample as _sample
 from ..errors import ParameterError
-from ..ground_motion.registry import DEFAULT_TP_MODEL, tp_model_of
+from ..ground_motion.registry import DEFAULT_TP_MODEL, NO_PULSE, PULSE_SHAPES, tp_model_of
 from ..options import SolverOptions
 from ..records import load_records
 from ..sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S  # /spectra periods (s) and damping: a sample's
@@ -33,9 +33,9 @@ DEFAULT_DIST_KM = (5.0, 7.5, 10.0, 12.5, 15.0, 17.5, 20.0)
 DEFAULT_SAMPLES = 100
 DEFAULT_SEED = 20160601
 DEFAULT_RECORD_DT_S = 0.005
-#: Pulse choices of a synthetic grid: "mp03" adds the Mavroeidis-Papageorgiou pulse (the paper's
-#: records), "none" runs the high-frequency record alone with the same seeds (the no-pulse branch).
-PULSES = ("mp03", "none")
+#: Pulse choices of a synthetic grid: a pulse shape of the registry ("mp03" adds the Mavroeidis-Papageorgiou
+#: pulse, the paper's records), or "none": the high-frequency record alone with the same seeds (the no-pulse branch).
+PULSES = (*PULSE_SHAPES, NO_PULSE)
 DEFAULT_PULSE = "mp03"
 #: Largest root seed: it is stored as a signed 64-bit HDF5 attribute.
 SEED_MAX = 2**63 - 1

@@ -9,13 +9,14 @@ Quick start (one near-fault record, Mw 6.5 at 10 km, and its debug plots)::
 Modules, one per published model (docs/ground_motion.md):
 
 * :mod:`.atkinson_silva_2000` -- high-frequency part, Boore's stochastic method (C generator);
-* :mod:`.mavroeidis_papageorgiou_2003` -- the velocity pulse (Eq. 5) and its LHS sampling;
+* :mod:`.mavroeidis_papageorgiou_2003` -- the velocity pulse (Eq. 5) and its LHS sampling: pulse shape "mp03";
+* :mod:`.pulse_shape` -- the interface every pulse shape offers (``registry.PULSE_SHAPES``);
 * :mod:`.rupakhety_2011` -- mean pulse amplitude and frequency (Eqs. 6-7);
 * :mod:`.baker_2007` -- an alternative pulse-period relation (``--tp-model baker_2007``);
 * :mod:`.shahi_baker_2014` -- the probability that a near-fault motion carries a pulse;
   :mod:`.shahi_baker_earlier` -- the earlier model of the same form, its epistemic alternative;
 * :mod:`.registry` -- the models that declare their parameters (``PARAMETERS``) and what is built
-  from them (the pulse fields of a sample row, the ``--tp-model`` choices);
+  from them (the pulse shapes, the pulse fields of a sample row, the ``--tp-model`` choices);
 * :mod:`.combine` -- Fourier-amplitude combination (steps 3-6);
 * :mod:`.at2` -- PEER NGA ``.AT2`` files; :mod:`.record` -- :class:`Record`; :mod:`.plots`.
 """
@@ -27,23 +28,23 @@ import numpy as np
 
 from .._validate import positive_float
 from ..errors import ParameterError
-from ..names import G
-from . import baker_2007, mavroeidis_papageorgiou_2003, record, registry, rupakhety_2011, shahi_baker_2014
+from . import baker_2007, mavroeidis_papageorgiou_2003, pulse_shape, record, registry, rupakhety_2011, shahi_baker_2014
 from .mavroeidis_papageorgiou_2003 import _int_seed as _seed
 from .record import Record
 
 __all__ = ["Record", "stochastic", "synthesize", "sample_pulse_parameters", "read_at2",
            "atkinson_silva_2000", "mavroeidis_papageorgiou_2003", "rupakhety_2011", "baker_2007", "shahi_baker_2014",
-           "registry", "combine", "plots", "PULSE_STREAM"]
+           "pulse_shape", "registry", "combine", "plots", "PULSE_STREAM"]
 
-def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=registry.DEFAULT_TP_MODEL):
-    """Latin-hypercube sample of ``n`` pulses for the scenario (Mw, dist_km km), the pulse period from
-    the relation named ``tp_model`` (a key of :data:`registry.TP_MODELS`): the name looked up here,
-    the sampling in :func:`mavroeidis_papageorgiou_2003.sample_parameters` (whose docstring gives the
-    distributions and the returned keys), so the pulse model need not import the registry that
-    lists it."""
-    return mavroeidis_papageorgiou_2003.sample_parameters(Mw, dist_km, n, seed, vp_scale,
-                                                          registry.tp_model_of(tp_model))
+def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=registry.DEFAULT_TP_MODEL,
+                            shape=registry.DEFAULT_PULSE_SHAPE):
+    """A sample of ``n`` pulses of the shape named ``shape`` (a key of :data:`registry.PULSE_SHAPES`;
+    default the paper's, whose Latin hypercube :func:`mavroeidis_papageorgiou_2003.sample_parameters`
+    describes with the returned keys) for the scenario (Mw, dist_km km), the pulse period from the
+    relation named ``tp_model`` (a key of :data:`registry.TP_MODELS`): the names looked up here, the
+    sampling in the shape's module, so a model need not import the registry that lists it."""
+    model = registry.pulse_shape_of(shape)
+    return model.sample_parameters(Mw, dist_km, n, seed, vp_scale, registry.tp_model_of(tp_model))
 
 
 #: Second word of the SeedSequence that seeds the pulse draw of ``synthesize(pulse=None)``:
@@ -106,37 +107,55 @@ def _generator_meta(info):
     return out
 
 
-def _pulse_row(Mw, dist_km, seed, vp_scale, pulse):
-    """The pulse inputs (Vp_cm_s, fp_hz, nu_rad, gamma: the declared
-    ``mavroeidis_papageorgiou_2003.INPUTS``) from the given row, or one draw seeded from ``seed``."""
+def _pulse_row(Mw, dist_km, seed, vp_scale, pulse, shape):
+    """The pulse inputs (the declared ``INPUTS`` of the shape's module: Vp_cm_s, fp_hz, nu_rad, gamma of
+    the paper's) from the given row, or one draw seeded from ``seed``."""
     if pulse is None:
         ss = np.random.SeedSequence([seed, PULSE_STREAM])
-        row = sample_pulse_parameters(Mw, dist_km, 1, int(ss.generate_state(1)[0]), vp_scale=vp_scale)
+        row = sample_pulse_parameters(Mw, dist_km, 1, int(ss.generate_state(1)[0]), vp_scale=vp_scale,
+                                      shape=shape.SHAPE)
         pulse = {k: v[0] for k, v in row.items()}
     if not hasattr(pulse, "get"):
         raise ParameterError(f"pulse must be a dict of pulse parameters, got {type(pulse).__name__}")
-    inputs = mavroeidis_papageorgiou_2003.INPUTS
+    inputs = shape.INPUTS
     for p in inputs:
         if p.meta_key not in pulse:
             raise ParameterError(f"pulse is missing {p.meta_key!r} (needs {', '.join(q.meta_key for q in inputs)})")
     return tuple(p.check(pulse[p.meta_key], f"pulse[{p.meta_key!r}]", error=ParameterError) for p in inputs)
 
 
-def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_polarity=True) -> Record:
-    """A near-fault record: stochastic HF part plus an MP03 pulse (the paper's steps 1-6).
+def _place(prepared, hf, dt, t_peak):
+    """The pulse's epoch t0 that puts its velocity peak at t_peak (s), the HF record padded with whole
+    samples of zeros where the pulse's support reaches past it, and the times counted from the first
+    sample: (hf, t0, t_peak, n_pre, n_post)."""
+    t0 = t_peak - prepared.peak_offset_s
+    n_pre = max(0, int(math.ceil((prepared.before_s - t0) / dt - 1e-9)))
+    t_last = (hf.size - 1) * dt
+    n_post = max(0, int(math.ceil((t0 + prepared.after_s - t_last) / dt - 1e-9)))
+    if n_pre or n_post:
+        hf = np.concatenate([np.zeros(n_pre), hf, np.zeros(n_post)])
+    return hf, t0 + n_pre * dt, t_peak + n_pre * dt, n_pre, n_post
+
+
+def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_polarity=True,
+               shape=registry.DEFAULT_PULSE_SHAPE) -> Record:
+    """A near-fault record: stochastic HF part plus a velocity pulse (the paper's steps 1-6).
 
     1. HF record: :func:`atkinson_silva_2000.simulate` with ``seed``.
-    2. Pulse: ``pulse`` (a row of :func:`sample_pulse_parameters`; only ``Vp_cm_s``,
-       ``fp_hz``, ``nu_rad``, ``gamma`` are read -- ``A_cm_s`` and ``Tp_s`` are recomputed,
-       ``vp_scale`` is assumed already applied to that row and is only recorded), or, when
+    2. Pulse: of the shape named ``shape`` (a key of :data:`registry.PULSE_SHAPES`; default the
+       paper's Mavroeidis-Papageorgiou pulse, "mp03"), from ``pulse`` (a row of
+       :func:`sample_pulse_parameters` of that shape; only its ``INPUTS`` are read -- for "mp03"
+       ``Vp_cm_s``, ``fp_hz``, ``nu_rad``, ``gamma``, while ``A_cm_s`` and ``Tp_s`` are recomputed --
+       and ``vp_scale`` is assumed already applied to that row and is only recorded), or, when
        ``pulse`` is None, one draw from the scenario distributions with
-       ``sample_pulse_parameters(Mw, dist_km, 1, s, vp_scale)``, ``s`` the first 32-bit word of
-       ``numpy.random.SeedSequence([seed, PULSE_STREAM])``. The envelope amplitude A makes the
-       pulse's peak |V| equal Vp. The pulse is placed so its velocity peak falls on the time of
-       the HF record's peak |velocity| (trapezoidal velocity): ``t0_s`` is the envelope's epoch.
-       If the pulse's support starts before the record or ends after it, the record is padded
-       with zeros there (whole samples), so the whole pulse is inside; times are then counted
-       from the first padded sample (``pad_before_s``, ``pad_after_s`` in ``meta``).
+       ``sample_pulse_parameters(Mw, dist_km, 1, s, vp_scale, shape=shape)``, ``s`` the first 32-bit
+       word of ``numpy.random.SeedSequence([seed, PULSE_STREAM])``. The shape's ``prepare`` gives the
+       pulse (for "mp03": the envelope amplitude A makes the pulse's peak |V| equal Vp). The pulse
+       is placed so its velocity peak falls on the time of the HF record's peak |velocity|
+       (trapezoidal velocity): ``t0_s`` is its epoch. If the pulse's support starts before the
+       record or ends after it, the record is padded with zeros there (whole samples), so the whole
+       pulse is inside; times are then counted from the first padded sample (``pad_before_s``,
+       ``pad_after_s`` in ``meta``).
        Polarity (our choice; the paper aligns times only): with ``match_polarity`` the HF record
        is multiplied by -1 when its peak velocity and the pulse's have opposite signs. The
        stochastic record's sign is arbitrary (symmetric Gaussian noise: -HF is as likely as HF),
@@ -152,60 +171,45 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_pola
     dt : float, s; vp_scale : float (> 0), multiplies the Eq. (6) mean Vp
     pulse : dict or None
     match_polarity : bool, flip the HF record's sign to match the pulse (default True)
+    shape : str, the pulse shape (default "mp03")
 
     Returns
     -------
     Record
-        ``acc`` m/s^2; ``meta`` with ``Mw``, ``dist_km``, ``seed``, ``vp_scale``, ``Vp_cm_s``,
-        ``fp_hz``, ``nu_rad``, ``gamma``, ``t0_s``, ``A_cm_s``, ``Ap_g`` (peak |acc| of the
-        sampled pulse alone, g), ``Tp_s``, ``t_peak_s``, ``pad_before_s``, ``pad_after_s``,
-        ``generator``, ``hf_*``; ``components``: ``"hf"`` (step 1, padded), ``"pulse"`` and
-        ``"hf_modified"`` (step 5), all on the record's time axis. Same arguments give the
-        same record, bit for bit, in any process.
+        ``acc`` m/s^2; ``meta`` with ``Mw``, ``dist_km``, ``seed``, ``vp_scale``, the shape's
+        ``PARAMETERS`` (for "mp03": ``Vp_cm_s``, ``fp_hz``, ``nu_rad``, ``gamma``, ``t0_s``, ``Tp_s``,
+        ``A_cm_s``, ``Ap_g``: peak |acc| of the sampled pulse alone, g), ``pulse_shape``,
+        ``t_peak_s``, ``pad_before_s``, ``pad_after_s``, ``generator``, ``hf_*``; ``components``:
+        ``"hf"`` (step 1, padded), ``"pulse"`` and ``"hf_modified"`` (step 5), all on the record's
+        time axis. Same arguments give the same record, bit for bit, in any process.
     """
     from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
     from .combine import combine  # loads C: the package must import without it
     from ..intensity import integrate  # loads C: the package must import without it
 
+    model = registry.pulse_shape_of(shape)
     Mw_f, dist_f = _scenario(Mw, dist_km)
     dt = positive_float(dt, "dt")
     seed = _seed(seed)
     rupakhety_2011.mean_vp_cm_s(Mw_f, dist_f, vp_scale)   # ParameterError naming a bad vp_scale
     vp_scale_f = float(vp_scale)
-    vp, fp, nu, gamma = _pulse_row(Mw_f, dist_f, seed, vp_scale_f, pulse)
-    mp = mavroeidis_papageorgiou_2003
-    # One search for the unit pulse's peak gives A (peak |V| = Vp), the peak's offset from the
-    # envelope epoch and the sign of the pulse's peak velocity (A > 0): what envelope_amplitude,
-    # peak_velocity_time and velocity() would each recompute.
-    u_peak, g_peak = mp._unit_peak(nu, gamma)
-    A = vp / abs(g_peak)
+    prepared = model.prepare(*_pulse_row(Mw_f, dist_f, seed, vp_scale_f, pulse, model))
 
     hf, info = as00.simulate(Mw_f, dist_f, seed, dt=dt)                            # step 1
     vel_hf = integrate(hf, dt)[0]
     k_peak = int(np.argmax(np.abs(vel_hf)))
     t_peak = k_peak * dt
 
-    offset = u_peak / fp                                                            # step 2
-    polarity = 1.0
-    if match_polarity and g_peak * vel_hf[k_peak] < 0:
+    polarity = 1.0                                                                  # step 2
+    if match_polarity and prepared.peak_sign * vel_hf[k_peak] < 0:
         polarity = -1.0
         hf = -hf
-    t0 = t_peak - offset
-    half = gamma / (2.0 * fp)
-    n_pre = max(0, int(math.ceil((half - t0) / dt - 1e-9)))
-    t_last = (hf.size - 1) * dt
-    n_post = max(0, int(math.ceil((t0 + half - t_last) / dt - 1e-9)))
-    if n_pre or n_post:
-        hf = np.concatenate([np.zeros(n_pre), hf, np.zeros(n_post)])
-    t0 += n_pre * dt
-    t_peak += n_pre * dt
-    t = np.arange(hf.size) * dt
-    pulse_acc = mp.acceleration(t, A / 100.0, fp, nu, gamma, t0)                    # m/s^2, closed form
+    hf, t0, t_peak, n_pre, n_post = _place(prepared, hf, dt, t_peak)
+    pulse_acc = prepared.acceleration(np.arange(hf.size) * dt, t0)                 # m/s^2
 
     acc = combine(hf, pulse_acc)                                                    # steps 3-6
     meta = {**_keyed(record.PARAMETERS, (Mw_f, dist_f, seed, dt)), "kind": "near-fault", "vp_scale": vp_scale_f,
-            # in the order of the declaration: Vp, fp, nu, gamma, t0, Tp, A, Ap
-            **_keyed(mp.PARAMETERS, (vp, fp, nu, gamma, t0, 1.0 / fp, A, float(np.abs(pulse_acc).max()) / G)),
+            **_keyed(model.PARAMETERS, prepared.meta(t0, pulse_acc)), "pulse_shape": model.SHAPE,
             "t_peak_s": t_peak, "pad_before_s": n_pre * dt, "pad_after_s": n_post * dt,
             "hf_polarity": int(polarity), "pulse_seeded_from": "seed" if pulse is None else "argument"}
     meta.update(_generator_meta(info))

@@ -1,5 +1,6 @@
 """Mavroeidis & Papageorgiou (2003) near-fault velocity pulse (the paper's Eq. 5),
-and the Latin-hypercube sampling of its parameters per scenario.
+and the Latin-hypercube sampling of its parameters per scenario: the pulse shape "mp03"
+(the interface of :mod:`pycolfrag.ground_motion.pulse_shape`).
 
 Eq. (5), with tau = t - t0 and support |tau| <= gamma / (2 fp)::
 
@@ -24,10 +25,11 @@ from scipy import optimize
 from scipy.stats import qmc
 
 from .._validate import finite_float, float_array, integer, positive_float
-from ..names import Parameter
+from ..names import G, Parameter
 from . import rupakhety_2011 as _r11
+from .pulse_shape import PreparedPulse
 
-__all__ = ["NAME", "KIND", "PARAMETERS", "INPUTS", "GAMMA_MEAN", "GAMMA_SD", "GAMMA_MIN", "NU_RANGE_RAD", "pulse", "velocity",
+__all__ = ["NAME", "KIND", "SHAPE", "PARAMETERS", "INPUTS", "prepare", "GAMMA_MEAN", "GAMMA_SD", "GAMMA_MIN", "NU_RANGE_RAD", "pulse", "velocity",
            "acceleration", "displacement", "support", "envelope_amplitude", "peak_velocity_time",
            "sample_parameters"]
 
@@ -35,6 +37,8 @@ __all__ = ["NAME", "KIND", "PARAMETERS", "INPUTS", "GAMMA_MEAN", "GAMMA_SD", "GA
 NAME = "mavroeidis_papageorgiou_2003"
 #: The velocity pulse of a near-fault record: its parameters are the pulse fields of a sample row.
 KIND = "pulse"
+#: The pulse shape's short name (the grid's ``--pulse``, ``synthesize(shape=...)``): the paper's records.
+SHAPE = "mp03"
 
 #: gamma ~ N(1.8, 0.4) left-truncated at 1 (the paper, after MP03's data).
 GAMMA_MEAN, GAMMA_SD, GAMMA_MIN = 1.8, 0.4, 1.0
@@ -179,6 +183,24 @@ def peak_velocity_time(fp, nu, gamma, t0=0.0):
     fp = _float(fp, "fp", positive=True)
     u, _ = _unit_peak(_float(nu, "nu"), _float(gamma, "gamma", positive=True))
     return _float(t0, "t0") + u / fp
+
+
+def prepare(Vp_cm_s, fp_hz, nu_rad, gamma) -> PreparedPulse:
+    """The pulse of peak velocity ``Vp_cm_s`` (cm/s), frequency ``fp_hz``, phase ``nu_rad`` and
+    ``gamma`` (the values of :data:`INPUTS`), ready to be placed on a record
+    (:class:`~pycolfrag.ground_motion.pulse_shape.PreparedPulse`). One search for the unit pulse's
+    peak gives the envelope amplitude A (peak |V| = Vp), the peak's offset from the envelope epoch
+    and the sign of the peak velocity (A > 0); the support is ``t0 -/+ gamma / (2 fp)``; the
+    acceleration is the closed form of ``csrc/pulse.c``; the meta values are those of
+    :data:`PARAMETERS`: Vp, fp, nu, gamma, t0, Tp = 1/fp, A and the peak |acceleration| in g."""
+    vp, fp, nu, gamma = Vp_cm_s, fp_hz, nu_rad, gamma
+    u_peak, g_peak = _unit_peak(nu, gamma)
+    A = vp / abs(g_peak)
+    half = gamma / (2.0 * fp)
+    return PreparedPulse(
+        peak_offset_s=u_peak / fp, peak_sign=math.copysign(1.0, g_peak), before_s=half, after_s=half,
+        acceleration=lambda t, t0: acceleration(t, A / 100.0, fp, nu, gamma, t0),   # m/s^2, closed form
+        meta=lambda t0, acc: (vp, fp, nu, gamma, t0, 1.0 / fp, A, float(np.abs(acc).max()) / G))
 
 
 def _int_seed(seed):

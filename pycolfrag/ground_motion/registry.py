@@ -4,9 +4,14 @@ Every module listed in :data:`MODELS` declares, as data at its top, ``NAME``, ``
 ``PARAMETERS`` (:class:`pycolfrag.names.Parameter` rows: name, unit, accepted range, description,
 ``Record.meta`` key, sample-row field). From them, and from nowhere else:
 
+* :data:`PULSE_SHAPES` -- the velocity-pulse shapes (kind ``"pulse"``, the interface of
+  :mod:`~pycolfrag.ground_motion.pulse_shape`) by their short name: the choices of
+  ``synthesize(shape=...)``, ``sample_pulse_parameters(shape=...)`` and, with "none" (the stochastic
+  record alone), of the grid's ``--pulse``;
 * :data:`PULSE_FIELDS` -- the pulse fields of a synthetic sample row and of ``/samples``
   (:mod:`pycolfrag.sample` fills them from a record's ``meta``, :mod:`pycolfrag.results` lays them out):
-  the parameters with a row field of the models of kind ``"pulse"``;
+  the parameters with a row field of the pulse shapes, each field once (a shape that has no value for a
+  field leaves it NaN in its rows);
 * :data:`TP_MODELS` -- the pulse-period relations (kind ``"pulse_period"``), the choices of
   ``run_grid.py --tp-model`` and of ``sample_pulse_parameters(tp_model=...)``;
 * the parameter tables of docs/ground_motion.md (:func:`docs_section`; a test keeps them equal;
@@ -21,10 +26,11 @@ loads, and it adds no row field; it declares its ``PARAMETERS`` all the same.)
 from __future__ import annotations
 
 from ..errors import ParameterError
-from . import baker_2007, mavroeidis_papageorgiou_2003, record, rupakhety_2011, shahi_baker_2014, shahi_baker_earlier
+from . import (baker_2007, mavroeidis_papageorgiou_2003, pulse_shape, record, rupakhety_2011, shahi_baker_2014,
+               shahi_baker_earlier)
 
-__all__ = ["MODELS", "KINDS", "PULSE_FIELDS", "TP_MODELS", "DEFAULT_TP_MODEL", "tp_model_of", "markdown_table",
-           "docs_section"]
+__all__ = ["MODELS", "KINDS", "PULSE_SHAPES", "DEFAULT_PULSE_SHAPE", "NO_PULSE", "pulse_shape_of", "PULSE_FIELDS",
+           "TP_MODELS", "DEFAULT_TP_MODEL", "tp_model_of", "markdown_table", "docs_section"]
 
 _LISTED = (
     record,
@@ -44,7 +50,7 @@ if len(MODELS) != len(_LISTED):   # a second model of one NAME would silently re
 KINDS = {
     "high_frequency": "the stochastic high-frequency record (Atkinson & Silva 2000, not listed in MODELS)",
     "record": "the keys of a synthetic record's meta (scenario and seeds)",
-    "pulse": "a velocity pulse: its parameters are the pulse fields of a sample row",
+    "pulse": "a velocity-pulse shape (synthesize(shape=...), --pulse): its parameters are the pulse fields of a sample row",
     "pulse_period": "a pulse-period relation: log10_fp_mean(Mw), SIGMA_LOG10_FP (--tp-model)",
     "pulse_occurrence": "the probability that a near-fault motion carries a pulse (site risk)",
 }
@@ -52,8 +58,59 @@ for _m in MODELS.values():
     if _m.KIND not in KINDS:
         raise ValueError(f"ground-motion model {_m.NAME!r} declares an unknown kind {_m.KIND!r}")
 
+#: The grid's choice of no pulse (the stochastic record alone); no shape may take the name.
+NO_PULSE = "none"
+
+
+def _pulse_shapes(models) -> dict:
+    """The pulse shapes among ``models`` (modules) by SHAPE; ImportError for a shape that lacks part of
+    the interface, takes the no-pulse name or another shape's."""
+    shapes = {}
+    for m in models:
+        if m.KIND != "pulse":
+            continue
+        lacking = pulse_shape.missing(m)
+        if lacking:
+            raise ImportError(f"pulse shape {m.NAME!r} lacks {', '.join(lacking)} (pycolfrag.ground_motion.pulse_shape)")
+        if m.SHAPE == NO_PULSE or m.SHAPE in shapes:
+            raise ImportError(f"pulse shape {m.NAME!r}: its SHAPE {m.SHAPE!r} is "
+                              + ("the grid's no-pulse choice" if m.SHAPE == NO_PULSE else "another shape's"))
+        shapes[m.SHAPE] = m
+    return shapes
+
+
+#: Velocity-pulse shapes (short name -> module of the interface of :mod:`.pulse_shape`), in MODELS' order.
+PULSE_SHAPES = _pulse_shapes(MODELS.values())
+#: The paper's pulse (Mavroeidis & Papageorgiou 2003).
+DEFAULT_PULSE_SHAPE = mavroeidis_papageorgiou_2003.SHAPE
+
+
+def pulse_shape_of(name):
+    """The module of a pulse shape of :data:`PULSE_SHAPES`, or ParameterError naming ``name``."""
+    try:
+        return PULSE_SHAPES[name]
+    except (KeyError, TypeError):
+        raise ParameterError(f"unknown pulse shape {name!r} (known: {', '.join(PULSE_SHAPES)})") from None
+
+
+def _pulse_fields(shapes) -> tuple:
+    """The row fields of the shapes (modules), each once, in order of first appearance; a field two
+    shapes declare must mean the same in both (meta key, unit, description), else ImportError."""
+    fields: dict = {}
+    for m in shapes:
+        for p in m.PARAMETERS:
+            if not p.row_field:
+                continue
+            first = fields.setdefault(p.row_field, p)
+            if (first.meta_key, first.unit, first.field_description) != (p.meta_key, p.unit, p.field_description):
+                raise ImportError(f"pulse shape {m.NAME!r} declares row field {p.row_field!r} unlike another shape "
+                                  f"(meta key, unit, description: {(p.meta_key, p.unit, p.field_description)} "
+                                  f"against {(first.meta_key, first.unit, first.field_description)})")
+    return tuple(fields.values())
+
+
 #: The pulse fields of a sample row (:class:`~pycolfrag.names.Parameter` rows), in layout order.
-PULSE_FIELDS = tuple(p for m in MODELS.values() if m.KIND == "pulse" for p in m.PARAMETERS if p.row_field)
+PULSE_FIELDS = _pulse_fields(PULSE_SHAPES.values())
 
 #: Pulse-period relations (name -> module with ``log10_fp_mean(Mw)`` and ``SIGMA_LOG10_FP``).
 TP_MODELS = {name: m for name, m in MODELS.items() if m.KIND == "pulse_period"}

@@ -66,7 +66,7 @@ static cf_solver *setup(const config *c, int early_exit)
     if (!s) return NULL;
     parthenon_column(seg, nseg);
     cf_solver_def_default(&def);
-    def.contact = c->contact; def.points_per_edge = c->ppe; def.planar = c->planar;
+    def.contact = c->contact; cf_solver_options_set(&def, "points_per_edge", c->ppe); def.planar = c->planar;
     def.monolithic = c->mono; def.dt_factor = c->dtf; def.early_exit = early_exit;
     def.tail_s = 2.0;
     if (c->damp) { def.damping_alpha = 0.5; def.damping_start_s = 3.0; }

@@ -64,7 +64,7 @@ static void test_state_is_in_lanes(void)
 /* One point against a square face of apothem 1 m (the face frame is the world's: M = I,
  * pen = Z), kn = ks = 1e9 Pa/m, w = 0.01 m^2, mu = 0.75; pmax 0.1 m, pent 1e-3 m. */
 typedef struct {
-    cf_solver s;
+    cf_points s;
     cf_face f;
     cf_face_pass P;
     double lx, ly, w, hx, hy, fast, knw, ksw, ihkw;
@@ -81,8 +81,9 @@ static void one_point_init(one_point *o, int state)
     for (i = 0; i < 4; i++) { o->f.ec[i] = ec[i]; o->f.es[i] = es[i]; }
     o->w = 0.01; o->knw = 1e9 * o->w; o->ksw = 1e9 * o->w; o->ihkw = 0.5 / o->ksw;
     o->fast = -1.0;   /* no cheap inside test: the polygon decides */
-    o->s.p_lx = &o->lx; o->s.p_ly = &o->ly; o->s.p_w = &o->w; o->s.p_hx = &o->hx; o->s.p_hy = &o->hy;
-    o->s.p_fast = &o->fast; o->s.p_knw = &o->knw; o->s.p_ksw = &o->ksw; o->s.p_ihkw = &o->ihkw;
+    o->s.np = 1;
+    o->s.lx = &o->lx; o->s.ly = &o->ly; o->s.w = &o->w; o->s.hx = &o->hx; o->s.hy = &o->hy;
+    o->s.fast = &o->fast; o->s.knw = &o->knw; o->s.ksw = &o->ksw; o->s.ihkw = &o->ihkw;
     o->P.M[0] = o->P.M[4] = o->P.M[8] = 1.0;
     o->P.sgn = 1.0; o->P.pmax = PMAX; o->P.pent = PENT; o->P.kn = 1e9; o->P.mu = 0.75; o->P.ff = &o->f;
     o->state = state;

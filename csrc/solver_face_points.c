@@ -1,0 +1,179 @@
+/*
+ * solver_face_points.c -- the sub-contact points of every joint's faces, for the contact models
+ * that carry points (solver_points.c; declared in solver_internal.h): the polygon vertices or the
+ * nodes of a refined face mesh, with their area weights, then the planar mirror and the dropping
+ * of a face that lies off the other. Set-up only; the model that asks keeps what it needs in its
+ * own state and frees the rest with cf_solver_face_points_free.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "solver_internal.h"
+
+/* Sub-contact points of one face (body frame), weights summing to wsum.
+ * m = 0: the n vertices; m >= 1: nodes of the fan triangulation refined m times (m
+ * points per polygon edge, interior nodes too), lumped (trapezoidal) area weights,
+ * which converge to the exact interface as m grows.
+ * Writes up to count_face_points() entries; returns the count. */
+static int count_face_points(int n, int m)
+{
+    if (m == 0) return n;
+    return 1 + n * m * (m + 1) / 2;
+}
+
+static int face_points(const cf_face *f, int m, double wsum, double *loc, double *wt)
+{
+    int k, c = 0, ring, t;
+    if (m == 0) {
+        for (k = 0; k < f->n; k++) {
+            loc[3 * c] = f->c[0] + f->vx[k]; loc[3 * c + 1] = f->c[1] + f->vy[k]; loc[3 * c + 2] = f->c[2];
+            wt[c++] = wsum / f->n;
+        }
+        return c;
+    }
+    {
+        double at = wsum / f->n / ((double)m * m) / 3.0;   /* one third of a sub-triangle */
+        loc[0] = f->c[0]; loc[1] = f->c[1]; loc[2] = f->c[2];
+        wt[0] = at * f->n;
+        c = 1;
+        for (ring = 1; ring <= m; ring++) {
+            double sc = (double)ring / m;
+            for (k = 0; k < f->n; k++) {
+                int k1 = (k + 1) % f->n;
+                for (t = 0; t < ring; t++) {
+                    double u = (double)t / ring;
+                    int cnt;
+                    loc[3 * c] = f->c[0] + sc * (f->vx[k] + u * (f->vx[k1] - f->vx[k]));
+                    loc[3 * c + 1] = f->c[1] + sc * (f->vy[k] + u * (f->vy[k1] - f->vy[k]));
+                    loc[3 * c + 2] = f->c[2];
+                    if (ring < m) cnt = 6;
+                    else cnt = (t == 0) ? 2 : 3;
+                    wt[c++] = at * cnt;
+                }
+            }
+        }
+    }
+    return c;
+}
+
+/* Point k moves to place c (c <= k) with its weight times scale. */
+static void keep_point(cf_face_points *fp, int c, int k, double scale)
+{
+    fp->side[c] = fp->side[k];
+    memmove(fp->loc + 3 * c, fp->loc + 3 * k, 3 * sizeof(double));
+    fp->w[c] = scale * fp->w[k];
+}
+
+/* Has every vertex of face f a mirror vertex about the x-z plane? */
+static int face_symmetric(const cf_face *f)
+{
+    int k, m2;
+    for (k = 0; k < f->n; k++) {
+        for (m2 = 0; m2 < f->n; m2++)
+            if (fabs(f->vx[m2] - f->vx[k]) < 1e-12 * f->rc && fabs(f->vy[m2] + f->vy[k]) < 1e-12 * f->rc) break;
+        if (m2 == f->n) return 0;
+    }
+    return 1;
+}
+
+/* Planar mode with faces symmetric about the x-z plane: the motion is symmetric, so a point at
+ * -y mirrors its twin at +y; keep one of each pair with twice its weight (the out-of-plane force
+ * and moments they would cancel are discarded anyway). Returns the new count. */
+static int planar_mirror(const cf_solver *s, cf_face_points *fp)
+{
+    int j, k, c = 0;
+    for (j = 0; j < s->nj; j++)
+        if (!face_symmetric(&s->jt[j].fl) || !face_symmetric(&s->jt[j].fu)) return fp->np;
+    for (j = 0; j < s->nj; j++) {
+        int start = c, n0 = 0;
+        double r = s->jt[j].fu.rc;
+        for (k = fp->p0[j]; k < fp->p0[j] + fp->n[j]; k++) {
+            double y = fp->loc[3 * k + 1], scale = 1.0;
+            if (y < -1e-9 * r) continue;
+            if (y > 1e-9 * r) scale = 2.0;
+            keep_point(fp, c, k, scale);
+            if (k < fp->p0[j] + fp->n0[j]) n0++;
+            c++;
+        }
+        fp->p0[j] = start; fp->n[j] = c - start; fp->n0[j] = n0;
+    }
+    return c;
+}
+
+/* A joint whose faces differ much in size (a narrow block on a wide drum): when none
+ * of one face's points lies on the other face at rest, those points would never bear
+ * and their half of the joint area would be lost (halving the joint's stiffness: a
+ * slender block then rocks on springs too soft to hold it up). They are dropped and
+ * the other face's points carry the whole area. When both faces have points on the
+ * other (every joint of the default column), nothing changes. Returns the new count. */
+static int drop_faces_off_the_other(const cf_solver *s, cf_face_points *fp)
+{
+    int j, k, c = 0;
+    for (j = 0; j < s->nj; j++) {
+        const cf_joint *J = &s->jt[j];
+        int in[2] = {0, 0}, drop = -1, start = c, n0 = 0;
+        for (k = fp->p0[j]; k < fp->p0[j] + fp->n[j]; k++) {
+            int side = fp->side[k];
+            const cf_face *own = side == 0 ? &J->fu : &J->fl, *oth = side == 0 ? &J->fl : &J->fu;
+            in[side] += cf_face_inside(oth, fp->loc[3 * k] - own->c[0], fp->loc[3 * k + 1] - own->c[1],
+                                       1e-9 * oth->rc);
+        }
+        if (J->bl != 0 && fp->n0[j] > 0 && fp->n[j] > fp->n0[j]) {
+            if (in[1] == 0 && in[0] > 0) drop = 1;
+            else if (in[0] == 0 && in[1] > 0) drop = 0;
+        }
+        for (k = fp->p0[j]; k < fp->p0[j] + fp->n[j]; k++) {
+            if (fp->side[k] == drop) continue;
+            keep_point(fp, c, k, drop >= 0 ? 2.0 : 1.0);
+            if (fp->side[c] == 0) n0++;
+            c++;
+        }
+        fp->p0[j] = start; fp->n[j] = c - start; fp->n0[j] = n0;
+    }
+    return c;
+}
+
+void cf_solver_face_points_free(cf_face_points *fp)
+{
+    free(fp->side); free(fp->loc); free(fp->w); free(fp->p0); free(fp->n); free(fp->n0);
+    memset(fp, 0, sizeof *fp);
+}
+
+/* The points of every joint, mm per edge (0: the vertices); CF_ENOMEM with a message on s. */
+int cf_solver_face_points_make(cf_solver *s, int mm, cf_face_points *fp)
+{
+    int j, k, np = 0, nj = s->nj, c = 0;
+    size_t nja = (size_t)(nj > 0 ? nj : 1);
+    memset(fp, 0, sizeof *fp);
+    for (j = 0; j < nj; j++)
+        np += count_face_points(s->jt[j].fu.n, mm) + (j == 0 ? 0 : count_face_points(s->jt[j].fl.n, mm));
+    fp->side = (int *)calloc((size_t)(np > 0 ? np : 1), sizeof(int));
+    fp->loc = (double *)calloc((size_t)(np > 0 ? np : 1) * 3, sizeof(double));
+    fp->w = (double *)calloc((size_t)(np > 0 ? np : 1), sizeof(double));
+    fp->p0 = (int *)calloc(nja, sizeof(int));
+    fp->n = (int *)calloc(nja, sizeof(int));
+    fp->n0 = (int *)calloc(nja, sizeof(int));
+    if (!fp->side || !fp->loc || !fp->w || !fp->p0 || !fp->n || !fp->n0) {
+        cf_solver_face_points_free(fp);
+        return cf_solver_fail(s, CF_ENOMEM, "out of memory");
+    }
+    for (j = 0; j < nj; j++) {
+        const cf_joint *J = &s->jt[j];
+        int n1, n2;
+        fp->p0[j] = c;
+        /* the ground (joint 0) is unbounded: the block's own points carry the whole area */
+        n1 = face_points(&J->fu, mm, (j == 0 ? 1.0 : 0.5) * J->area, fp->loc + 3 * c, fp->w + c);
+        for (k = 0; k < n1; k++) fp->side[c + k] = 0;
+        c += n1;
+        n2 = j == 0 ? 0 : face_points(&J->fl, mm, 0.5 * J->area, fp->loc + 3 * c, fp->w + c);
+        for (k = 0; k < n2; k++) fp->side[c + k] = 1;
+        c += n2;
+        fp->n[j] = n1 + n2;
+        fp->n0[j] = n1;
+    }
+    fp->np = c;
+    if (s->def.planar) fp->np = planar_mirror(s, fp);
+    fp->np = drop_faces_off_the_other(s, fp);
+    return CF_OK;
+}
