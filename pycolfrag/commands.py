@@ -23,7 +23,7 @@ from typing import Callable, Sequence
 
 from . import __version__
 
-__all__ = ["HelpFormatter", "Command", "COMMANDS", "build_parser", "main"]
+__all__ = ["HelpFormatter", "Command", "COMMANDS", "DEVELOPER_SCRIPTS", "build_parser", "main"]
 
 #: The repository the package runs from (its ``scripts/`` hold three of the commands).
 REPO = Path(__file__).resolve().parent.parent
@@ -68,6 +68,13 @@ class Command:
             module = importlib.import_module(where)
         return getattr(module, func)
 
+
+#: Command lines of the repository that are not users' commands: the developers' own tools, run by
+#: ``.ci/run`` or the Makefile (script -> why it is not a ``pycolfrag`` command).
+DEVELOPER_SCRIPTS = {
+    "scripts/check_c_calls.py": "a CI check of the C library's call graph (.ci/run)",
+    "scripts/risk_example.py": "writes the example block of docs/risk.md (make risk-docs)",
+}
 
 #: Every command, in the order ``pycolfrag --help`` lists them.
 COMMANDS = {c.name: c for c in (
