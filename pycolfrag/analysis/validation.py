@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from ..errors import ParameterError
 from . import fragility as fr
 from .data import ResultsData, read_results
 from .figures import ROCKING_INITIATION_G
@@ -302,7 +303,7 @@ def claims(d: ResultsData, rng=0) -> list[Claim]:
                 j = int(np.argmin(np.abs(fit.band_im - x)))
                 mle_txt = (f"; MLE curve at {x:g} {unit}: {fit(x):.2f} [{fit.band_low[j]:.2f}, "
                            f"{fit.band_high[j]:.2f}]")
-            except fr.ParameterError:
+            except ParameterError:
                 pass
             out.append(Claim(f"p_{edp}_{im}", "Fragility curves, Fig. 16; Conclusions",
                              f"{label}: about 10 % probability of {edp} > {t:g}", "about 0.10",
