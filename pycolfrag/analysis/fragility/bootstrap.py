@@ -68,6 +68,15 @@ def as_rng(rng) -> np.random.Generator:
     raise ParameterError(f"rng must be None, an int seed or a numpy Generator, got {type(rng).__name__}")
 
 
+def boot_settings(n_boot, confidence) -> tuple[int, float]:
+    """``(n_boot, confidence)`` checked: an integer number of resamples >= 2 (a bool is refused) and a
+    two-sided level in (0, 1); :class:`ParameterError` naming a bad one."""
+    n_boot = integer(n_boot, "n_boot", 2)
+    if not 0 < real(confidence, "confidence") < 1:
+        raise ParameterError(f"confidence must be in (0, 1), got {confidence!r}")
+    return n_boot, float(confidence)
+
+
 def bootstrap_interval(edp, collapsed, threshold=None, *, statistic="eq4", n_boot=1000,
                        confidence=0.90, rng=None) -> tuple[float, float]:
     """Percentile bootstrap interval of a group statistic (``scipy.stats.bootstrap``, paired).
@@ -108,9 +117,7 @@ def bootstrap_interval(edp, collapsed, threshold=None, *, statistic="eq4", n_boo
             return np.mean(np.asarray(c, dtype=float), axis=axis)
     else:
         raise ParameterError(f"unknown statistic {statistic!r}")
-    if not 0 < real(confidence, "confidence") < 1:
-        raise ParameterError(f"confidence must be in (0, 1), got {confidence!r}")
-    n_boot = integer(n_boot, "n_boot", 2)
+    n_boot, confidence = boot_settings(n_boot, confidence)
     if edp.size < 2:
         return (np.nan, np.nan)
     if statistic == "mean":

@@ -1,14 +1,13 @@
 """Paper Eqs. (1)-(4): collapse probability, lognormal parameters, Eq. (4) and the empirical ratio."""
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 from scipy import stats
 
-from ..._validate import float_array, positive_float
+from ..._validate import float_array, integer, positive_float, real
 from ...errors import ParameterError
-from .degenerate import MIN_FIT_POINTS, DegenerateFitWarning
+from . import degenerate as _degenerate
+from .degenerate import MIN_FIT_POINTS
 from .levels import _as_flags, _as_inputs
 
 
@@ -35,11 +34,18 @@ def binomial_ci(k: int, n: int, confidence: float = 0.90) -> tuple[float, float]
     """Exact (Clopper-Pearson) interval of a proportion k/n, e.g. Eq. (3) (``scipy.stats.binomtest``).
 
     Unlike the bootstrap it stays informative at 0 of n (upper limit ``1 - ((1 - confidence)/2)**(1/n)``).
-    (NaN, NaN) when ``n`` is 0.
+    (NaN, NaN) for 0 of 0 (no trial, no interval). ``k`` and ``n`` must be integers with 0 <= k <= n and
+    ``confidence`` in (0, 1); anything else is refused with :class:`ParameterError` naming it.
     """
-    if n <= 0:
+    k = integer(k, "k (successes)", 0)
+    n = integer(n, "n (trials)", 0)
+    if k > n:
+        raise ParameterError(f"binomial_ci: k = {k} successes out of n = {n} trials (k must not exceed n)")
+    if not 0 < real(confidence, "confidence") < 1:
+        raise ParameterError(f"confidence must be in (0, 1), got {confidence!r}")
+    if n == 0:
         return (np.nan, np.nan)
-    ci = stats.binomtest(int(k), int(n)).proportion_ci(confidence_level=confidence, method="exact")
+    ci = stats.binomtest(k, n).proportion_ci(confidence_level=confidence, method="exact")
     return float(ci.low), float(ci.high)
 
 
@@ -102,10 +108,9 @@ def exceedance(edp, collapsed, threshold) -> float:
     """
     edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
     p = _exceedance(edp, collapsed, threshold)
-    why = _eq4_why(edp, collapsed)
+    why, causes = _eq4_reasons(edp, collapsed)
     if why:
-        warnings.warn(f"exceedance: {why}; Eq. (4) gives {p:.3g}, which is not an estimate",
-                      DegenerateFitWarning, stacklevel=2)
+        _degenerate.warn(f"exceedance: {why}; Eq. (4) gives {p:.3g}, which is not an estimate", causes)
     return p
 
 
@@ -123,18 +128,25 @@ def eq4_degenerate(edp, collapsed) -> str:
 
 
 def _eq4_why(edp, collapsed) -> str:
+    return _eq4_reasons(edp, collapsed)[0]
+
+
+def _eq4_reasons(edp, collapsed) -> tuple[str, tuple]:
+    """(why Eq. (4) of the group is not an estimate, its causes as keys of ``degenerate.CAUSES``)."""
     ok = edp[~collapsed]
     pos = ok[ok > 0]
-    few = []
+    few, causes = [], []
     if edp.size < MIN_FIT_POINTS:
         few.append(f"{edp.size} run{'s' if edp.size != 1 else ''} in the group")
+        causes.append("few_runs")
     if 0 < pos.size < MIN_FIT_POINTS:
         few.append(f"{pos.size} standing run{'s' if pos.size != 1 else ''} with EDP > 0 behind the lognormal part")
+        causes.append("few_standing")
     if few:
-        return f"only {' and '.join(few)} (fewer than {MIN_FIT_POINTS})"
+        return f"only {' and '.join(few)} (fewer than {MIN_FIT_POINTS})", tuple(causes)
     if pos.size and np.all(pos == pos[0]):
-        return f"the {pos.size} standing EDPs are all equal (beta = 0: the lognormal part is a step)"
-    return ""
+        return f"the {pos.size} standing EDPs are all equal (beta = 0: the lognormal part is a step)", ("equal_edps",)
+    return "", ()
 
 
 def _exceedance(edp, collapsed, threshold) -> float:

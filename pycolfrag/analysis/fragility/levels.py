@@ -65,7 +65,11 @@ def _as_flags(collapsed) -> np.ndarray:
     return collapsed
 
 
-def _as_inputs(edp, collapsed, threshold=None):
+#: ``_as_inputs``'s "no threshold asked for" (None is a bad threshold, refused with its name).
+_NO_THRESHOLD = object()
+
+
+def _as_inputs(edp, collapsed, threshold=_NO_THRESHOLD):
     """Validate (edp, collapsed[, threshold]) and return float/bool arrays (and the threshold)."""
     edp = float_array(edp, "edp", ndim=None, allow_empty=True, finite=False)
     collapsed = np.asarray(collapsed)
@@ -82,7 +86,7 @@ def _as_inputs(edp, collapsed, threshold=None):
         raise ParameterError("non-collapsed EDPs must be finite (NaN/inf found)")
     if np.any(ok < 0):
         raise ParameterError(f"EDPs must be non-negative, got min {ok.min()!r}")
-    if threshold is None:
+    if threshold is _NO_THRESHOLD:
         return edp, collapsed
     return edp, collapsed, positive_float(threshold, "threshold")
 

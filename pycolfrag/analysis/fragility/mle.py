@@ -2,16 +2,16 @@
 bootstrap band."""
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import optimize, special, stats
 
-from ..._validate import float_array
+from ..._validate import float_array, integer, real
 from ...errors import ParameterError
 from .bootstrap import as_rng
-from .degenerate import MIN_FIT_POINTS, DegenerateFitWarning
+from . import degenerate as _degenerate
+from .degenerate import MIN_FIT_POINTS
 from .eq4 import exceeded
 from .levels import _as_inputs
 
@@ -101,20 +101,81 @@ def _mle_bounds(ln_im):
     return [(ln_im.min() - 5.0, ln_im.max() + 5.0), (np.log(BETA_MIN), np.log(BETA_MAX))]
 
 
-def _fit_degenerate(ln_im, y, p, bounds) -> str:
+def _fit_reasons(ln_im, y, p, bounds) -> tuple[list, list]:
     """Why a maximum-likelihood fragility fit (parameters ``p`` = (ln theta, ln beta)) is not an
-    estimate, ``""`` when it is (see :class:`LognormalFragility`)."""
-    why = []
+    estimate: (reasons, their causes as keys of ``degenerate.CAUSES``), both empty when it is (see
+    :class:`LognormalFragility`)."""
+    why, causes = [], []
     if y.size < MIN_FIT_POINTS:
         why.append(f"only {y.size} runs (fewer than {MIN_FIT_POINTS})")
+        causes.append("few_runs")
+    if np.ptp(ln_im) == 0:
+        # Phi((ln x - ln theta) / beta) at one x is one number: every (theta, beta) giving it the observed
+        # fraction maximises the likelihood, and the optimiser stops where it started
+        why.append(f"every run is at one IM level ({np.exp(ln_im[0]):.4g}): the likelihood fixes the probability "
+                   "there, not the median and beta (the numbers are where the optimiser stopped)")
+        return why, causes + ["one_im_level"]
     lo_y, hi_y = ln_im[y], ln_im[~y]
     if lo_y.min() > hi_y.max() or lo_y.max() < hi_y.min():
         why.append("every exceeding run lies on one side of every other in IM: the likelihood has no finite "
                    "maximum")
+        causes.append("separable")
     for value, (lo, hi), what in ((p[0], bounds[0], "median"), (p[1], bounds[1], "beta")):
         if min(value - lo, hi - value) < 1e-6:
             why.append(f"{what} = {np.exp(value):.3g} is on the optimiser's bound [{np.exp(lo):.3g}, {np.exp(hi):.3g}]")
-    return "; ".join(why)
+            causes.append("on_bound")
+    return why, causes
+
+
+def _fit_degenerate(ln_im, y, p, bounds) -> str:
+    """Why a maximum-likelihood fragility fit is not an estimate, ``""`` when it is (:func:`_fit_reasons`)."""
+    return "; ".join(_fit_reasons(ln_im, y, p, bounds)[0])
+
+
+def _strata(groups, n: int, n_boot: int, why: list, causes: list):
+    """The index arrays of the bootstrap strata, or None when there is no bootstrap or it cannot vary
+    (one run per stratum: every resample is the data itself, and a zero-width band would claim certainty)."""
+    if not n_boot:
+        return None
+    strata = np.zeros(n, dtype=int) if groups is None else np.unique(np.asarray(groups), return_inverse=True)[1].ravel()
+    if strata.size != n:
+        raise ParameterError(f"groups has length {strata.size}, expected {n}")
+    members = [np.flatnonzero(strata == s) for s in np.unique(strata)]
+    if all(m.size == 1 for m in members):
+        why.append("one run per bootstrap stratum: the resamples cannot vary, no interval")
+        causes.append("one_per_stratum")
+        return None
+    return members
+
+
+def _bootstrap_band(fit, ln_im, y, members, n_boot, confidence, rng, band_im) -> None:
+    """Refit on ``n_boot`` resamples stratified by ``members`` and store the band and the intervals on ``fit``."""
+    ln_theta, ln_beta = np.log(fit.median), np.log(fit.beta)
+    g = as_rng(rng)
+    grid = (np.geomspace(np.exp(ln_im.min()), np.exp(ln_im.max()), 100) if band_im is None
+            else np.asarray(band_im, dtype=float))
+    curves, meds, betas = [], [], []
+    for _ in range(int(n_boot)):
+        idx = np.concatenate([g.choice(m, size=m.size, replace=True) for m in members])
+        yb = y[idx]
+        if yb.all() or not yb.any():  # the MLE's limit: a constant curve (see n_boot_degenerate)
+            fit.n_boot_degenerate += 1
+            meds.append(0.0 if yb.all() else np.inf)
+            curves.append(np.full(grid.shape, 1.0 if yb.all() else 0.0))
+            continue
+        (a, b), _ll = _mle(ln_im[idx], yb, x0=np.array([ln_theta, ln_beta]))
+        meds.append(np.exp(a))
+        betas.append(np.exp(b))
+        curves.append(stats.norm.cdf((np.log(grid) - a) / np.exp(b)))
+    a = 100 * (1 - confidence) / 2
+    fit.band_im = grid
+    fit.band_low, fit.band_high = np.percentile(np.array(curves), [a, 100 - a], axis=0)
+    # an infinite median (resample without exceedance) makes linear interpolation inf - inf = nan:
+    # then take the empirical quantiles without interpolation
+    fit.median_ci = tuple(np.percentile(meds, [a, 100 - a],
+                                        method="inverted_cdf" if fit.n_boot_degenerate else "linear"))
+    if betas:
+        fit.beta_ci = tuple(np.percentile(betas, [a, 100 - a]))
 
 
 def fit_lognormal_fragility(im, edp, collapsed, threshold, *, groups=None, n_boot=0, confidence=0.90,
@@ -139,12 +200,15 @@ def fit_lognormal_fragility(im, edp, collapsed, threshold, *, groups=None, n_boo
     n_boot : int
         Bootstrap refits for the band (0: no band).
     confidence : float
-        Two-sided level of the band.
+        Two-sided level of the band, in (0, 1).
     rng : None, int or numpy.random.Generator
     band_im : array_like, optional
         IM grid of the band (default: 100 points log-spaced over the data).
     """
     edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
+    n_boot = integer(n_boot, "n_boot", 0)
+    if not 0 < real(confidence, "confidence") < 1:
+        raise ParameterError(f"confidence must be in (0, 1), got {confidence!r}")
     im = float_array(im, "im", ndim=None, finite=False)
     if im.shape != edp.shape:
         raise ParameterError(f"im has length {im.size}, edp has {edp.size}")
@@ -159,48 +223,11 @@ def fit_lognormal_fragility(im, edp, collapsed, threshold, *, groups=None, n_boo
     (ln_theta, ln_beta), ll = _mle(ln_im, y)
     fit = LognormalFragility(float(np.exp(ln_theta)), float(np.exp(ln_beta)), int(y.size), int(y.sum()),
                              float(ll))
-    why = [_fit_degenerate(ln_im, y, (ln_theta, ln_beta), _mle_bounds(ln_im))]
-    members = None
-    if n_boot:
-        strata = np.zeros(y.size, dtype=int) if groups is None else np.unique(
-            np.asarray(groups), return_inverse=True)[1].ravel()
-        if strata.size != y.size:
-            raise ParameterError(f"groups has length {strata.size}, expected {y.size}")
-        members = [np.flatnonzero(strata == s) for s in np.unique(strata)]
-        if all(m.size == 1 for m in members):
-            # every resample is the data itself: a zero-width band would claim certainty
-            why.append("one run per bootstrap stratum: the resamples cannot vary, no interval")
-            members = None
-    fit.degenerate = "; ".join(w for w in why if w)
+    why, causes = _fit_reasons(ln_im, y, (ln_theta, ln_beta), _mle_bounds(ln_im))
+    members = _strata(groups, y.size, n_boot, why, causes)
+    fit.degenerate = "; ".join(why)
     if fit.degenerate:
-        warnings.warn(f"fit_lognormal_fragility ({threshold:g}): {fit.degenerate}", DegenerateFitWarning,
-                      stacklevel=2)
+        _degenerate.warn(f"fit_lognormal_fragility ({threshold:g}): {fit.degenerate}", causes)
     if members is not None:
-        g = as_rng(rng)
-        grid = (np.geomspace(im.min(), im.max(), 100) if band_im is None
-                else np.asarray(band_im, dtype=float))
-        curves, meds, betas = [], [], []
-        for _ in range(int(n_boot)):
-            idx = np.concatenate([g.choice(m, size=m.size, replace=True) for m in members])
-            yb = y[idx]
-            if yb.all() or not yb.any():  # the MLE's limit: a constant curve (see n_boot_degenerate)
-                fit.n_boot_degenerate += 1
-                meds.append(0.0 if yb.all() else np.inf)
-                curves.append(np.full(grid.shape, 1.0 if yb.all() else 0.0))
-                continue
-            (a, b), _ll = _mle(ln_im[idx], yb, x0=np.array([ln_theta, ln_beta]))
-            meds.append(np.exp(a))
-            betas.append(np.exp(b))
-            curves.append(stats.norm.cdf((np.log(grid) - a) / np.exp(b)))
-        a = 100 * (1 - confidence) / 2
-        fit.band_im = grid
-        fit.band_low, fit.band_high = np.percentile(np.array(curves), [a, 100 - a], axis=0)
-        # an infinite median (resample without exceedance) makes linear interpolation inf - inf = nan:
-        # then take the empirical quantiles without interpolation
-        fit.median_ci = tuple(np.percentile(meds, [a, 100 - a],
-                                            method="inverted_cdf" if fit.n_boot_degenerate else "linear"))
-        if betas:
-            fit.beta_ci = tuple(np.percentile(betas, [a, 100 - a]))
+        _bootstrap_band(fit, ln_im, y, members, n_boot, confidence, rng, band_im)
     return fit
-
-

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..._validate import float_array, integer
 from ...errors import ParameterError
-from .bootstrap import as_rng, bootstrap_interval
+from .bootstrap import as_rng, boot_settings, bootstrap_interval
 from .eq4 import _eq4_why, _exceedance, empirical_exceedance
 from .levels import _as_inputs
 
@@ -83,6 +83,7 @@ def stripe_curve(im, edp, collapsed, threshold, *, n_stripes=12, stripes="equal-
         Bootstrap within each stripe.
     """
     edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
+    boot_settings(n_boot, confidence)
     im = float_array(im, "im", ndim=None, finite=False)
     if im.shape != edp.shape:
         raise ParameterError(f"im has length {im.size}, edp has {edp.size}")

@@ -10,7 +10,6 @@ new dependency for two two-parameter fits whose likelihoods and standard errors 
 """
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,10 +19,10 @@ from ... import names as _names
 from ..._validate import float_array
 from ...errors import ParameterError
 from .bootstrap import as_rng
-from .degenerate import DegenerateFitWarning
+from . import degenerate as _degenerate
 from .eq4 import exceeded
 from .levels import PERFORMANCE_LEVELS, PerformanceLevel, _as_flags
-from .mle import LognormalFragility, _fit_degenerate, _mle_bounds
+from .mle import LognormalFragility, _fit_reasons, _mle_bounds
 from .stripes import stripe_curve
 
 
@@ -260,13 +259,15 @@ def msa_fragility(im_levels, n_trials, n_exceed) -> MSAFragility:
     gvec = np.stack([-np.ones_like(zz) / beta, -zz])
     info = (gvec * w) @ gvec.T
     try:
-        cov = np.linalg.inv(info)
+        # one stripe: the information has rank 1 (a singular matrix that round-off makes invertible)
+        cov = np.linalg.inv(info) if np.ptp(lx) > 0 else np.full((2, 2), np.nan)
     except np.linalg.LinAlgError:
         cov = np.full((2, 2), np.nan)
     runs_y = np.concatenate([np.arange(int(nj)) < int(zj) for nj, zj in zip(n, z)])
-    why = _fit_degenerate(np.repeat(lx, n.astype(int)), runs_y, res.x, bounds)
+    reasons, causes = _fit_reasons(np.repeat(lx, n.astype(int)), runs_y, res.x, bounds)
+    why = "; ".join(reasons)
     if why:
-        warnings.warn(f"msa_fragility: {why}", DegenerateFitWarning, stacklevel=2)
+        _degenerate.warn(f"msa_fragility: {why}", causes)
     return MSAFragility(float(np.exp(ln_theta)), beta, int(n.sum()), int(z.sum()), float(-res.fun),
                         im_levels=x, n_trials=n.astype(int), n_exceed_stripe=z.astype(int), cov_ln=cov,
                         degenerate=why)

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..._validate import float_array
 from ...errors import ParameterError
-from .bootstrap import _mean_ok_vectorised, as_rng, bootstrap_interval
+from .bootstrap import _mean_ok_vectorised, as_rng, boot_settings, bootstrap_interval
 from .eq4 import _exceedance, empirical_exceedance, eq4_degenerate, exceedance, lognormal_parameters
 from .levels import PERFORMANCE_LEVELS, _as_inputs
 
@@ -69,6 +69,7 @@ def scenario_table(mw, dist_km, edps: dict, collapsed, levels=PERFORMANCE_LEVELS
     -------
     list of ScenarioRow, ordered by (mw, dist_km).
     """
+    boot_settings(n_boot, confidence)
     mw, dist_km, mws, ds = _groups(mw, dist_km)
     collapsed = np.asarray(collapsed).astype(bool)
     edps = {k: float_array(v, k, ndim=None, finite=False) for k, v in edps.items()}
@@ -179,6 +180,7 @@ def exceedance_surface(mw, dist_km, edp, collapsed, threshold, *, method="eq4", 
     if method not in ("eq4", "empirical"):
         raise ParameterError(f"method must be 'eq4' or 'empirical', got {method!r}")
     _ = _as_inputs(edp, collapsed, threshold)
+    boot_settings(n_boot, confidence)
     g = as_rng(rng)
     fn = exceedance if method == "eq4" else empirical_exceedance
     return _surface(mw, dist_km, edp, collapsed, lambda e, c: fn(e, c, threshold),
@@ -192,6 +194,7 @@ def mean_edp_surface(mw, dist_km, edp, collapsed, *, n_boot=1000, confidence=0.9
     """Mean EDP of the non-collapsed samples over (Mw, R) (paper Fig. 8a, b); NaN if all collapsed.
 
     EDPs of collapsed samples are ignored (may be NaN)."""
+    boot_settings(n_boot, confidence)
     g = as_rng(rng)
     return _surface(mw, dist_km, edp, collapsed, lambda e, c: float(_mean_ok_vectorised(e, c)),
                     lambda e, c: bootstrap_interval(e, c, statistic="mean", n_boot=n_boot,
@@ -201,6 +204,7 @@ def mean_edp_surface(mw, dist_km, edp, collapsed, *, n_boot=1000, confidence=0.9
 
 def collapse_surface(mw, dist_km, collapsed, *, n_boot=1000, confidence=0.90, rng=None) -> Surface:
     """Collapse probability, Eq. (3), over (Mw, R) (paper Fig. 8c)."""
+    boot_settings(n_boot, confidence)
     g = as_rng(rng)
     c = np.asarray(collapsed)
     return _surface(mw, dist_km, np.zeros(c.shape), c, lambda e, c: float(np.mean(c)),
