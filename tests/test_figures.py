@@ -13,8 +13,10 @@ from pycolfrag.analysis import figures
 
 
 def write_results(path, seed=0, mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0, 20.0), n=30, n_failed=3,
-                  vp_scale=1.0):
-    """A small results file in the documented layout; the first ``n_failed`` rows fail (status 3)."""
+                  vp_scale=1.0, complete=None, pending=0):
+    """A small results file in the documented layout; the first ``n_failed`` rows fail (status 3), the last
+    ``pending`` are not computed yet (status -1); ``complete``: the root attribute a grid run writes
+    (absent when None, as in a file written by other code)."""
     rng = np.random.default_rng(seed)
     mw = np.repeat(np.repeat(mws, len(dists)), n).astype(float)
     dist = np.tile(np.repeat(dists, n), len(mws)).astype(float)
@@ -34,6 +36,8 @@ def write_results(path, seed=0, mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0, 20.0
     u_d[collapsed] = np.nan
     status = np.zeros(rows, dtype="i4")
     status[:n_failed] = 3
+    if pending:
+        status[-pending:] = -1
     periods = np.array([0.5, 1.0, 2.0])
     sa = pga[:, None] * np.array([2.0, 1.2, 0.5])
     sv = sa * 981 * periods / (2 * np.pi)
@@ -60,6 +64,8 @@ def write_results(path, seed=0, mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0, 20.0
         f.attrs["created"] = "2026-01-01T00:00:00Z"
         f.attrs["vp_scale"] = vp_scale
         f.attrs["grid_signature"] = json.dumps({"synthetic": True, "seed": seed})
+        if complete is not None:
+            f.attrs["complete"] = bool(complete)
     return path
 
 

@@ -47,6 +47,7 @@ from .eq4 import (binomial_ci, collapse_probability, empirical_exceedance, eq4_d
                   lognormal_parameters)
 from .levels import PERFORMANCE_LEVELS, U_D_LEVELS, U_TOP_LEVELS, PerformanceLevel
 from .mle import BETA_MAX, BETA_MIN, LognormalFragility, fit_lognormal_fragility
+from .ordered import fit_ordered_fragility
 from .stripes import StripeCurve, stripe_curve, stripe_edges
 from .suites import (CloudFit, LogisticCollapse, MSAFragility, cloud_analysis, fit_logistic_collapse, msa_fragility,
                      msa_from_table, ok_rows, stripe_analysis, table_im)
@@ -80,6 +81,7 @@ __all__ = [
     "fit_lognormal_fragility",
     "BETA_MIN",
     "BETA_MAX",
+    "fit_ordered_fragility",
     "exceeded",
     "DegenerateFitWarning",
     "MIN_FIT_POINTS",

@@ -34,12 +34,12 @@ from __future__ import annotations
 
 from ..outputs import NRML_NS, write_nrml
 from .cli import main
-from .damage import classical_damage
-from .export import CROSSING_TOL, fragility_from_results
-from .functions import MIN_IML, ContinuousFragility, DiscreteFragility, FragilityModel
+from .damage import HazardRangeWarning, classical_damage
+from .export import fragility_from_results
+from .functions import CROSSING_TOL, MIN_IML, ContinuousFragility, DiscreteFragility, FragilityModel
 from .hazard import HazardCurves, annual_rates, im_of_imt, imt_of, occurrence_rates, read_hazard_curves
 from .nrml import read_nrml
 
 __all__ = ["NRML_NS", "MIN_IML", "HazardCurves", "read_hazard_curves", "imt_of", "im_of_imt", "annual_rates",
            "occurrence_rates", "ContinuousFragility", "DiscreteFragility", "FragilityModel",
-           "classical_damage", "fragility_from_results", "write_nrml", "read_nrml", "main"]
+           "classical_damage", "HazardRangeWarning", "fragility_from_results", "write_nrml", "read_nrml", "main"]

@@ -20,7 +20,10 @@ class ContinuousFragility:
     ``mean`` and ``stddev`` are those of the capacity IML itself (OpenQuake's convention). At an
     IML x, clipped first to [``min_iml``, ``max_iml``], the probability of exceedance is the lognormal
     CDF with median ``mean / sqrt(1 + (stddev/mean)^2)`` and dispersion ``sqrt(ln(1 + (stddev/mean)^2))``;
-    it is 0 where the clipped x <= ``no_damage_limit``.
+    it is 0 where the clipped x <= ``no_damage_limit``. A ``min_iml`` of 0 clips nothing below, as in
+    OpenQuake's ``FragilityFunctionContinuous.__call__`` (``if self.minIML:`` guards the clip;
+    ``openquake/risklib/scientific.py``); its NRML reader puts :data:`MIN_IML` in its place, and so does
+    :func:`~pycolfrag.analysis.openquake.read_nrml`.
     """
 
     mean: float
@@ -32,8 +35,10 @@ class ContinuousFragility:
     def __post_init__(self):
         for name in ("mean", "stddev", "min_iml", "max_iml"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ParameterError(f"continuous fragility: {name} must be a finite number > 0, got {v!r}")
+            ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            if not (ok and (v > 0 or (v == 0 and name == "min_iml"))):
+                raise ParameterError(f"continuous fragility: {name} must be a finite number "
+                                     f"{'>= 0' if name == 'min_iml' else '> 0'}, got {v!r}")
         if self.max_iml <= self.min_iml:
             raise ParameterError(f"continuous fragility: max_iml {self.max_iml!r} must exceed min_iml {self.min_iml!r}")
 
@@ -59,14 +64,20 @@ class ContinuousFragility:
         return self.mean / math.sqrt(1.0 + (self.stddev / self.mean) ** 2)
 
     def __call__(self, imls) -> np.ndarray:
-        x = np.clip(np.asarray(imls, dtype=float), self.min_iml, self.max_iml)
+        x = np.clip(np.asarray(imls, dtype=float), self.min_iml or None, self.max_iml)
         p = stats.lognorm.cdf(x, self.beta, scale=self.median)
         if self.no_damage_limit:
             p = np.where(x <= self.no_damage_limit, 0.0, p)
         return p
 
 
-#: OpenQuake's stand-in for an absent or zero noDamageLimit of a discrete function (it avoids log(0)).
+#: Largest excess of a limit state's probability over the previous one's taken as round-off rather than a
+#: crossing (a damage-state probability of -1e-6 at worst: below what any report prints).
+CROSSING_TOL = 1e-6
+
+#: OpenQuake's stand-in for an absent or zero noDamageLimit of a discrete function and for a continuous
+#: function's minIML of 0 (``ffconvert``'s ``min_iml=1E-10`` in ``openquake/risklib/read_nrml.py``: it
+#: avoids log(0)).
 MIN_IML = 1e-10
 
 
@@ -114,7 +125,9 @@ class FragilityModel:
 
     ``functions``: one :class:`ContinuousFragility` or :class:`DiscreteFragility` per limit state (all of
     one format; a discrete model shares its IMLs and no-damage limit). ``fits``: the pycolfrag fits it
-    came from (:class:`~pycolfrag.analysis.fragility.LognormalFragility` per limit state), when built from results.
+    came from (:class:`~pycolfrag.analysis.fragility.LognormalFragility` per limit state), when built from results;
+    ``joint``: the groups of limit states fitted together with one dispersion (their separate fits crossed);
+    ``notes``: what every printout of the model must repeat (degenerate fits, an incomplete results file).
     """
 
     imt: str
@@ -126,6 +139,8 @@ class FragilityModel:
     asset_category: str = "buildings"
     loss_category: str = "structural"
     fits: list = field(default_factory=list)
+    joint: tuple = ()
+    notes: tuple = ()
 
     def __post_init__(self):
         self.limit_states = tuple(self.limit_states)
@@ -138,13 +153,38 @@ class FragilityModel:
         kinds = {type(f) for f in self.functions}
         if len(kinds) != 1 or not kinds <= {ContinuousFragility, DiscreteFragility}:
             raise ParameterError("fragility model: every function must be continuous, or every one discrete")
-        if self.format == "discrete":
-            f0 = self.functions[0]
-            if any(f.imls != f0.imls or f.no_damage_limit != f0.no_damage_limit for f in self.functions):
-                raise ParameterError("discrete fragility model: the limit states must share IMLs and noDamageLimit")
+        f0 = self.functions[0]
+        shared = ("imls", "no_damage_limit") if self.format == "discrete" else ("min_iml", "max_iml", "no_damage_limit")
+        if any(getattr(f, k) != getattr(f0, k) for f in self.functions for k in shared):
+            # NRML stores them once per fragilityFunction (its imls element)
+            raise ParameterError(f"{self.format} fragility model: the limit states must share {', '.join(shared)}")
         im_of_imt(self.imt)
 
     @property
     def format(self) -> str:
         return "continuous" if isinstance(self.functions[0], ContinuousFragility) else "discrete"
+
+    @property
+    def domain(self) -> tuple[float, float]:
+        """The IMLs between which the functions vary (OpenQuake holds them constant outside): a continuous
+        model's ``[min_iml, max_iml]``, a discrete model's first to last IML."""
+        f0 = self.functions[0]
+        if self.format == "continuous":
+            return f0.min_iml, f0.max_iml
+        return f0.imls[0], f0.imls[-1]
+
+    def crossing(self, imls) -> str:
+        """Where a limit state is more probable than the one before it by more than :data:`CROSSING_TOL`
+        at one of ``imls`` (the first such pair, as a sentence), or ``""``. Damage-state probabilities are
+        differences of consecutive limit states (:func:`~pycolfrag.analysis.openquake.classical_damage`),
+        so such a model gives a negative one; OpenQuake computes it all the same (its
+        ``scientific.classical_damage`` has no check), which is why pycolfrag checks."""
+        x = np.asarray(imls, dtype=float)
+        p = [np.asarray(f(x), dtype=float) for f in self.functions]
+        for (a, pa), (b, pb) in zip(zip(self.limit_states, p), zip(self.limit_states[1:], p[1:])):
+            worse = pb - pa
+            if worse.size and worse.max() > CROSSING_TOL:
+                k = int(np.argmax(worse))
+                return f"P({b}) exceeds P({a}) by {worse[k]:.3g} at {x[k]:.4g} ({pb[k]:.4g} against {pa[k]:.4g})"
+        return ""
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import HazardFileError, ParameterError
+from ...input_files import read_text
 
 
 #: pycolfrag IM name -> OpenQuake IMT (spectral ones take a period: ``SA(1.0)``); units agree.
@@ -97,29 +98,44 @@ def _metadata(comment: str) -> dict:
     return out
 
 
-def read_hazard_curves(path, *, investigation_time: float | None = None, imt: str | None = None) -> HazardCurves:
-    """Read an OpenQuake hazard-curve CSV file.
-
-    The investigation time and the IMT come from the file's comment line; ``investigation_time`` and
-    ``imt`` supply them for a file without one (and must agree with it when both are given).
-    Refused with :class:`~pycolfrag.errors.HazardFileError` naming the file and the problem: no
-    ``lon``/``lat`` or no ``poe-<IML>`` column, an IML that is not a positive number or not
-    increasing, a value that is not a number, a probability outside [0, 1) (1 would be an infinite
-    annual rate), a curve that increases with the level, a missing investigation time or IMT.
-    """
-    path = Path(path)
+def _same(a: str, b: str) -> bool:
+    """Two metadata values that say the same: equal text, or equal numbers (``50`` and ``50.0``)."""
+    if a == b:
+        return True
     try:
-        with open(path, newline="", encoding="utf-8-sig") as f:
-            lines = [ln for ln in f.read().splitlines() if ln.strip()]
-    except OSError as exc:
-        raise HazardFileError(f"{path}: cannot read the hazard-curve file: {exc.strerror or exc}") from None
+        return float(a) == float(b)
+    except ValueError:
+        return False
+
+
+def _comments(path, lines: list) -> dict:
+    """The metadata of the comment lines at the top of ``lines`` (removed from it). A key given twice
+    with different values (two comment lines that disagree, e.g. on ``investigation_time``) is
+    refused: which one the curves belong to cannot be told."""
     meta = {}
     while lines and lines[0].lstrip().startswith("#"):
-        meta.update(_metadata(lines.pop(0)))
-    if not lines:
-        raise HazardFileError(f"{path}: no header line (lon,lat,poe-<IML>,...) in the hazard-curve file")
-    rows = list(csv.reader(lines))
-    header = [h.strip() for h in rows[0]]
+        for k, v in _metadata(lines.pop(0)).items():
+            if k in meta and not _same(meta[k], v):
+                raise HazardFileError(f"{path}: the comment lines disagree on {k}: {meta[k]!r} and {v!r}")
+            meta.setdefault(k, v)
+    return meta
+
+
+def _lines(path, text: str) -> list:
+    """The non-blank lines of a hazard-curve file's text; a NUL byte (a binary file) is refused."""
+    if "\0" in text:
+        line = text[:text.index("\0")].count("\n") + 1
+        raise HazardFileError(f"{path}: line {line} holds a NUL byte: not a text CSV file (a binary file?)")
+    return [ln for ln in text.splitlines() if ln.strip()]
+
+
+def _header(path, row: list) -> tuple[list, list, np.ndarray]:
+    """The header's column names, the indices of its ``poe-<IML>`` columns and their levels (at least
+    two, increasing); refused with :class:`HazardFileError` naming the problem."""
+    header = [h.strip() for h in row]
+    dup = sorted({h for h in header if header.count(h) > 1})
+    if dup:
+        raise HazardFileError(f"{path}: the header names column(s) {dup} more than once (header: {','.join(header)})")
     for name in ("lon", "lat"):
         if name not in header:
             raise HazardFileError(f"{path}: the header has no {name!r} column (header: {','.join(header)})")
@@ -130,20 +146,31 @@ def read_hazard_curves(path, *, investigation_time: float | None = None, imt: st
     if unknown:
         raise HazardFileError(f"{path}: unknown column(s) {unknown} (expected {', '.join(_SITE_COLUMNS)}, "
                               "poe-<IML>)")
-    imls = []
-    for j in poe_cols:
-        try:
-            x = float(header[j][4:])
-        except ValueError:
-            x = math.nan
-        if not (math.isfinite(x) and x > 0):
-            raise HazardFileError(f"{path}: column {header[j]!r} does not name a positive intensity level")
-        imls.append(x)
-    imls = np.array(imls)
+    imls = np.array([_level(path, header[j]) for j in poe_cols])
     if np.any(np.diff(imls) <= 0):
         raise HazardFileError(f"{path}: the poe-<IML> columns must have increasing levels, got {imls.tolist()}")
+    if imls.size < 2:
+        # OpenQuake's rate of occurrence of a level is the difference of the exceedance rates around it
+        # (occurrence_rates): with one level that difference is 0 and every damage rate would be 0
+        raise HazardFileError(f"{path}: the hazard curve has one level ({header[poe_cols[0]]!r}); at least two "
+                              "are needed (the rate of occurrence of a level is the difference of the rates around it)")
+    return header, poe_cols, imls
+
+
+def _level(path, name: str) -> float:
+    try:
+        x = float(name[4:])
+    except ValueError:
+        x = math.nan
+    if not (math.isfinite(x) and x > 0):
+        raise HazardFileError(f"{path}: column {name!r} does not name a positive intensity level")
+    return x
+
+
+def _site_rows(path, header: list, rows: list) -> np.ndarray:
+    """The numbers of the site rows (``custom_site_id`` as NaN), each checked to be finite."""
     data = []
-    for i, r in enumerate(rows[1:], start=1):
+    for i, r in enumerate(rows, start=1):
         if len(r) != len(header):
             raise HazardFileError(f"{path}: data row {i} has {len(r)} values, the header {len(header)} columns")
         vals = []
@@ -161,8 +188,10 @@ def read_hazard_curves(path, *, investigation_time: float | None = None, imt: st
         data.append(vals)
     if not data:
         raise HazardFileError(f"{path}: no site rows below the header")
-    data = np.array(data)
-    poes = data[:, poe_cols]
+    return np.array(data)
+
+
+def _check_poes(path, header: list, poe_cols: list, poes: np.ndarray) -> None:
     bad = np.argwhere((poes < 0) | (poes >= 1))
     if bad.size:
         i, j = bad[0]
@@ -174,6 +203,9 @@ def read_hazard_curves(path, *, investigation_time: float | None = None, imt: st
         raise HazardFileError(f"{path}: data row {i + 1}: the probability of exceedance increases from "
                               f"{header[poe_cols[j]]!r} ({poes[i, j]!r}) to {header[poe_cols[j + 1]]!r} "
                               f"({poes[i, j + 1]!r}); a hazard curve decreases with the level")
+
+
+def _investigation_time(path, meta: dict, given) -> float:
     t_file = meta.get("investigation_time")
     if t_file is not None:
         try:
@@ -181,9 +213,38 @@ def read_hazard_curves(path, *, investigation_time: float | None = None, imt: st
         except ValueError:
             raise HazardFileError(f"{path}: investigation_time={meta['investigation_time']!r} "
                                   "is not a number") from None
-    t = _agree(path, "investigation_time", t_file, None if investigation_time is None else float(investigation_time))
+    t = _agree(path, "investigation_time", t_file, None if given is None else float(given))
     if not (math.isfinite(t) and t > 0):
         raise HazardFileError(f"{path}: investigation_time must be > 0 years, got {t!r}")
+    return t
+
+
+def read_hazard_curves(path, *, investigation_time: float | None = None, imt: str | None = None) -> HazardCurves:
+    """Read an OpenQuake hazard-curve CSV file.
+
+    The investigation time and the IMT come from the file's comment lines; ``investigation_time`` and
+    ``imt`` supply them for a file without them (and must agree with it when both are given).
+    The file is read by the project's policy for files a user names (:mod:`pycolfrag.input_files`:
+    a regular file of at most ``LIMITS["hazard-curve file"]`` bytes, UTF-8 text).
+    Refused with :class:`~pycolfrag.errors.HazardFileError` naming the file and the problem: not a
+    regular file, too big, not UTF-8 or binary (a NUL byte); comment lines that disagree on a key; a
+    column named twice; no ``lon``/``lat`` or no ``poe-<IML>`` column; fewer than two levels; an IML
+    that is not a positive number or not increasing; a value that is not a number; a probability outside
+    [0, 1) (1 would be an infinite annual rate); a curve that increases with the level; a missing
+    investigation time or IMT.
+    """
+    text = read_text(path, "hazard-curve file", error=HazardFileError)
+    path = Path(path)
+    lines = _lines(path, text)
+    meta = _comments(path, lines)
+    if not lines:
+        raise HazardFileError(f"{path}: no header line (lon,lat,poe-<IML>,...) in the hazard-curve file")
+    rows = list(csv.reader(lines))
+    header, poe_cols, imls = _header(path, rows[0])
+    data = _site_rows(path, header, rows[1:])
+    poes = data[:, poe_cols]
+    _check_poes(path, header, poe_cols, poes)
+    t = _investigation_time(path, meta, investigation_time)
     imt_ = _agree(path, "imt", meta.get("imt"), imt)
     im_of_imt(imt_)   # a known IMT, or ParameterError naming it
     col = {h: j for j, h in enumerate(header)}
