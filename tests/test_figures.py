@@ -139,3 +139,29 @@ def test_no_pulse_file_has_no_pulse_figures(tmp_path):
 def test_missing_file(tmp_path):
     with pytest.raises(ValueError):
         figures.read_results(tmp_path / "nope.h5")
+
+
+def test_degenerate_fits_are_marked_in_the_figures(tmp_path):
+    """Two runs per scenario: the Eq. (4) surfaces say in how many scenarios Eq. (4) is degenerate (fewer
+    than 5 runs). 60 runs evenly spread in PGA and PGV, the top 3 collapsed: each of the 12 equal-width
+    stripes holds 5 runs, the top one only 2 standing (fewer than 5 behind its lognormal part), and the
+    Fig. 16 legends say so."""
+    import warnings
+
+    from pycolfrag.analysis.data import ResultsData, read_results
+    from pycolfrag.analysis.fragility import DegenerateFitWarning
+    d = read_results(write_results(tmp_path / "g.h5", mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 20.0), n=2,
+                                   n_failed=0))
+    x = np.linspace(0.1, 1.0, 60)
+    coll = np.arange(60) >= 57
+    s = {"mw": np.full(60, 7.0), "dist_km": np.full(60, 5.0), "pga_g": x, "pgv_cm_s": 100 * x,
+         "u_top": np.where(coll, np.nan, 0.5 * x), "u_d": np.where(coll, np.nan, 0.02 * x), "collapsed": coll}
+    spread = ResultsData(s, None, None, None, {}, 60, 0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DegenerateFitWarning)
+        f12 = figures.fig_12(d, n_boot=20)
+        f16 = figures.fig_16(spread, n_boot=20)
+    assert all("Eq. (4) degenerate in 8 of 8 scenarios: only 2 runs in the group" in ax.get_title()
+               for ax in f12.axes)
+    legends = [t.get_text() for ax in f16.axes for t in ax.get_legend().get_texts()]
+    assert "u_top > 0.15 stripes, Eq. (4) (1 degenerate)" in legends

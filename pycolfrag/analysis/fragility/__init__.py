@@ -51,8 +51,8 @@ from .ordered import fit_ordered_fragility
 from .stripes import StripeCurve, stripe_curve, stripe_edges
 from .suites import (CloudFit, LogisticCollapse, MSAFragility, cloud_analysis, fit_logistic_collapse, msa_fragility,
                      msa_from_table, ok_rows, stripe_analysis, table_im)
-from .surfaces import (ScenarioRow, Surface, collapse_surface, exceedance_surface, mean_edp_surface,
-                       scenario_table)
+from .surfaces import (ScenarioRow, Surface, collapse_surface, degenerate_scenarios, exceedance_surface,
+                       mean_edp_surface, scenario_table)
 
 __all__ = [
     "PerformanceLevel",
@@ -86,6 +86,7 @@ __all__ = [
     "DegenerateFitWarning",
     "MIN_FIT_POINTS",
     "eq4_degenerate",
+    "degenerate_scenarios",
     # record suites (docs/records.md)
     "table_im",
     "stripe_analysis",

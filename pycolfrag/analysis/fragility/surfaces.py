@@ -108,6 +108,22 @@ def scenario_table(mw, dist_km, edps: dict, collapsed, levels=PERFORMANCE_LEVELS
     return rows
 
 
+def degenerate_scenarios(mw, dist_km, edp, collapsed) -> list:
+    """``[(mw, dist_km, reason)]`` of the scenarios whose Eq. (4) is not an estimate
+    (:func:`~pycolfrag.analysis.fragility.eq4_degenerate`), in (mw, dist_km) order; with the number of
+    scenarios as ``len`` of :func:`scenario_table` it tells a figure or a document what to mark."""
+    mw, dist_km, mws, ds = _groups(mw, dist_km)
+    edp, collapsed = _as_inputs(edp, collapsed)
+    out = []
+    for m in mws:
+        for d in ds:
+            sel = (mw == m) & (dist_km == d)
+            why = eq4_degenerate(edp[sel], collapsed[sel]) if sel.any() else ""
+            if why:
+                out.append((float(m), float(d), why))
+    return out
+
+
 @dataclass
 class Surface:
     """A quantity over the (Mw, R) grid with its bootstrap interval.
