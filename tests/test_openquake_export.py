@@ -98,7 +98,7 @@ def test_the_default_range_lets_the_fit_decide():
     assert oq.classical_damage(m, x, poes, t_haz)["rates"][0] == pytest.approx(want, rel=0.01)
     old = oq.fragility_from_results(t, "pga_g", levels=U_TOP_LEVELS[:1], collapse=False,
                                     iml_range=(t["pga_g"].min(), t["pga_g"].max()))
-    assert oq.classical_damage(old, x, poes, t_haz)["rates"][0] > 1.1 * want      # the floor's share
+    assert oq.classical_damage(old, x, poes, t_haz)["rates"][0] > 10 * want      # the floor's share: 50 times
     assert "were given; there the limit states' fitted probabilities are" in old.description
 
 
