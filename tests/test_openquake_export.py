@@ -15,7 +15,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy import stats
 
 from pycolfrag.analysis import fragility as F
 from pycolfrag.analysis import openquake as oq

@@ -39,7 +39,7 @@ def _rows_in_file(path: str) -> int | None:
     """Rows the file was made for (finished or not), or None when it cannot be told."""
     if not path:
         return None
-    from .data import load   # here: only an incomplete file needs the second read
+    from .data import load  # here: only an incomplete file needs the second read
     try:
         return len(load(path, pending=True, any_layout=True))
     except Exception:        # the count only enriches the message; the file was read a moment ago

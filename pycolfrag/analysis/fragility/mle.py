@@ -9,8 +9,8 @@ from scipy import optimize, special, stats
 
 from ..._validate import float_array, integer, real
 from ...errors import ParameterError
-from .bootstrap import as_rng
 from . import degenerate as _degenerate
+from .bootstrap import as_rng
 from .degenerate import MIN_FIT_POINTS
 from .eq4 import exceeded
 from .levels import _as_inputs

@@ -18,8 +18,8 @@ from scipy import optimize, special, stats
 from ... import names as _names
 from ..._validate import float_array
 from ...errors import ParameterError
-from .bootstrap import as_rng
 from . import degenerate as _degenerate
+from .bootstrap import as_rng
 from .eq4 import exceeded
 from .levels import PERFORMANCE_LEVELS, PerformanceLevel, _as_flags
 from .mle import LognormalFragility, _fit_reasons, _mle_bounds

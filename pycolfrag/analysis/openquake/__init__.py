@@ -42,4 +42,5 @@ from .nrml import read_nrml
 
 __all__ = ["NRML_NS", "MIN_IML", "HazardCurves", "read_hazard_curves", "imt_of", "im_of_imt", "annual_rates",
            "occurrence_rates", "ContinuousFragility", "DiscreteFragility", "FragilityModel",
-           "classical_damage", "HazardRangeWarning", "fragility_from_results", "write_nrml", "read_nrml", "main"]
+           "classical_damage", "HazardRangeWarning", "CROSSING_TOL", "fragility_from_results", "write_nrml", "read_nrml",
+           "main"]

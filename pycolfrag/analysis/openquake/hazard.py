@@ -13,7 +13,6 @@ import numpy as np
 from ...errors import HazardFileError, ParameterError
 from ...input_files import read_text
 
-
 #: pycolfrag IM name -> OpenQuake IMT (spectral ones take a period: ``SA(1.0)``); units agree.
 _IMT = {"pga_g": "PGA", "pgv_cm_s": "PGV", "sa_g": "SA"}
 
