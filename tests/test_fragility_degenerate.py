@@ -99,3 +99,11 @@ def test_binomial_ci_of_no_trial_and_numpy_integers():
     lo, hi = fr.binomial_ci(np.int64(3), np.int64(10))
     assert lo == pytest.approx(stats.beta.ppf(0.05, 3, 8), rel=1e-9)
     assert hi == pytest.approx(stats.beta.ppf(0.95, 4, 7), rel=1e-9)
+
+
+def test_the_summary_is_given_when_the_fits_end_in_an_error():
+    with pytest.warns(DegenerateFitWarning, match="^1 fits: fewer than 5 runs"):
+        with pytest.raises(ParameterError):
+            with degenerate.one_warning_per_cause("fits"):
+                fr.exceedance([0.4], [False], 0.35)
+                fr.binomial_ci(3, 2)

@@ -130,6 +130,10 @@ def test_degenerate_fits_are_refused_unless_asked_for_and_then_marked(tmp_path, 
     assert warned[0].startswith("pycolfrag.analysis.openquake: warning: 3 limit-state fit(s): the exceeding runs")
     [back] = oq.read_nrml(out).values()
     assert back.description.count("DEGENERATE fit of") == 3
+    assert len(back.notes) == 3 and back.notes[0].startswith("DEGENERATE fit of damage_limitation (not an estimate): "
+                                                              "every exceeding run") and "[0.02, 5]" in back.notes[0]
+    assert oq.main(["damage", str(CASE1 / "hazard_curves_continuous.csv"), str(out)]) == 0   # an xml made so:
+    assert capsys.readouterr().out.count("DEGENERATE fit of") == 3                          # its printout says so
 
 
 def test_incomplete_files_are_refused_unless_asked_for_and_then_marked(tmp_path, capsys):
@@ -144,6 +148,7 @@ def test_incomplete_files_are_refused_unless_asked_for_and_then_marked(tmp_path,
     assert "INCOMPLETE RESULTS: " in capsys.readouterr().out
     [back] = oq.read_nrml(out).values()
     assert "INCOMPLETE RESULTS: " in back.description and "holds 420 of the 480 rows" in back.description
+    assert [n[:20] for n in back.notes] == ["INCOMPLETE RESULTS: "]
     hz = CASE1 / "hazard_curves_continuous.csv"
     assert oq.main(["damage", str(hz), str(h5)]) == 2
     assert oq.main(["damage", str(hz), str(h5), "--allow-incomplete"]) == 0

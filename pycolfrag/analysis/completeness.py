@@ -17,9 +17,12 @@ from __future__ import annotations
 
 import os
 
-from ..errors import ResultsFileError
+from ..errors import PycolfragError, ResultsFileError
 
-__all__ = ["incomplete_note", "check_complete", "ALLOW_INCOMPLETE_HELP"]
+__all__ = ["incomplete_note", "check_complete", "ALLOW_INCOMPLETE_HELP", "MARK"]
+
+#: The words that open the mark of an incomplete file's outputs (a reader of such an output finds them).
+MARK = "INCOMPLETE RESULTS"
 
 #: The ``--allow-incomplete`` help of every command that analyses a results file.
 ALLOW_INCOMPLETE_HELP = ("analyse a results file whose run has not finished (interrupted or still running); "
@@ -59,7 +62,7 @@ def incomplete_note(source, path=None) -> str:
     total = _rows_in_file(path)
     of = f" of the {total}" if total else ""
     where = f"{path} holds" if path else "the results hold"
-    return (f"INCOMPLETE RESULTS: {where} {n_finished}{of} rows (its run was interrupted or is still going); "
+    return (f"{MARK}: {where} {n_finished}{of} rows (its run was interrupted or is still going); "
             "every number here changes when the remaining rows are computed")
 
 
@@ -69,7 +72,7 @@ def check_complete(source, allow_incomplete: bool, what: str, path=None) -> str:
     complete) for the output to carry."""
     note = incomplete_note(source, path)
     if note and not allow_incomplete:
-        raise ResultsFileError(f"{what} refused: {note[len('INCOMPLETE RESULTS: '):]}. Finish the run (rerun its "
+        raise ResultsFileError(f"{what} refused: {note[len(MARK) + 2:]}. Finish the run (rerun its "
                                "command to resume) or pass --allow-incomplete (allow_incomplete=True) to get "
                                "outputs marked INCOMPLETE")
     return note

@@ -48,10 +48,21 @@ def warn(message: str, causes, stacklevel: int = 2) -> None:
 def one_warning_per_cause(what: str):
     """Collect the :class:`DegenerateFitWarning`\\ s raised inside and, on leaving, raise one per cause:
     how many of ``what`` (e.g. "limit-state fits") it concerns, what the cause is, and the first fit's
-    own message as an example. Other warnings pass through unchanged."""
-    with warnings.catch_warnings(record=True) as seen:
-        warnings.simplefilter("always", DegenerateFitWarning)
-        yield
+    own message as an example (also when the block ends in an exception). Other warnings pass through
+    unchanged."""
+    caught: list = []
+    try:
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always", DegenerateFitWarning)
+            try:
+                yield
+            finally:
+                caught = list(seen)
+    finally:
+        _summarise(caught, what)   # after the recording ends, so that the summaries reach the caller's filters
+
+
+def _summarise(seen, what: str) -> None:
     counts: dict = {}
     for w in seen:
         if not issubclass(w.category, DegenerateFitWarning):
@@ -62,4 +73,4 @@ def one_warning_per_cause(what: str):
             counts[cause] = (n + 1, example)
     for cause, (n, example) in counts.items():
         text = CAUSES.get(cause, "degenerate")
-        warnings.warn(DegenerateFitWarning(f"{n} {what}: {text} (e.g. {example})", (cause,)), stacklevel=3)
+        warnings.warn(DegenerateFitWarning(f"{n} {what}: {text} (e.g. {example})", (cause,)), stacklevel=4)

@@ -44,6 +44,9 @@ from ..fragility.degenerate import one_warning_per_cause
 from .functions import CROSSING_TOL, ContinuousFragility, DiscreteFragility, FragilityModel
 from .hazard import imt_of
 
+#: The word that marks a degenerate fit in the description and the printout (read back by ``read_nrml``).
+DEGENERATE_MARK = "DEGENERATE"
+
 #: Largest fitted probability of any limit state at the default ``minIML``.
 RANGE_FLOOR_POE = 1e-8
 #: Smallest fitted probability of any limit state at the default ``maxIML``.
@@ -163,7 +166,7 @@ def _description(label, n, rng, given_range, joint, bad, note, fits) -> str:
         text.append(f"Limit states {', '.join(g)} crossed when fitted separately and are fitted together with one "
                     "common dispersion (cumulative probit), which cannot cross.")
     for name, why in bad:
-        text.append(f"DEGENERATE fit of {name} (not an estimate): {why}.")
+        text.append(f"{DEGENERATE_MARK} fit of {name} (not an estimate): {why}.")
     if note:
         text.append(note + ".")
     return " ".join(text)
@@ -212,4 +215,5 @@ def fragility_from_results(results, im: str = "pga_g", *, period_s: float | None
     desc = description or _description(label, x.size, (lo, hi), given_range is not None, joint, bad, note, fits)
     return FragilityModel(imt_of(im, period_s), names, funcs, taxonomy=taxonomy, model_id=model_id,
                           description=desc, fits=fits, joint=tuple(joint), notes=tuple(
-                              [f"DEGENERATE {n}: {why}" for n, why in bad] + ([note] if note else [])))
+                              [f"{DEGENERATE_MARK} fit of {n} (not an estimate): {why}" for n, why in bad]
+                              + ([note] if note else [])))

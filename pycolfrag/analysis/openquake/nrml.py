@@ -2,11 +2,14 @@
 from __future__ import annotations
 
 import math
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from ...errors import HazardFileError
 from ...input_files import read_text
+from ..completeness import MARK
+from .export import DEGENERATE_MARK
 from .functions import MIN_IML, ContinuousFragility, DiscreteFragility, FragilityModel
 
 
@@ -50,7 +53,7 @@ def _function(ff, fm, q, path, limit_states, description) -> FragilityModel:
         if missing:
             raise HazardFileError(f"{path}: fragilityFunction {tax!r} lacks limit state(s) {missing}")
         return FragilityModel(im_el.get("imt"), limit_states, [funcs[ls] for ls in limit_states], taxonomy=tax,
-                              model_id=fm.get("id", "pycolfrag"), description=description,
+                              model_id=fm.get("id", "pycolfrag"), description=description, notes=_marks(description),
                               asset_category=fm.get("assetCategory", "buildings"),
                               loss_category=fm.get("lossCategory", "structural"))
     except HazardFileError:
@@ -59,9 +62,17 @@ def _function(ff, fm, q, path, limit_states, description) -> FragilityModel:
         raise HazardFileError(f"{path}: fragilityFunction {tax!r}: {exc}") from None
 
 
+def _marks(description: str) -> tuple:
+    """The sentences of a pycolfrag export's description that its printouts repeat: degenerate fits and an
+    incomplete results file (a decimal point is not a sentence's end: it is followed by a digit)."""
+    sentences = re.split(r"\.(?:\s+|$)", description)
+    return tuple(x.strip() for x in sentences if x.strip().startswith((DEGENERATE_MARK + " ", MARK + ":")))
+
+
 def read_nrml(path) -> dict:
     """The fragility functions of an NRML 0.5 ``fragilityModel`` file: ``{taxonomy: FragilityModel}``
-    (``logncdf`` continuous and discrete functions). The file is read by the project's policy for files
+    (``logncdf`` continuous and discrete functions; a pycolfrag export's marks of degenerate fits and of an
+    incomplete results file, in its description, become the model's ``notes``). The file is read by the project's policy for files
     a user names (:mod:`pycolfrag.input_files`: a regular file of at most ``LIMITS["fragility model
     file"]`` bytes, UTF-8); bad or missing values, and a taxonomy given twice, raise
     :class:`~pycolfrag.errors.HazardFileError` naming them."""
