@@ -45,7 +45,7 @@ def _rows_in_file(path: str) -> int | None:
     from .data import load  # here: only an incomplete file needs the second read
     try:
         return len(load(path, pending=True, any_layout=True))
-    except Exception:        # the count only enriches the message; the file was read a moment ago
+    except (PycolfragError, OSError):   # the count only enriches the message; the file was read a moment ago
         return None
 
 
