@@ -14,9 +14,14 @@ import sys
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 from pycolfrag.analysis import validation  # noqa: E402
+from pycolfrag.analysis.completeness import ALLOW_INCOMPLETE_HELP  # noqa: E402
+from pycolfrag.errors import PycolfragError  # noqa: E402
+from pycolfrag.input_files import read_text  # noqa: E402
 
 
-def main(argv=None):
+def main(argv=None) -> int:
+    """Command-line entry point; exit code 0, or 2 with one line naming the bad input (a record-suite
+    file, an incomplete or damaged one, an unreadable notes file)."""
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("results", help="main HDF5 results file (the paper's grid)")
     p.add_argument("--sensitivity", action="append", default=[], metavar="NAME=FILE",
@@ -25,6 +30,7 @@ def main(argv=None):
                                                   "validation.md"))
     p.add_argument("--notes", default=None, help="Markdown file appended at the end")
     p.add_argument("--seed", type=int, default=0, help="seed of the bootstraps")
+    p.add_argument("--allow-incomplete", action="store_true", help=ALLOW_INCOMPLETE_HELP)
     a = p.parse_args(argv)
     sens = {}
     for item in a.sensitivity:
@@ -32,12 +38,18 @@ def main(argv=None):
             p.error(f"--sensitivity expects NAME=FILE, got {item!r}")
         name, path = item.rsplit("=", 1)
         sens[name] = path
-    out = validation.write_validation(a.results, a.out, sens, rng=a.seed)
-    if a.notes:
-        with open(out, "a", encoding="utf-8") as fh, open(a.notes, encoding="utf-8") as nf:
-            fh.write("\n" + nf.read())
+    try:
+        notes = read_text(a.notes, "notes file", max_bytes=16 << 20) if a.notes else None
+        out = validation.write_validation(a.results, a.out, sens, rng=a.seed, allow_incomplete=a.allow_incomplete)
+        if notes is not None:
+            with open(out, "a", encoding="utf-8") as fh:
+                fh.write("\n" + notes)
+    except (PycolfragError, OSError) as exc:
+        print(f"make_validation: {exc}", file=sys.stderr)
+        return 2
     print(os.path.normpath(out))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -13,8 +13,10 @@ from pycolfrag.analysis import figures
 
 
 def write_results(path, seed=0, mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0, 20.0), n=30, n_failed=3,
-                  vp_scale=1.0):
-    """A small results file in the documented layout; the first ``n_failed`` rows fail (status 3)."""
+                  vp_scale=1.0, complete=None, pending=0):
+    """A small results file in the documented layout; the first ``n_failed`` rows fail (status 3), the last
+    ``pending`` are not computed yet (status -1); ``complete``: the root attribute a grid run writes
+    (absent when None, as in a file written by other code)."""
     rng = np.random.default_rng(seed)
     mw = np.repeat(np.repeat(mws, len(dists)), n).astype(float)
     dist = np.tile(np.repeat(dists, n), len(mws)).astype(float)
@@ -34,6 +36,8 @@ def write_results(path, seed=0, mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0, 20.0
     u_d[collapsed] = np.nan
     status = np.zeros(rows, dtype="i4")
     status[:n_failed] = 3
+    if pending:
+        status[-pending:] = -1
     periods = np.array([0.5, 1.0, 2.0])
     sa = pga[:, None] * np.array([2.0, 1.2, 0.5])
     sv = sa * 981 * periods / (2 * np.pi)
@@ -60,6 +64,8 @@ def write_results(path, seed=0, mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0, 20.0
         f.attrs["created"] = "2026-01-01T00:00:00Z"
         f.attrs["vp_scale"] = vp_scale
         f.attrs["grid_signature"] = json.dumps({"synthetic": True, "seed": seed})
+        if complete is not None:
+            f.attrs["complete"] = bool(complete)
     return path
 
 
@@ -133,3 +139,29 @@ def test_no_pulse_file_has_no_pulse_figures(tmp_path):
 def test_missing_file(tmp_path):
     with pytest.raises(ValueError):
         figures.read_results(tmp_path / "nope.h5")
+
+
+def test_degenerate_fits_are_marked_in_the_figures(tmp_path):
+    """Two runs per scenario: the Eq. (4) surfaces say in how many scenarios Eq. (4) is degenerate (fewer
+    than 5 runs). 60 runs evenly spread in PGA and PGV, the top 3 collapsed: each of the 12 equal-width
+    stripes holds 5 runs, the top one only 2 standing (fewer than 5 behind its lognormal part), and the
+    Fig. 16 legends say so."""
+    import warnings
+
+    from pycolfrag.analysis.data import ResultsData, read_results
+    from pycolfrag.analysis.fragility import DegenerateFitWarning
+    d = read_results(write_results(tmp_path / "g.h5", mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 20.0), n=2,
+                                   n_failed=0))
+    x = np.linspace(0.1, 1.0, 60)
+    coll = np.arange(60) >= 57
+    s = {"mw": np.full(60, 7.0), "dist_km": np.full(60, 5.0), "pga_g": x, "pgv_cm_s": 100 * x,
+         "u_top": np.where(coll, np.nan, 0.5 * x), "u_d": np.where(coll, np.nan, 0.02 * x), "collapsed": coll}
+    spread = ResultsData(s, None, None, None, {}, 60, 0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DegenerateFitWarning)
+        f12 = figures.fig_12(d, n_boot=20)
+        f16 = figures.fig_16(spread, n_boot=20)
+    assert all("Eq. (4) degenerate in 8 of 8 scenarios: only 2 runs in the group" in ax.get_title()
+               for ax in f12.axes)
+    legends = [t.get_text() for ax in f16.axes for t in ax.get_legend().get_texts()]
+    assert "u_top > 0.15 stripes, Eq. (4) (1 degenerate)" in legends

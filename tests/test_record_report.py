@@ -88,9 +88,9 @@ def test_degenerate_msa_fits_are_marked_in_the_report(suite_file, tmp_path, monk
     """The report prints a fit's own degenerate reason beside its median, for exactly the fits that
     carry one (the demo suite's stripes overlap, so one fit is made to carry one here), and the stripes
     CSV has the stripes' flags."""
-    from pycolfrag.analysis import fragility as fr
+    from pycolfrag.analysis.fragility import suites
     out, _, _ = suite_file
-    real = fr.msa_fragility
+    real = suites.msa_fragility
     seen = []
 
     def flag_first(*a, **kw):
@@ -100,7 +100,7 @@ def test_degenerate_msa_fits_are_marked_in_the_report(suite_file, tmp_path, monk
         seen.append(f)
         return f
 
-    monkeypatch.setattr(fr, "msa_fragility", flag_first)
+    monkeypatch.setattr(suites, "msa_fragility", flag_first)   # the name msa_from_table calls
     text = open(record_report.write_record_report(out, tmp_path / "a", figures=False)).read()
     assert text.count("(degenerate: beta = 5 is on the optimiser's bound [0.02, 5])") == 1
     header = (tmp_path / "a" / "stripes.csv").read_text().splitlines()[0]

@@ -45,3 +45,22 @@ def test_script_with_sensitivity(tmp_path):
     # every table row has the same number of cells (no unescaped '|')
     rows = [ln for ln in text.splitlines() if ln.startswith("| ") and ln[2:3].isdigit()]
     assert rows and all(ln.replace("\\|", "").count("|") == 8 for ln in rows)
+
+
+def test_degenerate_numbers_are_marked(tmp_path):
+    """Two runs per scenario: every Eq. (4) of a scenario rests on fewer than 5 runs (MIN_FIT_POINTS), so
+    the statements built on them are marked (degenerate) with the fits' reasons listed under the table,
+    and so are the key numbers; the warnings themselves are not repeated (the document carries them)."""
+    import warnings
+
+    from pycolfrag.analysis.fragility import DegenerateFitWarning
+    a = write_results(tmp_path / "a.h5", mws=(6.0, 6.5, 7.5), dists=(5.0, 20.0), n=2, n_failed=0)
+    b = write_results(tmp_path / "b.h5", seed=3, mws=(6.0, 6.5, 7.5), dists=(5.0, 20.0), n=2, n_failed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DegenerateFitWarning)
+        text = open(validation.write_validation(a, tmp_path / "v.md", {"b": b})).read()
+    rows = {ln.split(" | ")[0][2:]: ln for ln in text.splitlines() if ln.startswith("| ") and ln[2:3].isdigit()}
+    assert "(degenerate)" in rows["9"]            # P(u_top > 0.15) at Mw 7.5, R 5 km: 2 runs
+    assert "Numbers marked (degenerate) rest on fits that are not estimates" in text
+    assert "- 9. p015_75_5: 1 degenerate fit(s), e.g. exceedance: only 2 runs in the group" in text
+    assert "(n=2) (degenerate)" in text           # a key number of the sensitivity table

@@ -22,9 +22,10 @@ import numpy as np
 from . import fragility as fr
 from .. import names as _names
 from ..errors import ParameterError
+from .completeness import check_complete
 from .data import ResultsData, as_data, read_results
 
-__all__ = ["FIGURES", "make_all", "ROCKING_INITIATION_G"]
+__all__ = ["FIGURES", "make_all", "mark_figure", "ROCKING_INITIATION_G"]
 
 #: Minimum base acceleration initiating rocking of the column as a rigid block (paper Fig. 11c), g.
 ROCKING_INITIATION_G = 0.17
@@ -190,14 +191,23 @@ def fig_11(data, **_) -> Figure | None:
     return fig
 
 
+def _degenerate_scenarios(d: ResultsData, edp: str) -> str:
+    """" (Eq. (4) degenerate in k of n scenarios: <first reason>)", or "" when no scenario's is
+    (:func:`pycolfrag.analysis.fragility.degenerate_scenarios`)."""
+    bad = fr.degenerate_scenarios(d["mw"], d["dist_km"], d[edp], d["collapsed"])
+    n = len({(m, r) for m, r in zip(d["mw"], d["dist_km"])})
+    return f"\n(Eq. (4) degenerate in {len(bad)} of {n} scenarios: {bad[0][2]})" if bad else ""
+
+
 def _fig_levels(data, levels, number, edp, n_boot, rng):
     d = as_data(data)
     g = np.random.default_rng(rng)
     fig = Figure(figsize=(15, 5))
+    mark = _degenerate_scenarios(d, edp)
     for k, lev in enumerate(levels, start=1):
         s = _level_surface(d, lev, n_boot, g)
         _surface_axes(fig, (1, 3, k), s, f"P({lev.label}) (-)",
-                      f"({'abc'[k - 1]}) {lev.label}: {lev.name}", (0, 1))
+                      f"({'abc'[k - 1]}) {lev.label}: {lev.name}{mark}", (0, 1))
     fig.suptitle(f"Fig. {number}: fragility surfaces of {edp}, Eq. (4) per scenario "
                  f"(grey: 90 % bootstrap interval; n = {d.n}{d.failed_note()})")
     return fig
@@ -274,9 +284,12 @@ def _fig_curves(d, ims, number, title, n_boot, rng):
             for k, (lev, sc, mle) in enumerate(c for c in curves if c[0].edp == edp):
                 col = f"C{k}"
                 good = np.isfinite(sc.p)
+                n_bad = int(np.sum(sc.degenerate[good]))
+                # a percentile interval need not contain the point estimate: no bar below zero length
                 ax.errorbar(sc.im[good], sc.p[good],
-                            yerr=[sc.p[good] - sc.low[good], sc.high[good] - sc.p[good]],
-                            fmt="o", color=col, ms=4, capsize=2, label=f"{lev.label} stripes, Eq. (4)")
+                            yerr=np.maximum([sc.p[good] - sc.low[good], sc.high[good] - sc.p[good]], 0.0),
+                            fmt="o", color=col, ms=4, capsize=2, label=f"{lev.label} stripes, Eq. (4)"
+                            + (f" ({n_bad} degenerate)" if n_bad else ""))
                 if mle is not None:
                     x = np.linspace(0, np.nanmax(im_values), 200)[1:]
                     ax.plot(x, mle(x), "-", color=col, lw=1,
@@ -329,7 +342,13 @@ FIGURES = {
 }
 
 
-def make_all(results_path, out_dir, *, n_boot=500, rng=0, formats=("png", "pdf"), dpi=120) -> list[str]:
+def mark_figure(fig, note: str) -> None:
+    """Print ``note`` (e.g. :func:`pycolfrag.analysis.completeness.incomplete_note`) across the foot of ``fig``."""
+    fig.text(0.5, 0.003, note, ha="center", va="bottom", fontsize=7, color="C3", wrap=True)
+
+
+def make_all(results_path, out_dir, *, n_boot=500, rng=0, formats=("png", "pdf"), dpi=120,
+             allow_incomplete=False) -> list[str]:
     """Write every figure as PNG and PDF into ``out_dir``; return the written paths.
 
     Parameters
@@ -342,8 +361,12 @@ def make_all(results_path, out_dir, *, n_boot=500, rng=0, formats=("png", "pdf")
         Bootstrap resamples for the surfaces (the curve figures use ``n_boot // 2``).
     rng : int
         Seed of the bootstrap (figures are reproducible).
+    allow_incomplete : bool
+        Draw from a file whose run has not finished (refused otherwise,
+        :mod:`pycolfrag.analysis.completeness`); every figure then says so at its foot.
     """
     d = read_results(results_path)
+    note = check_complete(d, allow_incomplete, "the figures")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = []
@@ -355,6 +378,8 @@ def make_all(results_path, out_dir, *, n_boot=500, rng=0, formats=("png", "pdf")
         if fig is None:
             continue
         fig.tight_layout() if not any(a.name == "3d" for a in fig.axes) else None
+        if note:
+            mark_figure(fig, note)
         for ext in formats:
             p = out / f"{stem}.{ext}"
             fig.savefig(p, dpi=dpi)

@@ -37,9 +37,10 @@ import numpy as np
 from . import fragility as fr
 from . import record_figures as rf
 from .. import names
-from ..errors import ParameterError, ResultsFileError
-from .data import as_results, read_table
-from .figures import Figure
+from ..errors import ParameterError, PycolfragError
+from .completeness import ALLOW_INCOMPLETE_HELP, check_complete
+from .data import Results, as_results, read_table
+from .figures import Figure, mark_figure
 from .summary import format_table, summary_table
 
 __all__ = ["STRIPE_IMS", "suite_table", "analyse", "write_record_report", "main"]
@@ -194,27 +195,13 @@ def _fmt(v, d=3):
     return "n/a" if v is None or not np.isfinite(v) else f"{v:.{d}g}"
 
 
-def write_record_report(path, out_dir, *, report_path=None, synthetic=None, period_s=1.0,
-                        band_km=None, dist_km=None, n_boot=200, rng=0, figures=True) -> str:
-    """Analyse a record-suite file into ``out_dir`` (figures, ``stripes.csv``) and write the markdown
-    report (default ``out_dir/report.md``); returns the report's path.
-
-    ``synthetic``: a synthetic grid results file for the Fig. 10 line (skipped when None or missing).
-    ``band_km``/``dist_km``: Fig. 10's Rrup band and synthetic distance (defaults of
-    :mod:`pycolfrag.analysis.record_figures`). ``figures=False``: tables only (no matplotlib needed)."""
-    levels = fr.PERFORMANCE_LEVELS
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    report = Path(report_path) if report_path else out / "report.md"
-    report.parent.mkdir(parents=True, exist_ok=True)
-    res = as_results(path)   # read once for the suite table and the run counts
-    t = suite_table(res)
-    with warnings.catch_warnings():   # the tables below mark degenerate fits with their reasons
-        warnings.simplefilter("ignore", fr.DegenerateFitWarning)
-        a = analyse(t, period_s=period_s, levels=levels, n_boot=n_boot, rng=rng)
+def _run_lines(path, t, a, note) -> list:
+    """The report's title and its run section (suite, counts, completeness, failed runs)."""
     attrs = t["attrs"]
     status = np.asarray(t["status"])
-    L = [f"# Record-suite report: `{path}`", ""]
+    L = [f"# Record-suite report: `{path}`" if not isinstance(path, Results) else "# Record-suite report", ""]
+    if note:
+        L += [f"**{note}.**", ""]
     L.append(f"- suite: `{attrs.get('records', '?')}` ({attrs.get('n_records', '?')} records), components "
              f"{attrs.get('components', '?')}, scales {', '.join(f'{f:g}' for f in a['scales']) or 'n/a'}")
     L.append(f"- finished runs: {len(status)} of {int(np.size(t['record']))}; successful: {a['n_ok']}; failed "
@@ -228,13 +215,15 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
         for i in failed[:20]:
             L.append(f"- {t['record_id'][i]} {t['component'][i]} x{t['scale'][i]:g}: status {status[i]}, "
                      f"{t['message'][i]}")
-    L += ["", "## Runs per record", "", "```", format_table(summary_table(res, by="record")), "```"]
-    if len(a["scales"]) > 1:
-        L += ["", "```", format_table(summary_table(res, by="scale")), "```"]
-    L += ["", "## Cloud analysis", "",
-          "ln EDP = a + b ln IM + beta eps over the standing runs (EDP > 0); collapse: logistic regression "
-          "on ln IM when both collapses and survivors occur.", "",
-          "| IM | EDP | n | a | b (± se) | beta | R² | collapsed | P(C) logistic c0, c1 |", "|---|---|---|---|---|---|---|---|---|"]
+    return L
+
+
+def _fit_lines(a) -> list:
+    """The cloud and multiple-stripe tables, degenerate MSA fits marked with their reasons."""
+    L = ["", "## Cloud analysis", "",
+         "ln EDP = a + b ln IM + beta eps over the standing runs (EDP > 0); collapse: logistic regression "
+         "on ln IM when both collapses and survivors occur.", "",
+         "| IM | EDP | n | a | b (± se) | beta | R² | collapsed | P(C) logistic c0, c1 |", "|---|---|---|---|---|---|---|---|---|"]
     for (im, edp), f in a["cloud"].items():
         lab = _im_label(im, a["period_s"])
         if isinstance(f, str):
@@ -257,6 +246,70 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
                          f"{int(f.n_trials.sum())} | {int(f.n_exceed_stripe.sum())} |")
     elif len(a["scales"]) <= 1:
         L += ["", "Multiple-stripe fragility: needs runs at several `--scale` factors."]
+    return L
+
+
+def _draw(t, a, levels, out, synthetic, band_km, dist_km, note) -> tuple[list, str]:
+    """Draw the figures into ``out``; (file names, what Fig. 10 was drawn against, or None when it was not
+    drawn: no runs at scale 1)."""
+    figs = []
+    if not isinstance(a["stripes"], str):
+        figs.append(("stripes.png", _fig_stripes(a, levels)))
+    figs.append(("cloud.png", _fig_cloud(t, a)))
+    if a["msa"] and any(not isinstance(f, str) for f in a["msa"].values()):
+        figs.append(("msa.png", _fig_msa(a, levels)))
+    syn = synthetic if synthetic is not None and Path(synthetic).exists() else None
+    kw = {}
+    if band_km is not None:
+        kw["band_km"] = tuple(band_km)
+    if dist_km is not None:
+        kw["dist_km"] = float(dist_km)
+    # Fig. 10 is about the records as recorded: the rows at scale 1 only
+    unscaled = np.asarray(t["scale"], dtype=float) == 1.0
+    fig10_note = None
+    if unscaled.any():
+        t1 = {k: (np.asarray(v)[unscaled] if k not in ("periods_s", "attrs") and np.ndim(v) >= 1
+                  and len(v) == len(unscaled) else v) for k, v in t.items()}
+        try:
+            fig10 = rf.fig_10(t1, syn, **kw)
+            fig10_note = f"against `{syn}`" if syn else "without a synthetic grid file (no mean line)"
+        except ParameterError as exc:
+            fig10 = rf.fig_10(t1, None, **{k: v for k, v in kw.items() if k == "band_km"})
+            fig10_note = f"without the synthetic line ({exc})"
+        figs.append(("fig10_records.png", fig10))
+    for name, fig in figs:
+        if note:
+            mark_figure(fig, note)
+        fig.savefig(out / name, dpi=110)
+    return [name for name, _ in figs], fig10_note
+
+
+def write_record_report(path, out_dir, *, report_path=None, synthetic=None, period_s=1.0,
+                        band_km=None, dist_km=None, n_boot=200, rng=0, figures=True, allow_incomplete=False) -> str:
+    """Analyse a record-suite file into ``out_dir`` (figures, ``stripes.csv``) and write the markdown
+    report (default ``out_dir/report.md``); returns the report's path.
+
+    ``synthetic``: a synthetic grid results file for the Fig. 10 line (skipped when None or missing).
+    ``band_km``/``dist_km``: Fig. 10's Rrup band and synthetic distance (defaults of
+    :mod:`pycolfrag.analysis.record_figures`). ``figures=False``: tables only (no matplotlib needed).
+    ``allow_incomplete``: analyse a file whose run has not finished (refused otherwise,
+    :mod:`pycolfrag.analysis.completeness`); the report and every figure are then marked."""
+    levels = fr.PERFORMANCE_LEVELS
+    res = as_results(path)   # read once for the suite table and the run counts
+    t = suite_table(res)
+    note = check_complete(t, allow_incomplete, "a record-suite report", path=None if isinstance(path, Results) else path)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    report = Path(report_path) if report_path else out / "report.md"
+    report.parent.mkdir(parents=True, exist_ok=True)
+    with warnings.catch_warnings():   # the tables below mark degenerate fits with their reasons
+        warnings.simplefilter("ignore", fr.DegenerateFitWarning)
+        a = analyse(t, period_s=period_s, levels=levels, n_boot=n_boot, rng=rng)
+    L = _run_lines(path, t, a, note)
+    L += ["", "## Runs per record", "", "```", format_table(summary_table(res, by="record")), "```"]
+    if len(a["scales"]) > 1:
+        L += ["", "```", format_table(summary_table(res, by="scale")), "```"]
+    L += _fit_lines(a)
     if isinstance(a["stripes"], str):
         L += ["", f"Stripes: {a['stripes']}"]
     else:
@@ -264,7 +317,6 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
         L += ["", "## Stripes", "", f"Stripe curves on PGA, PGV, SA and SV: `stripes.csv` "
               f"({max(1, min(12, a['n_ok'] // MIN_PER_STRIPE))} stripes of equal counts of runs, each "
               f"point at the stripe's median IM; Eq. (4) inside each stripe)."]
-    drawn = []
     if figures:
         try:
             import matplotlib  # noqa: F401 -- a probe: the plotting stack is optional, the tables are not
@@ -272,39 +324,13 @@ def write_record_report(path, out_dir, *, report_path=None, synthetic=None, peri
             L += ["", "Figures: matplotlib is not installed; tables only."]
             figures = False
     if figures:
-        figs = []
-        if not isinstance(a["stripes"], str):
-            figs.append(("stripes.png", _fig_stripes(a, levels)))
-        figs.append(("cloud.png", _fig_cloud(t, a)))
-        if a["msa"] and any(not isinstance(f, str) for f in a["msa"].values()):
-            figs.append(("msa.png", _fig_msa(a, levels)))
-        syn = synthetic if synthetic is not None and Path(synthetic).exists() else None
-        kw = {}
-        if band_km is not None:
-            kw["band_km"] = tuple(band_km)
-        if dist_km is not None:
-            kw["dist_km"] = float(dist_km)
-        # Fig. 10 is about the records as recorded: the rows at scale 1 only
-        unscaled = np.asarray(t["scale"], dtype=float) == 1.0
-        if unscaled.any():
-            t1 = {k: (np.asarray(v)[unscaled] if k not in ("periods_s", "attrs") and np.ndim(v) >= 1
-                      and len(v) == len(unscaled) else v) for k, v in t.items()}
-            try:
-                fig10 = rf.fig_10(t1, syn, **kw)
-                note = f"against `{syn}`" if syn else "without a synthetic grid file (no mean line)"
-            except ParameterError as exc:
-                fig10 = rf.fig_10(t1, None, **{k: v for k, v in kw.items() if k == "band_km"})
-                note = f"without the synthetic line ({exc})"
-            figs.append(("fig10_records.png", fig10))
-        else:
+        drawn, fig10_note = _draw(t, a, levels, out, synthetic, band_km, dist_km, note)
+        if fig10_note is None:
             L += ["", "Fig. 10: no runs at scale 1 (it shows the records as recorded)."]
-        for name, fig in figs:
-            fig.savefig(out / name, dpi=110)
-            drawn.append(name)
         L += ["", "## Figures", ""]
         for name in drawn:
             rel = Path(_relpath(out / name, report.parent))
-            extra = f" ({note})" if name.startswith("fig10") else ""
+            extra = f" ({fig10_note})" if name.startswith("fig10") else ""
             L.append(f"![{name}]({rel.as_posix()}){extra}")
             L.append("")
     report.write_text("\n".join(L) + "\n", encoding="utf-8")
@@ -326,11 +352,13 @@ def main(argv=None) -> int:
     p.add_argument("--band", nargs=2, type=float, default=None, metavar=("LO", "HI"), help="Fig. 10 Rrup band, km")
     p.add_argument("--dist", type=float, default=None, help="Fig. 10 synthetic distance, km")
     p.add_argument("--no-figures", action="store_true", help="tables only")
+    p.add_argument("--allow-incomplete", action="store_true", help=ALLOW_INCOMPLETE_HELP)
     args = p.parse_args(argv)
     try:
         rep = write_record_report(args.results, args.out, synthetic=args.synthetic, period_s=args.period,
-                                  band_km=args.band, dist_km=args.dist, figures=not args.no_figures)
-    except (ResultsFileError, ParameterError) as exc:
+                                  band_km=args.band, dist_km=args.dist, figures=not args.no_figures,
+                                  allow_incomplete=args.allow_incomplete)
+    except (PycolfragError, OSError) as exc:
         print(f"record_report: {exc}", file=sys.stderr)
         return 2
     print(f"record report -> {rep}")

@@ -18,6 +18,7 @@ tables and their reasons listed under them; their numbers are still printed, as 
 """
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import sys
@@ -30,6 +31,7 @@ from . import fragility as fr
 from .. import names
 from .fragility import binomial_ci
 from ..errors import PycolfragError
+from .completeness import ALLOW_INCOMPLETE_HELP, check_complete
 from .data import read_results
 from .figures import FIGURES, im_curves
 from .risk import report_section
@@ -85,7 +87,8 @@ def _meta_lines(d):
     return out
 
 
-def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, rng=0, risk=None) -> str:
+def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, rng=0, risk=None,
+                 allow_incomplete=False) -> str:
     """Write a Markdown report of a results file; return its path.
 
     Parameters
@@ -104,22 +107,26 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
     risk : pycolfrag.analysis.risk.SiteRisk, optional
         A site risk computed from this results file (:func:`pycolfrag.analysis.risk.site_risk`): its section
         is added before the figures.
+    allow_incomplete : bool
+        Report on a file whose run has not finished (refused otherwise, :mod:`pycolfrag.analysis.completeness`);
+        the report then says so in its first lines.
     """
     d = read_results(results_path)
+    note = check_complete(d, allow_incomplete, "a report")
     out_path = Path(out_path) if out_path else Path(os.fspath(results_path)).with_name("report.md")
     figures_dir = Path(figures_dir) if figures_dir else out_path.parent / "figures"
     g = np.random.default_rng(rng)
     # the report marks degenerate fits itself (below), so their warnings would only repeat it
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", fr.DegenerateFitWarning)
-        return _write(d, out_path, figures_dir, n_boot, g, risk)
+        return _write(d, out_path, figures_dir, n_boot, g, risk, note)
 
 
-def _write(d, out_path, figures_dir, n_boot, g, risk) -> str:
+def _write(d, out_path, figures_dir, n_boot, g, risk, note="") -> str:
     edps = tuple(e for e in names.EDPS if e in d.samples)   # every declared EDP the file has (older files lack newer ones)
     rows = fr.scenario_table(d["mw"], d["dist_km"], {e: d[e] for e in edps}, d["collapsed"],
                              n_boot=n_boot, confidence=CONFIDENCE, rng=g)
-    L = ["# pycolfrag results report", "",
+    L = ["# pycolfrag results report", ""] + ([f"**{note}.**", ""] if note else []) + [
          "Fragility of the column by the method of Psycharis, Fragiadakis & Stefanou: Eq. (3) collapse "
          "probability, Eq. (4) exceedance (lognormal fit of the non-collapsed runs combined with collapse) "
          "and the empirical ratio. Intervals are two-sided 90 %: Clopper-Pearson for P(collapse), "
@@ -194,14 +201,17 @@ def _write(d, out_path, figures_dir, n_boot, g, risk) -> str:
     return str(out_path)
 
 
-def main(argv=None):
-    argv = sys.argv[1:] if argv is None else argv
-    if not argv or argv[0] in ("-h", "--help"):
-        print("usage: python -m pycolfrag.analysis.report RESULTS.h5 [OUT.md]")
-        return 0 if argv else 2
+def main(argv=None) -> int:
+    """Command-line entry point; exit code 0, or 2 with one line naming the bad input."""
+    p = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.report",
+                                description="Markdown report of a synthetic grid's results file (docs/fragility.md)")
+    p.add_argument("results", help="results file (run_grid.py)")
+    p.add_argument("out", nargs="?", default=None, help="report to write (default: report.md beside the results)")
+    p.add_argument("--allow-incomplete", action="store_true", help=ALLOW_INCOMPLETE_HELP)
+    args = p.parse_args(argv)
     try:
-        print(write_report(argv[0], argv[1] if len(argv) > 1 else None))
-    except PycolfragError as exc:
+        print(write_report(args.results, args.out, allow_incomplete=args.allow_incomplete))
+    except (PycolfragError, OSError) as exc:
         print(f"report: {exc}", file=sys.stderr)
         return 2
     return 0

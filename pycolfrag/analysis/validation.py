@@ -18,13 +18,16 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from scipy import stats
 
+from ..errors import ParameterError
 from . import fragility as fr
+from .completeness import check_complete
 from .data import ResultsData, read_results
 from .figures import ROCKING_INITIATION_G
 from .fragility import binomial_ci
@@ -51,6 +54,7 @@ class Claim:
     verdict: str
     comment: str = ""
     sens_key: str | None = None     # key number of the sensitivity table that tracks this claim
+    degenerate: str = ""            # the degenerate fits behind ``ours`` (their warnings), "" when none
 
 
 def _sel(d: ResultsData, mw=None, dist=None):
@@ -73,15 +77,39 @@ def _boot_mean(x, rng):
                                  rng=rng)
 
 
+class _Estimate(tuple):
+    """``(value, (low, high), n)`` of a number, with ``degenerate``: why it is not an estimate ("" when it is)."""
+
+    degenerate = ""
+
+
 def _eq4(d, mask, edp, threshold, rng):
     """Eq. (4) on the samples of ``mask`` with bootstrap CI; (p, ci, n) or (nan, nan-ci, 0)."""
     n = int(mask.sum())
     if n == 0:
-        return np.nan, (np.nan, np.nan), 0
+        return _Estimate((np.nan, (np.nan, np.nan), 0))
     p = fr.exceedance(d[edp][mask], d["collapsed"][mask], threshold)
     ci = fr.bootstrap_interval(d[edp][mask], d["collapsed"][mask], threshold, n_boot=N_BOOT, confidence=CONF,
                                rng=rng)
-    return p, ci, n
+    out = _Estimate((p, ci, n))
+    out.degenerate = fr.eq4_degenerate(d[edp][mask], d["collapsed"][mask])
+    return out
+
+
+class _Claims(list):
+    """The claims of a group of statements. Each appended claim takes as its ``degenerate`` mark the
+    degenerate-fit warnings raised since the claim before it: those of the fits behind its number."""
+
+    def __init__(self, seen: list):
+        super().__init__()
+        self._seen, self._k = seen, len(seen)
+
+    def append(self, claim) -> None:
+        new = [str(w.message) for w in self._seen[self._k:] if issubclass(w.category, fr.DegenerateFitWarning)]
+        self._k = len(self._seen)
+        if new:
+            claim.degenerate = f"{len(new)} degenerate fit(s), e.g. {new[0]}"
+        super().append(claim)
 
 
 def _ratio_ci(a, b, rng):
@@ -144,15 +172,28 @@ def key_numbers(d: ResultsData, rng=0) -> dict:
 
 # --------------------------------------------------------------------------- the paper's statements
 
+#: Verdict of a statement about a scenario the grid does not have.
+NOT_IN_GRID = "not testable (scenario not in this grid)"
+
+
 def claims(d: ResultsData, rng=0) -> list[Claim]:
-    """Evaluate every quantitative statement of the paper on ``d``."""
+    """Evaluate every quantitative statement of the paper on ``d`` (one bootstrap stream, drawn from in
+    the statements' order). A claim whose number rests on degenerate fits says so in ``degenerate``; the
+    fits' warnings are not repeated."""
     g = np.random.default_rng(rng)
+    with warnings.catch_warnings(record=True) as seen:    # the claims carry them as their marks
+        warnings.simplefilter("always", fr.DegenerateFitWarning)
+        return (_claims_collapse_and_means(d, g, seen) + _claims_levels(d, g, seen) + _claims_ims(d, g, seen)
+                + _claims_pooled(d, g, seen))
+
+
+def _claims_collapse_and_means(d: ResultsData, g, seen: list) -> list[Claim]:
+    """Statements 1-7: collapse probabilities and mean u_top."""
     c = d["collapsed"]
-    out = []
+    out = _Claims(seen)
     grid_mw = np.unique(d["mw"])
     grid_r = np.unique(d["dist_km"])
-    nt = "not testable (scenario not in this grid)"
-
+    nt = NOT_IN_GRID
     # 1. collapse probability at Mw 7.5, R 5 km
     m = _sel(d, 7.5, 5.0)
     k, n = int(c[m].sum()), int(m.sum())
@@ -216,6 +257,16 @@ def claims(d: ResultsData, rng=0) -> list[Claim]:
                      f"{x.size} non-collapsed", "within 0.9-1.4 (a sample maximum: depends on n and the grid)",
                      "agrees" if x.size and 0.9 <= x.max() <= 1.4 else "differs"))
 
+    return out
+
+
+def _claims_levels(d: ResultsData, g, seen: list) -> list[Claim]:
+    """Statements 8-14: the performance levels of Tables III and IV, and rocking initiation."""
+    c = d["collapsed"]
+    out = _Claims(seen)
+    grid_mw = np.unique(d["mw"])
+    grid_r = np.unique(d["dist_km"])
+    nt = NOT_IN_GRID
     # 8-9. u_top > 0.15 levels
     m6 = _sel(d, 6.0)
     p, ci, n = _eq4(d, m6, "u_top", 0.15, g)
@@ -288,6 +339,13 @@ def claims(d: ResultsData, rng=0) -> list[Claim]:
                      "agrees" if (not np.isfinite(min_pga_coll) or min_pga_coll >= ROCKING_INITIATION_G)
                      and (nl == 0 or nh == 0 or kl / nl < kh / nh) else "differs"))
 
+    return out
+
+
+def _claims_ims(d: ResultsData, g, seen: list) -> list[Claim]:
+    """Statements 15-20: the fragility against PGA and PGV."""
+    c = d["collapsed"]
+    out = _Claims(seen)
     # 15-18. P(u_top > 0.35) and P(u_d > 0.01) about 10 % for PGA about 0.3 g, PGV 40-50 cm/s
     groups = d.scenario_index()
     for im, lo, hi, unit, label in (("pga_g", 0.25, 0.35, "g", "PGA about 0.3 g"),
@@ -302,7 +360,7 @@ def claims(d: ResultsData, rng=0) -> list[Claim]:
                 j = int(np.argmin(np.abs(fit.band_im - x)))
                 mle_txt = (f"; MLE curve at {x:g} {unit}: {fit(x):.2f} [{fit.band_low[j]:.2f}, "
                            f"{fit.band_high[j]:.2f}]")
-            except fr.ParameterError:
+            except ParameterError:
                 pass
             out.append(Claim(f"p_{edp}_{im}", "Fragility curves, Fig. 16; Conclusions",
                              f"{label}: about 10 % probability of {edp} > {t:g}", "about 0.10",
@@ -338,6 +396,15 @@ def claims(d: ResultsData, rng=0) -> list[Claim]:
                      "not testable (no run with u_d > 0.02)" if n2 == 0 else
                      ("agrees" if np.any(e2 & (pgv > 40) & (pgv < 150)) else "differs")))
 
+    return out
+
+
+def _claims_pooled(d: ResultsData, g, seen: list) -> list[Claim]:
+    """Statements 21-22: Eq. (4) against the empirical ratio, and long pulse periods."""
+    c = d["collapsed"]
+    out = _Claims(seen)
+    grid_mw = np.unique(d["mw"])
+    grid_r = np.unique(d["dist_km"])
     # 21. Eq. (2)/(4) vs empirical ratio
     dif = []
     for mw in grid_mw:
@@ -414,10 +481,60 @@ def _fmt_key(v):
     s = f"{val:.{digits}f}"
     if np.all(np.isfinite(ci)):
         s += f" [{ci[0]:.{digits}f}, {ci[1]:.{digits}f}]"
-    return s + f" (n={n})"
+    return s + f" (n={n})" + (" (degenerate)" if getattr(v, "degenerate", "") else "")
 
 
-def write_validation(results_path, out_path, sensitivity: dict | None = None, rng=0) -> str:
+def _statement_lines(cl) -> list:
+    """The table of statements, the marks of degenerate fits under it."""
+    counts = {v: sum(1 for c in cl if c.verdict.startswith(v)) for v in ("agrees", "differs", "not testable")}
+    L = [f"Summary: {counts['agrees']} statements agree, {counts['differs']} differ, "
+         f"{counts['not testable']} not testable on this file.", "",
+         "| # | paper statement (where) | paper | ours [90 % CI] | n | criterion | verdict |",
+         "|---:|---|---|---|---|---|---|"]
+    for i, c in enumerate(cl, 1):
+        mark = " (degenerate)" if c.degenerate else ""
+        L.append(f"| {i} | {_cell(c.statement)} ({c.where}) | {_cell(c.paper)} | {_cell(c.ours)}{mark} | {_cell(c.n)} | "
+                 f"{_cell(c.criterion)} | **{c.verdict}** |")
+    bad = [(i, c) for i, c in enumerate(cl, 1) if c.degenerate]
+    if bad:
+        L += ["", "Numbers marked (degenerate) rest on fits that are not estimates (what the formulas give):", ""]
+        L += [f"- {i}. {c.key}: {_cell(c.degenerate)}" for i, c in bad]
+    return L
+
+
+def _comment_lines(cl, keys, sens) -> list:
+    L = ["", "## Comments", ""]
+    for i, c in enumerate(cl, 1):
+        txt = []
+        for prefix, drv in DRIVERS.items():
+            if c.key.startswith(prefix):
+                txt.append(drv)
+        if c.sens_key and len(keys) > 1:
+            txt.append("Same number in the sensitivity runs: " + "; ".join(
+                f"{name}: {_fmt_key(k[c.sens_key])}" for name, k in keys.items()) + ".")
+        if c.verdict.startswith("differs"):
+            txt.append("Outside the paper's band by the stated criterion"
+                       + ("; the sensitivity section shows what moves it." if sens else "."))
+        if txt:
+            L.append(f"{i}. **{c.key}** ({c.verdict}): " + " ".join(txt))
+    return L
+
+
+def _sensitivity_lines(d, sens, keys, notes) -> list:
+    L = ["", "## Sensitivity", ""]
+    if not sens:
+        return L + ["No sensitivity files given (`--sensitivity NAME=FILE`)."]
+    L += ["Key numbers recomputed on each results file (reduced grids; 90 % intervals; n = runs used).", ""]
+    for name, sd in [("this file", d)] + list(sens.items()):
+        L.append(f"- **{name}**: `{sd.path}`: {_describe(sd)}" + (f" **{notes[name]}.**" if notes.get(name) else ""))
+    L += ["", "| key number | " + " | ".join(keys) + " |", "|---|" + "---|" * len(keys)]
+    for k, label in KEY_NUMBERS.items():
+        L.append(f"| {_cell(label)} | " + " | ".join(_fmt_key(v[k]) for v in keys.values()) + " |")
+    return L
+
+
+def write_validation(results_path, out_path, sensitivity: dict | None = None, rng=0,
+                     allow_incomplete: bool = False) -> str:
     """Write the validation document; return its path.
 
     Parameters
@@ -430,17 +547,22 @@ def write_validation(results_path, out_path, sensitivity: dict | None = None, rn
         Further results files by name (e.g. ``{"vp_scale=2": "results/sensitivity/vp2.h5"}``).
     rng : int
         Seed of every bootstrap (the document is reproducible).
+    allow_incomplete : bool
+        Use results files whose run has not finished (refused otherwise,
+        :mod:`pycolfrag.analysis.completeness`); the document then says so for each.
     """
     d = read_results(results_path)
-    cl = claims(d, rng=rng)
-    sens = {}
-    for name, path in (sensitivity or {}).items():
-        sens[name] = read_results(path)
-    keys = {"this file": key_numbers(d, rng=rng)}
+    notes = {"this file": check_complete(d, allow_incomplete, "a validation document")}
+    sens = {name: read_results(path) for name, path in (sensitivity or {}).items()}
     for name, sd in sens.items():
-        keys[name] = key_numbers(sd, rng=rng)
-
-    L = ["# Validation against the paper", "",
+        notes[name] = check_complete(sd, allow_incomplete, f"a validation document (sensitivity {name!r})")
+    cl = claims(d, rng=rng)
+    with warnings.catch_warnings():   # the key numbers mark their degenerate fits themselves
+        warnings.simplefilter("ignore", fr.DegenerateFitWarning)
+        keys = {"this file": key_numbers(d, rng=rng)}
+        for name, sd in sens.items():
+            keys[name] = key_numbers(sd, rng=rng)
+    L = ["# Validation against the paper", ""] + ([f"**{notes['this file']}.**", ""] if notes["this file"] else []) + [
          "Generated by `python scripts/make_validation.py " + os.fspath(results_path)
          + "".join(f" --sensitivity {n}={os.fspath(p)}" for n, p in (sensitivity or {}).items())
          + "` (do not edit by hand).", "",
@@ -457,38 +579,7 @@ def write_validation(results_path, out_path, sensitivity: dict | None = None, rn
               "statements about scenarios outside it are 'not testable', and pooled statements "
               "(by IM, over Mw) are biased towards the scenarios present. Regenerate from the full grid with "
               "`python scripts/make_validation.py results/grid.h5`.", ""]
-    counts = {v: sum(1 for c in cl if c.verdict.startswith(v)) for v in ("agrees", "differs", "not testable")}
-    L += [f"Summary: {counts['agrees']} statements agree, {counts['differs']} differ, "
-          f"{counts['not testable']} not testable on this file.", "",
-          "| # | paper statement (where) | paper | ours [90 % CI] | n | criterion | verdict |",
-          "|---:|---|---|---|---|---|---|"]
-    for i, c in enumerate(cl, 1):
-        L.append(f"| {i} | {_cell(c.statement)} ({c.where}) | {_cell(c.paper)} | {_cell(c.ours)} | {_cell(c.n)} | "
-                 f"{_cell(c.criterion)} | **{c.verdict}** |")
-    L += ["", "## Comments", ""]
-    for i, c in enumerate(cl, 1):
-        txt = []
-        for prefix, drv in DRIVERS.items():
-            if c.key.startswith(prefix):
-                txt.append(drv)
-        if c.sens_key and len(keys) > 1:
-            txt.append("Same number in the sensitivity runs: " + "; ".join(
-                f"{name}: {_fmt_key(k[c.sens_key])}" for name, k in keys.items()) + ".")
-        if c.verdict.startswith("differs"):
-            txt.append("Outside the paper's band by the stated criterion"
-                       + ("; the sensitivity section shows what moves it." if sens else "."))
-        if txt:
-            L.append(f"{i}. **{c.key}** ({c.verdict}): " + " ".join(txt))
-    L += ["", "## Sensitivity", ""]
-    if not sens:
-        L.append("No sensitivity files given (`--sensitivity NAME=FILE`).")
-    else:
-        L += ["Key numbers recomputed on each results file (reduced grids; 90 % intervals; n = runs used).", ""]
-        for name, sd in [("this file", d)] + list(sens.items()):
-            L.append(f"- **{name}**: `{sd.path}`: {_describe(sd)}")
-        L += ["", "| key number | " + " | ".join(keys) + " |", "|---|" + "---|" * len(keys)]
-        for k, label in KEY_NUMBERS.items():
-            L.append(f"| {_cell(label)} | " + " | ".join(_fmt_key(v[k]) for v in keys.values()) + " |")
+    L += _statement_lines(cl) + _comment_lines(cl, keys, sens) + _sensitivity_lines(d, sens, keys, notes)
     L.append("")
     out_path = Path(out_path)
     out_path.parent.mkdir(parents=True, exist_ok=True)
