@@ -89,7 +89,7 @@ COMMANDS = {c.name: c for c in (
     Command("risk", "pycolfrag.analysis.risk:main",
             "annual rates and T-year probabilities of the damage levels at a site (docs/risk.md)",
             "python -m pycolfrag.analysis.risk"),
-    Command("openquake", "pycolfrag.analysis.openquake:main",
+    Command("openquake", "pycolfrag.analysis.openquake.cli:main",
             "OpenQuake interchange: export fragility as NRML, classical damage from hazard curves",
             "python -m pycolfrag.analysis.openquake"),
     Command("record-report", "pycolfrag.analysis.record_report:main",
