@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 from pycolfrag import results as R
-from pycolfrag.analysis.data import IncompleteResultsError, load, read_results
+from pycolfrag.analysis.completeness import IncompleteResultsError, check_complete, incomplete_note
+from pycolfrag.analysis.data import load, read_results
 from pycolfrag.results.checksums import store_checksums
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -279,14 +280,16 @@ def test_readers_say_how_many_rows_a_file_lacks(tmp_path):
     r, d = load(p), read_results(p)
     for x in (r, d):
         assert (x.n_rows, x.n_missing, x.complete) == (6, 2, False)
-        assert x.completeness_note.startswith("INCOMPLETE: 4 of 6 rows computed, 2 missing")
-    with pytest.raises(IncompleteResultsError, match="2 of 6 rows are not computed yet .*--allow-incomplete"):
-        d.require_complete()
-    d.require_complete(allow_incomplete=True)
+        assert incomplete_note(x, p) == (f"INCOMPLETE RESULTS: {p} holds 4 of the 6 rows (its run was interrupted or "
+                                         "is still going); every number here changes when the remaining rows are "
+                                         "computed")
+    with pytest.raises(IncompleteResultsError, match="a report refused: .* 4 of the 6 rows .*--allow-incomplete"):
+        check_complete(d, False, "a report")
+    assert check_complete(d, True, "a report").startswith("INCOMPLETE RESULTS: ")
     w = _open(p)
     w.add([_row(4), _row(5)])
     w.finish()
     r, d = load(p), read_results(p)
     for x in (r, d):
-        assert (x.n_rows, x.n_missing, x.complete, x.completeness_note) == (6, 0, True, "")
-    d.require_complete()
+        assert (x.n_rows, x.n_missing, x.complete, incomplete_note(x)) == (6, 0, True, "")
+    assert check_complete(d, False, "a report") == ""

@@ -76,9 +76,8 @@ def test_a_no_pulse_branch_of_other_code_is_refused(tmp_path):
 
 def test_an_incomplete_file_is_refused_unless_asked_and_then_marked(tmp_path, capsys):
     pulse, nopulse = _pair(tmp_path)
-    _attrs(pulse, complete=False)
-    with pytest.raises(ResultsFileError, match=r"p\.h5 is incomplete \(80 rows finished; its complete attribute "
-                                               r"is not set\).*--allow-incomplete"):
+    _attrs(pulse, mw=[6.0, 7.0], dist_km=[10.0, 20.0], samples=21)   # asks for 84 rows; 80 there
+    with pytest.raises(ResultsFileError, match=r"p\.h5 holds 80 of the 84 rows .*--allow-incomplete"):
         risk.site_risk(_half(), pulse, nopulse, curves=False)
     res = risk.site_risk(_half(), pulse, nopulse, curves=False, n_draws=20, allow_incomplete=True)
     assert res.incomplete and "INCOMPLETE RESULTS" in risk.report_section(res)
@@ -87,7 +86,7 @@ def test_an_incomplete_file_is_refused_unless_asked_and_then_marked(tmp_path, ca
     sf.write_text('[pulse]\nprobability = 0.3\n[[sources]]\nname = "f"\nrate = 0.004\n'
                   'magnitude = { type = "characteristic", mw = 7.0 }\ndistance = { type = "fixed", r_km = 10 }\n')
     args = [str(sf), pulse, str(tmp_path / "out"), "--no-pulse", nopulse, "--draws", "20", "--no-figures"]
-    assert risk.main(args) == 2 and "is incomplete" in capsys.readouterr().err
+    assert risk.main(args) == 2 and "holds 80 of the 84 rows" in capsys.readouterr().err
     assert risk.main(args + ["--allow-incomplete"]) == 0
     assert capsys.readouterr().out.startswith("INCOMPLETE results (asked for explicitly)")
     js = json.loads((tmp_path / "out" / "risk.json").read_text())
@@ -98,7 +97,7 @@ def test_missing_rows_make_a_file_incomplete_whatever_its_flag(tmp_path):
     """The grid asked for 2 Mw x 1 R x 40 samples = 80 rows (its mw, dist_km, samples attributes)."""
     pulse = write_cells(tmp_path / "p.h5", {(6.0, 10.0): (40, 1, 0.1), (7.0, 10.0): (39, 4, 0.3)})
     _attrs(pulse, mw=[6.0, 7.0], dist_km=[10.0], samples=40)
-    with pytest.raises(ResultsFileError, match=r"incomplete \(79 of 80 rows finished; rows are missing\)"):
+    with pytest.raises(ResultsFileError, match=r"holds 79 of the 80 rows"):
         risk.site_risk(site([char_source(7.0, 10.0)]), pulse, curves=False)
 
 

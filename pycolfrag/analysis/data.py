@@ -10,8 +10,8 @@
 * :func:`as_results`, :func:`as_data`: the same, passing through what was read already.
 
 Both say whether the file is complete: ``n_missing`` rows not computed yet (an interrupted or running
-grid), ``complete`` (none missing), ``completeness_note`` (one line for an output to carry), and
-:meth:`ResultsData.require_complete` (the one refusal of an incomplete file, with the way around it).
+grid) and ``complete`` (none missing); a table of :func:`read_table` keeps both counts. What an output
+does with an incomplete file (refuse, or carry a mark) is :mod:`pycolfrag.analysis.completeness`.
 
 This module imports no C binding and nothing of the grid driver: only the results layout and its
 crash-safe reading (:mod:`pycolfrag.results`).
@@ -32,40 +32,37 @@ from ..errors import ResultsFileError
 from ..results import STATUS_OK, STATUS_PENDING
 
 __all__ = ["Results", "load", "as_results", "ResultsData", "read_results", "as_data", "read_table",
-           "IncompleteResultsError", "completeness_note"]
+           ]
 
 
-class IncompleteResultsError(ResultsFileError):
-    """A results file with rows not computed yet, given to an output that needs every row."""
-
-
-def completeness_note(n_rows: int, n_missing: int) -> str:
-    """One line saying that a file is incomplete and by how much (empty for a complete file): the mark an
-    output computed from an incomplete file carries."""
-    if n_missing <= 0:
-        return ""
-    return (f"INCOMPLETE: {n_rows - n_missing} of {n_rows} rows computed, {n_missing} missing (an interrupted or "
-            "running grid: rerun its command to finish it); numbers from it are not those of the full grid")
+def _rows_asked(attrs) -> int:
+    """Rows a synthetic grid's attributes ask for (``mw`` x ``dist_km`` x ``samples``), 0 when they do not say."""
+    try:
+        return int(np.size(attrs["mw"]) * np.size(attrs["dist_km"]) * int(attrs["samples"]))
+    except (KeyError, TypeError, ValueError):
+        return 0
 
 
 class _Completeness:
-    """``n_missing``, ``complete`` and ``completeness_note`` from ``n_rows`` and the finished rows."""
+    """``n_missing`` and ``complete`` from ``n_rows`` and the finished rows."""
 
     @property
     def n_missing(self) -> int:
-        """Rows of the file not computed yet (``status == -1``): 0 for a complete file."""
-        return int(self.n_rows - self.n_finished)
+        """Rows not computed yet: those of the file still pending (``status == -1``), or, in a file written
+        by other code with fewer rows than its grid's ``mw`` x ``dist_km`` x ``samples`` attributes ask
+        for, the rows it lacks; 0 for a complete file."""
+        return int(self.n_expected - self.n_finished)
+
+    @property
+    def n_expected(self) -> int:
+        """Rows the run asked for: the file's rows, or more when its grid's attributes ask for more."""
+        return int(max(self.n_rows, _rows_asked(self.attrs)))
 
     @property
     def complete(self) -> bool:
         """Every row of the file is computed (ok or failed). The run's own seal is ``attrs["complete"]``:
         it stays False in a file whose run was killed after its last row, whose rows are all here."""
         return self.n_missing == 0
-
-    @property
-    def completeness_note(self) -> str:
-        """One line for an output computed from this file: empty when it is complete."""
-        return completeness_note(self.n_rows, self.n_missing)
 
 
 @dataclass
@@ -202,8 +199,8 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
     -------
     Results
         ``samples`` (dict of 1-D arrays), ``spectra`` (dict of 2-D arrays), ``periods_s``, ``attrs``,
-        ``rows`` (row indices kept), ``n_rows``, ``n_missing``, ``complete``, ``completeness_note`` (how
-        many rows the file still lacks). ``collapsed`` is returned as bool.
+        ``rows`` (row indices kept), ``n_rows``, ``n_missing``, ``complete`` (how many rows the file
+        still lacks). ``collapsed`` is returned as bool.
 
     Raises
     ------
@@ -296,16 +293,6 @@ class ResultsData(_Completeness):
     def n_finished(self) -> int:
         return self.n_total
 
-    def require_complete(self, allow_incomplete: bool = False) -> None:
-        """Refuse an incomplete file (:class:`IncompleteResultsError`, naming what is missing and the way
-        around it) unless ``allow_incomplete``; an output that goes on must then carry
-        :attr:`completeness_note`."""
-        if self.n_missing and not allow_incomplete:
-            raise IncompleteResultsError(
-                f"{self.path}: {self.n_missing} of {self.n_rows} rows are not computed yet (an interrupted or running "
-                "grid): rerun the grid's command to finish it, or pass --allow-incomplete to analyse the rows there "
-                "are (the outputs are then marked INCOMPLETE)")
-
     @property
     def n(self) -> int:
         return int(self.samples["mw"].size)
@@ -390,4 +377,5 @@ def read_table(results, layout: str | None = None) -> dict:
     t.update(r.spectra)
     t["periods_s"] = np.asarray(r.periods_s, dtype=float)
     t["attrs"] = dict(r.attrs)
+    t["n_rows"], t["n_missing"] = r.n_expected, r.n_missing   # what analysis.completeness judges a table by
     return t

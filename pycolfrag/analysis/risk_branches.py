@@ -17,9 +17,10 @@ import json
 
 import numpy as np
 
-from ..errors import ParameterError, ResultsFileError
+from . import completeness as _completeness
+from ..errors import ParameterError
 
-__all__ = ["declared_pulse", "check_branches", "completeness", "check_complete", "SHARED_SETTINGS"]
+__all__ = ["declared_pulse", "check_branches", "check_complete", "SHARED_SETTINGS"]
 
 #: Grid settings the two branches must share (everything but the pulse and the scenarios' sample counts).
 SHARED_SETTINGS = ("column", "solver", "damping", "record_dt_s", "max_record_s", "sample_function", "streams")
@@ -114,30 +115,9 @@ def check_branches(pulse, no_pulse) -> None:
     _check_pairing(pulse, no_pulse)
 
 
-def completeness(data) -> tuple[bool, str]:
-    """Whether a results file holds every row its grid asked for, and a note saying what it holds.
-
-    The one place that judges it: the file's ``complete`` attribute, and the rows the grid's
-    ``mw``, ``dist_km`` and ``samples`` attributes ask for against the finished rows (``n_total``)."""
-    attrs = data.attrs
-    flag = bool(_text(attrs.get("complete", False)))
-    try:
-        expected = (np.size(attrs["mw"]) * np.size(attrs["dist_km"]) * int(_text(attrs["samples"])))
-    except (KeyError, TypeError, ValueError):
-        expected = None
-    if flag and (expected is None or data.n_total >= expected):
-        return True, ""
-    held = f"{data.n_total} of {expected}" if expected is not None else f"{data.n_total}"
-    why = "its complete attribute is not set" if not flag else "rows are missing"
-    return False, f"{data.path} is incomplete ({held} rows finished; {why})"
-
 
 def check_complete(branches: dict, allow_incomplete: bool) -> list:
-    """The notes of the incomplete files; ResultsFileError unless ``allow_incomplete``."""
-    notes = [note for ok, note in (completeness(d) for d in branches.values()) if not ok]
-    if notes and not allow_incomplete:
-        raise ResultsFileError("; ".join(notes) + ": its cells rest on fewer runs than the grid asked for and "
-                               "the rates would differ from the finished grid's. Finish the grid (rerun the same "
-                               "command: it resumes) or ask for the risk of the rows there are with "
-                               "--allow-incomplete (every output then says so)")
-    return notes
+    """The marks of the incomplete branch files (:func:`pycolfrag.analysis.completeness.check_complete`,
+    the one judge: rows not computed yet); refused unless ``allow_incomplete``."""
+    notes = [_completeness.check_complete(d, allow_incomplete, f"a site risk from {d.path}") for d in branches.values()]
+    return [n for n in notes if n]
