@@ -171,6 +171,7 @@ struct cf_stochastic {
     cf_stochastic_info info;
     cf_fft_plan *plan;      /* for info.nfft, reused when the length does not change */
     double *window;         /* n_window: Saragoni-Hart weights */
+    double *noise;          /* n_window: the standard normals of a seeded run */
     double *filt;           /* nfft/2 + 1: A(f_k) in m/s divided by dt (the 1/dt of the recipe) */
     double *spec;           /* nfft + 2: work */
     double *x;              /* nfft: work */
@@ -199,6 +200,7 @@ void cf_stochastic_free(cf_stochastic *g)
         return;
     cf_fft_plan_free(g->plan);
     free(g->window);
+    free(g->noise);
     free(g->filt);
     free(g->spec);
     free(g->x);
@@ -264,11 +266,15 @@ int cf_stochastic_setup(cf_stochastic *g, const cf_stochastic_def *def)
     /* buffers (grown, never shrunk) and plan (rebuilt only when nfft changes) */
     if (in.n_window > g->cap_window) {
         double *w = realloc(g->window, sizeof(double) * (size_t)in.n_window);
-        if (!w) {
+        if (w)
+            g->window = w;
+        double *z = realloc(g->noise, sizeof(double) * (size_t)in.n_window);
+        if (z)
+            g->noise = z;
+        if (!w || !z) {
             snprintf(g->msg, CF_MSG_LEN, "out of memory (window)");
             return CF_ENOMEM;
         }
-        g->window = w;
         g->cap_window = in.n_window;
     }
     if (in.nfft > g->cap_fft) {
@@ -318,30 +324,57 @@ int cf_stochastic_get_info(const cf_stochastic *g, cf_stochastic_info *info)
     return CF_OK;
 }
 
-int cf_stochastic_run(cf_stochastic *g, uint64_t seed, double *acc, int n)
+/* CF_OK when g is set up, else CF_ESTATE with a message naming the call. */
+static int check_ready(cf_stochastic *g, const char *call)
 {
-    if (!g)
-        return CF_EINVAL;
     g->msg[0] = 0;
     if (!g->ready) {
-        snprintf(g->msg, CF_MSG_LEN, "cf_stochastic_run before a successful cf_stochastic_setup");
+        snprintf(g->msg, CF_MSG_LEN, "%s before a successful cf_stochastic_setup", call);
         return CF_ESTATE;
     }
-    const cf_stochastic_info *in = &g->info;
-    if (!acc || n != in->n_out) {
-        snprintf(g->msg, CF_MSG_LEN, "output array has %d samples, the record needs %d", n, in->n_out);
+    return CF_OK;
+}
+
+static int check_output(cf_stochastic *g, const double *acc, int n)
+{
+    if (!acc || n != g->info.n_out) {
+        snprintf(g->msg, CF_MSG_LEN, "output array has %d samples, the record needs %d", n, g->info.n_out);
         return CF_EINVAL;
     }
+    return CF_OK;
+}
+
+static int check_normals_length(cf_stochastic *g, const double *z, int nz)
+{
+    if (!z || nz != g->info.n_window) {
+        snprintf(g->msg, CF_MSG_LEN, "normals array has %d values, the scenario's noise needs %d (n_window)",
+                 z ? nz : 0, g->info.n_window);
+        return CF_EINVAL;
+    }
+    return CF_OK;
+}
+
+/* The normals of seed, in the order the record uses them (one call of cf_rng_normal
+ * per noise sample, so the polar method's spare of an odd count is dropped). */
+static void draw(uint64_t seed, double *z, int n)
+{
+    cf_rng rng;
+    cf_rng_seed(&rng, seed);
+    cf_rng_normals(&rng, z, n);
+}
+
+/* Steps 1-5 of the recipe from the n_window normals z into acc (info.n_out samples). */
+static int make_record(cf_stochastic *g, const double *z, double *acc)
+{
+    const cf_stochastic_info *in = &g->info;
     const int nfft = in->nfft, nh = nfft / 2;
     double *x = g->x, *spec = g->spec;
 
     /* 1. windowed Gaussian white noise (unit variance), zero padded */
-    cf_rng rng;
-    cf_rng_seed(&rng, seed);
     memset(x, 0, sizeof(double) * (size_t)nfft);
     double *xw = x + in->i_window;
     for (int i = 0; i < in->n_window; i++)
-        xw[i] = cf_rng_normal(&rng) * g->window[i];
+        xw[i] = z[i] * g->window[i];
 
     /* 2. real FFT */
     cf_fft_forward(g->plan, x, spec);
@@ -366,6 +399,52 @@ int cf_stochastic_run(cf_stochastic *g, uint64_t seed, double *acc, int n)
     /* 5. inverse FFT (includes 1/nfft), trim */
     cf_fft_inverse(g->plan, spec, x);
     const int n_pre = (int)lround(g->def.pre_s / g->def.dt);
-    memcpy(acc, x + in->i_window - n_pre, sizeof(double) * (size_t)n);
+    memcpy(acc, x + in->i_window - n_pre, sizeof(double) * (size_t)in->n_out);
     return CF_OK;
+}
+
+int cf_stochastic_run(cf_stochastic *g, uint64_t seed, double *acc, int n)
+{
+    if (!g)
+        return CF_EINVAL;
+    int st = check_ready(g, "cf_stochastic_run");
+    if (st == CF_OK)
+        st = check_output(g, acc, n);
+    if (st != CF_OK)
+        return st;
+    draw(seed, g->noise, g->info.n_window);
+    return make_record(g, g->noise, acc);
+}
+
+int cf_stochastic_draw_normals(cf_stochastic *g, uint64_t seed, double *z, int nz)
+{
+    if (!g)
+        return CF_EINVAL;
+    int st = check_ready(g, "cf_stochastic_draw_normals");
+    if (st == CF_OK)
+        st = check_normals_length(g, z, nz);
+    if (st != CF_OK)
+        return st;
+    draw(seed, z, nz);
+    return CF_OK;
+}
+
+int cf_stochastic_run_normals(cf_stochastic *g, const double *z, int nz, double *acc, int n)
+{
+    if (!g)
+        return CF_EINVAL;
+    int st = check_ready(g, "cf_stochastic_run_normals");
+    if (st == CF_OK)
+        st = check_output(g, acc, n);
+    if (st == CF_OK)
+        st = check_normals_length(g, z, nz);
+    if (st != CF_OK)
+        return st;
+    for (int i = 0; i < nz; i++) {
+        if (!isfinite(z[i])) {
+            snprintf(g->msg, CF_MSG_LEN, "normals[%d] = %g is not finite", i, z[i]);
+            return CF_EINVAL;
+        }
+    }
+    return make_record(g, z, acc);
 }

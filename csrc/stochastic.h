@@ -13,6 +13,13 @@
  * cf_stochastic_run(seed, acc, n_out) as often as needed (each run depends only on
  * its seed) -> cf_stochastic_free. Setup caches the FFT plan, the window and the
  * target spectrum, so records of one scenario cost only noise + two FFTs.
+ *
+ * A record is a pure function of its n_window standard normals (the white noise):
+ * cf_stochastic_run(seed) is cf_stochastic_draw_normals(seed) followed by
+ * cf_stochastic_run_normals of those normals, bit for bit. Samplers that move in the
+ * space of the normals (subset simulation) give them directly. The record is
+ * unchanged by a positive factor on all the normals (step 3 divides by their RMS
+ * spectral amplitude), so only their direction matters.
  * A generator is not thread-safe (it owns work buffers); use one per thread.
  * Every fallible call returns a cf_status and leaves a message on the object.
  */
@@ -70,6 +77,16 @@ int cf_stochastic_setup(cf_stochastic *g, const cf_stochastic_def *def);
 int cf_stochastic_get_info(const cf_stochastic *g, cf_stochastic_info *info);
 /* One record for seed into acc (n must equal info.n_out), m/s^2. */
 int cf_stochastic_run(cf_stochastic *g, uint64_t seed, double *acc, int n);
+/* The n_window standard normals cf_stochastic_run draws for seed, in order, into z
+ * (nz must equal info.n_window): xoshiro256** seeded by splitmix64, polar-method
+ * normals (rng.h). CF_ESTATE before setup, CF_EINVAL for a wrong length. */
+int cf_stochastic_draw_normals(cf_stochastic *g, uint64_t seed, double *z, int nz);
+/* One record from the given standard normals z (nz must equal info.n_window, every
+ * value finite) into acc (n must equal info.n_out), m/s^2: with the normals of
+ * cf_stochastic_draw_normals(seed), bitwise the record of cf_stochastic_run(seed).
+ * CF_ESTATE before setup, CF_EINVAL for a wrong length or a non-finite normal (the
+ * message names its index), CF_EUNSTABLE when every normal is zero. */
+int cf_stochastic_run_normals(cf_stochastic *g, const double *z, int nz, double *acc, int n);
 
 /* Scenario check alone: CF_OK, or CF_ERANGE with a message in msg (CF_MSG_LEN
  * bytes, may be NULL) naming the bad value. */

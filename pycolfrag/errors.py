@@ -38,3 +38,8 @@ class HazardFileError(PycolfragError, ValueError):
 class OutputError(PycolfragError, OSError):
     """An output folder or file that cannot be written (a file in the folder's place, no permission,
     a full disk)."""
+
+
+class RareEventError(PycolfragError, RuntimeError):
+    """A rare-event estimate that cannot be made as asked: subset simulation whose levels stop rising,
+    more failed runs than a level can absorb, an evaluator that returns other rows than it was given."""

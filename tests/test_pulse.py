@@ -244,8 +244,8 @@ def test_the_registry_refuses_a_shape_that_breaks_the_interface():
 
     def shape(name, params=mp.PARAMETERS, **kw):
         return SimpleNamespace(**{"NAME": f"toy_{name}", "KIND": "pulse", "SHAPE": name, "PARAMETERS": params,
-                                  "INPUTS": params[:1], "sample_parameters": mp.sample_parameters,
-                                  "prepare": mp.prepare, **kw})
+                                  "INPUTS": params[:1], "NORMALS": mp.NORMALS, "sample_parameters": mp.sample_parameters,
+                                  "parameters_from_normals": mp.parameters_from_normals, "prepare": mp.prepare, **kw})
     assert list(registry._pulse_shapes([mp, shape("toy")])) == ["mp03", "toy"]
     bare = shape("bare")
     del bare.prepare
@@ -288,5 +288,9 @@ def test_every_shape_keeps_its_promises(name):
     rec = synthesize(6.5, 10.0, 3, shape=name)
     assert rec.meta["pulse_shape"] == name
     assert all(q.meta_key in rec.meta for q in shape.PARAMETERS)
+    # from standard normals: the median quantiles give the inputs, each within its declared range
+    med = shape.parameters_from_normals(6.5, 10.0, np.zeros(len(shape.NORMALS)))
+    assert list(med) == [q.meta_key for q in shape.INPUTS]
+    assert all(q.check(med[q.meta_key], q.meta_key) == med[q.meta_key] for q in shape.INPUTS)
     with pytest.raises(ParameterError, match="unknown pulse shape"):
         synthesize(6.5, 10.0, 3, shape="no_such_shape")

@@ -23,16 +23,18 @@ Modules, one per published model (docs/ground_motion.md):
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
-from .._validate import positive_float
+from .._validate import float_array, positive_float
 from ..errors import ParameterError
 from . import baker_2007, mavroeidis_papageorgiou_2003, pulse_shape, record, registry, rupakhety_2011, shahi_baker_2014
 from .mavroeidis_papageorgiou_2003 import _int_seed as _seed
 from .record import Record
 
-__all__ = ["Record", "stochastic", "synthesize", "sample_pulse_parameters", "read_at2",
+__all__ = ["Record", "stochastic", "synthesize", "sample_pulse_parameters", "NormalsLayout", "normals_layout",
+           "draw_normals", "read_at2",
            "atkinson_silva_2000", "mavroeidis_papageorgiou_2003", "rupakhety_2011", "baker_2007", "shahi_baker_2014",
            "pulse_shape", "registry", "combine", "plots", "PULSE_STREAM"]
 
@@ -70,28 +72,77 @@ def _scenario(Mw, dist_km):
     return rupakhety_2011.check_scenario(Mw, dist_km)
 
 
-def stochastic(Mw, dist_km, seed, dt=0.005) -> Record:
+def stochastic(Mw, dist_km, seed=None, dt=0.005, normals=None) -> Record:
     """High-frequency record only (Boore's stochastic method, Atkinson & Silva 2000).
 
     Parameters
     ----------
     Mw : float, moment magnitude
     dist_km : float, distance, km
-    seed : int (>= 0), noise seed
+    seed : int (>= 0), noise seed; or None when ``normals`` are given
     dt : float, s
+    normals : array_like or None, instead of ``seed``: the white noise itself
+        (``normals_layout(Mw, dist_km, dt, shape="none").noise`` standard normals;
+        :func:`atkinson_silva_2000.simulate`). ``normals=draw_normals(Mw, dist_km, seed)`` gives
+        bitwise the record of ``seed``.
 
     Returns
     -------
-    Record with ``meta``: ``Mw``, ``dist_km``, ``seed``, ``dt_s``, ``generator`` and the
-    generator's details prefixed ``hf_`` (``hf_duration_s``, ``hf_window_start_s``, ``hf_nfft``).
+    Record with ``meta``: ``Mw``, ``dist_km``, ``seed`` (None when made from normals), ``dt_s``,
+    ``generator`` and the generator's details prefixed ``hf_`` (``hf_duration_s``,
+    ``hf_window_start_s``, ``hf_nfft``).
     """
     from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
     dt = positive_float(dt, "dt")
-    seed = _seed(seed)
-    acc, info = as00.simulate(Mw, dist_km, seed, dt=dt)
+    seed = None if seed is None else _seed(seed)
+    acc, info = as00.simulate(Mw, dist_km, seed, dt=dt, normals=normals)
     meta = {**_keyed(record.PARAMETERS, (float(Mw), float(dist_km), seed, dt)), "kind": "stochastic"}
     meta.update(_generator_meta(info))
     return Record(acc, dt, meta=meta)
+
+
+class NormalsLayout(NamedTuple):
+    """How many standard normals a synthetic record is made from: ``pulse`` quantiles (the shape's
+    ``NORMALS``; 0 for the stochastic record alone) then ``noise`` white-noise samples."""
+
+    pulse: int
+    noise: int
+
+    @property
+    def size(self) -> int:
+        """The length of ``normals``: ``pulse + noise``."""
+        return self.pulse + self.noise
+
+
+def normals_layout(Mw, dist_km, dt=0.005, shape=registry.DEFAULT_PULSE_SHAPE) -> NormalsLayout:
+    """The :class:`NormalsLayout` of the records of a scenario: for :func:`synthesize` with the pulse
+    shape ``shape`` (``synthesize(normals=z)`` takes ``z[:pulse]`` as the pulse's quantiles and
+    ``z[pulse:]`` as the noise), or, with ``shape="none"``, for :func:`stochastic` (noise only). The
+    noise count is ``floor(2 T_gm / dt) + 1`` (about 2 400 at Mw 6.25, 10 km, dt 0.005 s)."""
+    from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
+    n_pulse = 0 if shape == registry.NO_PULSE else len(registry.pulse_shape_of(shape).NORMALS)
+    return NormalsLayout(n_pulse, as00.n_normals(Mw, dist_km, dt))
+
+
+def draw_normals(Mw, dist_km, seed, dt=0.005):
+    """The white-noise normals the seed ``seed`` draws for the scenario's high-frequency record
+    (:func:`atkinson_silva_2000.draw_normals`): ``stochastic(Mw, dist_km, normals=draw_normals(Mw,
+    dist_km, seed))`` is ``stochastic(Mw, dist_km, seed)`` bit for bit, and ``synthesize(Mw, dist_km,
+    pulse=row, normals=draw_normals(Mw, dist_km, seed))`` is ``synthesize(Mw, dist_km, seed, pulse=row)``."""
+    from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
+    return as00.draw_normals(Mw, dist_km, seed, dt)
+
+
+def _split_normals(normals, model, pulse, n_noise):
+    """(pulse quantiles or None, noise) of ``normals``: the shape's ``NORMALS`` first unless a pulse
+    row is given, then the ``n_noise`` white-noise normals; ParameterError for another length."""
+    z = float_array(normals, "normals")
+    n_pulse = 0 if pulse is not None else len(model.NORMALS)
+    if z.size != n_pulse + n_noise:
+        what = (f"the pulse row is given, so only the {n_noise} white-noise normals" if pulse is not None else
+                f"{n_pulse} pulse quantiles ({', '.join(model.NORMALS)}) then {n_noise} white-noise normals")
+        raise ParameterError(f"normals has {z.size} values; synthesize takes {n_pulse + n_noise} here: {what}")
+    return (None if pulse is not None else z[:n_pulse]), z[n_pulse:]
 
 
 def _keyed(parameters, values) -> dict:
@@ -124,6 +175,18 @@ def _pulse_row(Mw, dist_km, seed, vp_scale, pulse, shape):
     return tuple(p.check(pulse[p.meta_key], f"pulse[{p.meta_key!r}]", error=ParameterError) for p in inputs)
 
 
+def _pulse_and_noise(Mw, dist_km, dt, vp_scale, pulse, model, normals):
+    """(the pulse row or None, where it comes from, the white-noise normals or None): a row given, a
+    seeded draw (``pulse`` None, no normals), or the pulse and noise parts of ``normals``."""
+    if normals is None:
+        return pulse, ("seed" if pulse is None else "argument"), None
+    from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
+    z_pulse, noise = _split_normals(normals, model, pulse, as00.n_normals(Mw, dist_km, dt))
+    if z_pulse is None:
+        return pulse, "argument", noise
+    return model.parameters_from_normals(Mw, dist_km, z_pulse, vp_scale), "normals", noise
+
+
 def _place(prepared, hf, dt, t_peak):
     """The pulse's epoch t0 that puts its velocity peak at t_peak (s), the HF record padded with whole
     samples of zeros where the pulse's support reaches past it, and the times counted from the first
@@ -137,8 +200,8 @@ def _place(prepared, hf, dt, t_peak):
     return hf, t0 + n_pre * dt, t_peak + n_pre * dt, n_pre, n_post
 
 
-def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_polarity=True,
-               shape=registry.DEFAULT_PULSE_SHAPE) -> Record:
+def synthesize(Mw, dist_km, seed=None, dt=0.005, vp_scale=1.0, pulse=None, match_polarity=True,
+               shape=registry.DEFAULT_PULSE_SHAPE, normals=None) -> Record:
     """A near-fault record: stochastic HF part plus a velocity pulse (the paper's steps 1-6).
 
     1. HF record: :func:`atkinson_silva_2000.simulate` with ``seed``.
@@ -167,11 +230,13 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_pola
 
     Parameters
     ----------
-    Mw : float; dist_km : float, km; seed : int (>= 0)
-    dt : float, s; vp_scale : float (> 0), multiplies the Eq. (6) mean Vp
-    pulse : dict or None
-    match_polarity : bool, flip the HF record's sign to match the pulse (default True)
-    shape : str, the pulse shape (default "mp03")
+    Mw : float; dist_km : float, km; seed : int (>= 0), or None when ``normals`` are given
+    dt : float, s; vp_scale : float (> 0), multiplies the Eq. (6) mean Vp; pulse : dict or None
+    match_polarity : bool, flip the HF record's sign to match the pulse (default True); shape : str
+    normals : array_like or None, instead of ``seed`` (layout: :func:`normals_layout`): the pulse's
+        quantiles (the shape's ``NORMALS``, mapped by its ``parameters_from_normals``), then the white
+        noise of step 1 (with a ``pulse`` row, the noise alone). The record is a pure function of them;
+        ``normals=draw_normals(Mw, dist_km, seed)`` with a pulse row gives bitwise the seed's record.
 
     Returns
     -------
@@ -179,6 +244,7 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_pola
         ``acc`` m/s^2; ``meta`` with ``Mw``, ``dist_km``, ``seed``, ``vp_scale``, the shape's
         ``PARAMETERS`` (for "mp03": ``Vp_cm_s``, ``fp_hz``, ``nu_rad``, ``gamma``, ``t0_s``, ``Tp_s``,
         ``A_cm_s``, ``Ap_g``: peak |acc| of the sampled pulse alone, g), ``pulse_shape``,
+        ``pulse_seeded_from`` ("seed", "argument" or "normals"; ``seed`` is None with normals),
         ``t_peak_s``, ``pad_before_s``, ``pad_after_s``, ``generator``, ``hf_*``; ``components``:
         ``"hf"`` (step 1, padded), ``"pulse"`` and ``"hf_modified"`` (step 5), all on the record's
         time axis. Same arguments give the same record, bit for bit, in any process.
@@ -186,32 +252,31 @@ def synthesize(Mw, dist_km, seed, dt=0.005, vp_scale=1.0, pulse=None, match_pola
     from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
     from .combine import combine  # loads C: the package must import without it
     from ..intensity import integrate  # loads C: the package must import without it
-
     model = registry.pulse_shape_of(shape)
     Mw_f, dist_f = _scenario(Mw, dist_km)
     dt = positive_float(dt, "dt")
-    seed = _seed(seed)
+    as00._exactly_one(seed, normals)
+    seed = None if seed is None else _seed(seed)
     rupakhety_2011.mean_vp_cm_s(Mw_f, dist_f, vp_scale)   # ParameterError naming a bad vp_scale
     vp_scale_f = float(vp_scale)
+    pulse, source, noise = _pulse_and_noise(Mw_f, dist_f, dt, vp_scale_f, pulse, model, normals)
     prepared = model.prepare(*_pulse_row(Mw_f, dist_f, seed, vp_scale_f, pulse, model))
 
-    hf, info = as00.simulate(Mw_f, dist_f, seed, dt=dt)                            # step 1
+    hf, info = as00.simulate(Mw_f, dist_f, seed, dt=dt, normals=noise)             # step 1
     vel_hf = integrate(hf, dt)[0]
     k_peak = int(np.argmax(np.abs(vel_hf)))
     t_peak = k_peak * dt
-
     polarity = 1.0                                                                  # step 2
     if match_polarity and prepared.peak_sign * vel_hf[k_peak] < 0:
         polarity = -1.0
         hf = -hf
     hf, t0, t_peak, n_pre, n_post = _place(prepared, hf, dt, t_peak)
     pulse_acc = prepared.acceleration(np.arange(hf.size) * dt, t0)                 # m/s^2
-
     acc = combine(hf, pulse_acc)                                                    # steps 3-6
     meta = {**_keyed(record.PARAMETERS, (Mw_f, dist_f, seed, dt)), "kind": "near-fault", "vp_scale": vp_scale_f,
             **_keyed(model.PARAMETERS, prepared.meta(t0, pulse_acc)), "pulse_shape": model.SHAPE,
             "t_peak_s": t_peak, "pad_before_s": n_pre * dt, "pad_after_s": n_post * dt,
-            "hf_polarity": int(polarity), "pulse_seeded_from": "seed" if pulse is None else "argument"}
+            "hf_polarity": int(polarity), "pulse_seeded_from": source}
     meta.update(_generator_meta(info))
     return Record(acc, dt, meta=meta,
                   components={"hf": hf, "pulse": pulse_acc, "hf_modified": acc - pulse_acc})

@@ -9,6 +9,11 @@ amplitude (DC and Nyquist excluded), multiplication by the target Fourier
 amplitude ``A(f)``, inverse FFT and division by ``dt``. See ``docs/stochastic.md``
 for every choice (padding, window length, trimming, FFT) and the checks.
 
+A record is a pure function of its white noise, ``n_normals(Mw, dist_km, dt)`` standard normals:
+``simulate(..., normals=z)`` makes it from given normals (what a sampler moving in the space of the
+normals needs), and ``draw_normals(Mw, dist_km, seed)`` are the normals a seed draws, so
+``simulate(..., normals=draw_normals(..., seed))`` is ``simulate(..., seed)`` bit for bit.
+
 Accepted scenario range (the limits this project adopted for AS00; the paper's scenarios,
 M 5.5-7.5 at 5-20 km, lie well inside): ``4.0 <= Mw <= 8.0`` and ``0 < dist_km <= 200``;
 outside, or non-finite, :class:`~pycolfrag.errors.ModelRangeError` is raised.
@@ -23,11 +28,12 @@ from importlib import resources
 import numpy as np
 
 from .._ffi import check, ffi, lib, ptr
-from .._validate import integer, real
+from .._validate import float_array, integer, real
 from ..errors import ParameterError
 from ..names import Parameter
 
-__all__ = ["NAME", "KIND", "PARAMETERS", "PARAMS", "check_scenario", "fourier_amplitude", "duration_s", "simulate", "window"]
+__all__ = ["NAME", "KIND", "PARAMETERS", "PARAMS", "check_scenario", "fourier_amplitude", "duration_s", "simulate",
+           "n_normals", "draw_normals", "window"]
 
 #: The model's parameters (a copy of ``reference/as00.json`` shipped with the package).
 PARAMS: dict = json.loads(resources.files("pycolfrag").joinpath("data/as00.json").read_text("utf-8"))
@@ -146,6 +152,19 @@ class _Generator:
             check(lib.cf_stochastic_run(self.ptr, seed, ptr(acc), acc.size), lib.cf_stochastic_message(self.ptr))
         return acc
 
+    def draw(self, seed: int) -> np.ndarray:
+        z = np.empty(self.info["n_window"], dtype=np.float64)
+        with self.lock:
+            check(lib.cf_stochastic_draw_normals(self.ptr, seed, ptr(z), z.size), lib.cf_stochastic_message(self.ptr))
+        return z
+
+    def run_normals(self, z: np.ndarray) -> np.ndarray:
+        acc = np.empty(self.info["n_out"], dtype=np.float64)
+        with self.lock:
+            check(lib.cf_stochastic_run_normals(self.ptr, ptr(z), z.size, ptr(acc), acc.size),
+                  lib.cf_stochastic_message(self.ptr))
+        return acc
+
 
 _CACHE: OrderedDict = OrderedDict()
 _CACHE_LOCK = threading.Lock()
@@ -167,7 +186,44 @@ def _generator(mw: float, d: float, dt: float) -> _Generator:
     return gen
 
 
-def simulate(Mw, dist_km, seed, dt=0.005):
+def n_normals(Mw, dist_km, dt=0.005) -> int:
+    """How many standard normals a record of the scenario is made from: the white-noise samples over
+    the Saragoni-Hart window, ``floor(2 T_gm / dt) + 1`` (``n_window`` of :func:`simulate`'s info;
+    about 2 400 at Mw 6.25, 10 km, dt 0.005 s)."""
+    mw, d = check_scenario(Mw, dist_km)
+    return int(_generator(mw, d, _check_dt(dt)).info["n_window"])
+
+
+def draw_normals(Mw, dist_km, seed, dt=0.005) -> np.ndarray:
+    """The :func:`n_normals` standard normals that :func:`simulate` draws for ``seed`` (xoshiro256**
+    seeded by splitmix64, Marsaglia's polar method, in order: ``csrc/rng.h``), so that
+    ``simulate(Mw, dist_km, normals=draw_normals(Mw, dist_km, seed))`` is ``simulate(Mw, dist_km, seed)``
+    bit for bit. Arguments and errors as :func:`simulate`."""
+    mw, d = check_scenario(Mw, dist_km)
+    return _generator(mw, d, _check_dt(dt)).draw(_check_seed(seed))
+
+
+def _exactly_one(seed, normals) -> None:
+    """ParameterError unless exactly one of ``seed`` and ``normals`` is given (not None)."""
+    if (seed is None) == (normals is None):
+        raise ParameterError("give exactly one of seed and normals (the record's white noise: a seed draws it, "
+                             f"normals give it), got seed={seed!r} and normals "
+                             f"{'None' if normals is None else 'given'}")
+
+
+def _noise_source(seed, normals, n_window: int):
+    """The checked seed (int) or normals (float64 array of ``n_window`` finite values): exactly one."""
+    _exactly_one(seed, normals)
+    if normals is None:
+        return _check_seed(seed)
+    z = float_array(normals, "normals")
+    if z.size != n_window:
+        raise ParameterError(f"normals has {z.size} values; the scenario's white noise takes n_normals = {n_window} "
+                             "(the samples of its window)")
+    return z
+
+
+def simulate(Mw, dist_km, seed=None, dt=0.005, normals=None):
     """One high-frequency acceleration record of the scenario (C generator).
 
     Parameters
@@ -176,11 +232,15 @@ def simulate(Mw, dist_km, seed, dt=0.005):
         Moment magnitude, [4.0, 8.0].
     dist_km : float
         Closest distance to the fault, km, (0, 200].
-    seed : int
-        0 <= seed < 2**64; the record depends only on (Mw, dist_km, seed, dt),
-        bit for bit, in any process.
+    seed : int or None
+        0 <= seed < 2**64: the noise drawn from it (:func:`draw_normals`); the record depends
+        only on (Mw, dist_km, seed, dt), bit for bit, in any process.
     dt : float
         Time step, s, in [1e-4, 0.02] (default 0.005).
+    normals : array_like or None
+        Instead of ``seed``: the white noise itself, :func:`n_normals` finite standard normals
+        (1-D); the record is a pure function of them (and unchanged by a positive factor on all of
+        them, which its RMS normalisation removes).
 
     Returns
     -------
@@ -189,7 +249,7 @@ def simulate(Mw, dist_km, seed, dt=0.005):
         after the window end.
     info : dict
         ``duration_s`` (T_gm), ``window_s`` (t_eta = 2 T_gm), ``window_start_s`` (time
-        of the window start in ``acc``), ``nfft``, ``dt``, ``generator``, and the
+        of the window start in ``acc``), ``nfft``, ``n_window``, ``dt``, ``generator``, and the
         source/path quantities ``fa_hz``, ``fb_hz``, ``eps_source``, ``m0_dyne_cm``,
         ``h_km``, ``r_km``, ``pad_s``.
 
@@ -198,13 +258,14 @@ def simulate(Mw, dist_km, seed, dt=0.005):
     ModelRangeError
         Mw or dist_km outside the range or non-finite.
     ParameterError
-        dt or seed invalid.
+        dt or seed invalid; both or neither of seed and normals; normals of the wrong length or
+        not finite.
     """
     mw, d = check_scenario(Mw, dist_km)
     step = _check_dt(dt)
-    s = _check_seed(seed)
     gen = _generator(mw, d, step)
-    acc = gen.run(s)
+    noise = _noise_source(seed, normals, gen.info["n_window"])
+    acc = gen.run(noise) if normals is None else gen.run_normals(noise)
     i = gen.info
     info = {
         "duration_s": i["duration_s"],

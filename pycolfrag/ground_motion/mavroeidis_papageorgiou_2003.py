@@ -25,13 +25,14 @@ from scipy import optimize
 from scipy.stats import qmc
 
 from .._validate import finite_float, float_array, integer, positive_float
+from ..errors import ParameterError
 from ..names import G, Parameter
 from . import rupakhety_2011 as _r11
 from .pulse_shape import PreparedPulse
 
 __all__ = ["NAME", "KIND", "SHAPE", "PARAMETERS", "INPUTS", "prepare", "GAMMA_MEAN", "GAMMA_SD", "GAMMA_MIN", "NU_RANGE_RAD", "pulse", "velocity",
            "acceleration", "displacement", "support", "envelope_amplitude", "peak_velocity_time",
-           "sample_parameters"]
+           "sample_parameters", "NORMALS", "parameters_from_normals"]
 
 #: Name in the registry (:mod:`pycolfrag.ground_motion.registry`).
 NAME = "mavroeidis_papageorgiou_2003"
@@ -64,6 +65,9 @@ PARAMETERS = (
 _VP, _FP, _NU, _GAMMA, _T0, _TP, _A, _AP = PARAMETERS
 #: The parameters a pulse row must give (:func:`pycolfrag.ground_motion.synthesize`); the rest are derived.
 INPUTS = (_VP, _FP, _NU, _GAMMA)
+#: The standard normals (quantiles) the inputs are made from, in order (:func:`parameters_from_normals`):
+#: each input is the inverse CDF of its distribution at Phi(z) of its own normal.
+NORMALS = ("z_vp", "z_fp", "z_nu", "z_gamma")
 
 
 def _c():
@@ -275,3 +279,53 @@ def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11):
     return {_VP.meta_key: vp, _FP.meta_key: fp, _NU.meta_key: nu, _GAMMA.meta_key: gamma,
             _A.meta_key: np.asarray(envelope_amplitude(vp, fp, nu, gamma), dtype=float).reshape(n_),
             _TP.meta_key: 1.0 / fp}
+
+
+def parameters_from_normals(Mw, dist_km, z, vp_scale=1.0, tp_model=_r11) -> dict:
+    """The pulse inputs (:data:`INPUTS`) of the scenario from four standard normals ``z`` (the quantiles
+    named by :data:`NORMALS`): the distributions of :func:`sample_parameters` by inverse CDF at
+    ``Phi(z)``, so that independent N(0, 1) normals give pulses of exactly those distributions and a
+    pulse is a pure function of its normals (what subset simulation and importance sampling move in).
+
+    * log10 Vp = log10 of the Eq. (6) mean times ``vp_scale`` + 0.16 z_vp (z_vp > 0: a stronger pulse);
+    * log10 fp = the ``tp_model`` mean + its sd times z_fp (z_fp > 0: a higher fp, a *shorter* Tp);
+    * nu = -pi/2 + pi Phi(z_nu);
+    * gamma = 1.8 + 0.4 t, t the inverse CDF of the standard normal left-truncated at a = (1 - 1.8)/0.4
+      at Phi(z_gamma): ``ndtri(Phi(a) + Phi(z_gamma) (1 - Phi(a)))`` below the truncated median,
+      ``-ndtri(Phi(-z_gamma) (1 - Phi(a)))`` above it (accurate in the upper tail), and never below 1.
+
+    With ``z = ndtri(u)`` of a Latin-hypercube row ``u`` the result is the row of
+    :func:`sample_parameters` (the same ``cf_pulse_sample_map`` formulas through the same library
+    functions): Vp and fp bit for bit (both compute ``10^(mean + sd ndtri(u))``); nu and gamma to
+    rounding (about 1e-15 relative), since ``Phi(ndtri(u))`` is ``u`` only to rounding. Conversely
+    ``cf_pulse_sample_map`` at ``u = Phi(z)`` gives bitwise this nu, and this gamma below the
+    truncated median (tests/test_normals.py).
+
+    Parameters
+    ----------
+    Mw, dist_km : float -- the scenario (the pulse model's range)
+    z : array_like of 4 finite floats
+    vp_scale : float (> 0), multiplies the Eq. (6) mean
+    tp_model : module, a pulse-period relation (default the paper's Eq. 7)
+
+    Returns
+    -------
+    dict ``{Vp_cm_s, fp_hz, nu_rad, gamma}`` of floats.
+    """
+    z = float_array(z, "pulse normals")
+    if z.size != len(NORMALS):
+        raise ParameterError(f"pulse normals has {z.size} values; the pulse takes {len(NORMALS)} "
+                             f"({', '.join(NORMALS)})")
+    lib = _c().lib
+    log_vp = lib.cf_math_log10(_r11.mean_vp_cm_s(Mw, dist_km, vp_scale))
+    log_fp = tp_model.log10_fp_mean(Mw)
+    z_vp, z_fp, z_nu, z_gamma = (float(x) for x in z)
+    vp = lib.cf_math_pow(10.0, log_vp + _r11.SIGMA_LOG10_VP * z_vp)
+    fp = lib.cf_math_pow(10.0, log_fp + tp_model.SIGMA_LOG10_FP * z_fp)
+    nu = NU_RANGE_RAD[0] + (NU_RANGE_RAD[1] - NU_RANGE_RAD[0]) * lib.cf_math_norm_cdf(z_nu)
+    a = (GAMMA_MIN - GAMMA_MEAN) / GAMMA_SD
+    phi_a, q_a = lib.cf_math_norm_cdf(a), lib.cf_math_norm_cdf(-a)
+    p = phi_a + lib.cf_math_norm_cdf(z_gamma) * q_a
+    t = lib.cf_math_ndtri(p) if p <= 0.5 else -lib.cf_math_ndtri(lib.cf_math_norm_cdf(-z_gamma) * q_a)
+    gamma = max(GAMMA_MEAN + GAMMA_SD * t, GAMMA_MIN)
+    return {_VP.meta_key: vp, _FP.meta_key: fp, _NU.meta_key: nu, _GAMMA.meta_key: gamma}

@@ -13,12 +13,17 @@ at its top:
   same: same meta key, unit and description; the registry checks it);
 * ``INPUTS`` -- the parameters a pulse row must give (``synthesize(pulse=row)``), a subset of
   ``PARAMETERS``;
+* ``NORMALS`` -- the names of the standard normals its inputs are made from, in order (the pulse's
+  part of ``synthesize(normals=...)``);
 
-and offers two functions:
+and offers three functions:
 
 * ``sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=...)`` -> dict of ``n`` rows (meta
   key -> 1-D array, the ``INPUTS`` among them): the pulses of a scenario (``tp_model`` is a
   pulse-period relation of :data:`~pycolfrag.ground_motion.registry.TP_MODELS`, as a module);
+* ``parameters_from_normals(Mw, dist_km, z, vp_scale=1.0, tp_model=...)`` -> dict (meta key -> float)
+  of the ``INPUTS``: one pulse of the scenario from ``len(NORMALS)`` standard normals, by inverse CDFs,
+  so that N(0, I) normals give the distributions ``sample_parameters`` samples;
 * ``prepare(*inputs)`` -> :class:`PreparedPulse`: one pulse from the values of ``INPUTS`` (in their
   order), ready to be placed on a record.
 
@@ -65,13 +70,17 @@ class PulseShape(Protocol):
     SHAPE: str
     PARAMETERS: tuple
     INPUTS: tuple
+    NORMALS: tuple
 
     def sample_parameters(self, Mw, dist_km, n, seed, vp_scale=1.0, tp_model=None) -> dict: ...
+
+    def parameters_from_normals(self, Mw, dist_km, z, vp_scale=1.0, tp_model=None) -> dict: ...
 
     def prepare(self, *inputs) -> PreparedPulse: ...
 
 
 def missing(module) -> list[str]:
     """The names of :class:`PulseShape` that ``module`` does not define (empty: it is a pulse shape)."""
-    return [name for name in ("NAME", "KIND", "SHAPE", "PARAMETERS", "INPUTS", "sample_parameters", "prepare")
+    return [name for name in ("NAME", "KIND", "SHAPE", "PARAMETERS", "INPUTS", "NORMALS", "sample_parameters",
+                              "parameters_from_normals", "prepare")
             if not hasattr(module, name)]

@@ -1,11 +1,13 @@
 /* The AS00 spectrum, duration and window against hand-evaluated values, the
- * generator's argument checks, determinism and normalisation. */
+ * generator's argument checks, determinism, normalisation, and records made from
+ * given standard normals. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include "cf_test.h"
 #include "cf_common.h"
 #include "fft.h"
+#include "rng.h"
 #include "stochastic.h"
 
 /* Expected values evaluated with plain Python floats from the formulas of
@@ -175,6 +177,119 @@ static void test_spectrum_normalisation(void)
     cf_stochastic_free(g);
 }
 
+static cf_stochastic *set_up(double mw, double dist_km, cf_stochastic_info *in)
+{
+    cf_stochastic *g = cf_stochastic_create();
+    cf_stochastic_def d;
+    cf_stochastic_def_default(&d);
+    d.mw = mw;
+    d.dist_km = dist_km;
+    CF_CHECK(cf_stochastic_setup(g, &d) == CF_OK);
+    CF_CHECK(cf_stochastic_get_info(g, in) == CF_OK);
+    return g;
+}
+
+/* The split of a seeded run into "draw the normals" and "make the record from given
+ * normals" is exact: the normals are n_window calls of cf_rng_normal after
+ * cf_rng_seed(seed) (the polar method's spare of an odd count dropped), and the
+ * record made from them equals cf_stochastic_run(seed) bit for bit. Scenarios with
+ * an odd and an even n_window (checked), seeds at 0, small, the grid's and above 2^32. */
+static void test_normals_reproduce_seeded_runs(void)
+{
+    const double scen[4][2] = {{5.5, 20.0}, {6.5, 10.0}, {7.5, 5.0}, {6.37, 3.2}};
+    const uint64_t seeds[4] = {0, 1, 20160601, (UINT64_C(1) << 40) + 7};
+    int parity[2] = {0, 0};
+    for (int s = 0; s < 4; s++) {
+        cf_stochastic_info in;
+        cf_stochastic *g = set_up(scen[s][0], scen[s][1], &in);
+        parity[in.n_window % 2] = 1;
+        double *z = malloc(sizeof(double) * in.n_window), *zr = malloc(sizeof(double) * in.n_window);
+        double *a = malloc(sizeof(double) * in.n_out), *b = malloc(sizeof(double) * in.n_out);
+        for (int k = 0; k < 4; k++) {
+            CF_CHECK(cf_stochastic_draw_normals(g, seeds[k], z, in.n_window) == CF_OK);
+            cf_rng r;
+            cf_rng_seed(&r, seeds[k]);
+            for (int i = 0; i < in.n_window; i++)
+                zr[i] = cf_rng_normal(&r);
+            CF_CHECK(memcmp(z, zr, sizeof(double) * in.n_window) == 0);
+            CF_CHECK(cf_stochastic_run(g, seeds[k], a, in.n_out) == CF_OK);
+            CF_CHECK(cf_stochastic_run_normals(g, z, in.n_window, b, in.n_out) == CF_OK);
+            CF_CHECK(memcmp(a, b, sizeof(double) * in.n_out) == 0);
+        }
+        free(z); free(zr); free(a); free(b);
+        cf_stochastic_free(g);
+    }
+    CF_CHECK(parity[0] && parity[1]);
+}
+
+/* The record is invariant to a positive factor on all the normals (step 3 divides by
+ * their RMS spectral amplitude). With the factor 2 every operation of the recipe
+ * (products, FFT sums, the square root of 4 sum) is exact in binary, so the record is
+ * bitwise the same; with 3.7 it agrees to rounding (1e-12 of the peak: a few ulp of
+ * each FFT output summed over log2(nfft) stages). */
+static void test_normals_scale_invariance(void)
+{
+    cf_stochastic_info in;
+    cf_stochastic *g = set_up(6.5, 10.0, &in);
+    const int nw = in.n_window, n = in.n_out;
+    double *z = malloc(sizeof(double) * nw), *z2 = malloc(sizeof(double) * nw);
+    double *a = malloc(sizeof(double) * n), *b = malloc(sizeof(double) * n);
+    CF_CHECK(cf_stochastic_draw_normals(g, 7, z, nw) == CF_OK);
+    CF_CHECK(cf_stochastic_run_normals(g, z, nw, a, n) == CF_OK);
+    for (int i = 0; i < nw; i++)
+        z2[i] = 2.0 * z[i];
+    CF_CHECK(cf_stochastic_run_normals(g, z2, nw, b, n) == CF_OK);
+    CF_CHECK(memcmp(a, b, sizeof(double) * n) == 0);
+    for (int i = 0; i < nw; i++)
+        z2[i] = 3.7 * z[i];
+    CF_CHECK(cf_stochastic_run_normals(g, z2, nw, b, n) == CF_OK);
+    double peak = 0.0, diff = 0.0;
+    for (int i = 0; i < n; i++) {
+        peak = fmax(peak, fabs(a[i]));
+        diff = fmax(diff, fabs(a[i] - b[i]));
+    }
+    CF_CHECK(peak > 0.0 && diff <= 1e-12 * peak);
+    free(z); free(z2); free(a); free(b);
+    cf_stochastic_free(g);
+}
+
+/* Bad calls: before setup, wrong lengths, a non-finite normal (named by index), all
+ * zeros (no spectrum to normalise); never a crash, always a status and a message. */
+static void test_normals_bad_arguments(void)
+{
+    cf_stochastic *g = cf_stochastic_create();
+    double z[8] = {0}, acc[8];
+    CF_CHECK(cf_stochastic_draw_normals(g, 1, z, 8) == CF_ESTATE);
+    CF_CHECK(strstr(cf_stochastic_message(g), "cf_stochastic_draw_normals") != NULL);
+    CF_CHECK(cf_stochastic_run_normals(g, z, 8, acc, 8) == CF_ESTATE);
+    CF_CHECK(cf_stochastic_draw_normals(NULL, 1, z, 8) == CF_EINVAL);
+    CF_CHECK(cf_stochastic_run_normals(NULL, z, 8, acc, 8) == CF_EINVAL);
+    cf_stochastic_free(g);
+
+    cf_stochastic_info in;
+    g = set_up(6.0, 10.0, &in);
+    const int nw = in.n_window, n = in.n_out;
+    double *zz = calloc(nw, sizeof(double)), *a = malloc(sizeof(double) * n);
+    CF_CHECK(cf_stochastic_draw_normals(g, 1, zz, nw - 1) == CF_EINVAL);
+    CF_CHECK(strstr(cf_stochastic_message(g), "n_window") != NULL);
+    CF_CHECK(cf_stochastic_draw_normals(g, 1, NULL, nw) == CF_EINVAL);
+    CF_CHECK(cf_stochastic_run_normals(g, zz, nw + 1, a, n) == CF_EINVAL);
+    CF_CHECK(cf_stochastic_run_normals(g, zz, nw, a, n - 1) == CF_EINVAL);
+    CF_CHECK(strstr(cf_stochastic_message(g), "output array") != NULL);
+    CF_CHECK(cf_stochastic_run_normals(g, zz, nw, a, n) == CF_EUNSTABLE);   /* all zero */
+    CF_CHECK(cf_stochastic_draw_normals(g, 1, zz, nw) == CF_OK);
+    zz[7] = NAN;
+    CF_CHECK(cf_stochastic_run_normals(g, zz, nw, a, n) == CF_EINVAL);
+    CF_CHECK(strstr(cf_stochastic_message(g), "normals[7]") != NULL);
+    zz[7] = INFINITY;
+    CF_CHECK(cf_stochastic_run_normals(g, zz, nw, a, n) == CF_EINVAL);
+    zz[7] = 0.5;
+    CF_CHECK(cf_stochastic_run_normals(g, zz, nw, a, n) == CF_OK);
+    CF_CHECK(cf_stochastic_message(g)[0] == 0);
+    free(zz); free(a);
+    cf_stochastic_free(g);
+}
+
 int main(void)
 {
     CF_RUN(test_fas_and_duration);
@@ -184,5 +299,8 @@ int main(void)
     CF_RUN(test_info);
     CF_RUN(test_determinism);
     CF_RUN(test_spectrum_normalisation);
+    CF_RUN(test_normals_reproduce_seeded_runs);
+    CF_RUN(test_normals_scale_invariance);
+    CF_RUN(test_normals_bad_arguments);
     return CF_TEST_SUMMARY("test_stochastic");
 }
