@@ -44,12 +44,28 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass, field
 
+import importlib
+
 import numpy as np
-from scipy import optimize, special, stats
 
 from .. import names as _names
 from .._validate import float_array, integer, positive_float, real
 from ..errors import ParameterError
+
+
+class _OnFirstUse:
+    """A scipy module imported when one of its names is first read: ``import pycolfrag`` binds this
+    module (``pcf.fragility``), and every rank of a grid imports pycolfrag without ever calling it --
+    scipy.stats alone took 0.8 s of a rank's start-up."""
+
+    def __init__(self, name: str):
+        self._name = name
+
+    def __getattr__(self, attr):
+        return getattr(importlib.import_module(self._name), attr)
+
+
+optimize, special, stats = _OnFirstUse("scipy.optimize"), _OnFirstUse("scipy.special"), _OnFirstUse("scipy.stats")
 
 __all__ = [
     "PerformanceLevel",

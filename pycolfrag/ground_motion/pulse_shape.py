@@ -16,9 +16,11 @@ at its top:
 
 and offers two functions:
 
-* ``sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=...)`` -> dict of ``n`` rows (meta
-  key -> 1-D array, the ``INPUTS`` among them): the pulses of a scenario (``tp_model`` is a
-  pulse-period relation of :data:`~pycolfrag.ground_motion.registry.TP_MODELS`, as a module);
+* ``sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=..., amplitude=True)`` -> dict of
+  ``n`` rows (meta key -> 1-D array, the ``INPUTS`` among them): the pulses of a scenario (``tp_model``
+  is a pulse-period relation of :data:`~pycolfrag.ground_motion.registry.TP_MODELS`, as a module;
+  ``amplitude=False``: without derived values that cost a search per sample, the others bitwise the
+  same -- a grid asks only for what its rows read, the ``INPUTS``);
 * ``prepare(*inputs)`` -> :class:`PreparedPulse`: one pulse from the values of ``INPUTS`` (in their
   order), ready to be placed on a record.
 
@@ -66,7 +68,7 @@ class PulseShape(Protocol):
     PARAMETERS: tuple
     INPUTS: tuple
 
-    def sample_parameters(self, Mw, dist_km, n, seed, vp_scale=1.0, tp_model=None) -> dict: ...
+    def sample_parameters(self, Mw, dist_km, n, seed, vp_scale=1.0, tp_model=None, amplitude=True) -> dict: ...
 
     def prepare(self, *inputs) -> PreparedPulse: ...
 
