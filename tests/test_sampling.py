@@ -120,3 +120,10 @@ def test_a_grid_rank_starts_without_scipy_or_the_analysis():
 def test_fragility_still_reaches_scipy_on_first_use():
     import pycolfrag
     assert pycolfrag.fragility.stats.norm.cdf(0.0) == 0.5
+
+
+def test_a_grid_rank_draws_its_tables_without_the_amplitude():
+    """The grid's row context asks for the lean table (a rank then searches only its own rows' peaks)."""
+    from pycolfrag.grid import GridSpec
+    ctx = GridSpec(mw=(7.0,), dist_km=(10.0,), samples=4).context()
+    assert "A_cm_s" not in ctx.pulse(0, 1) and {"Vp_cm_s", "fp_hz", "nu_rad", "gamma"} <= set(ctx.pulse(0, 1))

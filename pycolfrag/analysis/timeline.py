@@ -190,7 +190,8 @@ def build_parser(prog: str = "python -m pycolfrag.analysis.timeline") -> argpars
                                 description="Utilisation and idle time by cause of every rank of a grid run, "
                                             "from the timeline stored in its results file (docs/grid.md).")
     p.add_argument("results", help="results file of a grid (pycolfrag grid)")
-    p.add_argument("--session", type=int, default=None, help="only this session (0 = the first; default: all)")
+    p.add_argument("--session", type=int, default=None,
+                   help="only this session (0 = the first, -1 = the last; default: all)")
     p.add_argument("--plot", default=None, metavar="PNG",
                    help="draw the Gantt chart (with several sessions: one file each, _<k> before the suffix)")
     p.add_argument("--json", default=None, metavar="FILE", help="write the summaries as JSON")
@@ -205,7 +206,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"timeline: cannot read {args.results}: {exc}", file=sys.stderr)
         return 2
     if args.session is not None:
-        sessions = {k: v for k, v in sessions.items() if k == f"session_{args.session}"}
+        names = list(sessions)
+        k = args.session + len(names) if args.session < 0 else args.session
+        sessions = {names[k]: sessions[names[k]]} if 0 <= k < len(names) else {}
     if not sessions:
         print(f"timeline: {args.results} holds no timeline" + (f" of session {args.session}" if args.session is not None
               else " (written before timelines were stored, or by other code)"), file=sys.stderr)
