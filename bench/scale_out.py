@@ -40,6 +40,10 @@ from pycolfrag.grid import replay as RP  # noqa: E402
 from pycolfrag.results.timeline import read_timeline  # noqa: E402
 
 GRID = "--mw 6.5 7.5 --dist 5 20 --samples 20"
+#: An AVX2 CPU's cost per run-step, relative to AVX-512's 8 lanes: width 4 and one run after the other,
+#: bench/batch_speed.py --define CF_FORCE_AVX2 against the default build on the machine of
+#: docs/performance.md (1.811 and 3.484 against 1.527 us per run-step, 64 grid records, one session).
+AVX2_WIDTH_FACTOR = {8: 1.0, 4: 1.811 / 1.527, 1: 3.484 / 1.527}
 SIZES = (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024)
 _START_UP = ("launch", "imports", "mpi_init", "checks", "identity")
 
@@ -164,6 +168,10 @@ def predict(args) -> None:
     print(f"costs: {args.results} ({rows.n} rows, written by the {info['policy']} scheduler on {info['n_ranks']} "
           f"rank(s)), scale {costs.sigma_scale:.3f}; one core per rank")
     before_costs = replace(costs, imports=RP.IMPORTS_WITH_SCIPY_S)
+    if info["policy"] == RP.BEFORE.name:   # the file's own run, replayed: the check of the calibration
+        own = RP.simulate(rows, info["n_ranks"], RP.BEFORE, before_costs)
+        print(f"the file's own session ({info['n_ranks']} ranks, b2afe10): measured {info['session_s']:.1f} s, "
+              f"replayed {own['t_session']:.1f} s")
     targets = {}
     for label, rws in (("default grid, 3500 rows", rows), ("35 000 rows (1000 samples)", rows.resample(1000))):
         for lanes in (8, 4):
@@ -171,6 +179,8 @@ def predict(args) -> None:
             print(f"{'policy':10s} {'':9s} " + " ".join(f"{n:>11d}" for n in args.ranks))
             for pol, c in ((RP.BEFORE, before_costs), (RP.CURRENT, costs)):
                 c = replace(c, lanes=lanes)
+                if lanes == 4:   # an AVX2 CPU: its own costs per run-step (the rows' are AVX-512's)
+                    c = replace(c, sigma_scale=c.sigma_scale * AVX2_WIDTH_FACTOR[4], width_factor=AVX2_WIDTH_FACTOR)
                 res = RP.efficiency(rws, args.ranks, pol, c)
                 print(f"{pol.name:10s} {'E job/ses':9s} " + " ".join(
                     f"{100 * r['E_job']:5.1f}/{100 * r['E_session']:5.1f}" for r in res))

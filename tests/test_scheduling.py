@@ -39,16 +39,18 @@ def test_unit_costs_and_one_lane_are_the_old_guided_rule(n_rows, size, chunk_max
     assert new.take(chunk_max) == [] and len(new) == 0
 
 
-def test_chunks_are_whole_lanes_and_at_least_one_batch():
+@pytest.mark.parametrize("size, chunk_max", [(2, 30), (16, 32), (128, 32)])
+def test_chunks_are_whole_lanes_and_at_least_one_batch(size, chunk_max):
     """8 lanes: every chunk but the last is a multiple of 8 rows (the narrow batches of the old rule ran
-    1.6-2.8x slower per run-step), and only the last may be shorter."""
-    q = ChunkQueue(range(3500), np.ones(3500), 128, 8)
+    1.6-2.8x slower per run-step) between 8 and chunk_max rounded down (30 -> 24); only the last may be
+    shorter."""
+    q = ChunkQueue(range(3500), np.ones(3500), size, 8)
     sizes = []
     while len(q):
-        sizes.append(len(q.take(32)))
+        sizes.append(len(q.take(chunk_max)))
     assert sum(sizes) == 3500
-    assert all(s % 8 == 0 and 8 <= s <= 32 for s in sizes[:-1]) and 0 < sizes[-1] <= 8
-    assert sizes[-1] == 3500 % 8 or sizes[-1] == 8
+    assert all(s % 8 == 0 and 8 <= s <= chunk_max for s in sizes[:-1]) and 0 < sizes[-1] <= chunk_max
+    assert max(sizes) == 8 * (chunk_max // 8) if size < 128 else max(sizes) == 8
 
 
 def test_chunks_share_expected_cost_not_rows():

@@ -96,7 +96,7 @@ class Rows:
             rec_s = synthetic_record_s(float(mw[m][0]), float(dist[m][0]))
             expected[m] = (min(rec_s, cut) if cut > 0 else rec_s) + tail
         measured = {"sum_wall_s": float(wall.sum()), "n_ranks": int(attrs.get("n_ranks", 1)),
-                    "samples": int(attrs.get("samples", 1))}
+                    "samples": int(attrs.get("samples", 1)), "session_s": float(attrs.get("wall_s_last_session", 0.0))}
         return cls(sc, steps, sigma, prep, expected, order, int(attrs.get("samples", 1))), measured
 
     def resample(self, samples: int, seed: int = 1) -> "Rows":

@@ -35,7 +35,7 @@ def _attr_value(v):
 
 
 def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping) -> None:
-    """Write the new file as ``<path>.tmp`` in a forked child, then rename it into place.
+    """Write the new file as ``<path>.tmp`` in a forked child, which renames it into place.
 
     In a child because the HDF5 library, when a write fails (a full disk), raises RuntimeErrors from
     its clean-up and can crash the process at exit; the parent gets the error back as the OSError
@@ -45,14 +45,14 @@ def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mappi
 
 
 class _Creation:
-    """A new file being written by a child (:func:`_start_create_h5`); :meth:`wait` puts it in place."""
+    """A new file being written by a child (:func:`_start_create_h5`), which renames it into place as soon as
+    it is complete (a run killed before it waits still leaves the file); :meth:`wait` reaps the child."""
 
     def __init__(self, path: Path, tmp: Path, child):
         self.path, self.tmp, self.child = path, tmp, child
 
     def wait(self) -> None:
-        """Wait for the child, then rename ``<path>.tmp`` into place (the file appears complete or not at
-        all); on failure remove the partial ``.tmp`` and raise the OSError it is."""
+        """Wait for the child; on failure remove the partial ``.tmp`` and raise the OSError it is."""
         try:
             try:
                 self.child.result()
@@ -67,15 +67,15 @@ class _Creation:
             if err is exc:
                 raise
             raise err from None
-        os.replace(self.tmp, self.path)
 
 
 def _start_create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping) -> _Creation:
     tmp = path.with_name(path.name + ".tmp")
-    return _Creation(path, tmp, start_child(_write_new_h5, tmp, n_rows, periods_s, attrs, quiet=True))
+    return _Creation(path, tmp, start_child(_write_new_h5, tmp, n_rows, periods_s, attrs, path, quiet=True))
 
 
-def _write_new_h5(tmp: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping) -> None:
+def _write_new_h5(tmp: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping, path: Path) -> None:
+    """The new file written as ``tmp``, then renamed to ``path``: it appears complete or not at all."""
     with h5open(tmp, "w") as f:
         g = f.create_group("samples")
         for name, (code, fill, desc) in fields_of(attrs.get("layout")).items():
@@ -100,6 +100,7 @@ def _write_new_h5(tmp: Path, n_rows: int, periods_s: Sequence[float], attrs: Map
         f.attrs["complete"] = False
         f.attrs["n_done"] = 0
         store_checksums(f, datasets=False)
+    os.replace(tmp, path)
 
 
 #: ``/row_crc32``'s description attribute.
