@@ -143,7 +143,25 @@ def validate(args) -> None:
         v = np.array(v)
         print(f"{k} error: rms {100 * np.sqrt(np.mean(v ** 2)):.1f} %, worst {100 * np.max(np.abs(v)):.1f} %, "
               f"mean {100 * np.mean(v):+.1f} %")
+    _measured_efficiency(runs, sessions)
     _start_up_table(runs, sessions)
+
+
+def _measured_efficiency(runs, sessions) -> None:
+    """E(N) = T(1) / (N T(N)) of the measured runs, each against the one-rank run of its own round, on
+    the job's clock (the launcher's start to its exit), the timeline's (first launch to the final write)
+    and the session's (run_grid's), with the cores the job got."""
+    print("measured efficiency, each round against its own 1-rank run (E = T1 / (N T_N)):")
+    print(f"{'run':8s} {'cores':>5s} {'T job s':>8s} {'E job':>6s} {'T launch-write':>14s} {'E':>6s} "
+          f"{'T session':>9s} {'E':>6s}")
+    for r in runs:
+        one = next(x for x in runs if x["n"] == 1 and x["repeat"] == r["repeat"])
+        s, s1 = summarise(sessions[r["h5"]]), summarise(sessions[one["h5"]])
+        n = r["n"]
+        print(f"n{n}_r{r['repeat']:<4d} {r['cores'] - r['background_cores']:5.2f} {r['wall']:8.2f} "
+              f"{100 * one['wall'] / (n * r['wall']):5.1f}% {s['job_s']:14.2f} "
+              f"{100 * s1['job_s'] / (n * s['job_s']):5.1f}% {s['session_s']:9.2f} "
+              f"{100 * s1['session_s'] / (n * s['session_s']):5.1f}%")
 
 
 def _start_up_table(runs, sessions) -> None:

@@ -161,32 +161,36 @@ class Sim:
         return self
 
 
-def run_ranks(rows, size: int, policy, costs, machine, queue, chunk_cost, keep: bool = False) -> dict:
-    """Replay one run: rank 0 and ``size - 1`` workers (:mod:`pycolfrag.grid.serve`), the chunks cut by
-    ``queue`` (the scheduler's :class:`~pycolfrag.grid.chunks.ChunkQueue`) and costed by
-    ``chunk_cost(rows, lhs_cache)``. See :func:`pycolfrag.grid.replay.simulate`."""
-    works = size == 1 or size <= policy.rank0_works_up_to
-    chunks, marks = [], {}
-    imports = costs.imports
+class _Ranks:
+    """The ranks of one replayed run as generators (:class:`Sim`): rank 0 (:meth:`rank0`) and the workers
+    (:meth:`worker`), step for step :mod:`pycolfrag.grid.serve`."""
 
-    def start_up(p):
-        yield ("cpu", costs.interp + imports)
-        if size > 1:
-            yield ("cpu", costs.mpi_init)
-            yield ("wall", costs.mpi_init_wall)
-        yield ("cpu", costs.checks)
+    def __init__(self, rows, size, policy, costs, machine, queue, chunk_cost):
+        self.rows, self.size, self.policy, self.costs, self.machine = rows, size, policy, costs, machine
+        self.queue, self.chunk_cost = queue, chunk_cost
+        self.works = size == 1 or size <= policy.rank0_works_up_to
+        self.chunks, self.marks = [], {}
+        self.last_flush, self.created = 0.0, None
+
+    def start_up(self, p):
+        c = self.costs
+        yield ("cpu", c.interp + c.imports)
+        if self.size > 1:
+            yield ("cpu", c.mpi_init)
+            yield ("wall", c.mpi_init_wall)
+        yield ("cpu", c.checks)
         yield ("mark", "session")      # run_grid's clock starts (its "computed in")
-        yield ("cpu", costs.identity)
+        yield ("cpu", c.identity)
 
-    def compute(p, idx, cache):
-        c = chunk_cost(idx, cache)
-        chunks.append((p.rank, len(idx), c))
+    def compute(self, p, idx, cache):
+        cost = self.chunk_cost(idx, cache)
+        self.chunks.append((p.rank, len(idx), cost))
         yield ("mark", "chunk", len(idx))
-        yield ("cpu", c)
+        yield ("cpu", cost)
         yield ("mark", "chunk_end")
 
-    def worker(p):
-        yield from start_up(p)
+    def worker(self, p):
+        yield from self.start_up(p)
         yield ("send", 0, _TAG_SIG, None)
         yield ("recv", 0, _TAG_GO)                  # rank 0 has opened the file
         cache = OrderedDict()
@@ -195,95 +199,104 @@ def run_ranks(rows, size: int, policy, costs, machine, queue, chunk_cost, keep: 
         done = 0
         while chunk:
             yield ("send", 0, _TAG_REQUEST, done)   # prefetch, with the last chunk's rows
-            yield from compute(p, chunk, cache)
+            yield from self.compute(p, chunk, cache)
             done = len(chunk)
             _, _, chunk = yield ("recv", 0, _TAG_WORK)
         yield ("send", 0, _TAG_DONE, done)
         yield ("recv", 0, _TAG_GO)                  # MPI_Finalize waits for rank 0
-        yield ("cpu", costs.exit_s)
+        yield ("cpu", self.costs.exit_s)
 
-    def rank0(p):
-        yield from start_up(p)
-        for _ in range(size - 1):
+    def rank0(self, p):
+        c = self.costs
+        yield from self.start_up(p)
+        for _ in range(self.size - 1):
             yield ("recv", _ANY, _TAG_SIG)
-        yield ("cpu", costs.open_cpu)
-        yield ("wall", costs.open_wall)
-        create = costs.create_fixed + costs.create_per_row * rows.n
+        yield ("cpu", c.open_cpu)
+        yield ("wall", c.open_wall)
+        create = c.create_fixed + c.create_per_row * self.rows.n
         t = yield ("now",)
-        created = t + create if policy.open_overlap else None
-        if created is None:
+        self.created = t + create if self.policy.open_overlap else None
+        if self.created is None:
             yield ("cpu", create)   # rank 0 waits for the child writing the new file
-        marks["open"] = yield ("now",)
-        for r in range(1, size):
+        self.marks["open"] = self.last_flush = yield ("now",)
+        for r in range(1, self.size):
             yield ("send", r, _TAG_GO, None)
-        state = {"last_flush": marks["open"]}
-        yield from (_alone if size == 1 else _serving)(p, state, created)
+        yield from (self.alone if self.size == 1 else self.serving)(p)
         t = yield ("now",)
-        if created is not None and t < created:
-            yield ("wall", created - t)
-        yield ("cpu", costs.finish_cpu)
-        yield ("wall", costs.finish_wall)
-        marks["end"] = yield ("now",)
-        for r in range(1, size):
+        if self.created is not None and t < self.created:
+            yield ("wall", self.created - t)
+        yield ("cpu", c.finish_cpu)
+        yield ("wall", c.finish_wall)
+        self.marks["end"] = yield ("now",)
+        for r in range(1, self.size):
             yield ("send", r, _TAG_GO, None)
-        yield ("cpu", costs.summary + costs.exit_s)
+        yield ("cpu", c.summary + c.exit_s)
 
-    def accept(n_rows, state, created):
+    def accept(self, n_rows):
+        """Rows journalled; an HDF5 write every flush_s (not before the file exists)."""
+        c = self.costs
         if n_rows:
-            yield ("cpu", costs.journal_per_row * n_rows)
+            yield ("cpu", c.journal_per_row * n_rows)
         now = yield ("now",)
-        if n_rows and now - state["last_flush"] >= policy.flush_s and (created is None or now >= created):
-            yield ("cpu", costs.flush_cpu)
-            yield ("wall", costs.flush_wall)
-            state["last_flush"] = yield ("now",)
+        if n_rows and now - self.last_flush >= self.policy.flush_s and (self.created is None or now >= self.created):
+            yield ("cpu", c.flush_cpu)
+            yield ("wall", c.flush_wall)
+            self.last_flush = yield ("now",)
 
-    def _alone(p, state, created):
+    def alone(self, p):
         cache = OrderedDict()
         while True:
-            idx = queue.take(policy.chunk_max)
+            idx = self.queue.take(self.policy.chunk_max)
             if not idx:
                 return
-            yield from compute(p, idx, cache)
-            yield from accept(len(idx), state, created)
+            yield from self.compute(p, idx, cache)
+            yield from self.accept(len(idx))
 
-    def _serving(p, state, created):
-        cache, active, heard = OrderedDict(), size - 1, set()
-        own_max = rank0_chunk_max(policy.chunk_max, queue.lanes)
-        while active > 0 or (works and len(queue)):
+    def serving(self, p):
+        cache, active, heard = OrderedDict(), self.size - 1, set()
+        own_max = rank0_chunk_max(self.policy.chunk_max, self.queue.lanes)
+        while active > 0 or (self.works and len(self.queue)):
             served = False
             while active > 0:
-                if len(heard) < size - 1:
+                if len(heard) < self.size - 1:
                     msg = yield ("recv", _ANY, _ANY)    # the blocking Probe, then its receive
                 else:
-                    if not (yield ("probe", policy.probe_twice)):
+                    if not (yield ("probe", self.policy.probe_twice)):
                         break
                     msg = yield ("recv", _ANY, _ANY)
                 src, tag, n_rows = msg
                 heard.add(src)
-                yield ("cpu", costs.msg_s)
+                yield ("cpu", self.costs.msg_s)
                 if tag == _TAG_REQUEST:
-                    yield ("send", src, _TAG_WORK, queue.take(policy.chunk_max))
+                    yield ("send", src, _TAG_WORK, self.queue.take(self.policy.chunk_max))
                 elif tag == _TAG_DONE:
                     active -= 1
-                yield from accept(n_rows, state, created)
+                yield from self.accept(n_rows)
                 served = True
-            if works and len(queue):
-                idx = queue.take(own_max)
-                yield from compute(p, idx, cache)
-                yield from accept(len(idx), state, created)
+            if self.works and len(self.queue):
+                idx = self.queue.take(own_max)
+                yield from self.compute(p, idx, cache)
+                yield from self.accept(len(idx))
             elif not served:
-                yield ("wall", 0.001 + machine.sleep_extra)
+                yield ("wall", 0.001 + self.machine.sleep_extra)
 
+
+def run_ranks(rows, size: int, policy, costs, machine, queue, chunk_cost, keep: bool = False) -> dict:
+    """Replay one run: rank 0 and ``size - 1`` workers (:mod:`pycolfrag.grid.serve`), the chunks cut by
+    ``queue`` (the scheduler's :class:`~pycolfrag.grid.chunks.ChunkQueue`) and costed by
+    ``chunk_cost(rows, lhs_cache)``. See :func:`pycolfrag.grid.replay.simulate`."""
+    ranks = _Ranks(rows, size, policy, costs, machine, queue, chunk_cost)
     sim = Sim(machine)
-    sim.add(rank0, 0)
+    sim.add(ranks.rank0, 0)
     for r in range(1, size):
-        sim.add(worker, r)
+        sim.add(ranks.worker, r)
     sim.run()
     t_job = max(p.t_end for p in sim.procs)
     session0 = next(m[0] for m in sim.procs[0].marks if m[1] == "session")
+    marks, chunks = ranks.marks, ranks.chunks
     out = {"size": size, "rows": rows.n, "policy": policy.name, "t_job": t_job, "t_final": marks["end"],
-           "t_session": marks["end"] - session0,
-           "t_startup": session0, "n_chunks": len(chunks), "chunk_cpu": float(sum(c for _, _, c in chunks)),
+           "t_session": marks["end"] - session0, "t_startup": session0, "n_chunks": len(chunks),
+           "chunk_cpu": float(sum(c for _, _, c in chunks)),
            "small_chunks": sum(1 for _, n, _ in chunks if batch_width_rule(n, costs.lanes) < costs.lanes)}
     if keep:
         out["procs"] = [{"rank": p.rank, "marks": p.marks, "t_end": p.t_end} for p in sim.procs]
