@@ -40,10 +40,7 @@ from pycolfrag.grid import replay as RP  # noqa: E402
 from pycolfrag.results.timeline import read_timeline  # noqa: E402
 
 GRID = "--mw 6.5 7.5 --dist 5 20 --samples 20"
-#: An AVX2 CPU's cost per run-step, relative to AVX-512's 8 lanes: width 4 and one run after the other,
-#: bench/batch_speed.py --define CF_FORCE_AVX2 against the default build on the machine of
-#: docs/performance.md (1.811 and 3.484 against 1.527 us per run-step, 64 grid records, one session).
-AVX2_WIDTH_FACTOR = {8: 1.0, 4: 1.811 / 1.527, 1: 3.484 / 1.527}
+
 SIZES = (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024)
 _START_UP = ("launch", "imports", "mpi_init", "checks", "identity")
 
@@ -196,9 +193,7 @@ def predict(args) -> None:
             print(f"\n== {label}, {lanes} lanes ({'AVX-512' if lanes == 8 else 'AVX2'}) ==")
             print(f"{'policy':10s} {'':9s} " + " ".join(f"{n:>11d}" for n in args.ranks))
             for pol, c in ((RP.BEFORE, before_costs), (RP.CURRENT, costs)):
-                c = replace(c, lanes=lanes)
-                if lanes == 4:   # an AVX2 CPU: its own costs per run-step (the rows' are AVX-512's)
-                    c = replace(c, sigma_scale=c.sigma_scale * AVX2_WIDTH_FACTOR[4], width_factor=AVX2_WIDTH_FACTOR)
+                c = RP.on_avx2(c) if lanes == 4 else c   # an AVX2 CPU: its own costs per run-step
                 res = RP.efficiency(rws, args.ranks, pol, c)
                 print(f"{pol.name:10s} {'E job/ses':9s} " + " ".join(
                     f"{100 * r['E_job']:5.1f}/{100 * r['E_session']:5.1f}" for r in res))

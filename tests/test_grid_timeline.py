@@ -223,3 +223,23 @@ def test_the_slurm_job_script_runs_and_chains(tmp_path):
                        timeout=120)
     assert p.returncode == 0 and f"{out} is complete" in p.stdout
     assert len((tmp_path / "sbatch.log").read_text().splitlines()) == 1
+
+
+def test_the_replay_takes_its_costs_from_a_files_rows_and_timeline(tmp_path):
+    """A file written by this scheduler (it has one session's timeline) is replayed with this scheduler's
+    policy and its timeline's fixed costs, calibrated so that the replay of its own session's chunks costs
+    the CPU its timeline measured (exactly: one scale), and ``pycolfrag replay`` prints the prediction."""
+    from pycolfrag.grid import replay
+    out = tmp_path / "r.h5"
+    _ok(_serial([*SMALL, "--out", str(out)]))
+    rows, costs, info = replay.measured(out)
+    assert rows.n == 12 and info["policy"] == "current" and info["n_ranks"] == 1
+    own = replay.simulate(rows, 1, replay.CURRENT, costs)
+    assert own["chunk_cpu"] == pytest.approx(info["chunk_s"], rel=1e-9)
+    js = tmp_path / "p.json"
+    p = subprocess.run([sys.executable, "-m", "pycolfrag", "replay", str(out), "--ranks", "1", "2", "--json", str(js)],
+                       capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    got = json.loads(js.read_text())
+    assert [r["size"] for r in got["results"]] == [1, 2] and got["results"][0]["E_job"] == 1.0
+    assert "written by the current scheduler on 1 rank(s)" in p.stdout

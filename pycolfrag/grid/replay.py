@@ -166,6 +166,18 @@ class Policy:
 CURRENT = Policy()
 BEFORE = Policy("b2afe10", cost_guided=False, whole_lanes=False, probe_twice=False, lazy_imports=False,
                 lhs_amplitude=True, open_overlap=False)
+#: An AVX2 CPU's cost per run-step relative to AVX-512's 8 lanes, at width 4 and one run after the other:
+#: bench/batch_speed.py with -DCF_FORCE_AVX2 against the default build on the machine of
+#: docs/performance.md (1.811 and 3.484 against 1.527 us per run-step, 64 grid records).
+AVX2_WIDTH_FACTOR = {8: 1.0, 4: 1.811 / 1.527, 1: 3.484 / 1.527}
+
+
+def on_avx2(costs: Costs) -> Costs:
+    """``costs`` (a file's rows, measured with AVX-512's 8 lanes) for a CPU of 4 AVX2 lanes."""
+    return replace(costs, lanes=4, sigma_scale=costs.sigma_scale * AVX2_WIDTH_FACTOR[4],
+                   width_factor=AVX2_WIDTH_FACTOR)
+
+
 #: Start-up imports (CPU s) with scipy: numpy, scipy.stats and optimize, cffi, pycolfrag, the analysis.
 IMPORTS_WITH_SCIPY_S = 1.10
 
@@ -243,10 +255,11 @@ def efficiency(rows: Rows, sizes: Sequence[int], policy: Policy = CURRENT, costs
 
 def calibrate(rows: Rows, costs: Costs, policy: Policy, n_ranks: int, measured_chunk_s: float) -> Costs:
     """``costs`` with the one scale that makes the replayed chunk CPU of an ``n_ranks`` run under ``policy``
-    equal ``measured_chunk_s`` (what the rows' run measured)."""
-    probe = simulate(rows, n_ranks, policy, replace(costs, sigma_scale=1.0))
-    fixed = probe["n_chunks"] * costs.chunk_s + float(rows.prep.sum())
-    return replace(costs, sigma_scale=(measured_chunk_s - fixed) / (probe["chunk_cpu"] - fixed))
+    equal ``measured_chunk_s`` (what the rows' run measured). A chunk's cost is linear in the scale (the
+    rows' records, IMs and LHS tables are not scaled), so two replays give it."""
+    at0 = simulate(rows, n_ranks, policy, replace(costs, sigma_scale=0.0))["chunk_cpu"]
+    at1 = simulate(rows, n_ranks, policy, replace(costs, sigma_scale=1.0))["chunk_cpu"]
+    return replace(costs, sigma_scale=(measured_chunk_s - at0) / (at1 - at0))
 
 
 #: Timeline kinds -> the :class:`Costs` fields measured by them (CPU s, the median per rank).
@@ -313,7 +326,8 @@ def build_parser(prog: str = "python -m pycolfrag.grid.replay") -> argparse.Argu
                    help="predict a grid of this many samples per scenario (rows drawn from the file's)")
     p.add_argument("--policy", choices=("current", "b2afe10"), default="current",
                    help="the scheduler replayed: this package's, or b2afe10's")
-    p.add_argument("--lanes", type=int, choices=(8, 4), default=8, help="SIMD lanes of the CPU (4: AVX2)")
+    p.add_argument("--lanes", type=int, choices=(8, 4), default=8,
+                   help="SIMD lanes of the CPU (4: an AVX2 CPU, with its measured costs per run-step)")
     p.add_argument("--json", default=None, metavar="FILE", help="write the predictions as JSON")
     return p
 
@@ -329,7 +343,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"replay: {exc}", file=sys.stderr)
         return 2
     policy = CURRENT if args.policy == "current" else BEFORE
-    costs = replace(costs, lanes=args.lanes, imports=costs.imports if policy.lazy_imports else IMPORTS_WITH_SCIPY_S)
+    costs = replace(costs, imports=costs.imports if policy.lazy_imports else IMPORTS_WITH_SCIPY_S)
+    if args.lanes == 4:
+        costs = on_avx2(costs)
     if args.samples is not None:
         rows = rows.resample(args.samples)
     res = efficiency(rows, args.ranks, policy, costs)
