@@ -54,19 +54,16 @@ def test_chunks_are_whole_lanes_and_at_least_one_batch(size, chunk_max):
 
 
 def test_chunks_share_expected_cost_not_rows():
-    """Two ranks, 40 rows of which the first 20 cost 4 and the last 20 cost 1 (a Mw 7.5 row against a Mw
-    5.5 one): the first chunk is a quarter of half the expected cost, 100 / 8 = 12.5 -> 3 rows of cost 4,
-    raised to one batch of lanes (4 lanes: 4 rows); at the cheap end a chunk takes more rows."""
-    cost = np.r_[np.full(20, 4.0), np.full(20, 1.0)]
-    q = ChunkQueue(range(40), cost, 2, 4)
-    assert q.take(32) == [0, 1, 2, 3]          # 12.5 fits 3 rows of 4; one batch is 4
-    first_cheap = None
-    while len(q):
-        c = q.take(32)
-        if c[0] >= 20 and first_cheap is None:
-            first_cheap = c
-    # cost left at the first cheap chunk: 20 -> share 20 / 8 = 2.5 -> 2 rows, raised to 4 (one batch)
-    assert first_cheap is not None and len(first_cheap) == 4
+    """Two ranks, one lane, 8 rows of cost 10 then 80 of cost 1 (total 160), worked by hand: each chunk is
+    the head rows whose cost fits a quarter of half the cost left -- 160 / 8 = 20 -> two rows of 10; then
+    17.5, 16.25, 15, 13.75, 12.5 -> one row each; 11.25 -> the last row of 10 and one of 1; 79 / 8 = 9.875
+    -> 9 rows of 1. Counting rows instead (b2afe10) the first chunk would be 88 // 8 = 11 rows, 110 of
+    the 160."""
+    q = ChunkQueue(range(88), np.r_[np.full(8, 10.0), np.ones(80)], 2, 1)
+    assert [len(q.take(32)) for _ in range(8)] == [2, 1, 1, 1, 1, 1, 2, 9]
+    # with 4 lanes the same costs give whole batches: 20 -> 2 rows, raised to one batch of 4
+    q4 = ChunkQueue(range(88), np.r_[np.full(8, 10.0), np.ones(80)], 2, 4)
+    assert q4.take(32) == [0, 1, 2, 3]
 
 
 def test_a_drained_queue_hands_out_nothing_and_says_what_is_left():
