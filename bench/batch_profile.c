@@ -92,7 +92,11 @@ int main(int argc, char **argv)
     for (i = 3; i < argc; i++) {
         if (!strncmp(argv[i], "perimeter", 9)) {
             def.contact = CF_SOLVER_CONTACT_PERIMETER;
+#ifdef NO_BATCH   /* a baseline without the batch API (0a54043) predates the options table too */
+            def.points_per_edge = atoi(argv[i] + 9) > 0 ? atoi(argv[i] + 9) : 1;
+#else
             cf_solver_options_set(&def, "points_per_edge", atoi(argv[i] + 9) > 0 ? atoi(argv[i] + 9) : 1);
+#endif
         } else if (!strcmp(argv[i], "exact")) def.contact = CF_SOLVER_CONTACT_EXACT;
         else if (!strcmp(argv[i], "planar")) def.planar = 1;
         else if (!strcmp(argv[i], "mono")) def.monolithic = 1;

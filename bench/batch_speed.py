@@ -14,7 +14,10 @@ Reports the best CPU time per run-step of each (thread CPU time: on a shared mac
 out the time others held the core), the ratio to the baseline's (else this tree's) single runs,
 and whether the result hashes agree (bitwise the same EDPs, residuals, steps, statuses).
 
-    .venv/bin/python bench/batch_speed.py [--samples 64] [--rounds 3] [--baseline /tmp/main]
+    .venv/bin/python bench/batch_speed.py [--samples 64] [--rounds 3] [--baseline /tmp/main] [--define CF_FORCE_AVX2]
+
+``--define CF_FORCE_AVX2`` builds both trees as on a CPU without AVX-512 (the widest lanes 4: the batch, the
+point runners and the joints' lane functions), which is how an AVX2 CPU is measured on an AVX-512 one.
 """
 from __future__ import annotations
 
@@ -34,9 +37,10 @@ sys.path.insert(0, str(ROOT / "bench"))
 from solver_compare import _cpu_model, cflags  # noqa: E402
 
 
-def build(tree: Path, out: Path, batch: bool) -> None:
+def build(tree: Path, out: Path, batch: bool, defines=()) -> None:
     srcs = [str(p) for p in sorted((tree / "csrc").glob("*.c"))]
-    cmd = ["gcc", *cflags(), *([] if batch else ["-DNO_BATCH"]), f"-I{tree / 'csrc'}", "-o", str(out),
+    cmd = ["gcc", *cflags(), *([] if batch else ["-DNO_BATCH"]), *[f"-D{d}" for d in defines], f"-I{tree / 'csrc'}",
+           "-o", str(out),
            str(ROOT / "bench" / "batch_profile.c"), *srcs, "-lm"]
     subprocess.run(cmd, check=True)
 
@@ -75,6 +79,8 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=3, help="alternating rounds (best of all is reported)")
     ap.add_argument("--baseline", type=Path, help="checkout of a baseline commit (its single-run path)")
     ap.add_argument("--widths", type=int, nargs="*", default=[1, 2, 4, 8], help="batch widths to time")
+    ap.add_argument("--define", nargs="*", default=[], metavar="MACRO",
+                    help="preprocessor macros for both builds, e.g. CF_FORCE_AVX2 (an AVX2 CPU)")
     ap.add_argument("--case", nargs="*", default=[], help="solver options of bench/batch_profile.c "
                     "(perimeterN, exact, planar, mono; default: the grid's)")
     args = ap.parse_args(argv)
@@ -83,11 +89,11 @@ def main(argv=None):
     records = bdir / "batch_records.bin"
     rows, mean_s = write_records(records, args.samples)
     exe_n = bdir / "batch_profile_new"
-    build(ROOT, exe_n, True)
+    build(ROOT, exe_n, True, args.define)
     modes = [("this tree, one run at a time", exe_n, "single")]
     if args.baseline is not None:
         exe_b = bdir / "batch_profile_baseline"
-        build(args.baseline.resolve(), exe_b, False)
+        build(args.baseline.resolve(), exe_b, False, args.define)
         modes.insert(0, ("baseline, one run at a time", exe_b, "single"))
     modes += [(f"this tree, batch of width {w}", exe_n, f"batch={w}") for w in args.widths]
     rev = lambda t: subprocess.run(["git", "-C", str(t), "rev-parse", "--short", "HEAD"], capture_output=True,
@@ -97,7 +103,8 @@ def main(argv=None):
     print(f"{len(rows)} default-grid rows (every {rows[1] - rows[0] if len(rows) > 1 else 0}th, mean record "
           f"{mean_s:.1f} s), options {' '.join(args.case) or 'of the grid'} (else vertex, dt_factor 0.8, early "
           "exit); best thread CPU time over "
-          f"{args.rounds} alternating rounds")
+          f"{args.rounds} alternating rounds" + (f"; built with {' '.join('-D' + d for d in args.define)}"
+                                                    if args.define else ""))
     best, info = {}, {}
     for _ in range(args.rounds):
         for name, exe, mode in modes:

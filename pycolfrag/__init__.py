@@ -14,6 +14,12 @@ Everything that reads results files is :mod:`pycolfrag.analysis` (``pycolfrag.an
 """
 __version__ = "0.1.0"
 
+import time as _time  # noqa: E402
+
+#: When this package began to load (wall s since the epoch, process CPU s): where a grid rank's
+#: imports begin in its timeline (pycolfrag.grid.timeline).
+_IMPORT_STARTED = (_time.time(), _time.process_time())
+
 from .errors import (  # noqa: E402,F401
     HazardFileError,
     ModelRangeError,

@@ -13,8 +13,10 @@ import traceback
 from pathlib import Path
 
 from . import grid
-from .analysis import data, figures, record_report, report
-from .analysis.summary import failure_lines, format_table, summary_table
+
+# The analysis (pycolfrag.analysis: scipy, h5py readers, matplotlib) is imported inside the functions
+# below, on rank 0 after its run: every rank of a grid imports this module, and the start-up of a
+# rank is what a many-rank run pays once per rank.
 
 __all__ = ["build_parser", "make_outputs", "main"]
 
@@ -44,6 +46,7 @@ def make_outputs(out: Path, figures_dir: Path, report_path: Path, log, synthetic
     cloud, MSA with several scales, Fig. 10 against ``synthetic`` when given). ``layout``: the
     file's layout when the caller knows it (None = synthetic, "records"); "read" reads it from
     the file."""
+    from .analysis import figures, record_report, report   # here: after the run, on rank 0 (top of the module)
     if layout == "read":
         layout = _layout_of(out)
     if layout == "records":
@@ -77,6 +80,7 @@ def make_outputs(out: Path, figures_dir: Path, report_path: Path, log, synthetic
 
 
 def _layout_of(path):
+    from .analysis import data   # here: after the run (top of the module)
     try:
         return data.load(path).attrs.get("layout")
     except Exception:
@@ -87,7 +91,8 @@ def main(argv=None) -> int:
     """The grid command (``pycolfrag grid``, ``scripts/run_grid.py``). Exit codes: 0 ok; 2 bad arguments, a
     results file of another run or a damaged one; 3 figures/report failed (results are complete);
     4 an operating-system error on the output (read-only folder, full disk: one line with the path);
-    5 the results file is being written by another run (its lock is held)."""
+    5 the results file is being written by another run (its lock is held); 75 a SIGTERM stopped the run
+    with rows left (rerun the same command to resume it)."""
     args = build_parser().parse_args(argv)
     code, summary, spec = grid.run_command(args, argv)
     if summary is None:  # a refusal (said already), or a worker rank
@@ -96,6 +101,8 @@ def main(argv=None) -> int:
     def log(s):
         print(s, flush=True)
 
+    from .analysis import data   # here: after the run, on rank 0 (top of the module)
+    from .analysis.summary import failure_lines, format_table, summary_table
     try:   # the file is complete and safe: a failure to read it back for the summary is only reported
         res = data.load(summary.path)   # read once for the table and the failure lines
         table = summary_table(res)
@@ -110,6 +117,10 @@ def main(argv=None) -> int:
     log(f"{summary.computed} runs computed in {summary.wall_s:.1f} s on {summary.n_ranks} rank(s)"
         + (f" ({summary.wall_s / summary.computed * summary.n_ranks:.3f} rank-s per run)" if summary.computed else "")
         + f"; {summary.failed} failed; results: {summary.path}")
+    if summary.rows_left:
+        log(f"stopped by SIGTERM with {summary.rows_left} row(s) left (exit {grid.EXIT_DRAINED}): rerun the same "
+            "command to compute them; figures and report come with the complete file")
+        return grid.EXIT_DRAINED
     if args.figures:
         out = Path(args.out)
         if spec.layout == "records":

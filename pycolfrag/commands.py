@@ -83,6 +83,12 @@ COMMANDS = {c.name: c for c in (
             "and report (docs/grid.md)", "python scripts/run_grid.py"),
     Command("report", "pycolfrag.analysis.report:main", "markdown report of a results file",
             "python -m pycolfrag.analysis.report"),
+    Command("timeline", "pycolfrag.analysis.timeline:main",
+            "where the ranks' time went in a grid run: utilisation, idle by cause, Gantt chart (docs/grid.md)",
+            "python -m pycolfrag.analysis.timeline"),
+    Command("replay", "pycolfrag.grid.replay:main",
+            "predict a grid's time and efficiency on N ranks from a results file's measured costs "
+            "(docs/performance.md)", "python -m pycolfrag.grid.replay"),
     Command("compare", "pycolfrag.analysis.compare:main",
             "compare two results files row by row (bitwise), else by scenario statistics",
             "python -m pycolfrag.analysis.compare"),

@@ -61,8 +61,8 @@ for mw, r, seed in records:
         arrays["sim/response"] = np.array([res.u_top, res.u_d, res.max_top_disp, res.t_end, res.dt,
                                            res.dt_crit, float(res.n_steps), float(res.collapsed)])
         arrays["sim/residual_dislocation"] = np.asarray(res.residual_dislocation, dtype=float)
-from pycolfrag.ground_motion import mavroeidis_papageorgiou_2003 as mp
-arrays["lhs_uniforms"] = mp._lhs(4, 40, 12345)   # scipy.stats.qmc.LatinHypercube's own output
+from pycolfrag.ground_motion.sampling import latin_hypercube
+arrays["lhs_uniforms"] = latin_hypercube(4, 40, 12345)   # the grid's LHS (scipy's qmc.LatinHypercube numbers)
 for mw, r, n, seed in samples:
     for k, v in sample_pulse_parameters(mw, r, n, seed).items():
         arrays[f"lhs_{mw}_{r}_{n}_{seed}/{k}"] = np.asarray(v, dtype=float)

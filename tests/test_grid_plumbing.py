@@ -22,7 +22,8 @@ def fake_physics(monkeypatch):
     grid.build_identity()  # the build's result hash comes from the real physics (computed once per process)
     calls = {"lhs": [], "synth": []}
 
-    def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model="rupakhety_2011", shape="mp03"):
+    def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model="rupakhety_2011", shape="mp03",
+                                amplitude=True):
         calls["lhs"].append((Mw, dist_km, n, seed, vp_scale))
         calls.setdefault("tp_model", []).append(tp_model)
         rng = np.random.default_rng(seed)

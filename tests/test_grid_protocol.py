@@ -48,12 +48,13 @@ def _fields(cls) -> set:
 
 def test_the_protocol_names_what_the_two_kinds_share():
     # the members both specs had before the protocol was declared (they are what the scheduler, the
-    # probes and the command line call), plus input_notes, which replaced a getattr chain on the suite
+    # probes and the command line call), plus input_notes, which replaced a getattr chain on the suite,
+    # and expected_cost, by which the scheduler sizes its chunks
     data, methods = _members(protocol.RunSpec)
     assert data == {"column", "solver_options", "periods_s", "damping", "max_record_s", "sample_function",
                     "layout", "n_rows"}
     assert set(methods) == {"signature", "order", "context", "default_function", "file_attrs",
-                            "shortest_record_dt", "describe", "input_notes"}
+                            "shortest_record_dt", "describe", "input_notes", "expected_cost"}
 
 
 @pytest.mark.parametrize("cls", [grid.GridSpec, grid.RecordGridSpec])

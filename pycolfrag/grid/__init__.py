@@ -24,14 +24,19 @@ The package, by the sections a reader looks for:
 * :mod:`~pycolfrag.grid.rows` -- seeds, row contexts and the row functions;
 * :mod:`~pycolfrag.grid.signing` -- the code that computes the rows, signed into every run;
 * :mod:`~pycolfrag.grid.probes` -- checks before a run;
-* :mod:`~pycolfrag.grid.schedule` -- MPI scheduling and rank 0's writes (:func:`run_grid`);
+* :mod:`~pycolfrag.grid.schedule` -- a run on every rank and rank 0's writes (:func:`run_grid`);
+* :mod:`~pycolfrag.grid.serve` -- the ranks while rows are computed: rank 0 serving, the workers, the
+  drain on SIGTERM;
+* :mod:`~pycolfrag.grid.chunks` -- the queue of rows and the chunk rule (by expected cost, in whole lanes);
+* :mod:`~pycolfrag.grid.timeline` -- every rank's timeline, stored in the results file;
+* :mod:`~pycolfrag.grid.replay` -- the replay model: the scheduling policy simulated at N ranks;
 * :mod:`~pycolfrag.grid.command` -- the command line's options and run (:func:`run_command`; what
   follows a run is :mod:`pycolfrag.cli`'s).
 """
 from __future__ import annotations
 
 from ..errors import ParameterError  # noqa: F401 (the driver's refusals; callers catch it as grid.ParameterError)
-from .command import (EXIT_ARGS, EXIT_LOCKED, EXIT_OK, EXIT_OS_ERROR, EXIT_OUTPUTS, HelpFormatter,
+from .command import (EXIT_ARGS, EXIT_DRAINED, EXIT_LOCKED, EXIT_OK, EXIT_OS_ERROR, EXIT_OUTPUTS, HelpFormatter,
                       build_parser, run_command, spec_from_args)
 from .probes import (MAX_CHECK_STEPS, MAX_ROW_STEPS, SAY_WORK_ABOVE_S, check_models, check_solver_options,
                      check_space, check_work, probe_rows)
@@ -52,5 +57,5 @@ __all__ = [
     "run_record_rows", "SYNTHETIC_ROWS", "RECORD_ROWS", "derive_seed", "build_identity", "code_digest",
     "MAX_CHECK_STEPS", "MAX_ROW_STEPS", "SAY_WORK_ABOVE_S", "check_solver_options", "probe_rows", "check_work",
     "check_space", "check_models", "get_comm", "run_grid", "RunSummary", "EXIT_OK", "EXIT_ARGS", "EXIT_OUTPUTS",
-    "EXIT_OS_ERROR", "EXIT_LOCKED", "HelpFormatter", "build_parser", "spec_from_args", "run_command",
+    "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_DRAINED", "HelpFormatter", "build_parser", "spec_from_args", "run_command",
 ]

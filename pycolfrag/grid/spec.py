@@ -20,6 +20,7 @@ from ..ground_motion.registry import DEFAULT_TP_MODEL, NO_PULSE, PULSE_SHAPES, t
 from ..options import SolverOptions
 from ..records import load_records
 from ..sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S  # /spectra periods (s) and damping: a sample's
+from .chunks import synthetic_record_s
 from .protocol import RowFunction
 from .rows import RECORD_ROWS, SYNTHETIC_ROWS, RecordContext, SampleContext
 from .signing import build_identity, code_digest
@@ -185,6 +186,17 @@ class GridSpec:
         sc = self.scenarios
         return sorted(rows, key=lambda r: (-sc[r // self.samples][0], -sc[r // self.samples][1], r))
 
+    def expected_cost(self, rows) -> np.ndarray:
+        """Each row's expected cost before it runs, in simulated seconds: its scenario's nominal record
+        (:func:`~pycolfrag.grid.chunks.synthetic_record_s`, cut to ``max_record_s``) plus the solver's
+        tail; the solver's steps, which are most of a row's time, are proportional to it."""
+        scen = np.asarray(rows, dtype=np.int64) // self.samples
+        cost = {}
+        for sc in np.unique(scen).tolist():
+            rec = synthetic_record_s(*self.scenarios[sc])
+            cost[sc] = min(rec, self.max_record_s or math.inf) + self.solver_options.tail_s
+        return np.array([cost[s] for s in scen.tolist()], dtype=float)
+
     #: results layout (:func:`pycolfrag.results.fields_of`): None = synthetic
     layout = None
 
@@ -334,6 +346,18 @@ class RecordGridSpec:
                 return 0.0
         d = {k: dur(k) for k in set(self._jobs[r][0] for r in rows)}
         return sorted(rows, key=lambda r: (-d[self._jobs[r][0]], r))
+
+    def expected_cost(self, rows) -> np.ndarray:
+        """Each row's expected cost before it runs, in simulated seconds: its record's duration (cut to
+        ``max_record_s``; an unreadable record's rows fail at once: 0) plus the solver's tail."""
+        cost = {}
+        for k in set(self._jobs[r][0] for r in rows):
+            r = self.suite[k]
+            try:
+                cost[k] = min(r.n * r.dt, self.max_record_s or math.inf) + self.solver_options.tail_s
+            except Exception:
+                cost[k] = 0.0
+        return np.array([cost[self._jobs[r][0]] for r in rows], dtype=float)
 
     def context(self) -> "RecordContext":
         return RecordContext(self)

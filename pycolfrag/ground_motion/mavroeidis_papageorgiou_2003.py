@@ -21,14 +21,13 @@ import functools
 import math
 
 import numpy as np
-from scipy import optimize
-from scipy.stats import qmc
 
 from .._validate import finite_float, float_array, integer, positive_float
 from ..errors import ParameterError
 from ..names import G, Parameter
 from . import rupakhety_2011 as _r11
 from .pulse_shape import PreparedPulse
+from .sampling import latin_hypercube, minimize_bounded
 
 __all__ = ["NAME", "KIND", "SHAPE", "PARAMETERS", "INPUTS", "prepare", "GAMMA_MEAN", "GAMMA_SD", "GAMMA_MIN", "NU_RANGE_RAD", "pulse", "velocity",
            "acceleration", "displacement", "support", "envelope_amplitude", "peak_velocity_time",
@@ -159,9 +158,8 @@ def _unit_peak(nu, gamma):
 
     k = int(np.argmax(np.abs(g(u))))
     lo, hi = u[max(k - 1, 0)], u[min(k + 1, u.size - 1)]
-    res = optimize.minimize_scalar(lambda x: -abs(g(x)), bounds=(lo, hi), method="bounded",
-                                   options={"xatol": 1e-12})
-    ub = float(res.x) if -res.fun >= abs(g(u[k])) else float(u[k])
+    x, fx = minimize_bounded(lambda x: -abs(g(x)), lo, hi, xatol=1e-12)   # scipy's bounded Brent, bitwise
+    ub = float(x) if -fx >= abs(g(u[k])) else float(u[k])
     return ub, float(g(ub))
 
 
@@ -211,15 +209,6 @@ def _int_seed(seed):
     return integer(seed, "seed", 0)
 
 
-def _lhs(d, n, seed):
-    gen = np.random.default_rng(seed)
-    try:
-        sampler = qmc.LatinHypercube(d=d, rng=gen)
-    except TypeError:  # scipy < 1.15 spells it seed=
-        sampler = qmc.LatinHypercube(d=d, seed=gen)
-    return sampler.random(n)
-
-
 def _distribution(log10_vp_mean, log10_fp_mean, log10_fp_sd):
     d = _c().ffi.new("cf_pulse_dist *")
     d.log10_vp_mean, d.log10_vp_sd = log10_vp_mean, _r11.SIGMA_LOG10_VP
@@ -229,12 +218,12 @@ def _distribution(log10_vp_mean, log10_fp_mean, log10_fp_sd):
     return d
 
 
-def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11):
+def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11, amplitude=True):
     """Latin-hypercube sample of ``n`` pulses for the scenario (Mw, dist_km km).
 
-    One LHS of the unit 4-cube (``scipy.stats.qmc.LatinHypercube(d=4)`` seeded with
-    ``numpy.random.default_rng(seed)``; every one of the ``n`` strata of every dimension
-    holds exactly one point), mapped by inverse CDFs in C (``cf_pulse_sample_map``, with the
+    One LHS of the unit 4-cube (:func:`~pycolfrag.ground_motion.sampling.latin_hypercube`, the numbers of
+    ``scipy.stats.qmc.LatinHypercube(d=4)`` seeded with ``numpy.random.default_rng(seed)``; every one of
+    the ``n`` strata of every dimension holds exactly one point), mapped by inverse CDFs in C (``cf_pulse_sample_map``, with the
     library's own log, pow and inverse normal CDF, so the same seed gives the same bits on
     every CPU; scipy's ``norm.ppf``/``truncnorm.ppf`` and numpy's ``power`` depend on the
     CPU's SIMD features in their last bits):
@@ -260,25 +249,30 @@ def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11):
     tp_model : module, a pulse-period relation (``log10_fp_mean(Mw)``, ``SIGMA_LOG10_FP``; default the
         paper's Eq. 7, :mod:`~pycolfrag.ground_motion.rupakhety_2011`). Callers with a name take
         :func:`pycolfrag.ground_motion.sample_pulse_parameters`, which looks it up in the registry.
+    amplitude : bool, default True
+        False: leave out ``A_cm_s`` (a peak search per sample, 90 % of the time of a 1000-sample draw);
+        the other keys keep their bits, and a record made from a row finds its own A (the grid's rows).
 
     Returns
     -------
     dict of 1-D float arrays of length n: ``Vp_cm_s``, ``fp_hz``, ``nu_rad``, ``gamma``,
-    ``A_cm_s`` (envelope amplitude giving peak |V| = Vp), ``Tp_s`` (= 1/fp).
+    ``A_cm_s`` (envelope amplitude giving peak |V| = Vp; only with ``amplitude``), ``Tp_s`` (= 1/fp).
     """
     model = tp_model
     c = _c()
     log_vp = c.lib.cf_math_log10(_r11.mean_vp_cm_s(Mw, dist_km, vp_scale))
     log_fp = model.log10_fp_mean(Mw)
     n_ = integer(n, "n", 1)
-    u = np.ascontiguousarray(_lhs(4, n_, _int_seed(seed)), dtype=np.float64)
+    u = np.ascontiguousarray(latin_hypercube(4, n_, _int_seed(seed)), dtype=np.float64)
     vp, fp, nu, gamma = (np.empty(n_) for _ in range(4))
     dist = _distribution(log_vp, log_fp, model.SIGMA_LOG10_FP)
     c.check(c.lib.cf_pulse_sample_map(dist, c.ptr(u), n_, c.ptr(vp), c.ptr(fp), c.ptr(nu), c.ptr(gamma)),
             what="pulse parameter sampling")
-    return {_VP.meta_key: vp, _FP.meta_key: fp, _NU.meta_key: nu, _GAMMA.meta_key: gamma,
-            _A.meta_key: np.asarray(envelope_amplitude(vp, fp, nu, gamma), dtype=float).reshape(n_),
-            _TP.meta_key: 1.0 / fp}
+    out = {_VP.meta_key: vp, _FP.meta_key: fp, _NU.meta_key: nu, _GAMMA.meta_key: gamma}
+    if amplitude:
+        out[_A.meta_key] = np.asarray(envelope_amplitude(vp, fp, nu, gamma), dtype=float).reshape(n_)
+    out[_TP.meta_key] = 1.0 / fp
+    return out
 
 
 def parameters_from_normals(Mw, dist_km, z, vp_scale=1.0, tp_model=_r11) -> dict:

@@ -101,6 +101,12 @@ def in_child(fn, *args, timeout_s: float | None = None, quiet: bool = False):
     The HDF5 library can hang on a damaged file holding the GIL, or crash the process when a write
     fails (a full disk); in a child, this process survives both. ``quiet``: the child's stderr goes
     to /dev/null (the HDF5 library's clean-up noise after a failed write)."""
+    return start_child(fn, *args, quiet=quiet).result(timeout_s)
+
+
+def start_child(fn, *args, quiet: bool = False) -> "Child":
+    """:func:`in_child` started and not waited for: this process goes on while the child works (rank 0
+    hands out rows while a child creates the results file); :meth:`Child.result` waits for it."""
     r, w = os.pipe()
     pid = os.fork()
     if pid == 0:  # child: run, send the result (or the error) back, exit without clean-up handlers
@@ -125,36 +131,47 @@ def in_child(fn, *args, timeout_s: float | None = None, quiet: bool = False):
         finally:
             os._exit(code)
     os.close(w)
-    chunks, timed_out = [], False
-    deadline = None if timeout_s is None else time.monotonic() + timeout_s
-    try:
-        while True:
-            left = 1.0 if deadline is None else deadline - time.monotonic()
-            if left <= 0:
-                timed_out = True
-                break
-            ready, _, _ = select.select([r], [], [], min(left, 1.0))
-            if ready:
-                b = os.read(r, 1 << 20)
-                if not b:
+    return Child(pid, r)
+
+
+class Child:
+    """A child of :func:`start_child`: its process id and the pipe its answer comes through."""
+
+    def __init__(self, pid: int, fd: int):
+        self.pid, self._fd = pid, fd
+
+    def result(self, timeout_s: float | None = None):
+        """Wait for the child (killed after ``timeout_s``); what ``fn`` returned, or raise what it raised,
+        or :class:`ChildLost`."""
+        r, pid = self._fd, self.pid
+        chunks, timed_out = [], False
+        deadline = None if timeout_s is None else time.monotonic() + timeout_s
+        try:
+            while True:
+                left = 1.0 if deadline is None else deadline - time.monotonic()
+                if left <= 0:
+                    timed_out = True
                     break
-                chunks.append(b)
-    finally:
-        os.close(r)
+                ready, _, _ = select.select([r], [], [], min(left, 1.0))
+                if ready:
+                    b = os.read(r, 1 << 20)
+                    if not b:
+                        break
+                    chunks.append(b)
+        finally:
+            os.close(r)
+            if timed_out:
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
+            _, status = os.waitpid(pid, 0)
         if timed_out:
-            try:
-                os.kill(pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-        _, status = os.waitpid(pid, 0)
-    if timed_out:
-        raise ChildLost(status, timed_out=True)
-    try:
-        kind, val = pickle.loads(b"".join(chunks))
-    except Exception:
-        raise ChildLost(status) from None
-    if kind == "err":
-        raise val
-    return val
-
-
+            raise ChildLost(status, timed_out=True)
+        try:
+            kind, val = pickle.loads(b"".join(chunks))
+        except Exception:
+            raise ChildLost(status) from None
+        if kind == "err":
+            raise val
+        return val

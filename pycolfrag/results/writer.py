@@ -12,13 +12,14 @@ from typing import Iterable, Mapping, Sequence
 import numpy as np
 
 from ..errors import ResultsFileError
-from .bounded import ChildLost, in_child, read_h5_bounded
+from .bounded import ChildLost, read_h5_bounded, start_child
 from .checksums import ResultsDamagedError, row_checksums, store_checksums
 from .journal import (Journal, JournalHeaderError, journal_mismatch, journal_path, journal_run_id, read_journal,
                       set_aside, signature_mismatch, write_journal_header)
 from .layout import (FORMAT_VERSION, ROW_CRC, SPECTRA_FIELDS, STATUS_OK, STATUS_PENDING, dtype_of, empty_columns,
                      false_done, fields_of, h5open, merged_columns, put_row, rows_of)
 from .lock import RunLock
+from .timeline import append_timeline, next_session
 
 # ---------------------------------------------------------------------------------------
 # creating
@@ -34,31 +35,47 @@ def _attr_value(v):
 
 
 def _create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping) -> None:
-    """Write the new file as ``<path>.tmp`` in a forked child, then rename it into place.
+    """Write the new file as ``<path>.tmp`` in a forked child, which renames it into place.
 
     In a child because the HDF5 library, when a write fails (a full disk), raises RuntimeErrors from
     its clean-up and can crash the process at exit; the parent gets the error back as the OSError
     it is (:func:`_os_error_of`), or the child's exception (e.g. a TypeError for a value HDF5 cannot
     store), and removes the partial ``.tmp``."""
+    _start_create_h5(path, n_rows, periods_s, attrs).wait()
+
+
+class _Creation:
+    """A new file being written by a child (:func:`_start_create_h5`), which renames it into place as soon as
+    it is complete (a run killed before it waits still leaves the file); :meth:`wait` reaps the child."""
+
+    def __init__(self, path: Path, tmp: Path, child):
+        self.path, self.tmp, self.child = path, tmp, child
+
+    def wait(self) -> None:
+        """Wait for the child; on failure remove the partial ``.tmp`` and raise the OSError it is."""
+        try:
+            try:
+                self.child.result()
+            except ChildLost as lost:
+                raise OSError(f"creating the results file crashed the writing process (status {lost.status})") from None
+        except BaseException as exc:
+            try:
+                self.tmp.unlink(missing_ok=True)
+            except OSError:
+                pass
+            err = _os_error_of(exc, self.tmp)
+            if err is exc:
+                raise
+            raise err from None
+
+
+def _start_create_h5(path: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping) -> _Creation:
     tmp = path.with_name(path.name + ".tmp")
-    try:
-        try:
-            in_child(_write_new_h5, tmp, n_rows, periods_s, attrs, quiet=True)
-        except ChildLost as lost:
-            raise OSError(f"creating the results file crashed the writing process (status {lost.status})") from None
-    except BaseException as exc:
-        try:
-            tmp.unlink(missing_ok=True)
-        except OSError:
-            pass
-        err = _os_error_of(exc, tmp)
-        if err is exc:
-            raise
-        raise err from None
-    os.replace(tmp, path)  # the file appears complete or not at all
+    return _Creation(path, tmp, start_child(_write_new_h5, tmp, n_rows, periods_s, attrs, path, quiet=True))
 
 
-def _write_new_h5(tmp: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping) -> None:
+def _write_new_h5(tmp: Path, n_rows: int, periods_s: Sequence[float], attrs: Mapping, path: Path) -> None:
+    """The new file written as ``tmp``, then renamed to ``path``: it appears complete or not at all."""
     with h5open(tmp, "w") as f:
         g = f.create_group("samples")
         for name, (code, fill, desc) in fields_of(attrs.get("layout")).items():
@@ -83,6 +100,7 @@ def _write_new_h5(tmp: Path, n_rows: int, periods_s: Sequence[float], attrs: Map
         f.attrs["complete"] = False
         f.attrs["n_done"] = 0
         store_checksums(f, datasets=False)
+    os.replace(tmp, path)
 
 
 #: ``/row_crc32``'s description attribute.
@@ -100,6 +118,19 @@ def create(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_s: Seq
     file or delete a journal with another id. The caller holds the :class:`RunLock`.
     If creating fails (full disk, values HDF5 cannot store) nothing is left behind.
     """
+    run_id, creation = _begin_create(path, signature, attrs, n_rows, periods_s)
+    try:
+        creation.wait()
+    except BaseException:
+        _unlink_quietly(journal_path(Path(path)))
+        raise
+    return run_id
+
+
+def _begin_create(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_s: Sequence[float]):
+    """:func:`create` up to the HDF5 file, which a child is writing when this returns: ``(run_id, creation)``
+    (:meth:`_Creation.wait` puts the file in place). The journal exists already, so rows can be journalled
+    while the file is made."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     jp = journal_path(path)
@@ -112,15 +143,19 @@ def create(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_s: Seq
     all_attrs["run_id"] = uuid.uuid4().hex
     try:
         write_journal_header(jp, n_rows, periods_s, signature, all_attrs)
-        _create_h5(path, n_rows, periods_s, all_attrs)
+        creation = _start_create_h5(path, n_rows, periods_s, all_attrs)
     except BaseException:
         for p in (jp, tmp):
-            try:
-                p.unlink(missing_ok=True)
-            except OSError:
-                pass
+            _unlink_quietly(p)
         raise
-    return all_attrs["run_id"]
+    return all_attrs["run_id"], creation
+
+
+def _unlink_quietly(p: Path) -> None:
+    try:
+        p.unlink(missing_ok=True)
+    except OSError:
+        pass
 
 
 # ---------------------------------------------------------------------------------------
@@ -128,7 +163,8 @@ def create(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_s: Seq
 # ---------------------------------------------------------------------------------------
 
 def open_for_run(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_s: Sequence[float],
-                 overwrite: bool = False, log=None, timeout_s=None, command: str | None = None) -> "ResultsWriter":
+                 overwrite: bool = False, log=None, timeout_s=None, command: str | None = None,
+                 background: bool = False) -> "ResultsWriter":
     """Lock ``path`` (:class:`RunLock`), then create it or resume it: returns a :class:`ResultsWriter`
     (which holds the lock until :meth:`ResultsWriter.finish`/``close``) whose ``done`` mask says
     which rows are already computed.
@@ -144,6 +180,11 @@ def open_for_run(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_
     from the HDF5 file are written into it. ``log`` (default: :func:`warnings.warn`) receives those
     messages. ``path`` is resolved to its real path first (symlinks followed), and the lock covers the
     file's inode too: the lock, journal and file are those of the file itself, whatever name reaches it.
+
+    ``background``: a new file is written by a child while this returns at once (its journal exists, so
+    rows can be added); the writer's first HDF5 write waits for it and raises what creating it raised
+    (the rows added meanwhile stay in the journal). A resumed or rebuilt file is always read first: its
+    rows done decide what to compute.
     """
     log = log or (lambda s: warnings.warn(s, stacklevel=3))
     # the lock, the journal and the file are those of the real path: a symlink to a results file
@@ -151,7 +192,7 @@ def open_for_run(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_
     path = Path(os.path.realpath(path))
     lock = RunLock.acquire(path, log, command)
     try:
-        writer = _open_locked(path, signature, attrs, n_rows, periods_s, overwrite, log, timeout_s)
+        writer = _open_locked(path, signature, attrs, n_rows, periods_s, overwrite, log, timeout_s, background)
         try:
             lock.hold_file(path)  # the file this run created or rebuilt is a new inode: a hard link to it meets the lock
         except BaseException:
@@ -164,10 +205,11 @@ def open_for_run(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_
     return writer
 
 
-def _open_locked(path: Path, signature, attrs, n_rows, periods_s, overwrite, log, timeout_s) -> "ResultsWriter":
+def _open_locked(path: Path, signature, attrs, n_rows, periods_s, overwrite, log, timeout_s,
+                 background=False) -> "ResultsWriter":
     jp = journal_path(path)
     if overwrite or (not path.exists() and not jp.exists()):
-        return _created(path, signature, attrs, n_rows, periods_s)
+        return _created(path, signature, attrs, n_rows, periods_s, background)
     header, jrows = _read_own_journal(jp, log)
     h5, damage = None, None
     if path.exists():
@@ -183,7 +225,7 @@ def _open_locked(path: Path, signature, attrs, n_rows, periods_s, overwrite, log
             set_aside(jp, "it belongs to another run (" + "; ".join(diffs) + "); none of its rows is used", log)
             header, jrows = None, {}
     if h5 is None and header is None:  # only a journal with a bad header was there (set aside): nothing to resume
-        return _created(path, signature, attrs, n_rows, periods_s)
+        return _created(path, signature, attrs, n_rows, periods_s, background)
     _refuse_another_run(path, json.loads(h5["attrs"]["grid_signature"]) if h5 is not None else header["signature"],
                         signature)
     if h5 is None:  # rebuild from the journal header, then replay every row below
@@ -207,7 +249,10 @@ def _open_locked(path: Path, signature, attrs, n_rows, periods_s, overwrite, log
     return writer
 
 
-def _created(path: Path, signature, attrs, n_rows, periods_s) -> "ResultsWriter":
+def _created(path: Path, signature, attrs, n_rows, periods_s, background=False) -> "ResultsWriter":
+    if background:
+        run_id, creation = _begin_create(path, signature, attrs, n_rows, periods_s)
+        return ResultsWriter(path, n_rows, len(periods_s), resumed=False, run_id=run_id, creating=creation)
     run_id = create(path, signature, attrs, n_rows, periods_s)
     return ResultsWriter(path, n_rows, len(periods_s), resumed=False, run_id=run_id)
 
@@ -289,9 +334,9 @@ def _os_error_of(exc: BaseException, path) -> BaseException:
 
 
 def _write_rows_h5(path: Path, rows: list, n_rows: int, n_periods: int, attrs: Mapping | None = None,
-                   run_id: str | None = None, checksums: bool = False) -> None:
+                   run_id: str | None = None, checksums: bool = False, timeline=None) -> None:
     try:
-        _write_rows_h5_unguarded(path, rows, n_rows, n_periods, attrs, run_id, checksums)
+        _write_rows_h5_unguarded(path, rows, n_rows, n_periods, attrs, run_id, checksums, timeline)
     except (RuntimeError, OSError) as exc:
         err = _os_error_of(exc, path)
         if err is exc:
@@ -300,12 +345,13 @@ def _write_rows_h5(path: Path, rows: list, n_rows: int, n_periods: int, attrs: M
 
 
 def _write_rows_h5_unguarded(path: Path, rows: list, n_rows: int, n_periods: int, attrs: Mapping | None = None,
-                             run_id: str | None = None, checksums: bool = False) -> None:
+                             run_id: str | None = None, checksums: bool = False, timeline=None) -> None:
     """Open, write rows (by their ``row`` index) and root attributes, flush, close.
 
     With ``run_id``, the file must carry that ``run_id`` (else :class:`ResultsFileError`: another
     run replaced the file, and nothing is written into it). Every write stores the attributes'
-    checksums afresh; ``checksums=True`` the datasets' too (complete files).
+    checksums afresh; ``checksums=True`` the datasets' too (complete files). ``timeline``:
+    ``(session, attrs, rows)`` appended to ``/timeline`` (:mod:`.timeline`; outside the checksums).
     """
     with h5open(path, "r+") as f:
         found = f.attrs.get("run_id")
@@ -318,6 +364,12 @@ def _write_rows_h5_unguarded(path: Path, rows: list, n_rows: int, n_periods: int
         if attrs:
             for k, v in attrs.items():
                 f.attrs[k] = _attr_value(v)
+        if timeline is not None:
+            try:
+                append_timeline(f, *timeline)
+            except (ValueError, TypeError, OSError, RuntimeError) as exc:  # diagnostic data: never fails the rows
+                warnings.warn(f"{path}: this write's timeline could not be stored ({type(exc).__name__}: {exc}); "
+                              "the rows are written", stacklevel=2)
         store_checksums(f, datasets=checksums)  # every attribute always; the datasets when complete
         f.flush()
 
@@ -350,9 +402,13 @@ def _write_rows(f, rows: list, n_rows: int, n_periods: int) -> None:
 
 
 class ResultsWriter:
-    """Rank 0's writer: journal every row at once, HDF5 in batches (open, write, flush, close)."""
+    """Rank 0's writer: journal every row at once, HDF5 in batches (open, write, flush, close).
 
-    def __init__(self, path, n_rows: int, n_periods: int, resumed: bool, run_id: str | None = None):
+    ``creating``: the file is still being written by a child (:func:`open_for_run` with ``background``):
+    rows are journalled meanwhile, and the first HDF5 write waits for it."""
+
+    def __init__(self, path, n_rows: int, n_periods: int, resumed: bool, run_id: str | None = None,
+                 creating: _Creation | None = None):
         self.path = Path(path)
         self.n_rows = int(n_rows)
         self.n_periods = int(n_periods)
@@ -360,14 +416,20 @@ class ResultsWriter:
         self.run_id = run_id
         self._lock: RunLock | None = None
         self._pending: list[dict] = []
+        self._creating = creating
+        self._timeline: dict = {"attrs": None, "session": None, "rows": []}
         self._journal = Journal(journal_path(self.path))
+        #: rows the HDF5 file marks done that cannot be (damaged status bytes): recomputed
+        self.false_done = 0
+        if creating is not None:  # a new file: every row pending
+            self.status = np.full(self.n_rows, STATUS_PENDING, dtype=np.int32)
+            return
         with h5open(self.path, "r") as f:
             g = f["samples"]
             self.status = g["status"][...]
             ident = {k: g[k][...] for k in ("scenario", "record", "record_id") if k in g}
             layout = f.attrs.get("layout")
         bad = false_done({"status": self.status, **ident}, layout)
-        #: rows the HDF5 file marks done that cannot be (damaged status bytes): recomputed
         self.false_done = int(bad.sum())
         self.status[bad] = STATUS_PENDING
 
@@ -386,6 +448,27 @@ class ResultsWriter:
             self.status[int(r["row"])] = int(r.get("status", STATUS_OK))
         self._pending.extend(rows)
 
+    def start_timeline(self, attrs: Mapping) -> None:
+        """This session's timeline (:mod:`.timeline`): its attributes; intervals come with
+        :meth:`add_timeline` and reach the file with the rows."""
+        self._timeline["attrs"] = dict(attrs)
+
+    def add_timeline(self, rows: np.ndarray) -> None:
+        """Intervals (:data:`.timeline.DTYPE`) for the next HDF5 write."""
+        if len(rows):
+            self._timeline["rows"].append(rows)
+
+    def update_timeline_hosts(self, hosts: Mapping) -> None:
+        """The hosts of ranks learnt as the session goes (``{rank: host}``) into its ``hosts`` attribute."""
+        attrs = self._timeline["attrs"]
+        if attrs is None or not hosts:
+            return
+        listed = list(attrs.get("hosts", []))
+        for rank, host in hosts.items():
+            if 0 <= rank < len(listed):
+                listed[rank] = host
+        attrs["hosts"] = listed
+
     def flush(self, attrs: Mapping | None = None) -> None:
         """Write the journalled rows not yet in the HDF5 file (and optional root attributes)."""
         if self._pending or attrs:
@@ -393,8 +476,32 @@ class ResultsWriter:
             self._write_h5(self._pending, attrs)
             self._pending = []
 
+    def _ready(self) -> None:
+        """Wait for the child creating the file (once); if it failed, a journal that holds no row goes too
+        (nothing is left behind), and the error is raised."""
+        creation, self._creating = self._creating, None
+        if creation is None:
+            return
+        try:
+            creation.wait()
+        except BaseException:
+            if not self._pending and not self.done.any():
+                self._journal.close()
+                _unlink_quietly(journal_path(self.path))
+            raise
+        if self._lock is not None:
+            self._lock.hold_file(self.path)  # the new inode: a hard link to it meets the lock
+
     def _write_h5(self, rows: list, attrs: Mapping | None = None, checksums: bool = False) -> None:
-        _write_rows_h5(self.path, rows, self.n_rows, self.n_periods, attrs, run_id=self.run_id, checksums=checksums)
+        self._ready()
+        tl, timeline = self._timeline, None
+        if tl["attrs"] is not None and tl["rows"]:
+            if tl["session"] is None:
+                tl["session"] = next_session(self.path)
+            timeline = (tl["session"], tl["attrs"], np.concatenate(tl["rows"]))
+        _write_rows_h5(self.path, rows, self.n_rows, self.n_periods, attrs, run_id=self.run_id, checksums=checksums,
+                       timeline=timeline)
+        tl["rows"] = []
 
     def finish(self, attrs: Mapping | None = None) -> None:
         """Final flush; when every row is done mark the file complete, store its checksums and
@@ -420,11 +527,16 @@ class ResultsWriter:
             self.close()
 
     def close(self) -> None:
-        """Close the journal and release the lock (rows not flushed stay in the journal)."""
+        """Close the journal and release the lock (rows not flushed stay in the journal); a file still
+        being created is waited for first (its error, if any, was or will be reported by the run)."""
         try:
+            if self._creating is not None:
+                try:
+                    self._ready()
+                except BaseException:  # noqa: BLE001 -- closing after a failure: that failure is reported
+                    pass
             self._journal.close()
         finally:
             if self._lock is not None:
                 self._lock.release()
                 self._lock = None
-

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
+from ..._scipy_on_first_use import stats
 
 from ..._validate import float_array, integer, positive_float, real
 from ...errors import ParameterError

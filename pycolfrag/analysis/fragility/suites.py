@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, special, stats
+from ..._scipy_on_first_use import optimize, special, stats
 
 from ... import names as _names
 from ..._validate import float_array
