@@ -25,13 +25,14 @@ from scipy import optimize
 from scipy.stats import qmc
 
 from .._validate import finite_float, float_array, integer, positive_float
+from ..errors import ParameterError
 from ..names import G, Parameter
 from . import rupakhety_2011 as _r11
 from .pulse_shape import PreparedPulse
 
 __all__ = ["NAME", "KIND", "SHAPE", "PARAMETERS", "INPUTS", "prepare", "GAMMA_MEAN", "GAMMA_SD", "GAMMA_MIN", "NU_RANGE_RAD", "pulse", "velocity",
            "acceleration", "displacement", "support", "envelope_amplitude", "peak_velocity_time",
-           "sample_parameters"]
+           "sample_parameters", "parameters_at"]
 
 #: Name in the registry (:mod:`pycolfrag.ground_motion.registry`).
 NAME = "mavroeidis_papageorgiou_2003"
@@ -262,12 +263,25 @@ def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11):
     dict of 1-D float arrays of length n: ``Vp_cm_s``, ``fp_hz``, ``nu_rad``, ``gamma``,
     ``A_cm_s`` (envelope amplitude giving peak |V| = Vp), ``Tp_s`` (= 1/fp).
     """
+    n_ = integer(n, "n", 1)
+    return parameters_at(Mw, dist_km, _lhs(4, n_, _int_seed(seed)), vp_scale, tp_model)
+
+
+def parameters_at(Mw, dist_km, u, vp_scale=1.0, tp_model=_r11):
+    """The pulses at given points ``u`` of the unit 4-cube (shape (n, 4), each in [0, 1]) for the
+    scenario (Mw, dist_km km): the inverse-CDF map of :func:`sample_parameters` (which applies it to
+    its Latin hypercube), column by column as listed there, in C (``cf_pulse_sample_map``). A caller
+    with its own uniforms -- the stratified site simulation of :mod:`pycolfrag.rare`, which draws
+    them as Phi of standard normals -- gets the same parameters for the same points. Returns the dict
+    of :func:`sample_parameters`."""
     model = tp_model
     c = _c()
     log_vp = c.lib.cf_math_log10(_r11.mean_vp_cm_s(Mw, dist_km, vp_scale))
     log_fp = model.log10_fp_mean(Mw)
-    n_ = integer(n, "n", 1)
-    u = np.ascontiguousarray(_lhs(4, n_, _int_seed(seed)), dtype=np.float64)
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    if u.ndim != 2 or u.shape[1] != 4 or u.shape[0] < 1:
+        raise ParameterError(f"u must have shape (n, 4) with n >= 1, got {u.shape}")
+    n_ = u.shape[0]
     vp, fp, nu, gamma = (np.empty(n_) for _ in range(4))
     dist = _distribution(log_vp, log_fp, model.SIGMA_LOG10_FP)
     c.check(c.lib.cf_pulse_sample_map(dist, c.ptr(u), n_, c.ptr(vp), c.ptr(fp), c.ptr(nu), c.ptr(gamma)),
