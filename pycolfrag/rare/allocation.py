@@ -21,18 +21,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import optimize
 
 from .estimate import exceedances
 
-__all__ = ["RIDGE", "STEERING_DRAWS", "STREAM_STEER", "SteeringModel", "predicted_moments", "minimax_allocation",
+__all__ = ["RIDGE", "STEERING_DRAWS", "STREAM_STEER", "SteeringModel", "steering_events", "predicted_moments", "minimax_allocation",
            "batch_counts"]
 
 #: Ridge penalty of the steering model's coefficients (not the intercept): keeps a level with 0-3
 #: exceedances finite.
 RIDGE = 1.0
 #: Draws per stratum behind a predicted sigma_hl.
-STEERING_DRAWS = 1000
+STEERING_DRAWS = 500
 #: Stream identifier of the steering draws (only steer: never a run's input).
 STREAM_STEER = 4
 
@@ -45,20 +44,33 @@ def _features(mw, r_km, z=None) -> np.ndarray:
 
 
 def _fit(X: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Ridge-penalised logistic regression (the intercept unpenalised)."""
+    """Ridge-penalised logistic regression (the intercept unpenalised), by Newton's method with step halving
+    (the penalised log-likelihood is strictly concave: a few steps to convergence)."""
     pen = np.full(X.shape[1], RIDGE)
     pen[0] = 0.0
+    b = np.zeros(X.shape[1])
+    p0 = (y.sum() + 0.5) / (y.size + 1.0)
+    b[0] = math.log(p0 / (1 - p0))
 
     def nll(b):
         eta = X @ b
-        f = float(np.sum(np.logaddexp(0.0, eta) - y * eta) + 0.5 * np.sum(pen * b * b))
-        g = X.T @ (1.0 / (1.0 + np.exp(-eta)) - y) + pen * b
-        return f, g
+        return float(np.sum(np.logaddexp(0.0, eta) - y * eta) + 0.5 * np.sum(pen * b * b))
 
-    b0 = np.zeros(X.shape[1])
-    p = (y.sum() + 0.5) / (y.size + 1.0)
-    b0[0] = math.log(p / (1 - p))
-    return optimize.minimize(nll, b0, jac=True, method="L-BFGS-B").x
+    f = nll(b)
+    for _ in range(50):
+        p = 0.5 * (1.0 + np.tanh(0.5 * (X @ b)))          # the logistic function without overflow
+        g = X.T @ (p - y) + pen * b
+        H = (X * (p * (1 - p))[:, None]).T @ X + np.diag(pen + 1e-9)
+        step = np.linalg.solve(H, g)
+        t = 1.0
+        while t > 1e-6 and nll(b - t * step) > f:
+            t *= 0.5
+        b = b - t * step
+        f_new = nll(b)
+        if f - f_new < 1e-10 * (1.0 + abs(f_new)):
+            break
+        f = f_new
+    return b
 
 
 class SteeringModel:
@@ -82,19 +94,30 @@ class SteeringModel:
         b = self.beta.get((branch, label))
         if b is None:       # no row of this branch yet: say nothing about it
             return np.full(np.shape(mw), 0.5)
-        return 1.0 / (1.0 + np.exp(-(_features(mw, r_km, z if branch else None) @ b)))
+        return 0.5 * (1.0 + np.tanh(0.5 * (_features(mw, r_km, z if branch else None) @ b)))
 
 
-def predicted_moments(strata, mixture, model: SteeringModel, quantities, rng, draws: int = STEERING_DRAWS):
+def steering_events(strata, rng, draws: int = STEERING_DRAWS) -> list:
+    """``draws`` events (Mw, R km, occurrence weight) of every stratum, for :func:`predicted_moments` (drawn
+    once per simulation: they depend on the strata only)."""
+    out = []
+    for h in range(len(strata)):
+        mr = np.array([strata.place(h, a, b) for a, b in rng.standard_normal((draws, 2))])
+        out.append((mr[:, 0], mr[:, 1], np.asarray(strata.occurrence_weight(h, mr[:, 1]), dtype=float)))
+    return out
+
+
+def predicted_moments(strata, mixture, model: SteeringModel, quantities, rng, events):
     """(E[w p], Var[w y]) of every stratum and level under the production proposal ``mixture``, by Monte
-    Carlo over ``draws`` events of each stratum (w the run's weight, p the model's probability)."""
+    Carlo over the ``events`` of each stratum (:func:`steering_events`) and pulse quantiles drawn from the
+    mixture (w the run's weight, p the model's probability)."""
     H, L = len(strata), len(quantities)
     mean, var = np.zeros((H, L)), np.zeros((H, L))
     for h in range(H):
         st = strata[h]
-        u = rng.standard_normal((draws, 2))
-        mr = np.array([strata.place(h, a, b)[:2] for a, b in u])
-        occ = np.asarray(strata.occurrence_weight(h, mr[:, 1]), dtype=float)
+        mw, r, occ = events[h]
+        draws = mw.size
+        mr = np.column_stack([mw, r])
         z = None
         w = occ
         if st.pulse:
@@ -110,17 +133,17 @@ def predicted_moments(strata, mixture, model: SteeringModel, quantities, rng, dr
 
 
 def _waterfill(a: np.ndarray, floor: np.ndarray, total: float) -> np.ndarray:
-    """n_h = max(floor_h, kappa a_h) with sum n_h = total (kappa by bisection); floor when there is no room."""
+    """n_h = max(floor_h, kappa a_h) with sum n_h = total; floor when there is no room. Exact: the strata held
+    at their floor are found by moving those below it out of the free set until none is (at most H passes)."""
     if floor.sum() >= total or not np.any(a > 0):
         return floor.astype(float)
-    lo, hi = 0.0, total / a[a > 0].min()
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if np.maximum(floor, mid * a).sum() > total:
-            hi = mid
-        else:
-            lo = mid
-    return np.maximum(floor, lo * a)
+    free = a > 0
+    while True:
+        kappa = (total - floor[~free].sum()) / a[free].sum()
+        below = free & (kappa * a < floor)
+        if not below.any():
+            return np.where(free, kappa * a, floor).astype(float)
+        free &= ~below
 
 
 def minimax_allocation(W: np.ndarray, var: np.ndarray, lam: np.ndarray, floor: np.ndarray, total: float,

@@ -187,11 +187,11 @@ def _ce_design(cols, strata, settings, requested) -> Design:
     return Design(PILOT_MIXTURE, production_mixture(settings.defensive, means), tuple(notes))
 
 
-def _allocate(cols, strata, design, settings, requested, stage: int, used: int) -> dict:
+def _allocate(cols, strata, design, settings, requested, stage: int, used: int, events) -> dict:
     """The runs of production batch ``stage`` per stratum (minimax-CoV Neyman, model-steered)."""
     model = _alloc.SteeringModel(cols, requested)
     rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
-    mean, var = _alloc.predicted_moments(strata, design.production, model, requested, rng)
+    mean, var = _alloc.predicted_moments(strata, design.production, model, requested, rng, events)
     W = strata.rates
     finished = np.asarray(cols["status"]) != _results.STATUS_PENDING
     done = np.bincount(np.asarray(cols["stratum"])[finished], minlength=len(strata))
@@ -230,6 +230,7 @@ class _Run:
         self.fp = _fingerprint(site, settings, self.quantities)
         self.parts, self.batches, self.history = [], [], []
         self.design = Design(PILOT_MIXTURE)
+        self._events = None
 
     def planned(self, stage: int, counts: dict, mixture):
         """(inputs, purpose) of batch ``stage``: the stored plan, or a new one from ``counts``."""
@@ -252,6 +253,13 @@ class _Run:
         self.batches.append({"name": batch_name(stage), "stage": stage, "planned": len(inputs), "runs": runs,
                              "limit": limit})
         return limit
+
+    def steering_events(self) -> list:
+        """The allocation's draws of every stratum's events (once per simulation; they only steer)."""
+        if self._events is None:
+            rng = np.random.default_rng(np.random.SeedSequence(self.settings.seed, spawn_key=(_alloc.STREAM_STEER,)))
+            self._events = _alloc.steering_events(self.strata, rng)
+        return self._events
 
     def estimate(self):
         return estimate(_cat(self.parts), self.strata, self.design, self.quantities, confidence=self.stop.confidence,
@@ -295,7 +303,8 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
                 break
             if used >= stop.max_runs:
                 break
-            counts = _allocate(_cat(run.parts), run.strata, run.design, settings, run.requested, stage, used)
+            counts = _allocate(_cat(run.parts), run.strata, run.design, settings, run.requested, stage, used,
+                               run.steering_events())
         else:
             counts = {}
         run.run_batch(stage, *run.planned(stage, counts, run.design.production))

@@ -80,7 +80,8 @@ def event_input(strata, seed: int, stage: int, h: int, j: int, mixture, pulse_ma
     rng_seed, hf_seed = event_streams(seed, stage, h, j)
     x = event_normals(rng_seed)
     st = strata[h]
-    mw, r, occ = strata.place(h, x[0], x[1])
+    mw, r = strata.place(h, x[0], x[1])
+    occ = strata.occurrence_weight(h, r)
     tags = {"stage": int(stage), "stratum": int(h), "index": int(j), "source": int(st.source),
             "z_mw": float(x[0]) if st.mw[0] != st.mw[1] else None,
             "z_dist": float(x[1]) if st.r_km[0] != st.r_km[1] else None,

@@ -195,14 +195,14 @@ class Strata:
     def rates(self) -> np.ndarray:
         return np.array([s.rate for s in self.strata])
 
-    def place(self, h: int, z_mw: float, z_dist: float) -> tuple[float, float, float]:
-        """(Mw, R km, occurrence weight) of an event of stratum ``h`` from two standard normals: Mw and R
-        at CDF fractions Phi(z) of the source's densities restricted to the bins."""
+    def place(self, h: int, z_mw: float, z_dist: float) -> tuple[float, float]:
+        """(Mw, R km) of an event of stratum ``h`` from two standard normals: Mw and R at CDF fractions
+        Phi(z) of the source's densities restricted to the bins."""
         st = self.strata[h]
         src = self.sources[st.source]
         m = st.mw[0] if st.mw[0] == st.mw[1] else src.magnitude.draw_between(phi(z_mw), *st.mw)
         r = st.r_km[0] if st.r_km[0] == st.r_km[1] else src.distance.draw_between(phi(z_dist), *st.r_km)
-        return m, r, self.occurrence_weight(h, r)
+        return m, r
 
     def occurrence_weight(self, h: int, r_km):
         """g(R) / the bin's mean g: the pulse occurrence of an event of stratum ``h`` at distance R."""
