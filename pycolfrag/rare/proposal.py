@@ -165,7 +165,8 @@ def cross_entropy_means(z, contrib, y, scores, levels, *, min_hits: int, quantil
             ok = np.isfinite(scores[fam]) | (scores[fam] == np.inf)
             cut = _weighted_quantile(np.where(ok, scores[fam], -np.inf), contrib, quantile)
             elite = ok & (scores[fam] >= cut)
-            why = (f"{fam} >= {cut:.4g}, its weighted {quantile:g} quantile (no level of the family has "
+            what = "collapse" if cut == np.inf else f"{fam} >= {cut:.4g}"
+            why = (f"{what}, the family's weighted {quantile:g} quantile (no level of the family has "
                    f"{min_hits} exceeding pilot runs)")
         c = contrib * elite
         if not np.any(c > 0):
