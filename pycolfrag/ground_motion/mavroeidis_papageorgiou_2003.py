@@ -267,13 +267,14 @@ def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11):
     return parameters_at(Mw, dist_km, _lhs(4, n_, _int_seed(seed)), vp_scale, tp_model)
 
 
-def parameters_at(Mw, dist_km, u, vp_scale=1.0, tp_model=_r11):
+def parameters_at(Mw, dist_km, u, vp_scale=1.0, tp_model=_r11, derived=True):
     """The pulses at given points ``u`` of the unit 4-cube (shape (n, 4), each in [0, 1]) for the
     scenario (Mw, dist_km km): the inverse-CDF map of :func:`sample_parameters` (which applies it to
     its Latin hypercube), column by column as listed there, in C (``cf_pulse_sample_map``). A caller
     with its own uniforms -- the stratified site simulation of :mod:`pycolfrag.rare`, which draws
     them as Phi of standard normals -- gets the same parameters for the same points. Returns the dict
-    of :func:`sample_parameters`."""
+    of :func:`sample_parameters`; ``derived=False`` leaves out ``A_cm_s`` and ``Tp_s`` (the inputs of a
+    record alone: the envelope amplitude takes a search per pulse)."""
     model = tp_model
     c = _c()
     log_vp = c.lib.cf_math_log10(_r11.mean_vp_cm_s(Mw, dist_km, vp_scale))
@@ -286,6 +287,8 @@ def parameters_at(Mw, dist_km, u, vp_scale=1.0, tp_model=_r11):
     dist = _distribution(log_vp, log_fp, model.SIGMA_LOG10_FP)
     c.check(c.lib.cf_pulse_sample_map(dist, c.ptr(u), n_, c.ptr(vp), c.ptr(fp), c.ptr(nu), c.ptr(gamma)),
             what="pulse parameter sampling")
-    return {_VP.meta_key: vp, _FP.meta_key: fp, _NU.meta_key: nu, _GAMMA.meta_key: gamma,
-            _A.meta_key: np.asarray(envelope_amplitude(vp, fp, nu, gamma), dtype=float).reshape(n_),
-            _TP.meta_key: 1.0 / fp}
+    out = {_VP.meta_key: vp, _FP.meta_key: fp, _NU.meta_key: nu, _GAMMA.meta_key: gamma}
+    if derived:
+        out.update({_A.meta_key: np.asarray(envelope_amplitude(vp, fp, nu, gamma), dtype=float).reshape(n_),
+                    _TP.meta_key: 1.0 / fp})
+    return out

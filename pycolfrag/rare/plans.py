@@ -69,7 +69,7 @@ class PulseMap:
 
     def __call__(self, mw: float, r_km: float, z4) -> dict:
         u = np.array([[phi(v) for v in z4]])
-        row = self.module.parameters_at(mw, r_km, u, self.vp_scale, self.tp_model)
+        row = self.module.parameters_at(mw, r_km, u, self.vp_scale, self.tp_model, derived=False)
         return {p.meta_key: float(np.asarray(row[p.meta_key])[0]) for p in self.module.INPUTS}
 
 
