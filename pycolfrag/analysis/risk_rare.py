@@ -143,6 +143,21 @@ def _levels_table(run) -> list:
     return L
 
 
+def _at_target(run) -> str:
+    """One sentence: crude Monte Carlo's events for every requested level at the target CoV, against the runs used."""
+    t = run.stop.target_cov
+    need = []
+    for q in run.requested:
+        e = run.estimate.levels[q.label]
+        p = e.rate / run.strata.total_rate
+        need.append(((1 - p) / (p * t * t) if p > 0 else math.inf, q.label))
+    n, label = max(need)
+    if not math.isfinite(n):
+        return ""
+    return (f" Every requested level at CoV {t:g}: crude Monte Carlo needs {n:.3g} events ({label}), this simulation "
+            f"used {run.runs} runs ({n / run.runs:.3g} times fewer).")
+
+
 def _header(run) -> list:
     s, st, d = run.site, run.settings, run.design
     runs_by = ", ".join(f"{b['name']} {b['runs']}" + (f" of {b['planned']}" if b["runs"] < b["planned"] else "")
@@ -226,7 +241,7 @@ def report(run, cmp: GridComparison | None = None, figures: dict | None = None) 
     L += ["", "Refused: a level whose estimate rests on fewer effective exceedances than the floor, or on one run "
               "carrying more than the largest share allowed; only an upper bound is stated. Crude runs for this "
               "CoV: N = (1 - p) / (p CoV^2), p = lambda / (the site's event rate); efficiency = that over the runs "
-              "used."]
+              "used." + _at_target(run)]
     if cmp is not None:
         L += _comparison_table(cmp, run)
     L += _deaggregation(run) + _history(run)
@@ -276,7 +291,8 @@ def print_summary(run, cmp: GridComparison | None = None) -> None:
     for q in run.quantities:
         e = run.estimate.levels[q.label]
         text = (f"{q.label:>14}: {_rate_cell(e)} /yr" + ("" if e.status == "refused" else
-                f", CoV {e.cov:.3f}, P{PRINTED_YEARS:g} {_p(e.rate):.3g}") + f", n_eff {e.n_eff:.1f} ({e.status})")
+                f", CoV {e.cov:.3f}, P{PRINTED_YEARS:g} {_p(e.rate):.3g}") + f", n_eff {e.n_eff:.1f}, largest run "
+                f"{100 * min(e.max_share, 1):.1f} % ({e.status})")
         if cmp is not None and cmp.agree[q.label] is not None:
             text += f"; grid route (its range) {'agrees' if cmp.agree[q.label] else 'DISAGREES'}"
         print(text)

@@ -202,10 +202,11 @@ def _allocate(cols, strata, design, settings, requested, stage: int, used: int, 
 
 def _progress_lines(stage: int, runs: int, est, requested, stop: StopRule) -> list:
     lines = [f"site simulation: batch {stage} done, {runs} runs (target CoV {stop.target_cov:g}, budget "
-             f"{stop.max_runs})", f"  {'level':<16} {'rate /yr':>10} {'CoV':>7} {'n_eff':>7}  status"]
+             f"{stop.max_runs})", f"  {'level':<16} {'rate /yr':>10} {'CoV':>7} {'n_eff':>7} {'top run':>8}  status"]
     for q in requested:
         e = est.levels[q.label]
-        lines.append(f"  {q.label:<16} {e.rate:10.3e} {e.cov:7.3f} {e.n_eff:7.1f}  {e.status}")
+        share = f"{100 * e.max_share:7.1f}%" if math.isfinite(e.max_share) else f"{'-':>8}"
+        lines.append(f"  {q.label:<16} {e.rate:10.3e} {e.cov:7.3f} {e.n_eff:7.1f} {share}  {e.status}")
     return lines
 
 
