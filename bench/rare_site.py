@@ -181,8 +181,11 @@ def judge_reps(reps: dict, crude: dict) -> list:
         obs = float(np.std(rates, ddof=1) / mean) if mean > 0 else math.nan
         st = float(np.sqrt(np.mean(stated[np.isfinite(stated)] ** 2))) if np.isfinite(stated).any() else math.nan
         chi = [math.sqrt((n - 1) / stats.chi2.ppf(p, n - 1)) for p in (0.95, 0.05)]
+        # the difference in units of its standard error: the crude count's (binomial) and the mean's (observed spread)
+        se = math.hypot(c["rate"] * math.sqrt((1 - c["p"]) / max(c["k"], 1)), float(np.std(rates, ddof=1)) / math.sqrt(n))
         out.append({"level": q.label, "crude_rate": c["rate"], "crude_low": c["rate_low"], "crude_high": c["rate_high"],
                     "crude_k": c["k"], "mean": mean, "inside": bool(c["rate_low"] <= mean <= c["rate_high"]),
+                    "z": (mean - c["rate"]) / se if se > 0 else math.nan,
                     "observed_cov": obs, "stated_cov": st, "ratio": st / obs if obs > 0 else math.nan,
                     "within_25": bool(abs(st / obs - 1) <= 0.25) if obs > 0 else False, "chi2_band": chi,
                     "refused": int(sum(v["status"] == "refused" for v in lv)),
@@ -325,12 +328,13 @@ def verification_lines(crude: dict, reps: dict, replay: dict | None) -> list:
          f"(bench/data/site_bench.toml): {crude['events']} crude events ({1e3 * crude['wall_s_per_event']:.1f} ms "
          f"each, {crude['failed']} failed) against {len(reps['reps'])} simulations to CoV {reps['target_cov']:g} "
          f"(seeds 1-{len(reps['reps'])}, batches of {reps['batch']}):", "",
-         "| level | crude k | crude rate [90 %] | mean of the simulations | inside | observed CoV | stated CoV | "
-         "stated / observed | within 25 % | chi2 90 % band of observed / true | refused | mean runs |",
-         "|---|---:|---|---:|---|---:|---:|---:|---|---|---:|---:|"]
+         "| level | crude k | crude rate [90 %] | mean of the simulations | inside | difference / its SE | observed CoV | "
+         "stated CoV | stated / observed | within 25 % | chi2 90 % band of observed / true | refused | mean runs |",
+         "|---|---:|---|---:|---|---:|---:|---:|---:|---|---|---:|---:|"]
     for r in judge_reps(reps, crude):
         L.append(f"| {r['level']} | {r['crude_k']} | {r['crude_rate']:.3g} [{r['crude_low']:.3g}, {r['crude_high']:.3g}] | "
-                 f"{r['mean']:.3g} | {'yes' if r['inside'] else 'NO'} | {r['observed_cov']:.3f} | {r['stated_cov']:.3f} | "
+                 f"{r['mean']:.3g} | {'yes' if r['inside'] else 'NO'} | {r['z']:+.2f} | {r['observed_cov']:.3f} | "
+                 f"{r['stated_cov']:.3f} | "
                  f"{r['ratio']:.2f} | {'yes' if r['within_25'] else 'NO'} | [{r['chi2_band'][0]:.2f}, "
                  f"{r['chi2_band'][1]:.2f}] | {r['refused']} | {r['mean_runs']:.0f} |")
     if replay:

@@ -119,9 +119,11 @@ def test_defensive_mixture_bounds_every_weight():
     zq = np.random.default_rng(5).standard_normal((40000, 2)) + np.array([mix.shift(int(c)) for c in range(3)])[k]
     w = mix.ratio(zq)
     assert w.sum() ** 2 / (w * w).sum() / w.size >= 0.3
-    # balance heuristic over two proposals: bounded by n / sum n_s alpha_0s
-    r = proposal.balance_ratio(z, [proposal.PILOT_MIXTURE, mix], [100, 300])
-    assert r.max() <= 400 / (100 * 0.5 + 300 * 0.3)
+    # the weight is the mixture's, not the drawing component's: at a shift, phi/q is 1/(0.3 + 0.35 e^{|mu|^2/2} + ...)
+    at = np.array([[2.1, -0.8]])
+    expect = 1 / (0.3 + 0.35 * math.exp(0.5 * (2.1 ** 2 + 0.8 ** 2)) + 0.35 * math.exp(2.1 * 1.2 - 0.8 * 0.3
+                                                                                          - 0.5 * (1.2 ** 2 + 0.3 ** 2)))
+    assert mix.ratio(at)[0] == pytest.approx(expect, rel=1e-13)
 
 
 def test_a_weight_above_its_bound_is_refused(monkeypatch):
@@ -177,24 +179,37 @@ def _simulate(site, settings, stop, ev=None):
 
 
 def test_estimator_is_unbiased_and_its_cov_is_the_spread():
-    """40 simulations of 600 runs of the surrogate: every level's mean within 3 standard errors of the exact
-    rate, and the stated CoV (root mean square over the simulations) within 30 % of the observed spread
-    (with 40 simulations the observed CoV is itself uncertain by 1/sqrt(2 x 39) = 11 %: 30 % is 2.7 of those)."""
+    """40 simulations of 800 runs of the surrogate against its exact rates:
+
+    * every level's mean within 3 standard errors of the exact rate;
+    * the 90 % intervals of the 280 estimates (7 levels x 40) hold the exact rate in 82-97 % of them
+      (binomial standard error of 90 % coverage with 280 intervals: 1.8 %; a variance off by a factor of 2
+      would give about 70 % or 99 %);
+    * the stated CoV (root mean square over the simulations) within 30 % of the observed spread for the levels
+      above 5e-3 per event (with 40 simulations the observed CoV is itself uncertain by 1/sqrt(2 x 39) = 11 %;
+      the rarer levels' estimates are skewed, whose spread 40 simulations understate: coverage judges them).
+    """
     site = small_site()
     exact = exact_rates(site, QUANTITIES)
+    total = sum(s.rate for s in site.sources)
     reps = 40
     rates = np.zeros((reps, len(QUANTITIES)))
     covs = np.zeros_like(rates)
+    held = 0
     for i in range(reps):
-        run = _simulate(site, SiteSettings(seed=1000 + i, batch=150, **SMALL), StopRule(0.01, 600))
-        assert run.runs == 600 and run.stopped == "budget"
+        run = _simulate(site, SiteSettings(seed=1000 + i, batch=200, **SMALL), StopRule(0.01, 800))
+        assert run.runs == 800 and run.stopped == "budget"
         for j, q in enumerate(QUANTITIES):
-            rates[i, j], covs[i, j] = run.estimate.levels[q.label].rate, run.estimate.levels[q.label].cov
+            e = run.estimate.levels[q.label]
+            rates[i, j], covs[i, j] = e.rate, e.cov
+            held += e.low <= exact[q.label] <= e.high
+    assert 0.82 <= held / rates.size <= 0.97
     for j, q in enumerate(QUANTITIES):
         mean, sd = rates[:, j].mean(), rates[:, j].std(ddof=1)
         assert abs(mean - exact[q.label]) <= 3 * sd / math.sqrt(reps), q.label
-        stated = math.sqrt(np.mean(covs[:, j] ** 2))
-        assert stated / (sd / exact[q.label]) == pytest.approx(1.0, abs=0.30), q.label
+        if exact[q.label] / total >= 5e-3:
+            stated = math.sqrt(np.mean(covs[:, j] ** 2))
+            assert stated / (sd / exact[q.label]) == pytest.approx(1.0, abs=0.30), q.label
 
 
 def test_stops_at_the_target_and_says_every_level_after_every_batch():

@@ -182,7 +182,7 @@ def _header(run) -> list:
     ess = run.estimate.ess_relative
     L.append(f"- weights: Kong's relative effective sample size of a stratum's weights >= "
              f"{float(np.nanmin(ess)):.3f}; largest pulse factor / its bound: "
-             + (f"{max(v[0] / v[1] for v in run.estimate.max_ratio.values()):.3f}" if run.estimate.max_ratio else "-"))
+             + (f"{max(run.estimate.max_ratio.values()):.3f}" if run.estimate.max_ratio else "-"))
     return L
 
 

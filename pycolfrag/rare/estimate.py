@@ -1,8 +1,8 @@
 """The stratified importance-sampling estimator of a site's rates, its variance and its diagnostics.
 
 For every level l (a Table III/IV level or collapse) and the rows i of stratum h (n_h of them, weight
-w_i = occurrence weight x phi_2 / qbar_h of the pulse normals, the balance heuristic of
-:mod:`pycolfrag.rare.proposal`; outcome y_il = collapsed or EDP >= threshold)::
+w_i = occurrence weight x phi_2 / q_s of the pulse normals under the mixture q_s of the row's own stage
+(:mod:`pycolfrag.rare.proposal`); outcome y_il = collapsed or EDP >= threshold)::
 
     mu_hl   = (1 / n_h) sum_i w_i y_il            s_hl^2 = (1 / (n_h - 1)) sum_i (w_i y_il - mu_hl)^2
     lambda_l = sum_h W_h mu_hl                    V_l = sum_h W_h^2 s_hl^2 / n_h,   CoV_l = sqrt(V_l) / lambda_l
@@ -30,7 +30,6 @@ from scipy import stats
 
 from .. import results as _results
 from ..errors import PycolfragError
-from .proposal import balance_ratio
 
 __all__ = ["WeightError", "LevelEstimate", "Estimate", "exceedances", "row_weights", "estimate", "DEFAULT_MIN_NEFF",
            "DEFAULT_MAX_SHARE", "efficiency"]
@@ -56,30 +55,27 @@ def exceedances(cols: dict, q) -> np.ndarray:
 
 
 def row_weights(cols: dict, strata, design) -> tuple[np.ndarray, dict]:
-    """Every row's weight (balance heuristic within its stratum) and, per stratum, the largest pulse
-    factor phi_2 / qbar against its bound. ``design.mixture(stage)`` gives the proposal of a stage."""
+    """Every row's weight -- its occurrence weight times phi_2 / q of the mixture of its own stage (the
+    balance heuristic over that mixture's components; ``design.mixture(design.proposal_of(stage))``) -- and,
+    per stratum, the largest pulse factor over its bound 1/alpha_0 (at most 1)."""
     h_all = np.asarray(cols["stratum"])
     w = np.asarray(cols["occurrence_weight"], dtype=float).copy()
-    checks = {}
-    for h in np.unique(h_all):
-        idx = np.flatnonzero(h_all == h)
-        if not strata[int(h)].pulse:
-            continue
-        stages = np.asarray(cols["stage"])[idx]
-        kinds = sorted({design.proposal_of(int(s)) for s in stages})
-        mixtures = [design.mixture(k) for k in kinds]
-        counts = [int(np.sum([design.proposal_of(int(s)) == k for s in stages])) for k in kinds]
-        z = np.column_stack([np.asarray(cols["z_vp"])[idx], np.asarray(cols["z_fp"])[idx]])
-        ratio = balance_ratio(z, mixtures, counts)
-        bound = 1.0 / sum(c * m.alphas[0] for m, c in zip(mixtures, counts)) * sum(counts)
-        if np.max(ratio) > bound * (1.0 + 1e-9):
-            i = idx[int(np.argmax(ratio))]
-            raise WeightError(f"stratum {int(h)}, row of stage {int(np.asarray(cols['stage'])[i])} index "
-                              f"{int(np.asarray(cols['index'])[i])}: pulse weight {float(np.max(ratio)):.6g} above "
-                              f"its defensive bound {bound:.6g} (wrong density code)")
-        checks[int(h)] = (float(np.max(ratio)), bound)
-        w[idx] *= ratio
-    return w, checks
+    kind = np.array([design.proposal_of(int(s)) for s in np.asarray(cols["stage"])], dtype=int)
+    z = np.column_stack([np.asarray(cols["z_vp"], dtype=float), np.asarray(cols["z_fp"], dtype=float)])
+    pulse = np.array([strata[int(h)].pulse for h in h_all], dtype=bool)
+    ratio, bound = np.ones(h_all.size), np.ones(h_all.size)
+    for k in np.unique(kind[pulse]):
+        sel = pulse & (kind == k)
+        m = design.mixture(int(k))
+        ratio[sel], bound[sel] = m.ratio(z[sel]), m.bound
+    bad = ratio > bound * (1.0 + 1e-9)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise WeightError(f"stratum {int(h_all[i])}, row of stage {int(np.asarray(cols['stage'])[i])} index "
+                          f"{int(np.asarray(cols['index'])[i])}: pulse weight {ratio[i]:.6g} above its defensive "
+                          f"bound {bound[i]:.6g} (wrong density code)")
+    checks = {int(h): float(np.max(ratio[(h_all == h)] / bound[(h_all == h)])) for h in np.unique(h_all[pulse])}
+    return w * ratio, checks
 
 
 @dataclass

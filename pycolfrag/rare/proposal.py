@@ -7,10 +7,11 @@ normal under the site's model -- are drawn from a *defensive mixture* (Hesterber
 
 whose nominal component bounds every weight: phi_2 / q <= 1 / alpha_0, so Kong's relative effective
 sample size of the pulse factor is at least alpha_0 whatever the shifts. The other pulse normals
-(phase, gamma) and the record's noise keep the site's density. Rows drawn from several mixtures (the
-pilot's, the production batches') are weighted together by the *balance heuristic* (Veach & Guibas 1995;
-Owen & Zhou 2000): a row of stratum h weighs phi_2(z) / qbar_h(z), qbar_h = sum_s (n_hs / n_h) q_s, the
-mixture of every proposal the stratum's rows came from, not the one that drew it.
+(phase, gamma) and the record's noise keep the site's density. A row weighs phi_2(z) / q(z), q the whole
+mixture of its stage and not the component that drew it: the *balance heuristic* over the mixture's
+components (Veach & Guibas 1995; Owen & Zhou 2000). The pilot's rows keep the pilot's mixture: pooling
+them with the production rows under one mixture of both would re-weight the rows that placed the
+production mixture by the mixture they placed (a bias, measured in docs/rare_events.md).
 
 The shifts mu_c come from one cross-entropy step (Rubinstein 1999; de Boer et al. 2005) on the pilot:
 for the Gaussian-mean family its program has the closed form mu = sum_i c_i z_i / sum_i c_i over the
@@ -28,7 +29,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["Mixture", "Design", "PILOT_MIXTURE", "production_mixture", "balance_ratio", "FAMILIES", "family_of", "score",
+__all__ = ["Mixture", "Design", "PILOT_MIXTURE", "production_mixture", "FAMILIES", "family_of", "score",
            "cross_entropy_means", "MEAN_DECIMALS"]
 
 #: The shifts are rounded to 1e-6 before they are stored and used (a replay compares them as stored).
@@ -106,13 +107,6 @@ def production_mixture(alpha0: float, means) -> Mixture:
         return Mixture((1.0,), ())
     rest = (1.0 - alpha0) / len(means)
     return Mixture((alpha0,) + (rest,) * len(means), means)
-
-
-def balance_ratio(z, mixtures, counts) -> np.ndarray:
-    """phi_2 / qbar for rows of ``z`` (n, 2): qbar = sum_s (counts[s] / sum counts) mixtures[s]."""
-    total = float(sum(counts))
-    qbar = sum((c / total) * m.q_over_phi(z) for m, c in zip(mixtures, counts) if c > 0)
-    return 1.0 / qbar
 
 
 def family_of(q) -> str:
