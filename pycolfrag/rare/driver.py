@@ -247,7 +247,7 @@ class _Run:
 
     def run_batch(self, stage: int, inputs, purpose) -> int:
         used = sum(b["runs"] for b in self.batches)
-        limit = min(len(inputs), self.stop.max_runs - used)
+        limit = max(0, min(len(inputs), self.stop.max_runs - used))   # a smaller budget on resume: nothing more
         cols = self.ev.evaluate(batch_name(stage), inputs, purpose, limit)
         runs = int(np.sum(np.asarray(cols["status"]) != _results.STATUS_PENDING))
         self.parts.append(cols)
