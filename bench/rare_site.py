@@ -325,8 +325,8 @@ def target_table(target: dict, crude: dict | None) -> list:
 def verification_lines(crude: dict, reps: dict, replay: dict | None) -> list:
     """The verification block: the simulations against the crude reference, and the replay's identities."""
     L = [f"Verification column (bench/data/column_two_drums.toml) at the verification site "
-         f"(bench/data/site_bench.toml): {crude['events']} crude events ({1e3 * crude['wall_s_per_event']:.1f} ms "
-         f"each, {crude['failed']} failed) against {len(reps['reps'])} simulations to CoV {reps['target_cov']:g} "
+         f"(bench/data/site_bench.toml): {crude['events']} crude events (seeds {crude['seed']}; "
+         f"{1e3 * crude['wall_s_per_event']:.1f} ms each, {crude['failed']} failed) against {len(reps['reps'])} simulations to CoV {reps['target_cov']:g} "
          f"(seeds 1-{len(reps['reps'])}, batches of {reps['batch']}):", "",
          "| level | crude k | crude rate [90 %] | mean of the simulations | inside | difference / its SE | observed CoV | "
          "stated CoV | stated / observed | within 25 % | chi2 90 % band of observed / true | refused | mean runs |",
@@ -357,7 +357,7 @@ def _replace_block(path: Path, name: str, lines: list) -> None:
 
 def write_docs() -> None:
     """The blocks of docs/rare_events.md and docs/risk.md from the stored summaries (no number typed by hand)."""
-    crude, reps, replay, target = _load("crude"), _load("reps"), _load("replay"), _load("target")
+    crude, reps, replay, target = pooled_crude(), _load("reps"), _load("replay"), _load("target")
     docs = ROOT / "docs"
     if crude and reps:
         _replace_block(docs / "rare_events.md", "rare-verification", verification_lines(crude, reps, replay))
@@ -367,9 +367,27 @@ def write_docs() -> None:
         _replace_block(docs / "risk.md", "rare-efficiency", lines)
 
 
+def pooled_crude() -> dict | None:
+    """crude.json with every further reference (crude_seed*.json, other seeds) pooled in: k and N summed per level."""
+    parts = [x for x in [_load("crude")] + [json.loads(p.read_text()) for p in sorted(SUMMARY.glob("crude_seed*.json"))]
+             if x]
+    if not parts:
+        return None
+    out = dict(parts[0], events=sum(x["events"] for x in parts), failed=sum(x["failed"] for x in parts),
+               seed=[x["seed"] for x in parts], levels={})
+    out["wall_s_per_event"] = sum(x["wall_s_per_event"] * x["events"] for x in parts) / out["events"]
+    total = parts[0]["total_rate_per_yr"]
+    for lab in parts[0]["levels"]:
+        k, N = sum(x["levels"][lab]["k"] for x in parts), sum(x["levels"][lab]["N"] for x in parts)
+        lo, hi = (float(stats.beta.ppf(c, k + 0.5, N - k + 0.5)) for c in (0.05, 0.95))
+        out["levels"][lab] = {"k": k, "N": N, "p": k / N, "p_low": lo, "p_high": hi, "rate": total * k / N,
+                              "rate_low": total * lo, "rate_high": total * hi}
+    return out
+
+
 def summary() -> str:
     L = ["# bench/rare_site.py summary", ""]
-    crude, reps, replay = _load("crude"), _load("reps"), _load("replay")
+    crude, reps, replay = pooled_crude(), _load("reps"), _load("replay")
     if crude and reps:
         L += verification_lines(crude, reps, replay) + [""]
     target = _load("target")
@@ -387,13 +405,15 @@ def main(argv=None) -> int:
     ap.add_argument("--max-runs", type=int, default=20000)
     ap.add_argument("--batch", type=int, default=1000, help="runs per batch of the repetitions")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--name", default="crude", help="crude: the reference's name (its folder and summary); every "
+                                                    "crude_*.json but crude_example is pooled with crude.json")
     ap.add_argument("--write-docs", action="store_true", help="summary: write the blocks of docs/rare_events.md and "
                                                                "docs/risk.md from the stored results")
     a = ap.parse_args(argv)
     comm = get_comm("auto") if a.stage in ("crude", "reps", "crude-example") else None
     t0 = time.perf_counter()
     if a.stage == "crude":
-        res = run_crude(comm, BENCH_SITE, BENCH_COLUMN, a.events or 100000, a.seed, "crude")
+        res = run_crude(comm, BENCH_SITE, BENCH_COLUMN, a.events or 100000, a.seed, a.name)
     elif a.stage == "crude-example":
         res = run_crude(comm, EXAMPLE_SITE, None, a.events or 2000, a.seed, "crude_example", batch=1000)
     elif a.stage == "reps":
@@ -411,7 +431,7 @@ def main(argv=None) -> int:
         return 0
     if res is not None:
         res["bench_wall_s"] = time.perf_counter() - t0
-        print(f"wrote {_save(a.stage.replace('-', '_'), res)}")
+        print(f"wrote {_save(a.name if a.stage == 'crude' else a.stage.replace('-', '_'), res)}")
     return 0
 
 

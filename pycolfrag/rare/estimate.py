@@ -29,6 +29,7 @@ import numpy as np
 from scipy import stats
 
 from .. import results as _results
+from ..analysis import fragility as _fragility
 from ..errors import PycolfragError
 
 __all__ = ["WeightError", "LevelEstimate", "Estimate", "exceedances", "row_weights", "estimate", "DEFAULT_MIN_NEFF",
@@ -45,13 +46,13 @@ class WeightError(PycolfragError, ArithmeticError):
 
 
 def exceedances(cols: dict, q) -> np.ndarray:
-    """y of every row for level ``q`` (``edp``, ``threshold``; collapse when ``edp`` is None): collapsed,
-    or EDP >= threshold -- the exceedance of the fragility curves (:func:`pycolfrag.analysis.fragility.exceeded`)."""
+    """y of every row for level ``q`` (``edp``, ``threshold``; collapse when ``edp`` is None): the exceedance of
+    the fragility curves, collapsed or EDP >= threshold (:func:`pycolfrag.analysis.fragility.exceeded`, the one
+    text of it; ``pcf.fragility``, loaded with the package)."""
     collapsed = np.asarray(cols["collapsed"], dtype=bool)
     if q.edp is None:
         return collapsed
-    with np.errstate(invalid="ignore"):
-        return collapsed | (np.nan_to_num(np.asarray(cols[q.edp], dtype=float), nan=-np.inf) >= q.threshold)
+    return _fragility.exceeded(np.asarray(cols[q.edp], dtype=float), collapsed, q.threshold)
 
 
 def row_weights(cols: dict, strata, design) -> tuple[np.ndarray, dict]:
