@@ -347,6 +347,39 @@ def verification_lines(crude: dict, reps: dict, replay: dict | None) -> list:
     return L
 
 
+def split_lines(crude: dict) -> list:
+    """The repetitions' rows split by stage against the crude rate: the pilot's alone (a fixed design), the
+    first production batch's alone (strata without two rows there from the pilot), all -- a check that the
+    production rows' weights carry no bias of their own."""
+    from pycolfrag.rare.evaluator import read_columns, read_plan
+    from pycolfrag.rare.estimate import estimate
+    from pycolfrag.rare.proposal import Design
+    from pycolfrag.rare.strata import build_strata
+    st = build_strata(load_site(BENCH_SITE))
+    parts = {"pilot alone": [], "batch 1 alone": [], "all": []}
+    for f in sorted((WORK / "reps").glob("seed_*")):
+        cols = [read_columns(p)[0] for p in sorted(f.glob("batch_*.h5"))]
+        d = Design.from_dict(read_plan(f / "batch_001.plan.json")[0]["design"])
+        keep = np.array([np.sum(cols[1]["stratum"] == h) >= 2 for h in range(len(st))])
+        both = estimate(cols[1], st, d, QUANTITIES, keep=keep).levels, estimate(cols[0], st, d, QUANTITIES,
+                                                                                 keep=~keep).levels
+        allc = {k: np.concatenate([c[k] for c in cols]) for k in cols[0]}
+        parts["pilot alone"].append([estimate(cols[0], st, d, QUANTITIES).levels[q.label].rate for q in QUANTITIES])
+        parts["batch 1 alone"].append([both[0][q.label].rate + both[1][q.label].rate for q in QUANTITIES])
+        parts["all"].append([estimate(allc, st, d, QUANTITIES).levels[q.label].rate for q in QUANTITIES])
+    L = ["", "The repetitions' rows by stage, mean / crude rate (difference in standard errors):", "",
+         "| rows | " + " | ".join(q.label for q in QUANTITIES) + " |", "|---|" + "---:|" * len(QUANTITIES)]
+    for name, rows in parts.items():
+        a = np.array(rows)
+        cells = []
+        for j, q in enumerate(QUANTITIES):
+            c = crude["levels"][q.label]
+            se = math.hypot(c["rate"] / math.sqrt(max(c["k"], 1)), a[:, j].std(ddof=1) / math.sqrt(len(a)))
+            cells.append(f"{a[:, j].mean() / c['rate']:.3f} ({(a[:, j].mean() - c['rate']) / se:+.1f})")
+        L.append(f"| {name} | " + " | ".join(cells) + " |")
+    return L
+
+
 def _replace_block(path: Path, name: str, lines: list) -> None:
     text = path.read_text()
     begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
@@ -361,7 +394,8 @@ def write_docs() -> None:
     crude, reps, replay, target = pooled_crude(), _load("reps"), _load("replay"), _load("target")
     docs = ROOT / "docs"
     if crude and reps:
-        _replace_block(docs / "rare_events.md", "rare-verification", verification_lines(crude, reps, replay))
+        _replace_block(docs / "rare_events.md", "rare-verification", verification_lines(crude, reps, replay)
+                       + split_lines(crude))
     if target:
         lines = target_table(target, _load("crude_example"))
         _replace_block(docs / "rare_events.md", "rare-example", lines)
