@@ -6,7 +6,11 @@ forms the risk needs:
 * quadrature (``points(breaks)``): points and weights of an integral over the model's density,
   Gauss-Legendre on each segment between the breaks (:mod:`pycolfrag.analysis.risk` sets them at
   the grid's nodes, where the interpolated fragility surface has kinks);
-* random draws (``sample(n, rng)``): what an event-based simulation of the site draws.
+* random draws (``sample(n, rng)``): events drawn from the whole model;
+* bins, for the stratified event-based simulation of :mod:`pycolfrag.rare`: a continuous model gives
+  ``support``, ``probability_between(lo, hi)`` and ``draw_between(u, lo, hi)`` (the inverse CDF of its
+  density restricted to [lo, hi], with the library's own exp and log, so that the same u gives the
+  same bits on every CPU); a discrete one gives ``atoms`` ((value, probability) pairs).
 
 A model is registered in the table of its kind (:data:`MAGNITUDE_MODELS`, :data:`DISTANCE_MODELS`,
 :data:`PULSE_MODELS`) under the ``type`` (or, for pulses, ``model``) a site file names it by; the
@@ -24,7 +28,7 @@ import numpy as np
 from .errors import ParameterError
 from .ground_motion import registry as gm_registry
 
-__all__ = ["Table", "QUAD_POINTS", "MW_RANGE", "R_RANGE_KM", "B_RANGE", "MAGNITUDE_MODELS", "DISTANCE_MODELS",
+__all__ = ["Table", "QUAD_POINTS", "c_exp", "c_log", "MW_RANGE", "R_RANGE_KM", "B_RANGE", "MAGNITUDE_MODELS", "DISTANCE_MODELS",
            "PULSE_MODELS", "GutenbergRichter", "Characteristic", "FixedDistance", "UniformDistance",
            "AreaDistance", "DiscreteDistance", "GivenProbability", "PulseOnly", "ShahiBakerPulse", "Spread",
            "quadrature"]
@@ -42,6 +46,25 @@ R_RANGE_KM = (0.0, 20000.0)
 #: catalogue (about 0.5-2): the quadrature cuts the magnitude range into pieces 2/beta wide, so
 #: that bound also keeps it to a few dozen pieces.
 B_RANGE = (0.0, 5.0)
+
+
+def c_exp(x: float) -> float:
+    """exp(x) by the library's own function (``csrc/cf_math.c``): the same bits on every CPU. Loaded on
+    first use: reading a site file needs no C library."""
+    from ._ffi import lib  # loads C on first use (docstring)
+    return float(lib.cf_math_exp(float(x)))
+
+
+def c_log(x: float) -> float:
+    """ln(x) by the library's own function (see :func:`c_exp`)."""
+    from ._ffi import lib  # loads C on first use (see c_exp)
+    return float(lib.cf_math_log(float(x)))
+
+
+def _overlap(support, lo, hi):
+    """[lo, hi] cut to the model's support (a, b), or None when they do not overlap."""
+    a, b = max(lo, support[0]), min(hi, support[1])
+    return (a, b) if b > a else None
 
 
 # --------------------------------------------------------------------------- reading a table
@@ -183,6 +206,28 @@ class GutenbergRichter:
         u = rng.random(n)
         return self.m_min - np.log1p(u * math.expm1(-self.beta * (self.m_max - self.m_min))) / self.beta
 
+    atoms = None  # a continuous density: bins are drawn by draw_between
+
+    @property
+    def support(self):
+        return (self.m_min, self.m_max)
+
+    def probability_between(self, lo, hi) -> float:
+        """P(lo <= M <= hi): (e^(-beta (a - m_min)) - e^(-beta (b - m_min))) / (1 - e^(-beta (m_max - m_min)))
+        on [a, b] = [lo, hi] cut to the support."""
+        ab = _overlap(self.support, lo, hi)
+        if ab is None:
+            return 0.0
+        a, b = ab
+        norm = -math.expm1(-self.beta * (self.m_max - self.m_min))
+        return c_exp(-self.beta * (a - self.m_min)) * (1.0 - c_exp(-self.beta * (b - a))) / norm
+
+    def draw_between(self, u, lo, hi) -> float:
+        """The magnitude at CDF fraction ``u`` in [0, 1] of the density restricted to [lo, hi] (a
+        truncated exponential again): a - ln(1 - u (1 - e^(-beta (b - a)))) / beta."""
+        a, b = _overlap(self.support, lo, hi)
+        return a - c_log(1.0 - u * (1.0 - c_exp(-self.beta * (b - a)))) / self.beta
+
     def describe(self):
         return f"truncated G-R, b = {self.b:g}, Mw {self.m_min:g}-{self.m_max:g}"
 
@@ -205,6 +250,11 @@ class Characteristic:
 
     def sample(self, n, rng):
         return np.full(n, self.mw)
+
+    @property
+    def atoms(self):
+        """(magnitude, probability) pairs: one."""
+        return ((self.mw, 1.0),)
 
     def describe(self):
         return f"characteristic Mw {self.mw:g}"
@@ -243,6 +293,11 @@ class FixedDistance:
     def sample(self, n, rng):
         return np.full(n, self.r_km)
 
+    @property
+    def atoms(self):
+        """(distance km, probability) pairs: one."""
+        return ((self.r_km, 1.0),)
+
     def describe(self):
         return f"R = {self.r_km:g} km"
 
@@ -266,6 +321,22 @@ class UniformDistance:
 
     def sample(self, n, rng):
         return self.min_km + (self.max_km - self.min_km) * rng.random(n)
+
+    atoms = None  # a continuous density: bins are drawn by draw_between
+
+    @property
+    def support(self):
+        return (self.min_km, self.max_km)
+
+    def probability_between(self, lo, hi) -> float:
+        """P(lo <= R <= hi) = (b - a) / (max - min) on [a, b] = [lo, hi] cut to the support."""
+        ab = _overlap(self.support, lo, hi)
+        return 0.0 if ab is None else (ab[1] - ab[0]) / (self.max_km - self.min_km)
+
+    def draw_between(self, u, lo, hi) -> float:
+        """The distance at CDF fraction ``u`` of the density restricted to [lo, hi]: a + u (b - a)."""
+        a, b = _overlap(self.support, lo, hi)
+        return a + u * (b - a)
 
     def describe(self):
         return f"R uniform {self.min_km:g}-{self.max_km:g} km"
@@ -291,6 +362,23 @@ class AreaDistance:
 
     def sample(self, n, rng):
         return np.sqrt(self.min_km ** 2 + (self.max_km ** 2 - self.min_km ** 2) * rng.random(n))
+
+    atoms = None  # a continuous density: bins are drawn by draw_between
+
+    @property
+    def support(self):
+        return (self.min_km, self.max_km)
+
+    def probability_between(self, lo, hi) -> float:
+        """P(lo <= R <= hi) = (b^2 - a^2) / (max^2 - min^2) on [a, b] = [lo, hi] cut to the support."""
+        ab = _overlap(self.support, lo, hi)
+        return 0.0 if ab is None else (ab[1] ** 2 - ab[0] ** 2) / (self.max_km ** 2 - self.min_km ** 2)
+
+    def draw_between(self, u, lo, hi) -> float:
+        """The distance at CDF fraction ``u`` of the density restricted to [lo, hi]: sqrt(a^2 + u (b^2 - a^2))
+        (sqrt is correctly rounded: the same bits on every CPU)."""
+        a, b = _overlap(self.support, lo, hi)
+        return math.sqrt(a * a + u * (b * b - a * a))
 
     def describe(self):
         return f"R area {self.min_km:g}-{self.max_km:g} km"
@@ -324,6 +412,11 @@ class DiscreteDistance:
     def sample(self, n, rng):
         w = np.asarray(self.weights, dtype=float)
         return np.asarray(self.r_km, dtype=float)[rng.choice(w.size, size=n, p=w / w.sum())]
+
+    @property
+    def atoms(self):
+        """(distance km, probability) pairs."""
+        return tuple(zip(self.r_km, self.weights))
 
     def describe(self):
         return "R " + ", ".join(f"{r:g} km ({w:g})" for r, w in zip(self.r_km, self.weights))

@@ -57,19 +57,20 @@ def test_the_protocol_names_what_the_two_kinds_share():
                             "shortest_record_dt", "describe", "input_notes", "expected_cost"}
 
 
-@pytest.mark.parametrize("cls", [grid.GridSpec, grid.RecordGridSpec])
-def test_both_kinds_of_grid_implement_the_protocol(cls):
+@pytest.mark.parametrize("cls", [grid.GridSpec, grid.RecordGridSpec, grid.EventBatchSpec])
+def test_every_kind_of_grid_implements_the_protocol(cls):
     _check(cls, protocol.RunSpec)
 
 
-@pytest.mark.parametrize("cls", [grid.SampleContext, grid.RecordContext])
-def test_both_row_contexts_implement_the_protocol(cls):
+@pytest.mark.parametrize("cls", [grid.SampleContext, grid.RecordContext, grid.EventContext])
+def test_every_row_context_implements_the_protocol(cls):
     _check(cls, protocol.RowContext)
 
 
 def test_instances_satisfy_the_protocols_and_declare_their_row_functions(tmp_path):
     specs = [grid.GridSpec(mw=(6.0,), dist_km=(5.0,), samples=2),
-             grid.RecordGridSpec(records=str(write_suite(tmp_path)), scales=(1.0,))]
+             grid.RecordGridSpec(records=str(write_suite(tmp_path)), scales=(1.0,)),
+             grid.EventBatchSpec(inputs=({"mw": 6.0, "dist_km": 5.0, "hf_seed": 1},))]
     for spec in specs:
         assert isinstance(spec, protocol.RunSpec)
         assert isinstance(spec.context(), protocol.RowContext)
@@ -78,6 +79,7 @@ def test_instances_satisfy_the_protocols_and_declare_their_row_functions(tmp_pat
         assert not hasattr(rows.one, "rows")  # no protocol hung on the function any more
     assert specs[0].default_function() == grid.RowFunction(grid.run_sample, grid.run_samples)
     assert specs[1].default_function() == grid.RowFunction(grid.run_record_row, grid.run_record_rows)
+    assert specs[2].default_function() == grid.RowFunction(grid.run_event, grid.run_events)
     assert specs[0].input_notes() == []
 
 

@@ -45,6 +45,18 @@ def test_record_layout_is_the_documented_one():
     assert set(R.SPECTRA_FIELDS) == set(names.SPECTRAL_IMS)
 
 
+def test_event_layout_is_the_documented_one():
+    """The identity and inputs of an event row (docs/results_format.md, "Event files") in this order, then the
+    synthetic layout's fields from mw on, the same dtypes."""
+    doc = _doc_table("## Event files")
+    got = list(R.EVENT_SAMPLE_FIELDS.items())
+    head = [(k, code) for k, (code, _, _) in got[:len(doc)]]
+    assert head == doc
+    tail = [k for k, _ in got[len(doc):]]
+    assert tail == [k for k in R.SAMPLE_FIELDS if k not in ("scenario", "sample")]
+    assert all(R.EVENT_SAMPLE_FIELDS[k] == R.SAMPLE_FIELDS[k] for k in tail)
+
+
 def test_a_new_im_in_the_registry_reaches_both_layouts():
     """Declaring an IM in pycolfrag.names is enough for the writer: a child interpreter adds one
     and (re)loads the layout of pycolfrag.results, and finds it in both layouts with its description."""

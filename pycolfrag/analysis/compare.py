@@ -6,7 +6,8 @@ Run as ``python -m pycolfrag.analysis.compare A.h5 B.h5`` (options: ``--alpha``,
 ``grid_signature``) is compared too; a grid's file is verified against its checksums first. See docs/reproducibility.md for when two files should be bitwise equal
 (same pycolfrag version and grid arguments on any x86-64 CPU) and when only statistically.
 
-Rows are matched by their (scenario, sample) key (a record suite: (record_id, component, scale), statistics per scale); every ``/samples`` field except ``wall_s``
+Rows are matched by their (scenario, sample) key (a record suite: (record_id, component, scale), statistics per
+scale; a batch of events: (stage, stratum, index), statistics per stratum); every ``/samples`` field except ``wall_s``
 (the only machine-dependent one) and both ``/spectra`` datasets are compared bit for bit
 (NaN equals NaN of the same bits). For every scenario with a differing row, on the successful
 rows of each file:
@@ -95,7 +96,7 @@ class Comparison:
         return 1 if self.statistically_consistent else 2
 
     def summary(self) -> str:
-        lines = [f"rows: {self.n_a} in A, {self.n_b} in B, {self.n_common} matched by (scenario, sample)"]
+        lines = [f"rows: {self.n_a} in A, {self.n_b} in B, {self.n_common} matched by their key"]
         if self.only_in_a or self.only_in_b:
             lines.append(f"rows only in A: {len(self.only_in_a)}, only in B: {len(self.only_in_b)} "
                          "(the files are not runs of the same grid, or one is unfinished)")
@@ -166,7 +167,11 @@ def _row_keys(s) -> tuple:
         keys = {(_str(r), _str(c), float(x)): i for i, (r, c, x) in enumerate(zip(s["record_id"], s["component"],
                                                                                   s["scale"]))}
         return keys, np.asarray(s["scale"], dtype=float)
-    raise ParameterError("a results file without (scenario, sample) or (record_id, component, scale) rows")
+    if "stratum" in s:  # a batch of events (a site simulation): (stage, stratum, index), statistics per stratum
+        keys = {(int(a), int(b), int(c)): i for i, (a, b, c) in enumerate(zip(s["stage"], s["stratum"], s["index"]))}
+        return keys, np.asarray(s["stratum"]).astype(float)
+    raise ParameterError("a results file without (scenario, sample), (record_id, component, scale) or (stage, "
+                         "stratum, index) rows")
 
 
 def _scenario_stats(ra, rb, ia, ib, sc, n_diff, index=0) -> ScenarioStats:

@@ -22,7 +22,9 @@ The parts, one module each: the rate weights of the grid's scenarios and the int
 (:mod:`.risk_uncertainty`, a registry), the checks of Eq. (4) (:mod:`.risk_fit`), the checks of the
 files (:mod:`.risk_branches`), the report and files (:mod:`.risk_report`).
 
-Command: ``python -m pycolfrag.analysis.risk SITE.toml RESULTS.h5 OUTDIR [--no-pulse NOPULSE.h5]``.
+Command: ``python -m pycolfrag.analysis.risk SITE.toml RESULTS.h5 OUTDIR [--no-pulse NOPULSE.h5]``; with
+``--simulate OUTDIR`` the site's events are simulated instead (:mod:`pycolfrag.rare`, report
+:mod:`.risk_rare`), beside the grid route when RESULTS.h5 is given.
 """
 from __future__ import annotations
 
@@ -358,7 +360,35 @@ def _parser():
     return ap
 
 
+def _simulate_main(argv) -> int:
+    """``--simulate OUTDIR``: the event-based simulation (:mod:`pycolfrag.rare`, on every rank), then on rank 0
+    the grid route beside it when its results are given, and the report (:mod:`.risk_rare`)."""
+    from . import risk_rare  # here: only this form of the command needs it
+    from ..rare.command import EXIT_ARGS, run_simulation
+    ap = risk_rare.build_parser()
+    a = ap.parse_args(argv)
+    code, run = run_simulation(a, QUANTITIES, argv)
+    if run is None:
+        return code
+    try:
+        cmp = None
+        if a.results is not None:
+            kw = dict(pulse_only=a.pulse_only, pulse_model=a.pulse_model, n_draws=a.draws, curves=False)
+            cmp = risk_rare.compare_with_grid(run, site_risk(a.site, a.results, a.no_pulse, outside="zero", **kw),
+                                              site_risk(a.site, a.results, a.no_pulse, outside="clamp", **kw))
+        paths = risk_rare.write_outputs(run, a.simulate, cmp, figures=not a.no_figures)
+    except PycolfragError as exc:   # the grid's files, the output folder: every run stays in OUTDIR
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
+        return EXIT_ARGS
+    risk_rare.print_summary(run, cmp)
+    print(paths["markdown"])
+    return code
+
+
 def main(argv=None):
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if any(x == "--simulate" or x.startswith("--simulate=") for x in argv):
+        return _simulate_main(argv)
     ap = _parser()
     a = ap.parse_args(argv)
     try:

@@ -21,6 +21,8 @@ The package, by the sections a reader looks for:
 * :mod:`~pycolfrag.grid.protocol` -- what a kind of grid declares (:class:`RunSpec`, its row context
   and :class:`RowFunction`);
 * :mod:`~pycolfrag.grid.spec` -- the two kinds, :class:`GridSpec` and :class:`RecordGridSpec`;
+* :mod:`~pycolfrag.grid.events` -- a third kind, :class:`EventBatchSpec`: events with explicit inputs, the
+  runs an algorithm above the grid asks for (the stratified site simulation of :mod:`pycolfrag.rare`);
 * :mod:`~pycolfrag.grid.rows` -- seeds, row contexts and the row functions;
 * :mod:`~pycolfrag.grid.signing` -- the code that computes the rows, signed into every run;
 * :mod:`~pycolfrag.grid.probes` -- checks before a run;
@@ -36,6 +38,7 @@ The package, by the sections a reader looks for:
 from __future__ import annotations
 
 from ..errors import ParameterError  # noqa: F401 (the driver's refusals; callers catch it as grid.ParameterError)
+from .events import EVENT_ROWS, EventBatchSpec, EventContext, run_event, run_events
 from .command import (EXIT_ARGS, EXIT_DRAINED, EXIT_LOCKED, EXIT_OK, EXIT_OS_ERROR, EXIT_OUTPUTS, HelpFormatter,
                       build_parser, run_command, spec_from_args)
 from .probes import (MAX_CHECK_STEPS, MAX_ROW_STEPS, SAY_WORK_ABOVE_S, check_models, check_solver_options,
@@ -52,7 +55,8 @@ from .spec import (DEFAULT_DAMPING, DEFAULT_DIST_KM, DEFAULT_MW, DEFAULT_PERIODS
 __all__ = [
     "DEFAULT_MW", "DEFAULT_DIST_KM", "DEFAULT_SAMPLES", "DEFAULT_SEED", "DEFAULT_PERIODS_S", "DEFAULT_DAMPING",
     "DEFAULT_RECORD_DT_S", "PULSES", "DEFAULT_PULSE", "SEED_MAX", "MAX_ROWS", "MAX_SAMPLES",
-    "RunSpec", "RowContext", "RowFunction", "GridSpec", "RecordGridSpec", "resolve_solver_options",
+    "RunSpec", "RowContext", "RowFunction", "GridSpec", "RecordGridSpec", "EventBatchSpec", "EventContext",
+    "run_event", "run_events", "EVENT_ROWS", "resolve_solver_options",
     "solver_defaults", "SampleContext", "RecordContext", "run_sample", "run_samples", "run_record_row",
     "run_record_rows", "SYNTHETIC_ROWS", "RECORD_ROWS", "derive_seed", "build_identity", "code_digest",
     "MAX_CHECK_STEPS", "MAX_ROW_STEPS", "SAY_WORK_ABOVE_S", "check_solver_options", "probe_rows", "check_work",

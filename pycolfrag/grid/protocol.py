@@ -2,8 +2,9 @@
 declare, so that a new kind of grid (the synthetic grid, a record suite, ...) is one class that
 satisfies :class:`RunSpec` and nothing in the scheduler, the probes or the command line changes.
 
-``tests/test_grid_protocol.py`` checks that :class:`~pycolfrag.grid.GridSpec` and
-:class:`~pycolfrag.grid.RecordGridSpec` implement every member with the signatures below.
+``tests/test_grid_protocol.py`` checks that :class:`~pycolfrag.grid.GridSpec`,
+:class:`~pycolfrag.grid.RecordGridSpec` and :class:`~pycolfrag.grid.EventBatchSpec` implement every member
+with the signatures below.
 """
 from __future__ import annotations
 
@@ -59,7 +60,7 @@ class RunSpec(Protocol):
     :class:`pycolfrag.SolverOptions`), ``periods_s`` (spectral periods, s), ``damping`` (spectral
     damping ratio), ``max_record_s`` (records cut to this length, s, or None), ``sample_function``
     (``module:function`` replacing the default rows, or None), ``layout`` (the results layout:
-    None for the synthetic grid, ``"records"``; :func:`pycolfrag.results.fields_of`) and ``n_rows``.
+    None for the synthetic grid, ``"records"``, ``"events"``; :func:`pycolfrag.results.fields_of`) and ``n_rows``.
     """
 
     column: dict
@@ -78,7 +79,9 @@ class RunSpec(Protocol):
         """What a resume must match (stored as ``grid_signature``): every input of the rows, and the code."""
 
     def order(self, rows: Sequence[int]) -> list:
-        """The rows to compute, longest expected first (a balanced end on many ranks)."""
+        """The rows to compute of ``rows`` (those not done), longest expected first (a balanced end on many
+        ranks). A kind that computes its rows in stages may leave some out (:class:`pycolfrag.grid.EventBatchSpec`
+        computes a prefix within a run budget): they stay pending for a later run."""
 
     def expected_cost(self, rows: Sequence[int]) -> Any:
         """Each row's expected cost before it runs (an array of floats >= 0, any unit: only ratios

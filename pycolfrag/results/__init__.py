@@ -62,7 +62,7 @@ from .bounded import OPEN_TIMEOUT_S, read_h5_bounded
 from .checksums import ResultsDamagedError
 from .journal import (JournalHeaderError, journal_mismatch, journal_path, read_journal,
                       signature_mismatch)
-from .layout import (FORMAT_VERSION, LABEL_BYTES, LAYOUTS, MESSAGE_BYTES, RECORD_SAMPLE_FIELDS,
+from .layout import (EVENT_SAMPLE_FIELDS, FORMAT_VERSION, LABEL_BYTES, LAYOUTS, MESSAGE_BYTES, RECORD_SAMPLE_FIELDS,
                      SAMPLE_FIELDS, SPECTRA_FIELDS, STATUS_IM_FAILED, STATUS_OK, STATUS_OTHER_FAILED,
                      STATUS_PENDING, STATUS_RECORD_FAILED, STATUS_SOLVER_FAILED, TIMING_FIELDS,
                      empty_columns, fields_of, h5open, merged_columns, row_bytes)
@@ -70,7 +70,7 @@ from .lock import ResultsLockedError, RunLock, lock_held, lock_path
 from .writer import ResultsWriter, create, open_for_run
 
 __all__ = [
-    "FORMAT_VERSION", "SAMPLE_FIELDS", "RECORD_SAMPLE_FIELDS", "SPECTRA_FIELDS", "LAYOUTS", "LABEL_BYTES",
+    "FORMAT_VERSION", "SAMPLE_FIELDS", "RECORD_SAMPLE_FIELDS", "EVENT_SAMPLE_FIELDS", "SPECTRA_FIELDS", "LAYOUTS", "LABEL_BYTES",
     "TIMING_FIELDS", "STATUS_PENDING", "STATUS_OK", "STATUS_RECORD_FAILED", "STATUS_IM_FAILED",
     "STATUS_SOLVER_FAILED", "STATUS_OTHER_FAILED", "MESSAGE_BYTES", "OPEN_TIMEOUT_S",
     "fields_of", "row_bytes", "empty_columns", "merged_columns", "h5open",

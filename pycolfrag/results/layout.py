@@ -118,8 +118,45 @@ RECORD_SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
     **_RESPONSE_FIELDS,
 }
 
+#: ``/samples`` of a batch of events with explicit inputs (root attribute ``layout = "events"``,
+#: :class:`pycolfrag.grid.EventBatchSpec`): one row per event, each with the inputs it was given --
+#: what the stratified site simulation of :mod:`pycolfrag.rare` draws -- then the synthetic row's fields.
+EVENT_SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
+    # identity of the run in the algorithm that asked for it
+    "stage": ("i4", -1, "stage of the algorithm that asked for the run (site simulation: 0 the pilot, "
+                        "1, 2, ... the production batches)"),
+    "stratum": ("i4", -1, "stratum of the site's events (source x Mw bin x R bin x pulse occurrence)"),
+    "index": ("i4", -1, "index of the run within its stage and stratum"),
+    "source": ("i4", -1, "index of the site source (order of the site file)"),
+    "pulse": ("u1", 0, "1: the motion carries a velocity pulse; 0: the stochastic record alone"),
+    "component": ("i4", -1, "component of the pulse-parameter mixture that drew the run (0 the site's own "
+                            "density, c >= 1 a shifted one; -1 no pulse)"),
+    "hf_seed": ("u8", 0, "seed of the high-frequency noise of the record"),
+    # the standard normals the event was drawn from (Phi of each is a CDF fraction)
+    "z_mw": ("f8", math.nan, "standard normal whose Phi places Mw in its bin (NaN: one magnitude)"),
+    "z_dist": ("f8", math.nan, "standard normal whose Phi places R in its bin (NaN: one distance)"),
+    "z_vp": ("f8", math.nan, "standard normal quantile of the pulse amplitude Vp (NaN: no pulse)"),
+    "z_fp": ("f8", math.nan, "standard normal quantile of the pulse frequency fp (NaN: no pulse)"),
+    "z_nu": ("f8", math.nan, "standard normal whose Phi places the pulse phase nu (NaN: no pulse)"),
+    "z_gamma": ("f8", math.nan, "standard normal whose Phi places the pulse's gamma (NaN: no pulse)"),
+    # what the run stands for
+    "weight": ("f8", math.nan, "sampling weight under the proposal that drew the run: the site's density of "
+                               "its pulse normals over the proposal's, times its pulse-occurrence weight, -"),
+    "occurrence_weight": ("f8", math.nan, "pulse-occurrence weight: p(R) / the bin's mean p (pulse), (1 - p(R)) "
+                                          "/ (1 - mean p) (no pulse), -"),
+    "stratum_rate_per_yr": ("f8", math.nan, "annual rate of the run's stratum, 1/yr"),
+    **_declared_fields(_gm_record.PARAMETERS),        # mw, dist_km
+    **_STATUS_FIELDS,
+    **_declared_fields(_gm_registry.PULSE_FIELDS),
+    "record_s": ("f8", math.nan, "record duration used (len(acc) * dt), s"),
+    **_quantity_fields(_names.IMS),
+    **_quantity_fields(_names.EDPS),
+    **_RESPONSE_FIELDS,
+}
+
 #: Values of the root attribute ``layout``: None (absent) = synthetic grid.
-LAYOUTS = {None: SAMPLE_FIELDS, "synthetic": SAMPLE_FIELDS, "records": RECORD_SAMPLE_FIELDS}
+LAYOUTS = {None: SAMPLE_FIELDS, "synthetic": SAMPLE_FIELDS, "records": RECORD_SAMPLE_FIELDS,
+           "events": EVENT_SAMPLE_FIELDS}
 
 
 def fields_of(layout) -> dict:
@@ -129,7 +166,7 @@ def fields_of(layout) -> dict:
     try:
         return LAYOUTS[layout]
     except (KeyError, TypeError):
-        raise ResultsFileError(f"unknown results layout {layout!r} (known: synthetic, records)") from None
+        raise ResultsFileError(f"unknown results layout {layout!r} (known: synthetic, records, events)") from None
 
 
 #: Fields whose values depend on the machine/ranks rather than the inputs.
@@ -257,6 +294,9 @@ def false_done(samples: Mapping, layout) -> np.ndarray:
                 nameless &= np.array([not (x.strip() if isinstance(x, (bytes, str)) else x)
                                       for x in samples["record_id"]], dtype=bool)
             bad |= done & nameless
+    elif fields_of(layout) is EVENT_SAMPLE_FIELDS:
+        if "stage" in samples:  # an event row is named by its stage (and stratum, index) in its algorithm
+            bad |= done & (np.asarray(samples["stage"]) < 0)
     elif "scenario" in samples:
         bad |= done & (np.asarray(samples["scenario"]) < 0)
     return bad

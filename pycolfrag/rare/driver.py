@@ -1,0 +1,314 @@
+"""The stratified event-based simulation of a site: pilot, one cross-entropy step, batches, stopping rule.
+
+1. *Pilot* (stage 0, ``batch_000``): ``pilot_per_stratum`` runs in every stratum, the pulse quantiles
+   drawn from :data:`~pycolfrag.rare.proposal.PILOT_MIXTURE`.
+2. *Cross-entropy step*: the production mixture's shifts from the pilot's rows
+   (:func:`~pycolfrag.rare.proposal.cross_entropy_means`); stored in the plan of ``batch_001`` (and of
+   every later batch) before its first run.
+3. *Batches* (stages 1, 2, ...): ``batch`` runs each, allocated by the minimax-CoV Neyman rule of
+   :mod:`~pycolfrag.rare.allocation`, until every requested level reaches the target CoV with at least
+   ``min_neff`` effective exceedances and no run carrying more than ``max_share`` of it, or the run
+   budget is spent (the last batch is cut to a prefix of its plan). The estimate and CoV of every level
+   are said after every batch.
+
+Every batch goes through an evaluator (:class:`~pycolfrag.rare.evaluator.GridEvaluator`: the grid's
+scheduler on every rank); its plan is on disk before it runs, so a resume -- after a kill -9 too --
+reads the plans back and computes the same runs: the final estimate is the uninterrupted one. A resume
+whose site or settings differ from those the folder began with is refused, listing the differences.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field, fields, is_dataclass
+from types import ModuleType
+
+import numpy as np
+
+from .. import results as _results
+from ..errors import ParameterError, ResultsFileError
+from . import allocation as _alloc
+from .estimate import DEFAULT_MAX_SHARE, DEFAULT_MIN_NEFF, estimate, exceedances, row_weights
+from .plans import PulseMap, interleave, plan_inputs
+from .proposal import FAMILIES, PILOT_MIXTURE, Design, cross_entropy_means, production_mixture, score
+from .strata import DEFAULT_MW_STEP, DEFAULT_R_EDGES_KM, build_strata
+
+__all__ = ["DEFAULT_SEED", "SiteSettings", "StopRule", "SiteRun", "site_fingerprint", "simulate_site", "batch_name",
+           "ALGORITHM"]
+
+#: The root seed when none is given (the grid's).
+DEFAULT_SEED = 20160601
+#: What a batch's purpose names the algorithm (a change of what the plans mean changes it).
+ALGORITHM = "stratified site simulation, defensive mixture, one cross-entropy step; v1"
+
+
+def batch_name(stage: int) -> str:
+    return f"batch_{int(stage):03d}"
+
+
+@dataclass(frozen=True)
+class SiteSettings:
+    """The settings that fix which runs a site simulation makes (signed: a resume must match them).
+
+    seed -- root seed; pilot_per_stratum -- runs per stratum in the pilot (>= 2: a variance needs two);
+    batch -- runs per production batch; defensive -- alpha_0, the nominal share of the production
+    mixture (in [0.1, 1]: the weights' bound is 1 / alpha_0); mw_step, r_edges_km -- the strata's bins;
+    ce_min_hits, ce_quantile -- the cross-entropy step's elite set; levels -- the labels of the levels the
+    stopping rule and the shifts serve (empty: every level).
+    """
+
+    seed: int = DEFAULT_SEED
+    pilot_per_stratum: int = 5
+    batch: int = 2000
+    defensive: float = 0.3
+    mw_step: float = DEFAULT_MW_STEP
+    r_edges_km: tuple = DEFAULT_R_EDGES_KM
+    ce_min_hits: int = 20
+    ce_quantile: float = 0.9
+    levels: tuple = ()
+
+    def __post_init__(self):
+        for name, lo in (("seed", 0), ("pilot_per_stratum", 2), ("batch", 1), ("ce_min_hits", 1)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+                raise ParameterError(f"{name} must be an integer >= {lo}, got {v!r}")
+        if not (isinstance(self.defensive, (int, float)) and 0.1 <= self.defensive <= 1.0):
+            raise ParameterError(f"defensive (alpha_0) must be in [0.1, 1]: below it one run may carry up to "
+                                 f"1/alpha_0 of its stratum and the weights degenerate; got {self.defensive!r}")
+        if not (isinstance(self.mw_step, (int, float)) and 0.01 <= self.mw_step <= 2.0):
+            raise ParameterError(f"mw_step must be in [0.01, 2], got {self.mw_step!r}")
+        edges = tuple(float(x) for x in self.r_edges_km)
+        if any(not math.isfinite(x) or x <= 0 for x in edges) or list(edges) != sorted(set(edges)):
+            raise ParameterError(f"r_edges_km must be increasing positive distances, got {self.r_edges_km!r}")
+        if not 0.0 < self.ce_quantile < 1.0:
+            raise ParameterError(f"ce_quantile must be in (0, 1), got {self.ce_quantile!r}")
+        object.__setattr__(self, "r_edges_km", edges)
+        object.__setattr__(self, "levels", tuple(self.levels))
+
+    def as_dict(self) -> dict:
+        return {f.name: (list(v) if isinstance(v, tuple) else v) for f in fields(self) for v in [getattr(self, f.name)]}
+
+
+@dataclass(frozen=True)
+class StopRule:
+    """When the simulation stops (not signed: a resume may change it)."""
+
+    target_cov: float = 0.2
+    max_runs: int = 20000
+    min_neff: float = DEFAULT_MIN_NEFF
+    max_share: float = DEFAULT_MAX_SHARE
+    confidence: float = 0.90
+
+    def __post_init__(self):
+        t = self.target_cov
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not (0.0 < t < 1.0):
+            raise ParameterError(f"the target CoV must be in (0, 1) (a coefficient of variation of 0 needs infinitely "
+                                 f"many runs, one of 1 or more says nothing), got {t!r}")
+        if isinstance(self.max_runs, bool) or not isinstance(self.max_runs, (int, np.integer)) or self.max_runs < 1:
+            raise ParameterError(f"max_runs must be an integer >= 1, got {self.max_runs!r}")
+
+
+@dataclass
+class SiteRun:
+    """A site simulation's outcome (rank 0): its strata, design, rows, estimate and history."""
+
+    site: object
+    strata: object
+    design: Design
+    settings: SiteSettings
+    stop: StopRule
+    quantities: tuple
+    requested: tuple
+    cols: dict
+    estimate: object
+    stopped: str                     # "target" or "budget"
+    batches: list = field(default_factory=list)
+    history: list = field(default_factory=list)
+
+    @property
+    def runs(self) -> int:
+        return int(np.sum(np.asarray(self.cols["status"]) != _results.STATUS_PENDING))
+
+
+def _described(x):
+    """A site part as plain JSON: dataclass fields, a module by its NAME."""
+    if isinstance(x, ModuleType):
+        return getattr(x, "NAME", x.__name__)
+    if is_dataclass(x):
+        d = {f.name: _described(getattr(x, f.name)) for f in fields(x)}
+        return {"type": getattr(x, "TYPE", type(x).__name__), **d}
+    if isinstance(x, (list, tuple)):
+        return [_described(v) for v in x]
+    return x
+
+
+def site_fingerprint(site) -> dict:
+    """What fixes a site's events (its sources as read, ``outside``), with the SHA-256 of its canonical JSON."""
+    d = {"outside": site.outside, "sources": [_described(s) for s in site.sources]}
+    return {"sha256": hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest(), **d}
+
+
+def _fingerprint(site, settings: SiteSettings, quantities) -> dict:
+    return {"algorithm": ALGORITHM, "site": site_fingerprint(site), "settings": settings.as_dict(),
+            "levels": [[q.label, q.edp, q.threshold] for q in quantities]}
+
+
+def _check_same_run(name: str, stored_purpose: dict, fp: dict) -> None:
+    diffs = _results.signature_mismatch(stored_purpose.get("run", {}), fp)
+    if diffs:
+        raise ResultsFileError(
+            f"the folder's {name} was planned by a simulation of another site or with other settings:\n  - "
+            + "\n  - ".join(diffs) + "\nResuming would mix two designs in one estimate: rerun with the site file and "
+            "settings it began with, or use another folder.")
+
+
+def _cat(parts: list) -> dict:
+    return {k: np.concatenate([np.asarray(p[k]) for p in parts]) for k in parts[0]}
+
+
+def _ce_design(cols, strata, settings, requested) -> Design:
+    """The production mixture from the pilot's rows (every stratum's weights under the pilot's proposal)."""
+    design = Design(PILOT_MIXTURE)
+    ok = np.asarray(cols["status"]) == 0
+    sub = {k: np.asarray(v)[ok] for k, v in cols.items()}
+    w, _ = row_weights(sub, strata, design)
+    h = np.asarray(sub["stratum"])
+    n_h = np.bincount(h, minlength=len(strata))
+    contrib = strata.rates[h] * w / np.maximum(n_h[h], 1)
+    pulse = np.asarray(sub["pulse"], dtype=bool)
+    if not pulse.any():
+        return Design(PILOT_MIXTURE, production_mixture(settings.defensive, ()), ("no stratum with a pulse",))
+    z = np.column_stack([sub["z_vp"][pulse], sub["z_fp"][pulse]])
+    y = {q.label: exceedances(sub, q)[pulse] for q in requested}
+    scores = {f: score(sub, f)[pulse] for f in FAMILIES}
+    means, notes = cross_entropy_means(z, contrib[pulse], y, scores, requested, min_hits=settings.ce_min_hits,
+                                       quantile=settings.ce_quantile)
+    return Design(PILOT_MIXTURE, production_mixture(settings.defensive, means), tuple(notes))
+
+
+def _allocate(cols, strata, design, settings, requested, stage: int, used: int, events) -> dict:
+    """The runs of production batch ``stage`` per stratum (minimax-CoV Neyman, model-steered)."""
+    model = _alloc.SteeringModel(cols, requested)
+    rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
+    mean, var = _alloc.predicted_moments(strata, design.production, model, requested, rng, events)
+    W = strata.rates
+    finished = np.asarray(cols["status"]) != _results.STATUS_PENDING
+    done = np.bincount(np.asarray(cols["stratum"])[finished], minlength=len(strata))
+    n, _ = _alloc.minimax_allocation(W, var, W @ mean, done, used + settings.batch)
+    new = _alloc.batch_counts(n, done, settings.batch)
+    return {int(h): int(k) for h, k in enumerate(new) if k > 0}
+
+
+def _progress_lines(stage: int, runs: int, est, requested, stop: StopRule) -> list:
+    lines = [f"site simulation: batch {stage} done, {runs} runs (target CoV {stop.target_cov:g}, budget "
+             f"{stop.max_runs})", f"  {'level':<16} {'rate /yr':>10} {'CoV':>7} {'n_eff':>7} {'top run':>8}  status"]
+    for q in requested:
+        e = est.levels[q.label]
+        share = f"{100 * e.max_share:7.1f}%" if math.isfinite(e.max_share) else f"{'-':>8}"
+        lines.append(f"  {q.label:<16} {e.rate:10.3e} {e.cov:7.3f} {e.n_eff:7.1f} {share}  {e.status}")
+    return lines
+
+
+class _Run:
+    """The state of one simulation between its batches (rank 0)."""
+
+    def __init__(self, site, settings, stop, evaluator, quantities, log):
+        self.site, self.settings, self.stop, self.ev, self.log = site, settings, stop, evaluator, log
+        self.quantities = tuple(quantities)
+        labels = {q.label for q in self.quantities}
+        unknown = [x for x in settings.levels if x not in labels]
+        if unknown:
+            raise ParameterError(f"unknown level(s) {unknown}; known: {sorted(labels)}")
+        self.requested = tuple(q for q in self.quantities if not settings.levels or q.label in settings.levels)
+        self.strata = build_strata(site, settings.mw_step, settings.r_edges_km)
+        pilot = settings.pilot_per_stratum * len(self.strata)
+        if stop.max_runs < pilot:
+            raise ParameterError(f"--max-runs {stop.max_runs} is below one pilot: {pilot} runs ({settings.pilot_per_stratum} "
+                                 f"in each of the site's {len(self.strata)} strata)")
+        rec = evaluator.record
+        self.pulse_map = PulseMap(rec.pulse_shape, rec.vp_scale, rec.tp_model)
+        self.fp = _fingerprint(site, settings, self.quantities)
+        self.parts, self.batches, self.history = [], [], []
+        self.design = Design(PILOT_MIXTURE)
+        self._events = None
+
+    def planned(self, stage: int, counts: dict, mixture):
+        """(inputs, purpose) of batch ``stage``: the stored plan, or a new one from ``counts``."""
+        name = batch_name(stage)
+        stored = self.ev.stored(name)
+        if stored is not None:
+            _check_same_run(name, stored[0], self.fp)
+            return stored[1], stored[0]
+        runs = interleave(counts, {})
+        purpose = {"run": self.fp, "stage": stage, "counts": sorted([h, n] for h, n in counts.items()),
+                   "design": self.design.as_dict() if stage > 0 else None}
+        return plan_inputs(self.strata, self.settings.seed, stage, runs, mixture, self.pulse_map), purpose
+
+    def run_batch(self, stage: int, inputs, purpose) -> int:
+        used = sum(b["runs"] for b in self.batches)
+        limit = max(0, min(len(inputs), self.stop.max_runs - used))   # a smaller budget on resume: nothing more
+        cols = self.ev.evaluate(batch_name(stage), inputs, purpose, limit)
+        runs = int(np.sum(np.asarray(cols["status"]) != _results.STATUS_PENDING))
+        self.parts.append(cols)
+        self.batches.append({"name": batch_name(stage), "stage": stage, "planned": len(inputs), "runs": runs,
+                             "limit": limit})
+        return limit
+
+    def steering_events(self) -> list:
+        """The allocation's draws of every stratum's events (once per simulation; they only steer)."""
+        if self._events is None:
+            rng = np.random.default_rng(np.random.SeedSequence(self.settings.seed, spawn_key=(_alloc.STREAM_STEER,)))
+            self._events = _alloc.steering_events(self.strata, rng)
+        return self._events
+
+    def estimate(self):
+        return estimate(_cat(self.parts), self.strata, self.design, self.quantities, confidence=self.stop.confidence,
+                        min_neff=self.stop.min_neff, max_share=self.stop.max_share, target_cov=self.stop.target_cov)
+
+    def report(self, stage: int, est) -> None:
+        runs = sum(b["runs"] for b in self.batches)
+        self.history.append({"stage": stage, "runs": runs, "levels": {q.label: [est.levels[q.label].rate,
+                             est.levels[q.label].cov, est.levels[q.label].n_eff] for q in self.requested}})
+        for line in _progress_lines(stage, runs, est, self.requested, self.stop):
+            self.log(line)
+
+
+def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quantities, log=print) -> SiteRun:
+    """Run (or resume, or read) the simulation of ``site`` in the evaluator's folder; rank 0 only (the
+    evaluator's other ranks serve). Returns the :class:`SiteRun`.
+
+    ``quantities``: the levels (``label``, ``edp``, ``threshold``; collapse with ``edp`` None), e.g.
+    :data:`pycolfrag.analysis.risk.QUANTITIES`."""
+    run = _Run(site, settings, stop, evaluator, quantities, log)
+    pilot = {h: settings.pilot_per_stratum for h in range(len(run.strata))}
+    run.run_batch(0, *run.planned(0, pilot, PILOT_MIXTURE))
+    stored = evaluator.stored(batch_name(1))
+    if stored is not None:
+        _check_same_run(batch_name(1), stored[0], run.fp)
+        run.design = Design.from_dict(stored[0]["design"])
+    else:
+        run.design = _ce_design(run.parts[0], run.strata, settings, run.requested)
+    for note in run.design.notes:
+        log(f"cross-entropy step: {note}")
+    stage, stopped = 1, "budget"
+    while True:
+        est = run.estimate()
+        run.report(stage - 1, est)
+        used = sum(b["runs"] for b in run.batches)
+        if run.batches[-1]["limit"] < run.batches[-1]["planned"]:
+            break                                      # the budget cut this batch
+        if evaluator.stored(batch_name(stage)) is None:
+            if all(est.levels[q.label].status == "converged" for q in run.requested):
+                stopped = "target"
+                break
+            if used >= stop.max_runs:
+                break
+            counts = _allocate(_cat(run.parts), run.strata, run.design, settings, run.requested, stage, used,
+                               run.steering_events())
+        else:
+            counts = {}
+        run.run_batch(stage, *run.planned(stage, counts, run.design.production))
+        stage += 1
+    return SiteRun(site, run.strata, run.design, settings, stop, run.quantities, run.requested, _cat(run.parts), est,
+                   stopped, run.batches, run.history)

@@ -1,0 +1,232 @@
+"""Running batches of runs with explicit inputs through the grid's scheduler: the interface an algorithm
+above the grid -- the stratified site simulation here, subset simulation -- asks for its runs through.
+
+    ev = GridEvaluator(outdir, record_settings, comm)
+    if not ev.is_root:
+        ev.serve()                 # ranks > 0: compute what rank 0 asks for, until it closes
+    else:
+        rows = ev.evaluate("batch_000", inputs, purpose)   # every rank computes, rank 0 gets the rows
+        ...
+        ev.close()
+
+``evaluate(name, inputs, purpose, limit=None)`` is one batch: the inputs of every run (the
+:class:`pycolfrag.grid.EventBatchSpec`'s: Mw, R, noise seed, pulse parameters, tags) and what the
+algorithm declares about them. Before anything runs, rank 0 writes them to ``<name>.plan.json`` beside
+the results file ``<name>.h5`` (atomically, with their SHA-256; the batch file's signature holds the
+same digest), so a batch's plan is on disk before its first run, and a resume reads it back instead of
+asking the algorithm again. The batch then runs through :func:`pycolfrag.grid.run_grid` on every rank
+-- the grid's scheduler, journal, lock, checksums and code signature -- and rank 0 gets its rows back
+as columns (every row of the batch, those not computed yet with status -1). A finished batch is read,
+not reopened: its stored signature is compared with the one asked for (other code is refused unless
+allowed, as the grid refuses it; any other difference -- another site, other settings -- is refused).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import results as _results
+from ..errors import ResultsFileError
+from ..grid import EventBatchSpec, run_grid
+from ..grid.signing import CODE_KEYS
+from ..grid.spec import DEFAULT_RECORD_DT_S, resolve_solver_options
+from ..ground_motion.registry import DEFAULT_PULSE_SHAPE, DEFAULT_TP_MODEL
+from ..sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S
+
+__all__ = ["RecordSettings", "PLAN_KIND", "plan_path", "write_plan", "read_plan", "read_columns", "GridEvaluator"]
+
+#: ``kind`` of a plan file.
+PLAN_KIND = "pycolfrag-event-plan"
+
+
+@dataclass(frozen=True)
+class RecordSettings:
+    """How every run of a batch is computed besides its inputs: column, solver, records, IMs."""
+
+    column: dict = field(default_factory=dict)
+    solver_options: object = field(default_factory=dict)
+    vp_scale: float = 1.0
+    periods_s: tuple = DEFAULT_PERIODS_S
+    damping: float = DEFAULT_DAMPING
+    record_dt_s: float = DEFAULT_RECORD_DT_S
+    max_record_s: float | None = None
+    pulse_shape: str = DEFAULT_PULSE_SHAPE
+    tp_model: str = DEFAULT_TP_MODEL
+    sample_function: str | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "solver_options", resolve_solver_options(self.solver_options))
+
+    def spec(self, inputs, purpose, limit=None) -> EventBatchSpec:
+        return EventBatchSpec(inputs=tuple(inputs), purpose=purpose, limit=limit, column=self.column,
+                              solver_options=self.solver_options, vp_scale=self.vp_scale, periods_s=self.periods_s,
+                              damping=self.damping, record_dt_s=self.record_dt_s, max_record_s=self.max_record_s,
+                              sample_function=self.sample_function, pulse_shape=self.pulse_shape,
+                              tp_model=self.tp_model)
+
+
+def _canonical(obj) -> str:
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"))
+
+
+def plan_path(outdir, name: str) -> Path:
+    return Path(outdir) / f"{name}.plan.json"
+
+
+def write_plan(path: Path, purpose: dict, inputs) -> None:
+    """Write a batch's plan atomically (a temporary file, fsync, rename, fsync of the folder)."""
+    body = {"purpose": purpose, "inputs": list(inputs)}
+    text = _canonical({"kind": PLAN_KIND, "version": 1, "sha256": hashlib.sha256(_canonical(body).encode()).hexdigest(),
+                       **body})
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text + "\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    fd = os.open(path.parent, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def read_plan(path: Path):
+    """(purpose, inputs) of a plan file, None when there is none; ResultsFileError when it is damaged."""
+    if not path.exists():
+        return None
+    try:
+        d = json.loads(path.read_text(encoding="utf-8"))
+        body = {"purpose": d["purpose"], "inputs": d["inputs"]}
+        ok = d.get("kind") == PLAN_KIND and d["sha256"] == hashlib.sha256(_canonical(body).encode()).hexdigest()
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ResultsFileError(f"{path}: the plan of a batch cannot be read ({type(exc).__name__}: {exc})") from None
+    if not ok:
+        raise ResultsFileError(f"{path}: the plan of a batch fails its checksum (changed after it was written); its "
+                               "batch cannot be resumed: move the folder's files away, or start in another folder")
+    return body["purpose"], body["inputs"]
+
+
+def read_columns(path: Path):
+    """(columns of every row, root attributes, whether a journal is there) of a batch file: the HDF5
+    file checked against its checksums, with its journal's rows laid over it when the journal is its own."""
+    raw = _results.read_h5_bounded(path)
+    jp = _results.journal_path(path)
+    header, jrows = None, {}
+    if jp.exists():
+        try:
+            header, jrows = _results.read_journal(jp)
+        except _results.JournalHeaderError:
+            header, jrows = None, {}
+        if header is not None and _results.journal_mismatch(header, raw["attrs"]):
+            header, jrows = None, {}
+    samples, _, _, attrs = _results.merged_columns(raw, header, jrows)
+    return samples, attrs, jp.exists()
+
+
+def _refuse_stored(path: Path, stored: dict, asked: dict, allow_code_change: bool) -> None:
+    diffs = _results.signature_mismatch(stored, asked)
+    code = [d for d in diffs if d.split(":", 1)[0] in CODE_KEYS]
+    other = [d for d in diffs if d not in code]
+    if other:
+        raise ResultsFileError(
+            f"{path} holds a batch of another simulation; it cannot be resumed with these inputs:\n  - "
+            + "\n  - ".join(other) + "\nRerun with the site file and settings it began with, or use another folder.")
+    if code and not allow_code_change:
+        raise ResultsFileError(
+            f"{path} holds a batch computed by another build of pycolfrag (the code changed since it began):\n  - "
+            + "\n  - ".join(code) + "\nResuming would mix runs of two versions in one estimate. Rerun with "
+            "--allow-code-change to go on anyway (each batch file records its code), or use another folder.")
+
+
+class GridEvaluator:
+    """Batches of explicit inputs through :func:`pycolfrag.grid.run_grid` (module docstring).
+
+    ``run_options``: keywords of :func:`~pycolfrag.grid.run_grid` (``progress``, ``chunk_max``,
+    ``flush_s``, ``rank0_works``, ``log``, ``command``); ``allow_code_change`` applies to every batch.
+    """
+
+    def __init__(self, outdir, record: RecordSettings, comm=None, *, allow_code_change: bool = False, **run_options):
+        self.outdir, self.record, self.comm = Path(outdir), record, comm
+        self.allow_code_change = allow_code_change
+        self.run_options = run_options
+        self.rank = comm.Get_rank() if comm is not None else 0
+        self.size = comm.Get_size() if comm is not None else 1
+
+    @property
+    def is_root(self) -> bool:
+        return self.rank == 0
+
+    def path(self, name: str) -> Path:
+        return self.outdir / f"{name}.h5"
+
+    def stored(self, name: str):
+        """(purpose, inputs) of a batch planned before (rank 0), or None."""
+        return read_plan(plan_path(self.outdir, name))
+
+    def evaluate(self, name: str, inputs, purpose: dict, limit: int | None = None) -> dict:
+        """Rank 0: compute (or resume, or read) batch ``name``; returns its rows as columns."""
+        purpose = json.loads(_canonical(purpose))
+        spec = self.record.spec(inputs, purpose, limit)   # checks the inputs before anything is written
+        inputs = [dict(x) for x in spec.inputs]
+        pp = plan_path(self.outdir, name)
+        old = read_plan(pp)
+        if old is None:
+            self.outdir.mkdir(parents=True, exist_ok=True)
+            write_plan(pp, purpose, inputs)
+        elif _canonical(old[0]) != _canonical(purpose) or _canonical(old[1]) != _canonical(inputs):
+            raise ResultsFileError(f"{pp}: batch {name!r} was planned with other inputs or purpose; a batch's plan "
+                                   "cannot change once written (use another name or folder)")
+        done = self._finished(name, spec)
+        if done is not None:
+            return done
+        self._command({"op": "run", "name": name, "inputs": inputs, "purpose": purpose, "limit": limit})
+        return read_columns(self.path(name))[0]
+
+    def _finished(self, name: str, spec: EventBatchSpec):
+        """The columns of a batch that needs no run (its file whole, no journal, every row up to the limit
+        done), after its stored signature is checked; None when it must run (or be resumed)."""
+        path = self.path(name)
+        if not path.exists() or _results.journal_path(path).exists():
+            return None
+        try:
+            cols, attrs, _ = read_columns(path)
+        except (ResultsFileError, OSError):
+            return None          # damaged: the run path rebuilds it from its journal, or refuses with a hint
+        stop = spec.n_rows if spec.limit is None else min(spec.limit, spec.n_rows)
+        if np.any(np.asarray(cols["status"])[:stop] == _results.STATUS_PENDING):
+            return None
+        _refuse_stored(path, json.loads(attrs["grid_signature"]), spec.signature(), self.allow_code_change)
+        return cols
+
+    def _command(self, msg: dict) -> None:
+        if self.size > 1:
+            self.comm.bcast(msg, root=0)
+        self._run(msg)
+
+    def _run(self, msg: dict) -> None:
+        spec = self.record.spec(msg["inputs"], msg["purpose"], msg["limit"])
+        run_grid(spec, self.path(msg["name"]), comm=self.comm, allow_code_change=self.allow_code_change,
+                 **self.run_options)
+
+    def serve(self) -> None:
+        """Ranks > 0: compute every batch rank 0 asks for, until it closes."""
+        while True:
+            msg = self.comm.bcast(None, root=0)
+            if msg["op"] == "stop":
+                return
+            self._run(msg)
+
+    def close(self) -> None:
+        """Rank 0: the other ranks stop serving."""
+        if self.size > 1 and self.is_root:
+            self.comm.bcast({"op": "stop"}, root=0)
