@@ -425,7 +425,7 @@ int cf_solver_scene_build(cf_solver *s, const cf_solver_scene *sc)
     cf_geometry_massprops *bp;
     for (c = 0; c < sc->n_columns; c++) nblk_col += sc->columns[c].n_blocks;
     nj_col = nblk_col;
-    col_r = (double *)calloc((size_t)sc->n_columns, sizeof(double));
+    col_r = (double *)calloc((size_t)(sc->n_columns > 0 ? sc->n_columns : 1), sizeof(double));
     if (!col_r) return cf_solver_fail(s, CF_ENOMEM, "out of memory (scene)");
     for (c = 0, r = 0; c < sc->n_columns; c++) {
         col_r[c] = column_radius(sc, c, r, seg);

@@ -30,7 +30,8 @@ from .column import Column, JointProperties, _check_keys
 from .connectors import inside_polygon
 from .errors import ParameterError
 
-__all__ = ["Epistyle", "Colonnade", "SceneParts", "Beam", "Bearing", "PORTAL_SPACING", "PORTAL_EPISTYLE_HEIGHT"]
+__all__ = ["Epistyle", "Colonnade", "SceneParts", "Beam", "Bearing", "model_from_dict", "PORTAL_SPACING",
+           "PORTAL_EPISTYLE_HEIGHT"]
 
 #: The portals' axial spacing of the columns, m: an assumption of the order of the Parthenon's
 #: (about 4.3 m between the peristyle's axes; the pronaos columns are a little smaller).
@@ -246,6 +247,15 @@ class Colonnade:
         return parts
 
     @property
+    def joints(self) -> JointProperties:
+        """The columns' joint properties (what a grid's ``--kn`` changes)."""
+        return self.column.joints
+
+    def with_joints(self, joints: JointProperties | None = None, **changes) -> "Colonnade":
+        """A copy whose columns have other joint properties (:meth:`Column.with_joints`)."""
+        return self.replace(column=self.column.with_joints(joints, **changes))
+
+    @property
     def n_blocks(self) -> int:
         return self.scene_parts().n_blocks
 
@@ -323,3 +333,10 @@ class Colonnade:
         return (f"Colonnade({self.name!r}, {self.n_columns} x {self.column.name!r}, spacing={self.spacing:g} m, "
                 f"epistyle={'none' if self.epistyle is None else f'{self.epistyle.height:g} m'})")
 
+
+def model_from_dict(d):
+    """A column or a colonnade from its ``to_dict()`` (a results file's ``column`` attribute, a grid's
+    spec): a colonnade's has ``n_columns``; an empty dict is the default column."""
+    if not d:
+        return Column.parthenon()
+    return Colonnade.from_dict(d) if isinstance(d, dict) and "n_columns" in d else Column.from_dict(d)
