@@ -5,6 +5,7 @@
 #   make records a record-suite grid on 2 MPI ranks, its analysis and Fig. 10 (docs/records.md)
 #   make risk    site risk (annual rates, 50-year probabilities) of an example site (docs/risk.md)
 #   make risk-docs  the example's branches and the numbers of docs/risk.md (scripts/risk_example.py)
+#   make restoration  the restoration study of docs/restoration.md (scripts/restoration_study.py)
 include csrc/flags.mk
 
 PY      := .venv/bin/python
@@ -18,7 +19,7 @@ GRID_ARGS ?=
 # Open MPI refuses root without these; set only for our own commands.
 MPIENV  := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 
-.PHONY: setup system build ctest ctest-bin ctest-asan pytest test grid analysis figures validation records risk risk-docs bench clean
+.PHONY: setup system build ctest ctest-bin ctest-asan pytest test grid analysis figures validation records risk risk-docs restoration bench clean
 
 setup: system .venv/.installed build
 
@@ -159,6 +160,13 @@ risk-docs: risk
 	  '{model = "shahi_baker_2014", mechanism = "non-strike-slip", s_km = {min = 0.0, max = 10.0}, angle_deg = {min = 0.0, max = 90.0}}'
 	$(RISK_CMD) $(RISK_DIR)/eq4 $(RISK_NP) --estimator eq4
 	$(PY) scripts/risk_example.py $(RISK_DIR)
+
+# The restoration study (docs/restoration.md): the default column free, with titanium and with wooden
+# dowels, and in a two-column portal, on one reduced grid with and without pulses (a few CPU-minutes
+# each; rerunning resumes), then their fragility and risk at the example site, the figures and the page's block.
+restoration: setup
+	$(PY) scripts/restoration_study.py grids results/restoration
+	$(PY) scripts/restoration_study.py write results/restoration --docs docs/restoration.md
 
 bench: setup
 	$(PY) bench/solver_speed.py
