@@ -6,6 +6,7 @@
 #   make risk    site risk (annual rates, 50-year probabilities) of an example site (docs/risk.md)
 #   make risk-docs  the example's branches and the numbers of docs/risk.md (scripts/risk_example.py)
 #   make risk-rare  the example site by event-based simulation, beside the grid route (docs/rare_events.md)
+#   make restoration  the restoration study of docs/restoration.md (scripts/restoration_study.py)
 include csrc/flags.mk
 
 PY      := .venv/bin/python
@@ -19,7 +20,7 @@ GRID_ARGS ?=
 # Open MPI refuses root without these; set only for our own commands.
 MPIENV  := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 
-.PHONY: setup system build ctest ctest-bin ctest-asan pytest test grid analysis figures validation records risk risk-docs risk-rare bench clean
+.PHONY: setup system build ctest ctest-bin ctest-asan pytest test grid analysis figures validation records risk risk-docs risk-rare restoration bench clean
 
 setup: system .venv/.installed build
 
@@ -172,6 +173,13 @@ risk-rare: risk
 	$(MPIENV) mpirun --allow-run-as-root -n $(NRANKS) $(PY) -m mpi4py -m pycolfrag risk $(SITE) $(RISK_DIR)/pulse.h5 \
 	  --no-pulse $(RISK_DIR)/nopulse.h5 --simulate $(RARE_DIR) --target-cov $(RARE_COV) --max-runs $(RARE_MAX_RUNS) \
 	  --no-progress
+
+# The restoration study (docs/restoration.md): the default column free, with titanium and with wooden
+# dowels, and in a two-column portal, on one reduced grid with and without pulses (a few CPU-minutes
+# each; rerunning resumes), then their fragility and risk at the example site, the figures and the page's block.
+restoration: setup
+	$(PY) scripts/restoration_study.py grids results/restoration
+	$(PY) scripts/restoration_study.py write results/restoration --docs docs/restoration.md
 
 bench: setup
 	$(PY) bench/solver_speed.py

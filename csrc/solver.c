@@ -21,6 +21,10 @@ static void release(cf_solver *s)
     char msg[CF_MSG_LEN];
     if (s->model && s->model->free && s->contact) s->model->free(s->contact);   /* the model's own state */
     s->contact = NULL;
+    cf_solver_connectors_free(s->conn);
+    s->conn = NULL;
+    cf_solver_scene_free(s->scene);
+    s->scene = NULL;
     cf_solver_stack_release(s);
     memcpy(msg, s->msg, CF_MSG_LEN);
     memset(s, 0, sizeof *s);
@@ -77,17 +81,11 @@ int cf_solver_setup(cf_solver *s, const cf_solver_def *def, int nblk, const int 
     return st;
 }
 
-int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int nblk, const int *nseg,
-                           const cf_geometry_segment *segs, double density, const double *kn, const double *ks,
-                           const double *mu)
+/* The checks of a column's blocks, segments, density and joints (n blocks, one joint under each). */
+static int check_column(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs, double density,
+                        const double *kn, const double *ks, const double *mu)
 {
-    int i, st, nseg_tot = 0;
-    if (!s) return CF_EINVAL;
-    release(s);
-    s->msg[0] = 0;
-    if (!def) return cf_solver_fail(s, CF_EINVAL, "no solver definition");
-    st = cf_solver_check_def(s, def);
-    if (st) return st;
+    int i, nseg_tot = 0;
     if (nblk < 1 || !nseg || !segs) return cf_solver_fail(s, CF_EINVAL, "a column needs at least one block, got %d", nblk);
     for (i = 0; i < nblk; i++) {
         if (nseg[i] < 1) return cf_solver_fail(s, CF_EINVAL, "block %d has %d segments", i, nseg[i]);
@@ -108,18 +106,37 @@ int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int nblk, con
         if (!(ks[i] > 0) || !isfinite(ks[i])) return cf_solver_fail(s, CF_EINVAL, "joint %d: ks must be > 0, got %g", i, ks[i]);
         if (!(mu[i] > 0) || !isfinite(mu[i])) return cf_solver_fail(s, CF_EINVAL, "joint %d: mu must be > 0, got %g", i, mu[i]);
     }
+    return CF_OK;
+}
 
+/* A fresh set-up: the old state released, the definition checked and taken. */
+static int setup_begin(cf_solver *s, const cf_solver_def *def)
+{
+    int st;
+    release(s);
+    s->msg[0] = 0;
+    if (!def) return cf_solver_fail(s, CF_EINVAL, "no solver definition");
+    st = cf_solver_check_def(s, def);
+    if (st) return st;
     s->def = *def;
     s->model = cf_solver_contact_model_table[def->contact];
     s->lanes = cf_solver_points_lanes_widest();
-    s->density = density;
-    st = cf_solver_stack_build(s, nblk, nseg, segs, kn, ks, mu);
-    if (!st && s->model->create) {
+    return CF_OK;
+}
+
+/* After the bodies and joints are built (untilted): the contact model's state, the connectors (whose
+ * rest state is the untilted one), the initial tilt, the stability limit and the step. */
+static int setup_finish(cf_solver *s, int nconn, const cf_solver_connector *conn)
+{
+    int st = CF_OK;
+    if (s->model->create) {
         /* the contact model's own state, from the values of its options */
         double opt[CF_SOLVER_MAX_MODEL_OPTIONS];
-        cf_solver_options_of_model(&s->def, def->contact, opt);
+        cf_solver_options_of_model(&s->def, s->def.contact, opt);
         st = s->model->create(s, opt, &s->contact);
     }
+    if (!st) st = cf_solver_connectors_create(s, nconn, conn, &s->conn);
+    if (!st) cf_solver_stack_tilt(s);
     if (!st) {
         /* the stiffness is assembled at the untilted rest state */
         double tilt = s->def.initial_tilt_rad;
@@ -135,8 +152,81 @@ int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int nblk, con
         }
     }
     if (st) { release(s); return st; }
-    s->dt = def->dt > 0 ? def->dt : def->dt_factor * s->dt_crit;
+    s->dt = s->def.dt > 0 ? s->def.dt : s->def.dt_factor * s->dt_crit;
     s->ready = 1;
+    return CF_OK;
+}
+
+int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int nblk, const int *nseg,
+                           const cf_geometry_segment *segs, double density, const double *kn, const double *ks,
+                           const double *mu)
+{
+    int st;
+    if (!s) return CF_EINVAL;
+    st = setup_begin(s, def);
+    if (!st) st = check_column(s, nblk, nseg, segs, density, kn, ks, mu);
+    if (st) { release(s); return st; }
+    s->density = density;
+    st = cf_solver_stack_build(s, nblk, nseg, segs, kn, ks, mu);
+    if (st) { release(s); return st; }
+    return setup_finish(s, 0, NULL);
+}
+
+int cf_solver_setup_scene(cf_solver *s, const cf_solver_def *def, const cf_solver_scene *sc)
+{
+    int st, c, nblk = 0;
+    if (!s) return CF_EINVAL;
+    st = setup_begin(s, def);
+    if (!st && !sc) st = cf_solver_fail(s, CF_EINVAL, "no scene");
+    if (!st && (sc->n_columns < 1 || !sc->columns))
+        st = cf_solver_fail(s, CF_EINVAL, "a scene needs at least one column, got %d", sc->n_columns);
+    for (c = 0; !st && c < sc->n_columns; c++) {
+        if (sc->columns[c].n_blocks < 1)
+            st = cf_solver_fail(s, CF_EINVAL, "column %d: a column needs at least one block, got %d", c,
+                                sc->columns[c].n_blocks);
+        nblk += sc->columns[c].n_blocks;
+    }
+    if (!st && sc->n_connectors < 0) st = cf_solver_fail(s, CF_EINVAL, "n_connectors must be >= 0, got %d", sc->n_connectors);
+    if (!st && sc->n_columns == 1 && sc->n_beams == 0 && sc->n_bearings == 0) {
+        /* one column: the single column's own set-up, bit for bit (its axis at the origin) */
+        if (sc->columns[0].x != 0.0 || sc->columns[0].y != 0.0)
+            st = cf_solver_fail(s, CF_EINVAL, "a scene of one column has it at (0, 0), got (%g, %g)",
+                                sc->columns[0].x, sc->columns[0].y);
+        if (!st) st = check_column(s, nblk, sc->n_segments, sc->segments, sc->density, sc->kn, sc->ks, sc->mu);
+        if (!st) {
+            s->density = sc->density;
+            st = cf_solver_stack_build(s, nblk, sc->n_segments, sc->segments, sc->kn, sc->ks, sc->mu);
+        }
+    } else if (!st) {
+        st = check_column(s, nblk, sc->n_segments, sc->segments, sc->density, sc->kn, sc->ks, sc->mu);
+        if (!st) st = cf_solver_scene_build(s, sc);
+    }
+    if (st) { release(s); return st; }
+    return setup_finish(s, sc->n_connectors, sc->connectors);
+}
+
+int cf_solver_set_outputs(cf_solver *s, double *columns, double *beams, double *connectors)
+{
+    if (!s) return CF_EINVAL;
+    s->out_col = columns; s->out_beam = beams; s->out_conn = connectors;
+    return CF_OK;
+}
+
+int cf_solver_counts(const cf_solver *s, int *n_columns, int *n_beams, int *n_connectors, int *n_blocks, int *n_joints)
+{
+    if (!s || !s->ready) return CF_ESTATE;
+    if (n_columns) *n_columns = s->scene ? s->scene->ncol : 1;
+    if (n_beams) *n_beams = s->scene ? s->scene->nbeam : 0;
+    if (n_connectors) *n_connectors = s->conn ? s->conn->n : 0;
+    if (n_blocks) *n_blocks = s->nblk;
+    if (n_joints) *n_joints = s->nj;
+    return CF_OK;
+}
+
+int cf_solver_set_history_connectors(cf_solver *s, double *energy, double *connectors)
+{
+    if (!s) return CF_EINVAL;
+    s->h_conn_en = energy; s->h_conn = connectors;
     return CF_OK;
 }
 
@@ -229,6 +319,7 @@ void cf_solver_run_pre(const cf_solver *s, cf_run *r, cf_step_energy *e, double 
     /* the spring energies at CF_LEDGER_STEPS, history samples and the last step; the rest of the
      * ledger every step */
     e->need = n % CF_LEDGER_STEPS == 0 || n == r->nsteps || r->hist_now;
+    e->vc = 0.0; e->dconn = 0.0;
     ag[0] = ground_acc(r->ax, r->nrec, r->dtr, r->t);
     ag[1] = ground_acc(r->ay, r->nrec, r->dtr, r->t);
     ag[2] = ground_acc(r->az, r->nrec, r->dtr, r->t);
@@ -249,6 +340,7 @@ int cf_solver_run_post(cf_solver *s, cf_run *r, const cf_step_energy *e, double 
     long n = r->n;
     m->Dslip += e->dslip;
     m->Dswitch += e->dswitch;
+    if (m->conn) m->Dconn += e->dconn;
     err = cf_solver_monitor_energy(m, n, ke, vg, e);
     if (!isfinite(err) || !isfinite(ke)) {
         r->st = cf_solver_fail(s, CF_EUNSTABLE, "non-finite state at t = %.4f s (step %ld, dt = %.3g s, dt_crit = %.3g s)",
@@ -277,6 +369,8 @@ void cf_solver_run_finish(cf_solver *s, cf_run *r, double *resid, cf_solver_resu
     double dt = s->dt;
     memset(res, 0, sizeof *res);
     cf_solver_monitor_finish(s, &r->m, r->collapsed, resid, res);
+    if (s->scene) cf_solver_monitor_scene_report(s, &r->m, r->collapsed, r->collapsed ? r->cblk : -1);
+    if (s->conn && s->out_conn) cf_solver_connectors_report(s->conn, s->out_conn);
     cf_solver_monitor_end(&r->m);
     res->collapsed = r->collapsed;
     res->collapse_block = r->collapsed ? r->cblk : -1;
@@ -315,6 +409,7 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
     if (st) return st;
     cf_solver_stack_reset(s);
     if (s->model->reset) s->model->reset(s, s->contact);
+    if (s->conn) cf_solver_connectors_reset(s->conn);
     for (i = 0; i < s->nbody; i++) quat_to_mat(s->q + 4 * i, s->R + 9 * i);
     st = cf_solver_run_begin(s, &r);   /* reads the rest state: after the reset */
     if (st) return st;

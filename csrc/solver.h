@@ -165,6 +165,103 @@ int cf_solver_set_history_normal(cf_solver *s, double *joint_normal);
 typedef int (*cf_solver_check_fn)(void *user);
 int cf_solver_set_check(cf_solver *s, cf_solver_check_fn fn, void *user);
 
+/* ---- connectors and scenes (docs/solver.md, "Connectors" and "Scenes") ---- */
+
+/* A connector (a dowel) across a joint: its place and its law (the law's text: connector_law.h).
+ * Kinds of shear law: */
+#define CF_SOLVER_CONNECTOR_ELASTOPLASTIC 0   /* a metal dowel: elastic-perfectly plastic, breaks at u_ultimate */
+#define CF_SOLVER_CONNECTOR_CLEARANCE 1       /* a wooden empolion / polos: clearance, then linear; the seat
+                                               * crushes at f_yield; breaks at u_ultimate */
+typedef struct {
+    int joint;            /* the joint it crosses (a scene's numbering: every column's joints, then the bearings) */
+    double x, y;          /* its place in the joint plane from the joint's face centre, along the lower face's x and y, m */
+    int kind;             /* CF_SOLVER_CONNECTOR_* */
+    double k_shear;       /* shear stiffness (once the clearance is taken up), N/m, >= 0 */
+    double f_yield;       /* shear force at yield (elastoplastic) or at which the seat crushes (clearance), N, > 0; INFINITY: never */
+    double u_ultimate;    /* shear displacement |u| at which it breaks, m, > 0; INFINITY: never */
+    double clearance;     /* initial clearance of the clearance kind, m, >= 0 (0 for the elastoplastic kind) */
+    double k_axial;       /* stiffness against the joint's opening at the connector (tension only), N/m, >= 0; 0: none */
+    double n_yield;       /* axial force at which it slips out, N, > 0; INFINITY: never */
+    double d_ultimate;    /* opening at which it pulls out (breaks), m, > 0; INFINITY: never */
+} cf_solver_connector;
+
+/* Check one connector's law (not its place): CF_OK, or CF_EINVAL with the message in msg
+ * (CF_MSG_LEN bytes) naming the bad value. */
+int cf_solver_connectors_check(const cf_solver_connector *c, char *msg);
+/* The law driven through a prescribed history of n displacements u (n x 3: shear x, y and the
+ * opening, m; from the rest state): the force on the upper block (n x 3, N), the stored energy
+ * (n, J), the energy dissipated so far (n, J) and the state (n: 0 elastic, 1 yielded, 2 broken)
+ * after each. CF_EINVAL for a bad law (message in msg). */
+int cf_solver_connectors_drive(const cf_solver_connector *c, int n, const double *u, double *force, double *stored,
+                               double *dissipated, int *state, char *msg);
+
+/* A scene: columns on one ground and beams (epistyles) resting on their top blocks through
+ * bearings (square contact patches with the soft Coulomb law of the joints), and connectors.
+ * Bodies: the ground, every column's blocks bottom up column by column, then the beams. Joints:
+ * every column's (joint j of a column under its block j), column by column, then one per bearing.
+ * Blocks (the EDPs' and collapse_block's numbering): every column's, then the beams. */
+typedef struct {
+    double x, y;          /* its axis on the ground, m */
+    int n_blocks;         /* its blocks: the next n_blocks entries of n_segments (and of kn, ks, mu) */
+} cf_solver_scene_column;
+
+typedef struct {
+    double x, y;          /* the centre of its underside (horizontal), m */
+    double length, width, height;   /* along x, y, z, m: a rectangular block */
+    double density;       /* kg/m^3 */
+} cf_solver_scene_beam;
+
+typedef struct {
+    int beam, column;     /* the beam it carries and the column whose top block carries it */
+    double x, y;          /* the centre of its square patch (horizontal), m */
+    double side;          /* the square's side, m (sides along x and y) */
+    double kn, ks, mu;    /* its joint law: Pa/m, Pa/m, - */
+} cf_solver_scene_bearing;
+
+typedef struct {
+    int n_columns;
+    const cf_solver_scene_column *columns;
+    const int *n_segments;                  /* per block of every column */
+    const cf_geometry_segment *segments;    /* every column's blocks' segments in order */
+    double density;                         /* the columns', kg/m^3 */
+    const double *kn, *ks, *mu;             /* per column joint, in the joints' order */
+    int n_beams;
+    const cf_solver_scene_beam *beams;
+    int n_bearings;
+    const cf_solver_scene_bearing *bearings;
+    int n_connectors;
+    const cf_solver_connector *connectors;
+} cf_solver_scene;
+
+/* Set up a scene (as cf_solver_setup_joints sets up one column, whose results a one-column scene
+ * without connectors gives bit for bit). A scene of several columns or with beams takes neither
+ * monolithic nor initial_tilt_rad. */
+int cf_solver_setup_scene(cf_solver *s, const cf_solver_def *def, const cf_solver_scene *scene);
+
+/* What a run reports per column, per beam and per connector of a scene (caller-owned, any may be
+ * NULL, written when a run finishes; set after set-up, which clears them):
+ *   columns    (n_columns x CF_SOLVER_COLUMN_OUT): u_top (its top displacement / its base diameter),
+ *              u_d (its joints' residual dislocation / diameter, max; NaN after a collapse), peak top
+ *              displacement (m), 1 when the scene's collapse was at this column's joints
+ *   beams      (n_beams x CF_SOLVER_BEAM_OUT): peak horizontal slip at its bearings (m), residual slip
+ *              (m, averaged over residual_window_s; NaN after a collapse), peak slip / its shortest
+ *              bearing length along the slip (the unseating ratio), 1 when the collapse was at its bearings
+ *   connectors (n_connectors x CF_SOLVER_CONNECTOR_OUT): peak shear force (N), peak shear
+ *              displacement |u| (m), peak axial force (N), yielded (0/1), broken (0/1), time of the
+ *              break (s, NaN), energy it dissipated (J) */
+#define CF_SOLVER_COLUMN_OUT 4
+#define CF_SOLVER_BEAM_OUT 4
+#define CF_SOLVER_CONNECTOR_OUT 7
+int cf_solver_set_outputs(cf_solver *s, double *columns, double *beams, double *connectors);
+/* How many columns, beams, connectors, bodies and joints the set-up solver has (any pointer may be NULL). */
+int cf_solver_counts(const cf_solver *s, int *n_columns, int *n_beams, int *n_connectors, int *n_blocks, int *n_joints);
+
+/* Optional history buffers of the connectors (call after cf_solver_set_history, which sets the
+ * capacity; NULL: none): energy (capacity x 2: stored since the start, dissipated so far, J) and
+ * per connector (capacity x n_connectors x 3: shear displacement |u| (m), shear force |F| (N),
+ * axial force (N)). The ledger's balance_error includes both energies. */
+int cf_solver_set_history_connectors(cf_solver *s, double *energy, double *connectors);
+
 /* Run one record: acc_x (n samples, m/s^2) at dt_rec; acc_y, acc_z may be NULL.
  * residual_dislocation (n_blocks entries, m) may be NULL; after a collapse it and
  * result.u_d are NaN. A run that would need more than CF_SOLVER_MAX_STEPS steps is

@@ -96,7 +96,8 @@ static int *batch_order(int n_jobs, const cf_solver_batch_job *jobs)
 /* The widest lane count this CPU and build run for the column of s. */
 static int widest(const cf_solver *s)
 {
-    return s->model->batch_lanes ? s->lanes : 1;   /* chosen from CPUID at set-up */
+    /* connectors and scenes of several columns have no lane text: their runs go one after the other */
+    return s->model->batch_lanes && !s->conn && !s->scene ? s->lanes : 1;   /* chosen from CPUID at set-up */
 }
 
 int cf_solver_batch_max_width(const cf_solver *s)

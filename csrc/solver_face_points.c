@@ -147,7 +147,7 @@ int cf_solver_face_points_make(cf_solver *s, int mm, cf_face_points *fp)
     size_t nja = (size_t)(nj > 0 ? nj : 1);
     memset(fp, 0, sizeof *fp);
     for (j = 0; j < nj; j++)
-        np += count_face_points(s->jt[j].fu.n, mm) + (j == 0 ? 0 : count_face_points(s->jt[j].fl.n, mm));
+        np += count_face_points(s->jt[j].fu.n, mm) + (s->jt[j].bl == 0 ? 0 : count_face_points(s->jt[j].fl.n, mm));
     fp->side = (int *)calloc((size_t)(np > 0 ? np : 1), sizeof(int));
     fp->loc = (double *)calloc((size_t)(np > 0 ? np : 1) * 3, sizeof(double));
     fp->w = (double *)calloc((size_t)(np > 0 ? np : 1), sizeof(double));
@@ -162,11 +162,11 @@ int cf_solver_face_points_make(cf_solver *s, int mm, cf_face_points *fp)
         const cf_joint *J = &s->jt[j];
         int n1, n2;
         fp->p0[j] = c;
-        /* the ground (joint 0) is unbounded: the block's own points carry the whole area */
-        n1 = face_points(&J->fu, mm, (j == 0 ? 1.0 : 0.5) * J->area, fp->loc + 3 * c, fp->w + c);
+        /* the ground (under a column, joint 0 of a single one) is unbounded: the block's own points carry the whole area */
+        n1 = face_points(&J->fu, mm, (J->bl == 0 ? 1.0 : 0.5) * J->area, fp->loc + 3 * c, fp->w + c);
         for (k = 0; k < n1; k++) fp->side[c + k] = 0;
         c += n1;
-        n2 = j == 0 ? 0 : face_points(&J->fl, mm, 0.5 * J->area, fp->loc + 3 * c, fp->w + c);
+        n2 = J->bl == 0 ? 0 : face_points(&J->fl, mm, 0.5 * J->area, fp->loc + 3 * c, fp->w + c);
         for (k = 0; k < n2; k++) fp->side[c + k] = 1;
         c += n2;
         fp->n[j] = n1 + n2;

@@ -17,6 +17,9 @@
  *                       four, eight points per instruction); every width gives the same bits
  *   solver_exact.c      contact model: exact interface integral
  *   solver_monitor.c    energy ledger, EDPs, collapse criteria, histories
+ *   solver_connectors.c connectors (dowels) across joints: their state, springs, forces, reports
+ *   solver_scene.c      a scene's bodies and joints: several columns, beams on bearings
+ *   connector_law.h     the connectors' law, one text
  *   contact_law.h       the contact law itself, one text for every path above
  *
  * Bodies: index 0 is the ground (fixed in the frame that moves with the ground),
@@ -30,6 +33,7 @@
 #include <stdlib.h>
 
 #include "cf_common.h"
+#include "connector_law.h"
 #include "geometry.h"
 #include "solver.h"
 #include "solver_math_internal.h"
@@ -72,6 +76,10 @@ typedef struct {
     cf_face fl, fu;         /* lower body's top face, upper body's bottom face */
     double area;            /* joint area, m^2 */
     double kn, ks, mu;      /* normal and shear stiffness (Pa/m), friction coefficient of this joint */
+    /* the collapse criteria: the bodies [bu, above) are everything this joint carries (for a single
+     * column every body from bu on); a bearing (a beam on a column's top block) is not tested for
+     * overturning, the beam's centre of mass lying over neither of its bearings */
+    int above, bearing;
 } cf_joint;
 
 /* What the contacts of one step add to the energy ledger. */
@@ -80,6 +88,8 @@ typedef struct {
     double dslip;    /* slip dissipation this step, J */
     double dswitch;  /* spring energy removed by points leaving/entering a face polygon, J */
     int need;        /* 1: the energy balance is evaluated at this step */
+    double vc;       /* connectors' stored energy, J (only when need; 0 without connectors) */
+    double dconn;    /* connectors' dissipation this step, J (0 without connectors) */
 } cf_step_energy;
 
 struct cf_solver;
@@ -168,6 +178,32 @@ void cf_solver_options_default(cf_solver_def *d);
 int cf_solver_options_check(const cf_solver_def *d, char *msg);
 void cf_solver_options_of_model(const cf_solver_def *d, int m, double *out);
 
+/* The connectors of a solver (solver_connectors.c): their definitions, their ends in the lower and
+ * the upper body's frames, the upper end relative to the lower one at rest (lower face frame), and
+ * per run their law's state, peaks (|F| shear, |u| shear, axial force), break times and dissipation. */
+typedef struct cf_connectors {
+    int n;
+    cf_solver_connector *d;
+    double *al, *au, *rest;         /* 3 per connector, m */
+    cf_connector_state *st;
+    double *peak, *t_break, *diss;  /* 3, 1, 1 per connector */
+    long steps;                     /* steps of this run so far */
+} cf_connectors;
+
+/* The parts of a scene the monitor reports on (solver_scene.c): per column its blocks, joints and
+ * base diameter, per beam its bearings. NULL in a solver set up for a single column. */
+typedef struct {
+    int ncol, nbeam;
+    int *col_blk0, *col_nblk;       /* per column: first block, blocks */
+    int *col_j0, *col_nj;           /* per column: first joint, joints */
+    double *col_base_diam;          /* per column, m */
+    int *beam_j0, *beam_nj;         /* per beam: first bearing joint, bearings */
+    double *beam_seat;              /* per beam: half its shortest seat (bearings on one column) along x or y, m */
+    cf_face *col_top;               /* per column: its top block's top face (its body frame) */
+    int nbear, *bear_col;           /* per bearing: the column carrying it */
+    double *bear_gc;                /* per bearing: the centre of its beam's seat on that column, in the beam's frame (3) */
+} cf_scene_info;
+
 struct cf_solver {
     char msg[CF_MSG_LEN];
     int ready;
@@ -199,6 +235,11 @@ struct cf_solver {
     long h_cap;
     double *h_t, *h_top, *h_pos, *h_quat, *h_open, *h_slip, *h_en, *h_fn;
     double *jfn;                    /* normal force of each joint this step, N */
+    /* connectors and scenes (NULL: none) */
+    cf_connectors *conn;
+    cf_scene_info *scene;
+    double *out_col, *out_beam, *out_conn;          /* caller-owned per-run outputs (cf_solver_set_outputs) */
+    double *h_conn_en, *h_conn;                     /* caller-owned connector histories */
 };
 
 /* Fail with a message on the solver s (its msg buffer) and return status: cf_common_fail, the
@@ -209,6 +250,16 @@ struct cf_solver {
 /* solver_stack.c */
 int cf_solver_stack_build(struct cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs,
                           const double *kn, const double *ks, const double *mu);
+/* the initial tilt of the definition applied to the built (untilted) column: a rigid rotation of
+ * every moving body about the +x base edge (after the connectors have taken the untilted rest) */
+void cf_solver_stack_tilt(struct cf_solver *s);
+int cf_solver_stack_alloc(struct cf_solver *s, int nblk, int nbody, int nj);
+void cf_solver_stack_face(cf_face *f, int n, double r, double phase, double cz);
+
+/* solver_scene.c: the bodies and joints of a scene of several columns or with beams (its checks
+ * included; the columns' blocks and joints are checked by the caller), and its monitor's map */
+int cf_solver_scene_build(struct cf_solver *s, const cf_solver_scene *sc);
+void cf_solver_scene_free(cf_scene_info *info);
 void cf_solver_stack_release(struct cf_solver *s);
 void cf_solver_stack_reset(struct cf_solver *s);
 
@@ -227,6 +278,15 @@ typedef struct {
 } cf_face_points;
 int cf_solver_face_points_make(struct cf_solver *s, int mm, cf_face_points *fp);
 void cf_solver_face_points_free(cf_face_points *fp);
+
+/* solver_connectors.c */
+int cf_solver_connectors_create(struct cf_solver *s, int n, const cf_solver_connector *defs, cf_connectors **out);
+void cf_solver_connectors_reset(cf_connectors *c);
+void cf_solver_connectors_free(cf_connectors *c);
+void cf_solver_connectors_springs(const struct cf_solver *s, const cf_connectors *c, int i, cf_springs *K);
+void cf_solver_connectors_step(struct cf_solver *s, cf_connectors *c, cf_step_energy *e);
+void cf_solver_connectors_report(const cf_connectors *c, double *out);
+void cf_solver_connectors_sample(const cf_connectors *c, double *out);
 
 /* solver_timestep.c */
 int cf_solver_timestep_limit(struct cf_solver *s);
@@ -259,6 +319,12 @@ typedef struct {
     double *ring;                      /* (ring_len x nblk x 2) joint dislocations, m */
     long hcount;                       /* history samples written */
     double ke_win, rest_ke, next_rest; /* at-rest detection after the record */
+    int conn;                          /* the solver has connectors: their energies enter the ledger */
+    double vc0, Dconn;                 /* connectors' stored energy at step 0, their dissipation so far */
+    /* a scene's (NULL for a single column): per column its top-face centre at rest (3 each) and its
+     * largest top displacement (m), per beam its largest slip at a bearing (m); the ring then holds
+     * every joint's dislocation */
+    double *col_top0, *col_max, *beam_slip;
 } cf_monitor;
 
 /* The spring energies (a sum over every sub-contact) enter the ledger every CF_LEDGER_STEPS steps
@@ -279,6 +345,9 @@ int cf_solver_monitor_collapse(const struct cf_solver *s, int *blk);
 int cf_solver_monitor_at_rest(cf_monitor *m, double t, double ke);
 void cf_solver_monitor_finish(struct cf_solver *s, cf_monitor *m, int collapsed, double *resid,
                               cf_solver_result *res);
+/* a scene's per-column and per-beam outputs (s->out_col, s->out_beam), collapse_block the block
+ * whose joint fired a collapse criterion (-1: none) */
+void cf_solver_monitor_scene_report(const struct cf_solver *s, const cf_monitor *m, int collapsed, int collapse_block);
 
 /* One run's progress through its record (solver.c): what the time loop of cf_solver_run
  * keeps between steps, so that a batch of runs (solver_batch.c) steps each run with the

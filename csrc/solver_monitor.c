@@ -6,7 +6,8 @@
  *
  * Energy ledger (J), evaluated every CF_LEDGER_STEPS steps, at history samples and at the last
  * step: kinetic + (gravity - gravity_0) + (spring - spring_0) + slip + damping +
- * contact_switch - ground_work = balance error; the error's maximum over the run,
+ * contact_switch (+ the connectors' stored change and dissipation, when there are connectors)
+ * - ground_work = balance error; the error's maximum over the run,
  * divided by the largest energy scale seen, is result.energy_error.
  */
 #include <float.h>
@@ -35,6 +36,50 @@ static void dislocation(const cf_solver *s, int j, double *dx, double *dy)
     else block_point(s, j - 1, s->blk_top + 3 * (j - 1), cl);
     *dx = cu[0] - cl[0]; *dy = cu[1] - cl[1];
 }
+
+/* horizontal dislocation of joint J of a scene: the centre of its upper face minus the centre of its
+ * lower face (for a bearing, the beam's slip on the capital at that patch) */
+static void joint_dislocation(const cf_solver *s, const cf_joint *J, double *dx, double *dy)
+{
+    double cu[3], cl[3], n[3];
+    cf_face_world(s, J->bu, &J->fu, cu, n);
+    cf_face_world(s, J->bl, &J->fl, cl, n);
+    *dx = cu[0] - cl[0]; *dy = cu[1] - cl[1];
+}
+
+/* A scene's step: each column's top displacement, each beam's slip at its bearings, the residual
+ * sample of every joint when due; (dx, dy): column 0's top displacement (the history's top_disp). */
+static void scene_record(const cf_solver *s, cf_monitor *m, long n, double *dx0, double *dy0)
+{
+    const cf_scene_info *sc = s->scene;
+    int c, b, j;
+    for (c = 0; c < sc->ncol; c++) {
+        int top = sc->col_blk0[c] + sc->col_nblk[c] - 1;
+        double p[3], dx, dy, d;
+        block_point(s, top, s->blk_top + 3 * top, p);
+        dx = p[0] - m->col_top0[3 * c]; dy = p[1] - m->col_top0[3 * c + 1];
+        d = sqrt(dx * dx + dy * dy);
+        if (d > m->col_max[c]) m->col_max[c] = d;
+        if (d > m->max_top) m->max_top = d;
+        if (c == 0) { *dx0 = dx; *dy0 = dy; }
+    }
+    for (b = 0; b < sc->nbeam; b++)
+        for (j = sc->beam_j0[b]; j < sc->beam_j0[b] + sc->beam_nj[b]; j++) {
+            double dx, dy, d;
+            joint_dislocation(s, &s->jt[j], &dx, &dy);
+            d = sqrt(dx * dx + dy * dy);
+            if (d > m->beam_slip[b]) m->beam_slip[b] = d;
+        }
+    if (cf_monitor_residual_due(m, n)) {
+        double *slot = m->ring + 2 * s->nj * m->ring_pos;
+        for (j = 0; j < s->nj; j++) joint_dislocation(s, &s->jt[j], slot + 2 * j, slot + 2 * j + 1);
+        m->ring_pos = (m->ring_pos + 1) % m->ring_len;
+        if (m->ring_count < m->ring_len) m->ring_count++;
+    }
+}
+
+/* A scene's history sample h: every block's pose, every joint's opening, normal force, dislocation. */
+static void scene_history(const cf_solver *s, size_t h);
 
 /* max normal gap (m) of the upper face's vertices over the lower face plane, >= 0 */
 static double opening(const cf_solver *s, int j)
@@ -67,6 +112,24 @@ static inline int box_within(const double *box, double tol, const double *c, dou
     return dx * dx + dy * dy < r * r;
 }
 
+/* Bearing j of a scene: has its beam's seat on that column (the centre of the beam's bearings
+ * there, moving with the beam) left the column's top face? More than half the seat then overhangs:
+ * the beam is unseated (the off-footprint criterion of a beam). */
+static int unseated(const cf_solver *s, int j)
+{
+    const cf_scene_info *sc = s->scene;
+    const cf_joint *J = &s->jt[j];
+    int r = j - (s->nj - sc->nbear), c = sc->bear_col[r];
+    const cf_face *top = &sc->col_top[c];
+    double g[3], ct[3], n[3], d[3], X[3];
+    mat_vec(s->R + 9 * J->bu, sc->bear_gc + 3 * r, g);
+    g[0] += s->x[3 * J->bu]; g[1] += s->x[3 * J->bu + 1]; g[2] += s->x[3 * J->bu + 2];
+    cf_face_world(s, J->bl, top, ct, n);
+    d[0] = g[0] - ct[0]; d[1] = g[1] - ct[1]; d[2] = g[2] - ct[2];
+    mat_tvec(s->R + 9 * J->bl, d, X);
+    return !cf_face_inside(top, X[0], X[1], 0.0);
+}
+
 /* collapse criteria at the current state; returns the reason, sets *blk.
  * Three criteria, in this order of precedence, each reporting its first joint from
  * the bottom:
@@ -80,7 +143,9 @@ static inline int box_within(const double *box, double tol, const double *c, dou
  *   faces are the same).
  * - off the footprint: the centre of a block's bottom face has slid outside the
  *   polygon of the face below (in that face's plane): more than half of the joint
- *   overhangs. Rocking alone moves this centre by b (1 - cos tilt) only.
+ *   overhangs. Rocking alone moves this centre by b (1 - cos tilt) only. A beam of a
+ *   scene is off its footprint -- unseated -- when its seat on a column has left that
+ *   column's top face (unseated()).
  * - falling: a block's bottom-face centre a quarter of its height below the top face
  *   centre of the block that should carry it.
  * One pass over the joints evaluates all three on the same two face centres (each
@@ -119,9 +184,9 @@ int cf_solver_monitor_collapse(const cf_solver *s, int *blk)
         cf_face_world(s, J->bu, &J->fu, cU, nU);
         cf_face_world(s, J->bl, &J->fl, cL, nL);
         cs = J->bl == 0 ? cU : cL;   /* on the ground the supporting face is the block's own */
-        if (!box_within(box, tol, cs, J->fl.rc) || !box_within(box, tol, cU, J->fu.rc)) {
+        if (!J->bearing && (!box_within(box, tol, cs, J->fl.rc) || !box_within(box, tol, cU, J->fu.rc))) {
             double mx = 0, my = 0, mt = 0, gx, gy, dx, dy;
-            for (i = J->bu; i < nbody; i++) {
+            for (i = J->bu; i < J->above; i++) {
                 mx += s->m[i] * s->x[3 * i]; my += s->m[i] * s->x[3 * i + 1]; mt += s->m[i];
             }
             gx = mx / mt; gy = my / mt;
@@ -130,7 +195,9 @@ int cf_solver_monitor_collapse(const cf_solver *s, int *blk)
             dx = gx - cU[0]; dy = gy - cU[1];
             if (dx * dx + dy * dy > 4.0 * J->fu.rc * J->fu.rc) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
         }
-        if (foot < 0 && J->bl != 0) {     /* the ground is unbounded */
+        if (foot < 0 && J->bearing) {
+            if (unseated(s, j)) foot = j;
+        } else if (foot < 0 && J->bl != 0) {     /* the ground is unbounded */
             double d[3], X[3];
             d[0] = cU[0] - cL[0]; d[1] = cU[1] - cL[1]; d[2] = cU[2] - cL[2];
             mat_tvec(s->R + 9 * J->bl, d, X);
@@ -152,29 +219,47 @@ int cf_solver_monitor_begin(cf_solver *s, cf_monitor *m, double t_rec)
     memset(m, 0, sizeof *m);
     m->kres = (long)floor(0.005 / dt); if (m->kres < 1) m->kres = 1;
     m->ring_len = (long)ceil(s->def.residual_window_s / (m->kres * dt)) + 1;
-    m->ring = (double *)calloc((size_t)m->ring_len * 2 * (size_t)s->nblk, sizeof(double));
+    m->ring = (double *)calloc((size_t)m->ring_len * 2 * (size_t)(s->scene ? s->nj : s->nblk), sizeof(double));
     if (!m->ring) return cf_solver_fail(s, CF_ENOMEM, "out of memory");
-    block_point(s, top, s->blk_top + 3 * top, m->top0);
+    if (s->scene) {
+        int c, nc = s->scene->ncol;
+        m->col_top0 = (double *)calloc(3 * (size_t)nc, sizeof(double));
+        m->col_max = (double *)calloc((size_t)nc, sizeof(double));
+        m->beam_slip = (double *)calloc((size_t)(s->scene->nbeam > 0 ? s->scene->nbeam : 1), sizeof(double));
+        if (!m->col_top0 || !m->col_max || !m->beam_slip) {
+            cf_solver_monitor_end(m);
+            return cf_solver_fail(s, CF_ENOMEM, "out of memory");
+        }
+        for (c = 0; c < nc; c++) {
+            int k = s->scene->col_blk0[c] + s->scene->col_nblk[c] - 1;
+            block_point(s, k, s->blk_top + 3 * k, m->col_top0 + 3 * c);
+        }
+    } else block_point(s, top, s->blk_top + 3 * top, m->top0);
     m->scale_floor = 1e-6 * s->total_mass * g * s->total_h;
     m->rest_ke = 1e-9 * s->total_mass * g * s->com_h;
     m->next_rest = t_rec + 0.5;
+    m->conn = s->conn != NULL;
     return CF_OK;
 }
 
 void cf_solver_monitor_end(cf_monitor *m)
 {
-    free(m->ring);
-    m->ring = NULL;
+    free(m->ring); free(m->col_top0); free(m->col_max); free(m->beam_slip);
+    m->ring = NULL; m->col_top0 = m->col_max = m->beam_slip = NULL;
 }
 
 /* The balance error at step n (0 when the ledger is not evaluated at this step). */
 double cf_solver_monitor_energy(cf_monitor *m, long n, double ke, double vg, const cf_step_energy *e)
 {
     double err = 0.0, scale;
-    if (n == 0) { m->vg0 = vg; m->vs0 = e->vs; }
+    if (n == 0) { m->vg0 = vg; m->vs0 = e->vs; m->vc0 = e->vc; }
     if (e->need) {
         err = ke + (vg - m->vg0) + (e->vs - m->vs0) + m->Dslip + m->Ddamp + m->Dswitch - m->W;
         scale = ke + fabs(vg - m->vg0) + fabs(e->vs - m->vs0) + m->Dslip + m->Ddamp + fabs(m->Dswitch) + fabs(m->W);
+        if (m->conn) {   /* the connectors' stored and dissipated energy (a solver without them: these terms absent) */
+            err += (e->vc - m->vc0) + m->Dconn;
+            scale += fabs(e->vc - m->vc0) + m->Dconn;
+        }
         if (scale > m->scale_max) m->scale_max = scale;
         if (fabs(err) > m->err_max) m->err_max = fabs(err);
     }
@@ -186,7 +271,9 @@ void cf_solver_monitor_record(cf_solver *s, cf_monitor *m, long n, double t, dou
                               const cf_step_energy *e, double err, int hist_now)
 {
     int j, nblk = s->nblk, top = nblk - 1;
-    double p[3], dx, dy, d2;
+    double p[3], dx = 0.0, dy = 0.0, d2;
+    if (s->scene) scene_record(s, m, n, &dx, &dy);
+    else {
     block_point(s, top, s->blk_top + 3 * top, p);
     dx = p[0] - m->top0[0]; dy = p[1] - m->top0[1];
     d2 = sqrt(dx * dx + dy * dy);
@@ -197,11 +284,13 @@ void cf_solver_monitor_record(cf_solver *s, cf_monitor *m, long n, double t, dou
         m->ring_pos = (m->ring_pos + 1) % m->ring_len;
         if (m->ring_count < m->ring_len) m->ring_count++;
     }
+    }
     if (hist_now) {
         size_t h = (size_t)m->hcount++;
         if (s->h_t) s->h_t[h] = t;
         if (s->h_top) { s->h_top[2 * h] = dx; s->h_top[2 * h + 1] = dy; }
-        for (j = 0; j < nblk; j++) {
+        if (s->scene) scene_history(s, h);
+        else for (j = 0; j < nblk; j++) {
             int b = s->blk_body[j];
             if (s->h_pos) block_point(s, j, s->blk_off + 3 * j, s->h_pos + 3 * (h * nblk + j));
             if (s->h_quat) memcpy(s->h_quat + 4 * (h * nblk + j), s->q + 4 * b, 4 * sizeof(double));
@@ -214,6 +303,8 @@ void cf_solver_monitor_record(cf_solver *s, cf_monitor *m, long n, double t, dou
             en[0] = ke; en[1] = vg - m->vg0; en[2] = e->vs - m->vs0; en[3] = m->Dslip; en[4] = m->Ddamp; en[5] = m->W;
             en[6] = err; en[7] = m->Dswitch;
         }
+        if (s->conn && s->h_conn_en) { s->h_conn_en[2 * h] = e->vc - m->vc0; s->h_conn_en[2 * h + 1] = m->Dconn; }
+        if (s->conn && s->h_conn) cf_solver_connectors_sample(s->conn, s->h_conn + 3 * (size_t)s->conn->n * h);
     }
 }
 
@@ -229,6 +320,82 @@ int cf_solver_monitor_at_rest(cf_monitor *m, double t, double ke)
     return 0;
 }
 
+static void scene_history(const cf_solver *s, size_t h)
+{
+    int j, nblk = s->nblk, nj = s->nj;
+    for (j = 0; j < nblk; j++) {
+        if (s->h_pos) block_point(s, j, s->blk_off + 3 * j, s->h_pos + 3 * (h * nblk + j));
+        if (s->h_quat) memcpy(s->h_quat + 4 * (h * nblk + j), s->q + 4 * s->blk_body[j], 4 * sizeof(double));
+    }
+    for (j = 0; j < nj; j++) {
+        if (s->h_open) s->h_open[h * nj + j] = opening(s, j);
+        if (s->h_fn) s->h_fn[h * nj + j] = s->jfn[j];
+        if (s->h_slip) joint_dislocation(s, &s->jt[j], s->h_slip + 2 * (h * nj + j), s->h_slip + 2 * (h * nj + j) + 1);
+    }
+}
+
+/* The residual dislocation of joint j of a scene: the mean of the ring, m (NaN after a collapse). */
+static double scene_residual(const cf_solver *s, const cf_monitor *m, int j, int collapsed)
+{
+    double sx = 0, sy = 0;
+    long c;
+    if (collapsed) return NAN;
+    for (c = 0; c < m->ring_count; c++) { sx += m->ring[2 * s->nj * c + 2 * j]; sy += m->ring[2 * s->nj * c + 2 * j + 1]; }
+    if (m->ring_count > 0) { sx /= m->ring_count; sy /= m->ring_count; }
+    return sqrt(sx * sx + sy * sy);
+}
+
+/* A scene's summary: u_d the largest over its columns' joints, u_top over its columns (each
+ * normalised by its own diameters); resid per joint. */
+static void scene_finish(const cf_solver *s, const cf_monitor *m, int collapsed, double *resid, cf_solver_result *res)
+{
+    const cf_scene_info *sc = s->scene;
+    int c, j;
+    double ud = 0.0, ut = 0.0;
+    for (j = 0; j < s->nj; j++) {
+        double r = scene_residual(s, m, j, collapsed);
+        if (resid) resid[j] = r;
+    }
+    for (c = 0; c < sc->ncol; c++) {
+        for (j = sc->col_j0[c]; j < sc->col_j0[c] + sc->col_nj[c]; j++) {
+            double r = scene_residual(s, m, j, collapsed) / s->joint_diam[s->jt[j].logical];
+            if (r > ud) ud = r;
+        }
+        if (m->col_max[c] / sc->col_base_diam[c] > ut) ut = m->col_max[c] / sc->col_base_diam[c];
+    }
+    res->u_d = collapsed ? NAN : ud;
+    res->u_top = ut;
+}
+
+void cf_solver_monitor_scene_report(const cf_solver *s, const cf_monitor *m, int collapsed, int collapse_block)
+{
+    const cf_scene_info *sc = s->scene;
+    int c, b, j;
+    if (!sc) return;
+    for (c = 0; s->out_col && c < sc->ncol; c++) {
+        double *o = s->out_col + CF_SOLVER_COLUMN_OUT * c, ud = 0.0;
+        for (j = sc->col_j0[c]; j < sc->col_j0[c] + sc->col_nj[c]; j++) {
+            double r = scene_residual(s, m, j, collapsed) / s->joint_diam[s->jt[j].logical];
+            if (r > ud) ud = r;
+        }
+        o[0] = m->col_max[c] / sc->col_base_diam[c];
+        o[1] = collapsed ? NAN : ud;
+        o[2] = m->col_max[c];
+        o[3] = collapse_block >= sc->col_blk0[c] && collapse_block < sc->col_blk0[c] + sc->col_nblk[c] ? 1.0 : 0.0;
+    }
+    for (b = 0; s->out_beam && b < sc->nbeam; b++) {
+        double *o = s->out_beam + CF_SOLVER_BEAM_OUT * b, rs = 0.0;
+        for (j = sc->beam_j0[b]; j < sc->beam_j0[b] + sc->beam_nj[b]; j++) {
+            double r = scene_residual(s, m, j, collapsed);
+            if (r > rs) rs = r;
+        }
+        o[0] = m->beam_slip[b];
+        o[1] = collapsed ? NAN : rs;
+        o[2] = m->beam_slip[b] / sc->beam_seat[b];
+        o[3] = collapse_block == s->nblk - sc->nbeam + b ? 1.0 : 0.0;
+    }
+}
+
 /* Residual dislocations (average of the ring over the last window), u_d, u_top.
  * After a collapse the residual dislocations lose their meaning (the blocks are
  * falling or lying elsewhere): they and u_d are NaN. u_top stays the largest top
@@ -237,6 +404,10 @@ void cf_solver_monitor_finish(cf_solver *s, cf_monitor *m, int collapsed, double
 {
     int j, nblk = s->nblk;
     double ud = 0.0;
+    if (s->scene) {
+        scene_finish(s, m, collapsed, resid, res);
+        nblk = 0;   /* the stack's loop below is not a scene's */
+    }
     for (j = 0; j < nblk; j++) {
         double sx = 0, sy = 0, r;
         long c;
@@ -246,9 +417,11 @@ void cf_solver_monitor_finish(cf_solver *s, cf_monitor *m, int collapsed, double
         if (resid) resid[j] = r;
         if (r / s->joint_diam[j] > ud) ud = r / s->joint_diam[j];
     }
-    res->u_d = collapsed ? NAN : ud;
+    if (!s->scene) {
+        res->u_d = collapsed ? NAN : ud;
+        res->u_top = m->max_top / s->base_diam;
+    }
     if (m->scale_max < m->scale_floor) m->scale_max = m->scale_floor;
-    res->u_top = m->max_top / s->base_diam;
     res->max_top_disp = m->max_top;
     res->energy_error = m->err_max / m->scale_max;
     res->energy_scale = m->scale_max;

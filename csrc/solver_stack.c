@@ -33,7 +33,9 @@ void cf_solver_stack_release(cf_solver *s)
 
 /* ---- faces ---------------------------------------------------------------------- */
 
-static void make_face(cf_face *f, int n, double r, double phase, double cz)
+/* A regular n-gon face of circumradius r, first vertex at angle phase, centred on the body's axis at
+ * height cz of the body frame (a scene moves the centre off the axis afterwards). */
+void cf_solver_stack_face(cf_face *f, int n, double r, double phase, double cz)
 {
     int k;
     double a = CF_PI / n;
@@ -54,7 +56,8 @@ static void make_face(cf_face *f, int n, double r, double phase, double cz)
 
 /* ---- bodies --------------------------------------------------------------------- */
 
-static int alloc_bodies(cf_solver *s, int nblk, int nbody, int nj)
+/* The arrays of nbody bodies, nblk logical blocks and nj joints, zeroed. */
+int cf_solver_stack_alloc(cf_solver *s, int nblk, int nbody, int nj)
 {
     ALLOC(s->m, double, nbody); ALLOC(s->inertia, double, 3 * nbody);
     ALLOC(s->x, double, 3 * nbody); ALLOC(s->v, double, 3 * nbody); ALLOC(s->q, double, 4 * nbody);
@@ -150,12 +153,12 @@ static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometr
             J->logical = j;
             J->bl = def->monolithic ? 0 : j;
             J->bu = def->monolithic ? 1 : j + 1;
-            make_face(&J->fu, bot->n_sides, bot->r_bottom, bot->phase_rad, s->blk_bot[3 * j + 2]);
+            cf_solver_stack_face(&J->fu, bot->n_sides, bot->r_bottom, bot->phase_rad, s->blk_bot[3 * j + 2]);
             if (j == 0) {
-                make_face(&J->fl, bot->n_sides, bot->r_bottom, bot->phase_rad, 0.0);
+                cf_solver_stack_face(&J->fl, bot->n_sides, bot->r_bottom, bot->phase_rad, 0.0);
             } else {
                 const cf_geometry_segment *top = &segs[last[j - 1]];
-                make_face(&J->fl, top->n_sides, top->r_top, top->phase_rad, s->blk_top[3 * (j - 1) + 2]);
+                cf_solver_stack_face(&J->fl, top->n_sides, top->r_top, top->phase_rad, s->blk_top[3 * (j - 1) + 2]);
             }
             J->area = J->fl.area < J->fu.area ? J->fl.area : J->fu.area;
         }
@@ -165,7 +168,7 @@ static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometr
 }
 
 /* Initial state: exact static equilibrium, joint j pre-compressed by the weight above
- * it (uniform overlap W / (kn A) over the face), shear zero; optionally tilted. */
+ * it (uniform overlap W / (kn A) over the face), shear zero (the tilt is cf_solver_stack_tilt's). */
 static void equilibrium(cf_solver *s, int nblk, const cf_geometry_massprops *bp, const double *zbot)
 {
     int i, j, k, nj = s->nj, nbody = s->nbody;
@@ -184,19 +187,27 @@ static void equilibrium(cf_solver *s, int nblk, const cf_geometry_massprops *bp,
                 s->x0[3 * (j + 1) + 2] = zbot[j] + bp[j].com_z - settle;
             }
         }
-        if (def->initial_tilt_rad != 0.0) {
-            /* rigid rotation about the line through the outermost +x base vertex, parallel to y */
-            const cf_face *f = &s->jt[0].fu;
-            double xp = f->vx[0], th = def->initial_tilt_rad, c = cf_math_cos(th), sn = cf_math_sin(th);
-            double zp = s->x0[3 * 1 + 2] + f->c[2];
-            for (k = 1; k < f->n; k++) if (f->vx[k] > xp) xp = f->vx[k];
-            for (i = 1; i < nbody; i++) {
-                double dx = s->x0[3 * i] - xp, dz = s->x0[3 * i + 2] - zp;
-                s->x0[3 * i] = xp + c * dx + sn * dz;
-                s->x0[3 * i + 2] = zp - sn * dx + c * dz;
-                s->q0[4 * i] = cf_math_cos(0.5 * th); s->q0[4 * i + 1] = 0; s->q0[4 * i + 2] = cf_math_sin(0.5 * th);
-                s->q0[4 * i + 3] = 0;
-            }
+    }
+}
+
+/* The definition's initial tilt applied to the built column (equilibrium leaves it untilted, so that
+ * the connectors take their rest state there first): a rigid rotation of every moving body about
+ * the line through the outermost +x base vertex, parallel to y. */
+void cf_solver_stack_tilt(cf_solver *s)
+{
+    int i, k, nbody = s->nbody;
+    const cf_solver_def *def = &s->def;
+    if (def->initial_tilt_rad != 0.0) {
+        const cf_face *f = &s->jt[0].fu;
+        double xp = f->vx[0], th = def->initial_tilt_rad, c = cf_math_cos(th), sn = cf_math_sin(th);
+        double zp = s->x0[3 * 1 + 2] + f->c[2];
+        for (k = 1; k < f->n; k++) if (f->vx[k] > xp) xp = f->vx[k];
+        for (i = 1; i < nbody; i++) {
+            double dx = s->x0[3 * i] - xp, dz = s->x0[3 * i + 2] - zp;
+            s->x0[3 * i] = xp + c * dx + sn * dz;
+            s->x0[3 * i + 2] = zp - sn * dx + c * dz;
+            s->q0[4 * i] = cf_math_cos(0.5 * th); s->q0[4 * i + 1] = 0; s->q0[4 * i + 2] = cf_math_sin(0.5 * th);
+            s->q0[4 * i + 3] = 0;
         }
     }
 }
@@ -211,7 +222,7 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
     s->nblk = nblk;
     s->nbody = s->def.monolithic ? 2 : nblk + 1;
     s->nj = s->def.monolithic ? 1 : nblk;
-    st = alloc_bodies(s, nblk, s->nbody, s->nj);
+    st = cf_solver_stack_alloc(s, nblk, s->nbody, s->nj);
     if (st) return st;
     bp = (cf_geometry_massprops *)calloc((size_t)nblk, sizeof *bp);
     zbot = (double *)calloc((size_t)nblk + 1, sizeof(double));
@@ -222,7 +233,10 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
     if (!st) {
         /* joint j (under block j) takes the j-th properties; a monolithic column has joint 0 only */
         int j;
-        for (j = 0; j < s->nj; j++) { s->jt[j].kn = kn[j]; s->jt[j].ks = ks[j]; s->jt[j].mu = mu[j]; }
+        for (j = 0; j < s->nj; j++) {
+            s->jt[j].kn = kn[j]; s->jt[j].ks = ks[j]; s->jt[j].mu = mu[j];
+            s->jt[j].above = s->nbody; s->jt[j].bearing = 0;   /* a column carries everything above */
+        }
     }
     if (!st) equilibrium(s, nblk, bp, zbot);
     free(bp); free(zbot);

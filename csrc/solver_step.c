@@ -5,7 +5,8 @@
  *   1. rotations   rotation matrices of all bodies from their quaternions, and the
  *                  world angular velocities;
  *   2. contacts    contact forces and torques at the positions of step n, shear
- *                  increments from the velocities of step n-1/2 (the contact model);
+ *                  increments from the velocities of step n-1/2 (the contact model),
+ *                  then the connectors' forces at the positions of step n;
  *   3. velocities  gravity, ground inertia -m a_g(t_n), mass-proportional damping;
  *                  velocities to n+1/2 (Euler's equations in body axes for rotation);
  *                  work of the external forces and the kinetic energy at step n;
@@ -39,9 +40,11 @@ void cf_solver_step_contacts(cf_solver *s, double dt, cf_step_energy *e)
     int j;
     memset(s->F, 0, sizeof(double) * 3 * (size_t)s->nbody);
     memset(s->T, 0, sizeof(double) * 3 * (size_t)s->nbody);
-    e->vs = 0; e->dslip = 0; e->dswitch = 0;
-    if (s->model->all) { s->model->all(s, s->contact, s->ww, dt, e); return; }
-    for (j = 0; j < s->nj; j++) s->model->joint(s, s->contact, &s->jt[j], s->ww, dt, e);
+    e->vs = 0; e->dslip = 0; e->dswitch = 0; e->vc = 0; e->dconn = 0;
+    if (s->model->all) s->model->all(s, s->contact, s->ww, dt, e);
+    else for (j = 0; j < s->nj; j++) s->model->joint(s, s->contact, &s->jt[j], s->ww, dt, e);
+    /* the connectors after the joints' contacts (solver_connectors.c) */
+    if (s->conn) cf_solver_connectors_step(s, s->conn, e);
 }
 
 /* 3. velocities (solver_phases.h), the ledger terms into the monitor */

@@ -116,7 +116,8 @@ static void add_spring(const cf_solver *s, stiffness *S, int bl, int bu, const d
         for (j = 0; j < nb; j++) stiff_add(S, idx[i], idx[j], k * b[i] * b[j]);
 }
 
-/* The contact model's springs, joint by joint, in the order its stiffness hook gives them. */
+/* The contact model's springs, joint by joint, in the order its stiffness hook gives them, then the
+ * connectors'. */
 static int add_model_springs(cf_solver *s, stiffness *S)
 {
     cf_springs K = {NULL, 0, 0, 0};
@@ -126,6 +127,14 @@ static int add_model_springs(cf_solver *s, stiffness *S)
         K.n = 0;
         s->model->stiffness(s, s->contact, J, &K);
         for (i = 0; i < K.n; i++) add_spring(s, S, J->bl, J->bu, K.v[i].p, K.v[i].e, K.v[i].k);
+    }
+    /* the connectors' springs (engaged), each between its joint's bodies */
+    for (i = 0; s->conn && i < s->conn->n && !K.nomem; i++) {
+        const cf_joint *J = &s->jt[s->conn->d[i].joint];
+        int k;
+        K.n = 0;
+        cf_solver_connectors_springs(s, s->conn, i, &K);
+        for (k = 0; k < K.n; k++) add_spring(s, S, J->bl, J->bu, K.v[k].p, K.v[k].e, K.v[k].k);
     }
     free(K.v);
     return K.nomem ? cf_solver_fail(s, CF_ENOMEM, "out of memory (contact springs)") : CF_OK;

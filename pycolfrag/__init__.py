@@ -7,6 +7,8 @@ Quick tour (the public names the tests, scripts and README rely on)::
     rec = pcf.ground_motion.synthesize(6.5, 10.0, seed=1)
     res = pcf.simulate(col, rec.acc, rec.dt, history=True)
     res.u_top, res.u_d, res.collapsed
+    ti = col.with_connectors(pcf.Connectors.of("titanium", "all"))   # dowels between the drums
+    portal = pcf.Colonnade.portal(2)                                  # two columns and an epistyle
     p = pcf.fragility.exceedance(edp, collapsed, threshold)     # Eq. (4); pycolfrag.analysis.fragility
 
 Everything that reads results files is :mod:`pycolfrag.analysis` (``pycolfrag.analysis.data.load``,
@@ -30,6 +32,8 @@ from .errors import (  # noqa: E402,F401
     SolverError,
 )
 from .column import Block, Column, JointProperties, Segment  # noqa: E402,F401
+from .connectors import Connectors, DowelLaw  # noqa: E402,F401
+from .scene import Colonnade, Epistyle  # noqa: E402,F401
 from .options import SolverOptions  # noqa: E402,F401
 from .solver import History, Response, simulate, simulate_batch  # noqa: E402,F401
 from . import ground_motion, intensity, names, records, results, sample  # noqa: E402,F401

@@ -31,6 +31,7 @@ from typing import Iterable, Sequence
 
 from . import input_files
 from ._ffi import lib as _lib
+from .connectors import Connectors, connectors_on
 from ._validate import positive_float, real
 from .errors import ParameterError
 
@@ -67,7 +68,7 @@ _SHAFT_KEYS = ("drum_heights", "diameter_bottom", "diameter_top", "n_sides", "ph
 _CAPITAL_KEYS = ("echinus_height", "echinus_diameter_bottom", "echinus_diameter_top", "abacus_height",
                  "abacus_side", "n_sides", "provenance")
 _COLUMN_KEYS = ("name", "provenance", "description", "units", "density", "n_sides", "phase_deg", "shaft",
-                "capital", "joints", "joint_overrides", "blocks")
+                "capital", "joints", "joint_overrides", "blocks", "connectors")
 
 
 @dataclass(frozen=True)
@@ -279,10 +280,13 @@ class Column:
     joint_overrides : mapping {joint index: JointProperties}, optional
         Other properties for some joints (joint j lies under block j; 0 is the base joint on the
         ground), e.g. a mortar bed at the base or a weathered joint. Other joints take ``joints``.
+    connectors : sequence of Connectors, optional
+        Dowels across joints (:mod:`pycolfrag.connectors`); each must lie on both faces of its joint.
     """
 
     def __init__(self, blocks: Sequence[Block], density: float = 2700.0,
-                 joints: JointProperties | None = None, name: str = "custom", joint_overrides=None):
+                 joints: JointProperties | None = None, name: str = "custom", joint_overrides=None,
+                 connectors=()):
         if isinstance(blocks, (str, bytes)) or not isinstance(blocks, Iterable):
             raise ParameterError(f"blocks must be a sequence of Block (from the bottom up), got "
                                  f"{type(blocks).__name__} {blocks!r}")
@@ -311,6 +315,16 @@ class Column:
                 over[int(j)] = p
         self.joint_overrides = dict(sorted(over.items()))
         self.name = str(name)
+        self.connectors = connectors_on(self, connectors) if connectors else ()
+
+    def dowels(self) -> list[tuple]:
+        """Every dowel as (joint, x, y, law): the connectors expanded, in their order."""
+        return [(j, x, y, c.law) for c in self.connectors for j in c.joint_list(self.n_blocks) for x, y in c.positions()]
+
+    def with_connectors(self, *connectors) -> "Column":
+        """A copy with these connectors (none: without connectors); the rest is kept."""
+        return Column(self.blocks, density=self.density, joints=self.joints, name=self.name,
+                      joint_overrides=self.joint_overrides, connectors=connectors)
 
     # ---- constructors -------------------------------------------------------------
     @classmethod
@@ -405,6 +419,11 @@ class Column:
         joints = JointProperties.from_dict(d.get("joints", {}))
         name = d.get("name", "custom")
         col = cls._from_dict_blocks(d, density, joints, name)
+        conn = d.get("connectors", [])
+        if not isinstance(conn, list):
+            raise ParameterError(f"connectors must be a list of tables ([[connectors]]), got {type(conn).__name__}")
+        if conn:
+            col = col.with_connectors(*(Connectors.from_dict(c, f"connectors[{i}]") for i, c in enumerate(conn)))
         over = d.get("joint_overrides")
         if over is None:
             return col
@@ -423,7 +442,8 @@ class Column:
                 raise ParameterError(f"joint_overrides.{k} must be a mapping of joint properties, got {v!r}")
             # keys not given keep the column's own [joints] values (not the library defaults)
             parsed[j] = JointProperties.from_dict({**joints.to_dict(), **v})
-        return Column(col.blocks, density=col.density, joints=col.joints, name=col.name, joint_overrides=parsed)
+        return Column(col.blocks, density=col.density, joints=col.joints, name=col.name, joint_overrides=parsed,
+                      connectors=col.connectors)
 
     @classmethod
     def _from_dict_blocks(cls, d: dict, density, joints, name) -> "Column":
@@ -495,6 +515,8 @@ class Column:
         }
         if self.joint_overrides:   # only when used: the default layout (and results signatures) unchanged
             d["joint_overrides"] = {str(j): p.to_dict() for j, p in self.joint_overrides.items()}
+        if self.connectors:        # the same
+            d["connectors"] = [c.to_dict() for c in self.connectors]
         return d
 
     def joint(self, j: int) -> JointProperties:
@@ -511,7 +533,7 @@ class Column:
         ``joint_overrides`` are kept."""
         j = joints if joints is not None else replace(self.joints, **changes)
         return Column(self.blocks, density=self.density, joints=j, name=self.name,
-                      joint_overrides=self.joint_overrides)
+                      joint_overrides=self.joint_overrides, connectors=self.connectors)
 
     # ---- derived quantities ----------------------------------------------------------
     @property

@@ -74,6 +74,8 @@ class Command:
 DEVELOPER_SCRIPTS = {
     "scripts/check_c_calls.py": "a CI check of the C library's call graph (.ci/run)",
     "scripts/risk_example.py": "writes the example block of docs/risk.md (make risk-docs)",
+    "scripts/restoration_study.py": "runs the restoration study's grids and writes the block of docs/restoration.md "
+                                    "(make restoration)",
 }
 
 #: Every command, in the order ``pycolfrag --help`` lists them.

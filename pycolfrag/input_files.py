@@ -33,6 +33,7 @@ from .errors import ParameterError
 #: an NRML fragility model of a few hundred taxonomies well under 1 MB.
 LIMITS = {
     "column file": 16 << 20,
+    "scene file": 16 << 20,
     "site file": 16 << 20,
     "hazard-curve file": 256 << 20,
     "fragility model file": 64 << 20,

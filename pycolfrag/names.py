@@ -35,7 +35,7 @@ from ._validate import finite_float
 from .errors import ModelRangeError
 
 __all__ = ["G", "CM_PER_M", "Quantity", "IMS", "EDPS", "SCALAR_IMS", "SPECTRAL_IMS", "RECORD_FIELDS",
-           "Parameter", "im", "edp", "label"]
+           "Parameter", "im", "edp", "edps_of", "label"]
 
 #: Gravity, m/s^2, from ``pycolfrag/data/constants.json`` (see the module docstring for why 9.81).
 G: float = float(json.loads(resources.files(__package__).joinpath("data/constants.json").read_text("utf-8"))
@@ -154,13 +154,27 @@ IMS: dict[str, Quantity] = {q.name: q for q in (
 SCALAR_IMS = tuple(k for k, q in IMS.items() if not q.spectral)
 SPECTRAL_IMS = tuple(k for k, q in IMS.items() if q.spectral)
 
-#: Engineering demand parameters (dimensionless, paper section "Fragility assessment").
+#: Engineering demand parameters: the paper's two (dimensionless, section "Fragility assessment"; a
+#: colonnade's are the largest over its columns), then those of connectors and epistyles (NaN in a
+#: run without dowels or without epistyles: the quantity does not exist there).
 EDPS: dict[str, Quantity] = {q.name: q for q in (
     Quantity("u_top", "-", "u_top = max top displacement / base diameter (-)", "u_top",
              description="peak top displacement / base diameter"),
     Quantity("u_d", "-", "u_d = residual drum dislocation / joint diameter (-)", "u_d",
              description="residual joint dislocation (average over the last 2 s) / joint diameter, max over "
                          "joints; NaN after a collapse"),
+    Quantity("dowel_shear_kn", "kN", "peak dowel shear force (kN)", "F_dowel",
+             description="peak shear force of a dowel, max over the dowels; NaN without dowels"),
+    Quantity("dowel_slip_mm", "mm", "peak dowel shear displacement (mm)", "u_dowel",
+             description="peak shear displacement of a dowel across its joint, max over the dowels; NaN without dowels"),
+    Quantity("dowels_broken", "-", "dowels broken (-)", "n_broken",
+             description="number of dowels broken in the run; NaN without dowels"),
+    Quantity("epistyle_slip_mm", "mm", "peak epistyle slip on a capital (mm)", "s_epi",
+             description="peak horizontal slip of an epistyle at its bearings, max over the epistyles; NaN "
+                         "without epistyles"),
+    Quantity("epistyle_unseat", "-", "epistyle unseating ratio = slip / half seat (-)", "unseat",
+             description="peak slip of an epistyle / half its shortest seat, max over the epistyles (1: half a "
+                         "seat overhangs); NaN without epistyles"),
 )}
 
 #: Record metadata carried by a record-sample row (:func:`pycolfrag.sample.run_record_sample`).
@@ -189,6 +203,19 @@ def edp(name: str) -> Quantity:
         return EDPS[name]
     except KeyError:
         raise KeyError(f"unknown EDP {name!r}; known: {', '.join(EDPS)}") from None
+
+
+def edps_of(table) -> tuple:
+    """The EDPs a results table (a mapping of field -> array, e.g. ``/samples``) has values of, in
+    :data:`EDPS`' order: each declared EDP the table holds with at least one non-NaN value (an older
+    file lacks newer EDPs; a run without dowels or epistyles has theirs NaN throughout)."""
+    out = []
+    for name in EDPS:
+        if name in table:
+            values = [float(v) for v in table[name]]
+            if any(v == v for v in values):   # v == v: not NaN
+                out.append(name)
+    return tuple(out)
 
 
 def label(name: str, period_s: float | None = None) -> str:

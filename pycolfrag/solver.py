@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import scene_run
 from ._ffi import check, ffi, lib, ptr
 from ._validate import flag, float_array, positive_float
 from .column import Column
@@ -78,7 +79,15 @@ class History:
         inertial forces -m a_g), contact_switch (normal spring energy removed when compressed
         sub-contacts slide off a face polygon; negative when they slide onto one, only with
         ``reentry_depth`` > 0),
-        balance_error = kinetic + gravity + spring + dissipated + contact_switch - ground_work
+        balance_error = kinetic + gravity + spring + dissipated + contact_switch - ground_work (+
+        connector_stored + connector_dissipated, keys present with dowels: their stored energy since
+        the start and their dissipation so far)
+    dowels : (n, nd, 3) or None -- per dowel: shear displacement |u| (m), shear force |F| (N), axial
+        force (N, tension)
+
+    A scene (a :class:`~pycolfrag.scene.Colonnade`) has every block of its columns then its
+    epistyles in ``block_pos``/``block_quat``, every joint of its columns then its bearings in the
+    joint arrays, and ``top_disp`` of its first column.
     """
 
     t: np.ndarray
@@ -89,11 +98,22 @@ class History:
     joint_slip: np.ndarray
     energy: dict
     joint_normal_force: np.ndarray = None
+    dowels: np.ndarray = None
 
 
 @dataclass
 class Response:
-    """EDPs and diagnostics of one run (see :func:`simulate`)."""
+    """EDPs and diagnostics of one run (see :func:`simulate`).
+
+    A column with connectors or a scene (:class:`~pycolfrag.scene.Colonnade`) reports also
+    ``columns`` (per column: ``u_top``, ``u_d``, ``max_top_disp`` m, ``collapsed``), ``epistyles``
+    (per epistyle: peak ``slip`` m at its bearings, ``residual_slip`` m, ``unseat`` = peak slip / its
+    seat length, ``collapsed``), ``dowels`` (per dowel: ``joint``, ``peak_shear`` N, ``peak_slip`` m,
+    ``peak_axial`` N, ``yielded``, ``broken``, ``break_time`` s, ``dissipated`` J), and the EDPs
+    ``dowel_shear_kn``, ``dowel_slip_mm``, ``dowels_broken``, ``epistyle_slip_mm``, ``epistyle_unseat``
+    (NaN where the scene has no such part). ``u_top`` and ``u_d`` of a scene are the largest over its
+    columns, each normalised by its own diameters; ``collapse_part`` names where a collapse was.
+    """
 
     u_top: float
     u_d: float          # NaN after a collapse (a residual dislocation then has no meaning)
@@ -114,6 +134,15 @@ class Response:
     message: str = ""
     at_rest_exit: bool = False
     max_top_disp: float = 0.0
+    columns: dict | None = None
+    epistyles: dict | None = None
+    dowels: dict | None = None
+    dowel_shear_kn: float = math.nan
+    dowel_slip_mm: float = math.nan
+    dowels_broken: float = math.nan
+    epistyle_slip_mm: float = math.nan
+    epistyle_unseat: float = math.nan
+    collapse_part: str = ""
 
 
 _runs = threading.local()  # per thread: the exceptions caught during the current C run
@@ -202,10 +231,16 @@ def _segments(col: Column, monolithic: bool):
     return arr, nseg
 
 
+def _model(col) -> bool:
+    """A column or a scene (anything with ``scene_parts``, a Colonnade)."""
+    return isinstance(col, Column) or hasattr(col, "scene_parts")
+
+
 def _setup(col, options, overrides, caller):
-    """The set-up C solver of a column and options (one per call of simulate / simulate_batch)."""
-    if not isinstance(col, Column):
-        raise ParameterError(f"col must be a Column, got {type(col).__name__}")
+    """The set-up C solver of a column or scene and options (one per call of simulate /
+    simulate_batch), the options, and the scene's parts (None for a plain column)."""
+    if not _model(col):
+        raise ParameterError(f"col must be a Column or a Colonnade, got {type(col).__name__}")
     if options is None:
         options = SolverOptions()
     elif not isinstance(options, SolverOptions):
@@ -218,27 +253,33 @@ def _setup(col, options, overrides, caller):
     solver = ffi.gc(lib.cf_solver_create(), lib.cf_solver_free)
     if solver == ffi.NULL:
         raise MemoryError("cf_solver_create failed")
-    segs, nseg = _segments(col, monolithic)
-    if monolithic and any(j > 0 for j in col.joint_overrides):
-        warnings.warn(f"{caller}: monolithic=True has the base joint only; joint_overrides of joints "
-                      f"{sorted(j for j in col.joint_overrides if j > 0)} do not act", UserWarning, stacklevel=3)
-    props = [col.joint(i) for i in range(col.n_blocks)]
-    kn = np.array([p.kn for p in props]); ks = np.array([p.ks for p in props]); mu = np.array([p.mu for p in props])
-    st = lib.cf_solver_setup_joints(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks), ptr(mu))
-    check(st, lib.cf_solver_message(solver), caller)
+    # a plain column keeps its own set-up (and its row never passes through the scene's modules)
+    parts = None if isinstance(col, Column) and not col.connectors else scene_run.parts_of(col, monolithic, caller)
+    for c in ([col] if parts is None else [c for c, _, _ in parts.columns]):
+        if monolithic and any(j > 0 for j in c.joint_overrides):
+            warnings.warn(f"{caller}: monolithic=True has the base joint only; joint_overrides of joints "
+                          f"{sorted(j for j in c.joint_overrides if j > 0)} do not act", UserWarning, stacklevel=3)
+    if parts is None:
+        segs, nseg = _segments(col, monolithic)
+        props = [col.joint(i) for i in range(col.n_blocks)]
+        kn = np.array([p.kn for p in props]); ks = np.array([p.ks for p in props]); mu = np.array([p.mu for p in props])
+        st = lib.cf_solver_setup_joints(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks), ptr(mu))
+        check(st, lib.cf_solver_message(solver), caller)
+    else:
+        scene_run.setup(solver, d, parts, caller)
     if options.dt_solver is not None:
         crit = float(lib.cf_solver_dt_crit(solver))
         if options.dt_solver > crit:
             warnings.warn(f"{caller}: dt_solver = {options.dt_solver:.4g} s exceeds the whole-stack stability limit "
                           f"{crit:.4g} s: the run may go unstable (it stops with SolverError when the energy balance "
                           "breaks)", StepWarning, stacklevel=3)
-    return solver, options
+    return solver, options, parts
 
 
 class _Job:
     """One run's ground motion (:func:`_motion`), with the C buffers of its outputs."""
 
-    def __init__(self, solver, col, options, motion: tuple, history: bool, caller):
+    def __init__(self, solver, col, options, motion: tuple, history: bool, caller, parts=None):
         self.ax, self.dt, self.ay, self.az = ax, dt, ay, _ = motion
         self.history = history
         if options.planar and ay is not None:
@@ -246,12 +287,13 @@ class _Job:
         if options.dt_solver is not None and options.dt_solver > dt:
             warnings.warn(f"{caller}: dt_solver = {options.dt_solver:.4g} s is longer than the record's dt = "
                           f"{dt:.4g} s: the solver skips record samples", StepWarning, stacklevel=3)
-        nb = col.n_blocks
+        nb = col.n_blocks if parts is None else parts.n_blocks
+        nj = col.n_blocks if parts is None else parts.n_joints
         self.cap = 0
         self.h = None
         if history:
             cap = int(lib.cf_solver_history_capacity(solver, ax.size, dt))
-            nbytes = 8 * cap * (1 + 2 + 8 + 11 * nb)
+            nbytes = 8 * cap * (1 + 2 + 8 + 7 * nb + 4 * nj)
             if cap < 0 or nbytes > MAX_HISTORY_BYTES:
                 raise ParameterError(f"history_dt = {options.history_dt!r} s needs "
                                      f"{'over %d' % lib.CF_SOLVER_MAX_HISTORY if cap < 0 else cap} history samples for "
@@ -260,9 +302,10 @@ class _Job:
             self.cap = cap
             self.h = dict(
                 t=np.zeros(cap), top=np.zeros((cap, 2)), pos=np.zeros((cap, nb, 3)), quat=np.zeros((cap, nb, 4)),
-                open=np.zeros((cap, nb)), slip=np.zeros((cap, nb, 2)), en=np.zeros((cap, lib.CF_SOLVER_N_ENERGY)),
-                fn=np.zeros((cap, nb)))
-        self.resid = np.zeros(nb)
+                open=np.zeros((cap, nj)), slip=np.zeros((cap, nj, 2)), en=np.zeros((cap, lib.CF_SOLVER_N_ENERGY)),
+                fn=np.zeros((cap, nj)))
+        self.resid = np.zeros(nj)
+        self.out = scene_run.Outputs(parts, self.cap) if parts is not None else None
 
     def fill(self, cj) -> None:
         """Point a cf_solver_batch_job at this job's arrays (which must outlive the run)."""
@@ -276,26 +319,58 @@ class _Job:
             cj.h_t = ptr(h["t"]); cj.h_top = ptr(h["top"]); cj.h_pos = ptr(h["pos"]); cj.h_quat = ptr(h["quat"])
             cj.h_open = ptr(h["open"]); cj.h_slip = ptr(h["slip"]); cj.h_energy = ptr(h["en"]); cj.h_normal = ptr(h["fn"])
 
+    def set_history(self, solver, caller) -> None:
+        """Point the solver itself at this job's history buffers and outputs (a single run)."""
+        h = self.h
+        if h is not None:
+            check(lib.cf_solver_set_history(solver, self.cap, ptr(h["t"]), ptr(h["top"]), ptr(h["pos"]),
+                                            ptr(h["quat"]), ptr(h["open"]), ptr(h["slip"]), ptr(h["en"])),
+                  lib.cf_solver_message(solver), caller)
+            check(lib.cf_solver_set_history_normal(solver, ptr(h["fn"])), lib.cf_solver_message(solver), caller)
+        else:
+            lib.cf_solver_set_history(solver, 0, *([ffi.NULL] * 7))
+        if self.out is not None:
+            self.out.attach(solver)
+
+    def run(self, solver, r) -> int:
+        """This job as one run of the solver (its buffers attached): the C status."""
+        return lib.cf_solver_run(solver, ptr(self.ax), ptr(self.ay) if self.ay is not None else ffi.NULL,
+                                 ptr(self.az) if self.az is not None else ffi.NULL, self.ax.size, self.dt,
+                                 ptr(self.resid), r)
+
     def response(self, r, message, options) -> Response:
         """The Response of a finished run (its cf_solver_result r)."""
         hist = None
+        extra = self.out.report(r) if self.out is not None else {}
         if self.history:
             n = r.n_history
             h = self.h
             en = h["en"][:n]
+            ch = self.out.history(n) if self.out is not None else {}
+            energy = {k: en[:, i].copy() for i, k in enumerate(_ENERGY_KEYS)}
+            energy.update(ch.get("connector_energy", {}))
             hist = History(t=h["t"][:n].copy(), top_disp=h["top"][:n].copy(), block_pos=h["pos"][:n].copy(),
                            block_quat=h["quat"][:n].copy(), joint_opening=h["open"][:n].copy(),
                            joint_slip=h["slip"][:n].copy(), joint_normal_force=h["fn"][:n].copy(),
-                           energy={k: en[:, i].copy() for i, k in enumerate(_ENERGY_KEYS)})
+                           energy=energy, dowels=ch.get("dowels"))
+        reason = _REASONS.get(r.collapse_reason, "unknown")
+        part = ""
+        if r.collapsed and extra.get("columns") is not None:
+            cols = np.flatnonzero(extra["columns"]["collapsed"])
+            beams = np.flatnonzero(extra["epistyles"]["collapsed"]) if extra.get("epistyles") else []
+            part = f"column {cols[0]}" if len(cols) else f"epistyle {beams[0]}" if len(beams) else ""
+            if part.startswith("epistyle") and reason == "off_footprint":
+                reason = "unseated"
         return Response(
             u_top=float(r.u_top), u_d=float(r.u_d), collapsed=bool(r.collapsed),
             collapse_block=int(r.collapse_block) if r.collapsed else None,
             collapse_time=float(r.collapse_time) if r.collapsed else math.nan,
-            collapse_reason=_REASONS.get(r.collapse_reason, "unknown"),
+            collapse_reason=reason,
             n_steps=int(r.n_steps), t_end=float(r.t_end), dt=float(r.dt), dt_crit=float(r.dt_crit),
             energy_error=float(r.energy_error), energy_scale=float(r.energy_scale),
             energy_warning=bool(r.energy_warning), residual_dislocation=self.resid, options=options.to_dict(),
-            history=hist, message=message, at_rest_exit=bool(r.at_rest_exit), max_top_disp=float(r.max_top_disp))
+            history=hist, message=message, at_rest_exit=bool(r.at_rest_exit), max_top_disp=float(r.max_top_disp),
+            collapse_part=part, **extra)
 
 
 def simulate(col, acc_x, dt=None, acc_y=None, acc_z=None, history=False, options=None, **overrides) -> Response:
@@ -342,22 +417,16 @@ def simulate(col, acc_x, dt=None, acc_y=None, acc_z=None, history=False, options
 
     See :func:`simulate_batch` for many records on one column (the same results, faster).
     """
-    if not isinstance(col, Column):
-        raise ParameterError(f"col must be a Column, got {type(col).__name__}")
+    if not _model(col):
+        raise ParameterError(f"col must be a Column or a Colonnade, got {type(col).__name__}")
     motion = _motion(acc_x, dt, acc_y, acc_z)   # before the set-up: a bad record fails fast
     history = flag(history, "history")
-    solver, options = _setup(col, options, overrides, "simulate")
-    job = _Job(solver, col, options, motion, history, "simulate")
-    h = job.h
-    if h is not None:
-        check(lib.cf_solver_set_history(solver, job.cap, ptr(h["t"]), ptr(h["top"]), ptr(h["pos"]), ptr(h["quat"]),
-                                        ptr(h["open"]), ptr(h["slip"]), ptr(h["en"])),
-              lib.cf_solver_message(solver), "simulate")
-        check(lib.cf_solver_set_history_normal(solver, ptr(h["fn"])), lib.cf_solver_message(solver), "simulate")
+    solver, options, parts = _setup(col, options, overrides, "simulate")
+    job = _Job(solver, col, options, motion, history, "simulate", parts)
+    job.set_history(solver, "simulate")
     r = ffi.new("cf_solver_result *")
     with _interruptible(solver):
-        st = lib.cf_solver_run(solver, ptr(job.ax), ptr(job.ay) if job.ay is not None else ffi.NULL,
-                               ptr(job.az) if job.az is not None else ffi.NULL, job.ax.size, job.dt, ptr(job.resid), r)
+        st = job.run(solver, r)
     check(st, lib.cf_solver_message(solver), "simulate")
     message = ffi.string(lib.cf_solver_message(solver)).decode(errors="replace")
     if r.energy_warning:
@@ -372,7 +441,7 @@ def batch_width(col=None, options=None, n_runs=None, **overrides) -> int:
     default for ``n_runs`` records (8 from 5 runs on, 4 from 3 on, else 1: the widths that are
     faster than one run after the other, docs/performance.md)."""
     col = Column.parthenon() if col is None else col
-    solver, _ = _setup(col, options, overrides, "batch_width")
+    solver, _, _ = _setup(col, options, overrides, "batch_width")
     if n_runs is None:
         return int(lib.cf_solver_batch_max_width(solver))
     return int(lib.cf_solver_batch_width(solver, int(n_runs)))
@@ -397,6 +466,25 @@ def _batch_entry(i: int, rec) -> tuple:
     if isinstance(args[0], Record):
         raise ParameterError(f"records[{i}]: a Record is an entry of its own, not an acc_x")
     return _motion(*args)
+
+
+def _run_one_by_one(solver, options, jobs: list, out: list) -> None:
+    """The jobs of a scene (connectors, several columns: no lane text), one run after the other, each
+    with its own outputs; each one's Response (or exception) into ``out``."""
+    for i, job in jobs:
+        r = ffi.new("cf_solver_result *")
+        job.set_history(solver, "simulate_batch")
+        with _interruptible(solver):
+            st = job.run(solver, r)
+        message = ffi.string(lib.cf_solver_message(solver)).decode(errors="replace")
+        try:   # a run's error reads as simulate's
+            check(st, message, "simulate")
+        except Exception as exc:
+            out[i] = exc
+            continue
+        if r.energy_warning:
+            warnings.warn(f"simulate_batch: run {i}: {message}", EnergyWarning, stacklevel=3)
+        out[i] = job.response(r, message, options)
 
 
 def _run_batch(solver, options, width: int, jobs: list, out: list) -> None:
@@ -460,7 +548,7 @@ def simulate_batch(col, records, history=False, options=None, *, width=None, err
         raise ParameterError(f"records must be a sequence of records, got {type(records).__name__}")
     records = list(records)
     history = flag(history, "history")
-    solver, options = _setup(col, options, overrides, "simulate_batch")
+    solver, options, parts = _setup(col, options, overrides, "simulate_batch")
     widest = int(lib.cf_solver_batch_max_width(solver))
     if width is None:
         width = 0   # the C library's choice for the number of runs
@@ -471,10 +559,12 @@ def simulate_batch(col, records, history=False, options=None, *, width=None, err
     jobs = []
     for i, rec in enumerate(records):
         try:
-            jobs.append((i, _Job(solver, col, options, _batch_entry(i, rec), history, "simulate_batch")))
+            jobs.append((i, _Job(solver, col, options, _batch_entry(i, rec), history, "simulate_batch", parts)))
         except Exception as exc:   # a bad record is that run's error, as simulate would raise it
             out[i] = exc
-    if jobs:
+    if jobs and parts is not None:
+        _run_one_by_one(solver, options, jobs, out)
+    elif jobs:
         _run_batch(solver, options, width, jobs, out)
     if errors == "raise":
         for r in out:

@@ -5,7 +5,9 @@
 # a batch of 11 runs of each (cf_solver_batch_run: amplitudes and record lengths that
 # end at different steps, so lanes are refilled, collapses, a refused job), which it
 # also runs as batches of every width the build and CPU have (1, 2, 4, 8 runs side by
-# side) and requires bitwise equal to the same runs alone (it fails on a MISMATCH);
+# side) and requires bitwise equal to the same runs alone (it fails on a MISMATCH); then a
+# column with titanium dowels and a two-column portal with an epistyle (their outputs and
+# connector histories hashed too), alone and as batches (one run after the other);
 # built four times:
 #   default          the widest the CPU runs, chosen at run time (AVX-512 lanes across
 #                    joints, AVX2 lanes across points, on a CPU that has them)

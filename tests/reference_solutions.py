@@ -153,3 +153,26 @@ def newmark_pulse_slip(A, t_p, mu):
     V = A t_p: V^2/(2 mu g) (1 - mu g / A)."""
     V = A * t_p
     return V * V / (2 * mu * G) * (1 - mu * G / A)
+
+
+def rocking_frame_first_excursion(ag, alpha, p, t_start, t_end):
+    """The rocking frame of Makris & Vassiliou (2013): N equal rigid columns of slenderness alpha
+    with a rigid cap beam that stays level move as one rigid column of the same slenderness with the
+    frequency parameter p_hat = p sqrt((1 + 2 gamma) / (1 + 3 gamma)) (gamma: the beam's mass over the
+    columns'). Their Lagrangian, with every column turning by theta about a base corner and the beam
+    carried by the opposite top corners (a translation of 2R theta-rates): T = (1/2) (N (4/3) m R^2 +
+    4 M R^2) theta'^2, V = (N m + 2 M) g R cos(alpha - theta), the ground's inertia forces (N m + 2 M)
+    R cos(alpha - theta) a_g -- whence theta'' = -p_hat^2 (sin(alpha - theta) - (a_g / g) cos(alpha
+    - theta)) with p^2 = 3 g / (4 R), the equation of one column of p_hat, tipping toward -x under
+    a_g > 0. Integrated (solve_ivp, rtol 1e-10) from uplift at t_start until it falls back to theta = 0
+    (its first impact) or t_end: returns (theta_max, t_impact)."""
+    def rhs(t, y):
+        return [y[1], -p * p * (math.sin(alpha - y[0]) - ag(t) / G * math.cos(alpha - y[0]))]
+
+    def back(t, y):
+        return y[0]
+    back.terminal = True
+    back.direction = -1
+    sol = solve_ivp(rhs, (t_start, t_end), [1e-12, 0.0], events=back, max_step=1e-3, rtol=1e-10, atol=1e-14)
+    t_imp = sol.t_events[0][0] if len(sol.t_events[0]) else math.nan
+    return float(sol.y[0].max()), float(t_imp)

@@ -57,7 +57,8 @@ def fake_physics(monkeypatch):
         if opts.get("unstable_tolerance", 0.5) < 1e-6:   # the real solver would stop such runs as unstable
             raise pcf.SolverError("instability at t = 1.2 s")
         big = float(np.abs(acc_x).max()) > 3.5
-        return SimpleNamespace(u_top=0.01 * len(acc_x) * dt, u_d=0.002, collapsed=big,
+        # a Response of a run without dowels or epistyles: their EDPs NaN, as the real one's
+        return SimpleNamespace(**pcf.scene_run.EDP_DEFAULTS, u_top=0.01 * len(acc_x) * dt, u_d=0.002, collapsed=big,
                                collapse_block=4 if big else -1, collapse_time=2.5 if big else None,
                                n_steps=len(acc_x) * 10, t_end=len(acc_x) * dt, energy_error=1e-6, options=opts)
 

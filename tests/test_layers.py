@@ -29,8 +29,9 @@ import record_suite as rs  # noqa: E402
 LAYERS = (
     ("driver", ("pycolfrag.grid",)),
     ("sample", ("pycolfrag.sample",)),
-    ("run and results layout", ("pycolfrag.solver", "pycolfrag.results")),
-    ("inputs", ("pycolfrag.records", "pycolfrag.record_tables", "pycolfrag.column", "pycolfrag.options")),
+    ("run and results layout", ("pycolfrag.solver", "pycolfrag.scene_run", "pycolfrag.results")),
+    ("inputs", ("pycolfrag.records", "pycolfrag.record_tables", "pycolfrag.scene", "pycolfrag.column",
+                "pycolfrag.connectors", "pycolfrag.options")),
     ("ground motions", ("pycolfrag.ground_motion",)),
     ("kernels", ("pycolfrag.intensity",)),
     ("foundation", ("pycolfrag._ffi", "pycolfrag.names", "pycolfrag._validate", "pycolfrag.input_files",

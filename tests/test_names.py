@@ -137,7 +137,8 @@ def test_a_new_edp_in_the_registry_reaches_row_layout_and_labels():
         R = importlib.reload(results)
         assert R.SAMPLE_FIELDS["top_m"] == ("f8", R.SAMPLE_FIELDS["u_top"][1], "peak top displacement, m")
         assert R.RECORD_SAMPLE_FIELDS["top_m"] == R.SAMPLE_FIELDS["top_m"]
-        res = SimpleNamespace(u_top=0.2, u_d=0.01, max_top_disp=0.31, collapsed=False, n_steps=5, t_end=1.0)
+        res = SimpleNamespace(**{**{q.response or n: math.nan for n, q in names.EDPS.items()},
+                                 **dict(u_top=0.2, u_d=0.01, max_top_disp=0.31, collapsed=False, n_steps=5, t_end=1.0)})
         assert sample._edp_row(res)["top_m"] == 0.31
         assert importlib.reload(figures).EDP_LABELS["top_m"] == "peak top displacement (m)"
         print("ok")

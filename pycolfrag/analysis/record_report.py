@@ -83,7 +83,7 @@ def analyse(table, *, period_s=1.0, levels=fr.PERFORMANCE_LEVELS, n_boot=200, rn
         out["stripes"] = f"n/a ({exc})"
     for im in STRIPE_IMS:
         x, _ = fr.table_im(table, im, period)
-        for edp in names.EDPS:
+        for edp in names.edps_of(table):
             try:
                 out["cloud"][(im, edp)] = fr.cloud_analysis(x[ok], np.asarray(table[edp], dtype=float)[ok],
                                                             np.asarray(table["collapsed"])[ok])
@@ -129,11 +129,12 @@ def _fig_stripes(a, levels):
 def _fig_cloud(table, a):
     ok = np.asarray(table["status"]) == 0
     coll = np.asarray(table["collapsed"]).astype(bool)[ok]
-    fig = Figure(figsize=(14, 6.5))
-    for row, edp in enumerate(names.EDPS):
+    edps = names.edps_of(table)   # the EDPs these runs have: a row of panels each
+    fig = Figure(figsize=(14, 3.25 * len(edps)))
+    for row, edp in enumerate(edps):
         e = np.asarray(table[edp], dtype=float)[ok]
         for k, im in enumerate(STRIPE_IMS):
-            ax = fig.add_subplot(2, 4, row * 4 + k + 1)
+            ax = fig.add_subplot(len(edps), 4, row * 4 + k + 1)
             x = fr.table_im(table, im, a["period_s"])[0][ok]
             with np.errstate(invalid="ignore"):
                 st = ~coll & np.isfinite(e) & (e > 0) & (x > 0)
@@ -144,7 +145,7 @@ def _fig_cloud(table, a):
                 ax.loglog(xx, fit.median_edp(xx), "k-", label=f"b = {fit.b:.2f}, beta = {fit.beta:.2f}")
                 ax.legend(fontsize=7)
             ax.set_xlabel(_im_label(im, a["period_s"]))
-            ax.set_ylabel(names.EDPS[edp].label if k == 0 else f"{edp} (-)")
+            ax.set_ylabel(names.EDPS[edp].label if k == 0 else f"{edp} ({names.EDPS[edp].unit})")
             ax.set_title(f"cloud: {edp} on {names.IMS[im].short}", fontsize=9)
             ax.grid(alpha=0.3, which="both")
     fig.suptitle("Cloud analysis (ln EDP = a + b ln IM; collapsed runs left out of the regression)")

@@ -123,7 +123,7 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
 
 
 def _write(d, out_path, figures_dir, n_boot, g, risk, note="") -> str:
-    edps = tuple(e for e in names.EDPS if e in d.samples)   # every declared EDP the file has (older files lack newer ones)
+    edps = names.edps_of(d.samples)   # every declared EDP the file's runs have (older files lack newer ones)
     rows = fr.scenario_table(d["mw"], d["dist_km"], {e: d[e] for e in edps}, d["collapsed"],
                              n_boot=n_boot, confidence=CONFIDENCE, rng=g)
     L = ["# pycolfrag results report", ""] + ([f"**{note}.**", ""] if note else []) + [

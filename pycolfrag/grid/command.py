@@ -21,6 +21,7 @@ from .. import results as _results
 from ..commands import HelpFormatter
 from .. import sample as _sample
 from ..column import Column
+from ..scene import Colonnade, model_from_dict
 from ..errors import ParameterError, RecordFileError, ResultsFileError
 from ..ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
 from .probes import check_models, check_solver_options, check_space, check_work, probe_rows
@@ -114,7 +115,11 @@ def build_parser(prog: str = "pycolfrag grid") -> argparse.ArgumentParser:
                    help="cut every record to this many seconds (tests and quick looks: changes the results)")
     c = p.add_argument_group("column and solver")
     c.add_argument("--column", default=None, metavar="FILE",
-                   help="column file (.json/.toml, docs/column_format.md); default: Column.parthenon()")
+                   help="column file (.json/.toml, docs/column_format.md; connectors included); default: "
+                        "Column.parthenon()")
+    c.add_argument("--scene", default=None, metavar="FILE",
+                   help="scene file instead of a column: a colonnade with epistyles (.toml/.json, "
+                        "docs/scene_format.md)")
     c.add_argument("--kn", type=float, default=None, help="joint normal stiffness, Pa/m (overrides the column's)")
     c.add_argument("--contact", default=None, help="solver contact model (simulate(contact=...))")
     c.add_argument("--dt-factor", type=float, default=None, help="solver time-step factor (simulate(dt_factor=...))")
@@ -148,7 +153,10 @@ def build_parser(prog: str = "pycolfrag grid") -> argparse.ArgumentParser:
 def spec_from_args(args) -> RunSpec:
     """The spec of parsed arguments (:func:`build_parser`): a :class:`RecordGridSpec` with ``--records``,
     else a :class:`GridSpec`; options of the other kind refused."""
-    col = Column.from_file(args.column) if args.column else Column.parthenon()
+    if args.scene and args.column:
+        raise ParameterError("--column and --scene: give one (a scene file names its column)")
+    col = Colonnade.from_file(args.scene) if args.scene else Column.from_file(args.column) if args.column \
+        else Column.parthenon()
     if args.kn is not None:
         col = col.with_joints(kn=args.kn)
     opts: dict = {}
@@ -279,7 +287,7 @@ def _checked_spec(args, log) -> tuple[int, RunSpec | None]:
         if spec.layout is None:
             check_models(spec)
         if spec.sample_function is None:
-            solver = check_solver_options(Column.from_dict(spec.column), spec.solver_options,
+            solver = check_solver_options(model_from_dict(spec.column), spec.solver_options,
                                           spec.shortest_record_dt())
             check_work(spec, probe_rows(spec), solver, log)
     except (ParameterError, RecordFileError, OSError, ImportError) as exc:  # OSError: a column or record file missing or

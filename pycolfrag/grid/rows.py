@@ -16,6 +16,7 @@ from .. import ground_motion as _gm
 from .. import results as _results
 from .. import sample as _sample
 from ..column import Column
+from ..scene import model_from_dict
 from ..errors import ParameterError
 from .protocol import RowFunction, as_row_function
 
@@ -52,11 +53,11 @@ class SampleContext:
     """What a rank needs to compute any row: the spec, the column, cached LHS tables."""
 
     spec: object     # the GridSpec
-    column: Column
+    column: object   # a Column, or a Colonnade (--scene)
 
     def __init__(self, spec):
         self.spec = spec
-        self.column = Column.from_dict(spec.column) if spec.column else Column.parthenon()
+        self.column = model_from_dict(spec.column)   # a column, or a colonnade (--scene)
         self._lhs: OrderedDict = OrderedDict()
 
     def locate(self, row: int) -> tuple[int, int, float, float]:
@@ -142,11 +143,11 @@ class RecordContext:
     """What a rank needs to compute any row of a record-suite grid: the spec, the column, the suite."""
 
     spec: object     # the RecordGridSpec
-    column: Column
+    column: object   # a Column, or a Colonnade (--scene)
 
     def __init__(self, spec):
         self.spec = spec
-        self.column = Column.from_dict(spec.column) if spec.column else Column.parthenon()
+        self.column = model_from_dict(spec.column)   # a column, or a colonnade (--scene)
 
     def locate(self, row: int) -> tuple[int, str, float]:
         """(record index, component, scale) of a row."""

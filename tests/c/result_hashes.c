@@ -11,7 +11,10 @@
  * drums and the capital) under a 2 Hz sine burst strong enough to rock, slide and
  * impact, run to 8 s with histories at every 10 ms; configurations cover each contact
  * model, planar, monolithic, two horizontal components plus a vertical one, damping,
- * a collapse and stiff joints (kn = ks = 1e10).
+ * a collapse and stiff joints (kn = ks = 1e10). After them (their lines unchanged): the
+ * default column with a titanium dowel in every joint, and a two-column portal of it with an
+ * epistyle (cf_solver_setup_scene: their own outputs and connector histories hashed too), each
+ * alone and as a batch (one run after the other: no lane text) that must equal its runs alone.
  */
 #include <math.h>
 #include <stdio.h>
@@ -212,6 +215,189 @@ static int batch(const config *c, int early_exit)
     return bad;
 }
 
+/* ---- connectors and scenes: after the single column's lines, which stay as they were ---- */
+
+/* 0: the default column with one titanium-like dowel at the centre of every joint (a one-column
+ * scene); 1: two default columns 4 m apart with an epistyle 5.73 x 1.73 x 1.35 m bearing on both
+ * abaci whole (the example portal of pycolfrag.scene.Colonnade.portal(2)) */
+typedef struct {
+    cf_geometry_segment seg[2 * (NB + 1)];
+    int nseg[2 * NB];
+    double kn[2 * NB], ks[2 * NB], mu[2 * NB];
+    cf_solver_scene_column col[2];
+    cf_solver_scene_beam beam;
+    cf_solver_scene_bearing bear[2];
+    cf_solver_connector conn[NB];
+    cf_solver_scene sc;
+} scene_def;
+
+static const char *const SCENE_NAMES[2] = {"dowels-ti", "portal-2"};
+
+static void scene_make(int which, scene_def *p)
+{
+    int c, i, ncol = which == 0 ? 1 : 2;
+    memset(p, 0, sizeof *p);
+    for (c = 0; c < ncol; c++) {
+        parthenon_column(p->seg + c * (NB + 1), p->nseg + c * NB);
+        p->col[c].x = ncol == 1 ? 0.0 : (c == 0 ? -2.0 : 2.0); p->col[c].n_blocks = NB;
+    }
+    for (i = 0; i < ncol * NB; i++) { p->kn[i] = 1e9; p->ks[i] = 1e9; p->mu[i] = 0.7535540501027942; }
+    p->sc.n_columns = ncol; p->sc.columns = p->col; p->sc.n_segments = p->nseg; p->sc.segments = p->seg;
+    p->sc.density = 2700.0; p->sc.kn = p->kn; p->sc.ks = p->ks; p->sc.mu = p->mu;
+    if (which == 0) {
+        for (i = 0; i < NB; i++) {
+            cf_solver_connector *d = &p->conn[i];
+            d->joint = i; d->kind = CF_SOLVER_CONNECTOR_ELASTOPLASTIC; d->k_shear = 5e7; d->f_yield = 5e4;
+            d->u_ultimate = 0.01; d->n_yield = INFINITY; d->d_ultimate = INFINITY;
+        }
+        p->sc.n_connectors = NB; p->sc.connectors = p->conn;
+    } else {
+        p->beam.length = 5.73; p->beam.width = 1.73; p->beam.height = 1.35; p->beam.density = 2700.0;
+        for (c = 0; c < 2; c++) {
+            p->bear[c].beam = 0; p->bear[c].column = c; p->bear[c].x = p->col[c].x; p->bear[c].side = 1.73;
+            p->bear[c].kn = 1e9; p->bear[c].ks = 1e9; p->bear[c].mu = 0.7535540501027942;
+        }
+        p->sc.n_beams = 1; p->sc.beams = &p->beam; p->sc.n_bearings = 2; p->sc.bearings = p->bear;
+    }
+}
+
+static cf_solver *scene_setup(int which, scene_def *p)
+{
+    cf_solver_def def;
+    cf_solver *s = cf_solver_create();
+    if (!s) return NULL;
+    scene_make(which, p);
+    cf_solver_def_default(&def);
+    def.early_exit = 0; def.tail_s = 2.0;
+    if (cf_solver_setup_scene(s, &def, &p->sc)) {
+        printf("%-14s setup failed: %s\n", SCENE_NAMES[which], cf_solver_message(s));
+        cf_solver_free(s);
+        return NULL;
+    }
+    return s;
+}
+
+/* One scene job: its record (amplitude f on 0.4 g, two components and a vertical one, the first n
+ * samples), its histories and outputs, in one buffer sized for the set-up solver s. */
+typedef struct {
+    double ax[NREC], ay[NREC], az[NREC];
+    double *buf;
+    size_t nbuf;
+} scene_job;
+
+static int scene_job_make(const cf_solver *s, double f, int n, scene_job *jb, cf_solver_batch_job *bj, double **out)
+{
+    static const config c = {"scene", 0, 1, 0, 0, 1, 0, 0.4, 0.8, 0};
+    int nc, nb, nd, nbl, nj;
+    long cap = cf_solver_history_capacity(s, n, 0.005);
+    double *p;
+    cf_solver_counts(s, &nc, &nb, &nd, &nbl, &nj);
+    record(&c, f, jb->ax, jb->ay, jb->az);
+    /* resid (nj), t, top (2), pos (3 nbl), quat (4 nbl), open, slip (2), normal (nj each), energy (8),
+     * connector energy (2) and connectors (3 nd), then the outputs of columns, beams, connectors */
+    jb->nbuf = (size_t)nj + (size_t)cap * (1 + 2 + 7 * (size_t)nbl + 4 * (size_t)nj + 8 + 2 + 3 * (size_t)nd)
+               + (size_t)CF_SOLVER_COLUMN_OUT * nc + (size_t)CF_SOLVER_BEAM_OUT * (nb + 1)
+               + (size_t)CF_SOLVER_CONNECTOR_OUT * (nd + 1);
+    jb->buf = (double *)calloc(jb->nbuf, sizeof(double));
+    if (!jb->buf) return 1;
+    memset(bj, 0, sizeof *bj);
+    bj->acc_x = jb->ax; bj->acc_y = jb->ay; bj->acc_z = jb->az; bj->n = n; bj->dt_rec = 0.005;
+    p = jb->buf;
+    bj->residual_dislocation = p; p += nj;
+    bj->history_capacity = cap;
+    bj->h_t = p; p += cap;
+    bj->h_top = p; p += 2 * (size_t)cap;
+    bj->h_pos = p; p += 3 * (size_t)cap * nbl;
+    bj->h_quat = p; p += 4 * (size_t)cap * nbl;
+    bj->h_open = p; p += (size_t)cap * nj;
+    bj->h_slip = p; p += 2 * (size_t)cap * nj;
+    bj->h_normal = p; p += (size_t)cap * nj;
+    bj->h_energy = p; p += 8 * (size_t)cap;
+    out[0] = p; p += 2 * (size_t)cap;                       /* connector energy */
+    out[1] = p; p += 3 * (size_t)cap * nd;                  /* connectors' history */
+    out[2] = p; p += (size_t)CF_SOLVER_COLUMN_OUT * nc;     /* outputs */
+    out[3] = p; p += (size_t)CF_SOLVER_BEAM_OUT * (nb + 1);
+    out[4] = p;
+    return 0;
+}
+
+/* A scene job alone on a fresh solver (its outputs attached): status and result into o. */
+static cf_solver_batch_out scene_alone(int which, const cf_solver_batch_job *bj, double **out)
+{
+    scene_def p;
+    cf_solver_batch_out o;
+    cf_solver *s = scene_setup(which, &p);
+    memset(&o, 0, sizeof o);
+    o.status = -1;
+    if (!s) return o;
+    cf_solver_set_history(s, bj->history_capacity, bj->h_t, bj->h_top, bj->h_pos, bj->h_quat, bj->h_open,
+                          bj->h_slip, bj->h_energy);
+    cf_solver_set_history_normal(s, bj->h_normal);
+    cf_solver_set_history_connectors(s, out[0], out[1]);
+    cf_solver_set_outputs(s, out[2], out[3], out[4]);
+    o.status = cf_solver_run(s, bj->acc_x, bj->acc_y, bj->acc_z, bj->n, bj->dt_rec, bj->residual_dislocation,
+                             &o.result);
+    memcpy(o.message, cf_solver_message(s), CF_MSG_LEN);
+    cf_solver_free(s);
+    return o;
+}
+
+static unsigned long long scene_hash(const scene_job *jb, const cf_solver_batch_out *o, int with_outputs,
+                                     size_t n_without)
+{
+    unsigned long long h = 1469598103934665603ULL;
+    h = hash_bytes(h, &o->status, sizeof o->status);
+    h = hash_bytes(h, o->message, strlen(o->message));
+    h = hash_bytes(h, &o->result, sizeof o->result);
+    return hash_bytes(h, jb->buf, (with_outputs ? jb->nbuf : n_without) * sizeof(double));
+}
+
+/* A scene alone (one line), then a batch of 4 runs of it through cf_solver_batch_run, every one
+ * bitwise its run alone in what a batch job carries (result, residual dislocations, histories). */
+static int scene_case(int which)
+{
+    static const double amp[4] = {1.0, 0.6, 1.6, 0.3};
+    static const int len[4] = {NREC, 700, 1000, 300};
+    scene_job *jb = (scene_job *)calloc(4, sizeof *jb);
+    cf_solver_batch_job bj[4];
+    cf_solver_batch_out o[4], a;
+    double *out[4][5];
+    unsigned long long ref[4], all = 1469598103934665603ULL;
+    size_t n_job[4];
+    scene_def p;
+    cf_solver *s = scene_setup(which, &p);
+    int i, bad = 0, w;
+    if (!s || !jb) { free(jb); cf_solver_free(s); return 1; }
+    for (i = 0; i < 4; i++) {
+        if (scene_job_make(s, amp[i], len[i], &jb[i], &bj[i], out[i])) { bad = 1; break; }
+        n_job[i] = (size_t)(out[i][0] - jb[i].buf);   /* what a batch job carries: up to the connector energy */
+    }
+    for (i = 0; i < 4 && !bad; i++) {
+        a = scene_alone(which, &bj[i], out[i]);
+        if (a.status < 0) { bad = 1; break; }
+        if (i == 0)
+            printf("%-14s status %d steps %ld u_top %.12g u_d %.6g err %.3g collapsed %d/%d | hash %016llx\n",
+                   SCENE_NAMES[which], a.status, a.result.n_steps, a.result.u_top, a.result.u_d, a.result.energy_error,
+                   a.result.collapsed, a.result.collapse_block, scene_hash(&jb[i], &a, 1, n_job[i]));
+        ref[i] = scene_hash(&jb[i], &a, 0, n_job[i]);
+        all = hash_bytes(all, &ref[i], sizeof ref[i]);
+    }
+    w = cf_solver_batch_max_width(s);
+    for (i = 0; i < 4 && !bad; i++) memset(jb[i].buf, 0, n_job[i] * sizeof(double));
+    memset(o, 0, sizeof o);
+    if (!bad && cf_solver_batch_run(s, 0, 4, bj, o)) { printf("%s: batch failed: %s\n", SCENE_NAMES[which], cf_solver_message(s)); bad = 1; }
+    for (i = 0; i < 4 && !bad; i++)
+        if (scene_hash(&jb[i], &o[i], 0, n_job[i]) != ref[i]) {
+            printf("MISMATCH %s: job %d, batch width %d\n", SCENE_NAMES[which], i, w);
+            bad = 1;
+        }
+    printf("%-14s batch of 4 (width %d) | hash %016llx\n", SCENE_NAMES[which], w, all);
+    for (i = 0; i < 4; i++) free(jb[i].buf);
+    free(jb);
+    cf_solver_free(s);
+    return bad;
+}
+
 int main(void)
 {
     static const config cs[] = {
@@ -238,5 +424,7 @@ int main(void)
     bad |= batch(&cs[0], 1);
     bad |= batch(&cs[3], 1);
     for (i = 0; i < sizeof cs / sizeof cs[0]; i++) bad |= batch(&cs[i], 0);
+    bad |= scene_case(0);
+    bad |= scene_case(1);
     return bad;
 }

@@ -1,0 +1,144 @@
+/*
+ * connector_law.h -- THE law of a connector (a dowel across a joint), written once: the solver's
+ * connectors (solver_connectors.c) and the driver of a prescribed displacement history
+ * (cf_solver_connectors_drive, how the tests reach the law) run this text.
+ *
+ * A connector joins the two blocks of a joint at one point of the joint plane. Its deformation is
+ * the displacement u of its upper end relative to its lower end since the rest state, in the lower
+ * face's frame: (ux, uy) shear in the joint plane, uz the opening of the joint there (> 0 apart).
+ * The force F it puts on the upper block (the opposite on the lower one) is, in the same frame:
+ *
+ * shear, one of two kinds (CF_SOLVER_CONNECTOR_*):
+ *   ELASTOPLASTIC (a metal dowel: titanium)  F = -k (u - p), |F| <= F_y: elastic-perfectly plastic
+ *       in the joint plane; beyond F_y the plastic offset p moves along the trial force until
+ *       |F| = F_y (radial return), so after yielding the dowel unloads elastically about p;
+ *   CLEARANCE (a wooden empolion and polos in their sockets)  F = -k (|u| - c)+ u / |u|: nothing
+ *       inside the clearance c, linear beyond it; where k (|u| - c) would exceed F_y the seat
+ *       crushes: c grows to |u| - F_y / k (the slack a crushed timber seat leaves, in every
+ *       direction alike);
+ *   both break when |u| reaches u_ult (measured from the rest state, clearance included): from
+ *   then on the connector carries nothing, in shear or axially;
+ * axial, in tension only (the connector resists the joint's opening; compression is the joint's):
+ *   Fz = -ka (uz - a)+, capped at N_y by a growing slack a (pull-out slip), and breaking the
+ *   connector when uz reaches d_ult.
+ *
+ * Energy: stored V = |Fs|^2 / (2 k) + Fz^2 / (2 ka) (|Fs| = k (|u| - c)+ for the clearance kind);
+ * an inelastic step (yield, crushing, axial slip, break) dissipates the trapezoidal work the
+ * connector takes over the step minus the change of V -- the rule of the contact law
+ * (contact_law.h), which the leapfrog integrator conserves exactly -- and an elastic step nothing.
+ * A break dissipates the energy stored at that moment.
+ */
+#ifndef CF_CONNECTOR_LAW_H
+#define CF_CONNECTOR_LAW_H
+
+#include <math.h>
+
+#include "solver.h"
+
+/* The per-run state of one connector, from the rest state (all zero) on. */
+typedef struct {
+    double px, py;      /* plastic offset of an elastoplastic connector, m */
+    double c;           /* clearance of a clearance connector now (grows as its seat crushes), m */
+    double a;           /* axial slack (pull-out slip), m */
+    double u[3];        /* displacement at the last step, m */
+    double f[3];        /* force on the upper block at the last step (lower face frame), N */
+    double v;           /* energy stored at the last step, J */
+    int yielded;        /* 1 once it yielded, crushed its seat or slipped axially */
+    int broken;         /* 1 once it broke (shear or axial ultimate reached) */
+} cf_connector_state;
+
+/* The state at rest: no force, no slack beyond the clearance. */
+static inline void cf_connector_rest(const cf_solver_connector *d, cf_connector_state *st)
+{
+    st->px = st->py = 0.0;
+    st->c = d->kind == CF_SOLVER_CONNECTOR_CLEARANCE ? d->clearance : 0.0;
+    st->a = 0.0;
+    st->u[0] = st->u[1] = st->u[2] = 0.0;
+    st->f[0] = st->f[1] = st->f[2] = 0.0;
+    st->v = 0.0;
+    st->yielded = st->broken = 0;
+}
+
+/* The shear force (fx, fy) and its stored energy at shear displacement (ux, uy); updates the
+ * offset or clearance where it yields; returns 1 on an inelastic step. */
+static inline int cf_connector_shear(const cf_solver_connector *d, cf_connector_state *st, double ux, double uy,
+                                     double *fx, double *fy, double *v)
+{
+    double k = d->k_shear;
+    *fx = 0.0; *fy = 0.0; *v = 0.0;
+    if (!(k > 0.0)) return 0;
+    if (d->kind == CF_SOLVER_CONNECTOR_ELASTOPLASTIC) {
+        double tx = -k * (ux - st->px), ty = -k * (uy - st->py), m = sqrt(tx * tx + ty * ty);
+        int plastic = m > d->f_yield;
+        if (plastic) {
+            double sc = d->f_yield / m;
+            tx = tx * sc; ty = ty * sc;
+            st->px = ux + tx / k; st->py = uy + ty / k;
+            st->yielded = 1;
+        }
+        *fx = tx; *fy = ty;
+        *v = (tx * tx + ty * ty) / (2.0 * k);
+        return plastic;
+    } else {
+        double um = sqrt(ux * ux + uy * uy), e = um - st->c, fm;
+        int plastic;
+        if (!(e > 0.0)) return 0;
+        fm = k * e;
+        plastic = fm > d->f_yield;
+        if (plastic) {
+            st->c = um - d->f_yield / k;
+            fm = d->f_yield;
+            st->yielded = 1;
+        }
+        *fx = -fm * ux / um; *fy = -fm * uy / um;
+        *v = fm * fm / (2.0 * k);
+        return plastic;
+    }
+}
+
+/* The axial force at opening uz (tension only) and its stored energy; returns 1 on a slip step. */
+static inline int cf_connector_axial(const cf_solver_connector *d, cf_connector_state *st, double uz, double *fz,
+                                     double *v)
+{
+    double ka = d->k_axial, e = uz - st->a, n;
+    int plastic;
+    *fz = 0.0; *v = 0.0;
+    if (!(ka > 0.0) || !(e > 0.0)) return 0;
+    n = ka * e;
+    plastic = n > d->n_yield;
+    if (plastic) {
+        st->a = uz - d->n_yield / ka;
+        n = d->n_yield;
+        st->yielded = 1;
+    }
+    *fz = -n;
+    *v = n * n / (2.0 * ka);
+    return plastic;
+}
+
+/* One step of the law at displacement u[3] (m): the force on the upper block into st->f, the stored
+ * energy into st->v; returns the energy dissipated over the step, J (0 on an elastic step). */
+static inline double cf_connector_update(const cf_solver_connector *d, cf_connector_state *st, const double *u)
+{
+    double f[3] = {0.0, 0.0, 0.0}, v = 0.0, vs, va, diss = 0.0;
+    int inelastic = 0, k;
+    if (!st->broken) {
+        double um2 = u[0] * u[0] + u[1] * u[1];
+        if (um2 >= d->u_ultimate * d->u_ultimate || (d->k_axial > 0.0 && u[2] >= d->d_ultimate)) {
+            st->broken = 1;    /* the force drops to nothing at this step */
+            inelastic = 1;
+        } else {
+            inelastic |= cf_connector_shear(d, st, u[0], u[1], f, f + 1, &vs);
+            inelastic |= cf_connector_axial(d, st, u[2], f + 2, &va);
+            v = vs + va;
+        }
+    }
+    if (inelastic)
+        diss = -0.5 * ((st->f[0] + f[0]) * (u[0] - st->u[0]) + (st->f[1] + f[1]) * (u[1] - st->u[1])
+                       + (st->f[2] + f[2]) * (u[2] - st->u[2])) - (v - st->v);
+    for (k = 0; k < 3; k++) { st->u[k] = u[k]; st->f[k] = f[k]; }
+    st->v = v;
+    return diss;
+}
+
+#endif
