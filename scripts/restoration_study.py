@@ -60,12 +60,14 @@ CURVES = {"u_top > 0.15": ("u_top", 0.15), "u_top > 0.35": ("u_top", 0.35), "u_d
 
 def _runs(folder: Path, v: str) -> dict:
     """Both branches' successful runs of a variant, pooled (numpy arrays by field)."""
+    from pycolfrag.analysis.completeness import check_complete
     from pycolfrag.analysis.data import read_results
     from pycolfrag.scene import model_from_dict
     out: dict = {}
     for branch in ("pulse", "nopulse"):
-        d = read_results(folder / v / f"{branch}.h5")
-        d.require_complete()
+        path = folder / v / f"{branch}.h5"
+        d = read_results(path)
+        check_complete(d, False, "the restoration study", path)
         model = model_from_dict(json.loads(d.attrs["column"]))
         # the first block of a scene's epistyles (after every column's): a collapse there is an unseating
         out["first_beam"] = [np.full(len(d["mw"]), model.column.n_blocks * model.n_columns
@@ -78,13 +80,18 @@ def _runs(folder: Path, v: str) -> dict:
 
 def _fit(r: dict, level: str):
     from pycolfrag.analysis import fragility as fr
+    from pycolfrag.errors import ParameterError
     edp, thr = CURVES[level]
     coll = r["collapsed"].astype(bool)
     e = np.zeros(coll.size) if edp is None else np.where(coll, np.nan, r[edp])
     groups = np.round(r["mw"] * 100).astype(int) * 1000 + np.round(r["dist_km"]).astype(int)
     # collapse alone: an EDP of 0 against a threshold no run reaches
-    return fr.fit_lognormal_fragility(r["pgv_cm_s"], e, coll, 1e300 if edp is None else thr, groups=groups,
-                                      n_boot=200, rng=0, band_im=np.geomspace(5.0, 500.0, 60))
+    # (a variant whose runs never reach a level has no curve: the fit refuses, the table says so)
+    try:
+        return fr.fit_lognormal_fragility(r["pgv_cm_s"], e, coll, 1e300 if edp is None else thr, groups=groups,
+                                          n_boot=200, rng=0, band_im=np.geomspace(5.0, 500.0, 60))
+    except ParameterError as exc:
+        return str(exc)
 
 
 def _risk(folder: Path, v: str) -> dict:
@@ -111,6 +118,8 @@ def _fig_fragility(fits: dict, path: Path) -> None:
         ax = fig.add_subplot(2, 2, k + 1)
         for j, v in enumerate(VARIANTS):
             f = fits[v][level]
+            if isinstance(f, str):   # no run reached the level: no curve
+                continue
             ax.semilogx(im, f(im), color=f"C{j}", label=f"{VARIANTS[v][0]} (median {f.median:.0f} cm/s)")
             if f.band_low is not None:
                 ax.fill_between(f.band_im, f.band_low, f.band_high, color=f"C{j}", alpha=0.15)
@@ -167,6 +176,9 @@ def write(folder: Path, figures: Path) -> str:
         cells = []
         for v in VARIANTS:
             f = fits[v][lv]
+            if isinstance(f, str):
+                cells.append("no fit: no run reached it")
+                continue
             lo, hi = f.median_ci
             mark = f" ({f.degenerate})" if f.degenerate else ""
             cells.append(f"{f.median:.0f} [{lo:.0f}, {hi:.0f}], beta {f.beta:.2f}{mark}")

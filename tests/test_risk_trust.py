@@ -193,6 +193,16 @@ def test_row_p_value_is_the_exact_poisson_binomial_one():
     assert two_sided_pvalue(4, [25], [0.05]) == pytest.approx(stats.binomtest(4, 25, 0.05).pvalue, rel=1e-9)
 
 
+def test_row_p_value_of_a_vanishing_p():
+    """A fit can put p at 6e-309 in a cell (measured on a tiny grid of dowelled columns; scipy's pmf
+    overflowed there): 0 of 30 is then certain (p-value 1, binomtest's for p = 0) and 1 of 30 impossible
+    (p-value 0), next to a cell of an ordinary p the row is that cell's binomtest."""
+    assert two_sided_pvalue(0, [30], [6.1e-309]) == 1.0
+    assert two_sided_pvalue(1, [30], [6.1e-309]) == 0.0
+    assert two_sided_pvalue(3, [30, 20], [6.1e-309, 0.1]) == pytest.approx(stats.binomtest(3, 20, 0.1).pvalue,
+                                                                           rel=1e-9)
+
+
 # --------------------------------------------------------------------------- the command's answers
 
 def _site_file(tmp_path):

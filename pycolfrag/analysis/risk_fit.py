@@ -40,13 +40,21 @@ EQ4_FIT_ALPHA = 0.05
 MISFIT_CHOICES = ("fallback", "warn")
 
 
+#: Binomial probabilities below this are taken as 0 in :func:`two_sided_pvalue`.
+P_ZERO = 1e-300
+
+
 def two_sided_pvalue(observed: int, ns, ps) -> float:
     """Exact two-sided p-value of a total count ``observed`` of independent binomials (n_k, p_k): the
     probability of every total no more likely than the one observed (the binomial test's rule,
     ``scipy.stats.binomtest``, for a single cell)."""
     pmf = np.ones(1)
     for n, p in zip(ns, ps):
-        pmf = np.convolve(pmf, stats.binom.pmf(np.arange(int(n) + 1), int(n), float(np.clip(p, 0.0, 1.0))))
+        p = float(np.clip(p, 0.0, 1.0))
+        # scipy's binomial pmf overflows for p near the smallest doubles (6e-309 raised OverflowError);
+        # p < P_ZERO gives P(count >= 1) < n 1e-300, zero in any p-value, so such a p is taken as 0
+        p = 0.0 if p < P_ZERO else p
+        pmf = np.convolve(pmf, stats.binom.pmf(np.arange(int(n) + 1), int(n), p))
     if not 0 <= observed < pmf.size:
         return 0.0
     return float(min(1.0, np.sum(pmf[pmf <= pmf[observed] * (1 + 1e-7)])))
