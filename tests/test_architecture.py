@@ -6,6 +6,8 @@ A newcomer finds a file's purpose and contracts on the map; a file missing from 
 explained. The check is exact: a file counts as mapped when its path (from the repository root, or
 from ``pycolfrag/`` for the package's subpackages, as the map's tables write them) appears in a code
 span of the page, with ``{a,b}`` alternatives expanded (``csrc/rng.{h,c}``).
+
+And the package's sizes: no module over 600 lines, no function over 80 (the house's measure).
 """
 from __future__ import annotations
 
@@ -89,3 +91,41 @@ def test_no_source_comment_cites_a_document_outside_the_repository():
             if _OUTSIDE.search(line):
                 hits.append(f"{f}:{n}: {line.strip()}")
     assert not hits, "cite the reason itself, not an outside document:\n" + "\n".join(hits)
+
+
+# ---------------------------------------------------------------------------------- sizes
+#: The house's measure (issue 28, docs/architecture.md "Sizes"): a module a reader takes in whole, a
+#: function that fits on a screen.
+MAX_MODULE_LINES = 600
+MAX_FUNCTION_LINES = 80
+
+
+def _python_sources() -> list[Path]:
+    return [p for p in sorted((ROOT / "pycolfrag").rglob("*.py")) if "__pycache__" not in p.parts]
+
+
+def _long_functions(path: Path, limit: int) -> list[str]:
+    """``"path:line name (n lines)"`` of every function or method of ``path`` longer than ``limit`` lines."""
+    import ast
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    return [f"{path}:{node.lineno} {node.name} ({node.end_lineno - node.lineno + 1} lines)"
+            for node in ast.walk(tree) if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+            and node.end_lineno - node.lineno + 1 > limit]
+
+
+def test_no_module_over_600_lines_and_no_function_over_80():
+    """Every module of the package has at most 600 lines and every function or method (from its
+    ``def`` to its last line, docstring included) at most 80, counted by ``ast``."""
+    big = [f"{p.relative_to(ROOT)} ({len(p.read_text(encoding='utf-8').splitlines())} lines)"
+           for p in _python_sources() if len(p.read_text(encoding="utf-8").splitlines()) > MAX_MODULE_LINES]
+    assert not big, f"modules over {MAX_MODULE_LINES} lines: {big}"
+    long = [f for p in _python_sources() for f in _long_functions(p, MAX_FUNCTION_LINES)]
+    assert not long, f"functions over {MAX_FUNCTION_LINES} lines: {long}"
+
+
+def test_the_size_rule_sees_a_long_method(tmp_path):
+    """The counter passes a method of 80 lines and finds one of 81 (the rule's edge, nested in a class)."""
+    src = tmp_path / "m.py"
+    for n, found in ((80, 0), (81, 1)):
+        src.write_text("class C:\n    def f(self):\n" + "        x = 1\n" * (n - 1), encoding="utf-8")
+        assert len(_long_functions(src, MAX_FUNCTION_LINES)) == found, n
