@@ -27,6 +27,7 @@ import argparse
 import json
 import math
 import os
+import platform
 import signal
 import subprocess
 import sys
@@ -63,10 +64,39 @@ def _say(comm, *a):
         print(*a, flush=True)
 
 
+def _provenance() -> dict:
+    """What made a stored result: the command, the git revision (``+dirty`` with uncommitted changes),
+    the date and the CPU, so a number in the docs names the code it came from."""
+    def git(*a):
+        r = subprocess.run(["git", *a], cwd=ROOT, capture_output=True, text=True)
+        return r.stdout.strip() if r.returncode == 0 else ""
+    rev = git("rev-parse", "--short", "HEAD") or "unknown"
+    cpu = next((ln.split(":", 1)[1].strip() for ln in Path("/proc/cpuinfo").read_text().splitlines()
+                if ln.startswith("model name")), platform.processor()) if Path("/proc/cpuinfo").exists() \
+        else platform.processor()
+    return {"command": "python bench/rare_site.py " + " ".join(sys.argv[1:]),
+            "revision": rev + ("+dirty" if git("status", "--porcelain", "--untracked-files=no") else ""),
+            "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "cpu": cpu}
+
+
+def _made_by(*objs) -> str:
+    """The line that says which code and command made the stored results ``objs``."""
+    parts = []
+    for o in objs:
+        if not o:
+            continue
+        pv = o.get("provenance")
+        parts.append(f"`{pv['command']}` at {pv['revision']} ({pv['date']}, {pv['cpu']})" if pv else
+                     "a run stored before results carried their provenance (the rare-site branch, 8a44ca3 and "
+                     "before: pulses through the pulse shape's map of Phi(z), equal to today's "
+                     "parameters_from_normals to rounding)")
+    return "Made by " + "; ".join(dict.fromkeys(parts)) + "."
+
+
 def _save(name: str, obj) -> Path:
     SUMMARY.mkdir(parents=True, exist_ok=True)
     path = SUMMARY / f"{name}.json"
-    path.write_text(json.dumps(obj, indent=1, default=float))
+    path.write_text(json.dumps({**obj, "provenance": _provenance()}, indent=1, default=float))
     return path
 
 
@@ -313,6 +343,10 @@ def target_table(target: dict, crude: dict | None) -> list:
               f"simulation used {target['runs']} runs: {worst / target['runs']:.3g} times fewer. Efficiency per level at "
               "the CoV each reached: N = (1 - p) / (p CoV^2) over the runs used (the frequent levels reached far lower "
               "CoVs than asked, because the rare ones set the budget)."]
+    col = target["levels"].get("collapse", {}).get("probability_50_years")
+    if col:
+        L += ["", f"P(collapse in 50 years) at the example site: {col[0]:.2g} [{col[1]:.2g}, {col[2]:.2g}] (90 %)."]
+    L += ["", _made_by(target, crude)]
     g = target.get("grid_route")
     if g:
         L += ["", "| level | event-based, grid's range | grid route (zero) | agree |", "|---|---|---|---|"]
@@ -395,7 +429,7 @@ def write_docs() -> None:
     docs = ROOT / "docs"
     if crude and reps:
         _replace_block(docs / "rare_events.md", "rare-verification", verification_lines(crude, reps, replay)
-                       + split_lines(crude))
+                       + split_lines(crude) + ["", _made_by(crude, reps, replay)])
     if target:
         lines = target_table(target, _load("crude_example"))
         _replace_block(docs / "rare_events.md", "rare-example", lines)

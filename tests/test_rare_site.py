@@ -10,7 +10,7 @@ Where the expected numbers come from:
 * the minimax allocation: for two levels each living in one stratum, equal CoVs give
   n0 / n1 = (W0 s0 / lambda_A)^2 / (W1 s1 / lambda_B)^2 (Cochran 1977, 5.5, solved by hand);
 * the whole procedure: the surrogate of tests/rare_surrogate.py, whose rates are exact integrals of a
-  closed form (scipy.integrate.quad), against 50 independent simulations.
+  closed form (scipy.integrate.quad), against 40 independent simulations.
 """
 from __future__ import annotations
 
