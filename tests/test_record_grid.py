@@ -216,9 +216,12 @@ def test_record_file_rebuilt_from_its_journal(tmp_path):
 @pytest.mark.mpi
 def test_record_grid_sigterm_under_mpirun_then_resume_on_two_ranks(suite, tmp_path):
     """SIGTERM to mpirun part-way (rows slowed to 0.15 s), then the same command on 2 ranks: the
-    rows kept from before are unchanged and the completed file equals a serial uninterrupted run."""
+    rows kept from before are unchanged and the completed file equals a serial uninterrupted run.
+    48 rows (3 records x 2 components x 8 scales): the drain finishes the chunks in flight (at most a
+    worker's two chunks of 8 and rank 0's), so fewer than all are done when the ranks have gone."""
     out = tmp_path / "term.h5"
-    args = ["--records", str(suite), "--scale", "0.5", "1", "2", "--sample-function", "record_grid_fakes:slow",
+    scales = ["0.5", "0.75", "1", "1.25", "1.5", "1.75", "2", "2.5"]
+    args = ["--records", str(suite), "--scale", *scales, "--sample-function", "record_grid_fakes:slow",
             *QUIET, "--out", str(out)]
     if shutil.which("mpirun") is None:
         pytest.skip("mpirun not installed")
@@ -226,10 +229,10 @@ def test_record_grid_sigterm_under_mpirun_then_resume_on_two_ranks(suite, tmp_pa
            str(SCRIPT), *args]
     _kill_after(cmd, _env(PCF_FAKE_SLEEP_S="0.15"), out, 4, signal.SIGTERM)
     before = load(out)
-    assert 4 <= len(before) < 18, len(before)
+    assert 4 <= len(before) < 48, len(before)
     _ok(_mpirun(2, args, PCF_FAKE_SLEEP_S="0"))
     after = load(out)
-    assert after.complete and len(after) == 18 and (after.samples["status"] == 0).all()
+    assert after.complete and len(after) == 48 and (after.samples["status"] == 0).all()
     _same_rows(before, after, rows=before.rows)
     fresh = tmp_path / "fresh.h5"
     _ok(_serial([*args[:-1], str(fresh)]))
