@@ -31,8 +31,8 @@ from typing import Iterable, Sequence
 
 from . import input_files
 from ._ffi import lib as _lib
-from .connectors import Connectors, connectors_on
 from ._validate import positive_float, real
+from .connectors import Connectors, connectors_on
 from .errors import ParameterError
 
 #: Most polygon sides the solver handles (``CF_SOLVER_MAX_SIDES`` in csrc/solver.h).

@@ -31,10 +31,10 @@ import numpy as np
 from . import ground_motion, intensity, names
 from . import records as _records
 from . import results as _r
-from . import solver as _solver   # called through the module, so a test's fake of simulate takes effect
+from . import solver as _solver  # called through the module, so a test's fake of simulate takes effect
+from ._validate import positive_float
 from .column import Column
 from .errors import ParameterError
-from ._validate import positive_float
 from .ground_motion.record import COMPONENTS, Record
 from .ground_motion.registry import DEFAULT_PULSE_SHAPE, PULSE_FIELDS
 from .intensity import SpectralOptions

@@ -15,7 +15,6 @@ import json
 import math
 
 import numpy as np
-
 import pytest
 
 import pycolfrag as pcf

@@ -32,9 +32,9 @@ import pytest
 from pycolfrag import results as R
 from pycolfrag.analysis.data import load
 from pycolfrag.errors import ParameterError
-
 from test_faults import FAKE, _fresh, _kill9, _rank_pids, _start, _wait_gone, _wait_rows, tmpfs  # noqa: F401 (tmpfs: a fixture)
 from test_grid import ROOT, SCRIPT, _env, _journal_rows, _mpirun, _ok, _same_rows, _serial
+
 
 def _partial(tmp_path, n=3, name="g.h5", extra=()):
     """A fake grid killed (SIGKILL) after ``n`` journalled rows: the state a resume starts from."""
@@ -362,10 +362,11 @@ def test_a_tiny_solver_step_is_refused_before_it_runs_for_minutes(tmp_path, caps
 
 def test_a_long_grid_says_its_expected_work_and_a_long_record_is_named():
     # The estimate: solver steps (record + tail) / dt times the measured time per step.
+    import tempfile
+
     from pycolfrag import records
     from pycolfrag.grid import GridSpec, RecordGridSpec, check_work
     from record_suite import write_suite
-    import tempfile
     said = []
     spec = GridSpec(mw=(6.0,), dist_km=(5.0,), samples=10000)
     tail = spec.solver_options.tail_s
@@ -568,6 +569,7 @@ def test_devices_are_refused_as_tables_and_record_files(tmp_path):
 
 def test_record_file_hash_is_that_of_its_bytes_and_bounded(tmp_path, monkeypatch):
     import hashlib
+
     from pycolfrag import record_tables
     p = tmp_path / "a.bin"
     data = bytes(range(256)) * 40

@@ -14,14 +14,13 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from pycolfrag import site as site_file
+from pycolfrag import site_models as models
 from pycolfrag.analysis import fragility as fr
 from pycolfrag.analysis import risk
 from pycolfrag.analysis.data import read_results
-from pycolfrag import site as site_file
-from pycolfrag import site_models as models
 from pycolfrag.errors import ParameterError
 from pycolfrag.ground_motion import shahi_baker_2014 as sb14
-
 
 # --------------------------------------------------------------------------- helpers
 
@@ -520,8 +519,8 @@ def test_command_says_what_lies_outside_the_grid(tmp_path, capsys):
 
 
 def test_report_carries_the_risk_section(tmp_path):
-    from test_figures import write_results
     from pycolfrag.analysis import report
+    from test_figures import write_results
     h5 = write_results(tmp_path / "g.h5")
     with h5py.File(h5, "r+") as f:                   # a finished grid's file (the risk refuses others)
         f.attrs["complete"] = True

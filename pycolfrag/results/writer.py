@@ -14,10 +14,32 @@ import numpy as np
 from ..errors import ResultsFileError
 from .bounded import ChildLost, read_h5_bounded, start_child
 from .checksums import ResultsDamagedError, row_checksums, store_checksums
-from .journal import (Journal, JournalHeaderError, journal_mismatch, journal_path, journal_run_id, read_journal,
-                      set_aside, signature_mismatch, write_journal_header)
-from .layout import (FORMAT_VERSION, ROW_CRC, SPECTRA_FIELDS, STATUS_OK, STATUS_PENDING, dtype_of, empty_columns,
-                     false_done, fields_of, h5open, merged_columns, put_row, rows_of)
+from .journal import (
+    Journal,
+    JournalHeaderError,
+    journal_mismatch,
+    journal_path,
+    journal_run_id,
+    read_journal,
+    set_aside,
+    signature_mismatch,
+    write_journal_header,
+)
+from .layout import (
+    FORMAT_VERSION,
+    ROW_CRC,
+    SPECTRA_FIELDS,
+    STATUS_OK,
+    STATUS_PENDING,
+    dtype_of,
+    empty_columns,
+    false_done,
+    fields_of,
+    h5open,
+    merged_columns,
+    put_row,
+    rows_of,
+)
 from .lock import RunLock
 from .timeline import append_timeline, next_session
 
