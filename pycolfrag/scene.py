@@ -19,7 +19,6 @@ Every column is the same :class:`~pycolfrag.column.Column` (with its connectors,
 from __future__ import annotations
 
 import json
-import math
 import os
 import tomllib
 from dataclasses import dataclass, field
@@ -227,7 +226,7 @@ class Colonnade:
         """The columns at their places, the epistyles and their bearings, the dowels (scene_run)."""
         col, xs = self.column, self.xs
         parts = SceneParts([(col, x, 0.0) for x in xs])
-        for i, x in enumerate(xs):
+        for i in range(len(xs)):
             parts.dowels += [(i * col.n_blocks + j, dx, dy, law) for j, dx, dy, law in col.dowels()]
         if self.epistyle is None:
             return parts

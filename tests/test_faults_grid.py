@@ -321,7 +321,7 @@ def test_zeroed_status_bytes_of_an_interrupted_file_are_recomputed(tmp_path):
     with pytest.warns(UserWarning, match=r"checksum mismatch in \d+ finished row\(s\).*the rows come from the journal"):
         r = load(out)
     assert r.rows.tolist() == before.rows.tolist()  # the journal's rows, and no "ok" row of NaN
-    p = _ok(_serial([*FAKE, "--out", str(out)]))
+    _ok(_serial([*FAKE, "--out", str(out)]))
     after = load(out)
     assert after.complete and len(after) == 16 and np.isfinite(after.samples["u_top"]).all()
     _same_rows(_fresh(tmp_path, FAKE), after)
@@ -618,7 +618,7 @@ def test_a_hard_link_to_a_results_file_meets_its_lock(tmp_path):
 
 # ------------------------------------------------------------------------------ 8: full disk at creation
 
-def test_a_results_file_larger_than_the_disk_is_one_clear_line(tmpfs):
+def test_a_results_file_larger_than_the_disk_is_one_clear_line(tmpfs):  # noqa: F811 (tmpfs: test_faults's fixture)
     # Reported: a full disk while the HDF5 file was created gave a RuntimeError traceback and a
     # segfault (exit 139). 4 x 4 x 500 rows of ~900 bytes do not fit 1 MB: refused before creating.
     from pycolfrag.results import row_bytes
@@ -637,7 +637,7 @@ def test_a_results_file_larger_than_the_disk_is_one_clear_line(tmpfs):
     assert list(mnt.iterdir()) == []
 
 
-def test_a_disk_filling_up_while_the_file_is_created_raises_enospc_and_leaves_nothing(tmpfs):
+def test_a_disk_filling_up_while_the_file_is_created_raises_enospc_and_leaves_nothing(tmpfs):  # noqa: F811 (tmpfs: test_faults's fixture)
     # The free-space check passed (another process filled the disk meanwhile): creating the file
     # must give the OSError of a full disk, leave no .tmp or .journal, and not crash the process.
     mnt, _ = tmpfs

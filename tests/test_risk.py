@@ -8,6 +8,7 @@ written by the test itself; tolerances are stated where they are not exact.
 """
 import json
 import math
+from types import MappingProxyType
 
 import h5py
 import numpy as np
@@ -60,10 +61,14 @@ def write_cells(path, cells, pulse=None, seed=0):
     return str(path)
 
 
-def site(sources, pulse={"model": "pulse-only"}, **kw):
+#: site()'s default pulse model: read-only, and each site gets its own copy
+_PULSE_ONLY = MappingProxyType({"model": "pulse-only"})
+
+
+def site(sources, pulse=_PULSE_ONLY, **kw):
     d = {"name": "test site", "sources": sources, **kw}
     if pulse is not None:
-        d["pulse"] = pulse
+        d["pulse"] = dict(pulse)
     return site_file.site_from_dict(d)
 
 
