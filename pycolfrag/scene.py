@@ -22,6 +22,7 @@ import json
 import os
 import tomllib
 from dataclasses import dataclass, field
+from typing import Any
 
 from . import input_files
 from ._validate import integer, positive_float
@@ -121,7 +122,7 @@ class Epistyle:
             raise ParameterError(f"epistyle joints must be JointProperties, got {type(self.joints).__name__}")
 
     def to_dict(self) -> dict:
-        d = {"height": self.height}
+        d: dict[str, Any] = {"height": self.height}
         if self.width is not None:
             d["width"] = self.width
         if self.density is not None:
@@ -323,7 +324,7 @@ class Colonnade:
 
     def replace(self, **changes) -> "Colonnade":
         """A copy with other arguments (``column``, ``n_columns``, ``spacing``, ``epistyle``, ``name``)."""
-        args = {"column": self.column, "n_columns": self.n_columns, "spacing": self.spacing,
+        args: dict[str, Any] = {"column": self.column, "n_columns": self.n_columns, "spacing": self.spacing,
                 "epistyle": self.epistyle, "name": self.name}
         args.update(changes)
         return Colonnade(**args)

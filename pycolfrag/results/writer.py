@@ -343,7 +343,8 @@ def _add_row_checksums(path: Path, h5: Mapping) -> None:
 def _os_error_of(exc: BaseException, path) -> BaseException:
     """An HDF5 write error as the OSError it is: h5py raises RuntimeError (or OSError without an errno)
     for a failed write, with the system's ``errno = N`` in its text (a full disk: 28)."""
-    seen, e = 0, exc
+    seen = 0
+    e: BaseException | None = exc
     while e is not None and seen < 8:  # closing after a failed write raises again: look down the chain
         if isinstance(e, OSError) and e.errno:
             return e if e.filename else OSError(e.errno, os.strerror(e.errno), os.fspath(path))
@@ -437,7 +438,7 @@ class ResultsWriter:
         self.resumed = resumed
         self.run_id = run_id
         self._lock: RunLock | None = None
-        self._pending: list[dict] = []
+        self._pending: list[Mapping] = []
         self._creating = creating
         self._timeline: dict = {"attrs": None, "session": None, "rows": []}
         self._journal = Journal(journal_path(self.path))
