@@ -1,5 +1,6 @@
 # pycolfrag -- top-level Makefile: only delegates (set-up, build, tests, main job).
 #   make test    set up (system + venv), run the C unit tests, then pytest
+#   make lint    ruff over the tree, mypy over the public API (pinned by pyproject's lint extra)
 #   make grid    set up, run the paper's scenario grid on 2 MPI ranks, write figures (pycolfrag grid)
 #   make build   rebuild the C extension after editing csrc/ (editable installs do not)
 #   make records a record-suite grid on 2 MPI ranks, its analysis and Fig. 10 (docs/records.md)
@@ -20,7 +21,7 @@ GRID_ARGS ?=
 # Open MPI refuses root without these; set only for our own commands.
 MPIENV  := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 
-.PHONY: setup system build ctest ctest-bin ctest-asan pytest test grid analysis figures validation records risk risk-docs risk-rare restoration bench clean
+.PHONY: setup system build ctest ctest-bin ctest-asan pytest test lint grid analysis figures validation records risk risk-docs risk-rare restoration bench clean
 
 setup: system .venv/.installed build
 
@@ -73,6 +74,18 @@ pytest: setup
 
 # The README's test command: everything, C tests first, pytest last (its summary closes the log).
 test: setup ctest pytest
+
+# Lint: ruff over the tree and mypy over the public API, as pyproject.toml's [tool.ruff] and [tool.mypy]
+# configure them, with the versions its `lint` extra pins (read from there: one text of the pins).
+# Needs the venv's packages (mypy reads numpy's types), not the C build.
+LINT_PINS := import tomllib; print(*tomllib.load(open("pyproject.toml", "rb"))["project"]["optional-dependencies"]["lint"])
+.venv/.lint: pyproject.toml .venv/.installed
+	$(PIP) install -q $$($(PY) -c '$(LINT_PINS)')
+	touch $@
+
+lint: .venv/.lint
+	.venv/bin/ruff check .
+	.venv/bin/mypy
 
 # Every command is `pycolfrag COMMAND` (pycolfrag --help); under MPI through `python -m mpi4py -m pycolfrag`,
 # so that an exception on one rank ends every rank.

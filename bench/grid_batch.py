@@ -87,7 +87,7 @@ def main(argv=None) -> int:
           f"alternating rounds; baseline {a.baseline}")
     print(f"{'case':<32} {'command s':>10} {'session s':>10} {'CPU s':>8} {'session/base':>13} "
           f"{'full grid est. s':>17}  rows = baseline")
-    for name, _, n, _ in cases:
+    for name, _, _, _ in cases:
         t, s, cpu, out = best[name]
         print(f"{name:<32} {t:10.2f} {s:10.2f} {cpu:8.2f} {s / base[1]:13.2f} {s * 3500 / n_runs:17.0f}  "
               f"{'yes' if name == cases[0][0] or same_rows(base[3], out) else 'NO'}")

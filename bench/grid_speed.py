@@ -62,7 +62,7 @@ def run(n_ranks: int, args: list[str], timeout: float) -> float:
 
 def phase_split(extra_args: list[str]) -> dict:
     """Time record / IMs / solver / driver for one sample of every scenario, in this process."""
-    from pycolfrag import grid, intensity, ground_motion, solver
+    from pycolfrag import grid, ground_motion, intensity, solver
     spec = grid.spec_from_args(grid.build_parser().parse_args(["--samples", "2", *extra_args]))
     ctx = grid.SampleContext(spec)
     acc_t = {"record": 0.0, "ims": 0.0, "solver": 0.0}

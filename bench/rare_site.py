@@ -385,8 +385,8 @@ def split_lines(crude: dict) -> list:
     """The repetitions' rows split by stage against the crude rate: the pilot's alone (a fixed design), the
     first production batch's alone (strata without two rows there from the pilot), all -- a check that the
     production rows' weights carry no bias of their own."""
-    from pycolfrag.rare.evaluator import read_columns, read_plan
     from pycolfrag.rare.estimate import estimate
+    from pycolfrag.rare.evaluator import read_columns, read_plan
     from pycolfrag.rare.proposal import Design
     from pycolfrag.rare.strata import build_strata
     st = build_strata(load_site(BENCH_SITE))

@@ -228,7 +228,7 @@ def _clip(subject, poly):
         if not out:
             break
         e = b - a
-        side = lambda p: e[0] * (p[1] - a[1]) - e[1] * (p[0] - a[0])   # >= 0: inside (left of the edge)
+        side = lambda p: e[0] * (p[1] - a[1]) - e[1] * (p[0] - a[0])  # >= 0: inside (left of the edge)  # noqa: B023 (called only within this edge's iteration)
         src, out = out, []
         for p, q in zip(src, src[1:] + src[:1]):
             sp, sq = side(p), side(q)
@@ -261,7 +261,7 @@ def joint_depths(col, hist, j):
             deep[i] = seen[i] = np.nan
             continue
         coef = np.linalg.lstsq(np.c_[np.ones(len(U)), U[:, :2]], U[:, 2], rcond=None)[0]   # upper plane Z(X, Y)
-        depth = lambda P: -(coef[0] + P @ coef[1:])
+        depth = lambda P: -(coef[0] + P @ coef[1:])  # noqa: B023 (called only within this sample's iteration)
         ov = _clip(list(U[:, :2]), pl)
         deep[i] = max(0.0, depth(ov).max()) if len(ov) else 0.0
         cand = [-U[_inside(U[:, :2], pl, 0.01 * rc), 2], depth(pl[_inside(pl, U[:, :2], 0.01 * rc)])]

@@ -16,6 +16,9 @@ Everything that reads results files is :mod:`pycolfrag.analysis` (``pycolfrag.an
 """
 __version__ = "0.1.0"
 
+# The imports below keep their order (no sorting): `time` first starts the timeline, and the fragility
+# module comes last, after the modules that load scipy (see its comment).
+# isort: off
 import time as _time  # noqa: E402
 
 #: When this package began to load (wall s since the epoch, process CPU s): where a grid rank's

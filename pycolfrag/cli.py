@@ -46,7 +46,7 @@ def make_outputs(out: Path, figures_dir: Path, report_path: Path, log, synthetic
     cloud, MSA with several scales, Fig. 10 against ``synthetic`` when given). ``layout``: the
     file's layout when the caller knows it (None = synthetic, "records"); "read" reads it from
     the file."""
-    from .analysis import figures, record_report, report   # here: after the run, on rank 0 (top of the module)
+    from .analysis import figures, record_report, report  # here: after the run, on rank 0 (top of the module)
     if layout == "read":
         layout = _layout_of(out)
     if layout == "records":
@@ -80,7 +80,7 @@ def make_outputs(out: Path, figures_dir: Path, report_path: Path, log, synthetic
 
 
 def _layout_of(path):
-    from .analysis import data   # here: after the run (top of the module)
+    from .analysis import data  # here: after the run (top of the module)
     try:
         return data.load(path).attrs.get("layout")
     except Exception:
@@ -101,7 +101,7 @@ def main(argv=None) -> int:
     def log(s):
         print(s, flush=True)
 
-    from .analysis import data   # here: after the run, on rank 0 (top of the module)
+    from .analysis import data  # here: after the run, on rank 0 (top of the module)
     from .analysis.summary import failure_lines, format_table, summary_table
     try:   # the file is complete and safe: a failure to read it back for the summary is only reported
         res = data.load(summary.path)   # read once for the table and the failure lines

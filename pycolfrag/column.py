@@ -31,8 +31,8 @@ from typing import Iterable, Sequence
 
 from . import input_files
 from ._ffi import lib as _lib
-from .connectors import Connectors, connectors_on
 from ._validate import positive_float, real
+from .connectors import Connectors, connectors_on
 from .errors import ParameterError
 
 #: Most polygon sides the solver handles (``CF_SOLVER_MAX_SIDES`` in csrc/solver.h).
@@ -307,7 +307,8 @@ class Column:
                 raise ParameterError(f"joint_overrides must be a mapping {{joint index: JointProperties}}, got "
                                      f"{type(joint_overrides).__name__}")
             for j, p in joint_overrides.items():
-                if isinstance(j, bool) or not isinstance(j, numbers.Integral) or not 0 <= j < len(blocks):
+                if (isinstance(j, bool) or not isinstance(j, numbers.Integral)
+                        or not 0 <= j < len(blocks)):  # type: ignore[operator]  # typeshed: Integral has no int <=
                     raise ParameterError(f"joint_overrides: joint index must be an integer in [0, {len(blocks) - 1}], "
                                          f"got {j!r}")
                 if not isinstance(p, JointProperties):

@@ -23,6 +23,7 @@ import math
 import numbers
 from dataclasses import dataclass, replace
 from importlib import resources
+from typing import Any
 
 import numpy as np
 
@@ -190,7 +191,7 @@ class Connectors:
     """
 
     law: DowelLaw
-    joints: object = "all"
+    joints: str | tuple[int, ...] = "all"   # given as any iterable of indices (or one index): a tuple after checks
     count: int = 1
     radius: float = 0.0
     phase_deg: float = 0.0
@@ -231,7 +232,7 @@ class Connectors:
 
     def joint_list(self, n_joints: int) -> tuple:
         """The joints it names on a column of ``n_joints`` joints (ParameterError for one outside)."""
-        if self.joints == "all":
+        if isinstance(self.joints, str):   # "all", the one string the checks let through
             return tuple(range(n_joints))
         for j in self.joints:
             if j >= n_joints:
@@ -243,7 +244,7 @@ class Connectors:
         return dowel_positions(self.count, self.radius, self.phase_deg)
 
     def to_dict(self) -> dict:
-        d = {"joints": self.joints if self.joints == "all" else list(self.joints), "count": self.count,
+        d: dict[str, Any] = {"joints": self.joints if self.joints == "all" else list(self.joints), "count": self.count,
              "radius": self.radius, "phase_deg": self.phase_deg}
         d["law"] = self.law.name if self.law.name in LAWS and LAWS[self.law.name] == self.law else self.law.to_dict()
         return d

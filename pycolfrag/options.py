@@ -22,6 +22,7 @@ import dataclasses
 import math
 import numbers
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar, cast
 
 import numpy as np
 
@@ -199,12 +200,12 @@ class _SolverOptionsMethods:
                 raise ParameterError(f"{name} = {v!r} does not fit the C definition")
         return d
 
-    def replace(self, **changes) -> "SolverOptions":
+    def replace(self, **changes) -> SolverOptions:
         """A copy with some options changed; an unknown name raises ParameterError naming it."""
         unknown = sorted(set(changes) - set(OPTIONS))
         if unknown:
             raise ParameterError(f"unknown solver option(s) {unknown}; known: {sorted(OPTIONS)}")
-        return dataclasses.replace(self, **changes)
+        return dataclasses.replace(cast("SolverOptions", self), **changes)   # self: the dataclass built below
 
     def to_dict(self) -> dict:
         """Plain JSON-ready dict of every option (what results files store)."""
@@ -246,13 +247,24 @@ def _annotation(kind: str):
     return {"real": float, "int": int, "flag": bool, "step": "float | None", "model": str}[kind]
 
 
-SolverOptions = dataclasses.make_dataclass(
-    "SolverOptions",
-    [(name, _annotation(opt.kind), field(default=opt.default, metadata={"option": opt}))
-     for name, opt in OPTIONS.items()],
-    bases=(_SolverOptionsMethods,), frozen=True)
-SolverOptions.__module__ = __name__
-SolverOptions.__doc__ = _docstring()
+if TYPE_CHECKING:
+    class SolverOptions(_SolverOptionsMethods):
+        """What a type checker knows of the class below: a frozen dataclass whose fields (names, types,
+        defaults) are the C library's option tables, so known only at run time."""
+
+        __dataclass_fields__: ClassVar[dict[str, dataclasses.Field[Any]]]
+
+        def __init__(self, **options: Any) -> None: ...
+
+        def __getattr__(self, name: str) -> Any: ...
+else:
+    SolverOptions = dataclasses.make_dataclass(
+        "SolverOptions",
+        [(name, _annotation(opt.kind), field(default=opt.default, metadata={"option": opt}))
+         for name, opt in OPTIONS.items()],
+        bases=(_SolverOptionsMethods,), frozen=True)
+    SolverOptions.__module__ = __name__
+    SolverOptions.__doc__ = _docstring()
 
 
 def docs_table() -> str:

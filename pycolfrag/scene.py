@@ -19,10 +19,10 @@ Every column is the same :class:`~pycolfrag.column.Column` (with its connectors,
 from __future__ import annotations
 
 import json
-import math
 import os
 import tomllib
 from dataclasses import dataclass, field
+from typing import Any
 
 from . import input_files
 from ._validate import integer, positive_float
@@ -122,7 +122,7 @@ class Epistyle:
             raise ParameterError(f"epistyle joints must be JointProperties, got {type(self.joints).__name__}")
 
     def to_dict(self) -> dict:
-        d = {"height": self.height}
+        d: dict[str, Any] = {"height": self.height}
         if self.width is not None:
             d["width"] = self.width
         if self.density is not None:
@@ -227,7 +227,7 @@ class Colonnade:
         """The columns at their places, the epistyles and their bearings, the dowels (scene_run)."""
         col, xs = self.column, self.xs
         parts = SceneParts([(col, x, 0.0) for x in xs])
-        for i, x in enumerate(xs):
+        for i in range(len(xs)):
             parts.dowels += [(i * col.n_blocks + j, dx, dy, law) for j, dx, dy, law in col.dowels()]
         if self.epistyle is None:
             return parts
@@ -324,7 +324,7 @@ class Colonnade:
 
     def replace(self, **changes) -> "Colonnade":
         """A copy with other arguments (``column``, ``n_columns``, ``spacing``, ``epistyle``, ``name``)."""
-        args = {"column": self.column, "n_columns": self.n_columns, "spacing": self.spacing,
+        args: dict[str, Any] = {"column": self.column, "n_columns": self.n_columns, "spacing": self.spacing,
                 "epistyle": self.epistyle, "name": self.name}
         args.update(changes)
         return Colonnade(**args)

@@ -31,7 +31,7 @@ import numpy as np
 
 from . import input_files
 from .errors import ParameterError
-from .site_models import (DISTANCE_MODELS, MAGNITUDE_MODELS, PULSE_MODELS, Table)
+from .site_models import DISTANCE_MODELS, MAGNITUDE_MODELS, PULSE_MODELS, Table
 
 __all__ = ["Events", "SiteSource", "SOURCE_TYPES", "source_type", "MagnitudeDistanceSource", "Site",
            "DEFAULT_YEARS", "OUTSIDE_CHOICES", "DEFAULT_SOURCE_TYPE", "load_site", "site_from_dict", "read_pulse_model"]

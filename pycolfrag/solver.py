@@ -97,8 +97,8 @@ class History:
     joint_opening: np.ndarray
     joint_slip: np.ndarray
     energy: dict
-    joint_normal_force: np.ndarray = None
-    dowels: np.ndarray = None
+    joint_normal_force: np.ndarray | None = None
+    dowels: np.ndarray | None = None
 
 
 @dataclass
@@ -345,6 +345,7 @@ class _Job:
         if self.history:
             n = r.n_history
             h = self.h
+            assert h is not None   # allocated with history=True
             en = h["en"][:n]
             ch = self.out.history(n) if self.out is not None else {}
             energy = {k: en[:, i].copy() for i, k in enumerate(_ENERGY_KEYS)}
@@ -357,7 +358,7 @@ class _Job:
         part = ""
         if r.collapsed and extra.get("columns") is not None:
             cols = np.flatnonzero(extra["columns"]["collapsed"])
-            beams = np.flatnonzero(extra["epistyles"]["collapsed"]) if extra.get("epistyles") else []
+            beams: np.ndarray | list = np.flatnonzero(extra["epistyles"]["collapsed"]) if extra.get("epistyles") else []
             part = f"column {cols[0]}" if len(cols) else f"epistyle {beams[0]}" if len(beams) else ""
             if part.startswith("epistyle") and reason == "off_footprint":
                 reason = "unseated"

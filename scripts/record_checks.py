@@ -26,6 +26,7 @@ def _fig10_table(suite, components, max_record_s, progress) -> dict:
     so that H1 lies along the strike (fault-parallel, FP) and H2 along strike + 90 (fault-normal, FN);
     the others run their recorded components (``direction`` empty)."""
     import math
+
     from pycolfrag import Column, sample
     col = Column.parthenon()
     jobs = []

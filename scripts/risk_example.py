@@ -62,7 +62,7 @@ def _table(base, runs):
 def _statements(base, runs):
     labels = list(base["rate_per_year"])
     ident = base["identity"]
-    L = [f"* Mean p_pulse: " + ", ".join(f"{k} {v:.2f}" for k, v in base["pulse_share"].items()) + "."]
+    L = ["* Mean p_pulse: " + ", ".join(f"{k} {v:.2f}" for k, v in base["pulse_share"].items()) + "."]
     for o in base["outside"]:
         if o["outside"] > 0:
             L.append(f"* {100 * o['outside']:.0f} % of the {o['source']}'s rate lies outside the grid "

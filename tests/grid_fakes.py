@@ -43,7 +43,7 @@ def fake(ctx, row):
 
 def ranked(ctx, row):
     out = fake(ctx, row)
-    from mpi4py import MPI   # already loaded by the grid that calls this (any launcher)
+    from mpi4py import MPI  # already loaded by the grid that calls this (any launcher)
     out["message"] = f"rank {MPI.COMM_WORLD.Get_rank()}"
     return out
 

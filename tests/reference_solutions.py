@@ -125,7 +125,7 @@ def newmark_sliding(ag, mu, t_end, dt=1e-4):
                 return [y[1], -ag(x) - lim * d]
 
         def stop(x, y, d=d):
-            return y[1] if x > t + 1e-9 else d
+            return y[1] if x > t + 1e-9 else d  # noqa: B023 (solve_ivp calls it within this iteration)
         stop.terminal = True
         sol = solve_ivp(f, (t, t_end), [s, v if v else 0.0], events=stop, rtol=1e-10, atol=1e-13,
                         max_step=min(1e-3, 0.05 * t_end))

@@ -17,9 +17,8 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
-import record_suite as rs  # noqa: E402
-
 import pycolfrag as pcf  # noqa: E402
+import record_suite as rs  # noqa: E402
 from pycolfrag import grid, records, sample  # noqa: E402
 from pycolfrag.errors import ParameterError, SolverError  # noqa: E402
 from pycolfrag.solver import batch_width, simulate_batch  # noqa: E402

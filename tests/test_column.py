@@ -15,7 +15,6 @@ import json
 import math
 
 import numpy as np
-
 import pytest
 
 import pycolfrag as pcf
@@ -104,7 +103,7 @@ def test_parthenon_geometry():
 
 def test_parthenon_mass_and_centre_of_mass_independently():
     vol, mom, z = 0.0, 0.0, 0.0
-    for i in range(12):  # drums: circumradius linear over the shaft height
+    for _ in range(12):  # drums: circumradius linear over the shaft height
         h = 9.38 / 12
         r0 = 0.5 * (1.65 - 0.37 * z / 9.38)
         r1 = 0.5 * (1.65 - 0.37 * (z + h) / 9.38)

@@ -621,6 +621,7 @@ def _results_pair(tmp_path):
     """The synthetic results file of tests/test_figures.py (NaN EDPs in collapsed rows) and a copy
     with finite placeholders there."""
     import h5py
+
     from test_figures import write_results
     nan_path = write_results(tmp_path / "nan.h5", mws=(6.5, 7.5), dists=(5.0, 20.0), n=20, n_failed=2, vp_scale=3.0)
     fin_path = write_results(tmp_path / "finite.h5", mws=(6.5, 7.5), dists=(5.0, 20.0), n=20, n_failed=2, vp_scale=3.0)
@@ -682,6 +683,7 @@ def test_figures_ignore_the_edps_of_collapsed_runs(tmp_path):
 def test_plots_show_nan_u_d_of_a_collapsed_run_as_not_available():
     """Debug plots of a collapsed run (u_d NaN) draw, and say "n/a (collapsed)" instead of "nan"."""
     from types import SimpleNamespace
+
     from pycolfrag import plots
     col = pcf.Column.from_drums([1.0, 1.0], 1.0)
     dt = 0.01

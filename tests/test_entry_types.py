@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag.analysis import fragility as fr
 from pycolfrag import intensity
 from pycolfrag import results as R
+from pycolfrag.analysis import fragility as fr
 from pycolfrag.analysis.data import load
 from pycolfrag.errors import ParameterError, ResultsFileError
 

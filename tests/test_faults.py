@@ -29,7 +29,6 @@ import pytest
 from pycolfrag import results as R
 from pycolfrag.analysis.data import load
 from pycolfrag.errors import ParameterError, RecordFileError, ResultsFileError
-
 from test_grid import ROOT, SCRIPT, _env, _journal_rows, _ok, _same_rows, _serial
 
 # 2 Mw x 2 R x 4 samples = 16 rows of the fake sample function

@@ -32,9 +32,9 @@ import pytest
 from pycolfrag import results as R
 from pycolfrag.analysis.data import load
 from pycolfrag.errors import ParameterError
-
 from test_faults import FAKE, _fresh, _kill9, _rank_pids, _start, _wait_gone, _wait_rows, tmpfs  # noqa: F401 (tmpfs: a fixture)
 from test_grid import ROOT, SCRIPT, _env, _journal_rows, _mpirun, _ok, _same_rows, _serial
+
 
 def _partial(tmp_path, n=3, name="g.h5", extra=()):
     """A fake grid killed (SIGKILL) after ``n`` journalled rows: the state a resume starts from."""
@@ -321,7 +321,7 @@ def test_zeroed_status_bytes_of_an_interrupted_file_are_recomputed(tmp_path):
     with pytest.warns(UserWarning, match=r"checksum mismatch in \d+ finished row\(s\).*the rows come from the journal"):
         r = load(out)
     assert r.rows.tolist() == before.rows.tolist()  # the journal's rows, and no "ok" row of NaN
-    p = _ok(_serial([*FAKE, "--out", str(out)]))
+    _ok(_serial([*FAKE, "--out", str(out)]))
     after = load(out)
     assert after.complete and len(after) == 16 and np.isfinite(after.samples["u_top"]).all()
     _same_rows(_fresh(tmp_path, FAKE), after)
@@ -362,10 +362,11 @@ def test_a_tiny_solver_step_is_refused_before_it_runs_for_minutes(tmp_path, caps
 
 def test_a_long_grid_says_its_expected_work_and_a_long_record_is_named():
     # The estimate: solver steps (record + tail) / dt times the measured time per step.
+    import tempfile
+
     from pycolfrag import records
     from pycolfrag.grid import GridSpec, RecordGridSpec, check_work
     from record_suite import write_suite
-    import tempfile
     said = []
     spec = GridSpec(mw=(6.0,), dist_km=(5.0,), samples=10000)
     tail = spec.solver_options.tail_s
@@ -568,6 +569,7 @@ def test_devices_are_refused_as_tables_and_record_files(tmp_path):
 
 def test_record_file_hash_is_that_of_its_bytes_and_bounded(tmp_path, monkeypatch):
     import hashlib
+
     from pycolfrag import record_tables
     p = tmp_path / "a.bin"
     data = bytes(range(256)) * 40
@@ -616,7 +618,7 @@ def test_a_hard_link_to_a_results_file_meets_its_lock(tmp_path):
 
 # ------------------------------------------------------------------------------ 8: full disk at creation
 
-def test_a_results_file_larger_than_the_disk_is_one_clear_line(tmpfs):
+def test_a_results_file_larger_than_the_disk_is_one_clear_line(tmpfs):  # noqa: F811 (tmpfs: test_faults's fixture)
     # Reported: a full disk while the HDF5 file was created gave a RuntimeError traceback and a
     # segfault (exit 139). 4 x 4 x 500 rows of ~900 bytes do not fit 1 MB: refused before creating.
     from pycolfrag.results import row_bytes
@@ -635,7 +637,7 @@ def test_a_results_file_larger_than_the_disk_is_one_clear_line(tmpfs):
     assert list(mnt.iterdir()) == []
 
 
-def test_a_disk_filling_up_while_the_file_is_created_raises_enospc_and_leaves_nothing(tmpfs):
+def test_a_disk_filling_up_while_the_file_is_created_raises_enospc_and_leaves_nothing(tmpfs):  # noqa: F811 (tmpfs: test_faults's fixture)
     # The free-space check passed (another process filled the disk meanwhile): creating the file
     # must give the OSError of a full disk, leave no .tmp or .journal, and not crash the process.
     mnt, _ = tmpfs

@@ -61,7 +61,7 @@ def test_one_warning_per_cause():
 def test_other_warnings_pass_through_the_collector():
     with pytest.warns(RuntimeWarning, match="unrelated"):
         with degenerate.one_warning_per_cause("fits"):
-            warnings.warn("unrelated", RuntimeWarning)
+            warnings.warn("unrelated", RuntimeWarning, stacklevel=2)
 
 
 E = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6]

@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 
 from pycolfrag import results as R
+from pycolfrag.analysis.data import Results, load
 from pycolfrag.grid import GridSpec, derive_seed
 from pycolfrag.grid.command import _parse_values
-from pycolfrag.analysis.data import Results, load
 
 ROOT = Path(__file__).resolve().parent.parent
 SCRIPT = ROOT / "scripts" / "run_grid.py"

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag import cli, grid, results as R
+from pycolfrag import cli, grid
+from pycolfrag import results as R
 from pycolfrag.analysis.data import load
 from pycolfrag.analysis.summary import format_table, summary_table
 
@@ -195,7 +196,8 @@ def test_report_links_figures_from_a_custom_figures_dir(tmp_path, monkeypatch):
     # make_all wrote them (it used to look in <report folder>/figures and found none)
     import functools
 
-    from pycolfrag.analysis import figures, report as rep
+    from pycolfrag.analysis import figures
+    from pycolfrag.analysis import report as rep
     from test_figures import write_results
 
     h5 = write_results(tmp_path / "grid.h5", mws=(6.5, 7.5), dists=(5.0,), n=10, n_failed=0)

@@ -21,7 +21,6 @@ import pytest
 from pycolfrag import results as R
 from pycolfrag.analysis.data import load
 from pycolfrag.results.timeline import KINDS, read_timeline
-
 from test_grid import ROOT, SCRIPT, SMALL, _env, _mpirun, _ok, _same_rows, _serial
 
 FAKE = ["--sample-function", "grid_fakes:fake", "--no-figures", "--no-progress"]

@@ -14,9 +14,9 @@ matplotlib.use("Agg")
 
 import pycolfrag as pcf  # noqa: E402
 from pycolfrag.errors import ModelRangeError, ParameterError, PycolfragError  # noqa: E402
-from pycolfrag.ground_motion import (Record, mavroeidis_papageorgiou_2003 as mp,  # noqa: E402
-                                     rupakhety_2011 as r11, sample_pulse_parameters, stochastic,
-                                     synthesize)
+from pycolfrag.ground_motion import Record, sample_pulse_parameters, stochastic, synthesize  # noqa: E402
+from pycolfrag.ground_motion import mavroeidis_papageorgiou_2003 as mp  # noqa: E402
+from pycolfrag.ground_motion import rupakhety_2011 as r11  # noqa: E402
 from pycolfrag.ground_motion.combine import combine  # noqa: E402
 from pycolfrag.intensity import G, integrate  # noqa: E402
 

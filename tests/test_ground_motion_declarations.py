@@ -13,8 +13,12 @@ import pytest
 from pycolfrag import results as R
 from pycolfrag import sample
 from pycolfrag.errors import ModelRangeError, ParameterError
-from pycolfrag.ground_motion import (atkinson_silva_2000 as as00, baker_2007 as b07, mavroeidis_papageorgiou_2003 as mp,
-                                     record, registry, rupakhety_2011 as r11, shahi_baker_2014 as sb14, synthesize)
+from pycolfrag.ground_motion import atkinson_silva_2000 as as00
+from pycolfrag.ground_motion import baker_2007 as b07
+from pycolfrag.ground_motion import mavroeidis_papageorgiou_2003 as mp
+from pycolfrag.ground_motion import record, registry, synthesize
+from pycolfrag.ground_motion import rupakhety_2011 as r11
+from pycolfrag.ground_motion import shahi_baker_2014 as sb14
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 

@@ -1,6 +1,5 @@
 """Intensity measures (pycolfrag.intensity, csrc/spectra.c) against an independent NumPy twin
 and against closed forms. Each expected number's source is stated next to it."""
-import math
 
 import numpy as np
 import pytest

@@ -15,9 +15,10 @@ import pytest
 
 from pycolfrag._ffi import ffi, lib
 from pycolfrag.errors import ParameterError
-from pycolfrag.ground_motion import (draw_normals, mavroeidis_papageorgiou_2003 as mp, normals_layout,
-                                     rupakhety_2011 as r11, sample_pulse_parameters, stochastic, synthesize)
 from pycolfrag.ground_motion import atkinson_silva_2000 as as00
+from pycolfrag.ground_motion import draw_normals, normals_layout, sample_pulse_parameters, stochastic, synthesize
+from pycolfrag.ground_motion import mavroeidis_papageorgiou_2003 as mp
+from pycolfrag.ground_motion import rupakhety_2011 as r11
 
 TODAY = {  # (Mw, R km, seed) -> sha256 of stochastic(Mw, R, seed).acc at main 7e7e46a
     (6.5, 10.0, 1): "4d4fa887faabcc2e5a74b926c04633e563995c7eb6199c815543c3e7a56e3a24",

@@ -255,9 +255,8 @@ def test_export_formats_come_from_the_registry(tmp_path, monkeypatch, capsys):
     rounding: 1e-12). An unknown format is refused with the registered names."""
     import sys
     sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from test_figures import write_results
-
     from pycolfrag.analysis import outputs
+    from test_figures import write_results
 
     def toy(model, path):
         Path(path).write_text("\n".join(f"{ls} {f.median!r}" for ls, f in zip(model.limit_states, model.fits)))

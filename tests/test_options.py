@@ -220,7 +220,7 @@ def test_contact_options_are_the_c_registry():
     assert set(CONTACT_DOCS) == set(CONTACT_OPTIONS) and all(len(d) > 20 for d in CONTACT_DOCS.values())
     for const in ("VERTEX", "PERIMETER", "EXACT"):
         assert CONTACT_OPTIONS[const.lower()] == getattr(lib, f"CF_SOLVER_CONTACT_{const}")
-    for name, opt in OPTIONS.items():
+    for opt in OPTIONS.values():
         for model in opt.models:
             m = CONTACT_OPTIONS[model]
             assert opt.c_name in [ffi.string(lib.cf_solver_contact_model_option(m, k).name).decode()

@@ -12,10 +12,9 @@ from scipy import optimize
 
 sys.path.insert(0, os.path.dirname(__file__))
 import record_suite as rs  # noqa: E402
-
-from pycolfrag.analysis import record_figures as rf  # noqa: E402
 from pycolfrag import records, sample  # noqa: E402
 from pycolfrag import table_ii as t2  # noqa: E402
+from pycolfrag.analysis import record_figures as rf  # noqa: E402
 from pycolfrag.errors import ParameterError  # noqa: E402
 
 

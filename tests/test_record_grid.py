@@ -17,11 +17,11 @@ import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import record_suite as rs  # noqa: E402
-from test_grid import SCRIPT, _env, _kill_after, _mpirun, _ok, _same_rows, _serial  # noqa: E402
-
-from pycolfrag import grid, results as R  # noqa: E402
+from pycolfrag import grid  # noqa: E402
+from pycolfrag import results as R  # noqa: E402
 from pycolfrag.analysis.data import Results, load  # noqa: E402
 from pycolfrag.analysis.summary import format_table, summary_table  # noqa: E402
+from test_grid import SCRIPT, _env, _kill_after, _mpirun, _ok, _same_rows, _serial  # noqa: E402
 
 QUIET = ["--no-figures", "--no-progress"]
 

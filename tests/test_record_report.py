@@ -9,11 +9,10 @@ import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import record_suite as rs  # noqa: E402
-from test_figures import write_results  # noqa: E402
-from test_grid import _ok, _serial  # noqa: E402
-
 from pycolfrag import results as R  # noqa: E402
 from pycolfrag.analysis import record_report  # noqa: E402
+from test_figures import write_results  # noqa: E402
+from test_grid import _ok, _serial  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

@@ -17,9 +17,8 @@ import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import record_suite as rs  # noqa: E402
-
-from pycolfrag import records as R  # noqa: E402
 from pycolfrag import record_tables as T  # noqa: E402
+from pycolfrag import records as R  # noqa: E402
 from pycolfrag.errors import ParameterError, RecordFileError  # noqa: E402
 from pycolfrag.ground_motion import Record  # noqa: E402
 from pycolfrag.ground_motion import rotation as rot  # noqa: E402

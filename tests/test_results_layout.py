@@ -7,7 +7,8 @@ import sys
 import textwrap
 from pathlib import Path
 
-from pycolfrag import names, results as R
+from pycolfrag import names
+from pycolfrag import results as R
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "results_format.md"
 

@@ -8,20 +8,20 @@ written by the test itself; tolerances are stated where they are not exact.
 """
 import json
 import math
+from types import MappingProxyType
 
 import h5py
 import numpy as np
 import pytest
 from scipy import stats
 
+from pycolfrag import site as site_file
+from pycolfrag import site_models as models
 from pycolfrag.analysis import fragility as fr
 from pycolfrag.analysis import risk
 from pycolfrag.analysis.data import read_results
-from pycolfrag import site as site_file
-from pycolfrag import site_models as models
 from pycolfrag.errors import ParameterError
 from pycolfrag.ground_motion import shahi_baker_2014 as sb14
-
 
 # --------------------------------------------------------------------------- helpers
 
@@ -61,10 +61,14 @@ def write_cells(path, cells, pulse=None, seed=0):
     return str(path)
 
 
-def site(sources, pulse={"model": "pulse-only"}, **kw):
+#: site()'s default pulse model: read-only, and each site gets its own copy
+_PULSE_ONLY = MappingProxyType({"model": "pulse-only"})
+
+
+def site(sources, pulse=_PULSE_ONLY, **kw):
     d = {"name": "test site", "sources": sources, **kw}
     if pulse is not None:
-        d["pulse"] = pulse
+        d["pulse"] = dict(pulse)
     return site_file.site_from_dict(d)
 
 
@@ -520,8 +524,8 @@ def test_command_says_what_lies_outside_the_grid(tmp_path, capsys):
 
 
 def test_report_carries_the_risk_section(tmp_path):
-    from test_figures import write_results
     from pycolfrag.analysis import report
+    from test_figures import write_results
     h5 = write_results(tmp_path / "g.h5")
     with h5py.File(h5, "r+") as f:                   # a finished grid's file (the risk refuses others)
         f.attrs["complete"] = True

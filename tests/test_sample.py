@@ -10,7 +10,6 @@ import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import record_suite as rs  # noqa: E402
-
 from pycolfrag import names, records, sample  # noqa: E402
 from pycolfrag.column import Column  # noqa: E402
 from pycolfrag.ground_motion import Record  # noqa: E402

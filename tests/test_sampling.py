@@ -83,7 +83,7 @@ def test_unit_pulse_peak_is_that_of_scipys_search():
         u = np.linspace(-gamma / 2, gamma / 2, 2001)
         k = int(np.argmax(np.abs(g(u))))
         lo, hi = u[max(k - 1, 0)], u[min(k + 1, u.size - 1)]
-        x, fx = _scipy_min(lambda x: -abs(g(x)), lo, hi, 1e-12)
+        x, fx = _scipy_min(lambda x: -abs(g(x)), lo, hi, 1e-12)  # noqa: B023 (minimised within this iteration)
         ub = x if -fx >= abs(g(u[k])) else float(u[k])
         mp03._unit_peak.cache_clear()
         assert mp03._unit_peak(nu, gamma) == (ub, float(g(ub))), (nu, gamma)

@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import fragility as fr
 from .. import names as _names
 from ..errors import ParameterError
+from . import fragility as fr
 from .completeness import check_complete
 from .data import ResultsData, as_data, read_results
 

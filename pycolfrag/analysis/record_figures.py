@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import fragility as fr
 from .. import names
 from ..errors import ParameterError
 from ..sample import rows_to_table
+from . import fragility as fr
 from .data import as_data
 from .figures import Figure
 

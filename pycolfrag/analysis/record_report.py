@@ -34,10 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import fragility as fr
-from . import record_figures as rf
 from .. import names
 from ..errors import ParameterError, PycolfragError
+from . import fragility as fr
+from . import record_figures as rf
 from .completeness import ALLOW_INCOMPLETE_HELP, check_complete
 from .data import Results, as_results, read_table
 from .figures import Figure, mark_figure

@@ -27,13 +27,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import fragility as fr
 from .. import names
-from .fragility import binomial_ci
 from ..errors import PycolfragError
+from . import fragility as fr
 from .completeness import ALLOW_INCOMPLETE_HELP, check_complete
 from .data import read_results
 from .figures import FIGURES, im_curves
+from .fragility import binomial_ci
 from .risk import report_section
 
 __all__ = ["write_report", "binomial_ci", "fmt_ci"]

@@ -36,10 +36,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from . import fragility as fr
 from ..errors import ParameterError, PycolfragError
 from ..site import OUTSIDE_CHOICES, Site, load_site, read_pulse_model
 from ..site_models import PulseOnly, Table
+from . import fragility as fr
 from .data import as_data
 from .risk_branches import check_branches, check_complete, code_identity, declared_pulse
 from .risk_cells import BranchCell, grid_cells, surface_draws
@@ -363,8 +363,8 @@ def _parser():
 def _simulate_main(argv) -> int:
     """``--simulate OUTDIR``: the event-based simulation (:mod:`pycolfrag.rare`, on every rank), then on rank 0
     the grid route beside it when its results are given, and the report (:mod:`.risk_rare`)."""
-    from . import risk_rare  # here: only this form of the command needs it
     from ..rare.command import EXIT_ARGS, run_simulation
+    from . import risk_rare  # here: only this form of the command needs it
     ap = risk_rare.build_parser()
     a = ap.parse_args(argv)
     code, run = run_simulation(a, QUANTITIES, argv)

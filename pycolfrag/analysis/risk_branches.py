@@ -17,8 +17,8 @@ import json
 
 import numpy as np
 
-from . import completeness as _completeness
 from ..errors import ParameterError
+from . import completeness as _completeness
 
 __all__ = ["declared_pulse", "check_branches", "check_complete", "SHARED_SETTINGS"]
 

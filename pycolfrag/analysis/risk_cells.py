@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import fragility as fr
 from ..errors import ResultsFileError
+from . import fragility as fr
 
 __all__ = ["BranchCell", "grid_cells", "point", "bootstrap_draws", "beta_draws", "surface_draws"]
 

@@ -53,7 +53,7 @@ def subsample_coverage(site, results, *, n_sub=20, reps=300, seed=2026, **risk_k
     inside, above, widths = ({k: [] for k in truth} for _ in range(3))
     for rep in range(reps):
         rows = np.concatenate([rng.choice(v, n_sub, replace=False) for v in cells.values()])
-        for k, (lam, lo, hi) in site_risk(site, _subset(data, rows), rng=rep, **kw).rate.items():
+        for k, (_lam, lo, hi) in site_risk(site, _subset(data, rows), rng=rep, **kw).rate.items():
             inside[k].append(lo <= truth[k] <= hi)
             above[k].append(truth[k] > hi)
             widths[k].append(hi - lo)

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import risk_figures
 from ..errors import OutputError
+from . import risk_figures
 from .risk_fit import EQ4_FIT_ALPHA, Degeneracy
 from .risk_uncertainty import UNCERTAINTY_METHODS
 

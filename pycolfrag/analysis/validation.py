@@ -31,8 +31,8 @@ from .completeness import check_complete
 from .data import ResultsData, read_results
 from .figures import ROCKING_INITIATION_G
 from .fragility import binomial_ci
-from .report import fmt_ci
 from .record_figures import PAPER_FIG10_MEAN_U_TOP
+from .report import fmt_ci
 
 __all__ = ["Claim", "claims", "key_numbers", "write_validation"]
 

@@ -38,19 +38,61 @@ The package, by the sections a reader looks for:
 from __future__ import annotations
 
 from ..errors import ParameterError  # noqa: F401 (the driver's refusals; callers catch it as grid.ParameterError)
+from .command import (
+    EXIT_ARGS,
+    EXIT_DRAINED,
+    EXIT_LOCKED,
+    EXIT_OK,
+    EXIT_OS_ERROR,
+    EXIT_OUTPUTS,
+    HelpFormatter,
+    build_parser,
+    run_command,
+    spec_from_args,
+)
 from .events import EVENT_ROWS, EventBatchSpec, EventContext, run_event, run_events
-from .command import (EXIT_ARGS, EXIT_DRAINED, EXIT_LOCKED, EXIT_OK, EXIT_OS_ERROR, EXIT_OUTPUTS, HelpFormatter,
-                      build_parser, run_command, spec_from_args)
-from .probes import (MAX_CHECK_STEPS, MAX_ROW_STEPS, SAY_WORK_ABOVE_S, check_models, check_solver_options,
-                     check_space, check_work, probe_rows)
+from .probes import (
+    MAX_CHECK_STEPS,
+    MAX_ROW_STEPS,
+    SAY_WORK_ABOVE_S,
+    check_models,
+    check_solver_options,
+    check_space,
+    check_work,
+    probe_rows,
+)
 from .protocol import RowContext, RowFunction, RunSpec
-from .rows import (RECORD_ROWS, SYNTHETIC_ROWS, RecordContext, SampleContext, derive_seed, run_record_row,
-                   run_record_rows, run_sample, run_samples)
+from .rows import (
+    RECORD_ROWS,
+    SYNTHETIC_ROWS,
+    RecordContext,
+    SampleContext,
+    derive_seed,
+    run_record_row,
+    run_record_rows,
+    run_sample,
+    run_samples,
+)
 from .schedule import RunSummary, get_comm, run_grid
 from .signing import build_identity, code_digest
-from .spec import (DEFAULT_DAMPING, DEFAULT_DIST_KM, DEFAULT_MW, DEFAULT_PERIODS_S, DEFAULT_PULSE,
-                   DEFAULT_RECORD_DT_S, DEFAULT_SAMPLES, DEFAULT_SEED, MAX_ROWS, MAX_SAMPLES, PULSES, SEED_MAX,
-                   GridSpec, RecordGridSpec, resolve_solver_options, solver_defaults)
+from .spec import (
+    DEFAULT_DAMPING,
+    DEFAULT_DIST_KM,
+    DEFAULT_MW,
+    DEFAULT_PERIODS_S,
+    DEFAULT_PULSE,
+    DEFAULT_RECORD_DT_S,
+    DEFAULT_SAMPLES,
+    DEFAULT_SEED,
+    MAX_ROWS,
+    MAX_SAMPLES,
+    PULSES,
+    SEED_MAX,
+    GridSpec,
+    RecordGridSpec,
+    resolve_solver_options,
+    solver_defaults,
+)
 
 __all__ = [
     "DEFAULT_MW", "DEFAULT_DIST_KM", "DEFAULT_SAMPLES", "DEFAULT_SEED", "DEFAULT_PERIODS_S", "DEFAULT_DAMPING",

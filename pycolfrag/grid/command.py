@@ -18,20 +18,29 @@ from pathlib import Path
 from typing import Sequence
 
 from .. import results as _results
-from ..commands import HelpFormatter
 from .. import sample as _sample
 from ..column import Column
-from ..scene import Colonnade, model_from_dict
+from ..commands import HelpFormatter
 from ..errors import ParameterError, RecordFileError, ResultsFileError
 from ..ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
+from ..scene import Colonnade, model_from_dict
 from .probes import check_models, check_solver_options, check_space, check_work, probe_rows
 from .protocol import RunSpec
 from .rows import _key, load_function
 from .schedule import RANK0_WORKS_UP_TO, RunSummary, get_comm, run_grid
 from .serve import DRAIN_S, EXIT_DRAINED
+from .spec import (
+    DEFAULT_DAMPING,
+    DEFAULT_PERIODS_S,
+    DEFAULT_PULSE,
+    DEFAULT_RECORD_DT_S,
+    DEFAULT_SAMPLES,
+    DEFAULT_SEED,
+    PULSES,
+    GridSpec,
+    RecordGridSpec,
+)
 from .timeline import Recorder
-from .spec import (DEFAULT_DAMPING, DEFAULT_PERIODS_S, DEFAULT_PULSE, DEFAULT_RECORD_DT_S, DEFAULT_SAMPLES,
-                   DEFAULT_SEED, PULSES, GridSpec, RecordGridSpec)
 
 __all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OUTPUTS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_DRAINED", "HelpFormatter",
            "build_parser", "spec_from_args", "run_command"]

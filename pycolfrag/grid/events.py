@@ -29,11 +29,11 @@ from .. import sample as _sample
 from ..column import Column
 from ..errors import ParameterError
 from ..ground_motion.registry import DEFAULT_PULSE_SHAPE, DEFAULT_TP_MODEL, pulse_shape_of, tp_model_of
+from ..sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S
 from .chunks import synthetic_record_s
 from .protocol import RowFunction
 from .signing import build_identity, code_digest
 from .spec import DEFAULT_RECORD_DT_S, MAX_ROWS, _check_im_options, resolve_solver_options
-from ..sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S
 
 __all__ = ["EventBatchSpec", "EventContext", "run_event", "run_events", "EVENT_ROWS", "TAG_FIELDS",
            "inputs_digest"]

@@ -22,7 +22,8 @@ from .. import results as _results
 from .. import sample as _sample
 from .. import solver as _solver
 from ..errors import ParameterError, SolverError
-from ..ground_motion import atkinson_silva_2000 as as00, rupakhety_2011
+from ..ground_motion import atkinson_silva_2000 as as00
+from ..ground_motion import rupakhety_2011
 from .spec import DEFAULT_RECORD_DT_S, resolve_solver_options, solver_defaults
 
 __all__ = ["MAX_CHECK_STEPS", "MAX_ROW_STEPS", "SAY_WORK_ABOVE_S", "check_solver_options", "probe_rows",

@@ -15,9 +15,8 @@ import numpy as np
 from .. import ground_motion as _gm
 from .. import results as _results
 from .. import sample as _sample
-from ..column import Column
-from ..scene import model_from_dict
 from ..errors import ParameterError
+from ..scene import model_from_dict
 from .protocol import RowFunction, as_row_function
 
 __all__ = ["derive_seed", "SampleContext", "run_sample", "run_samples", "SYNTHETIC_ROWS",

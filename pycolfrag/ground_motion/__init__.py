@@ -252,9 +252,9 @@ def synthesize(Mw, dist_km, seed=None, dt=0.005, vp_scale=1.0, pulse=None, match
         ``"hf"`` (step 1, padded), ``"pulse"`` and ``"hf_modified"`` (step 5), all on the record's
         time axis. Same arguments give the same record, bit for bit, in any process.
     """
+    from ..intensity import integrate  # loads C: the package must import without it
     from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
     from .combine import combine  # loads C: the package must import without it
-    from ..intensity import integrate  # loads C: the package must import without it
     model = registry.pulse_shape_of(shape)
     Mw_f, dist_f = _scenario(Mw, dist_km)
     dt = positive_float(dt, "dt")

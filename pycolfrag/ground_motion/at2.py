@@ -30,7 +30,7 @@ import re
 import numpy as np
 
 from ..errors import RecordFileError
-from ..intensity import G   # m/s^2, the package's g (re-exported: at2.G)
+from ..intensity import G  # m/s^2, the package's g (re-exported: at2.G)
 from .record import Record
 
 __all__ = ["read_at2", "G"]

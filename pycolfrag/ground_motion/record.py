@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+from typing import cast
 
 import numpy as np
 
@@ -210,7 +211,9 @@ class Record(RecordMetadata):
         z = self.v[:n] if (vertical and self.v is not None) else None
         if f != 1.0:
             with np.errstate(over="ignore"):   # an overflow is refused below, by name
-                x, y, z = (None if a is None else f * a for a in (x, y, z))
+                x = f * x
+                y = None if y is None else f * y
+                z = None if z is None else f * z
             peak = max(float(np.max(np.abs(a), initial=0.0)) for a in (x, y, z) if a is not None)
             if not math.isfinite(peak):
                 raise ParameterError(f"scale {scale!r} makes record {self.record_id or '(unnamed)'} overflow")
@@ -265,7 +268,8 @@ class Record(RecordMetadata):
         if not (_finite(strike) and _finite(az)):
             raise ParameterError(f"record {self.record_id or '(unnamed)'}: fault-normal/parallel needs the strike "
                                  f"and the azimuth of H1 (degrees), got strike={strike!r}, azimuth_h1={az!r}")
-        return fault_normal_parallel(self.acc, self.component("h2"), float(strike), float(az))
+        # (_finite has checked that float() reads both)
+        return fault_normal_parallel(self.acc, self.component("h2"), float(cast(float, strike)), float(cast(float, az)))
 
     def rotd(self, measure="pga", percentiles=(50.0, 100.0), damping=0.05, angles_deg=None) -> dict:
         """:func:`~pycolfrag.ground_motion.rotation.rotd` of this record's horizontal pair."""

@@ -26,8 +26,15 @@ loads, and it adds no row field; it declares its ``PARAMETERS`` all the same.)
 from __future__ import annotations
 
 from ..errors import ParameterError
-from . import (baker_2007, mavroeidis_papageorgiou_2003, pulse_shape, record, rupakhety_2011, shahi_baker_2014,
-               shahi_baker_earlier)
+from . import (
+    baker_2007,
+    mavroeidis_papageorgiou_2003,
+    pulse_shape,
+    record,
+    rupakhety_2011,
+    shahi_baker_2014,
+    shahi_baker_earlier,
+)
 
 __all__ = ["MODELS", "KINDS", "PULSE_SHAPES", "DEFAULT_PULSE_SHAPE", "NO_PULSE", "pulse_shape_of", "PULSE_FIELDS",
            "TP_MODELS", "DEFAULT_TP_MODEL", "tp_model_of", "markdown_table", "docs_section"]

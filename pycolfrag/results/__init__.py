@@ -60,12 +60,29 @@ Faults from outside a run
 from ..errors import ResultsFileError  # the base of this package's errors, importable beside them
 from .bounded import OPEN_TIMEOUT_S, read_h5_bounded
 from .checksums import ResultsDamagedError
-from .journal import (JournalHeaderError, journal_mismatch, journal_path, read_journal,
-                      signature_mismatch)
-from .layout import (EVENT_SAMPLE_FIELDS, FORMAT_VERSION, LABEL_BYTES, LAYOUTS, MESSAGE_BYTES, RECORD_SAMPLE_FIELDS,
-                     SAMPLE_FIELDS, SPECTRA_FIELDS, STATUS_IM_FAILED, STATUS_OK, STATUS_OTHER_FAILED,
-                     STATUS_PENDING, STATUS_RECORD_FAILED, STATUS_SOLVER_FAILED, TIMING_FIELDS,
-                     empty_columns, fields_of, h5open, merged_columns, row_bytes)
+from .journal import JournalHeaderError, journal_mismatch, journal_path, read_journal, signature_mismatch
+from .layout import (
+    EVENT_SAMPLE_FIELDS,
+    FORMAT_VERSION,
+    LABEL_BYTES,
+    LAYOUTS,
+    MESSAGE_BYTES,
+    RECORD_SAMPLE_FIELDS,
+    SAMPLE_FIELDS,
+    SPECTRA_FIELDS,
+    STATUS_IM_FAILED,
+    STATUS_OK,
+    STATUS_OTHER_FAILED,
+    STATUS_PENDING,
+    STATUS_RECORD_FAILED,
+    STATUS_SOLVER_FAILED,
+    TIMING_FIELDS,
+    empty_columns,
+    fields_of,
+    h5open,
+    merged_columns,
+    row_bytes,
+)
 from .lock import ResultsLockedError, RunLock, lock_held, lock_path
 from .writer import ResultsWriter, create, open_for_run
 

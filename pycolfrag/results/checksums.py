@@ -20,6 +20,7 @@ from ..errors import ResultsFileError
 from .journal import journal_path
 from .layout import ROW_CRC, STATUS_PENDING
 
+
 class ResultsDamagedError(ResultsFileError):
     """The HDF5 file cannot be trusted: a read error, a checksum mismatch, missing checksums, or no answer
     within the time limit. Its text is the ``reason`` followed by what to do about it (:func:`salvage_hint`),

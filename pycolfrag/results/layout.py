@@ -315,6 +315,7 @@ def merged_columns(raw: Mapping | None, header: Mapping | None = None, jrows: Ma
         spectra = {k: v.copy() for k, v in raw["spectra"].items()}
         periods, attrs = raw["periods"], dict(raw["attrs"])
     else:
+        assert header is not None, "merged_columns: without raw, the journal header's columns"
         periods = np.asarray(header["periods_s"], dtype=float)
         attrs = dict(header["attrs"])
         samples, spectra = empty_columns(int(header["n_rows"]), len(periods), attrs.get("layout"))

@@ -179,6 +179,7 @@ class RunLock:
     """
 
     def __init__(self, path: Path, fd: int, info: dict, stale: dict | None):
+        self._fd: int | None   # None once released
         self.path, self._fd, self.info, self.stale = path, fd, info, stale
         self._file_fds: list[int] = []
 
@@ -204,9 +205,9 @@ class RunLock:
             held = os.fstat(fd)
             if (held.st_dev, held.st_ino) == (st.st_dev, st.st_ino):
                 return
-        fd = _lock_inode(Path(results_path))
-        if fd is not None:
-            self._file_fds.append(fd)
+        new_fd = _lock_inode(Path(results_path))
+        if new_fd is not None:
+            self._file_fds.append(new_fd)
 
     @classmethod
     def _acquire_path(cls, results_path, log, command) -> "RunLock":

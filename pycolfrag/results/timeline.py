@@ -103,7 +103,7 @@ def read_timeline(path) -> dict:
     """Every session's timeline of a results file: ``{name: {"attrs": dict, "rows": array of DTYPE,
     "kinds": [kind names by code], "crc_ok": bool}}`` in session order ({} when the file has none).
     A dataset whose bytes fail its CRC-32 is returned with ``crc_ok`` False (the caller says so)."""
-    out = {}
+    out: dict[str, dict] = {}
     with h5open(path, "r") as f:
         if GROUP not in f:
             return out

@@ -14,10 +14,32 @@ import numpy as np
 from ..errors import ResultsFileError
 from .bounded import ChildLost, read_h5_bounded, start_child
 from .checksums import ResultsDamagedError, row_checksums, store_checksums
-from .journal import (Journal, JournalHeaderError, journal_mismatch, journal_path, journal_run_id, read_journal,
-                      set_aside, signature_mismatch, write_journal_header)
-from .layout import (FORMAT_VERSION, ROW_CRC, SPECTRA_FIELDS, STATUS_OK, STATUS_PENDING, dtype_of, empty_columns,
-                     false_done, fields_of, h5open, merged_columns, put_row, rows_of)
+from .journal import (
+    Journal,
+    JournalHeaderError,
+    journal_mismatch,
+    journal_path,
+    journal_run_id,
+    read_journal,
+    set_aside,
+    signature_mismatch,
+    write_journal_header,
+)
+from .layout import (
+    FORMAT_VERSION,
+    ROW_CRC,
+    SPECTRA_FIELDS,
+    STATUS_OK,
+    STATUS_PENDING,
+    dtype_of,
+    empty_columns,
+    false_done,
+    fields_of,
+    h5open,
+    merged_columns,
+    put_row,
+    rows_of,
+)
 from .lock import RunLock
 from .timeline import append_timeline, next_session
 
@@ -321,7 +343,8 @@ def _add_row_checksums(path: Path, h5: Mapping) -> None:
 def _os_error_of(exc: BaseException, path) -> BaseException:
     """An HDF5 write error as the OSError it is: h5py raises RuntimeError (or OSError without an errno)
     for a failed write, with the system's ``errno = N`` in its text (a full disk: 28)."""
-    seen, e = 0, exc
+    seen = 0
+    e: BaseException | None = exc
     while e is not None and seen < 8:  # closing after a failed write raises again: look down the chain
         if isinstance(e, OSError) and e.errno:
             return e if e.filename else OSError(e.errno, os.strerror(e.errno), os.fspath(path))
@@ -415,7 +438,7 @@ class ResultsWriter:
         self.resumed = resumed
         self.run_id = run_id
         self._lock: RunLock | None = None
-        self._pending: list[dict] = []
+        self._pending: list[Mapping] = []
         self._creating = creating
         self._timeline: dict = {"attrs": None, "session": None, "rows": []}
         self._journal = Journal(journal_path(self.path))

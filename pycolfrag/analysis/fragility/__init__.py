@@ -43,16 +43,40 @@ from __future__ import annotations
 
 from .bootstrap import as_rng, bootstrap_interval, eq4_statistic
 from .degenerate import MIN_FIT_POINTS, DegenerateFitWarning
-from .eq4 import (binomial_ci, collapse_probability, empirical_exceedance, eq4_degenerate, exceedance, exceeded,
-                  lognormal_parameters)
+from .eq4 import (
+    binomial_ci,
+    collapse_probability,
+    empirical_exceedance,
+    eq4_degenerate,
+    exceedance,
+    exceeded,
+    lognormal_parameters,
+)
 from .levels import PERFORMANCE_LEVELS, U_D_LEVELS, U_TOP_LEVELS, PerformanceLevel
 from .mle import BETA_MAX, BETA_MIN, LognormalFragility, fit_lognormal_fragility
 from .ordered import fit_ordered_fragility
 from .stripes import StripeCurve, stripe_curve, stripe_edges
-from .suites import (CloudFit, LogisticCollapse, MSAFragility, cloud_analysis, fit_logistic_collapse, msa_fragility,
-                     msa_from_table, ok_rows, stripe_analysis, table_im)
-from .surfaces import (ScenarioRow, Surface, collapse_surface, degenerate_scenarios, exceedance_surface,
-                       mean_edp_surface, scenario_table)
+from .suites import (
+    CloudFit,
+    LogisticCollapse,
+    MSAFragility,
+    cloud_analysis,
+    fit_logistic_collapse,
+    msa_fragility,
+    msa_from_table,
+    ok_rows,
+    stripe_analysis,
+    table_im,
+)
+from .surfaces import (
+    ScenarioRow,
+    Surface,
+    collapse_surface,
+    degenerate_scenarios,
+    exceedance_surface,
+    mean_edp_surface,
+    scenario_table,
+)
 
 __all__ = [
     "PerformanceLevel",

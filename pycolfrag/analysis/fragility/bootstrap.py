@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 import numpy as np
-from ..._scipy_on_first_use import stats
 
+from ..._scipy_on_first_use import stats
 from ..._validate import integer, real
 from ...errors import ParameterError
 from .eq4 import exceeded

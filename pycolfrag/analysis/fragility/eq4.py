@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 import numpy as np
-from ..._scipy_on_first_use import stats
 
+from ..._scipy_on_first_use import stats
 from ..._validate import float_array, integer, positive_float, real
 from ...errors import ParameterError
 from . import degenerate as _degenerate

@@ -18,8 +18,8 @@ intersect is common practice (FEMA P-58's fragility functions of sequential dama
 from __future__ import annotations
 
 import numpy as np
-from ..._scipy_on_first_use import optimize, special
 
+from ..._scipy_on_first_use import optimize, special
 from ..._validate import float_array
 from ...errors import ParameterError
 from . import degenerate as _degenerate

@@ -13,9 +13,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from ..._scipy_on_first_use import optimize, special, stats
 
 from ... import names as _names
+from ..._scipy_on_first_use import optimize, special, stats
 from ..._validate import float_array
 from ...errors import ParameterError
 from . import degenerate as _degenerate
