@@ -70,8 +70,8 @@ def _runs(folder: Path, v: str) -> dict:
         check_complete(d, False, "the restoration study", path)
         model = model_from_dict(json.loads(d.attrs["column"]))
         # the first block of a scene's epistyles (after every column's): a collapse there is an unseating
-        out["first_beam"] = [np.full(len(d["mw"]), model.column.n_blocks * model.n_columns
-                                     if hasattr(model, "n_columns") else model.n_blocks + 1)]
+        out.setdefault("first_beam", []).append(np.full(len(d["mw"]), model.column.n_blocks * model.n_columns
+                                                        if hasattr(model, "n_columns") else model.n_blocks + 1))
         for k in ("mw", "dist_km", "pgv_cm_s", "pga_g", "u_top", "u_d", "collapsed", "collapse_block",
                   "dowel_shear_kn", "dowel_slip_mm", "dowels_broken", "epistyle_slip_mm", "epistyle_unseat"):
             out.setdefault(k, []).append(np.asarray(d[k]))
