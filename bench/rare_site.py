@@ -391,6 +391,9 @@ def split_lines(crude: dict) -> list:
     from pycolfrag.rare.strata import build_strata
     st = build_strata(load_site(BENCH_SITE))
     parts = {"pilot alone": [], "batch 1 alone": [], "all": []}
+    if len(sorted((WORK / "reps").glob("seed_*"))) < 2:   # the repetitions' rows are not in this tree
+        return ["", f"(The repetitions' rows by stage need the repetitions' folders, {WORK / 'reps'}: run "
+                    "`python bench/rare_site.py reps` first.)"]
     for f in sorted((WORK / "reps").glob("seed_*")):
         cols = [read_columns(p)[0] for p in sorted(f.glob("batch_*.h5"))]
         d = Design.from_dict(read_plan(f / "batch_001.plan.json")[0]["design"])
