@@ -167,6 +167,9 @@ EDPS: dict[str, Quantity] = {q.name: q for q in (
              description="peak shear force of a dowel, max over the dowels; NaN without dowels"),
     Quantity("dowel_slip_mm", "mm", "peak dowel shear displacement (mm)", "u_dowel",
              description="peak shear displacement of a dowel across its joint, max over the dowels; NaN without dowels"),
+    Quantity("dowels_yielded", "-", "dowels yielded (-)", "n_yielded",
+             description="number of dowels that yielded (a plastic shear displacement) in the run, broken ones "
+                         "included; NaN without dowels"),
     Quantity("dowels_broken", "-", "dowels broken (-)", "n_broken",
              description="number of dowels broken in the run; NaN without dowels"),
     Quantity("epistyle_slip_mm", "mm", "peak epistyle slip on a capital (mm)", "s_epi",

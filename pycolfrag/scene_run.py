@@ -21,7 +21,8 @@ __all__ = ["parts_of", "setup", "Outputs", "EDP_DEFAULTS"]
 
 #: The scene EDPs of a :class:`~pycolfrag.solver.Response` and their value where the scene has no
 #: such part (no dowels, no epistyles): NaN, the quantity does not exist.
-EDP_DEFAULTS = {"dowel_shear_kn": math.nan, "dowel_slip_mm": math.nan, "dowels_broken": math.nan,
+EDP_DEFAULTS = {"dowel_shear_kn": math.nan, "dowel_slip_mm": math.nan, "dowels_yielded": math.nan,
+                "dowels_broken": math.nan,
                 "epistyle_slip_mm": math.nan, "epistyle_unseat": math.nan}
 
 
@@ -134,6 +135,7 @@ class Outputs:
                              "broken": c[:, 4] > 0.5, "break_time": c[:, 5].copy(), "dissipated": c[:, 6].copy()}
             out["dowel_shear_kn"] = float(c[:, 0].max() / 1000.0)
             out["dowel_slip_mm"] = float(c[:, 1].max() * 1000.0)
+            out["dowels_yielded"] = float((c[:, 3] > 0.5).sum())
             out["dowels_broken"] = float((c[:, 4] > 0.5).sum())
         return out
 

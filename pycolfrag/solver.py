@@ -110,7 +110,8 @@ class Response:
     (per epistyle: peak ``slip`` m at its bearings, ``residual_slip`` m, ``unseat`` = peak slip / its
     seat length, ``collapsed``), ``dowels`` (per dowel: ``joint``, ``peak_shear`` N, ``peak_slip`` m,
     ``peak_axial`` N, ``yielded``, ``broken``, ``break_time`` s, ``dissipated`` J), and the EDPs
-    ``dowel_shear_kn``, ``dowel_slip_mm``, ``dowels_broken``, ``epistyle_slip_mm``, ``epistyle_unseat``
+    ``dowel_shear_kn``, ``dowel_slip_mm``, ``dowels_yielded``, ``dowels_broken``, ``epistyle_slip_mm``,
+    ``epistyle_unseat``
     (NaN where the scene has no such part). ``u_top`` and ``u_d`` of a scene are the largest over its
     columns, each normalised by its own diameters; ``collapse_part`` names where a collapse was.
     """
@@ -139,6 +140,7 @@ class Response:
     dowels: dict | None = None
     dowel_shear_kn: float = math.nan
     dowel_slip_mm: float = math.nan
+    dowels_yielded: float = math.nan
     dowels_broken: float = math.nan
     epistyle_slip_mm: float = math.nan
     epistyle_unseat: float = math.nan

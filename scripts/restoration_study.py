@@ -73,7 +73,7 @@ def _runs(folder: Path, v: str) -> dict:
         out.setdefault("first_beam", []).append(np.full(len(d["mw"]), model.column.n_blocks * model.n_columns
                                                         if hasattr(model, "n_columns") else model.n_blocks + 1))
         for k in ("mw", "dist_km", "pgv_cm_s", "pga_g", "u_top", "u_d", "collapsed", "collapse_block",
-                  "dowel_shear_kn", "dowel_slip_mm", "dowels_broken", "epistyle_slip_mm", "epistyle_unseat"):
+                  "dowel_shear_kn", "dowel_slip_mm", "dowels_yielded", "dowels_broken", "epistyle_slip_mm", "epistyle_unseat"):
             out.setdefault(k, []).append(np.asarray(d[k]))
     return {k: np.concatenate(v) for k, v in out.items()}
 
@@ -198,6 +198,8 @@ def write(folder: Path, figures: Path) -> str:
     rows = {"collapsed": lambda r: f"{int(r['collapsed'].sum())} of {r['mw'].size}",
             "mean u_top (standing)": lambda r: f"{np.mean(r['u_top'][~r['collapsed'].astype(bool)]):.3f}",
             "mean u_d (standing)": lambda r: f"{np.nanmean(r['u_d'][~r['collapsed'].astype(bool)]):.4f}",
+            "runs with a dowel yielded": lambda r: "-" if np.isnan(r["dowels_yielded"]).all()
+            else f"{int((r['dowels_yielded'] > 0).sum())}",
             "runs with a dowel broken": lambda r: "-" if np.isnan(r["dowels_broken"]).all()
             else f"{int((r['dowels_broken'] > 0).sum())}",
             "mean peak dowel shear (kN)": lambda r: "-" if np.isnan(r["dowel_shear_kn"]).all()

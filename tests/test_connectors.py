@@ -191,6 +191,7 @@ def test_dowels_that_carry_nothing_give_the_free_columns_bits():
     for k in a.history.energy:
         np.testing.assert_array_equal(a.history.energy[k], b.history.energy[k], err_msg=k)
     assert b.dowels_broken == 0 and b.dowel_shear_kn == 0.0 and math.isnan(a.dowels_broken)
+    assert b.dowels_yielded == 0 and math.isnan(a.dowels_yielded)
 
 
 def _static_threshold(col, lo=0.8, hi=1.0, iters=7, **kw):
@@ -241,7 +242,7 @@ def test_dowelled_runs_close_the_ledger_and_report_their_dowels(name):
     assert r.history.energy["connector_dissipated"][-1] == pytest.approx(d["dissipated"].sum(), rel=1e-9, abs=1e-9)
     assert r.dowel_shear_kn == pytest.approx(d["peak_shear"].max() / 1e3)
     assert r.dowel_slip_mm == pytest.approx(d["peak_slip"].max() * 1e3)
-    assert r.dowels_broken == d["broken"].sum()
+    assert r.dowels_broken == d["broken"].sum() and r.dowels_yielded == d["yielded"].sum() >= r.dowels_broken
     assert (d["peak_shear"] <= LAWS[name].f_yield * (1 + 1e-12)).all()
     assert r.history.dowels.shape == (r.history.t.size, col.n_blocks, 3)
 

@@ -23,7 +23,7 @@ from test_grid import _mpirun, _ok, _same_rows, _serial  # noqa: E402  (tests/ i
 
 # 1 Mw x 2 R x 2 samples, records cut to 4 s
 TINY = ["--mw", "6.5", "--dist", "5", "20", "--samples", "2", "--max-record-s", "4", "--no-figures", "--no-progress"]
-DOWEL_EDPS = ("dowel_shear_kn", "dowel_slip_mm", "dowels_broken")
+DOWEL_EDPS = ("dowel_shear_kn", "dowel_slip_mm", "dowels_yielded", "dowels_broken")
 EPISTYLE_EDPS = ("epistyle_slip_mm", "epistyle_unseat")
 
 
