@@ -178,7 +178,7 @@ risk-docs: risk
 # The example site by event-based simulation (docs/rare_events.md): the site's events drawn by strata with
 # importance sampling of the pulse, batches on NRANKS MPI ranks until every level's CoV is at most
 # RARE_COV (or RARE_MAX_RUNS runs), then the report beside the grid route of `make risk`'s two grids.
-# About 4 400 runs of the default column (~6 CPU-minutes); rerunning resumes (and, when finished, rewrites the report).
+# About 4 400 runs of the default column (~3 CPU-minutes, after `make risk`'s grids); rerunning resumes (and, when finished, rewrites the report).
 RARE_DIR      ?= $(RISK_DIR)/rare
 RARE_COV      ?= 0.2
 RARE_MAX_RUNS ?= 20000

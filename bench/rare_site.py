@@ -79,18 +79,19 @@ def _provenance() -> dict:
             "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "cpu": cpu}
 
 
-def _made_by(*objs) -> str:
-    """The line that says which code and command made the stored results ``objs``."""
-    parts = []
-    for o in objs:
+def _made_by(**stored) -> str:
+    """The line that says which code and command made each stored result (name=its JSON, or None)."""
+    by_text: dict = {}
+    for name, o in stored.items():
         if not o:
             continue
         pv = o.get("provenance")
-        parts.append(f"`{pv['command']}` at {pv['revision']} ({pv['date']}, {pv['cpu']})" if pv else
-                     "a run stored before results carried their provenance (the rare-site branch, 8a44ca3 and "
-                     "before: pulses through the pulse shape's map of Phi(z), equal to today's "
-                     "parameters_from_normals to rounding)")
-    return "Made by " + "; ".join(dict.fromkeys(parts)) + "."
+        text = (f"`{pv['command']}` at {pv['revision']} ({pv['date']}, {pv['cpu']})" if pv else
+                "runs stored before results carried their provenance (the rare-site branch, 8a44ca3 and before: "
+                "pulses through the pulse shape's map of Phi(z), equal to today's parameters_from_normals to "
+                "rounding)")
+        by_text.setdefault(text, []).append(name)
+    return "Made by -- " + "; ".join(f"{', '.join(n)}: {t}" for t, n in by_text.items()) + "."
 
 
 def _save(name: str, obj) -> Path:
@@ -346,7 +347,7 @@ def target_table(target: dict, crude: dict | None) -> list:
     col = target["levels"].get("collapse", {}).get("probability_50_years")
     if col:
         L += ["", f"P(collapse in 50 years) at the example site: {col[0]:.2g} [{col[1]:.2g}, {col[2]:.2g}] (90 %)."]
-    L += ["", _made_by(target, crude)]
+    L += ["", _made_by(target=target, crude_example=crude)]
     g = target.get("grid_route")
     if g:
         L += ["", "| level | event-based, grid's range | grid route (zero) | agree |", "|---|---|---|---|"]
@@ -381,6 +382,11 @@ def verification_lines(crude: dict, reps: dict, replay: dict | None) -> list:
     return L
 
 
+def _reps_folders() -> list:
+    """The repetitions' work folders (``python bench/rare_site.py reps``), when this tree has them."""
+    return sorted((WORK / "reps").glob("seed_*"))
+
+
 def split_lines(crude: dict) -> list:
     """The repetitions' rows split by stage against the crude rate: the pilot's alone (a fixed design), the
     first production batch's alone (strata without two rows there from the pilot), all -- a check that the
@@ -391,7 +397,7 @@ def split_lines(crude: dict) -> list:
     from pycolfrag.rare.strata import build_strata
     st = build_strata(load_site(BENCH_SITE))
     parts = {"pilot alone": [], "batch 1 alone": [], "all": []}
-    if len(sorted((WORK / "reps").glob("seed_*"))) < 2:   # the repetitions' rows are not in this tree
+    if not _reps_folders():   # the repetitions' rows are not in this tree
         return ["", f"(The repetitions' rows by stage need the repetitions' folders, {WORK / 'reps'}: run "
                     "`python bench/rare_site.py reps` first.)"]
     for f in sorted((WORK / "reps").glob("seed_*")):
@@ -430,9 +436,11 @@ def write_docs() -> None:
     """The blocks of docs/rare_events.md and docs/risk.md from the stored summaries (no number typed by hand)."""
     crude, reps, replay, target = pooled_crude(), _load("reps"), _load("replay"), _load("target")
     docs = ROOT / "docs"
-    if crude and reps:
+    if crude and reps and _reps_folders():
         _replace_block(docs / "rare_events.md", "rare-verification", verification_lines(crude, reps, replay)
-                       + split_lines(crude) + ["", _made_by(crude, reps, replay)])
+                       + split_lines(crude) + ["", _made_by(crude=crude, reps=reps, replay=replay)])
+    elif crude and reps:   # the docs' table by stage needs the repetitions' rows: keep the block as it is
+        print(f"kept the verification block of docs/rare_events.md: no repetitions' folders in {WORK / 'reps'}")
     if target:
         lines = target_table(target, _load("crude_example"))
         _replace_block(docs / "rare_events.md", "rare-example", lines)

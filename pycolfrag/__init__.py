@@ -17,7 +17,7 @@ Everything that reads results files is :mod:`pycolfrag.analysis` (``pycolfrag.an
 __version__ = "0.1.0"
 
 # The imports below keep their order (no sorting): `time` first starts the timeline, and the fragility
-# module comes last, after the modules that load scipy (see its comment).
+# package comes last (see its comment).
 # isort: off
 import time as _time  # noqa: E402
 
@@ -41,6 +41,7 @@ from .options import SolverOptions  # noqa: E402,F401
 from .solver import History, Response, simulate, simulate_batch  # noqa: E402,F401
 from . import ground_motion, intensity, names, records, results, sample  # noqa: E402,F401
 # ``pcf.fragility.exceedance(...)`` after ``import pycolfrag as pcf`` is public (the statistics of the
-# paper's Eqs. 1-4). A plain submodule attribute: it costs ``import pycolfrag`` the fragility module alone,
-# since scipy, which it needs, is loaded above already (docs/architecture.md).
+# paper's Eqs. 1-4). A plain submodule attribute: it costs ``import pycolfrag`` the fragility package's
+# own modules alone, since their scipy is imported on first use (pycolfrag/_scipy_on_first_use.py: a grid
+# rank that imports pycolfrag loads no scipy; docs/architecture.md).
 from .analysis import fragility  # noqa: E402,F401

@@ -90,7 +90,7 @@ def _fit(r: dict, level: str):
     try:
         return fr.fit_lognormal_fragility(r["pgv_cm_s"], e, coll, 1e300 if edp is None else thr, groups=groups,
                                           n_boot=200, rng=0, band_im=np.geomspace(5.0, 500.0, 60))
-    except ParameterError as exc:
+    except ParameterError as exc:   # the fit's refusal, e.g. no run reached the level
         return str(exc)
 
 
@@ -177,7 +177,7 @@ def write(folder: Path, figures: Path) -> str:
         for v in VARIANTS:
             f = fits[v][lv]
             if isinstance(f, str):
-                cells.append("no fit: no run reached it")
+                cells.append(f"no fit: {f}")
                 continue
             lo, hi = f.median_ci
             mark = f" ({f.degenerate})" if f.degenerate else ""

@@ -94,7 +94,7 @@ def test_no_source_comment_cites_a_document_outside_the_repository():
 
 
 # ---------------------------------------------------------------------------------- sizes
-#: The house's measure (issue 28, docs/architecture.md "Sizes"): a module a reader takes in whole, a
+#: The house's measure (docs/architecture.md "Sizes"): a module a reader takes in whole, a
 #: function that fits on a screen.
 MAX_MODULE_LINES = 600
 MAX_FUNCTION_LINES = 80

@@ -1,5 +1,6 @@
 """Running batches of runs with explicit inputs through the grid's scheduler: the interface an algorithm
-above the grid -- the stratified site simulation here, subset simulation -- asks for its runs through.
+above the grid -- the stratified site simulation here -- asks for its runs through (subset simulation
+does not yet: its runs take the record's noise as explicit normals, which the event rows do not carry).
 
     ev = GridEvaluator(outdir, record_settings, comm)
     if not ev.is_root:
