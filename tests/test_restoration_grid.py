@@ -80,3 +80,25 @@ def test_compare_reads_an_edp_nan_throughout_as_absent(tmp_path):
     valued["dowel_slip_mm"] = np.where(np.arange(len(new)) == 0, 1.0, np.nan)
     cmp = compare_results(old, dataclasses.replace(new, samples=valued))
     assert not cmp.identical and cmp.differing_fields == {"dowel_slip_mm": len(new)}
+
+
+def test_record_suite_grids_of_a_dowelled_column_and_a_portal(tmp_path):
+    """A record suite (the demo suite's 3 records, both horizontal components, 2 scales: 12 runs) runs a
+    dowelled column and a portal as it runs the free column: every run succeeds, the parts' EDPs are
+    finite where the parts exist and NaN where they do not, and the report of the record grid takes them."""
+    import record_suite as rs
+    suite = rs.write_suite(tmp_path / "suite")
+    base = ["--records", str(suite), "--scale", "0.5", "1", "--max-record-s", "4", "--no-figures", "--no-progress"]
+    ti, portal = tmp_path / "ti.h5", tmp_path / "portal.h5"
+    _ok(_serial([*base, "--column", str(EXAMPLES / "column_parthenon_titanium.toml"), "--out", str(ti)]))
+    _ok(_serial([*base, "--scene", str(EXAMPLES / "portal_2.toml"), "--out", str(portal)]))
+    a, b = load(ti), load(portal)
+    for r in (a, b):
+        assert r.complete and len(r) == 12 and (r.samples["status"] == 0).all()
+    assert all(np.isfinite(a.samples[e]).all() for e in DOWEL_EDPS)
+    assert all(np.isnan(a.samples[e]).all() for e in EPISTYLE_EDPS)
+    assert all(np.isfinite(b.samples[e]).all() for e in EPISTYLE_EDPS)
+    assert all(np.isnan(b.samples[e]).all() for e in DOWEL_EDPS)
+    from pycolfrag.analysis.record_report import write_record_report
+    text = Path(write_record_report(ti, tmp_path / "ti", n_boot=50, figures=False)).read_text()
+    assert "dowel_shear_kn" in text and "epistyle_slip_mm" not in text
