@@ -349,33 +349,33 @@ static size_t CF_BN(view_layout)(cf_solver *v, double *base, int nb, int nj)
     return (size_t)16 * nb + (size_t)nj;
 }
 
-/* The batch: lanes filled with jobs longest record first (batch_order), stepped together,
- * each refilled at the next multiple of CF_LEDGER_STEPS after its run ends. The lanes' vectors
- * live in one block aligned for VD (layout). */
-static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs, cf_solver_batch_out *out)
+/* Frees what CF_BN(open) allocated (any of it may be NULL). */
+static void CF_BN(close)(CF_BN(batch) *B, cf_joint_chunk *C, unsigned char *raw, int *order)
 {
-    CF_BN(batch) *B;
-    cf_joint_chunk *C;
-    cf_chunk_before_fn before;
-    cf_chunk_after_fn after;
+    int l;
+    if (B) for (l = 0; l < CF_BW; l++) free(B->lane_mem[l]);
+    free(B); free(C); free(raw); free(order);
+}
+
+/* The batch's memory (the lanes' vectors in one block aligned for VD, layout), its faces and lane views,
+ * every lane idle; the jobs' order, longest record first (batch_order). CF_ENOMEM leaves nothing behind. */
+static int CF_BN(open)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs, CF_BN(batch) **Bp,
+                       cf_joint_chunk **Cp, unsigned char **rawp, int **orderp)
+{
     const cf_points *pts = (const cf_points *)s->contact;
-    int nb = s->nbody, np = pts->np, nj = s->nj, l, j, next = 0, active, nomem = 0;
-    long steps = 0;
+    int nb = s->nbody, np = pts->np, nj = s->nj, l, j, nomem = 0;
     size_t bytes = CF_BN(layout)(NULL, NULL, nb, nj, np) + 64, nview = CF_BN(view_layout)(NULL, NULL, nb, nj);
-    unsigned char *raw;
-    const VD zero = {0};
     int *order = batch_order(n_jobs, jobs);   /* longest record first */
-    B = (CF_BN(batch) *)calloc(1, sizeof *B);
-    C = (cf_joint_chunk *)calloc(1, sizeof *C);
-    raw = (unsigned char *)calloc(1, bytes);
+    CF_BN(batch) *B = (CF_BN(batch) *)calloc(1, sizeof *B);
+    cf_joint_chunk *C = (cf_joint_chunk *)calloc(1, sizeof *C);
+    unsigned char *raw = (unsigned char *)calloc(1, bytes);
     if (B)
         for (l = 0; l < CF_BW; l++) {
             B->lane_mem[l] = (double *)calloc(nview, sizeof(double));
             nomem |= !B->lane_mem[l];
         }
     if (!B || !C || !raw || !order || nomem) {
-        if (B) for (l = 0; l < CF_BW; l++) free(B->lane_mem[l]);
-        free(B); free(C); free(raw); free(order);
+        CF_BN(close)(B, C, raw, order);
         return cf_solver_fail(s, CF_ENOMEM, "out of memory");
     }
     CF_BN(layout)(B, raw + (64 - (uintptr_t)raw % 64) % 64, nb, nj, np);
@@ -385,7 +385,6 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
         int k;
         for (k = PJ->p0; k < PJ->p0 + PJ->np; k++) B->pface[k] = k < PJ->p0 + PJ->n0 ? &J->fl : &J->fu;
     }
-    cf_solver_points_chunk_fns(CF_BW, &before, &after);
     for (l = 0; l < CF_BW; l++) {
         cf_solver *v = &B->view[l];
         *v = *s;
@@ -393,25 +392,53 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
         B->job[l] = -1;
         CF_BN(lane_reset)(s, B, l);
     }
+    *Bp = B; *Cp = C; *rawp = raw; *orderp = order;
+    return CF_OK;
+}
+
+/* The caller's check said stop: every running lane ends with CF_EINTR, the jobs not started say so. */
+static void CF_BN(stop)(CF_BN(batch) *B, const cf_solver_batch_job *jobs, cf_solver_batch_out *out, int next,
+                        int n_jobs, const int *order)
+{
+    int l;
+    for (l = 0; l < CF_BW; l++) {
+        int j = B->job[l];
+        cf_run *r = &B->r[l];
+        if (j < 0) continue;
+        cf_solver_run_stopped(&B->view[l], r);
+        cf_solver_run_finish(&B->view[l], r, jobs[j].residual_dislocation, &out[j].result);
+        out[j].status = r->st;
+        memcpy(out[j].message, B->view[l].msg, CF_MSG_LEN);
+    }
+    batch_not_started(next, n_jobs, order, out);
+}
+
+/* The batch: lanes filled with jobs longest record first (batch_order), stepped together,
+ * each refilled at the next multiple of CF_LEDGER_STEPS after its run ends. */
+static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs, cf_solver_batch_out *out)
+{
+    CF_BN(batch) *B;
+    cf_joint_chunk *C;
+    unsigned char *raw;
+    int *order;
+    cf_chunk_before_fn before;
+    cf_chunk_after_fn after;
+    int l, next = 0, active;
+    long steps = 0;
+    const VD zero = {0};
+    int st = CF_BN(open)(s, n_jobs, jobs, &B, &C, &raw, &order);
+    if (st != CF_OK)
+        return st;
+    cf_solver_points_chunk_fns(CF_BW, &before, &after);
     for (;; steps++) {
         VD ag[3], ke, vg, Wl, Dd, e_vs, e_dslip, e_dswitch;
         VM damp = (VM)zero;
         cf_step_energy e[CF_BW];
         int end[CF_BW], need = 0;
         /* the caller's check (cf_solver_set_check) after every CF_SOLVER_CHECK_STEPS steps of the batch
-         * (idle ones included), as cf_solver_run does: on a stop every running lane ends with CF_EINTR,
-         * the rest do not start */
+         * (idle ones included), as cf_solver_run does */
         if (s->check && steps > 0 && steps % CF_SOLVER_CHECK_STEPS == 0 && s->check(s->check_user)) {
-            for (l = 0; l < CF_BW; l++) {
-                int j = B->job[l];
-                cf_run *r = &B->r[l];
-                if (j < 0) continue;
-                cf_solver_run_stopped(&B->view[l], r);
-                cf_solver_run_finish(&B->view[l], r, jobs[j].residual_dislocation, &out[j].result);
-                out[j].status = r->st;
-                memcpy(out[j].message, B->view[l].msg, CF_MSG_LEN);
-            }
-            batch_not_started(next, n_jobs, order, out);
+            CF_BN(stop)(B, jobs, out, next, n_jobs, order);
             break;
         }
         /* runs start at the batch's multiples of CF_LEDGER_STEPS (a lane idles up to three steps),
@@ -463,8 +490,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
             } else B->r[l].n++;
         }
     }
-    for (l = 0; l < CF_BW; l++) free(B->lane_mem[l]);
-    free(B); free(C); free(raw); free(order);
+    CF_BN(close)(B, C, raw, order);
     return CF_OK;
 }
 

@@ -209,6 +209,103 @@ void cf_stochastic_free(cf_stochastic *g)
 
 const char *cf_stochastic_message(const cf_stochastic *g) { return g ? g->msg : "no generator"; }
 
+/* The definition's checks beyond the scenario's: CF_OK, or CF_EINVAL with a message on msg. */
+static int check_def(const cf_stochastic_def *def, char *msg)
+{
+    int st = cf_stochastic_check_scenario(def->mw, def->dist_km, msg);
+    if (st != CF_OK)
+        return st;
+    if (!isfinite(def->dt) || def->dt < CF_STOCHASTIC_DT_MIN || def->dt > CF_STOCHASTIC_DT_MAX) {
+        snprintf(msg, CF_MSG_LEN, "dt = %.17g s must be finite and in [1e-4, 0.02] s", def->dt);
+        return CF_EINVAL;
+    }
+    if (!isfinite(def->pre_s) || def->pre_s < 0.0 || def->pre_s > 100.0 || !isfinite(def->tail_s) ||
+        def->tail_s < 0.0 || def->tail_s > 100.0 || !isfinite(def->pad_s) || def->pad_s < 0.0 ||
+        def->pad_s > 1000.0) {
+        snprintf(msg, CF_MSG_LEN, "pre_s = %g, tail_s = %g, pad_s = %g must be finite, >= 0 (<= 100, 100, 1000 s)",
+                 def->pre_s, def->tail_s, def->pad_s);
+        return CF_EINVAL;
+    }
+    return CF_OK;
+}
+
+/* The record's layout for the scenario s: source and path values, window, padding, FFT size and output
+ * length (in). CF_EINVAL with a message when the record would be too long. */
+static int record_layout(const cf_stochastic_def *def, const scenario *s, cf_stochastic_info *in, char *msg)
+{
+    const double dt = def->dt;
+    memset(in, 0, sizeof *in);
+    in->m0_dyne_cm = s->m0;
+    in->fa_hz = s->fa;
+    in->fb_hz = s->fb;
+    in->eps_source = s->eps;
+    in->h_km = s->h;
+    in->r_km = s->r;
+    in->duration_s = s->tgm;
+    in->window_s = AS_WIN_TETA_FACTOR * s->tgm;
+    /* padding each side: at least pad_s, the source duration 0.5/fa (the zero-phase
+     * filter A(f) spreads long periods around the window), and the trim lengths */
+    double pad = fmax(fmax(def->pad_s, 0.5 / s->fa), fmax(def->pre_s, def->tail_s));
+    in->n_window = (int)floor(in->window_s / dt) + 1;
+    int n_pad = (int)ceil(pad / dt);
+    in->pad_s = n_pad * dt;
+    in->i_window = n_pad;
+    double n_need = 2.0 * n_pad + in->n_window;
+    if (n_need > (double)(1 << 28)) {
+        snprintf(msg, CF_MSG_LEN, "record too long for dt = %g s (%.0f samples)", dt, n_need);
+        return CF_EINVAL;
+    }
+    in->nfft = cf_fft_next_pow2((int)n_need);
+    int n_pre = (int)lround(def->pre_s / dt), n_post = (int)lround(def->tail_s / dt);
+    in->n_out = n_pre + in->n_window + n_post;
+    in->window_start_s = n_pre * dt;
+    return CF_OK;
+}
+
+/* Buffers for the layout in (grown, never shrunk) and the FFT plan (rebuilt only when nfft changes). */
+static int grow_buffers(cf_stochastic *g, const cf_stochastic_info *in)
+{
+    if (in->n_window > g->cap_window) {
+        double *w = realloc(g->window, sizeof(double) * (size_t)in->n_window);
+        if (w)
+            g->window = w;
+        double *z = realloc(g->noise, sizeof(double) * (size_t)in->n_window);
+        if (z)
+            g->noise = z;
+        if (!w || !z) {
+            snprintf(g->msg, CF_MSG_LEN, "out of memory (window)");
+            return CF_ENOMEM;
+        }
+        g->cap_window = in->n_window;
+    }
+    if (in->nfft > g->cap_fft) {
+        double *f = realloc(g->filt, sizeof(double) * (size_t)(in->nfft / 2 + 1));
+        if (f)
+            g->filt = f;
+        double *sp = realloc(g->spec, sizeof(double) * (size_t)(in->nfft + 2));
+        if (sp)
+            g->spec = sp;
+        double *x = realloc(g->x, sizeof(double) * (size_t)in->nfft);
+        if (x)
+            g->x = x;
+        if (!f || !sp || !x) {
+            snprintf(g->msg, CF_MSG_LEN, "out of memory (nfft = %d)", in->nfft);
+            return CF_ENOMEM;
+        }
+        g->cap_fft = in->nfft;
+    }
+    if (!g->plan || cf_fft_plan_size(g->plan) != in->nfft) {
+        cf_fft_plan_free(g->plan);
+        g->plan = NULL;
+        int st = cf_fft_plan_create(in->nfft, &g->plan);
+        if (st != CF_OK) {
+            snprintf(g->msg, CF_MSG_LEN, "FFT plan for n = %d failed (%s)", in->nfft, cf_common_status_name(st));
+            return st;
+        }
+    }
+    return CF_OK;
+}
+
 int cf_stochastic_setup(cf_stochastic *g, const cf_stochastic_def *def)
 {
     if (!g)
@@ -219,89 +316,19 @@ int cf_stochastic_setup(cf_stochastic *g, const cf_stochastic_def *def)
         snprintf(g->msg, CF_MSG_LEN, "def is NULL");
         return CF_EINVAL;
     }
-    int st = cf_stochastic_check_scenario(def->mw, def->dist_km, g->msg);
+    int st = check_def(def, g->msg);
     if (st != CF_OK)
         return st;
-    if (!isfinite(def->dt) || def->dt < CF_STOCHASTIC_DT_MIN || def->dt > CF_STOCHASTIC_DT_MAX) {
-        snprintf(g->msg, CF_MSG_LEN, "dt = %.17g s must be finite and in [1e-4, 0.02] s", def->dt);
-        return CF_EINVAL;
-    }
-    if (!isfinite(def->pre_s) || def->pre_s < 0.0 || def->pre_s > 100.0 || !isfinite(def->tail_s) ||
-        def->tail_s < 0.0 || def->tail_s > 100.0 || !isfinite(def->pad_s) || def->pad_s < 0.0 ||
-        def->pad_s > 1000.0) {
-        snprintf(g->msg, CF_MSG_LEN, "pre_s = %g, tail_s = %g, pad_s = %g must be finite, >= 0 (<= 100, 100, 1000 s)",
-                 def->pre_s, def->tail_s, def->pad_s);
-        return CF_EINVAL;
-    }
     scenario s;
     scenario_compute(def->mw, def->dist_km, &s);
     const double dt = def->dt;
     cf_stochastic_info in;
-    memset(&in, 0, sizeof in);
-    in.m0_dyne_cm = s.m0;
-    in.fa_hz = s.fa;
-    in.fb_hz = s.fb;
-    in.eps_source = s.eps;
-    in.h_km = s.h;
-    in.r_km = s.r;
-    in.duration_s = s.tgm;
-    in.window_s = AS_WIN_TETA_FACTOR * s.tgm;
-    /* padding each side: at least pad_s, the source duration 0.5/fa (the zero-phase
-     * filter A(f) spreads long periods around the window), and the trim lengths */
-    double pad = fmax(fmax(def->pad_s, 0.5 / s.fa), fmax(def->pre_s, def->tail_s));
-    in.n_window = (int)floor(in.window_s / dt) + 1;
-    int n_pad = (int)ceil(pad / dt);
-    in.pad_s = n_pad * dt;
-    in.i_window = n_pad;
-    double n_need = 2.0 * n_pad + in.n_window;
-    if (n_need > (double)(1 << 28)) {
-        snprintf(g->msg, CF_MSG_LEN, "record too long for dt = %g s (%.0f samples)", dt, n_need);
-        return CF_EINVAL;
-    }
-    in.nfft = cf_fft_next_pow2((int)n_need);
-    int n_pre = (int)lround(def->pre_s / dt), n_post = (int)lround(def->tail_s / dt);
-    in.n_out = n_pre + in.n_window + n_post;
-    in.window_start_s = n_pre * dt;
-
-    /* buffers (grown, never shrunk) and plan (rebuilt only when nfft changes) */
-    if (in.n_window > g->cap_window) {
-        double *w = realloc(g->window, sizeof(double) * (size_t)in.n_window);
-        if (w)
-            g->window = w;
-        double *z = realloc(g->noise, sizeof(double) * (size_t)in.n_window);
-        if (z)
-            g->noise = z;
-        if (!w || !z) {
-            snprintf(g->msg, CF_MSG_LEN, "out of memory (window)");
-            return CF_ENOMEM;
-        }
-        g->cap_window = in.n_window;
-    }
-    if (in.nfft > g->cap_fft) {
-        double *f = realloc(g->filt, sizeof(double) * (size_t)(in.nfft / 2 + 1));
-        if (f)
-            g->filt = f;
-        double *sp = realloc(g->spec, sizeof(double) * (size_t)(in.nfft + 2));
-        if (sp)
-            g->spec = sp;
-        double *x = realloc(g->x, sizeof(double) * (size_t)in.nfft);
-        if (x)
-            g->x = x;
-        if (!f || !sp || !x) {
-            snprintf(g->msg, CF_MSG_LEN, "out of memory (nfft = %d)", in.nfft);
-            return CF_ENOMEM;
-        }
-        g->cap_fft = in.nfft;
-    }
-    if (!g->plan || cf_fft_plan_size(g->plan) != in.nfft) {
-        cf_fft_plan_free(g->plan);
-        g->plan = NULL;
-        st = cf_fft_plan_create(in.nfft, &g->plan);
-        if (st != CF_OK) {
-            snprintf(g->msg, CF_MSG_LEN, "FFT plan for n = %d failed (%s)", in.nfft, cf_common_status_name(st));
-            return st;
-        }
-    }
+    st = record_layout(def, &s, &in, g->msg);
+    if (st != CF_OK)
+        return st;
+    st = grow_buffers(g, &in);
+    if (st != CF_OK)
+        return st;
     for (int i = 0; i < in.n_window; i++)
         g->window[i] = cf_stochastic_window(i * dt, in.window_s);
     /* A(f_k), f_k = k / (nfft dt), in m/s, times 1/dt (inverse FFT / dt) */
