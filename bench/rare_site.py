@@ -75,7 +75,9 @@ def _provenance() -> dict:
                 if ln.startswith("model name")), platform.processor()) if Path("/proc/cpuinfo").exists() \
         else platform.processor()
     return {"command": "python bench/rare_site.py " + " ".join(sys.argv[1:]),
-            "revision": rev + ("+dirty" if git("status", "--porcelain", "--untracked-files=no") else ""),
+            # dirty: code changed since the commit (this benchmark's own stored results do not count)
+            "revision": rev + ("+dirty" if git("status", "--porcelain", "--untracked-files=no", "--", ".",
+                                               ":(exclude)bench/results") else ""),
             "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "cpu": cpu}
 
 
