@@ -440,7 +440,8 @@ def write_docs() -> None:
     docs = ROOT / "docs"
     if crude and reps and _reps_folders():
         _replace_block(docs / "rare_events.md", "rare-verification", verification_lines(crude, reps, replay)
-                       + split_lines(crude) + ["", _made_by(crude=crude, reps=reps, replay=replay)])
+                       + split_lines(crude) + ["", _made_by(crude=_load("crude"), crude_seed2=_load("crude_seed2"), reps=reps,
+                                                                 replay=replay)])
     elif crude and reps:   # the docs' table by stage needs the repetitions' rows: keep the block as it is
         print(f"kept the verification block of docs/rare_events.md: no repetitions' folders in {WORK / 'reps'}")
     if target:
