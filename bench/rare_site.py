@@ -325,7 +325,7 @@ def target_table(target: dict, crude: dict | None) -> list:
     goal = target.get("target_cov", 0.2)
     L = [f"Example site, default column, both pulse branches: {target['runs']} runs ({target['stopped']}); mean wall "
          f"time of a run {1e3 * cost_run:.0f} ms" + (f", of a crude event {1e3 * cost_crude:.0f} ms" if crude else "")
-         + " (2 ranks on a shared machine: times under load)", "",
+         + " (2 ranks; wall time per run, the target and the crude subset measured at their own times: see Made by)", "",
          f"| level | rate /yr [90 %] | CoV | n_eff | p per event | crude runs for this CoV | efficiency (runs) | "
          f"efficiency (CPU) | >= 10x | crude runs for CoV {goal:g} | crude subset: p [90 %] |",
          "|---|---|---:|---:|---:|---:|---:|---:|---|---:|---|"]
