@@ -28,10 +28,15 @@ setup: system .venv/.installed build
 system:
 	@bash scripts/setup_system.sh
 
+# What the main job needs (the package and mpi4py); the tests' references and tools come with .venv/.dev.
 .venv/.installed: pyproject.toml setup.py
 	test -x $(PY) || python3 -m venv .venv
 	$(PIP) install -q --upgrade pip setuptools wheel cffi
-	$(PIP) install -q --no-build-isolation -e '.[dev]'
+	$(PIP) install -q --no-build-isolation -e '.[mpi]'
+	touch $@
+
+.venv/.dev: pyproject.toml .venv/.installed
+	$(PIP) install -q --no-build-isolation -e '.[mpi,dev]'
 	touch $@
 
 build: .venv/.built
@@ -69,11 +74,11 @@ ctest: $(CTESTS)
 ctest-asan: $(CTESTS_ASAN)
 	@bash scripts/run_ctests.sh $(CTESTS_ASAN)
 
-pytest: setup
+pytest: setup .venv/.dev
 	$(PY) -m pytest -q
 
 # The README's test command: everything, C tests first, pytest last (its summary closes the log).
-test: setup ctest pytest
+test: setup .venv/.dev ctest pytest
 
 # Lint: ruff over the tree and mypy over the public API, as pyproject.toml's [tool.ruff] and [tool.mypy]
 # configure them, with the versions its `lint` extra pins (read from there: one text of the pins).
@@ -108,7 +113,7 @@ SENS_ARGS = $(foreach f,$(wildcard results/sensitivity/*.h5),--sensitivity '$(ca
 analysis: setup
 	$(PCF) figures $(RESULTS) --out $(RESDIR)/figures
 	$(PCF) report $(RESULTS) $(RESDIR)/report.md
-	$(PCF) validation $(RESULTS) --notes docs/validation_notes.md $(SENS_ARGS)
+	$(PCF) validation $(RESULTS) --out docs/validation.md --notes docs/validation_notes.md $(SENS_ARGS)
 
 figures: analysis
 

@@ -6,28 +6,23 @@
 
 Each command is the ``main(argv)`` of the module that owns it, imported only when that command runs
 (:data:`COMMANDS`), so ``pycolfrag --help`` loads none of the analysis; the old commands
-(``scripts/run_grid.py``, ``python -m pycolfrag.analysis.risk``, ...) stay and do the same. Three
-commands are scripts of the repository (``scripts/make_figures.py``, ``make_validation.py``,
-``record_checks.py``), loaded from the checkout the package runs from. This module imports nothing of
-pycolfrag but its version, so any command line may take :class:`HelpFormatter` from it.
+(``scripts/run_grid.py``, ``python -m pycolfrag.analysis.risk``, ...) stay and do the same. Every command
+lives in the package, so an installed wheel (no checkout, no ``scripts/``) has all of them; the scripts of
+a checkout are thin wrappers over :func:`main`. This module imports nothing of pycolfrag but its version
+and its errors, so any command line may take :class:`HelpFormatter` from it.
 """
 from __future__ import annotations
 
 import argparse
 import importlib
-import importlib.util
 import sys
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Callable, Sequence
 
 from . import __version__
+from .errors import MissingDependencyError
 
 __all__ = ["HelpFormatter", "Command", "COMMANDS", "DEVELOPER_SCRIPTS", "build_parser", "main"]
-
-#: The repository the package runs from (its ``scripts/`` hold three of the commands).
-REPO = Path(__file__).resolve().parent.parent
-
 
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
     """The help style of the ``pycolfrag`` commands: every option's default shown, except None ones
@@ -45,8 +40,8 @@ class _ListingFormatter(HelpFormatter, argparse.RawDescriptionHelpFormatter):
 
 @dataclass(frozen=True)
 class Command:
-    """One command: its name, the ``main(argv)`` it runs (``module:function``, or ``scripts/FILE.py:function``
-    of the repository), what it does, and the older command that does the same."""
+    """One command: its name, the ``main(argv)`` it runs (``module:function``), what it does, and the older
+    command that does the same."""
 
     name: str
     target: str
@@ -56,17 +51,7 @@ class Command:
     def load(self) -> Callable[[Sequence[str]], int | None]:
         """The command's ``main``, imported now (and only now)."""
         where, _, func = self.target.partition(":")
-        if where.endswith(".py"):
-            path = REPO / where
-            if not path.is_file():
-                raise SystemExit(f"pycolfrag {self.name}: it runs {where} of the repository, which is not at "
-                                 f"{path} (an installed package ships no scripts/): run it from a checkout")
-            spec = importlib.util.spec_from_file_location(f"_pycolfrag_script_{path.stem}", path)
-            module = importlib.util.module_from_spec(spec)
-            spec.loader.exec_module(module)
-        else:
-            module = importlib.import_module(where)
-        return getattr(module, func)
+        return getattr(importlib.import_module(where), func)
 
 
 #: Command lines of the repository that are not users' commands: the developers' own tools, run by
@@ -103,12 +88,12 @@ COMMANDS = {c.name: c for c in (
     Command("record-report", "pycolfrag.analysis.record_report:main",
             "analyse a record-suite results file: stripes, cloud, MSA, Fig. 10, report (docs/records.md)",
             "python -m pycolfrag.analysis.record_report"),
-    Command("figures", "scripts/make_figures.py:main", "the paper's figures from a results file",
+    Command("figures", "pycolfrag.analysis.figures_command:main", "the paper's figures from a results file",
             "python scripts/make_figures.py"),
-    Command("validation", "scripts/make_validation.py:main",
+    Command("validation", "pycolfrag.analysis.validation_command:main",
             "docs/validation.md: the paper's quantitative statements against a results file",
             "python scripts/make_validation.py"),
-    Command("record-checks", "scripts/record_checks.py:main",
+    Command("record-checks", "pycolfrag.analysis.record_checks:main",
             "the natural-record checks: fig10, table2, demo-suite, analyse (docs/records.md)",
             "python scripts/record_checks.py"),
 )}
@@ -146,6 +131,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     sys.argv[0] = f"pycolfrag {command.name}"   # a command's usage line and recorded command name it as run
     try:
         code = run(argv[1:])
+    except MissingDependencyError as exc:
+        # an optional dependency the asked feature needs (mpi4py for MPI ranks): one line with the install
+        # command, not a traceback
+        print(f"pycolfrag {command.name}: {exc}", file=sys.stderr)
+        return 2
     finally:
         sys.argv[0] = prog
     return 0 if code is None else int(code)

@@ -43,3 +43,8 @@ class OutputError(PycolfragError, OSError):
 class RareEventError(PycolfragError, RuntimeError):
     """A rare-event estimate that cannot be made as asked: subset simulation whose levels stop rising,
     more failed runs than a level can absorb, an evaluator that returns other rows than it was given."""
+
+
+class MissingDependencyError(PycolfragError, ImportError):
+    """A feature was asked for whose optional dependency is not installed (MPI ranks without mpi4py: the
+    ``mpi`` extra, ``pip install 'pycolfrag[mpi]'``)."""

@@ -1,41 +1,11 @@
-#!/usr/bin/env python
-"""Write the paper's figures (Figs. 7, 8, 9, 11-16; PNG and PDF) from a results file.
+#!/usr/bin/env python3
+"""``pycolfrag figures`` under its old name (pycolfrag/analysis/figures_command.py).
 
-    python scripts/make_figures.py results/grid.h5 [--out results/figures] [--n-boot 500] [--seed 0]
+    python scripts/make_figures.py results/grid.h5 [--out results/figures]   # = pycolfrag figures ...
 """
-import argparse
-import os
 import sys
 
-import matplotlib
-
-matplotlib.use("Agg")
-
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-
-from pycolfrag.analysis import figures  # noqa: E402
-from pycolfrag.analysis.completeness import ALLOW_INCOMPLETE_HELP  # noqa: E402
-from pycolfrag.errors import PycolfragError  # noqa: E402
-
-
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("results", help="HDF5 results file of scripts/run_grid.py")
-    p.add_argument("--out", default=None, help="output directory (default: <results dir>/figures)")
-    p.add_argument("--n-boot", type=int, default=500, help="bootstrap resamples for surfaces and bands")
-    p.add_argument("--seed", type=int, default=0, help="seed of the bootstrap")
-    p.add_argument("--allow-incomplete", action="store_true", help=ALLOW_INCOMPLETE_HELP)
-    a = p.parse_args(argv)
-    out = a.out or os.path.join(os.path.dirname(os.path.abspath(a.results)), "figures")
-    try:
-        paths = figures.make_all(a.results, out, n_boot=a.n_boot, rng=a.seed, allow_incomplete=a.allow_incomplete)
-    except (PycolfragError, OSError) as exc:
-        print(f"make_figures: {exc}", file=sys.stderr)
-        return 2
-    for path in paths:
-        print(path)
-    return 0
-
+from pycolfrag.commands import main
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(["figures", *sys.argv[1:]]))

@@ -1,55 +1,18 @@
-#!/usr/bin/env python
-"""Write docs/validation.md: the paper's quantitative statements against a results file.
+#!/usr/bin/env python3
+"""``pycolfrag validation`` under its old name (pycolfrag/analysis/validation_command.py), writing this
+checkout's docs/validation.md unless ``--out`` says otherwise.
 
-    python scripts/make_validation.py results/grid.h5 \
-        [--sensitivity vp_scale=2=results/sensitivity/vp2.h5 ...] [--out docs/validation.md] [--notes FILE]
-
-NAME=FILE pairs split at the last '='. ``--notes`` appends a hand-written Markdown file (e.g. the
-discussion of the sensitivity runs) after the generated sections.
+    python scripts/make_validation.py results/grid.h5 [--sensitivity NAME=FILE ...] [--notes FILE]
 """
-import argparse
 import os
 import sys
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from pycolfrag.commands import main
 
-from pycolfrag.analysis import validation  # noqa: E402
-from pycolfrag.analysis.completeness import ALLOW_INCOMPLETE_HELP  # noqa: E402
-from pycolfrag.errors import PycolfragError  # noqa: E402
-from pycolfrag.input_files import read_text  # noqa: E402
-
-
-def main(argv=None) -> int:
-    """Command-line entry point; exit code 0, or 2 with one line naming the bad input (a record-suite
-    file, an incomplete or damaged one, an unreadable notes file)."""
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("results", help="main HDF5 results file (the paper's grid)")
-    p.add_argument("--sensitivity", action="append", default=[], metavar="NAME=FILE",
-                   help="further results file to compare key numbers with (repeatable)")
-    p.add_argument("--out", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs",
-                                                  "validation.md"))
-    p.add_argument("--notes", default=None, help="Markdown file appended at the end")
-    p.add_argument("--seed", type=int, default=0, help="seed of the bootstraps")
-    p.add_argument("--allow-incomplete", action="store_true", help=ALLOW_INCOMPLETE_HELP)
-    a = p.parse_args(argv)
-    sens = {}
-    for item in a.sensitivity:
-        if "=" not in item:
-            p.error(f"--sensitivity expects NAME=FILE, got {item!r}")
-        name, path = item.rsplit("=", 1)
-        sens[name] = path
-    try:
-        notes = read_text(a.notes, "notes file", max_bytes=16 << 20) if a.notes else None
-        out = validation.write_validation(a.results, a.out, sens, rng=a.seed, allow_incomplete=a.allow_incomplete)
-        if notes is not None:
-            with open(out, "a", encoding="utf-8") as fh:
-                fh.write("\n" + notes)
-    except (PycolfragError, OSError) as exc:
-        print(f"make_validation: {exc}", file=sys.stderr)
-        return 2
-    print(os.path.normpath(out))
-    return 0
-
+DOCS_PAGE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs", "validation.md")
 
 if __name__ == "__main__":
-    sys.exit(main())
+    args = sys.argv[1:]
+    if not any(a == "--out" or a.startswith("--out=") for a in args):
+        args += ["--out", os.path.normpath(DOCS_PAGE)]
+    sys.exit(main(["validation", *args]))

@@ -195,13 +195,8 @@ def test_the_papers_table_ii_as_printed():
 
 
 def test_record_checks_script(tmp_path, capsys):
-    """scripts/record_checks.py: fig10 writes the figure and the run table; table2 prints the table."""
-    import importlib.util
-    from pathlib import Path
-    path = Path(__file__).resolve().parents[1] / "scripts" / "record_checks.py"
-    spec = importlib.util.spec_from_file_location("record_checks", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    """pycolfrag record-checks (pycolfrag/analysis/record_checks.py): fig10 writes the figure and the run table; table2 prints the table."""
+    from pycolfrag.analysis import record_checks as mod
     assert mod.main(["demo-suite", str(tmp_path / "suite")]) == 0
     folder = tmp_path / "suite"
     assert mod.main(["fig10", "--records", str(folder), "--out", str(tmp_path / "out"), "--max-record-s", "1"]) == 0
@@ -218,12 +213,7 @@ def test_record_checks_fig10_splits_fn_fp_and_draws_several_sets(tmp_path, capsy
     fault-normal one (along 180 deg) is -H1: the FP run's PGA is H2's closed-form 0.20 g and the FN
     run's H1's 0.30 g (RSN9001: sines of 0.30 g and 0.20 g). Both sets appear in one figure, and the
     binned means come in FN and FP groups for the oriented set only."""
-    import importlib.util
-    from pathlib import Path
-    path = Path(__file__).resolve().parents[1] / "scripts" / "record_checks.py"
-    spec = importlib.util.spec_from_file_location("record_checks", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    from pycolfrag.analysis import record_checks as mod
     folder = tmp_path / "suite"
     assert mod.main(["demo-suite", str(folder)]) == 0
     lines = (folder / "suite.csv").read_text().splitlines()

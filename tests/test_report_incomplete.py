@@ -74,7 +74,7 @@ def test_validation(files, tmp_path):
     text = Path(validation.write_validation(done, tmp_path / "v.md", {"half": part}, allow_incomplete=True)).read_text()
     assert text.count("INCOMPLETE RESULTS: ") == 1 and "- **half**: " in text.split("INCOMPLETE")[0].splitlines()[-1]
     p = _script("make_validation.py", part, "--out", tmp_path / "w.md")
-    assert p.returncode == 2 and "make_validation: a validation document refused" in p.stderr
+    assert p.returncode == 2 and "pycolfrag validation: a validation document refused" in p.stderr
 
 
 def test_make_validation_on_a_record_suite_file_says_what_to_use(files, tmp_path):

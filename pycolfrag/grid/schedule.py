@@ -26,7 +26,7 @@ import numpy as np
 from .. import __version__
 from .. import results as _results
 from .. import solver as _solver
-from ..errors import ParameterError
+from ..errors import MissingDependencyError, ParameterError
 from ..results import timeline as _tl_store
 from .chunks import ChunkQueue
 from .protocol import RunSpec, as_row_function
@@ -44,19 +44,23 @@ def get_comm(mode: str = "auto"):
     """``MPI.COMM_WORLD`` or None (serial).
 
     ``auto``: use MPI when started by a launcher (mpirun/srun environment) or when ``mpi4py.MPI``
-    is already imported (``python -m mpi4py``); otherwise do not import it at all. ``yes``: always
-    (an error when mpi4py is missing); ``no``: never.
+    is already imported (``python -m mpi4py``); otherwise do not import it at all. ``yes``: always;
+    ``no``: never. MPI asked for (``yes``, or ``auto`` under a launcher) without mpi4py installed raises
+    :class:`~pycolfrag.errors.MissingDependencyError` with the install command: each rank running the
+    whole job alone, as if it were the only process, would be a silent change of what was asked.
     """
     if mode == "no":
         return None
-    if mode == "auto" and "mpi4py.MPI" not in sys.modules and not any(v in os.environ for v in _LAUNCHER_VARS):
+    launched = [v for v in _LAUNCHER_VARS if v in os.environ]
+    if mode == "auto" and "mpi4py.MPI" not in sys.modules and not launched:
         return None
     try:
         from mpi4py import MPI  # here: importing it starts MPI, wanted only under a launcher
-    except ImportError:
-        if mode == "yes":
-            raise
-        return None
+    except ImportError as exc:
+        why = "--mpi yes" if mode == "yes" else f"started by an MPI launcher ({launched[0]} is set)"
+        raise MissingDependencyError(
+            f"MPI was asked for ({why}) but mpi4py is not installed: pip install 'pycolfrag[mpi]' "
+            f"(or run one process without mpirun) [{exc}]") from exc
     return MPI.COMM_WORLD
 
 
