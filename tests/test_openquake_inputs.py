@@ -119,7 +119,8 @@ def test_hazard_levels_all_below_min_iml_warn():
         assert oq.classical_damage(model, x, p, 50.0, steps_per_interval=4)["rates"][0] == 0.0
     with warnings.catch_warnings():
         warnings.simplefilter("error", oq.HazardRangeWarning)
-        oq.classical_damage(model, HAZ_X, HAZ_P, 50.0)          # levels inside the range: no warning
+        oq.classical_damage(_two_states(0.6, 0.6), HAZ_X, HAZ_P, 50.0)     # levels inside the range: no warning
+    # (against ``model``, minIML 1 g, 5 of these 6 levels lie below: warned since issue 37, next test)
 
 
 @pytest.mark.parametrize("kw, words", [
@@ -270,3 +271,25 @@ def test_a_large_hazard_file_is_read_in_a_few_times_its_size(tmp_path, ids, crlf
         path.write_text(text.replace(bad, words, 1))
         with pytest.raises(HazardFileError, match=r"data row 1(,| has)"):
             oq.read_hazard_curves(path)
+
+
+def test_hazard_levels_partly_below_min_iml_warn_where_the_held_value_counts():
+    """Levels below minIML get the function's value at minIML (OpenQuake's clip), so their share of the rate
+    rests on that held value. The QA case's hazard (0.05-1.4 g) against a fragility of median 0.3 g (beta 0.6)
+    with minIML 0.2 g: the 3 levels below hold P(0.2) = Phi(ln(2/3)/0.6) = 0.25 and carry (by the sums below)
+    over half of the rate: warned, with the share. The same fits over 0.01-10 g (the hazard wholly inside)
+    and with minIML 0.2 and a noDamageLimit of 0.2 (the held value is 0) pass without a warning."""
+    hc = oq.read_hazard_curves(CASE1 / "hazard_curves_continuous.csv")
+    mk = lambda lo, ndl=None: oq.FragilityModel("PGA", ("ls",), [oq.ContinuousFragility.from_lognormal(
+        0.3, 0.6, lo, 10.0, ndl)])
+    occ = oq.occurrence_rates(oq.annual_rates(hc.poes[0], 50.0))
+    f = mk(0.2).functions[0]
+    share = occ[:3] @ f(hc.imls[:3]) / (occ @ f(hc.imls))
+    assert f(0.05) == pytest.approx(stats.norm.cdf(math.log(2 / 3) / 0.6), rel=1e-12) and share > 0.5
+    with pytest.warns(oq.HazardRangeWarning, match=rf"3 of the 28 hazard levels \(0.05 to 0.15\) lie below the "
+                                                   rf"fragility's minIML 0.2.*carry {100 * share:.1f}% of the rate of ls"):
+        oq.classical_damage(mk(0.2), hc.imls, hc.poes, 50.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", oq.HazardRangeWarning)
+        oq.classical_damage(mk(0.01), hc.imls, hc.poes, 50.0)
+        oq.classical_damage(mk(0.2, 0.2), hc.imls, hc.poes, 50.0)

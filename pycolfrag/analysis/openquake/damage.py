@@ -26,6 +26,10 @@ def _fine_graining(points, steps):
 #: hazard's 28 levels alone are within 6 %), far below what the export's wide range gave the engine
 #: (collapse rate x 406 with 20 levels, x 57 with 40, x 2.8 with 100; docs/risk.md).
 DISCRETISATION_RTOL = 0.10
+#: Largest share of a limit state's rate that hazard levels below a continuous model's minIML (where OpenQuake
+#: holds the function at its value at minIML) may carry without a :class:`HazardRangeWarning`. The export's
+#: default minIML holds at most 1e-8 (docs/risk.md), far below it.
+HELD_SHARE_TOL = 0.01
 #: Linear sub-steps per hazard interval of the fine answer.
 FINE_STEPS = 50
 
@@ -155,6 +159,31 @@ def _warn_out_of_range(model, imls) -> None:
                   "levels that cover the fragility's range", HazardRangeWarning, stacklevel=3)
 
 
+def _warn_held_below(model, imls, poes, t) -> None:
+    """:class:`HazardRangeWarning` where hazard levels below a continuous model's minIML, at which OpenQuake
+    holds each function at its value at minIML, carry more than :data:`HELD_SHARE_TOL` of a limit state's
+    rate (on the hazard's own levels; with ``steps_per_interval`` > 1 the engine drops them instead)."""
+    lo = model.domain[0]
+    below = imls < lo
+    if model.format != "continuous" or not below.any() or below.all():
+        return
+    occ = occurrence_rates(annual_rates(poes, t))
+    fx = np.stack([f(imls) for f in model.functions], axis=-1)
+    total, held = occ @ fx, occ[..., below] @ fx[below]
+    share = np.where(total > 0, held / np.where(total > 0, total, 1.0), 0.0)
+    if share.max() <= HELD_SHARE_TOL:
+        return
+    k = np.unravel_index(np.argmax(share), share.shape)
+    site = f" at site {k[0]}" if share.ndim == 2 else ""
+    warnings.warn(f"{int(below.sum())} of the {imls.size} hazard levels ({imls[0]:.4g} to {imls[below][-1]:.4g}) lie "
+                  f"below the fragility's minIML {lo:.4g}, where OpenQuake holds each limit state at its value there "
+                  f"({', '.join(f'{float(f(lo)):.3g}' for f in model.functions)}): they carry {share[k]:.1%} of the "
+                  f"rate of {model.limit_states[k[-1]]}{site}, a number that rests on that held value (with "
+                  "steps_per_interval > 1 the engine leaves those levels out instead); export a lower minIML "
+                  "(the export's default holds at most 1e-8) or give hazard levels from minIML up",
+                  HazardRangeWarning, stacklevel=3)
+
+
 def classical_damage(model: FragilityModel, imls, poes, investigation_time, risk_investigation_time=None, *,
                      steps_per_interval: int = 1, continuous_fragility_discretization: int = 20) -> dict:
     """Damage-state probabilities of one asset from a hazard curve, the way OpenQuake's classical damage
@@ -176,7 +205,8 @@ def classical_damage(model: FragilityModel, imls, poes, investigation_time, risk
     Refused (ParameterError): fewer than two hazard levels, a probability outside [0, 1), times that
     are not > 0, and a model whose limit states cross at the levels evaluated (:meth:`FragilityModel.crossing`:
     a negative damage-state probability). Warned (:class:`HazardRangeWarning`): hazard levels that all
-    lie outside the fragility's range; with ``steps_per_interval > 1``, rates more than
+    lie outside the fragility's range, and levels below a continuous model's minIML that carry more than
+    :data:`HELD_SHARE_TOL` of a rate (OpenQuake holds the function there); with ``steps_per_interval > 1``, rates more than
     :data:`DISCRETISATION_RTOL` from :func:`fine_rates`' (:class:`DiscretisationWarning`: the export's wide
     range spaced linearly by ``continuous_fragility_discretization`` levels, docs/risk.md).
 
@@ -190,6 +220,7 @@ def classical_damage(model: FragilityModel, imls, poes, investigation_time, risk
     steps, cfd = steps_per_interval, continuous_fragility_discretization
     imls, poes, t, tr = _check_inputs(model, imls, poes, investigation_time, risk_investigation_time, steps, cfd)
     _warn_out_of_range(model, imls)
+    _warn_held_below(model, imls, poes, t)
     levels, fine_poes = _levels(model, imls, poes, int(steps), int(cfd))
     cross = model.crossing(levels)
     if cross:
