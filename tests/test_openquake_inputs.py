@@ -120,7 +120,7 @@ def test_hazard_levels_all_below_min_iml_warn():
     with warnings.catch_warnings():
         warnings.simplefilter("error", oq.HazardRangeWarning)
         oq.classical_damage(_two_states(0.6, 0.6), HAZ_X, HAZ_P, 50.0)     # levels inside the range: no warning
-    # (against ``model``, minIML 1 g, 5 of these 6 levels lie below: warned since issue 37, next test)
+    # (against ``model``, minIML 1 g, 5 of these 6 levels lie below: warned, next test)
 
 
 @pytest.mark.parametrize("kw, words", [

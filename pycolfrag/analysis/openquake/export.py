@@ -57,7 +57,7 @@ RANGE_FACTOR_LIMIT = 1e3
 
 
 #: What OpenQuake's engine gave with ``steps_per_interval`` > 1 on the default grid's continuous export
-#: (range 0.0104-18.5 g), quoted in the export's warning and in docs/risk.md (issue 37).
+#: (range 0.0104-18.5 g, the engine run on it by hand), quoted in the export's warning and in docs/risk.md.
 ENGINE_STEPS_NOTE = ("on the default grid's export (0.0104-18.5 g) the engine's collapse rate went up x 406 with 20 "
                      "levels, x 57 with 40 and x 2.8 with 100, P(no damage in 50 years) 0.9935 -> 0.816")
 
