@@ -126,7 +126,7 @@ def _warn_discretisation(model, imls, poes, t, rates, steps, cfd) -> None:
     ratio = np.where(fine > 0, rates / np.where(fine > 0, fine, 1.0), np.inf)
     k = np.unravel_index(np.argmax(np.where(off, np.abs(np.log(np.where(ratio > 0, ratio, 1e-300))), -1.0)), off.shape)
     site, j = (k[0], k[1]) if off.ndim == 2 else (None, k[0])
-    where = "" if site is None else f" at site {site} (of {off.shape[0]}; {int(off.any(axis=1).sum())} off)"
+    where = "" if site is None else f" at site {site} ({int(off.any(axis=1).sum())} of {off.shape[0]} sites off)"
     if model.format == "continuous":
         lo, hi = model.domain
         how = (f"{cfd} levels spaced linearly from minIML {lo:.4g} to maxIML {hi:.4g} (every {(hi - lo) / (cfd - 1):.3g}),"
@@ -142,7 +142,7 @@ def _warn_discretisation(model, imls, poes, t, rates, steps, cfd) -> None:
     warnings.warn(f"steps_per_interval {steps}: OpenQuake evaluates the fragility at {how}; the rate of "
                   f"{model.limit_states[j]}{where} is then {rates[k]:.4g} /yr, {ratio[k]:.3g} times the fine answer "
                   f"{fine[k]:.4g} /yr (the same interpolation on {FINE_STEPS} steps per hazard interval), beyond "
-                  f"{DISCRETISATION_RTOL:.0%}; the engine gives the same. {fix[0].upper() + fix[1:]} (docs/risk.md)",
+                  f"{DISCRETISATION_RTOL:.0%}; OpenQuake's engine computes the same number. {fix[0].upper() + fix[1:]} (docs/risk.md)",
                   DiscretisationWarning, stacklevel=3)
 
 
