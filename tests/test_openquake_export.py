@@ -11,6 +11,7 @@ log-spaced levels reaches it within 0.3 % (tests/test_openquake.py), so 1 % is a
 import math
 import os
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -125,8 +126,9 @@ def test_degenerate_fits_are_refused_unless_asked_for_and_then_marked(tmp_path, 
     assert oq.main(argv + ["--allow-degenerate"]) == 0
     io = capsys.readouterr()
     assert io.out.count("DEGENERATE") == 2 * 3        # each limit state's line and its note
-    warned = [ln for ln in io.err.splitlines() if "warning:" in ln]
-    assert len(warned) == 2, warned                  # one per cause: separable, beta on its bound
+    warned = [ln for ln in io.err.splitlines() if "warning:" in ln and "steps_per_interval > 1" not in ln]
+    assert len(warned) == 2, warned                  # one per cause: separable, beta on its bound (and the
+    # continuous export's steps_per_interval warning, test_the_wide_export_warns_of_openquakes_linear_levels)
     assert warned[0].startswith("pycolfrag.analysis.openquake: warning: 3 limit-state fit(s): the exceeding runs")
     [back] = oq.read_nrml(out).values()
     assert back.description.count("DEGENERATE fit of") == 3
@@ -156,3 +158,47 @@ def test_incomplete_files_are_refused_unless_asked_for_and_then_marked(tmp_path,
     done = write_results(tmp_path / "done.h5", mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0), n=60, n_failed=0,
                          complete=True)
     assert "INCOMPLETE" not in oq.fragility_from_results(done, "pga_g").description
+
+
+def _collapse_table(n=3000, seed=5):
+    """Collapse fragility like the default grid's (median about 2.06 g, beta about 0.71) on PGAs spread
+    like its records': the default range then spans about 0.01-20 g, as the default grid's 0.0104-18.5 g."""
+    rng = np.random.default_rng(seed)
+    pga = np.exp(rng.normal(np.log(0.6), 0.9, n))
+    coll = pga > 2.061 * np.exp(0.710 * rng.standard_normal(n))
+    return {"pga_g": pga, "u_top": np.where(coll, np.nan, 0.01), "collapsed": coll.astype(int),
+            "status": np.zeros(n, int)}
+
+
+def test_the_wide_export_warns_of_openquakes_linear_levels(tmp_path, capsys):
+    """OpenQuake's steps_per_interval > 1 evaluates a continuous function at continuous_fragility_discretization
+    levels spaced linearly over minIML-maxIML (its build_imls; our _levels, checked against the engine to 1e-12
+    in tests/test_openquake_inputs.py). Over the export's wide range, with 20 levels every 1 g, the collapse rate
+    on the QA case's hazard (0.05-1.4 g) comes out 104 times the fine answer (x 17 with 40 levels, x 1.8 with
+    100; the fine answer: the same interpolation on 50 steps per hazard interval; the engine gave x 406 on the
+    default grid's export against its hazard): `damage` warns,
+    naming the rate, the ratio and a number of levels that is within 10 %; with that many levels, or with
+    steps_per_interval 1, it does not. The export's printout warns as well."""
+    m = oq.fragility_from_results(_collapse_table(), "pga_g", levels=())
+    lo, hi = m.domain
+    assert lo < 0.05 and hi > 10          # wider than the hazard curve's 0.05-1.4 g on both sides
+    hc = oq.read_hazard_curves(CASE1 / "hazard_curves_continuous.csv")
+    fine = oq.fine_rates(m, hc.imls, hc.poes[0], 50.0)[0]
+    with pytest.warns(oq.DiscretisationWarning, match=r"steps_per_interval 4: .* 20 levels spaced linearly .* rate "
+                                                      r"of collapse .* times the fine answer .* >= (\d+)") as rec:
+        coarse = oq.classical_damage(m, hc.imls, hc.poes[0], 50.0, steps_per_interval=4)["rates"][0]
+    assert coarse / fine > 10
+    enough = int(str(rec[0].message).split(">= ")[1].split(",")[0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", oq.DiscretisationWarning)
+        ok = oq.classical_damage(m, hc.imls, hc.poes[0], 50.0, steps_per_interval=4,
+                                 continuous_fragility_discretization=enough)["rates"][0]
+        assert ok == pytest.approx(fine, rel=0.1)
+        one = oq.classical_damage(m, hc.imls, hc.poes[0], 50.0)["rates"][0]      # the hazard's own levels
+    assert one == pytest.approx(fine, rel=0.1)
+    h5 = write_results(tmp_path / "grid.h5", mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0), n=60, n_failed=0)
+    assert oq.main(["export", str(h5), str(tmp_path / "m.xml"), "--im", "pga_g"]) == 0
+    err = capsys.readouterr().err
+    assert "warning: continuous functions over" in err and "x 406 with 20 levels" in err
+    assert oq.main(["export", str(h5), str(tmp_path / "d.xml"), "--im", "pga_g", "--format", "discrete"]) == 0
+    assert "x 406" not in capsys.readouterr().err       # log-spaced IMLs, cut into steps each

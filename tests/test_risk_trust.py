@@ -288,3 +288,50 @@ def test_example_numbers_are_written_from_the_risk_files(tmp_path):
     assert page.read_text() == "before\n" + text.rstrip("\n") + "\nafter\n"
     doc = (root / "docs" / "risk.md").read_text()
     assert doc.count(ex.BEGIN) == 1 and doc.count(ex.END) == 1
+
+
+# --------------------------------------------------------------------------- scenarios not computed yet
+
+def _half_grid(tmp_path):
+    """A grid that asked for Mw 6, 6.5, 7 x R 10, 20 km x 40 samples and holds the Mw 6 and 6.5 rows only."""
+    p = write_cells(tmp_path / "p.h5", {(6.0, 10.0): (40, 1, 0.1), (6.0, 20.0): (40, 0, 0.05),
+                                        (6.5, 10.0): (40, 3, 0.2), (6.5, 20.0): (40, 1, 0.1)})
+    return _attrs(p, mw=[6.0, 6.5, 7.0], dist_km=[10.0, 20.0], samples=40)
+
+
+@pytest.mark.parametrize("outside", ["refuse", "clamp", "zero"])
+def test_a_source_on_scenarios_not_computed_yet_is_not_outside_nor_zero(tmp_path, outside):
+    """An Mw 7 source on a grid that asked for Mw 7 but has no Mw 7 row yet: it was called 'outside the
+    simulated range' (refused), clamped onto the Mw 6.5 rows, or every rate 0 [0, 0] as if known. Its rate
+    falls on scenarios not computed yet: refused as such, whatever the outside treatment."""
+    with pytest.raises(ParameterError, match=r"none of the site's rate falls on the scenarios computed so far "
+                                             r"\(Mw 6-6\.5, R 10-20 km of the grid asked for, Mw 6-7.*finish the run"):
+        risk.site_risk(site([char_source(7.0, 10.0)], outside=outside), _half_grid(tmp_path), curves=False,
+                       n_draws=20, allow_incomplete=True)
+
+
+def test_rates_with_a_part_not_computed_yet_are_lower_bounds(tmp_path, capsys):
+    """A truncated G-R source (b = 1, Mw 5.8-7) on that grid: the part above Mw 6.5 falls on the Mw 7
+    scenarios not computed yet, (10^-0.7 - 10^-1.2) / (1 - 10^-1.2) = 0.1456 of its rate (by hand), and
+    counts 0: every rate is a lower bound, said in the marks, the table ('>='), the printout and the JSON.
+    The part below Mw 6, 0.3939 of the rate ((1 - 10^-0.2) / (1 - 10^-1.2)), is outside the grid asked for
+    and treated as the site says; nothing above is called outside."""
+    src = {"name": "f", "rate": 0.01, "magnitude": {"type": "gutenberg-richter", "b": 1.0, "m_min": 5.8,
+                                                    "m_max": 7.0}, "distance": {"type": "uniform", "min_km": 10.0,
+                                                                                "max_km": 20.0}}
+    res = risk.site_risk(site([src], outside="zero"), _half_grid(tmp_path), curves=False, n_draws=20,
+                         allow_incomplete=True)
+    [o] = res.outside
+    assert o.not_computed == pytest.approx((10 ** -0.7 - 10 ** -1.2) / (1 - 10 ** -1.2), rel=1e-9)
+    assert o.mw_below == pytest.approx((1 - 10 ** -0.2) / (1 - 10 ** -1.2), rel=1e-9) and o.mw_above == 0.0
+    assert all(res.rate[q.label][0] > 0 for q in risk.QUANTITIES)
+    assert all("LOWER BOUND (14.6 % of the rate on scenarios not computed yet" in "; ".join(
+        risk_report.level_marks(res, q.label)) for q in risk.QUANTITIES)
+    text = risk.report_section(res)
+    assert "| collapse | >= " in text and "every rate is a LOWER BOUND" in text
+    risk_report.print_summary(res, 50.0)
+    out = capsys.readouterr().out
+    assert "14.6 % of its rate falls on scenarios of the grid asked for that are not computed yet" in out
+    assert "collapse: lambda >= " in out and "outside the simulated range (Mw below 39.4 %, above 0.0 %" in out
+    js = res.to_json()
+    assert js["rates_are_lower_bounds"] and js["not_computed_share"] == pytest.approx(o.not_computed)

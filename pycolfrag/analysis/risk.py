@@ -177,7 +177,19 @@ def _read_branches(site, pulse_results, no_pulse_results, allow_incomplete):
     return branches, check_complete(branches, allow_incomplete)
 
 
-def _context(site, branches, estimator, method, misfit, confidence, g, n_draws):
+def _asked_grid(data, mws, ds):
+    """The (Mw, R) nodes an incomplete file's run asked for (its ``mw`` and ``dist_km`` attributes), or None
+    when it does not say or they do not hold the computed nodes."""
+    m, r = data.attrs.get("mw"), data.attrs.get("dist_km")
+    if m is None or r is None:
+        return None
+    am, ad = np.unique(np.asarray(m, dtype=float)), np.unique(np.asarray(r, dtype=float))
+    if not (np.all(np.isin(mws, am)) and np.all(np.isin(ds, ad))):
+        return None
+    return am, ad
+
+
+def _context(site, branches, estimator, method, misfit, confidence, g, n_draws, incomplete=()):
     grids = {b: grid_cells(data) for b, data in branches.items()}
     mws, ds, _ = grids["pulse"]
     for b, (m2, d2, _) in grids.items():
@@ -191,10 +203,17 @@ def _context(site, branches, estimator, method, misfit, confidence, g, n_draws):
                              f"{MAX_DRAW_BYTES / 2**30:g} GiB allowed (the default is 2000)")
     weights, per_source = {}, {}
     reports = None
+    asked = _asked_grid(branches["pulse"], mws, ds) if incomplete else None
     for b in branches:
         key = "all" if len(branches) == 1 else b
-        weights[b], per_source[b], rep = node_weights(site.sources, mws, ds, outside=site.outside, branch=key)
+        weights[b], per_source[b], rep = node_weights(site.sources, mws, ds, outside=site.outside, branch=key,
+                                                      asked=asked)
         reports = reports or rep
+    if any(o.not_computed > 0 for o in reports) and not any(np.any(w > 0) for w in weights.values()):
+        raise ParameterError(f"none of the site's rate falls on the scenarios computed so far (Mw {mws[0]:g}-"
+                             f"{mws[-1]:g}, R {ds[0]:g}-{ds[-1]:g} km of the grid asked for, Mw {asked[0][0]:g}-"
+                             f"{asked[0][-1]:g}, R {asked[1][0]:g}-{asked[1][-1]:g} km): every rate would be an "
+                             "unknown reported as 0; finish the run (rerun its command to resume)")
     ctx = _Context(site, branches, mws, ds, {b: grids[b][2] for b in branches}, weights, per_source, estimator,
                    method, misfit, confidence, g)
     return ctx, reports
@@ -286,7 +305,7 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
     method, g = _check_settings(estimator, uncertainty, eq4_misfit, confidence, n_draws, rng)
     site = _resolve_site(site, pulse_only, pulse_model, outside, years)
     branches, incomplete = _read_branches(site, pulse_results, no_pulse_results, allow_incomplete)
-    ctx, reports = _context(site, branches, estimator, method, eq4_misfit, confidence, g, n_draws)
+    ctx, reports = _context(site, branches, estimator, method, eq4_misfit, confidence, g, n_draws, incomplete)
     deg = _degeneracy(ctx) if estimator == "eq4" else Degeneracy()
     deg.warn()
     rate, checks, deagg, source_rate = {}, {}, {}, {s.name: {} for s in site.sources}

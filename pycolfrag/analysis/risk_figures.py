@@ -31,6 +31,9 @@ def _title(risk):
         t += " -- PULSE-ONLY (overstates the risk)"
     if risk.incomplete:
         t += " -- INCOMPLETE results"
+    share = sum(o.rate * o.not_computed for o in risk.outside) / max(sum(o.rate for o in risk.outside), 1e-300)
+    if share > 0:
+        t += f" -- LOWER BOUNDS ({100 * share:.3g} % of the rate on scenarios not computed yet)"
     return t
 
 

@@ -61,6 +61,7 @@ class SiteRisk:
         return {"site": self.site.name, "site_file": self.site.path, "files": self.files,
                 "branches": list(self.branches), "pulse_only": self.pulse_only,
                 "incomplete": self.incomplete, "identity": self.identity,
+                "rates_are_lower_bounds": not_computed_share(self) > 0, "not_computed_share": not_computed_share(self),
                 "estimator": self.estimator, "uncertainty": self.uncertainty, "eq4_misfit": self.misfit,
                 "eq4_fit_alpha": EQ4_FIT_ALPHA, "confidence": self.confidence, "n_draws": self.n_draws,
                 "interpolation": "bilinear in (Mw, ln R) on the probability",
@@ -92,7 +93,23 @@ def level_marks(risk: SiteRisk, label: str) -> list:
                      + ("empirical ratio there" if risk.misfit == "fallback" else "kept (warn)"))
     if risk.incomplete:
         marks.append("INCOMPLETE results")
+    share = not_computed_share(risk)
+    if share > 0:
+        marks.append(f"LOWER BOUND ({100 * share:.3g} % of the rate on scenarios not computed yet, counted as 0)")
     return marks
+
+
+def not_computed_share(risk: SiteRisk) -> float:
+    """The share of the site's rate on scenarios of the grid asked for that an incomplete file has no rows
+    for yet (:class:`~pycolfrag.analysis.risk_weights.OutsideReport`'s ``not_computed``): counted as 0, so
+    every rate is a lower bound when it is > 0."""
+    total = sum(o.rate for o in risk.outside)
+    return sum(o.rate * o.not_computed for o in risk.outside) / total if total > 0 else 0.0
+
+
+def _ge(risk: SiteRisk) -> str:
+    """">= " before a rate that is a lower bound (:func:`not_computed_share`), else ""."""
+    return ">= " if not_computed_share(risk) > 0 else ""
 
 
 def _e(x):
@@ -101,6 +118,14 @@ def _e(x):
 
 def _p(x):
     return f"{x:.3f}" if x >= 0.001 or x == 0 else f"{x:.1e}"
+
+
+def _not_computed_line(risk: SiteRisk) -> str:
+    share = not_computed_share(risk)
+    if share <= 0:
+        return ""
+    return (f" (the scenarios with rows so far; {100 * share:.3g} % of the site's rate falls on scenarios of the grid "
+            "asked for that are not computed yet, counted as 0: every rate is a LOWER BOUND)")
 
 
 def _header(risk: SiteRisk) -> list:
@@ -122,7 +147,8 @@ def _header(risk: SiteRisk) -> list:
           *[f"- {b} branch: `{p}`" for b, p in risk.files.items()],
           f"- branches' identity: {ident}" + (" (same seed and code: checked)" if len(risk.branches) > 1 else ""),
           f"- cell probability: {est}; collapse: Eq. (3); interpolation: bilinear in (Mw, ln R) on the "
-          f"probability; grid Mw {risk.mws[0]:g}-{risk.mws[-1]:g}, R {risk.ds[0]:g}-{risk.ds[-1]:g} km",
+          f"probability; grid Mw {risk.mws[0]:g}-{risk.mws[-1]:g}, R {risk.ds[0]:g}-{risk.ds[-1]:g} km"
+          + _not_computed_line(risk),
           f"- intervals: two-sided {pct}, `{method.name}`: {method.description}; {risk.n_draws} draws of every "
           "grid cell, cells drawn independently" + ("" if len(risk.branches) == 1 else
           ", a cell's pulse and no-pulse rows paired by sample (same seeds) and drawn together"
@@ -146,9 +172,11 @@ def _level_table(risk: SiteRisk) -> list:
             top = f"Mw {risk.mws[i]:g}, R {risk.ds[j]:g} km ({100 * d[i, j]:.0f} %)"
         else:
             top = "-"
-        cells = [f"{_p(v[0])} [{_p(v[1])}, {_p(v[2])}]" for v in (risk.prob[t][q.label] for t in sorted(risk.prob))]
+        cells = [f"{_ge(risk)}{_p(v[0])} [{_p(v[1])}, {_p(v[2])}]" for v in (risk.prob[t][q.label] for t in sorted(risk.prob))]
         name = q.label if q.level is None else f"{q.label} ({q.name})"
-        L.append(f"| {name} | {_e(lam)} [{_e(lo)}, {_e(hi)}] | {'inf' if lam == 0 else f'{1 / lam:.3g}'} | "
+        ge = _ge(risk)
+        period = "inf" if lam == 0 else ("<= " if ge else "") + f"{1 / lam:.3g}"
+        L.append(f"| {name} | {ge}{_e(lam)} [{_e(lo)}, {_e(hi)}] | {period} | "
                  + " | ".join(cells) + f" | {top} | {'; '.join(level_marks(risk, q.label)) or '-'} |")
     return L
 
@@ -187,6 +215,10 @@ def report_section(risk: SiteRisk, figures: dict | None = None, heading: str = "
     for o in risk.outside:
         L.append(f"| {o.source} | {o.mw_below:.3f} | {o.mw_above:.3f} | {o.r_below:.3f} | {o.r_above:.3f} | "
                  f"{o.outside:.3f} | {o.treatment} |")
+    if not_computed_share(risk) > 0:
+        L += ["", "Part of each source on scenarios not computed yet (inside the grid asked for; counted as 0, "
+                  "so every rate above is a lower bound): "
+              + ", ".join(f"{o.source} {o.not_computed:.3f}" for o in risk.outside)]
     L += _fit_lines(risk)
     if figures:
         L += [""]
@@ -252,6 +284,9 @@ def print_summary(risk: SiteRisk, years: float) -> None:
     if risk.pulse_only:
         print("PULSE-ONLY risk (asked for explicitly): it overstates the risk of a site")
     for o in risk.outside:
+        if o.not_computed > 0:
+            print(f"{o.source}: {100 * o.not_computed:.1f} % of its rate falls on scenarios of the grid asked for "
+                  "that are not computed yet: counted as 0, every rate below is a LOWER BOUND")
         if o.outside > 0:
             print(f"{o.source}: {100 * o.outside:.1f} % of its rate lies outside the simulated range (Mw below "
                   f"{100 * o.mw_below:.1f} %, above {100 * o.mw_above:.1f} %; R below {100 * o.r_below:.1f} %, above "
@@ -260,5 +295,5 @@ def print_summary(risk: SiteRisk, years: float) -> None:
         lam, lo, hi = risk.rate[q.label]
         p = risk.prob[years][q.label]
         marks = level_marks(risk, q.label)
-        print(f"{q.label:>14}: lambda {_e(lam)} [{_e(lo)}, {_e(hi)}] /yr, P{years:g} {_p(p[0])} "
+        print(f"{q.label:>14}: lambda {_ge(risk)}{_e(lam)} [{_e(lo)}, {_e(hi)}] /yr, P{years:g} {_ge(risk)}{_p(p[0])} "
               f"[{_p(p[1])}, {_p(p[2])}]" + (f"  ({'; '.join(marks)})" if marks else ""))

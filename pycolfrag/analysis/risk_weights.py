@@ -81,7 +81,10 @@ class OutsideReport:
     """The part of one source outside the simulated (Mw, R) range, as fractions of its rate.
 
     A point of the source counts in every category it falls in; ``outside`` is the fraction outside
-    in Mw or R (or both). ``treatment`` is what that part contributed: clamp, zero or refuse.
+    in Mw or R (or both) of the grid asked for. ``treatment`` is what that part contributed: clamp, zero
+    or refuse. ``not_computed``: the fraction that falls on scenarios of the grid asked for that an
+    incomplete file has no rows for yet (after the treatment): it contributes 0, so every rate is a lower
+    bound (docs/risk.md).
     """
 
     source: str
@@ -92,6 +95,7 @@ class OutsideReport:
     r_above: float
     outside: float
     treatment: str
+    not_computed: float = 0.0
 
     def as_dict(self):
         return dict(self.__dict__)
@@ -114,18 +118,22 @@ def _outside_report(s, ev, mws, ds, outside):
     return rep, out
 
 
-def node_weights(sources, mws, ds, *, outside="refuse", branch="all"):
+def node_weights(sources, mws, ds, *, outside="refuse", branch="all", asked=None):
     """Annual rate attached to every grid scenario: lambda = sum(W * P) for a surface P on the grid.
 
     Parameters
     ----------
     sources : sequence of pycolfrag.site.SiteSource
     mws, ds : array_like
-        The grid's magnitudes and distances (km), ascending.
+        The grid's magnitudes and distances (km), ascending: those with rows.
     outside : {"refuse", "clamp", "zero"}
         What the part of a source outside the grid contributes (always reported).
     branch : {"all", "pulse", "no-pulse"}
         Weight every event by 1, by its p_pulse, or by 1 - p_pulse (:data:`BRANCH_WEIGHTS`).
+    asked : (mws, ds), optional
+        The grid an incomplete file's run asked for (default: ``mws, ds``). ``outside`` applies beyond
+        it; events inside it but beyond the computed ``mws, ds`` fall on scenarios not computed yet: they
+        contribute 0 and are reported as ``not_computed`` (the rates are then lower bounds).
 
     Returns
     -------
@@ -136,17 +144,23 @@ def node_weights(sources, mws, ds, *, outside="refuse", branch="all"):
     if branch not in BRANCH_WEIGHTS:
         raise ParameterError(f"branch must be one of {', '.join(map(repr, BRANCH_WEIGHTS))}, got {branch!r}")
     mws, ds = np.asarray(mws, dtype=float), np.asarray(ds, dtype=float)
+    am, ad = (mws, ds) if asked is None else (np.asarray(asked[0], dtype=float), np.asarray(asked[1], dtype=float))
     total = np.zeros((mws.size, ds.size))
     per_source, reports = [], []
     for s in sources:
-        ev = s.quadrature(mws, ds)
-        rep, out = _outside_report(s, ev, mws, ds, outside)
+        ev = s.quadrature(np.union1d(mws, am), np.union1d(ds, ad))   # segments end at every node
+        rep, out = _outside_report(s, ev, am, ad, outside)
         reports.append(rep)
         w = ev.weight * BRANCH_WEIGHTS[branch](np.asarray(ev.p_pulse, dtype=float))
         if outside == "zero":
             w = np.where(out, 0.0, w)
+        m, r = np.clip(ev.mw, am[0], am[-1]), np.clip(ev.r_km, ad[0], ad[-1])
+        missing = np.logical_or.reduce(_beyond(mws, m, False) + _beyond(ds, r, True))
+        kept = ev.weight if outside != "zero" else np.where(out, 0.0, ev.weight)
+        rep.not_computed = float(np.sum(kept[missing]) / s.rate) if s.rate > 0 else 0.0
+        w = np.where(missing, 0.0, w)
         W = np.zeros_like(total)
-        for i, j, b in _bilinear(mws, ds, np.clip(ev.mw, mws[0], mws[-1]), np.clip(ev.r_km, ds[0], ds[-1])):
+        for i, j, b in _bilinear(mws, ds, np.clip(m, mws[0], mws[-1]), np.clip(r, ds[0], ds[-1])):
             np.add.at(W, (i, j), w * b)
         per_source.append(W)
         total += W

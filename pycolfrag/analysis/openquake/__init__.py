@@ -34,7 +34,7 @@ from __future__ import annotations
 
 from ..outputs import NRML_NS, write_nrml
 from .cli import main
-from .damage import HazardRangeWarning, classical_damage
+from .damage import DiscretisationWarning, HazardRangeWarning, classical_damage, fine_rates
 from .export import fragility_from_results
 from .functions import CROSSING_TOL, MIN_IML, ContinuousFragility, DiscreteFragility, FragilityModel
 from .hazard import HazardCurves, annual_rates, im_of_imt, imt_of, occurrence_rates, read_hazard_curves
@@ -42,5 +42,5 @@ from .nrml import read_nrml
 
 __all__ = ["NRML_NS", "MIN_IML", "HazardCurves", "read_hazard_curves", "imt_of", "im_of_imt", "annual_rates",
            "occurrence_rates", "ContinuousFragility", "DiscreteFragility", "FragilityModel",
-           "classical_damage", "HazardRangeWarning", "CROSSING_TOL", "fragility_from_results", "write_nrml", "read_nrml",
+           "classical_damage", "fine_rates", "HazardRangeWarning", "DiscretisationWarning", "CROSSING_TOL", "fragility_from_results", "write_nrml", "read_nrml",
            "main"]

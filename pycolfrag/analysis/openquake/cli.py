@@ -9,8 +9,8 @@ from ...errors import ParameterError, PycolfragError
 from ..completeness import ALLOW_INCOMPLETE_HELP
 from ..fragility import U_D_LEVELS, U_TOP_LEVELS
 from ..outputs import WRITERS, write_fragility
-from .damage import classical_damage
-from .export import RANGE_CEILING_POE, RANGE_FLOOR_POE, fragility_from_results
+from .damage import DiscretisationWarning, classical_damage
+from .export import RANGE_CEILING_POE, RANGE_FLOOR_POE, fragility_from_results, steps_per_interval_warning
 from .hazard import _IMT, im_of_imt, read_hazard_curves
 from .nrml import read_nrml
 
@@ -85,6 +85,9 @@ def _export(args) -> None:
     write_fragility(model, args.out, args.to)
     print(f"{args.out}: {model.format} fragility on {model.imt}, limit states {', '.join(model.limit_states)}")
     _print_model(model)
+    note = steps_per_interval_warning(model)
+    if note:
+        warnings.warn(note, DiscretisationWarning, stacklevel=2)
 
 
 def _fragility_model(args, hc):
