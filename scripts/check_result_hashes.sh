@@ -16,7 +16,12 @@
 #   -DCF_NO_SIMD     the scalar reference
 # and the four outputs must be identical. The builds use the flags of csrc/flags.mk
 # (no -march: the wider paths are compiled by function attributes).
+# Then the output must equal the stored tests/c/result_hashes.expected: a change of results (a new law,
+# a reordered sum) fails CI until it is re-pinned on purpose, in the commit that makes the change and with
+# its evidence: `bash scripts/check_result_hashes.sh --pin` writes the file anew.
 set -euo pipefail
+pin=0
+if [ "${1:-}" = "--pin" ]; then pin=1; fi
 cd "$(dirname "$0")/.."
 cflags=$(make -s -f csrc/flags.mk -f - print-cflags <<'MK'
 print-cflags: ; @echo $(CFLAGS)
@@ -38,8 +43,17 @@ for v in avx2 sse2 scalar; do
         echo "check_result_hashes: the default (widest SIMD) and the $v builds differ (lines above)"; status=1
     fi
 done
-if [ $status -eq 0 ]; then
-    echo "check_result_hashes: default SIMD, AVX2, SSE2 and scalar builds give identical results, batches" \
-         "of every width equal to single runs ($(wc -l < build/result_hashes_simd.txt) lines)"
+if [ $status -ne 0 ]; then exit $status; fi
+echo "check_result_hashes: default SIMD, AVX2, SSE2 and scalar builds give identical results, batches" \
+     "of every width equal to single runs ($(wc -l < build/result_hashes_simd.txt) lines)"
+expected=tests/c/result_hashes.expected
+if [ $pin -eq 1 ]; then
+    cp build/result_hashes_simd.txt "$expected"
+    echo "check_result_hashes: pinned $expected anew (commit it with the change of results and its evidence)"
+elif ! diff "$expected" build/result_hashes_simd.txt; then
+    echo "check_result_hashes: the results differ from the stored $expected (lines above: < stored, > now)." \
+         "A change of results on purpose is re-pinned with --pin in the commit that makes it."
+    exit 1
+else
+    echo "check_result_hashes: every line equals the stored $expected"
 fi
-exit $status
