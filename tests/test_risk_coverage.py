@@ -78,6 +78,7 @@ def test_a_results_file_is_subsampled(tmp_path, capsys):
     import importlib.util
 
     import h5py
+
     from test_risk import char_source, site, write_cells
     h5 = write_cells(tmp_path / "g.h5", {(6.5, 10.0): (30, 1, 0.1), (7.0, 10.0): (30, 2, 0.2)})
     with h5py.File(h5, "a") as f:   # the grid's own attributes, as run_grid writes them
