@@ -71,7 +71,7 @@ def test_zero_events_do_not_give_a_zero_interval(tmp_path):
 
 
 def test_a_results_file_is_subsampled(tmp_path, capsys):
-    """Issue 37 item 19: ``bench/risk_coverage.py --results FILE`` refused every subsample, because the
+    """``bench/risk_coverage.py --results FILE`` refused every subsample, because the
     subset kept the file's ``samples`` attribute (30 runs per cell) and so read as an incomplete file
     of 2 x 30 rows holding 2 x 10. A complete file of 2 cells x 30 runs, 10 kept per cell: the bench
     prints its table, one row per estimator, method and level (each level a share in [0, 1])."""

@@ -2,7 +2,7 @@
 EDPs' definitions, the column (or scene) as tables, numbers to sensible significant digits, the marks of
 intervals that exclude what was observed, and a caption under every figure.
 
-* :data:`DEFINITIONS`: u_top and u_d as SPEC.md section 3 defines them, the IMs' units, collapse.
+* :data:`DEFINITIONS`: u_top and u_d as the paper defines them (peak, residual over the last 2 s), the IMs' units, collapse.
 * :func:`model_lines`: the results file's ``column`` attribute (a column's or a colonnade's
   ``to_dict()``) as a summary and a table of blocks (heights, diameters), density and joint
   properties, dowels and epistyles; a description it cannot read is listed key by key, never cut.
