@@ -50,11 +50,29 @@ def test_the_column_is_a_table_not_a_cut_blob(report_text):
     """The default column: 12 drums and a capital (13 blocks), 10.08 m, base diameter 1.65 m, 2700 kg/m3,
     kn = 1e9 Pa/m, friction 37 degrees (pycolfrag.column.Column.parthenon)."""
     col = report_text[report_text.index("### The column"):report_text.index("## Collapse")]
-    assert "13 blocks, height 10.1 m, base diameter 1.65 m" in col and "density 2700 kg/m\u00b3" in col
+    assert "13 blocks, height 10.08 m, base diameter 1.650 m" in col and "density 2700 kg/m\u00b3" in col
     assert "kn = 1e+09 Pa/m" in col and "friction angle 37\u00b0" in col
     assert "| block | name | height (m) | bottom diameter (m) | top diameter (m) | sides |" in col
-    assert "| 1 | drum 1 | 0.782 | 1.65 | 1.62 | 10 |" in col
+    assert "| 1 | drum 1 | 0.7817 | 1.650 | 1.619 | 10 |" in col
     assert '{"' not in col and "..." not in col
+
+
+def test_a_scene_and_dowels_are_described():
+    """The 2-column portal (examples/portal_2.toml: axes 4 m apart, a 1.35 m epistyle) and the wooden
+    dowels (examples/column_parthenon_wood.toml: the `wood` law, 5e6 N/m, crushing at 10 kN, breaking at
+    20 mm); a description that is not a model is listed key by key, not cut."""
+    from pathlib import Path
+
+    from pycolfrag.scene import Colonnade
+    ex = Path(__file__).resolve().parents[1] / "examples"
+    portal = "\n".join(rt.model_lines(Colonnade.from_file(ex / "portal_2.toml").to_json()))
+    assert "2 columns, axes 4.000 m apart; an epistyle 1.350 m high over every span" in portal
+    assert "| 13 | " in portal
+    wood = "\n".join(rt.model_lines(json.dumps(pcf.Column.from_file(ex / "column_parthenon_wood.toml").to_dict())))
+    assert "law `wood` (clearance): shear stiffness 5e+06 N/m, yield 10.0 kN, breaks at 20.0 mm" in wood
+    long = {"name": "x", "note": "y" * 600}
+    listed = "\n".join(rt.model_lines(json.dumps(long)))
+    assert "y" * 600 in listed and "could not be read as a model" in listed
 
 
 def test_every_figure_has_a_caption(report_text):

@@ -6,7 +6,8 @@ intervals that exclude what was observed, and a caption under every figure.
 * :func:`model_lines`: the results file's ``column`` attribute (a column's or a colonnade's
   ``to_dict()``) as a summary and a table of blocks (heights, diameters), density and joint
   properties, dowels and epistyles; a description it cannot read is listed key by key, never cut.
-* :func:`sig`: a number to 3 significant digits in plain notation (``11286.634`` -> ``11300``).
+* :func:`sig`: a number to 3 significant digits in plain notation (``11286.634`` -> ``11300``); the
+  column's geometry to 4 (10.08 m).
 * :data:`CAPTIONS`: what each figure of :data:`pycolfrag.analysis.figures.FIGURES` shows, with units.
 """
 from __future__ import annotations
@@ -72,8 +73,8 @@ def _mm(x_m) -> str:
 
 def _column_lines(col) -> list:
     j = col.joints
-    out = [f"- column: {col.name}; {col.n_blocks} blocks, height {sig(col.height)} m, base diameter "
-           f"{sig(col.base_diameter)} m, mass {sig(col.mass / 1000.0)} t, density {sig(col.density)} kg/m\u00b3",
+    out = [f"- column: {col.name}; {col.n_blocks} blocks, height {sig(col.height, 4)} m, base diameter "
+           f"{sig(col.base_diameter, 4)} m, mass {sig(col.mass / 1000.0)} t, density {sig(col.density)} kg/m\u00b3",
            f"- joints: kn = {j.kn:.3g} Pa/m, ks = {j.ks:.3g} Pa/m, friction angle {j.friction_deg:g}\u00b0, "
            f"cohesion {j.cohesion:g} Pa, tensile strength {j.tensile_strength:g} Pa"]
     for c in col.connectors:
@@ -85,8 +86,8 @@ def _column_lines(col) -> list:
             "|---:|---|---:|---:|---:|---:|"]
     for i, b in enumerate(col.blocks, start=1):
         segs = b.segments
-        out.append(f"| {i} | {b.name} | {sig(sum(s.height for s in segs))} | {sig(2 * segs[0].r_bottom)} | "
-                   f"{sig(2 * segs[-1].r_top)} | {segs[0].n_sides} |")
+        out.append(f"| {i} | {b.name} | {sig(sum(s.height for s in segs), 4)} | {sig(2 * segs[0].r_bottom, 4)} | "
+                   f"{sig(2 * segs[-1].r_top, 4)} | {segs[0].n_sides} |")
     return out
 
 
@@ -113,9 +114,9 @@ def model_lines(raw) -> list:
     if not isinstance(model, Colonnade):
         return _column_lines(model)
     e = model.epistyle
-    head = [f"- scene: {model.name}; {model.n_columns} columns, axes {sig(model.spacing)} m apart"
-            + ("" if e is None else f"; epistyles {sig(e.height)} m high over every span, their mass over the "
-               f"columns' gamma = {sig(model.gamma)}")]
+    head = [f"- scene: {model.name}; {model.n_columns} columns, axes {sig(model.spacing, 4)} m apart"
+            + ("" if e is None else f"; an epistyle {sig(e.height, 4)} m high over every span (its mass over the "
+               f"columns', gamma = {sig(model.gamma)})")]
     return head + _column_lines(model.column)
 
 
