@@ -33,6 +33,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from . import plots_scene
 from . import solver as _solver
 from ._validate import finite_float, integer, positive_float, real
 from .errors import ParameterError
@@ -41,7 +42,7 @@ from .names import G as _G  # m/s^2, only to show accelerations in g
 __all__ = [
     "U_TOP_LEVELS", "U_D_LEVELS", "plot_top_displacement", "plot_joint_openings", "plot_joint_slips",
     "plot_energy", "plot_ground_motion", "plot_snapshot", "animate", "plot_record_response",
-    "block_faces", "quat_to_matrix",
+    "block_faces", "quat_to_matrix", "plot_dowels",
 ]
 
 #: Performance levels of u_top (paper Table III), dimensionless.
@@ -86,7 +87,7 @@ def _axes(ax, n=1, projection=None, figsize=(8.0, 4.0)):
 def _base_diameter(res, col):
     """Base diameter (m) from the column, else from u_top = max|u| / D of the response, else None."""
     if col is not None:
-        return col.base_diameter
+        return plots_scene.first_column(col).base_diameter   # a colonnade's top_disp is its first column's
     u, umax = getattr(res, "u_top", None), getattr(res, "max_top_disp", None)
     if u and umax and u > 0 and umax > 0 and math.isfinite(u) and math.isfinite(umax):
         return umax / u
@@ -144,7 +145,8 @@ def plot_top_displacement(res, col=None, ax=None):
         peak = float(np.nanmax(ratio)) if ratio.size else 0.0
         a2.set_ylim(0.0, max(1.1 * peak, 0.2) if math.isfinite(peak) else 1.1)
         a2.set_ylabel(f"|u| / D_base (-), D_base = {d:.3f} m")
-        a2.set_title(f"Normalised top displacement (u_top = {peak:.3g})")
+        first = " of the first column" if col is not None and plots_scene.is_scene(col) else ""
+        a2.set_title(f"Normalised top displacement{first} (u_top = {peak:.3g})")
     else:
         a2.plot(t, 1e3 * mag, color="C2", label="|u|")
         a2.set_ylabel("|u| (mm)")
@@ -155,7 +157,7 @@ def plot_top_displacement(res, col=None, ax=None):
     return fig
 
 
-def _per_joint(res, values, ax, kind, title, label):
+def _per_joint(res, values, ax, kind, title, label, names=None):
     h = _history(res)
     t = np.asarray(h.t)
     v = np.asarray(values)
@@ -164,7 +166,7 @@ def _per_joint(res, values, ax, kind, title, label):
         raise ParameterError(f"kind must be 'heatmap' or 'lines', got {kind!r}")
     fig, (a,) = _axes(ax, 1, figsize=(8.0, 4.0))
     if kind == "lines":
-        for j, name in enumerate(_joint_labels(nj)):
+        for j, name in enumerate(names or _joint_labels(nj)):
             a.plot(t, v[:, j], label=name, color=_joint_color(j, nj))
         a.set_ylabel(label)
         if nj <= 16:
@@ -196,8 +198,10 @@ def plot_joint_openings(res, col=None, ax=None, kind="heatmap"):
     ``col`` is accepted for symmetry with the other functions (not needed).
     """
     h = _history(res)
-    return _per_joint(res, 1e3 * np.asarray(h.joint_opening), ax, kind,
-                      "Joint opening (max gap of the upper face over the joint)", "opening (mm)")
+    v = 1e3 * np.asarray(h.joint_opening)
+    names = plots_scene.joint_labels(col, v.shape[1]) if col is not None else None
+    return _per_joint(res, v, ax, kind, "Joint opening (max gap of the upper face over the joint)", "opening (mm)",
+                      names)
 
 
 def plot_joint_slips(res, col=None, ax=None, kind="lines"):
@@ -212,11 +216,15 @@ def plot_joint_slips(res, col=None, ax=None, kind="lines"):
     if col is None:
         return _per_joint(res, 1e3 * mag, ax, kind, "Joint dislocation (upper minus lower face centre)",
                           "dislocation (mm)")
-    d = np.asarray(col.joint_diameters, dtype=float)
-    if d.size != mag.shape[1]:
-        raise ParameterError(f"column has {d.size} joints but the history has {mag.shape[1]}")
-    fig = _per_joint(res, mag / d, ax, kind, "Joint dislocation / joint diameter",
-                     "dislocation / joint diameter (-)")
+    d = plots_scene.column_joint_diameters(col)
+    scene = plots_scene.is_scene(col)
+    if d.size != mag.shape[1] and not (scene and col.n_joints == mag.shape[1]):
+        raise ParameterError(f"the model has {d.size if not scene else col.n_joints} joints but the history has "
+                             f"{mag.shape[1]}")
+    mag = mag[:, :d.size]   # a colonnade's bearings follow its columns' joints: res.epistyles has their slip
+    fig = _per_joint(res, mag / d, ax, kind, "Joint dislocation / joint diameter"
+                     + (" (columns' joints; bearings left out)" if scene else ""),
+                     "dislocation / joint diameter (-)", plots_scene.joint_labels(col, d.size))
     if kind == "lines":
         a = fig.axes[0] if ax is None else (ax[0] if isinstance(ax, (list, tuple)) else ax)
         for lev, c in zip(U_D_LEVELS, ("tab:green", "tab:orange", "tab:red")):
@@ -301,7 +309,10 @@ def quat_to_matrix(q):
 
 
 def _rest_faces(col):
-    """Per block: (list of (k, 3) face polygons at rest in the ground frame, centre of mass at rest)."""
+    """Per block: (list of (k, 3) face polygons at rest in the ground frame, centre of mass at rest); a
+    colonnade's columns at their places and its epistyles (:mod:`pycolfrag.plots_scene`)."""
+    if plots_scene.is_scene(col):
+        return plots_scene.rest_faces(col, _rest_faces)
     out = []
     for z0, blk in zip(col.joint_heights, col.blocks):
         faces, z = [], z0
@@ -388,7 +399,9 @@ def _add3d(ax, coll):
 
 
 def _limits(col, h, idx):
-    """Equal-scale 3D limits covering the column at the given samples."""
+    """Equal-scale 3D limits covering the column (or colonnade) at the given samples."""
+    if plots_scene.is_scene(col):
+        return plots_scene.limits(col, h, idx, _rest_faces)
     r = max(max(s.r_bottom, s.r_top) for b in col.blocks for s in b.segments)
     pos = np.asarray(h.block_pos)[idx]
     xy = np.abs(pos[..., :2]).max() if pos.size else 0.0
@@ -492,6 +505,11 @@ def animate(col, res, path, fps=20, t_start=None, t_end=None, max_frames=300, dp
             _setup_3d(a, half, zmax, f"t = {t[i]:.2f} s")
             writer.grab_frame()
     return path
+
+
+def plot_dowels(res, col=None, ax=None, max_lines=16):
+    """Dowels' shear force (kN) and shear displacement (mm) over time: :func:`pycolfrag.plots_scene.plot_dowels`."""
+    return plots_scene.plot_dowels(res, col, ax, max_lines)
 
 
 # --------------------------------------------------------------------------- one page

@@ -101,8 +101,10 @@ def test_each_figure_labelled(results_file, stem):
     _check_labelled(fig)
     # units expected on particular figures
     text = " ".join(a.get_xlabel() + " " + a.get_ylabel() for a in fig.axes)
-    if stem.startswith(("fig08", "fig12", "fig13")):
+    if stem.startswith(("fig08_", "fig12_", "fig13_")):
         assert "R (km)" in text and all(a.name == "3d" for a in fig.axes)
+    if stem.startswith(("fig08m", "fig12m", "fig13m")):   # their 2-D maps (tests/test_report_readable.py)
+        assert "R (km)" in text and any(a.get_label() == "<colorbar>" for a in fig.axes)
     if stem.startswith("fig11"):
         assert "Tp = 1/fp (s)" in text and "PGA (g)" in text
         lines = [ln for ln in fig.axes[2].get_lines() if "rocking" in ln.get_label()]
@@ -164,4 +166,4 @@ def test_degenerate_fits_are_marked_in_the_figures(tmp_path):
     assert all("Eq. (4) degenerate in 8 of 8 scenarios: only 2 runs in the group" in ax.get_title()
                for ax in f12.axes)
     legends = [t.get_text() for ax in f16.axes for t in ax.get_legend().get_texts()]
-    assert "u_top > 0.15 stripes, Eq. (4) (1 degenerate)" in legends
+    assert "P(u_top \u2265 0.15 | PGA): stripes, Eq. (4) (1 degenerate)" in legends

@@ -68,3 +68,35 @@ def test_zero_events_do_not_give_a_zero_interval(tmp_path):
     assert hi == pytest.approx(nu / n * -np.log(0.05), rel=1e-12)
     old = risk.site_risk(site([char_source(7.0, 10.0, rate=nu)]), h5, curves=False, uncertainty="bootstrap")
     assert old.rate["collapse"][1:] == (0.0, 0.0)          # what the percentile bootstrap said
+
+
+def test_a_results_file_is_subsampled(tmp_path, capsys):
+    """``bench/risk_coverage.py --results FILE`` refused every subsample, because the
+    subset kept the file's ``samples`` attribute (30 runs per cell) and so read as an incomplete file
+    of 2 x 30 rows holding 2 x 10. A complete file of 2 cells x 30 runs, 10 kept per cell: the bench
+    prints its table, one row per estimator, method and level (each level a share in [0, 1])."""
+    import importlib.util
+
+    import h5py
+
+    from test_risk import char_source, site, write_cells
+    h5 = write_cells(tmp_path / "g.h5", {(6.5, 10.0): (30, 1, 0.1), (7.0, 10.0): (30, 2, 0.2)})
+    with h5py.File(h5, "a") as f:   # the grid's own attributes, as run_grid writes them
+        f.attrs["mw"] = [6.5, 7.0]
+        f.attrs["dist_km"] = [10.0]
+        f.attrs["samples"] = 30
+    s = site([char_source(6.5, 10.0, rate=0.001, name="a"), char_source(7.0, 10.0, rate=0.001, name="b")])
+    cov, _, _, truth = subsample_coverage(s, h5, n_sub=10, reps=3, n_draws=50)
+    assert set(cov) == set(truth) and all(0.0 <= v <= 1.0 for v in cov.values())
+    spec = importlib.util.spec_from_file_location("bench_risk_coverage", ROOT / "bench" / "risk_coverage.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    site_path = tmp_path / "site.toml"
+    site_path.write_text(
+        'name = "two faults"\n[pulse]\nmodel = "pulse-only"\n'
+        + "".join(f'[[sources]]\nname = "f{m}"\nrate = 0.001\nmagnitude = {{ type = "characteristic", mw = {m} }}\n'
+                  f'distance = {{ type = "fixed", r_km = 10.0 }}\n' for m in (6.5, 7.0)))
+    assert bench.main(["--results", h5, "--site", str(site_path), "--runs", "10", "--reps", "2", "--draws", "50",
+                       "--estimators", risk.DEFAULT_ESTIMATOR, "--methods", DEFAULT_UNCERTAINTY]) == 0
+    rows = [r for r in capsys.readouterr().out.splitlines() if r.startswith(f"| {risk.DEFAULT_ESTIMATOR} |")]
+    assert len(rows) == len(cov)

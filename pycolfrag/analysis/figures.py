@@ -23,7 +23,9 @@ from .. import names as _names
 from ..errors import ParameterError
 from . import fragility as fr
 from .completeness import check_complete
+from .contour_figures import fig_08_map, fig_12_map, fig_13_map
 from .data import ResultsData, as_data, read_results
+from .fit_check import stripe_departures
 
 __all__ = ["FIGURES", "make_all", "mark_figure", "ROCKING_INITIATION_G"]
 
@@ -50,8 +52,11 @@ def _surface_axes(fig, pos, surf: fr.Surface, zlabel, title, zlim=None):
     """One 3-D surface over (Mw, R) with its bootstrap interval as grey wireframes."""
     ax = fig.add_subplot(*pos, projection="3d")
     R, M = np.meshgrid(surf.dist_km, surf.mw)
+    # a probability (zlim given) is coloured on 0..1 in every panel, as the maps' one colour bar
+    # (pycolfrag.analysis.contour_figures); a mean EDP on its own range
+    colour = {"vmin": zlim[0], "vmax": zlim[1]} if zlim is not None else {}
     if surf.mw.size > 1 and surf.dist_km.size > 1:
-        ax.plot_surface(M, R, surf.value, cmap="viridis", alpha=0.85, linewidth=0.3, edgecolor="k")
+        ax.plot_surface(M, R, surf.value, cmap="viridis", alpha=0.85, linewidth=0.3, edgecolor="k", **colour)
         for lim in (surf.low, surf.high):
             ax.plot_wireframe(M, R, lim, color="0.5", linewidth=0.4, alpha=0.6)
     else:   # a degenerate grid (one Mw or one R): points with interval bars
@@ -288,7 +293,8 @@ def _fig_curves(d, ims, number, title, n_boot, rng):
                 # a percentile interval need not contain the point estimate: no bar below zero length
                 ax.errorbar(sc.im[good], sc.p[good],
                             yerr=np.maximum([sc.p[good] - sc.low[good], sc.high[good] - sc.p[good]], 0.0),
-                            fmt="o", color=col, ms=4, capsize=2, label=f"{lev.label} stripes, Eq. (4)"
+                            fmt="o", color=col, ms=4, capsize=2,
+                            label=f"P({edp} \u2265 {lev.threshold:g} | {im_name}): stripes, Eq. (4)"
                             + (f" ({n_bad} degenerate)" if n_bad else ""))
                 if mle is not None:
                     x = np.linspace(0, np.nanmax(im_values), 200)[1:]
@@ -297,15 +303,27 @@ def _fig_curves(d, ims, number, title, n_boot, rng):
                                   + (" (degenerate fit)" if mle.degenerate else ""))
                     if mle.band_im is not None:
                         ax.fill_between(mle.band_im, mle.band_low, mle.band_high, color=col, alpha=0.15)
+                    _mark_departures(ax, sc, mle, col, lev.label)
             ax.set_ylim(-0.02, 1.02)
             ax.set_xlabel(im_label)
-            ax.set_ylabel(f"P({edp} >= edp | IM) (-)")
+            ax.set_ylabel(f"P({edp} \u2265 level | {im_name}) (-)")
             ax.set_title(f"({'abcd'[2 * i + j]}) {im_name}, {edp}", fontsize=9)
             ax.legend(fontsize=6)
             ax.grid(alpha=0.3)
     fig.suptitle(title + f" (12 equal-width stripes, 90 % bootstrap bars and bands; n = {d.n}{d.failed_note()})",
                  fontsize=10)
     return fig
+
+
+def _mark_departures(ax, sc, mle, col, label) -> None:
+    """Ring, in the level's colour, the empirical share of the stripes whose 90 % binomial interval
+    excludes the fitted curve (:func:`pycolfrag.analysis.fit_check.stripe_departures`); the legend says
+    how many."""
+    bad = stripe_departures(sc, mle)
+    if bad.size:
+        used = int(np.sum((np.asarray(sc.n) > 0) & np.isfinite(sc.p_empirical)))
+        ax.plot(sc.im[bad], sc.p_empirical[bad], "o", ms=10, mfc="none", mec=col, mew=1.5,
+                label=f"{label}: MLE misses {bad.size} of {used} stripes (rings: their share)")
 
 
 def fig_16(data, n_boot=200, rng=0, **_) -> Figure:
@@ -331,10 +349,13 @@ def fig_16_spectral(data, period_s=1.0, n_boot=200, rng=0, **_) -> Figure | None
 FIGURES = {
     "fig07_ud_vs_utop": fig_07,
     "fig08_mean_edp_collapse": fig_08,
+    "fig08m_mean_edp_collapse_map": fig_08_map,
     "fig09_pulse_amplitudes": fig_09,
     "fig11_pulse_period_collapse": fig_11,
     "fig12_fragility_utop": fig_12,
+    "fig12m_fragility_utop_map": fig_12_map,
     "fig13_fragility_ud": fig_13,
+    "fig13m_fragility_ud_map": fig_13_map,
     "fig14_pga_vs_edp": fig_14,
     "fig15_pgv_vs_edp": fig_15,
     "fig16_im_fragility": fig_16,
@@ -377,7 +398,8 @@ def make_all(results_path, out_dir, *, n_boot=500, rng=0, formats=("png", "pdf")
             fig = builder(d, **kw)
         if fig is None:
             continue
-        fig.tight_layout() if not any(a.name == "3d" for a in fig.axes) else None
+        if fig.get_layout_engine() is None and not any(a.name == "3d" for a in fig.axes):
+            fig.tight_layout()
         if note:
             mark_figure(fig, note)
         for ext in formats:

@@ -25,9 +25,14 @@ def expected_coverage(confidence: float, n_sub: int, n_full: int) -> float:
     return float(2 * stats.norm.cdf(z / np.sqrt(1 - n_sub / n_full)) - 1)
 
 
-def _subset(data: ResultsData, rows) -> ResultsData:
+def _subset(data: ResultsData, rows, n_sub: int) -> ResultsData:
+    """The rows kept, as a complete grid of ``n_sub`` runs per cell: its ``samples`` attribute says so
+    (the file's would ask for the full grid's rows, and the subset would be refused as incomplete)."""
     s = {k: np.asarray(v)[rows] for k, v in data.samples.items()}
-    return ResultsData(s, None, None, None, dict(data.attrs), len(rows), 0, {}, f"{data.path} (subsample)")
+    attrs = dict(data.attrs)
+    if "samples" in attrs:
+        attrs["samples"] = n_sub
+    return ResultsData(s, None, None, None, attrs, len(rows), 0, {}, f"{data.path} (subsample)")
 
 
 def subsample_coverage(site, results, *, n_sub=20, reps=300, seed=2026, **risk_kw):
@@ -53,7 +58,7 @@ def subsample_coverage(site, results, *, n_sub=20, reps=300, seed=2026, **risk_k
     inside, above, widths = ({k: [] for k in truth} for _ in range(3))
     for rep in range(reps):
         rows = np.concatenate([rng.choice(v, n_sub, replace=False) for v in cells.values()])
-        for k, (_lam, lo, hi) in site_risk(site, _subset(data, rows), rng=rep, **kw).rate.items():
+        for k, (_lam, lo, hi) in site_risk(site, _subset(data, rows, n_sub), rng=rep, **kw).rate.items():
             inside[k].append(lo <= truth[k] <= hi)
             above[k].append(truth[k] > hi)
             widths[k].append(hi - lo)
