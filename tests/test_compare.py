@@ -221,7 +221,7 @@ def _scenarios(cols, spectra, mws):
 
 
 def test_grids_of_other_scenario_sets_are_matched_by_mw_r_sample(tmp_path):
-    """Issue 37 item 5: a small grid (Mw 6.5, 7.5) against a larger one (Mw 5.5, 6.5, 7.5) whose Mw 6.5 and 7.5
+    """A small grid (Mw 6.5, 7.5) against a larger one (Mw 5.5, 6.5, 7.5) whose Mw 6.5 and 7.5
     rows are the same runs (the seeds are keyed by Mw, R and sample, not by the scenario index: a grid with
     more magnitudes numbers them 1 and 2). Matched by (Mw, R, sample) the 80 common rows are bitwise equal (no
     statistics, no DISAGREE) and the Mw 5.5 rows are said to be only in B; matched by scenario index, as
