@@ -291,3 +291,12 @@ def test_small_grid_against_a_larger_fake_grid_from_the_command(tmp_path):
     assert "rows: 3 in A, 9 in B, 3 in common" in p.stdout and "0 of 3" not in p.stdout
     assert "only in B: Mw 5.5, 10 km; Mw 7.5, 10 km" in p.stdout and "DISAGREE" not in p.stdout
     assert "matched rows differ" not in p.stdout
+
+
+def test_a_row_without_mw_cannot_be_matched_and_says_so(base):
+    from pycolfrag.errors import ParameterError
+    tmp, cols, spectra, a = base
+    cols = {k: v.copy() for k, v in cols.items()}
+    cols["mw"][7] = np.nan
+    with pytest.raises(ParameterError, match="no finite Mw or R"):
+        compare_results(a, _write(tmp / "b.h5", cols, spectra))

@@ -211,6 +211,10 @@ def _row_keys(s) -> tuple:
     record suite; (stage, stratum, index) and the stratum for a batch of events."""
     kind = _kind(s)
     if kind == "synthetic":
+        bad = np.flatnonzero(~(np.isfinite(np.asarray(s["mw"], float)) & np.isfinite(np.asarray(s["dist_km"], float))))
+        if bad.size:
+            raise ParameterError(f"{bad.size} finished row(s) have no finite Mw or R (e.g. row {int(bad[0])}): a "
+                                 "synthetic grid's rows are matched by (Mw, R, sample), and these cannot be")
         mw, dist = [_coord(x) for x in s["mw"]], [_coord(x) for x in s["dist_km"]]
         keys = {(m, d, int(k)): i for i, (m, d, k) in enumerate(zip(mw, dist, s["sample"]))}
         return keys, list(zip(mw, dist)), kind
