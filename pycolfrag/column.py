@@ -501,7 +501,7 @@ class Column:
         text = input_files.read_text(path, "column file")
         name = os.fspath(path)
         try:
-            d = tomllib.loads(text) if name.lower().endswith(".toml") else json.loads(text)
+            d = tomllib.loads(text) if name.lower().endswith(".toml") else input_files.json_loads(text)
         except ValueError as exc:  # JSONDecodeError and TOMLDecodeError are ValueErrors
             raise ParameterError(f"cannot parse column file {name}: {exc}") from None
         return cls.from_dict(d)

@@ -12,7 +12,9 @@ a memory error:
   ``docs/column_format.md`` and ``docs/risk.md``); the read stops one byte past the limit whatever
   the file's size claims, so a file that grows while it is read is bounded too;
 * text is UTF-8 (a BOM is accepted); a file that is not is refused with the offset of the first bad
-  byte, instead of a ``UnicodeDecodeError`` traceback.
+  byte, instead of a ``UnicodeDecodeError`` traceback;
+* JSON (:func:`json_loads`) with a key twice in one object is refused naming the key: :func:`json.loads`
+  keeps the last one silently (TOML refuses a duplicate key itself).
 
 Every refusal is ``error`` (a :class:`~pycolfrag.errors.PycolfragError` subclass chosen by the caller,
 e.g. :class:`~pycolfrag.errors.HazardFileError`); a missing file is that error and
@@ -22,6 +24,7 @@ from __future__ import annotations
 
 import errno
 import functools
+import json
 import os
 import stat
 from pathlib import Path
@@ -117,3 +120,24 @@ def read_text(path, what: str, *, error: type = ParameterError, max_bytes: int |
     except UnicodeDecodeError as exc:
         raise error(f"{what} {as_path(path, what)} is not UTF-8 text (byte {exc.start} is "
                     f"0x{data[exc.start]:02x}); save it as UTF-8") from None
+
+
+class DuplicateKeyError(ValueError):
+    """A JSON object with a key twice (a ValueError, as :class:`json.JSONDecodeError` is: callers that turn
+    a parse error into their own message name the key too)."""
+
+
+def _unique_keys(pairs: list) -> dict:
+    seen: dict = {}
+    for key, value in pairs:
+        if key in seen:
+            keys = ", ".join(repr(k) for k, _ in pairs[:8]) + (", ..." if len(pairs) > 8 else "")
+            raise DuplicateKeyError(f"duplicate key {key!r} in one object (its keys: {keys}): JSON would keep the "
+                                    "last value silently; give each key once")
+        seen[key] = value
+    return seen
+
+
+def json_loads(text: str):
+    """:func:`json.loads` that refuses an object with a key twice (:class:`DuplicateKeyError`, naming it)."""
+    return json.loads(text, object_pairs_hook=_unique_keys)

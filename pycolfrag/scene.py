@@ -317,7 +317,7 @@ class Colonnade:
         text = input_files.read_text(path, "scene file")
         name = os.fspath(path)
         try:
-            d = tomllib.loads(text) if name.lower().endswith(".toml") else json.loads(text)
+            d = tomllib.loads(text) if name.lower().endswith(".toml") else input_files.json_loads(text)
         except ValueError as exc:
             raise ParameterError(f"cannot parse scene file {name}: {exc}") from None
         return cls.from_dict(d, os.path.dirname(os.path.abspath(name)))

@@ -119,7 +119,7 @@ def test_missing_rows_are_reported(base):
     cols = {k: v.copy() for k, v in cols.items()}
     cols["status"][[3, 50]] = results.STATUS_PENDING     # not computed in B: load drops them
     c = compare_results(a, _write(tmp / "b.h5", cols, spectra))
-    assert c.only_in_a == [(0, 3), (1, 10)] and c.only_in_b == [] and c.exit_code == 2
+    assert c.only_in_a == [(6.5, 10.0, 3), (7.5, 10.0, 10)] and c.only_in_b == [] and c.exit_code == 2
 
 
 def test_files_without_rows_are_not_called_identical(base):
@@ -207,3 +207,96 @@ def test_record_suite_files_match_by_record_component_scale(tmp_path):
         f.attrs["layout"] = "records"
     c = compare_results(a, e)
     assert c.exit_code == 2 and not c.scenarios[0].agree
+
+
+def _scenarios(cols, spectra, mws):
+    """The rows of ``cols`` renumbered as a grid of the scenarios ``mws`` (R 10 km) would: row block j (40
+    samples) becomes Mw mws[j], scenario j. The values stay: a block keeps its numbers whatever its index."""
+    out = {k: v.copy() for k, v in cols.items()}
+    n = len(mws) * N_S
+    out = {k: v[:n].copy() for k, v in out.items()}
+    out["mw"] = np.repeat(np.asarray(mws, float), N_S)
+    out["scenario"] = np.repeat(np.arange(len(mws)), N_S).astype("i4")
+    return out, {k: v[:n].copy() for k, v in spectra.items()}
+
+
+def test_grids_of_other_scenario_sets_are_matched_by_mw_r_sample(tmp_path):
+    """A small grid (Mw 6.5, 7.5) against a larger one (Mw 5.5, 6.5, 7.5) whose Mw 6.5 and 7.5
+    rows are the same runs (the seeds are keyed by Mw, R and sample, not by the scenario index: a grid with
+    more magnitudes numbers them 1 and 2). Matched by (Mw, R, sample) the 80 common rows are bitwise equal (no
+    statistics, no DISAGREE) and the Mw 5.5 rows are said to be only in B; matched by scenario index, as
+    before, Mw 6.5 was compared with Mw 5.5 and Mw 7.5 with Mw 6.5."""
+    cols, spectra = _rows()
+    a = _write(tmp_path / "small.h5", cols, spectra)                        # Mw 6.5, 7.5 as scenarios 0, 1
+    big = {k: np.concatenate([v[N_S:], v]) for k, v in cols.items()}     # a block (Mw 5.5), then A's two
+    big["mw"] = np.repeat([5.5, 6.5, 7.5], N_S)
+    big["scenario"] = np.repeat(np.arange(3), N_S).astype("i4")
+    big["sample"] = np.tile(np.arange(N_S), 3).astype("i4")
+    big["collapsed"][:N_S] = 1                                               # Mw 5.5: other numbers entirely
+    big_sp = {k: np.concatenate([v[N_S:] + 1.0, v]) for k, v in spectra.items()}
+    b = _write(tmp_path / "default.h5", big, big_sp)
+    c = compare_results(a, b)
+    assert (c.n_a, c.n_b, c.n_common) == (80, 120, 80), c.summary()
+    assert c.n_rows_differing == 0 and c.scenarios == [] and c.renumbered == 80
+    assert c.only_in_a == [] and len(c.only_in_b) == N_S and {k[0] for k in c.only_in_b} == {5.5}
+    assert c.groups_only == ([], ["Mw 5.5, 10 km"])
+    assert c.exit_code == 2                       # the files hold different rows: said, not "identical"
+    text = c.summary()
+    assert "80 in common" in text and "only in B: Mw 5.5, 10 km" in text and "DISAGREE" not in text
+    # B's Mw 6.5 collapses changed: the statistics are of Mw 6.5 in both files, labelled so
+    big["collapsed"][N_S:2 * N_S] = 1
+    c = compare_results(a, _write(tmp_path / "default2.h5", big, big_sp))
+    [s] = c.scenarios
+    assert s.label == "Mw 6.5, 10 km" and s.collapses == (0, 40) and s.scenario == 0 and not s.agree
+
+
+def test_grids_without_a_common_key_are_refused(tmp_path):
+    """Mw 6.5 alone against Mw 7.5 alone: no (Mw, R, sample) in common -- refused, naming both sets (before,
+    both were scenario 0 and their rows were compared as one scenario)."""
+    from pycolfrag.errors import ParameterError
+    cols, spectra = _rows()
+    a = _write(tmp_path / "a.h5", *_scenarios(cols, spectra, [6.5]))
+    b = _write(tmp_path / "b.h5", *_scenarios(cols, spectra, [7.5]))
+    with pytest.raises(ParameterError, match=r"no row key \(Mw, R km, sample\) in common.*Mw 6.5, 10 km.*Mw 7.5"):
+        compare_results(a, b)
+    p = subprocess.run([sys.executable, "-m", "pycolfrag.analysis.compare", str(a), str(b)],
+                       capture_output=True, text=True)
+    assert p.returncode == 3 and "in common" in p.stderr
+
+
+def test_a_grid_and_a_record_suite_are_refused(tmp_path):
+    from pycolfrag.errors import ParameterError
+    cols, spectra = _rows()
+    a = _write(tmp_path / "a.h5", cols, spectra)
+    rc, rs = _record_rows()
+    r = _write(tmp_path / "r.h5", rc, rs)
+    with h5py.File(r, "a") as f:
+        f.attrs["layout"] = "records"
+    with pytest.raises(ParameterError, match="keyed differently"):
+        compare_results(a, r)
+
+
+def test_small_grid_against_a_larger_fake_grid_from_the_command(tmp_path):
+    """The issue's case with files the grid writes (tests/grid_fakes.py: rows from each row's own seeds, keyed
+    by Mw, R and sample): Mw 6.5 alone against Mw 5.5, 6.5, 7.5, 3 samples at 10 km. The 3 common rows are the
+    same runs, bit for bit; before, Mw 6.5 (scenario 0 of A) was compared with Mw 5.5 (scenario 0 of B)."""
+    from test_commands import _pycolfrag
+    base = ["--dist", "10", "--samples", "3", "--sample-function", "grid_fakes:fake", "--no-figures",
+            "--no-progress"]
+    for name, mws in (("small", ["6.5"]), ("big", ["5.5", "6.5", "7.5"])):
+        p = _pycolfrag("grid", "--mw", *mws, *base, "--out", str(tmp_path / f"{name}.h5"))
+        assert p.returncode == 0, p.stdout + p.stderr
+    p = _pycolfrag("compare", str(tmp_path / "small.h5"), str(tmp_path / "big.h5"))
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert "rows: 3 in A, 9 in B, 3 in common" in p.stdout and "0 of 3" not in p.stdout
+    assert "only in B: Mw 5.5, 10 km; Mw 7.5, 10 km" in p.stdout and "DISAGREE" not in p.stdout
+    assert "matched rows differ" not in p.stdout
+
+
+def test_a_row_without_mw_cannot_be_matched_and_says_so(base):
+    from pycolfrag.errors import ParameterError
+    tmp, cols, spectra, a = base
+    cols = {k: v.copy() for k, v in cols.items()}
+    cols["mw"][7] = np.nan
+    with pytest.raises(ParameterError, match="no finite Mw or R"):
+        compare_results(a, _write(tmp / "b.h5", cols, spectra))

@@ -69,3 +69,50 @@ def test_not_utf8_names_the_offset(tmp_path):
     p.write_bytes("lon,lat\n# Jos\u00e9\n".encode("latin-1"))
     with pytest.raises(HazardFileError, match=r"not UTF-8 text \(byte 13 is 0xe9\)"):
         input_files.read_text(p, "hazard-curve file", error=HazardFileError)
+
+
+def _column_json(tmp_path, text: str):
+    p = tmp_path / "column.json"
+    p.write_text(text, encoding="utf-8")
+    return p
+
+
+def test_a_json_column_with_a_key_twice_is_refused_naming_it(tmp_path):
+    """JSON keeps the last of two equal keys silently: a column file with "density" twice read as the
+    second value. Refused, at the top level and inside a nested table (the joints), with the key named."""
+    from pycolfrag.column import Column
+    good = Column.single_block(1.0, 2.0).to_dict()
+    import json
+    text = json.dumps(good)
+    assert Column.from_file(_column_json(tmp_path, text)).density == good["density"]   # the file as written
+    twice = text.replace('"density":', '"density": 1000.0, "density":', 1)
+    with pytest.raises(ParameterError, match=r"column file .*duplicate key 'density' in one object"):
+        Column.from_file(_column_json(tmp_path, twice))
+    joints = json.dumps(good["joints"])
+    first = next(iter(good["joints"]))
+    nested = text.replace(joints, joints[:-1] + f', "{first}": 0.1}}', 1)
+    assert nested != text
+    with pytest.raises(ParameterError, match=f"duplicate key '{first}'"):
+        Column.from_file(_column_json(tmp_path, nested))
+
+
+def test_a_json_scene_with_a_key_twice_is_refused_naming_it(tmp_path):
+    import json
+
+    from pycolfrag.column import Column
+    from pycolfrag.scene import Colonnade
+    scene = {"name": "portal", "n_columns": 2, "spacing": 3.0, "column": Column.single_block(1.0, 2.0).to_dict()}
+    p = tmp_path / "scene.json"
+    p.write_text(json.dumps(scene), encoding="utf-8")
+    assert Colonnade.from_file(p).n_columns == 2
+    p.write_text(json.dumps(scene).replace('"n_columns": 2', '"n_columns": 2, "n_columns": 3'), encoding="utf-8")
+    with pytest.raises(ParameterError, match=r"scene file .*duplicate key 'n_columns'"):
+        Colonnade.from_file(p)
+
+
+def test_json_loads_keeps_what_json_reads_otherwise():
+    text = '{"a": [1, {"b": 2.5, "c": null}], "d": "x"}'
+    import json
+    assert input_files.json_loads(text) == json.loads(text)
+    with pytest.raises(ValueError, match="duplicate key 'b'"):
+        input_files.json_loads('{"a": {"b": 1, "b": 2}}')

@@ -6,9 +6,13 @@ Run as ``python -m pycolfrag.analysis.compare A.h5 B.h5`` (options: ``--alpha``,
 ``grid_signature``) is compared too; a grid's file is verified against its checksums first. See docs/reproducibility.md for when two files should be bitwise equal
 (same pycolfrag version and grid arguments on any x86-64 CPU) and when only statistically.
 
-Rows are matched by their (scenario, sample) key (a record suite: (record_id, component, scale), statistics per
-scale; a batch of events: (stage, stratum, index), statistics per stratum); every ``/samples`` field except ``wall_s``
-(the only machine-dependent one) and both ``/spectra`` datasets are compared bit for bit
+Rows are matched by their key: a synthetic grid's (Mw, R km, sample) -- the key its seeds are drawn from
+(thousandths of Mw and km, as :func:`pycolfrag.grid.rows.derive_seed` takes them), not the scenario index, which is
+each grid's own numbering (a grid of Mw 6.5-7.5 numbers Mw 6.5 scenario 0, the default grid Mw 5.5); a record
+suite's (record_id, component, scale), statistics per scale; a batch of events' (stage, stratum, index), statistics
+per stratum. Files of two kinds, or whose rows have no key in common, are refused (ParameterError, exit 3): nothing
+would be compared. Every ``/samples`` field except ``wall_s`` (the only machine-dependent one) and a synthetic grid's
+``scenario`` (its numbering) and both ``/spectra`` datasets are compared bit for bit
 (NaN equals NaN of the same bits). For every scenario with a differing row, on the successful
 rows of each file:
 
@@ -20,8 +24,9 @@ rows of each file:
 A scenario "agrees" when no p-value is below ``alpha`` divided by the number of tests made
 over all scenarios (Bonferroni: with 20 scenarios and 3 tests each, a 5 % test would flag one
 scenario in 1.6 by chance alone). Exit status of the command: 0 every row bitwise equal; 1 rows
-differ but every scenario agrees; 2 some scenario disagrees, or the files hold different rows;
-3 a file could not be read.
+differ but every scenario agrees; 2 some scenario disagrees, or the files hold different rows (the
+rows in common are still compared, and their number said); 3 a file could not be read, or the files have
+no row key in common.
 """
 from __future__ import annotations
 
@@ -46,7 +51,8 @@ IGNORED_FIELDS = _results.TIMING_FIELDS
 class ScenarioStats:
     """Per-scenario statistics of the two files (successful rows only)."""
 
-    scenario: int                 # synthetic: the scenario index; record suite: index of the scale
+    scenario: int                 # synthetic: the scenario index in A (in B if A lacks it); record suite: index
+                                  # of the scale
     mw: float                     # NaN for a record-suite group
     dist_km: float                # record suite: NaN
     n_rows_differing: int
@@ -69,13 +75,16 @@ class Comparison:
     n_a: int
     n_b: int
     n_common: int
-    only_in_a: list               # (scenario, sample) keys
+    only_in_a: list               # row keys: (Mw, R km, sample), (record_id, component, scale), (stage, stratum, index)
     only_in_b: list
     differing_fields: dict        # field -> number of matched rows whose bits differ
     n_rows_differing: int
     scenarios: list = field(default_factory=list)   # ScenarioStats of scenarios with differing rows
     alpha: float = 0.05
     threshold: float = 0.05       # alpha / number of tests (Bonferroni)
+    key_names: str = "(Mw, R km, sample)"
+    renumbered: int = 0           # matched synthetic rows whose scenario index differs (grids of other scenario sets)
+    groups_only: tuple = ((), ())  # labels of the scenarios (groups) only in A, only in B
 
     @property
     def identical(self) -> bool:
@@ -96,15 +105,29 @@ class Comparison:
         return 1 if self.statistically_consistent else 2
 
     def summary(self) -> str:
-        lines = [f"rows: {self.n_a} in A, {self.n_b} in B, {self.n_common} matched by their key"]
+        lines = [f"rows: {self.n_a} in A, {self.n_b} in B, {self.n_common} in common, matched by their key "
+                 f"{self.key_names}"]
         if self.only_in_a or self.only_in_b:
             lines.append(f"rows only in A: {len(self.only_in_a)}, only in B: {len(self.only_in_b)} "
-                         "(the files are not runs of the same grid, or one is unfinished)")
+                         "(the files are not runs of the same grid, or one is unfinished); only the "
+                         f"{self.n_common} rows in common are compared")
+            for name, labels in zip("AB", self.groups_only):
+                if labels:
+                    lines.append(f"  only in {name}: " + "; ".join(labels[:8])
+                                 + (f" and {len(labels) - 8} more" if len(labels) > 8 else ""))
+        if self.renumbered:
+            lines.append(f"{self.renumbered} matched rows have another scenario index in B (the grids number other "
+                         "scenario sets); rows are matched by (Mw, R, sample), the index is not compared")
         if self.n_common == 0:
             lines.append("no rows matched: the files have no finished row in common, so nothing was compared")
             return "\n".join(lines)
         if self.identical:
             lines.append("bitwise identical: every matched row equal in every field (wall_s ignored)")
+            return "\n".join(lines)
+        partial = bool(self.only_in_a or self.only_in_b)
+        if self.n_rows_differing == 0:
+            lines.append(f"the {self.n_common} rows in common are bitwise identical (wall_s ignored); the files hold "
+                         "different rows")
             return "\n".join(lines)
         lines.append(f"{self.n_rows_differing} of {self.n_common} matched rows differ; fields (rows): "
                      + ", ".join(f"{k} ({v})" for k, v in sorted(self.differing_fields.items())))
@@ -117,8 +140,11 @@ class Comparison:
                 f"mean u_top {s.mean_u_top[0]:.4g} vs {s.mean_u_top[1]:.4g} (p = {s.p_u_top:.3g}); "
                 f"mean u_d {s.mean_u_d[0]:.4g} vs {s.mean_u_d[1]:.4g} (p = {s.p_u_d:.3g}) -> "
                 + ("agree" if s.agree else "DISAGREE"))
-        lines.append("statistics agree within sampling error" if self.statistically_consistent
-                     else "statistics DISAGREE (or the rows do not match)")
+        if all(s.agree for s in self.scenarios):
+            lines.append("statistics agree within sampling error" + ("" if not partial else
+                         " on the rows in common; the files hold different rows"))
+        else:
+            lines.append("statistics DISAGREE")
         return "\n".join(lines)
 
 
@@ -157,24 +183,66 @@ def _str(v) -> str:
     return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
 
 
-def _row_keys(s) -> tuple:
-    """{row key: index} and the group of each row: (scenario, sample) and the scenario for a
-    synthetic grid; (record_id, component, scale) and the scale for a record suite."""
-    if "scenario" in s:
-        keys = {(int(a), int(b)): i for i, (a, b) in enumerate(zip(s["scenario"], s["sample"]))}
-        return keys, np.asarray(s["scenario"]).astype(float)
+def _coord(x) -> float:
+    """A grid coordinate (Mw, km) on the thousandths the grid's seeds are keyed by
+    (:func:`pycolfrag.grid.rows.derive_seed`): 6.5 and 6.500000000000001 are one scenario."""
+    return round(float(x) * 1000.0) / 1000.0
+
+
+#: What the rows of each kind of file are keyed by, as the summary names it.
+KEY_NAMES = {"synthetic": "(Mw, R km, sample)", "records": "(record_id, component, scale)",
+             "events": "(stage, stratum, index)"}
+
+
+def _kind(s) -> str:
+    if "scenario" in s or ("mw" in s and "sample" in s and "record_id" not in s and "stratum" not in s):
+        return "synthetic"
     if "record_id" in s:
-        keys = {(_str(r), _str(c), float(x)): i for i, (r, c, x) in enumerate(zip(s["record_id"], s["component"],
-                                                                                  s["scale"]))}
-        return keys, np.asarray(s["scale"], dtype=float)
-    if "stratum" in s:  # a batch of events (a site simulation): (stage, stratum, index), statistics per stratum
-        keys = {(int(a), int(b), int(c)): i for i, (a, b, c) in enumerate(zip(s["stage"], s["stratum"], s["index"]))}
-        return keys, np.asarray(s["stratum"]).astype(float)
-    raise ParameterError("a results file without (scenario, sample), (record_id, component, scale) or (stage, "
+        return "records"
+    if "stratum" in s:
+        return "events"
+    raise ParameterError("a results file without (Mw, R, sample), (record_id, component, scale) or (stage, "
                          "stratum, index) rows")
 
 
-def _scenario_stats(ra, rb, ia, ib, sc, n_diff, index=0) -> ScenarioStats:
+def _row_keys(s) -> tuple:
+    """{row key: index}, the group of each row (a list of hashable labels) and the kind of file: (Mw, R km,
+    sample) and the scenario (Mw, R km) for a synthetic grid; (record_id, component, scale) and the scale for a
+    record suite; (stage, stratum, index) and the stratum for a batch of events."""
+    kind = _kind(s)
+    if kind == "synthetic":
+        bad = np.flatnonzero(~(np.isfinite(np.asarray(s["mw"], float)) & np.isfinite(np.asarray(s["dist_km"], float))))
+        if bad.size:
+            raise ParameterError(f"{bad.size} finished row(s) have no finite Mw or R (e.g. row {int(bad[0])}): a "
+                                 "synthetic grid's rows are matched by (Mw, R, sample), and these cannot be")
+        mw, dist = [_coord(x) for x in s["mw"]], [_coord(x) for x in s["dist_km"]]
+        keys = {(m, d, int(k)): i for i, (m, d, k) in enumerate(zip(mw, dist, s["sample"]))}
+        return keys, list(zip(mw, dist)), kind
+    if kind == "records":
+        keys = {(_str(r), _str(c), float(x)): i for i, (r, c, x) in enumerate(zip(s["record_id"], s["component"],
+                                                                                  s["scale"]))}
+        return keys, [float(x) for x in s["scale"]], kind
+    keys = {(int(a), int(b), int(c)): i for i, (a, b, c) in enumerate(zip(s["stage"], s["stratum"], s["index"]))}
+    return keys, [int(x) for x in s["stratum"]], kind
+
+
+def _group_label(kind: str, g) -> str:
+    if kind == "synthetic":
+        return f"Mw {g[0]:g}, {g[1]:g} km"
+    return f"scale {g:g}" if kind == "records" else f"stratum {g}"
+
+
+def _no_common_keys(kind: str, names: tuple, groups_a: list, groups_b: list) -> ParameterError:
+    def span(groups):
+        labels = sorted(set(groups))
+        return (f"{len(labels)} {'scenarios' if kind == 'synthetic' else 'groups'}: "
+                + "; ".join(_group_label(kind, g) for g in labels[:4]) + (" ..." if len(labels) > 4 else ""))
+    return ParameterError(f"{names[0]} and {names[1]} have no row key {KEY_NAMES[kind]} in common (A: {len(groups_a)} "
+                          f"rows, {span(groups_a)}; B: {len(groups_b)} rows, {span(groups_b)}): nothing to compare. "
+                          "Compare files of the same grid, or grids that share scenarios")
+
+
+def _scenario_stats(ra, rb, ia, ib, n_diff, index=0, label="", kind="synthetic") -> ScenarioStats:
     sa, sb = ra.samples, rb.samples
     out = {}
     for key, s, idx in (("a", sa, ia), ("b", sb, ib)):
@@ -190,14 +258,14 @@ def _scenario_stats(ra, rb, ia, ib, sc, n_diff, index=0) -> ScenarioStats:
         p_col = math.nan
     i0 = ia[0] if len(ia) else ib[0]
     s0 = sa if len(ia) else sb
-    if "scenario" in s0:
+    if kind == "synthetic":
         mw, dist = float(s0["mw"][i0]), float(s0["dist_km"][i0])
-        label = f"scenario {int(sc)} (Mw {mw:g}, {dist:g} km)"
+        scenario = int(s0["scenario"][i0]) if "scenario" in s0 else index
     else:
         mw = dist = math.nan
-        label = f"scale {float(sc):g}"
+        scenario = index
     return ScenarioStats(
-        scenario=int(sc) if "scenario" in s0 else index, mw=mw, dist_km=dist, label=label, n_rows_differing=n_diff,
+        scenario=scenario, mw=mw, dist_km=dist, label=label, n_rows_differing=n_diff,
         n_ok=(na, nb), collapses=(ka, kb), collapse_ci95=(_clopper_pearson(ka, na), _clopper_pearson(kb, nb)),
         p_collapse=p_col,
         mean_u_top=(float(np.mean(uta)) if len(uta) else math.nan, float(np.mean(utb)) if len(utb) else math.nan),
@@ -227,16 +295,54 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
     if not 0.0 < float(alpha) < 1.0:
         raise ParameterError(f"alpha must be in (0, 1), got {alpha!r}")
     ra, rb = (x if isinstance(x, Results) else load(x, any_layout=True) for x in (a, b))
+    names = tuple(name if isinstance(x, Results) else f"{name} ({x})" for name, x in zip("AB", (a, b)))
     sa, sb = ra.samples, rb.samples
-    keys_a, group_a = _row_keys(sa)
-    keys_b, group_b = _row_keys(sb)
+    keys_a, group_a, kind = _row_keys(sa)
+    keys_b, group_b, kind_b = _row_keys(sb)
+    if kind != kind_b:
+        raise ParameterError(f"{names[0]} holds the rows of a {kind} file and {names[1]} those of a {kind_b} file: "
+                             f"their rows are keyed differently ({KEY_NAMES[kind]} against {KEY_NAMES[kind_b]}), "
+                             "nothing to compare")
     common = sorted(set(keys_a) & set(keys_b))
+    if not common and keys_a and keys_b:
+        raise _no_common_keys(kind, names, group_a, group_b)
     ia = np.array([keys_a[k] for k in common], dtype=int)
     ib = np.array([keys_b[k] for k in common], dtype=int)
-    diff_rows = np.zeros(len(common), dtype=bool)
+    ignored = IGNORED_FIELDS + (("scenario",) if kind == "synthetic" else ())
+    differing, diff_rows = _differing_fields(ra, rb, ia, ib, ignored)
+    only_a, only_b = sorted(set(keys_a) - set(keys_b)), sorted(set(keys_b) - set(keys_a))
+    cmp = Comparison(n_a=len(keys_a), n_b=len(keys_b), n_common=len(common), only_in_a=only_a, only_in_b=only_b,
+                     differing_fields=differing, n_rows_differing=int(diff_rows.sum()), alpha=float(alpha),
+                     key_names=KEY_NAMES[kind])
+    if kind == "synthetic" and "scenario" in sa and "scenario" in sb and len(common):
+        cmp.renumbered = int(np.count_nonzero(np.asarray(sa["scenario"])[ia] != np.asarray(sb["scenario"])[ib]))
+    in_common = set(group_a[i] for i in ia)
+    cmp.groups_only = tuple([_group_label(kind, g) for g in sorted(set(groups) - in_common)]
+                            for groups in (group_a, group_b))
+    row_group = [group_a[i] for i in ia]
+    diff_groups = sorted({row_group[i] for i in np.flatnonzero(diff_rows)})
+    stats_list = []
+    for gi, g in enumerate(diff_groups):     # every row of the group in each file, its differing rows counted
+        ja = np.array([i for i, x in enumerate(group_a) if x == g], dtype=int)
+        jb = np.array([i for i, x in enumerate(group_b) if x == g], dtype=int)
+        n_diff = sum(1 for i in np.flatnonzero(diff_rows) if row_group[i] == g)
+        stats_list.append(_scenario_stats(ra, rb, ja, jb, n_diff, index=gi, label=_group_label(kind, g), kind=kind))
+    n_tests = sum(sum(1 for p in (s.p_collapse, s.p_u_top, s.p_u_d) if not math.isnan(p)) for s in stats_list)
+    cmp.threshold = float(alpha) / max(n_tests, 1)
+    for s in stats_list:
+        s.agree = all(math.isnan(p) or p >= cmp.threshold for p in (s.p_collapse, s.p_u_top, s.p_u_d))
+    cmp.scenarios = stats_list
+    return cmp
+
+
+def _differing_fields(ra, rb, ia, ib, ignored) -> tuple[dict, np.ndarray]:
+    """{field: number of matched rows whose bits differ} and the mask of matched rows differing anywhere."""
+    sa, sb = ra.samples, rb.samples
+    n = len(ia)
+    diff_rows = np.zeros(n, dtype=bool)
     differing = {}
-    columns = [(f, sa[f], sb.get(f)) for f in sa if f not in IGNORED_FIELDS]
-    columns += [(f, None, sb[f]) for f in sb if f not in IGNORED_FIELDS and f not in sa]
+    columns = [(f, sa[f], sb.get(f)) for f in sa if f not in ignored]
+    columns += [(f, None, sb[f]) for f in sb if f not in ignored and f not in sa]
     columns += [(f"spectra/{f}", ra.spectra.get(f), rb.spectra.get(f))
                 for f in sorted(set(ra.spectra) | set(rb.spectra))]
     for name, ca, cb in columns:
@@ -244,32 +350,15 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
             # it is NaN in every row (an EDP newer than the other file's code that does not exist in these
             # runs: the dowels' of a column without dowels): absent and NaN say the same
             only = np.asarray(cb if ca is None else ca)
-            neq = np.ones(len(common), dtype=bool)
+            neq = np.ones(n, dtype=bool)
             if only.dtype.kind == "f" and np.isnan(only).all():
                 neq[:] = False
         else:
-            neq = ~_same_bits(np.asarray(ca)[ia], np.asarray(cb)[ib]) if len(common) else np.zeros(0, bool)
+            neq = ~_same_bits(np.asarray(ca)[ia], np.asarray(cb)[ib]) if n else np.zeros(0, bool)
         if neq.any():
             differing[name] = int(neq.sum())
             diff_rows |= neq
-    cmp = Comparison(n_a=len(keys_a), n_b=len(keys_b), n_common=len(common),
-                     only_in_a=sorted(set(keys_a) - set(keys_b)), only_in_b=sorted(set(keys_b) - set(keys_a)),
-                     differing_fields=differing, n_rows_differing=int(diff_rows.sum()), alpha=float(alpha))
-    row_group = group_a[ia] if len(common) else np.zeros(0)
-    diff_scen = sorted({float(row_group[i]) for i in np.flatnonzero(diff_rows)})
-    stats_list = []
-    for gi, sc in enumerate(diff_scen):
-        ja = np.flatnonzero(group_a == sc)
-        jb = np.flatnonzero(group_b == sc)
-        n_diff = int(np.count_nonzero(diff_rows & (row_group == sc)))
-        st = _scenario_stats(ra, rb, ja, jb, sc, n_diff, index=gi)   # record suite: scenario = scale group index
-        stats_list.append(st)
-    n_tests = sum(sum(1 for p in (s.p_collapse, s.p_u_top, s.p_u_d) if not math.isnan(p)) for s in stats_list)
-    cmp.threshold = float(alpha) / max(n_tests, 1)
-    for s in stats_list:
-        s.agree = all(math.isnan(p) or p >= cmp.threshold for p in (s.p_collapse, s.p_u_top, s.p_u_d))
-    cmp.scenarios = stats_list
-    return cmp
+    return differing, diff_rows
 
 
 def main(argv=None) -> int:

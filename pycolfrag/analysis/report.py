@@ -30,6 +30,7 @@ from .. import names
 from ..errors import PycolfragError
 from . import fragility as fr
 from . import report_text as rt
+from .codes import code_lines
 from .completeness import ALLOW_INCOMPLETE_HELP, check_complete
 from .data import read_results
 from .figures import FIGURES, im_curves
@@ -77,9 +78,12 @@ def _meta_lines(d):
            f"- finished runs: {d.n_total}; successful: {d.n}; failed (excluded from all statistics): {d.n_failed}"
            + (f" (by status code: {', '.join(f'{k}: {v}' for k, v in sorted(d.failures.items()))})"
               if d.failures else "")]
+    several = code_lines(a, d.n_total)        # a file resumed with other code: version etc. are the first's
     for key in ("version", "git_revision", "seed", "n_ranks", "created", "vp_scale", "pulse", "tp_model", "contact"):
         if key in a and str(a[key]) != "":
-            out.append(f"- {key}: `{a[key]}`")
+            first = " (the first code's)" if several and key in ("version", "git_revision") else ""
+            out.append(f"- {key}: `{a[key]}`{first}")
+    out += several
     if "solver" in a:
         out += rt.solver_lines(a["solver"])
     if "column" in a:

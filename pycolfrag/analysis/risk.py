@@ -40,6 +40,7 @@ from ..errors import ParameterError, PycolfragError
 from ..site import OUTSIDE_CHOICES, Site, load_site, read_pulse_model
 from ..site_models import PulseOnly, Table
 from . import fragility as fr
+from .codes import code_history
 from .data import as_data
 from .risk_branches import check_branches, check_complete, code_identity, declared_pulse
 from .risk_cells import BranchCell, grid_cells, surface_draws
@@ -329,10 +330,12 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
 
 
 def _identity(branches) -> dict:
-    """Per branch: its seed, its code identity, its successful runs and how many collapsed."""
+    """Per branch: its seed, its code identity, its successful runs and how many collapsed, and every code that
+    wrote its rows with the rows of each (:mod:`.codes`; more than one after ``--allow-code-change``)."""
     return {b: {"seed": None if d.attrs.get("seed") is None else str(d.attrs.get("seed")),
                 "code": None if code_identity(d.attrs) is None else str(code_identity(d.attrs)[1]),
-                "runs": d.n, "collapses": int(np.sum(np.asarray(d["collapsed"], dtype=bool)))}
+                "runs": d.n, "collapses": int(np.sum(np.asarray(d["collapsed"], dtype=bool))),
+                "codes": code_history(d.attrs, d.n_total)}
             for b, d in branches.items()}
 
 

@@ -2,9 +2,11 @@
 its rates with their CoV and intervals, the diagnostics of its weights, the efficiency against crude
 Monte Carlo, and -- when the grid's results are given -- the grid-convolution route beside it.
 
-Like with like: the grid route integrates the fragility surface over the grid's range only (with the
-site file's ``outside = "zero"``), so the event-based estimate is restricted to the strata inside the
-grid's range (whole strata: the grid's Mw and R limits are bin edges) for the comparison, and the two
+Like with like: the grid's runs must be runs of the simulated model -- the same column or scene, solver options,
+records, pulse model and meaning of the seeds (:mod:`.risk_rare_like`; a two-drum simulation beside a Parthenon
+grid is refused, naming the column) --, and the grid route integrates the fragility surface over the grid's
+range only (with the site file's ``outside = "zero"``), so the event-based estimate is restricted to the strata
+inside the grid's range (whole strata: the grid's Mw and R limits are bin edges) for the comparison, and the two
 *agree* when their log-rates differ by at most sqrt(h1^2 + h2^2), h the half-widths of the two intervals
 on the log scale. The whole-site estimate is set beside the grid route's bracket: ``zero`` (nothing
 outside the grid) to ``clamp`` (the grid's edge for what lies beyond).
@@ -26,6 +28,7 @@ from ..errors import OutputError, ParameterError
 from ..rare import command as _rare_command
 from ..rare.estimate import efficiency, estimate
 from ..site import OUTSIDE_CHOICES
+from .risk_rare_like import check_like_with_like
 from .risk_report import _write_text, check_outdir
 
 __all__ = ["build_parser", "GridComparison", "compare_with_grid", "report", "to_json", "write_outputs",
@@ -91,7 +94,11 @@ def _agree(e, g) -> bool | None:
 def compare_with_grid(run, risk_zero, risk_clamp) -> GridComparison:
     """The comparison of a :class:`~pycolfrag.rare.driver.SiteRun` with the grid route's two site risks
     (:func:`pycolfrag.analysis.risk.site_risk` with ``outside`` zero and clamp). The grid's Mw and R
-    limits must be bin edges of the strata (else ParameterError saying which edges to add)."""
+    limits must be bin edges of the strata (else ParameterError saying which edges to add), and the grid's runs
+    runs of the simulated model (:func:`~.risk_rare_like.check_like_with_like`: column, solver options, records,
+    pulse model, seeds' meaning; else ParameterError naming each difference)."""
+    if getattr(run, "record", None) is not None:
+        check_like_with_like(run.record, risk_zero.files)
     mws, ds = np.asarray(risk_zero.mws, float), np.asarray(risk_zero.ds, float)
     box = ((mws[0], mws[-1]), (ds[0], ds[-1]))
     cut = [st for st in run.strata.strata if st.straddles(*box)]

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import OutputError
 from . import risk_figures
+from .codes import summarize
 from .risk_fit import EQ4_FIT_ALPHA, Degeneracy
 from .risk_uncertainty import UNCERTAINTY_METHODS
 
@@ -142,10 +143,13 @@ def _header(risk: SiteRisk) -> list:
     est = ("share of the cell's runs that exceeded (empirical ratio, Eq. (1) counted)" if risk.estimator == "empirical"
            else f"Eq. (4); cells failing its fit test at {EQ4_FIT_ALPHA:g} (cell or magnitude row): "
            + ("empirical ratio" if risk.misfit == "fallback" else "Eq. (4) kept and marked"))
-    ident = "; ".join(f"{b}: seed {v['seed']}, code {v['code']}" for b, v in risk.identity.items())
+    ident = "; ".join(f"{b}: seed {v['seed']}, code {v['code']}" + (
+        f" (the first of {len(v['codes'])}, below)" if len(v.get("codes") or []) > 1 else "")
+        for b, v in risk.identity.items())
     L += [f"- site file: `{s.path}`",
           *[f"- {b} branch: `{p}`" for b, p in risk.files.items()],
           f"- branches' identity: {ident}" + (" (same seed and code: checked)" if len(risk.branches) > 1 else ""),
+          *[f"- **{b} branch: {line}**" for b, line in _several_codes(risk)],
           f"- cell probability: {est}; collapse: Eq. (3); interpolation: bilinear in (Mw, ln R) on the "
           f"probability; grid Mw {risk.mws[0]:g}-{risk.mws[-1]:g}, R {risk.ds[0]:g}-{risk.ds[-1]:g} km"
           + _not_computed_line(risk),
@@ -277,8 +281,17 @@ def write_outputs(risk: SiteRisk, outdir, *, figures=True) -> dict:
     return paths
 
 
+def _several_codes(risk: SiteRisk) -> list:
+    """(branch, line naming every code and its rows) of the branches whose rows more than one code wrote
+    (resumed with ``--allow-code-change``; the identity's ``code`` is the first's)."""
+    lines = [(b, summarize(v.get("codes"))) for b, v in risk.identity.items()]
+    return [(b, line) for b, line in lines if line]
+
+
 def print_summary(risk: SiteRisk, years: float) -> None:
     """The command's lines: marks first, then every level's lambda and P in ``years`` with its marks."""
+    for b, line in _several_codes(risk):
+        print(f"{b} branch: {line}")
     for note in risk.incomplete:
         print(f"INCOMPLETE results (asked for explicitly): {note}")
     if risk.pulse_only:

@@ -96,7 +96,8 @@ class Rows:
             rec_s = synthetic_record_s(float(mw[m][0]), float(dist[m][0]))
             expected[m] = (min(rec_s, cut) if cut > 0 else rec_s) + tail
         measured = {"sum_wall_s": float(wall.sum()), "n_ranks": int(attrs.get("n_ranks", 1)),
-                    "samples": int(attrs.get("samples", 1)), "session_s": float(attrs.get("wall_s_last_session", 0.0))}
+                    "samples": int(attrs.get("samples", 1)), "session_s": float(attrs.get("wall_s_last_session", 0.0)),
+                    **_rests_on(path, g, attrs, ok)}
         return cls(sc, steps, sigma, prep, expected, order, int(attrs.get("samples", 1))), measured
 
     def resample(self, samples: int, seed: int = 1) -> "Rows":
@@ -109,6 +110,43 @@ class Rows:
         order = sorted(range(len(idx)), key=lambda i: (pos[idx[i]], i))
         return Rows(self.scenario[idx], self.steps[idx], self.sigma[idx], self.prep[idx], self.expected[idx],
                     order, samples)
+
+
+def _rests_on(path, g, attrs, used) -> dict:
+    """What a prediction from a file's rows rests on: the rows the grid asked for, those its HDF5 file holds
+    finished, those used (successful, with solver steps), and those only its journal holds (an interrupted or
+    running grid's, not read here); ``complete`` when every row asked for is in the HDF5 file."""
+    from .. import results as _results  # here: reading a file is only this entry's
+    status = np.asarray(g["status"])
+    in_h5 = status != _results.STATUS_PENDING
+    journal_only = 0
+    jp = _results.journal_path(path)
+    if jp.exists():
+        try:
+            _, jrows = _results.read_journal(jp)
+            journal_only = sum(1 for i in jrows if 0 <= int(i) < len(status) and not in_h5[int(i)])
+        except (OSError, ValueError, _results.ResultsFileError):
+            journal_only = -1    # a journal that cannot be read: said as such
+    n_sc = len(attrs.get("mw", [])) * len(attrs.get("dist_km", [])) if "mw" in attrs and "dist_km" in attrs else None
+    return {"complete": bool(in_h5.all()), "rows_asked": int(len(status)), "rows_in_h5": int(in_h5.sum()),
+            "rows_used": int(np.count_nonzero(used)), "rows_in_journal_only": int(journal_only),
+            "scenarios_asked": n_sc, "scenarios_used": int(len(np.unique(np.asarray(g["scenario"])[used])))}
+
+
+def incomplete_note(info: dict) -> str | None:
+    """The mark of a prediction from an incomplete file (None for a complete one): what it rests on."""
+    if info.get("complete", True):
+        return None
+    j = info["rows_in_journal_only"]
+    journal = ("" if j == 0 else "; its journal could not be read" if j < 0 else
+               f"; {j} more finished row(s) in its journal only, not read here (a rerun of the grid writes them "
+               "into the file)")
+    sc = "" if info.get("scenarios_asked") is None else f" of {info['scenarios_used']} of its {info['scenarios_asked']} scenarios"
+    return (f"INCOMPLETE FILE (interrupted or still running): the grid asked for {info['rows_asked']} rows, the "
+            f"HDF5 file holds {info['rows_in_h5']} finished{journal}. The prediction rests on the {info['rows_used']} "
+            f"successful rows{sc} in the HDF5 file: it is the time of a run of those rows, not of the grid asked "
+            "for (--samples N predicts N rows per scenario present), and their costs and timeline are a part "
+            "of the run's")
 
 
 @dataclass
@@ -312,6 +350,8 @@ def measured(path) -> tuple[Rows, Costs, dict]:
 # ----------------------------------------------------------------------------------------------
 
 SIZES = (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024)
+#: What ``--json`` says a prediction rests on (:func:`_rests_on`).
+REST_KEYS = ("rows_asked", "rows_in_h5", "rows_used", "rows_in_journal_only", "scenarios_asked", "scenarios_used")
 
 
 def build_parser(prog: str = "python -m pycolfrag.grid.replay") -> argparse.ArgumentParser:
@@ -349,7 +389,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.samples is not None:
         rows = rows.resample(args.samples)
     res = efficiency(rows, args.ranks, policy, costs)
-    print(f"replay of {args.results}: {rows.n} rows, policy {policy.name}, {costs.lanes} lanes, one core per rank "
+    note = incomplete_note(info)
+    if note:
+        print(note)
+    print(f"replay of {args.results}{' (INCOMPLETE, above)' if note else ''}: {rows.n} rows, policy {policy.name}, {costs.lanes} lanes, one core per rank "
           f"(costs: the file's rows, written by the {info['policy']} scheduler on {info['n_ranks']} rank(s), "
           f"scale {costs.sigma_scale:.3f}; fixed costs of " + ("its timeline)" if info["policy"] == CURRENT.name
                                                              else "docs/performance.md)"))
@@ -360,7 +403,8 @@ def main(argv: Sequence[str] | None = None) -> int:
               f"{100 * r['E_session']:11.1f} {r['n_chunks']:7d} {r['small_chunks']:7d}")
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump({"policy": policy.name, "rows": rows.n, "lanes": costs.lanes, "results": res}, fh, indent=1)
+            json.dump({"policy": policy.name, "rows": rows.n, "lanes": costs.lanes, "complete": info["complete"],
+                       "incomplete": note, "rests_on": {k: info[k] for k in REST_KEYS}, "results": res}, fh, indent=1)
     return 0
 
 

@@ -125,6 +125,7 @@ class SiteRun:
     stopped: str                     # "target" or "budget"
     batches: list = field(default_factory=list)
     history: list = field(default_factory=list)
+    record: object = None            # the evaluator's RecordSettings: what every run was computed with
 
     @property
     def runs(self) -> int:
@@ -311,4 +312,4 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
         run.run_batch(stage, *run.planned(stage, counts, run.design.production))
         stage += 1
     return SiteRun(site, run.strata, run.design, settings, stop, run.quantities, run.requested, _cat(run.parts), est,
-                   stopped, run.batches, run.history)
+                   stopped, run.batches, run.history, record=evaluator.record)
