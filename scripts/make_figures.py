@@ -19,8 +19,9 @@ from pycolfrag.errors import PycolfragError  # noqa: E402
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("results", help="HDF5 results file of scripts/run_grid.py")
+    p = argparse.ArgumentParser(prog="pycolfrag figures", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("results", help="HDF5 results file of pycolfrag grid")
     p.add_argument("--out", default=None, help="output directory (default: <results dir>/figures)")
     p.add_argument("--n-boot", type=int, default=500, help="bootstrap resamples for surfaces and bands")
     p.add_argument("--seed", type=int, default=0, help="seed of the bootstrap")

@@ -22,7 +22,8 @@ from pycolfrag.input_files import read_text  # noqa: E402
 def main(argv=None) -> int:
     """Command-line entry point; exit code 0, or 2 with one line naming the bad input (a record-suite
     file, an incomplete or damaged one, an unreadable notes file)."""
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(prog="pycolfrag validation", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("results", help="main HDF5 results file (the paper's grid)")
     p.add_argument("--sensitivity", action="append", default=[], metavar="NAME=FILE",
                    help="further results file to compare key numbers with (repeatable)")

@@ -5,7 +5,7 @@
     python scripts/record_checks.py table2 --records SOURCE [--ids ID ...] [--alpha 5] [--ensemble 5]
     python scripts/record_checks.py demo-suite DIR     # write the small closed-form demo suite (PEER layout)
     python scripts/record_checks.py analyse FILE [--out DIR] [--synthetic results/grid.h5]
-                                                       # a record-suite grid file (run_grid.py --records):
+                                                       # a record-suite grid file (pycolfrag grid --records):
                                                        # stripes, cloud, MSA, Fig. 10, report.md
 
 SOURCE: a PEER NGA-West2 download folder, its _SearchResults.csv, a plain suite CSV, or
@@ -104,7 +104,7 @@ def _table2(args) -> int:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="record_checks.py", description=__doc__,
+    p = argparse.ArgumentParser(prog="pycolfrag record-checks", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="cmd", required=True)
     f = sub.add_parser("fig10", help="Fig. 10: u_top of natural records in a distance band vs Mw")

@@ -273,7 +273,7 @@ def compare_results(a, b, alpha: float = 0.05) -> Comparison:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.compare",
+    ap = argparse.ArgumentParser(prog="pycolfrag compare",
                                  description="Compare two pycolfrag grid results files row by row and, "
                                              "where rows differ, by per-scenario statistics.")
     ap.add_argument("a", help="first results file (HDF5)")

@@ -203,9 +203,9 @@ def _write(d, out_path, figures_dir, n_boot, g, risk, note="") -> str:
 
 def main(argv=None) -> int:
     """Command-line entry point; exit code 0, or 2 with one line naming the bad input."""
-    p = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.report",
+    p = argparse.ArgumentParser(prog="pycolfrag report",
                                 description="Markdown report of a synthetic grid's results file (docs/fragility.md)")
-    p.add_argument("results", help="results file (run_grid.py)")
+    p.add_argument("results", help="results file (pycolfrag grid)")
     p.add_argument("out", nargs="?", default=None, help="report to write (default: report.md beside the results)")
     p.add_argument("--allow-incomplete", action="store_true", help=ALLOW_INCOMPLETE_HELP)
     args = p.parse_args(argv)

@@ -187,7 +187,7 @@ def plot(name: str, session: dict, s: dict, path) -> None:
         plt.close(fig)
 
 
-def build_parser(prog: str = "python -m pycolfrag.analysis.timeline") -> argparse.ArgumentParser:
+def build_parser(prog: str = "pycolfrag timeline") -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog=prog, formatter_class=HelpFormatter,
                                 description="Utilisation and idle time by cause of every rank of a grid run, "
                                             "from the timeline stored in its results file (docs/grid.md).")

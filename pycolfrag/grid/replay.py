@@ -322,7 +322,7 @@ def measured(path) -> tuple[Rows, Costs, dict]:
 SIZES = (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024)
 
 
-def build_parser(prog: str = "python -m pycolfrag.grid.replay") -> argparse.ArgumentParser:
+def build_parser(prog: str = "pycolfrag replay") -> argparse.ArgumentParser:
     from ..commands import HelpFormatter  # imports nothing of pycolfrag but its version
     p = argparse.ArgumentParser(prog=prog, formatter_class=HelpFormatter,
                                 description="Predict a grid's time and parallel efficiency on N ranks (one core "
