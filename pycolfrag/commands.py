@@ -8,8 +8,12 @@ Each command is the ``main(argv)`` of the module that owns it, imported only whe
 (:data:`COMMANDS`), so ``pycolfrag --help`` loads none of the analysis; the old commands
 (``scripts/run_grid.py``, ``python -m pycolfrag.analysis.risk``, ...) stay and do the same. Three
 commands are scripts of the repository (``scripts/make_figures.py``, ``make_validation.py``,
-``record_checks.py``), loaded from the checkout the package runs from. This module imports nothing of
-pycolfrag but its version, so any command line may take :class:`HelpFormatter` from it.
+``record_checks.py``), loaded from the checkout the package runs from. Every command runs here with one
+BLAS thread, or the user's ``OPENBLAS_NUM_THREADS``/``OMP_NUM_THREADS`` (:mod:`pycolfrag.threads`: numpy
+is loaded before any command, so the variables alone would come too late), and its long loops draw a
+progress bar on stderr (:mod:`pycolfrag.progress`); the older ``python -m`` commands do neither. This
+module imports nothing of pycolfrag but its version (and those two, which import nothing of it either),
+so any command line may take :class:`HelpFormatter` from it.
 """
 from __future__ import annotations
 
@@ -141,6 +145,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     args = parser.parse_args(argv[:1])  # the name alone: the rest belongs to the command
     command = COMMANDS[args.command]
+    from . import progress, threads  # light: they import nothing of pycolfrag either
+    threads.limit_blas_threads()   # one BLAS thread (or the user's count) for every command: pycolfrag.threads
+    progress.enable()              # the long loops of every command draw a bar on stderr: pycolfrag.progress
     run = command.load()
     prog = sys.argv[0]
     sys.argv[0] = f"pycolfrag {command.name}"   # a command's usage line and recorded command name it as run

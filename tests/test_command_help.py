@@ -1,4 +1,4 @@
-"""Every ``pycolfrag`` command names itself as the user runs it (issue 37, item 17): its usage line says
+"""Every ``pycolfrag`` command names itself as the user runs it: its usage line says
 ``pycolfrag COMMAND`` (five said ``python -m pycolfrag.analysis.X``), its help cites ``pycolfrag grid``
 rather than ``scripts/run_grid.py``, ``risk --help`` shows the ``--simulate`` form's options, and ``risk``
 given only the grid with pulses says the one command that makes the no-pulse grid."""

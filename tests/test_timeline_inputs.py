@@ -1,6 +1,6 @@
-"""``pycolfrag timeline`` and ``pycolfrag replay`` given what a hostile user gives them (issue 37, items 8
-and 10): a FIFO (blocked ``open`` forever), a tampered ``n_ranks`` (a loop over 10^12 ranks), an edited
-``kinds`` (read as "0 rows" with no warning), outputs to paths that cannot be written (raw tracebacks).
+"""``pycolfrag timeline`` and ``pycolfrag replay`` given what a hostile user gives them: a FIFO (blocked
+``open`` forever), a tampered ``n_ranks`` (a loop over 10^12 ranks), an edited ``kinds`` (read as "0 rows"
+with no warning), outputs to paths that cannot be written (raw tracebacks).
 Each case must end in seconds with a message naming what is wrong, exit 2, no traceback."""
 import json
 import os

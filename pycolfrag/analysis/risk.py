@@ -37,6 +37,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .. import progress
 from ..errors import ParameterError, PycolfragError
 from ..site import OUTSIDE_CHOICES, Site, load_site, read_pulse_model
 from ..site_models import PulseOnly, Table
@@ -292,7 +293,7 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
     deg = _degeneracy(ctx) if estimator == "eq4" else Degeneracy()
     deg.warn()
     rate, checks, deagg, source_rate = {}, {}, {}, {s.name: {} for s in site.sources}
-    for q in QUANTITIES:
+    for q in progress.steps(QUANTITIES, "risk levels", unit="level"):
         lam, (lo, hi), pts, info = _rate(ctx, q.threshold, q.edp, q.label, int(n_draws))
         rate[q.label] = (lam, lo, hi)
         checks[q.label] = info
@@ -323,7 +324,7 @@ def _curves(ctx, n_draws):
     res = {}
     for edp, xs in CURVE_X.items():
         lam, lo, hi = (np.zeros(xs.size) for _ in range(3))
-        for k, x in enumerate(xs):
+        for k, x in enumerate(progress.steps(xs, f"risk curve of {edp}", unit="level")):
             lam[k], (lo[k], hi[k]), _, _ = _rate(ctx, float(x), edp, f"{edp} > {x:g}", n_draws)
         res[edp] = {"x": xs, "rate": lam, "low": lo, "high": hi}
     return res
