@@ -147,12 +147,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     command = COMMANDS[args.command]
     from . import progress, threads  # light: they import nothing of pycolfrag either
     threads.limit_blas_threads()   # one BLAS thread (or the user's count) for every command: pycolfrag.threads
-    progress.enable()              # the long loops of every command draw a bar on stderr: pycolfrag.progress
     run = command.load()
-    prog = sys.argv[0]
+    prog, bars = sys.argv[0], progress.enabled()
     sys.argv[0] = f"pycolfrag {command.name}"   # a command's usage line and recorded command name it as run
+    progress.enable()              # the long loops of every command draw a bar on stderr: pycolfrag.progress
     try:
         code = run(argv[1:])
-    finally:
+    finally:                       # a caller in this process (a test, a script) gets both back as they were
         sys.argv[0] = prog
+        progress.enable(bars)
     return 0 if code is None else int(code)
