@@ -47,6 +47,7 @@ def test_a_fifo_is_refused_before_it_is_opened(tmp_path):
     os.mkfifo(fifo)
     p = _run("timeline", fifo, timeout=30)   # before the fix: blocked in open() until the timeout
     _refused(p, f"{fifo} is a FIFO")
+    _refused(_run("replay", fifo, "--ranks", "1", timeout=30), f"{fifo} is a FIFO")
 
 
 @pytest.mark.parametrize("value", [10 ** 12, 0, -3, "many"])

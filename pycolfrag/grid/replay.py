@@ -298,7 +298,8 @@ def measured(path) -> tuple[Rows, Costs, dict]:
     measured: a file with one session's timeline was written by this scheduler (:data:`CURRENT`), whose
     timeline gives the fixed costs and the chunks' CPU; a file without is b2afe10's (:data:`BEFORE`),
     whose rows' summed ``wall_s`` is the chunks' time."""
-    from ..results.timeline import read_timeline  # here: reading a file is only this entry's
+    from ..results.timeline import check_regular_file, read_timeline  # here: reading a file is only this entry's
+    check_regular_file(path)   # a FIFO would hold the reading child until its time limit
     rows, info = Rows.from_results(path)
     sessions = list(read_timeline(path).values())
     costs, policy, chunk_s, n_ranks = Costs(), BEFORE, info["sum_wall_s"], info["n_ranks"]
