@@ -12,7 +12,7 @@ import argparse
 import traceback
 from pathlib import Path
 
-from . import grid
+from . import grid, progress
 
 # The analysis (pycolfrag.analysis: scipy, h5py readers, matplotlib) is imported inside the functions
 # below, on rank 0 after its run: every rank of a grid imports this module, and the start-up of a
@@ -94,6 +94,8 @@ def main(argv=None) -> int:
     5 the results file is being written by another run (its lock is held); 75 a SIGTERM stopped the run
     with rows left (rerun the same command to resume it)."""
     args = build_parser().parse_args(argv)
+    if not args.progress:   # no bar of the grid's, nor of its figures' and report's (pycolfrag.progress)
+        progress.enable(False)
     code, summary, spec = grid.run_command(args, argv)
     if summary is None:  # a refusal (said already), or a worker rank
         return code

@@ -8,8 +8,12 @@ Each command is the ``main(argv)`` of the module that owns it, imported only whe
 (:data:`COMMANDS`), so ``pycolfrag --help`` loads none of the analysis; the old commands
 (``scripts/run_grid.py``, ``python -m pycolfrag.analysis.risk``, ...) stay and do the same. Every command
 lives in the package, so an installed wheel (no checkout, no ``scripts/``) has all of them; the scripts of
-a checkout are thin wrappers over :func:`main`. This module imports nothing of pycolfrag but its version
-and its errors, so any command line may take :class:`HelpFormatter` from it.
+a checkout are thin wrappers over :func:`main`. Every command runs here with one BLAS thread, or the user's
+``OPENBLAS_NUM_THREADS``/``OMP_NUM_THREADS`` (:mod:`pycolfrag.threads`: numpy is loaded before any command,
+so the variables alone would come too late), and its long loops draw a progress bar on stderr
+(:mod:`pycolfrag.progress`); the older ``python -m`` commands do neither. This module imports nothing of
+pycolfrag but its version and its errors (and those two, which import nothing of it either), so any command
+line may take :class:`HelpFormatter` from it.
 """
 from __future__ import annotations
 
@@ -126,9 +130,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     args = parser.parse_args(argv[:1])  # the name alone: the rest belongs to the command
     command = COMMANDS[args.command]
+    from . import progress, threads  # light: they import nothing of pycolfrag either
+    threads.limit_blas_threads()   # one BLAS thread (or the user's count) for every command: pycolfrag.threads
     run = command.load()
-    prog = sys.argv[0]
+    prog, bars = sys.argv[0], progress.enabled()
     sys.argv[0] = f"pycolfrag {command.name}"   # a command's usage line and recorded command name it as run
+    progress.enable()              # the long loops of every command draw a bar on stderr: pycolfrag.progress
     try:
         code = run(argv[1:])
     except MissingDependencyError as exc:
@@ -136,6 +143,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         # command, not a traceback
         print(f"pycolfrag {command.name}: {exc}", file=sys.stderr)
         return 2
-    finally:
+    finally:                       # a caller in this process (a test, a script) gets both back as they were
         sys.argv[0] = prog
+        progress.enable(bars)
     return 0 if code is None else int(code)

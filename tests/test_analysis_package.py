@@ -182,4 +182,4 @@ def test_pcf_fragility_is_a_plain_attribute_and_the_old_names_are_gone():
     p = subprocess.run([sys.executable, "-m", "pycolfrag.compare", "--help"], capture_output=True, text=True)
     assert p.returncode == 1 and "No module named pycolfrag.compare" in p.stderr, p.stderr
     p = subprocess.run([sys.executable, "-m", "pycolfrag.analysis.compare", "--help"], capture_output=True, text=True)
-    assert p.returncode == 0 and p.stdout.startswith("usage: python -m pycolfrag.analysis.compare"), p.stderr
+    assert p.returncode == 0 and p.stdout.startswith("usage: pycolfrag compare"), p.stderr

@@ -362,7 +362,7 @@ def _differing_fields(ra, rb, ia, ib, ignored) -> tuple[dict, np.ndarray]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.compare",
+    ap = argparse.ArgumentParser(prog="pycolfrag compare",
                                  description="Compare two pycolfrag grid results files row by row and, "
                                              "where rows differ, by per-scenario statistics.")
     ap.add_argument("a", help="first results file (HDF5)")

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import names as _names
+from .. import progress
 from ..errors import ParameterError
 from . import fragility as fr
 from .completeness import check_complete
@@ -277,6 +278,7 @@ def im_curves(d: ResultsData, im_values, levels=fr.PERFORMANCE_LEVELS, *, n_stri
         except ParameterError:
             mle = None
         out.append((lev, sc, mle))
+        progress.advance(unit="fit")   # one step of a command's bar (pycolfrag.progress)
     return out
 
 
@@ -391,7 +393,7 @@ def make_all(results_path, out_dir, *, n_boot=500, rng=0, formats=("png", "pdf")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = []
-    for stem, builder in FIGURES.items():
+    for stem, builder in progress.steps(FIGURES.items(), "figures", unit="figure"):
         kw = {"n_boot": n_boot // 2 if stem.startswith("fig16") else n_boot, "rng": rng}
         with warnings.catch_warnings():   # the curve legends say "degenerate fit" themselves
             warnings.simplefilter("ignore", fr.DegenerateFitWarning)

@@ -343,8 +343,8 @@ def _relpath(p: Path, start: Path) -> str:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.record_report",
-                                description="Analyse a record-suite results file (run_grid.py --records): stripes, "
+    p = argparse.ArgumentParser(prog="pycolfrag record-report",
+                                description="Analyse a record-suite results file (pycolfrag grid --records): stripes, "
                                             "cloud, MSA (several scales), Fig. 10, report.md")
     p.add_argument("results", help="record-suite HDF5 file")
     p.add_argument("out", help="output folder (figures, stripes.csv, report.md)")

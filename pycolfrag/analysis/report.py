@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import names
+from .. import names, progress
 from ..errors import PycolfragError
 from . import fragility as fr
 from . import report_text as rt
@@ -123,7 +123,15 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
     # the report marks degenerate fits itself (below), so their warnings would only repeat it
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", fr.DegenerateFitWarning)
-        return _write(d, out_path, figures_dir, n_boot, g, risk, note)
+        with progress.task("report", _n_fits(d), unit="fit"):
+            return _write(d, out_path, figures_dir, n_boot, g, risk, note)
+
+
+def _n_fits(d) -> int:
+    """Steps of the report's bar: each scenario's fits, then each IM's fits of every level (:func:`_write`)."""
+    n_ims = 4 if d.sa_g is not None and d.periods_s is not None and d.periods_s.size else 2
+    return len(set(zip(np.asarray(d["mw"]).tolist(), np.asarray(d["dist_km"]).tolist()))) + n_ims * len(
+        fr.PERFORMANCE_LEVELS)
 
 
 def _write(d, out_path, figures_dir, n_boot, g, risk, note="") -> str:
@@ -255,9 +263,9 @@ def _figures_section(d, out_path, figures_dir) -> list:
 
 def main(argv=None) -> int:
     """Command-line entry point; exit code 0, or 2 with one line naming the bad input."""
-    p = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.report",
+    p = argparse.ArgumentParser(prog="pycolfrag report",
                                 description="Markdown report of a synthetic grid's results file (docs/fragility.md)")
-    p.add_argument("results", help="results file (run_grid.py)")
+    p.add_argument("results", help="results file (pycolfrag grid)")
     p.add_argument("out", nargs="?", default=None, help="report to write (default: report.md beside the results)")
     p.add_argument("--allow-incomplete", action="store_true", help=ALLOW_INCOMPLETE_HELP)
     args = p.parse_args(argv)

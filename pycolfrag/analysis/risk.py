@@ -31,18 +31,20 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import textwrap
 import tomllib
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .. import progress
 from ..errors import ParameterError, PycolfragError
 from ..site import OUTSIDE_CHOICES, Site, load_site, read_pulse_model
 from ..site_models import PulseOnly, Table
 from . import fragility as fr
 from .codes import code_history
 from .data import as_data
-from .risk_branches import check_branches, check_complete, code_identity, declared_pulse
+from .risk_branches import check_branches, check_complete, code_identity, declared_pulse, no_pulse_command
 from .risk_cells import BranchCell, grid_cells, surface_draws
 from .risk_fit import EQ4_FIT_ALPHA, MISFIT_CHOICES, Degeneracy, check_eq4
 from .risk_report import SiteRisk, print_summary, report_section, write_outputs
@@ -168,8 +170,9 @@ def _read_branches(site, pulse_results, no_pulse_results, allow_incomplete):
     if no_pulse is None and need:
         raise ParameterError(
             f"sources {', '.join(map(repr, need))} have p_pulse < 1 but only the pulse branch was given: "
-            "give the no-pulse results (--no-pulse, from scripts/run_grid.py --pulse none), or ask for the "
-            "pulse branch alone explicitly (model = 'pulse-only' or --pulse-only; it overstates the risk)")
+            f"give the no-pulse results (--no-pulse H5): make them with {no_pulse_command(pulse)} ; "
+            "or ask for the pulse branch alone explicitly (model = 'pulse-only' or --pulse-only; it overstates "
+            "the risk)")
     if no_pulse is not None and not need:
         raise ParameterError("a no-pulse branch was given but every source is pulse-only (p_pulse = 1): "
                              "drop one of the two")
@@ -310,7 +313,7 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
     deg = _degeneracy(ctx) if estimator == "eq4" else Degeneracy()
     deg.warn()
     rate, checks, deagg, source_rate = {}, {}, {}, {s.name: {} for s in site.sources}
-    for q in QUANTITIES:
+    for q in progress.steps(QUANTITIES, "risk levels", unit="level"):
         lam, (lo, hi), pts, info = _rate(ctx, q.threshold, q.edp, q.label, int(n_draws))
         rate[q.label] = (lam, lo, hi)
         checks[q.label] = info
@@ -343,7 +346,7 @@ def _curves(ctx, n_draws):
     res = {}
     for edp, xs in CURVE_X.items():
         lam, lo, hi = (np.zeros(xs.size) for _ in range(3))
-        for k, x in enumerate(xs):
+        for k, x in enumerate(progress.steps(xs, f"risk curve of {edp}", unit="level")):
             lam[k], (lo[k], hi[k]), _, _ = _rate(ctx, float(x), edp, f"{edp} > {x:g}", n_draws)
         res[edp] = {"x": xs, "rate": lam, "low": lo, "high": hi}
     return res
@@ -351,14 +354,39 @@ def _curves(ctx, n_draws):
 
 # --------------------------------------------------------------------------- command
 
+class _Parser(argparse.ArgumentParser):
+    """The grid route's parser; its help ends with the other form's options (``--simulate``, read from its
+    own parser when help is asked for: the grid route does not import the simulation)."""
+
+    def format_help(self) -> str:
+        from . import risk_rare
+        other = risk_rare.build_parser(self.prog)
+        fmt = other._get_formatter()
+        for group in other._action_groups:
+            if any("--simulate" in a.option_strings for a in group._group_actions):
+                fmt.start_section(group.title)
+                fmt.add_arguments(group._group_actions)
+                fmt.end_section()
+        shared = sorted({o for a in self._actions for o in a.option_strings} & _SIMULATE_SHARED)
+        self.epilog = (textwrap.fill(f"The event-based simulation instead of the grid route: {self.prog} SITE "
+                                     f"[RESULTS] --simulate OUTDIR [options] (docs/rare_events.md); it takes "
+                                     f"{', '.join(shared)} as above, and:", 79)
+                       + "\n\n" + fmt.format_help().rstrip())
+        return super().format_help()
+
+
+#: Options of the grid route that the ``--simulate`` form takes too.
+_SIMULATE_SHARED = {"--no-pulse", "--pulse-only", "--pulse-model", "--outside", "--years", "--draws", "--no-figures"}
+
+
 def _parser():
-    ap = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.risk",
-                                 description="Annual rates and T-year probabilities of the column's damage "
-                                             "levels at a site (docs/risk.md).")
+    ap = _Parser(prog="pycolfrag risk", formatter_class=argparse.RawDescriptionHelpFormatter,
+                 description="Annual rates and T-year probabilities of the column's damage "
+                             "levels at a site (docs/risk.md).")
     ap.add_argument("site", help="site file (TOML)")
     ap.add_argument("results", help="results of the grid with pulses (HDF5)")
     ap.add_argument("outdir", help="folder for risk.md, risk.json and the figures")
-    ap.add_argument("--no-pulse", metavar="H5", help="results of the same grid made with run_grid.py --pulse none")
+    ap.add_argument("--no-pulse", metavar="H5", help="results of the same grid made with pycolfrag grid ... --pulse none")
     ap.add_argument("--pulse-only", action="store_true",
                     help="use the pulse branch alone (p_pulse = 1); overstates the risk, said in every output")
     ap.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR,

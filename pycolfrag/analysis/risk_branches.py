@@ -14,6 +14,8 @@
 from __future__ import annotations
 
 import json
+import shlex
+from pathlib import Path
 
 import numpy as np
 
@@ -101,7 +103,7 @@ def check_branches(pulse, no_pulse) -> None:
     dn = declared_pulse(no_pulse.attrs)
     if dn is None or dn.lower() != "none":
         raise ParameterError(f"{no_pulse.path} was given as the no-pulse branch but does not declare pulse = "
-                             f"'none' (it declares {dn!r}); make it with scripts/run_grid.py --pulse none")
+                             f"'none' (it declares {dn!r}); make it with: {no_pulse_command(pulse)}")
     cp, cn = pulse.attrs.get("column"), no_pulse.attrs.get("column")
     if cp is not None and cn is not None and json.loads(cp) != json.loads(cn):
         raise ParameterError(f"{pulse.path} and {no_pulse.path} are grids of different columns; the two "
@@ -121,3 +123,35 @@ def check_complete(branches: dict, allow_incomplete: bool) -> list:
     the one judge: rows not computed yet); refused unless ``allow_incomplete``."""
     notes = [_completeness.check_complete(d, allow_incomplete, f"a site risk from {d.path}") for d in branches.values()]
     return [n for n in notes if n]
+
+
+#: Options of a grid's recorded command that do not carry over to its no-pulse twin (with their value).
+_NOT_CARRIED = ("--out", "--pulse", "--report", "--figures-dir")
+#: ... and the flags of that one run (replacing or resuming its file) that a new file must not take.
+_FLAGS_NOT_CARRIED = ("--overwrite", "--retry-failed", "--allow-code-change")
+
+
+def no_pulse_command(pulse) -> str:
+    """The one command that makes the no-pulse grid of the grid with pulses ``pulse`` (its data, with the
+    ``command`` attribute the grid records): its own options with ``--pulse none`` and ``--out`` beside it
+    (``<stem>_nopulse.h5``); the same options by name when the file records no command."""
+    path = Path(str(pulse.path)) if getattr(pulse, "path", None) is not None else Path("grid.h5")
+    out = path.with_name(f"{path.stem}_nopulse{path.suffix or '.h5'}")
+    cmd = pulse.attrs.get("command") if hasattr(pulse, "attrs") else None
+    cmd = cmd.decode() if isinstance(cmd, bytes) else cmd
+    try:
+        words = shlex.split(cmd) if isinstance(cmd, str) else []
+    except ValueError:
+        words = []
+    start = next((i + 1 for i, w in enumerate(words) if w == "grid" or w.endswith("run_grid.py")), None)
+    if start is None:
+        return f"pycolfrag grid <the grid's own options> --pulse none --out {shlex.quote(str(out))}"
+    kept, skip = [], False
+    for w in words[start:]:
+        if skip:
+            skip = False
+        elif w in _NOT_CARRIED:
+            skip = True
+        elif w not in _FLAGS_NOT_CARRIED and not w.startswith(tuple(f"{o}=" for o in _NOT_CARRIED)):
+            kept.append(w)
+    return shlex.join(["pycolfrag", "grid", *kept, "--pulse", "none", "--out", str(out)])

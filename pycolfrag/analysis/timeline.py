@@ -181,11 +181,13 @@ def plot(name: str, session: dict, s: dict, path) -> None:
                  "of rank-time", fontsize=9)
     fig.legend(ncol=8, fontsize=7, loc="lower center")
     fig.tight_layout(rect=(0, 0.1, 1, 1))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        fig.savefig(path, dpi=110)
+    finally:
+        plt.close(fig)
 
 
-def build_parser(prog: str = "python -m pycolfrag.analysis.timeline") -> argparse.ArgumentParser:
+def build_parser(prog: str = "pycolfrag timeline") -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog=prog, formatter_class=HelpFormatter,
                                 description="Utilisation and idle time by cause of every rank of a grid run, "
                                             "from the timeline stored in its results file (docs/grid.md).")
@@ -202,7 +204,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         sessions = read_timeline(args.results)
-    except (OSError, KeyError) as exc:
+    except (OSError, KeyError, ValueError) as exc:   # ValueError: ResultsFileError (a FIFO, a bad n_ranks, kinds)
         print(f"timeline: cannot read {args.results}: {exc}", file=sys.stderr)
         return 2
     if args.session is not None:
@@ -220,11 +222,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         out[name] = {k: v for k, v in s.items() if k != "attrs"}
         if args.plot:
             path = args.plot if len(sessions) == 1 else _numbered(args.plot, name)
-            plot(name, sess, s, path)
+            try:
+                plot(name, sess, s, path)
+            except (OSError, ValueError) as exc:   # ValueError: a suffix matplotlib cannot write
+                print(f"timeline: cannot write --plot {path}: {getattr(exc, 'strerror', None) or exc}",
+                      file=sys.stderr)
+                return 2
             print(f"  plot: {path}")
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(out, fh, indent=1, default=float)
+        try:
+            with open(args.json, "w") as fh:
+                json.dump(out, fh, indent=1, default=float)
+        except OSError as exc:
+            print(f"timeline: cannot write --json {args.json}: {exc.strerror or exc}", file=sys.stderr)
+            return 2
     return 0
 
 

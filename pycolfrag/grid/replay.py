@@ -74,6 +74,7 @@ class Rows:
         """The finished rows of a results file of the synthetic grid, and what the file measured
         (``sum_wall_s``; its last timeline's chunk CPU and session, when it has one)."""
         from .. import results as _results  # here: reading a file is only this entry's
+        from ..results.timeline import MAX_RANKS
         raw = _results.read_h5_bounded(path)
         g, attrs = raw["samples"], raw["attrs"]
         ok = (g["status"] == 0) & (g["n_steps"] > 0)
@@ -95,7 +96,11 @@ class Rows:
             m = sc == s
             rec_s = synthetic_record_s(float(mw[m][0]), float(dist[m][0]))
             expected[m] = (min(rec_s, cut) if cut > 0 else rec_s) + tail
-        measured = {"sum_wall_s": float(wall.sum()), "n_ranks": int(attrs.get("n_ranks", 1)),
+        n_ranks = attrs.get("n_ranks", 1)
+        n_ranks = n_ranks.item() if isinstance(n_ranks, np.generic) else n_ranks
+        if not isinstance(n_ranks, int) or not 1 <= n_ranks <= MAX_RANKS:
+            raise ValueError(f"{path}: its n_ranks attribute {n_ranks!r} is not an integer from 1 to {MAX_RANKS}")
+        measured = {"sum_wall_s": float(wall.sum()), "n_ranks": int(n_ranks),
                     "samples": int(attrs.get("samples", 1)), "session_s": float(attrs.get("wall_s_last_session", 0.0)),
                     **_rests_on(path, g, attrs, ok)}
         return cls(sc, steps, sigma, prep, expected, order, int(attrs.get("samples", 1))), measured
@@ -331,11 +336,15 @@ def measured(path) -> tuple[Rows, Costs, dict]:
     measured: a file with one session's timeline was written by this scheduler (:data:`CURRENT`), whose
     timeline gives the fixed costs and the chunks' CPU; a file without is b2afe10's (:data:`BEFORE`),
     whose rows' summed ``wall_s`` is the chunks' time."""
-    from ..results.timeline import read_timeline  # here: reading a file is only this entry's
+    from ..results.timeline import check_regular_file, read_timeline  # here: reading a file is only this entry's
+    check_regular_file(path)   # a FIFO would hold the reading child until its time limit
     rows, info = Rows.from_results(path)
     sessions = list(read_timeline(path).values())
     costs, policy, chunk_s, n_ranks = Costs(), BEFORE, info["sum_wall_s"], info["n_ranks"]
-    if len(sessions) == 1:
+    if len(sessions) == 1 and not sessions[0]["crc_ok"]:
+        print(f"replay: {path}'s timeline fails its CRC-32 (changed after it was written): its costs are not used",
+              file=sys.stderr)
+    elif len(sessions) == 1:
         sess = sessions[0]
         chunks = sess["rows"][sess["rows"]["kind"] == sess["kinds"].index("chunk")]
         if int(chunks["n_rows"].sum()) == rows.n:
@@ -354,7 +363,7 @@ SIZES = (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024)
 REST_KEYS = ("rows_asked", "rows_in_h5", "rows_used", "rows_in_journal_only", "scenarios_asked", "scenarios_used")
 
 
-def build_parser(prog: str = "python -m pycolfrag.grid.replay") -> argparse.ArgumentParser:
+def build_parser(prog: str = "pycolfrag replay") -> argparse.ArgumentParser:
     from ..commands import HelpFormatter  # imports nothing of pycolfrag but its version
     p = argparse.ArgumentParser(prog=prog, formatter_class=HelpFormatter,
                                 description="Predict a grid's time and parallel efficiency on N ranks (one core "
@@ -402,9 +411,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{r['size']:6d} {r['t_job']:9.2f} {r['t_session']:11.2f} {100 * r['E_job']:8.1f} "
               f"{100 * r['E_session']:11.1f} {r['n_chunks']:7d} {r['small_chunks']:7d}")
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump({"policy": policy.name, "rows": rows.n, "lanes": costs.lanes, "complete": info["complete"],
-                       "incomplete": note, "rests_on": {k: info[k] for k in REST_KEYS}, "results": res}, fh, indent=1)
+        try:
+            with open(args.json, "w") as fh:
+                json.dump({"policy": policy.name, "rows": rows.n, "lanes": costs.lanes, "complete": info["complete"],
+                           "incomplete": note, "rests_on": {k: info[k] for k in REST_KEYS}, "results": res}, fh,
+                          indent=1)
+        except OSError as exc:
+            print(f"replay: cannot write --json {args.json}: {exc.strerror or exc}", file=sys.stderr)
+            return 2
     return 0
 
 

@@ -5,21 +5,32 @@ one row per interval of one rank (:data:`DTYPE`), appended at every HDF5 write o
 its end. The group is diagnostic: it is not journalled (a killed session loses at most the intervals
 since its last write, never a row), it is outside the rows' checksums and the file's ``checksums``
 attribute (a timeline can neither damage nor vouch for a row), and each session's dataset carries a
-CRC-32 of its own bytes (attribute ``crc32``). Written by :class:`pycolfrag.results.ResultsWriter`,
-read by :func:`read_timeline` (``pycolfrag timeline``, :mod:`pycolfrag.analysis.timeline`);
-documented in docs/results_format.md.
+CRC-32 of its own bytes (attribute ``crc32``) and one of its attributes with the group's ``kinds``
+(attribute ``attrs_crc32``). Reading refuses what would make a reader hang or loop: a path that is not a
+regular file (a FIFO blocks ``open``), an ``n_ranks`` that is not a positive integer within
+:data:`MAX_RANKS` covering the ranks of the rows, a ``kinds`` that is not a list of known kind names.
+Written by :class:`pycolfrag.results.ResultsWriter`, read by :func:`read_timeline` (``pycolfrag timeline``,
+:mod:`pycolfrag.analysis.timeline`); documented in docs/results_format.md.
 """
 from __future__ import annotations
 
 import json
+import os
+import stat
 import zlib
 from typing import Mapping, Sequence
 
 import numpy as np
 
+from ..errors import ResultsFileError
 from .layout import h5open
 
-__all__ = ["GROUP", "KINDS", "DTYPE", "kind_code", "records", "append_timeline", "next_session", "read_timeline"]
+__all__ = ["GROUP", "KINDS", "DTYPE", "MAX_RANKS", "kind_code", "records", "append_timeline", "next_session",
+           "read_timeline", "check_regular_file"]
+
+#: The most ranks a session's ``n_ranks`` may claim: a reader loops over the ranks (``pycolfrag timeline``)
+#: or replays them (``pycolfrag replay``), so a tampered count must not run for hours.
+MAX_RANKS = 1 << 16
 
 #: The group of a results file that holds the sessions' timelines.
 GROUP = "timeline"
@@ -86,6 +97,19 @@ def append_timeline(f, session: str, attrs: Mapping, rows: np.ndarray) -> None:
         ds.resize((n + len(rows),))
         ds[n:] = rows
     ds.attrs["crc32"] = zlib.crc32(np.ascontiguousarray(ds[...]).tobytes())
+    ds.attrs["attrs_crc32"] = _attrs_crc(g.attrs["kinds"], ds.attrs)
+
+
+def _text(v):
+    return v.decode() if isinstance(v, bytes) else v
+
+
+def _attrs_crc(kinds, attrs) -> int:
+    """CRC-32 of a session's attributes (but its two CRCs) and the group's ``kinds``, as read back."""
+    items = sorted((k, _text(v)) for k, v in attrs.items() if k not in ("crc32", "attrs_crc32"))
+    text = json.dumps([_text(kinds), [[k, v if isinstance(v, (str, int, float, bool)) else np.asarray(v).tolist()]
+                                      for k, v in items]], default=str)
+    return zlib.crc32(text.encode("utf-8", errors="surrogateescape"))
 
 
 def next_session(path) -> str:
@@ -99,16 +123,55 @@ def next_session(path) -> str:
     return f"session_{k}"
 
 
+def check_regular_file(path) -> None:
+    """Refuse a path that is not a regular file (:class:`ResultsFileError`): opening a FIFO waits for a
+    writer forever, a device never ends. A missing file raises ``FileNotFoundError``."""
+    mode = os.stat(path).st_mode
+    if not stat.S_ISREG(mode):
+        what = "a FIFO" if stat.S_ISFIFO(mode) else "a folder" if stat.S_ISDIR(mode) else "not a regular file"
+        raise ResultsFileError(f"{path} is {what}: a results file is a regular HDF5 file")
+
+
+def _kinds(g, path) -> list:
+    raw = _text(g.attrs.get("kinds", json.dumps(list(KINDS))))
+    try:
+        kinds = json.loads(raw)
+    except (TypeError, ValueError):
+        kinds = None
+    if (not isinstance(kinds, list) or not all(isinstance(k, str) and k in KINDS for k in kinds)
+            or len(set(kinds)) != len(kinds)):
+        raise ResultsFileError(f"{path}: the timeline's kinds attribute {str(raw)[:200]!r} is not a list of distinct "
+                               f"kind names of {', '.join(KINDS)} (edited or damaged)")
+    return kinds
+
+
+def _check_n_ranks(path, name: str, attrs: Mapping, rows: np.ndarray) -> None:
+    """A session's ``n_ranks``: an integer in 1..:data:`MAX_RANKS` above every rank of its rows."""
+    if "n_ranks" not in attrs:
+        return
+    v = attrs["n_ranks"]
+    v = v.item() if isinstance(v, np.generic) else v
+    top = int(rows["rank"].max()) + 1 if len(rows) else 1
+    ok = isinstance(v, int) and not isinstance(v, bool) and top <= v <= MAX_RANKS
+    if not ok:
+        raise ResultsFileError(f"{path}: timeline {name} has n_ranks {v!r}: not an integer from {top} (its rows' "
+                               f"ranks) to {MAX_RANKS} (edited or damaged)")
+
+
 def read_timeline(path) -> dict:
     """Every session's timeline of a results file: ``{name: {"attrs": dict, "rows": array of DTYPE,
     "kinds": [kind names by code], "crc_ok": bool}}`` in session order ({} when the file has none).
-    A dataset whose bytes fail its CRC-32 is returned with ``crc_ok`` False (the caller says so)."""
+    A dataset whose bytes or attributes fail their CRC-32 is returned with ``crc_ok`` False (the caller
+    says so); a file written before ``attrs_crc32`` was stored is checked on its rows alone. A path that
+    is not a regular file, a ``kinds`` or an ``n_ranks`` that cannot be right raise
+    :class:`~pycolfrag.errors.ResultsFileError` naming them."""
+    check_regular_file(path)
     out: dict[str, dict] = {}
     with h5open(path, "r") as f:
         if GROUP not in f:
             return out
         g = f[GROUP]
-        kinds = json.loads(g.attrs.get("kinds", json.dumps(list(KINDS))))
+        kinds = _kinds(g, path)
         for name in sorted(g, key=lambda s: int(s.rsplit("_", 1)[-1]) if s.rsplit("_", 1)[-1].isdigit() else -1):
             ds = g[name]
             rows = ds[...]
@@ -121,7 +184,10 @@ def read_timeline(path) -> dict:
                     except ValueError:
                         pass
                 attrs[k] = v
-            crc = attrs.pop("crc32", None)
+            crc, attrs_crc = attrs.pop("crc32", None), attrs.pop("attrs_crc32", None)
             ok = crc is not None and int(crc) == zlib.crc32(np.ascontiguousarray(rows).tobytes())
+            if attrs_crc is not None:
+                ok = ok and int(attrs_crc) == _attrs_crc(g.attrs.get("kinds"), ds.attrs)
+            _check_n_ranks(path, name, attrs, rows)
             out[name] = {"attrs": attrs, "rows": rows, "kinds": kinds, "crc_ok": ok}
     return out

@@ -5,6 +5,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ... import progress
 from ..._validate import float_array
 from ...errors import ParameterError
 from .bootstrap import _mean_ok_vectorised, as_rng, boot_settings, bootstrap_interval
@@ -105,6 +106,7 @@ def scenario_table(mw, dist_km, edps: dict, collapsed, levels=PERFORMANCE_LEVELS
                 row.ci[lev.label] = bootstrap_interval(e, c, lev.threshold, n_boot=n_boot,
                                                        confidence=confidence, rng=g)
             rows.append(row)
+            progress.advance(unit="fit")   # a scenario's fits: one step of a command's bar (pycolfrag.progress)
     return rows
 
 

@@ -16,7 +16,7 @@ from .nrml import read_nrml
 
 
 def _parser():
-    p = argparse.ArgumentParser(prog="python -m pycolfrag.analysis.openquake",
+    p = argparse.ArgumentParser(prog="pycolfrag openquake",
                                 description="OpenQuake interchange: export IM-based fragility as NRML 0.5, or "
                                             "convolve OpenQuake hazard curves with a fragility model "
                                             "(OpenQuake's classical damage). docs/risk.md")
