@@ -43,3 +43,10 @@ class OutputError(PycolfragError, OSError):
 class RareEventError(PycolfragError, RuntimeError):
     """A rare-event estimate that cannot be made as asked: subset simulation whose levels stop rising,
     more failed runs than a level can absorb, an evaluator that returns other rows than it was given."""
+
+
+class StaleBuildError(ResultsFileError):
+    """The loaded C library was compiled from other sources than those on disk (a stale build), or
+    carries no digest of its sources: a run would be signed by code the sources do not show. Rebuild
+    (``python setup.py build_ext --inplace``). A :class:`ResultsFileError`, so every command that
+    signs a results file refuses it as it refuses a file of another run (exit code 2)."""
