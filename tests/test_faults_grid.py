@@ -188,6 +188,7 @@ def test_resume_after_a_change_off_the_reference_path_is_refused_unless_allowed(
     assert "16 of 16 rows already done" in p.stdout, p.stdout
 
 
+@pytest.mark.mpi
 def test_a_resume_by_a_library_of_other_sources_is_refused(tmp_path):
     # Reported (issue 37, 2): with the sources reverted and a library built from other sources loaded,
     # a resume exited 0 and mixed rows of two builds -- the digest read csrc/, not the library. Here a
@@ -205,6 +206,10 @@ def test_a_resume_by_a_library_of_other_sources_is_refused(tmp_path):
         assert "Traceback" not in p.stderr, p.stderr
         _same_rows(before, load(out))  # untouched
         assert _journal_rows(out) == len(before)
+    # on 2 MPI ranks: rank 0 reads the sources, and every rank stops (none waits for the others)
+    p = _mpirun(2, [*FAKE, "--out", str(out)], PYTHONPATH=os.pathsep.join([str(stale), str(ROOT / "tests")]))
+    assert p.returncode == 2 and "stale build: the loaded C library" in p.stdout, p.stdout + p.stderr
+    _same_rows(before, load(out))
 
 
 # ------------------------------------------------------------------------------ 4: StepWarning
