@@ -3,7 +3,7 @@
 connector laws), and the library it makes carries the digest of those files, by which results are
 signed (pycolfrag/grid/signing.py; tests/test_grid_signing.py checks the signing side).
 
-Reported (issue 37, 2): after an edit of csrc/contact_law.h alone, ``build_ext --inplace`` said the
+Reported: after an edit of csrc/contact_law.h alone, ``build_ext --inplace`` said the
 extension was up to date and the old binary stayed loaded under the new sources' digest.
 """
 from __future__ import annotations

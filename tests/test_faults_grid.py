@@ -190,7 +190,7 @@ def test_resume_after_a_change_off_the_reference_path_is_refused_unless_allowed(
 
 @pytest.mark.mpi
 def test_a_resume_by_a_library_of_other_sources_is_refused(tmp_path):
-    # Reported (issue 37, 2): with the sources reverted and a library built from other sources loaded,
+    # Reported: with the sources reverted and a library built from other sources loaded,
     # a resume exited 0 and mixed rows of two builds -- the digest read csrc/, not the library. Here a
     # checkout whose library (copied) was built from this csrc/ while its csrc/ holds an edit of a
     # header (the contact law's): the run is refused as a stale build before any row, even with

@@ -95,7 +95,7 @@ def test_sources_edited_but_not_rebuilt_are_refused_as_a_stale_build(scratch, re
 
 
 def test_the_digest_signs_the_loaded_library_not_the_sources(scratch):
-    """The sources on disk unchanged, a library of other sources loaded (the issue's reverted sources
+    """The sources on disk unchanged, a library of other sources loaded (the reported case: sources reverted
     beside a binary of an edit): refused in a checkout; without csrc/ (an installed package, where
     nothing on disk can be compared) the run is signed by that library, so its digest differs."""
     here = scratch("same")
@@ -182,7 +182,7 @@ def test_a_code_change_alone_is_refused_unless_allowed(tmp_path):
 
 
 def test_a_file_begun_by_another_binary_is_refused_on_resume(tmp_path, scratch):
-    """The issue's case, signed by real digests: a file begun with one library and resumed with a library
+    """The reported case, signed by real digests: a file begun with one library and resumed with a library
     built from other sources is refused as a code change (before this, both signed the sources on
     disk alike and the resume mixed rows of two builds), unless --allow-code-change. Without csrc/ on
     disk (an installed package), so that the refusal comes from the signature, not the stale check."""

@@ -190,7 +190,7 @@ def test_an_event_with_a_grid_rows_inputs_is_that_row():
 
 @pytest.mark.mpi
 def test_a_stale_build_is_refused_on_every_rank(tmp_path):
-    """A checkout whose csrc/ holds an edit of a header its library was not rebuilt from (issue 37, 2):
+    """A checkout whose csrc/ holds an edit of a header its library was not rebuilt from:
     the simulation is refused before any run, in one line, on 1 and on 2 ranks (the workers, inside
     their first batch, stop with rank 0 instead of waiting for it or printing a traceback)."""
     if shutil.which("mpirun") is None:
