@@ -6,6 +6,11 @@
 
 #define CF_VERSION "0.1.0"
 
+/* pycolfrag/_build.py defines it as the digest of the build's inputs; other builds have none */
+#ifndef CF_SOURCE_DIGEST
+#define CF_SOURCE_DIGEST "none"
+#endif
+
 const char *cf_common_status_name(int status)
 {
     switch (status) {
@@ -21,6 +26,8 @@ const char *cf_common_status_name(int status)
 }
 
 const char *cf_common_version(void) { return CF_VERSION; }
+
+const char *cf_common_source_digest(void) { return CF_SOURCE_DIGEST; }
 
 double cf_common_fma_probe(double a, double b, double c) { return a * b + c; }
 

@@ -32,6 +32,12 @@ const char *cf_common_status_name(int status);
 /* Library version string, e.g. "0.1.0"; Python checks it at import. */
 const char *cf_common_version(void);
 
+/* SHA-256 (64 hex digits) of the sources this library was compiled from (csrc/ *.c, *.h, flags.mk,
+ * pycolfrag/_build.py, pycolfrag/data/constants.json: pycolfrag/_source_digest.py), computed by
+ * the extension's build (the macro CF_SOURCE_DIGEST); "none" for a build without it (the C tests).
+ * Results are signed by it: it names the binary that runs, not the sources on disk. */
+const char *cf_common_source_digest(void);
+
 /* Returns a*b + c as this library's compiler flags evaluate it. With
  * floating-point contraction off (-ffp-contract=off) this is the product rounded,
  * then the sum rounded; a fused multiply-add would round once. Used by a test to

@@ -10,10 +10,17 @@ real headers at build time.
 Built by ``pip install -e .`` through ``cffi_modules`` in ``setup.py``; there is no
 other build path for the extension (a stale ``_libcolfrag.cpython-*.so`` left by
 ``ffibuilder.compile()`` would shadow the ``.abi3.so`` pip builds).
+
+The extension depends on every build input (:func:`pycolfrag._source_digest.build_inputs`: the
+headers, ``flags.mk``, this script, ``constants.json``, not only the ``.c`` files), so
+``setup.py build_ext`` rebuilds after an edit of a header alone; and it carries the digest of those
+inputs (``cf_common_source_digest()``), by which results are signed (docs/grid.md, "Signed by its
+code").
 """
 from __future__ import annotations
 
 import glob
+import importlib.util
 import json
 import os
 import re
@@ -56,6 +63,24 @@ def _defines() -> list[tuple[str, str]]:
         g = float(json.load(fh)["g_m_s2"])
     return [("CF_G_M_S2", repr(g))]
 
+def _source_digest_module():
+    """pycolfrag/_source_digest.py, loaded by its path (the package cannot be imported before its
+    extension is built)."""
+    spec = importlib.util.spec_from_file_location("_pcf_source_digest", os.path.join(HERE, "_source_digest.py"))
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _build_inputs() -> tuple[list[str], str]:
+    """(every file the build reads, relative to the checkout: the extension's ``depends``, and their
+    digest, compiled in as ``CF_SOURCE_DIGEST``)."""
+    sd = _source_digest_module()
+    root = os.path.normpath(os.path.join(HERE, ".."))
+    return [os.path.relpath(p, root) for _, p in sd.build_inputs(root)], sd.source_digest(root)
+
+
 _REGION = re.compile(r"/\*\s*cffi:begin\s*\*/(.*?)/\*\s*cffi:end\s*\*/", re.S)
 
 
@@ -83,13 +108,15 @@ def make_builder() -> FFI:
     ffi.cdef('extern "Python" int _pcf_solver_check(void *);')
     includes = "\n".join(f'#include "{os.path.basename(h)}"' for h in headers)
     sources = sorted(glob.glob(os.path.join(CSRC, "*.c")))
+    depends, digest = _build_inputs()
     ffi.set_source(
         "pycolfrag._libcolfrag",
         includes,
         sources=[os.path.relpath(s, os.path.join(HERE, "..")) for s in sources],
         include_dirs=[os.path.relpath(CSRC, os.path.join(HERE, ".."))],
         extra_compile_args=CFLAGS,
-        define_macros=_defines(),
+        define_macros=_defines() + [("CF_SOURCE_DIGEST", f'"{digest}"')],
+        depends=depends,
         libraries=["m"],
     )
     return ffi

@@ -48,3 +48,10 @@ class RareEventError(PycolfragError, RuntimeError):
 class MissingDependencyError(PycolfragError, ImportError):
     """A feature was asked for whose optional dependency is not installed (MPI ranks without mpi4py: the
     ``mpi`` extra, ``pip install 'pycolfrag[mpi]'``)."""
+
+
+class StaleBuildError(ResultsFileError):
+    """The loaded C library was compiled from other sources than those on disk (a stale build), or
+    carries no digest of its sources: a run would be signed by code the sources do not show. Rebuild
+    (``python setup.py build_ext --inplace``). A :class:`ResultsFileError`, so every command that
+    signs a results file refuses it as it refuses a file of another run (exit code 2)."""

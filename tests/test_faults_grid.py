@@ -188,6 +188,30 @@ def test_resume_after_a_change_off_the_reference_path_is_refused_unless_allowed(
     assert "16 of 16 rows already done" in p.stdout, p.stdout
 
 
+@pytest.mark.mpi
+def test_a_resume_by_a_library_of_other_sources_is_refused(tmp_path):
+    # Reported: with the sources reverted and a library built from other sources loaded,
+    # a resume exited 0 and mixed rows of two builds -- the digest read csrc/, not the library. Here a
+    # checkout whose library (copied) was built from this csrc/ while its csrc/ holds an edit of a
+    # header (the contact law's): the run is refused as a stale build before any row, even with
+    # --allow-code-change (the sources would not say which code wrote the rows).
+    out = _partial_whole(tmp_path)
+    before = load(out)
+    law = ' * contact_law.h -- THE sub-contact law of the soft joints, written once.'
+    stale = _scratch_package(tmp_path, "stale", ("csrc/contact_law.h", law, law + " (edited)"))
+    for extra in ([], ["--allow-code-change"]):
+        p = _run_with(stale, [*FAKE, "--out", str(out), *extra])
+        assert p.returncode == 2, p.stdout + p.stderr
+        assert "stale build: the loaded C library" in p.stdout and "build_ext --inplace" in p.stdout, p.stdout
+        assert "Traceback" not in p.stderr, p.stderr
+        _same_rows(before, load(out))  # untouched
+        assert _journal_rows(out) == len(before)
+    # on 2 MPI ranks: rank 0 reads the sources, and every rank stops (none waits for the others)
+    p = _mpirun(2, [*FAKE, "--out", str(out)], PYTHONPATH=os.pathsep.join([str(stale), str(ROOT / "tests")]))
+    assert p.returncode == 2 and "stale build: the loaded C library" in p.stdout, p.stdout + p.stderr
+    _same_rows(before, load(out))
+
+
 # ------------------------------------------------------------------------------ 4: StepWarning
 
 def _refused(argv, capsys, tmp_path):

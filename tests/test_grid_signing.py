@@ -1,21 +1,26 @@
 """A run signed by its code (pycolfrag/grid/signing.py): what the code digest reads, that it reads
-contents and not paths, that rank 0 alone reads it, and the resume rule for a code change.
+contents and not paths, that it signs the loaded C library (the digest the library carries of the
+sources it was built from) and refuses a stale build, that rank 0 alone reads the code, and the
+resume rule for a code change.
 
-The digest is computed over scratch copies of the package and of ``csrc/`` (``signing.PACKAGE`` and
-``signing.CSRC`` pointed at them), each with one edit, so every input is shown to count on its own;
-the end-to-end reproduction (a killed grid rerun after an edit) is in tests/test_faults_grid.py.
+The digest is computed over scratch copies of the package and of ``csrc/`` (``signing.PACKAGE``
+pointed at them), each with one edit, so every input is shown to count on its own; a "rebuilt"
+library is played by patching the digest the library reports (``signing.library_digest``). The
+end-to-end reproduction (a killed grid rerun after an edit) is in tests/test_faults_grid.py; the
+build's side (the digest compiled in, a rebuild after a header edit) in tests/test_build_inputs.py.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
 from pathlib import Path
 
 import pytest
 
-from pycolfrag import SolverOptions
+from pycolfrag import SolverOptions, _source_digest
 from pycolfrag import results as R
-from pycolfrag.errors import ResultsFileError
+from pycolfrag.errors import ResultsFileError, StaleBuildError
 from pycolfrag.grid import signing
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -23,23 +28,28 @@ ROOT = Path(__file__).resolve().parent.parent
 
 @pytest.fixture
 def scratch(tmp_path, monkeypatch):
-    """A function making a copy of the package and csrc/ with one edit; returns the digest of the copy."""
-    def digest_of(name, rel=None, old=None, new=None, options=None):
+    """A function making a copy of the package and csrc/ with one edit; returns the digest of the copy.
+    ``csrc=False``: a copy without csrc/ (an installed package); ``library``: the digest the loaded
+    library reports (a library built from other sources; default: the real one)."""
+    def digest_of(name, rel=None, old=None, new=None, options=None, csrc=True, library=None):
         root = tmp_path / name
         skip = shutil.ignore_patterns("__pycache__", "*.pyc", "*.so")
         shutil.copytree(ROOT / "pycolfrag", root / "pycolfrag", ignore=skip)
-        shutil.copytree(ROOT / "csrc", root / "csrc", ignore=skip)
+        if csrc:
+            shutil.copytree(ROOT / "csrc", root / "csrc", ignore=skip)
         if rel is not None:   # old None: append ``new`` (whitespace or a comment: still an edit of the sources)
             text = (root / rel).read_text()
             assert old is None or text.count(old) == 1, (rel, old)
             (root / rel).write_text(text + new if old is None else text.replace(old, new))
         monkeypatch.setattr(signing, "PACKAGE", root / "pycolfrag")
-        monkeypatch.setattr(signing, "CSRC", root / "csrc")
+        if library is not None:
+            monkeypatch.setattr(signing, "library_digest", lambda: library)
         signing._CODE.clear()
         try:
             return signing.code_digest(options or SolverOptions())
         finally:
             signing._CODE.clear()
+            monkeypatch.undo()
     return digest_of
 
 
@@ -49,15 +59,52 @@ def test_the_digest_reads_contents_not_paths(scratch):
     assert len(here) == 64 and int(here, 16) >= 0
 
 
+def test_the_library_carries_the_digest_of_the_sources_it_was_built_from():
+    """pycolfrag/_build.py compiles the digest of the build inputs into the library (CF_SOURCE_DIGEST);
+    this checkout's library was built from its sources (a stale build fails here too: rebuild)."""
+    built = signing.library_digest()
+    assert built != _source_digest.UNSIGNED and len(built) == 64 and int(built, 16) >= 0
+    assert built == _source_digest.source_digest(ROOT) == signing.sources_digest()
+    assert signing.checked_library_digest() == built
+    names = [name for name, _ in _source_digest.build_inputs(ROOT)]
+    # every header (the contact and connector laws live there), flags.mk, the build script, the constants
+    assert {f"csrc/{p.name}" for p in (ROOT / "csrc").glob("*.[ch]")} | {"csrc/flags.mk"} <= set(names)
+    assert {"pycolfrag/_build.py", "pycolfrag/data/constants.json"} <= set(names)
+
+
 @pytest.mark.parametrize("rel, old, new", [
     ("pycolfrag/ground_motion/rupakhety_2011.py", "M_SAT = 7.0", "M_SAT = 7.3"),    # off the reference path
     ("pycolfrag/grid/rows.py", "_STREAM_HF = 2", "_STREAM_HF = 3"),                  # the driver itself
     ("pycolfrag/data/as00.json", None, "\n"),                                        # a model's numbers
-    ("csrc/solver_monitor.c", None, "/* edited */\n"),                              # C, before make build
-    ("csrc/flags.mk", None, "# edited\n"),                                          # the compiler flags
 ])
-def test_every_input_of_a_row_changes_the_digest(scratch, rel, old, new):
+def test_every_python_input_of_a_row_changes_the_digest(scratch, rel, old, new):
     assert scratch("edited", rel, old, new) != scratch("same")
+
+
+@pytest.mark.parametrize("rel", ["csrc/solver_monitor.c", "csrc/contact_law.h", "csrc/connector_law.h",
+                                 "csrc/flags.mk", "pycolfrag/_build.py", "pycolfrag/data/constants.json"])
+def test_sources_edited_but_not_rebuilt_are_refused_as_a_stale_build(scratch, rel):
+    """The library that runs was built from the sources before the edit: signing its rows by the
+    sources on disk would lie, and signing them by the library would run code the user does not see."""
+    comment = "# edited\n" if rel.endswith((".mk", ".py")) else "/* edited */\n"
+    comment = "\n" if rel.endswith(".json") else comment
+    with pytest.raises(StaleBuildError, match=r"stale build: the loaded C library .* was compiled from other "
+                       r"sources .*build_ext --inplace") as exc:
+        scratch("edited", rel, None, comment)
+    assert signing.library_digest() in str(exc.value)
+
+
+def test_the_digest_signs_the_loaded_library_not_the_sources(scratch):
+    """The sources on disk unchanged, a library of other sources loaded (the reported case: sources reverted
+    beside a binary of an edit): refused in a checkout; without csrc/ (an installed package, where
+    nothing on disk can be compared) the run is signed by that library, so its digest differs."""
+    here = scratch("same")
+    with pytest.raises(StaleBuildError, match="stale build"):
+        scratch("other-binary", library="0" * 64)
+    assert scratch("installed", csrc=False) == here          # the same library: the same code
+    assert scratch("installed-other", csrc=False, library="0" * 64) != here
+    with pytest.raises(StaleBuildError, match="carries no digest of its sources"):
+        scratch("unsigned", csrc=False, library=_source_digest.UNSIGNED)
 
 
 def test_the_analysis_and_the_options_count_as_they_should(scratch):
@@ -69,26 +116,44 @@ def test_the_analysis_and_the_options_count_as_they_should(scratch):
     assert scratch("options", options=other) != same
 
 
+class _Rank1:
+    """Rank 1 of two: sends nothing and gets rank 0's ``sent``."""
+    def __init__(self, sent):
+        self.sent = sent
+
+    def Get_size(self):
+        return 2
+
+    def Get_rank(self):
+        return 1
+
+    def bcast(self, x, root=0):
+        assert x is None and root == 0
+        return self.sent
+
+
 def test_rank_0_reads_the_code_and_the_others_take_its_digest(monkeypatch):
-    class Rank1:
-        def Get_size(self):
-            return 2
-
-        def Get_rank(self):
-            return 1
-
-        def bcast(self, x, root=0):
-            assert x is None and root == 0   # rank 1 sends nothing and gets rank 0's
-            return "f" * 64
-
     def never():
         raise AssertionError("a rank other than 0 read the code")
 
     signing._CODE.clear()
     monkeypatch.setattr(signing, "code_files", never)
+    monkeypatch.setattr(signing, "sources_digest", never)
     try:
-        signing.share_code_digest(Rank1())
-        assert signing._code_part() == "f" * 64
+        signing.share_code_digest(_Rank1(("ok", "f" * 64, "e" * 64)))
+        mine = signing._code_part()
+        # rank 0's Python side and this rank's own library: a rank running another binary signs otherwise
+        lib = signing.library_digest()
+        assert mine == hashlib.sha256(f"pycolfrag code digest v2\npython {'f' * 64}\nC library {lib}\n"
+                                      .encode()).hexdigest()
+        signing._CODE.clear()
+        monkeypatch.setattr(signing, "library_digest", lambda: "0" * 64)
+        signing.share_code_digest(_Rank1(("ok", "f" * 64, "e" * 64)))
+        assert signing._code_part() != mine
+        # a stale build on rank 0 is refused on every rank (none waits for the others)
+        signing._CODE.clear()
+        with pytest.raises(StaleBuildError, match="stale build: x"):
+            signing.share_code_digest(_Rank1(("stale", "stale build: x", "")))
     finally:
         signing._CODE.clear()
 
@@ -114,6 +179,21 @@ def test_a_code_change_alone_is_refused_unless_allowed(tmp_path):
     # a file without code_digests (begun before they were recorded) starts its history from its signature
     assert history == [{"code_digest": "1" * 64, "build": SIG["build"], "started": "2026-11-27T00:00:00+00:00",
                         "rows_done_before": 0}]
+
+
+def test_a_file_begun_by_another_binary_is_refused_on_resume(tmp_path, scratch):
+    """The reported case, signed by real digests: a file begun with one library and resumed with a library
+    built from other sources is refused as a code change (before this, both signed the sources on
+    disk alike and the resume mixed rows of two builds), unless --allow-code-change. Without csrc/ on
+    disk (an installed package), so that the refusal comes from the signature, not the stale check."""
+    begun = dict(SIG, code_digest=scratch("installed", csrc=False))
+    out = _file(tmp_path, begun)
+    rebuilt = dict(SIG, code_digest=scratch("rebuilt", csrc=False, library="0" * 64))
+    with pytest.raises(ResultsFileError, match="another build of pycolfrag") as exc:
+        signing.resume_signature(out, rebuilt, False, log=lambda s: None)
+    assert begun["code_digest"] in str(exc.value) and rebuilt["code_digest"] in str(exc.value)
+    opened, _ = signing.resume_signature(out, rebuilt, True, log=lambda s: None)
+    assert opened == begun
 
 
 def test_other_differences_are_left_to_the_full_refusal(tmp_path):

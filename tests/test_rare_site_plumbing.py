@@ -186,3 +186,25 @@ def test_an_event_with_a_grid_rows_inputs_is_that_row():
         a, b = got[k], want[k]
         assert (a == b) if isinstance(b, str) else np.asarray(a).tobytes() == np.asarray(b).tobytes(), k
     assert got["pulse"] == 1 and got["stage"] == 0
+
+
+@pytest.mark.mpi
+def test_a_stale_build_is_refused_on_every_rank(tmp_path):
+    """A checkout whose csrc/ holds an edit of a header its library was not rebuilt from:
+    the simulation is refused before any run, in one line, on 1 and on 2 ranks (the workers, inside
+    their first batch, stop with rank 0 instead of waiting for it or printing a traceback)."""
+    if shutil.which("mpirun") is None:
+        pytest.skip("mpirun not installed (make system)")
+    stale = tmp_path / "stale"
+    shutil.copytree(ROOT / "pycolfrag", stale / "pycolfrag", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(ROOT / "csrc", stale / "csrc")
+    law = stale / "csrc" / "connector_law.h"
+    law.write_text(law.read_text() + "/* edited, not rebuilt */\n")
+    env = dict(_env(), PYTHONPATH=str(stale))
+    for ranks in (1, 2):
+        out = tmp_path / f"sim{ranks}"
+        p = subprocess.run(_cmd(ARGS + ["--max-runs", "60", "--simulate", str(out)], ranks), capture_output=True,
+                           text=True, env=env, cwd=stale, timeout=300)
+        assert p.returncode == 2, p.stdout + p.stderr
+        assert "stale build: the loaded C library" in p.stdout and "Traceback" not in p.stderr, p.stdout + p.stderr
+        assert not list(out.glob("batch_*.h5"))

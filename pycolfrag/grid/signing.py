@@ -4,10 +4,14 @@ rule that keeps one results file from mixing rows of two versions.
 Two marks go into every grid signature (the results file's ``grid_signature``):
 
 * ``code_digest`` (:func:`code_digest`, also the root attribute ``code_digest``): a SHA-256 over the
-  package's Python sources and data files, the C library's sources and compiler flags, and the
-  resolved solver options. Any edit on any path a row may take changes it -- also one that the
-  reference computation below never reaches (a pulse-model constant above Mw 7, a collapse
-  criterion) -- and it reads contents, not paths, so the same code in another checkout signs alike.
+  package's Python sources and data files, the digest the *loaded* C library carries of the sources
+  it was compiled from (:func:`library_digest`), and the resolved solver options. Any edit on any
+  path a row may take changes it -- also one that the reference computation below never reaches (a
+  pulse-model constant above Mw 7, a collapse criterion) -- and it reads contents, not paths, so the
+  same code in another checkout signs alike. In a checkout (``csrc/`` beside the package) a library
+  built from other sources than those on disk -- a stale build -- is refused
+  (:class:`~pycolfrag.errors.StaleBuildError`): the run would be signed by code the sources do not
+  show.
 * ``build`` (:func:`build_identity`): the package version and the *result hash* of a short
   reference computation, which also moves with what the sources do not hold (numpy, libm, the CPU's
   floating-point paths) and is computed by every rank, so ranks of different builds are refused.
@@ -19,7 +23,6 @@ attribute ``code_digests``: digest, result hash, start time and rows done before
 from __future__ import annotations
 
 import hashlib
-import importlib.util
 import json
 import os
 import subprocess
@@ -29,20 +32,19 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from .. import __version__, _source_digest
 from .. import ground_motion as _gm
 from .. import results as _results
 from .. import sample as _sample
 from .. import solver as _solver
+from .._ffi import ffi, lib
 from ..column import Column
-from ..errors import ResultsFileError
+from ..errors import ResultsFileError, StaleBuildError
 
 __all__ = ["build_identity", "code_digest", "share_code_digest", "CODE_KEYS", "resume_signature",
-           "code_entry", "git_revision"]
+           "code_entry", "git_revision", "library_digest", "sources_digest", "checked_library_digest"]
 
 PACKAGE = Path(__file__).resolve().parent.parent
-#: The C library's sources, beside the package in a checkout (the project's install is editable).
-CSRC = PACKAGE.parent / "csrc"
 #: Signature entries that identify the code (a difference in them alone is a code change).
 CODE_KEYS = ("build", "code_digest")
 
@@ -74,36 +76,78 @@ def build_identity() -> dict:
     return dict(_BUILD)
 
 
-def code_files() -> tuple[str, list[tuple[str, Path]]]:
-    """What :func:`code_digest` reads: (how the C library is read, [(name, path)]).
+def code_files() -> list[tuple[str, Path]]:
+    """The Python side of :func:`code_digest`: [(name, path)] of the package's Python sources and
+    data files, except ``pycolfrag/analysis/``, which reads results files and never computes a row
+    (``tests/test_analysis_package.py`` checks that the driver imports none of it). Names are
+    relative, so a copy signs alike. The C library is not read here: it is signed by the digest it
+    carries (:func:`checked_library_digest`)."""
+    return [(p.relative_to(PACKAGE.parent).as_posix(), p) for p in sorted(PACKAGE.rglob("*"))
+            if p.is_file() and (p.suffix == ".py" or p.parent.name == "data")
+            and "__pycache__" not in p.parts and p.relative_to(PACKAGE).parts[0] != "analysis"]
 
-    The package's Python sources and data files, except ``pycolfrag/analysis/``, which reads results
-    files and never computes a row (``tests/test_analysis_package.py`` checks that the driver imports
-    none of it). The C library: its sources and flags (``csrc/*.c``, ``*.h``, ``flags.mk``) when the
-    package runs from its checkout, where ``make build`` compiles them; an installed package without
-    ``csrc/`` is signed by the built extension's bytes instead (they hold the build's paths, so the
-    same code built elsewhere signs otherwise there). Names are relative, so a copy signs alike."""
-    files = [(p.relative_to(PACKAGE.parent).as_posix(), p) for p in sorted(PACKAGE.rglob("*"))
-             if p.is_file() and (p.suffix == ".py" or p.parent.name == "data")
-             and "__pycache__" not in p.parts and p.relative_to(PACKAGE).parts[0] != "analysis"]
-    if CSRC.is_dir():
-        c = [(p.relative_to(PACKAGE.parent).as_posix(), p) for p in sorted(CSRC.iterdir())
-             if p.is_file() and p.suffix in (".c", ".h", ".mk")]
-        return "csrc sources and flags", files + c
-    ext = Path(importlib.util.find_spec("pycolfrag._libcolfrag").origin)
-    return "built extension", files + [(f"pycolfrag/{ext.name}", ext)]
+
+def library_digest() -> str:
+    """The digest the loaded C library carries of the sources it was compiled from
+    (``cf_common_source_digest()``, computed by ``pycolfrag/_build.py``; "none" for a library built
+    otherwise)."""
+    return ffi.string(lib.cf_common_source_digest()).decode()
+
+
+def sources_digest() -> str | None:
+    """The same digest (:func:`pycolfrag._source_digest.source_digest`) of the sources on disk, or None
+    where there are none (an installed package has no ``csrc/``: only the library speaks then)."""
+    root = PACKAGE.parent
+    return _source_digest.source_digest(root) if (root / "csrc").is_dir() else None
+
+
+def checked_library_digest() -> str:
+    """:func:`library_digest`, after checking that the library was built by ``pycolfrag/_build.py`` and,
+    in a checkout, from the sources on disk; raises :class:`~pycolfrag.errors.StaleBuildError` (naming
+    both digests and the rebuild) otherwise. Checked when a run is signed, not at import: reading
+    the sources costs a few ms, and a stale build may still read results files."""
+    built = library_digest()
+    rebuild = ("rebuild it: `python setup.py build_ext --inplace` (or `make build`, `pip install -e .`) in "
+               f"{PACKAGE.parent}")
+    if built == _source_digest.UNSIGNED:
+        raise StaleBuildError(f"the loaded C library ({lib_path()}) carries no digest of its sources (it was "
+                              f"not built by pycolfrag/_build.py), so no run can be signed by it; {rebuild}")
+    disk = sources_digest()
+    if disk is not None and disk != built:
+        raise StaleBuildError(
+            f"stale build: the loaded C library ({lib_path()}) was compiled from other sources than those in "
+            f"{PACKAGE.parent / 'csrc'} (library source digest {built}, sources on disk {disk}); its rows would "
+            f"be signed by code the sources do not show, so nothing was run; {rebuild}")
+    return built
+
+
+def lib_path() -> str:
+    """Where the loaded C library lies (for messages)."""
+    from .. import _libcolfrag
+    return str(getattr(_libcolfrag, "__file__", "pycolfrag._libcolfrag"))
+
+
+def _python_part() -> str:
+    """SHA-256 of :func:`code_files`, the Python side (read on rank 0 alone)."""
+    h = hashlib.sha256(b"pycolfrag code digest v2; Python sources and data\n")
+    for name, path in code_files():
+        data = path.read_bytes()
+        h.update(f"{name}\0{len(data)}\0".encode())
+        h.update(data)
+    return h.hexdigest()
 
 
 def _code_part() -> str:
-    """SHA-256 of :func:`code_files`, computed once per process."""
-    if not _CODE:
-        how, files = code_files()
-        h = hashlib.sha256(f"pycolfrag code digest v1; C library: {how}\n".encode())
-        for name, path in files:
-            data = path.read_bytes()
-            h.update(f"{name}\0{len(data)}\0".encode())
-            h.update(data)
-        _CODE["sources"] = h.hexdigest()
+    """The code's digest: the Python side (:func:`_python_part`, once per process, or rank 0's) and
+    this process's loaded C library (:func:`checked_library_digest`)."""
+    if "sources" not in _CODE:
+        if "python" not in _CODE:
+            _CODE["python"] = _python_part()
+            _CODE["library"] = checked_library_digest()
+        else:   # rank 0 checked its sources; this rank's own library is what it runs
+            _CODE["library"] = library_digest()
+        _CODE["sources"] = hashlib.sha256(
+            f"pycolfrag code digest v2\npython {_CODE['python']}\nC library {_CODE['library']}\n".encode()).hexdigest()
     return _CODE["sources"]
 
 
@@ -116,13 +160,26 @@ def code_digest(solver_options) -> str:
 
 
 def share_code_digest(comm) -> None:
-    """Rank 0 reads the code once and hands its digest to every rank (the other ranks then read no
-    file: on a cluster they would all read the same shared sources at start-up)."""
+    """Rank 0 reads the code once and hands the digest of its Python side to every rank (the other
+    ranks then read no file: on a cluster they would all read the same shared sources at start-up);
+    each rank adds the digest its own loaded C library carries, so ranks running another binary
+    sign otherwise (and the ranks' signatures, compared by rank 0, refuse them). A stale build on
+    rank 0 is refused on every rank (:class:`~pycolfrag.errors.StaleBuildError`)."""
     if comm is None or comm.Get_size() == 1:
         _code_part()
         return
-    part = comm.bcast(_code_part() if comm.Get_rank() == 0 else None, root=0)
-    _CODE["sources"] = part
+    sent = None
+    if comm.Get_rank() == 0:
+        try:
+            sent = ("ok", _python_part(), checked_library_digest())
+        except StaleBuildError as exc:
+            sent = ("stale", str(exc), "")
+    kind, text, _ = comm.bcast(sent, root=0)
+    if kind == "stale":
+        raise StaleBuildError(text)
+    _CODE.clear()
+    _CODE["python"] = text
+    _code_part()
 
 
 def git_revision() -> str:
@@ -201,8 +258,9 @@ def resume_signature(path, signature: dict, allow_code_change: bool, log) -> tup
             "changed since it began):\n  - " + "\n  - ".join(code)
             + "\nResuming would mix rows of two versions in one file. Rerun with --allow-code-change to resume "
             "anyway (the file then records every code that wrote rows, root attribute code_digests), --overwrite "
-            "to recompute every row, or --out for another file. The digest reads the package's sources and csrc/: "
-            "an edit of csrc/ counts even before `make build`.")
+            "to recompute every row, or --out for another file. The digest reads the package's sources and the "
+            "digest the loaded C library carries of the sources it was built from (a rebuild from other "
+            "csrc/ counts).")
     opened = {k: v for k, v in signature.items() if k not in CODE_KEYS}
     opened.update({k: old_sig[k] for k in CODE_KEYS if k in old_sig})
     log(f"resuming {path} with other code (--allow-code-change): its rows so far carry code_digest "

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import results as _results
-from ..errors import ResultsFileError
+from ..errors import ResultsFileError, StaleBuildError
 from ..grid import EventBatchSpec, run_grid
 from ..grid.signing import CODE_KEYS
 from ..grid.spec import DEFAULT_RECORD_DT_S, resolve_solver_options
@@ -225,7 +225,11 @@ class GridEvaluator:
             msg = self.comm.bcast(None, root=0)
             if msg["op"] == "stop":
                 return
-            self._run(msg)
+            try:
+                self._run(msg)
+            except StaleBuildError:
+                # refused on every rank before any row (rank 0 read the sources): rank 0 says why, then stops us
+                continue
 
     def close(self) -> None:
         """Rank 0: the other ranks stop serving."""
