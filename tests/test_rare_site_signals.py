@@ -99,10 +99,10 @@ def test_sigterm_in_a_batch_drains_exits_75_and_resumes_to_the_uninterrupted_res
 def test_sigterm_between_batches_stops_before_the_next_and_resumes(tmp_path, monkeypatch, capsys):
     """A SIGTERM while rank 0 plans (between two batches; here sent right after the pilot's run) stops
     the simulation before the next batch begins: exit 75, that batch not started; the resume equals an
-    uninterrupted run. Before the fix the process died of the signal (no handler)."""
+    uninterrupted run. Before the fix the process died of the signal (no handler; here the test's own
+    handler, in place before the simulation, fails it instead)."""
     ref = tmp_path / "ref"
     assert risk.main(ARGS + ["--max-runs", "60", "--simulate", str(ref)]) in (0, 6)
-    handler = signal.getsignal(signal.SIGTERM)
     run = _evaluator.GridEvaluator._run
     calls = []
 
@@ -112,10 +112,18 @@ def test_sigterm_between_batches_stops_before_the_next_and_resumes(tmp_path, mon
         os.kill(os.getpid(), signal.SIGTERM)     # the handler runs before the next bytecode: between batches
         return summary
 
+    def handler(signum, frame):
+        raise AssertionError("SIGTERM reached the handler in place before the simulation")
+
     out = tmp_path / "term"
     monkeypatch.setattr(_evaluator.GridEvaluator, "_run", run_then_term)
     capsys.readouterr()
-    assert risk.main(ARGS + ["--max-runs", "60", "--simulate", str(out)]) == 75
+    prev = signal.signal(signal.SIGTERM, handler)
+    try:
+        assert risk.main(ARGS + ["--max-runs", "60", "--simulate", str(out)]) == 75
+        assert signal.getsignal(signal.SIGTERM) is handler     # the handler before the simulation is back
+    finally:
+        signal.signal(signal.SIGTERM, prev)
     text = capsys.readouterr().out
     assert calls == ["batch_000"] and "SIGTERM: stopped before batch_001 (its plan is on disk" in text, text
     assert not (out / "batch_001.h5").exists() and not (out / "risk.json").exists()
@@ -123,7 +131,6 @@ def test_sigterm_between_batches_stops_before_the_next_and_resumes(tmp_path, mon
     assert risk.main(ARGS + ["--max-runs", "60", "--simulate", str(out)]) in (0, 6)
     _same_rows(ref, out)
     assert (out / "risk.json").read_bytes() == (ref / "risk.json").read_bytes()
-    assert signal.getsignal(signal.SIGTERM) == handler     # the handler before the simulation is back
 
 
 def test_a_smaller_budget_on_a_finished_folder_keeps_its_outputs(tmp_path, capsys):
