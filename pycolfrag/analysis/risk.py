@@ -385,7 +385,7 @@ def _simulate_main(argv) -> int:
     if paths is None:
         print(f"{ap.prog}: {a.simulate} holds the estimate of {kept} runs (risk.md, risk.json, figures): not "
               f"overwritten with this estimate of {run.runs} runs (the first {run.runs} of the folder's runs, printed "
-              f"above; --max-runs {a.max_runs}, --target-cov {a.target_cov:g}). Rerun with --max-runs {kept} or more "
+              f"above; --max-runs {a.max_runs}). Rerun with --max-runs {kept} or more "
               f"to rewrite the report; for a report of this estimate, copy the folder without its risk.json and rerun "
               f"this command on the copy")
     else:

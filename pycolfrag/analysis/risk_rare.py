@@ -288,8 +288,8 @@ def write_outputs(run, outdir, cmp: GridComparison | None = None, *, figures: bo
 
 def larger_estimate(run, outdir) -> int | None:
     """The runs of the estimate in ``outdir``'s risk.json when it rests on more runs than ``run`` (a smaller
-    ``--max-runs``, or a looser target, on a finished folder: ``run`` is then a prefix of the folder's
-    runs), else None (no risk.json, an unreadable one, or as many runs or fewer)."""
+    ``--max-runs`` on a finished folder: ``run`` is then a prefix of the folder's runs), else None (no
+    risk.json, an unreadable one, or as many runs or fewer)."""
     try:
         runs = json.loads((Path(outdir) / "risk.json").read_text(encoding="utf-8"))["runs"]
     except (OSError, ValueError, KeyError, TypeError):
