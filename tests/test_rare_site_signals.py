@@ -148,3 +148,28 @@ def test_a_smaller_budget_on_a_finished_folder_keeps_its_outputs(tmp_path, capsy
     assert "estimate of 40 runs (the first 40 of the folder's runs" in text, text
     assert risk.main(ARGS + ["--max-runs", "60", "--simulate", str(out)]) in (0, 6)   # the same budget: rewritten
     assert "not overwritten" not in capsys.readouterr().out
+
+
+def test_sigterm_as_a_batch_starts_drains_that_batch_at_once(tmp_path, monkeypatch, capsys):
+    """A SIGTERM that comes after rank 0 decided to run a batch but before the grid's drain is in place
+    (while ``run_grid`` opens the batch file) drains that batch from its start (``pcf_sigterm_pending``,
+    pycolfrag.grid.serve.Drain.installed): no run of it is computed, exit 75, and the resume equals an
+    uninterrupted run. Before, the whole batch ran first (with the default --batch, 2000 runs)."""
+    ref = tmp_path / "ref"
+    assert risk.main(ARGS + ["--max-runs", "60", "--simulate", str(ref)]) in (0, 6)
+    run_grid = _evaluator.run_grid
+
+    def term_then_run(*a, **kw):
+        os.kill(os.getpid(), signal.SIGTERM)
+        return run_grid(*a, **kw)
+
+    out = tmp_path / "term"
+    monkeypatch.setattr(_evaluator, "run_grid", term_then_run)
+    capsys.readouterr()
+    assert risk.main(ARGS + ["--max-runs", "60", "--simulate", str(out)]) == 75
+    text = capsys.readouterr().out
+    assert "SIGTERM: batch_000 drained with 20 run(s) left" in text, text
+    monkeypatch.setattr(_evaluator, "run_grid", run_grid)
+    assert risk.main(ARGS + ["--max-runs", "60", "--simulate", str(out)]) in (0, 6)
+    _same_rows(ref, out)
+    assert (out / "risk.json").read_bytes() == (ref / "risk.json").read_bytes()

@@ -75,12 +75,16 @@ class Drain:
     @contextmanager
     def installed(self):
         """SIGTERM drains while the run goes on; the handlers of SIGTERM and SIGINT in place before are
-        restored after it."""
+        restored after it. A handler before that says it caught a SIGTERM not yet acted on (its attribute
+        ``pcf_sigterm_pending`` true: a caller running grid after grid, as the site simulation does)
+        makes the run drain from its start."""
         prev = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
         try:
             signal.signal(signal.SIGTERM, self.on_sigterm)
         except ValueError:  # not the main thread
             pass
+        if getattr(prev[0], "pcf_sigterm_pending", False):
+            self.on_sigterm(signal.SIGTERM, None)
         try:
             yield self
         finally:

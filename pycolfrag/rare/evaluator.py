@@ -255,7 +255,9 @@ class GridEvaluator:
         """Rank 0, around a whole simulation: a SIGTERM between batches sets :attr:`stop_asked` (the
         grid's drain replaces this handler while a batch runs); the handler before is restored after."""
         def note(signum, frame):
-            self.stop_asked = True
+            self.stop_asked = note.pcf_sigterm_pending = True   # pending: a batch starting now drains at once
+
+        note.pcf_sigterm_pending = False      # type: ignore[attr-defined]
         with _sigterm_handler(note):
             yield self
 
