@@ -1,4 +1,4 @@
-"""SIGTERM to ``mpirun`` itself (issue 37, item 12): what Open MPI 4.1 does with it, as docs/grid.md
+"""SIGTERM to ``mpirun`` itself: what Open MPI 4.1 does with it (it aborts the job), as docs/grid.md
 ("Signals") says.
 
 mpirun does not forward SIGTERM (nor SIGINT, SIGHUP) to the ranks: it aborts the job. Its local

@@ -1,5 +1,5 @@
 """SIGTERM during the event-based site simulation (``pycolfrag risk SITE --simulate OUTDIR``), and a
-smaller budget on a finished folder (issue 37, items 1 and 6).
+smaller budget on a finished folder.
 
 The set-up is tests/test_rare_site_plumbing.py's: the four-stratum site tests/data/site_rare_tiny.toml,
 the two-drum column, records cut to 8 s (a run takes about 10 ms). Expected numbers are identities, not
