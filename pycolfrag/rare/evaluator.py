@@ -82,9 +82,9 @@ class RecordSettings:
 
 
 class BatchStopped(Exception):
-    """A SIGTERM stopped the simulation at batch ``name`` with ``runs_left`` of its runs not computed (0:
-    it stopped before the batch began); every finished run is in the batch files, and rerunning the same
-    command resumes."""
+    """A SIGTERM stopped the simulation at batch ``name`` with ``runs_left`` of its runs (up to its limit)
+    not computed: in the batch (``began``: it drained) or before it began (all of them); every finished
+    run is in the batch files, and rerunning the same command resumes."""
 
     def __init__(self, name: str, runs_left: int, began: bool):
         self.name, self.runs_left, self.began = name, int(runs_left), began
