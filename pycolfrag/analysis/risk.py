@@ -426,12 +426,20 @@ def _simulate_main(argv) -> int:
             kw = dict(pulse_only=a.pulse_only, pulse_model=a.pulse_model, n_draws=a.draws, curves=False)
             cmp = risk_rare.compare_with_grid(run, site_risk(a.site, a.results, a.no_pulse, outside="zero", **kw),
                                               site_risk(a.site, a.results, a.no_pulse, outside="clamp", **kw))
-        paths = risk_rare.write_outputs(run, a.simulate, cmp, figures=not a.no_figures)
+        kept = risk_rare.larger_estimate(run, a.simulate)    # a subset never replaces a larger estimate
+        paths = None if kept else risk_rare.write_outputs(run, a.simulate, cmp, figures=not a.no_figures)
     except PycolfragError as exc:   # the grid's files, the output folder: every run stays in OUTDIR
         print(f"{ap.prog}: error: {exc}", file=sys.stderr)
         return EXIT_ARGS
     risk_rare.print_summary(run, cmp)
-    print(paths["markdown"])
+    if paths is None:
+        print(f"{ap.prog}: {a.simulate} holds the estimate of {kept} runs (risk.md, risk.json, figures): not "
+              f"overwritten with this estimate of {run.runs} runs (the first {run.runs} of the folder's runs, printed "
+              f"above; --max-runs {a.max_runs}). Rerun with --max-runs {kept} or more "
+              f"to rewrite the report; for a report of this estimate, copy the folder without its risk.json and rerun "
+              f"this command on the copy")
+    else:
+        print(paths["markdown"])
     return code
 
 

@@ -32,7 +32,7 @@ from .risk_rare_like import check_like_with_like
 from .risk_report import _write_text, check_outdir
 
 __all__ = ["build_parser", "GridComparison", "compare_with_grid", "report", "to_json", "write_outputs",
-           "print_summary", "PRINTED_YEARS"]
+           "larger_estimate", "print_summary", "PRINTED_YEARS"]
 
 #: Horizon of the probabilities printed and tabled, years.
 PRINTED_YEARS = 50.0
@@ -291,6 +291,17 @@ def write_outputs(run, outdir, cmp: GridComparison | None = None, *, figures: bo
         raise OutputError(f"cannot write the risk outputs into {outdir}: {exc.strerror or exc}") from None
     paths.update(markdown=str(md), json=str(js))
     return paths
+
+
+def larger_estimate(run, outdir) -> int | None:
+    """The runs of the estimate in ``outdir``'s risk.json when it rests on more runs than ``run`` (a smaller
+    ``--max-runs`` on a finished folder: ``run`` is then a prefix of the folder's runs), else None (no
+    risk.json, an unreadable one, or as many runs or fewer)."""
+    try:
+        runs = json.loads((Path(outdir) / "risk.json").read_text(encoding="utf-8"))["runs"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    return int(runs) if isinstance(runs, int) and runs > run.runs else None
 
 
 def print_summary(run, cmp: GridComparison | None = None) -> None:

@@ -67,7 +67,8 @@ def get_comm(mode: str = "auto"):
 @dataclass
 class RunSummary:
     """What :func:`run_grid` returns on rank 0. ``rows_left``: rows not computed because a SIGTERM
-    stopped the run (it drained; rerunning the same command resumes it)."""
+    stopped the run (it drained; rerunning the same command resumes it). ``drained``: a SIGTERM came
+    during the run (with no row left too: a caller running several grids stops before its next one)."""
 
     path: Path
     n_rows: int
@@ -76,6 +77,7 @@ class RunSummary:
     wall_s: float
     n_ranks: int
     rows_left: int = 0
+    drained: bool = False
 
 
 @dataclass(frozen=True)
@@ -155,7 +157,7 @@ def run_grid(spec: RunSpec, out, *, overwrite: bool = False, retry_failed: bool 
             _finish(writer, intake, out, session, wall, failure)
     left = int((~writer.done).sum()) if drain.t is not None else 0
     return RunSummary(path=out, n_rows=spec.n_rows, computed=intake.computed, failed=intake.failed, wall_s=wall,
-                      n_ranks=size, rows_left=left)
+                      n_ranks=size, rows_left=left, drained=drain.t is not None)
 
 
 def _widths(fn, ctx):

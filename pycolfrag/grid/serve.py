@@ -7,8 +7,9 @@ the rows of the worker's previous chunk and its timeline since (one message per 
 rank 0 only serves (``rank0_works="auto"``: it computes when there are at most
 :data:`RANK0_WORKS_UP_TO` ranks).
 
-**A stop asked by SIGTERM** (Slurm's ``--signal=TERM@T`` signals every task; ``scancel`` and mpirun
-forward it): a worker ignores it and finishes its chunk -- rank 0 decides, and the launcher's SIGKILL at
+**A stop asked by SIGTERM** (Slurm's ``--signal=TERM@T`` signals every task, as ``scancel`` of an ``srun``
+step does; ``mpirun`` does not forward it but aborts the job, SIGTERM a second before SIGKILL: docs/grid.md,
+"Signals"): a worker ignores it and finishes its chunk -- rank 0 decides, and the launcher's SIGKILL at
 the limit still ends everything -- while rank 0 *drains*: it hands out nothing more (every later request
 gets an empty chunk, so each worker sends its last rows and stops), collects the chunks in flight, and
 the run ends with its final write; rows left make the command exit :data:`EXIT_DRAINED` (75). Chunks
@@ -74,12 +75,16 @@ class Drain:
     @contextmanager
     def installed(self):
         """SIGTERM drains while the run goes on; the handlers of SIGTERM and SIGINT in place before are
-        restored after it."""
+        restored after it. A handler before that says it caught a SIGTERM not yet acted on (its attribute
+        ``pcf_sigterm_pending`` true: a caller running grid after grid, as the site simulation does)
+        makes the run drain from its start."""
         prev = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
         try:
             signal.signal(signal.SIGTERM, self.on_sigterm)
         except ValueError:  # not the main thread
             pass
+        if getattr(prev[0], "pcf_sigterm_pending", False):
+            self.on_sigterm(signal.SIGTERM, None)
         try:
             yield self
         finally:

@@ -20,21 +20,23 @@ from ..column import Column
 from ..errors import ParameterError, RecordFileError, ResultsFileError
 from ..grid import get_comm
 from ..grid.probes import check_solver_options
+from ..grid.serve import EXIT_DRAINED
 from ..grid.spec import DEFAULT_RECORD_DT_S
 from ..ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
 from ..site import OUTSIDE_CHOICES, load_site, read_pulse_model
 from ..site_models import PulseOnly, Table
 from .driver import DEFAULT_SEED, SiteSettings, StopRule, simulate_site
 from .estimate import WeightError
-from .evaluator import GridEvaluator, RecordSettings
+from .evaluator import BatchStopped, GridEvaluator, RecordSettings
 from .strata import DEFAULT_MW_STEP, DEFAULT_R_EDGES_KM
 
-__all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_NOT_CONVERGED", "add_arguments",
-           "settings_from_args", "run_simulation"]
+__all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_NOT_CONVERGED", "EXIT_DRAINED",
+           "add_arguments", "settings_from_args", "run_simulation"]
 
 #: Exit codes: those of the grid (0 ok, 2 bad arguments or a folder of another simulation, 4 an
-#: operating-system error, 5 a batch file written by another run), and 6: the run budget was spent
-#: before every requested level converged (the report is written, those levels marked).
+#: operating-system error, 5 a batch file written by another run, 75 stopped by SIGTERM: the batch
+#: drained, rerun the same command), and 6: the run budget was spent before every requested level
+#: converged (the report is written, those levels marked).
 EXIT_OK, EXIT_ARGS, EXIT_OS_ERROR, EXIT_LOCKED, EXIT_NOT_CONVERGED = 0, 2, 4, 5, 6
 
 
@@ -154,7 +156,13 @@ def run_simulation(args, quantities, argv=None):
         ev.serve()
         return EXIT_OK, None
     try:
-        run = simulate_site(site, settings, stop, ev, quantities, log=log)
+        with ev.sigterm_stops():
+            run = simulate_site(site, settings, stop, ev, quantities, log=log)
+    except BatchStopped as exc:      # SIGTERM: the batch drained (or the next one was not begun)
+        log(f"risk --simulate: {exc}; every finished run is in {args.simulate}, no estimate or report is made from "
+            f"a part of a batch: rerun the same command to compute the rest (exit {EXIT_DRAINED})")
+        ev.close()
+        return EXIT_DRAINED, None
     except (ResultsFileError, ParameterError, WeightError, OSError) as exc:
         code = _failed(exc, comm, size, log)
         ev.close()

@@ -250,6 +250,10 @@ class _Run:
         used = sum(b["runs"] for b in self.batches)
         limit = max(0, min(len(inputs), self.stop.max_runs - used))   # a smaller budget on resume: nothing more
         cols = self.ev.evaluate(batch_name(stage), inputs, purpose, limit)
+        if limit < len(inputs):   # a batch finished by a larger budget, read under this one: its prefix alone
+            status = np.array(cols["status"])
+            status[limit:] = _results.STATUS_PENDING
+            cols = {**cols, "status": status}
         runs = int(np.sum(np.asarray(cols["status"]) != _results.STATUS_PENDING))
         self.parts.append(cols)
         self.batches.append({"name": batch_name(stage), "stage": stage, "planned": len(inputs), "runs": runs,

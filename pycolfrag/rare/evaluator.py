@@ -20,12 +20,21 @@ asking the algorithm again. The batch then runs through :func:`pycolfrag.grid.ru
 as columns (every row of the batch, those not computed yet with status -1). A finished batch is read,
 not reopened: its stored signature is compared with the one asked for (other code is refused unless
 allowed, as the grid refuses it; any other difference -- another site, other settings -- is refused).
+
+**SIGTERM** (a job's time limit; docs/rare_events.md): inside a batch the grid's scheduler drains it
+(the runs in flight come back, the batch file is written, :mod:`pycolfrag.grid.serve`); between batches
+rank 0 only notes it (:meth:`GridEvaluator.sigterm_stops`). Either way ``evaluate`` then raises
+:class:`BatchStopped` -- it never returns a batch with runs missing below its limit, so no algorithm
+plans from a part of a batch -- and the next ``evaluate`` after a drain that left no run raises it before
+its batch starts. The other ranks ignore SIGTERM while they serve: rank 0 decides.
 """
 from __future__ import annotations
 
 import hashlib
 import json
 import os
+import signal
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -39,7 +48,8 @@ from ..grid.spec import DEFAULT_RECORD_DT_S, resolve_solver_options
 from ..ground_motion.registry import DEFAULT_PULSE_SHAPE, DEFAULT_TP_MODEL
 from ..sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S
 
-__all__ = ["RecordSettings", "PLAN_KIND", "plan_path", "write_plan", "read_plan", "read_columns", "GridEvaluator"]
+__all__ = ["RecordSettings", "PLAN_KIND", "plan_path", "write_plan", "read_plan", "read_columns", "GridEvaluator",
+           "BatchStopped"]
 
 #: ``kind`` of a plan file.
 PLAN_KIND = "pycolfrag-event-plan"
@@ -69,6 +79,18 @@ class RecordSettings:
                               damping=self.damping, record_dt_s=self.record_dt_s, max_record_s=self.max_record_s,
                               sample_function=self.sample_function, pulse_shape=self.pulse_shape,
                               tp_model=self.tp_model)
+
+
+class BatchStopped(Exception):
+    """A SIGTERM stopped the simulation at batch ``name`` with ``runs_left`` of its runs (up to its limit)
+    not computed: in the batch (``began``: it drained) or before it began (all of them); every finished
+    run is in the batch files, and rerunning the same command resumes."""
+
+    def __init__(self, name: str, runs_left: int, began: bool):
+        self.name, self.runs_left, self.began = name, int(runs_left), began
+        where = (f"{name} drained with {self.runs_left} run(s) left" if began else
+                 f"stopped before {name} (its plan is on disk, {self.runs_left} run(s))")
+        super().__init__(f"SIGTERM: {where}")
 
 
 def _canonical(obj) -> str:
@@ -162,6 +184,7 @@ class GridEvaluator:
         self.run_options = run_options
         self.rank = comm.Get_rank() if comm is not None else 0
         self.size = comm.Get_size() if comm is not None else 1
+        self.stop_asked = False     # rank 0: a SIGTERM came (the next batch is not begun)
 
     @property
     def is_root(self) -> bool:
@@ -190,8 +213,16 @@ class GridEvaluator:
         done = self._finished(name, spec)
         if done is not None:
             return done
-        self._command({"op": "run", "name": name, "inputs": inputs, "purpose": purpose, "limit": limit})
-        return read_columns(self.path(name))[0]
+        stop = spec.n_rows if spec.limit is None else min(spec.limit, spec.n_rows)
+        if self.stop_asked:
+            raise BatchStopped(name, stop, began=False)
+        summary = self._command({"op": "run", "name": name, "inputs": inputs, "purpose": purpose, "limit": limit})
+        self.stop_asked = self.stop_asked or bool(getattr(summary, "drained", False))
+        cols = read_columns(self.path(name))[0]
+        left = int(np.sum(np.asarray(cols["status"])[:stop] == _results.STATUS_PENDING))
+        if left:   # drained (or stopped in any other way): a part of a batch is never handed on as the batch
+            raise BatchStopped(name, left, began=True)
+        return cols
 
     def _finished(self, name: str, spec: EventBatchSpec):
         """The columns of a batch that needs no run (its file whole, no journal, every row up to the limit
@@ -209,29 +240,56 @@ class GridEvaluator:
         _refuse_stored(path, json.loads(attrs["grid_signature"]), spec.signature(), self.allow_code_change)
         return cols
 
-    def _command(self, msg: dict) -> None:
+    def _command(self, msg: dict):
         if self.size > 1:
             self.comm.bcast(msg, root=0)
-        self._run(msg)
+        return self._run(msg)
 
-    def _run(self, msg: dict) -> None:
+    def _run(self, msg: dict):
         spec = self.record.spec(msg["inputs"], msg["purpose"], msg["limit"])
-        run_grid(spec, self.path(msg["name"]), comm=self.comm, allow_code_change=self.allow_code_change,
-                 **self.run_options)
+        return run_grid(spec, self.path(msg["name"]), comm=self.comm, allow_code_change=self.allow_code_change,
+                        **self.run_options)
+
+    @contextmanager
+    def sigterm_stops(self):
+        """Rank 0, around a whole simulation: a SIGTERM between batches sets :attr:`stop_asked` (the
+        grid's drain replaces this handler while a batch runs); the handler before is restored after."""
+        def note(signum, frame):
+            self.stop_asked = note.pcf_sigterm_pending = True   # pending: a batch starting now drains at once
+
+        note.pcf_sigterm_pending = False      # type: ignore[attr-defined]
+        with _sigterm_handler(note):
+            yield self
 
     def serve(self) -> None:
-        """Ranks > 0: compute every batch rank 0 asks for, until it closes."""
-        while True:
-            msg = self.comm.bcast(None, root=0)
-            if msg["op"] == "stop":
-                return
-            try:
-                self._run(msg)
-            except StaleBuildError:
-                # refused on every rank before any row (rank 0 read the sources): rank 0 says why, then stops us
-                continue
+        """Ranks > 0: compute every batch rank 0 asks for, until it closes; SIGTERM is ignored (rank 0
+        drains the batch and then says stop)."""
+        with _sigterm_handler(signal.SIG_IGN):
+            while True:
+                msg = self.comm.bcast(None, root=0)
+                if msg["op"] == "stop":
+                    return
+                try:
+                    self._run(msg)
+                except StaleBuildError:
+                    # refused on every rank before any row (rank 0 read the sources): rank 0 says why, then
+                    # stops us
+                    continue
 
     def close(self) -> None:
         """Rank 0: the other ranks stop serving."""
         if self.size > 1 and self.is_root:
             self.comm.bcast({"op": "stop"}, root=0)
+
+
+@contextmanager
+def _sigterm_handler(handler):
+    try:
+        prev = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread: signals are the main thread's
+        prev = None
+    try:
+        yield
+    finally:
+        if prev is not None:
+            signal.signal(signal.SIGTERM, prev)
