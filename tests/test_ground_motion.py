@@ -283,7 +283,7 @@ def test_public_names():
 
 
 def test_readme_three_line_example(tmp_path):
-    """The README's and docs/ground_motion.md's three-line example, in a fresh interpreter (so no
+    """docs/ground_motion.md's three-line example, in a fresh interpreter (so no
     earlier test has imported the plots submodule for it): it must write the figure."""
     code = ("import pycolfrag as pcf\n"
             "rec = pcf.ground_motion.synthesize(6.5, 10.0, seed=1)\n"
