@@ -1,4 +1,4 @@
-"""The site simulation's honesty checks (issue 37, items 3, 9 and 10): failed runs bound every level and
+"""The site simulation's honesty checks: failed runs bound every level and
 leave it unresolved where they could move it beyond its CoV; a record step the generator cannot make and
 empty output paths are refused before any run; a batch is sized by the budget left; grid files given
 beside --simulate are checked before the simulation, with advice that form accepts.
