@@ -44,26 +44,33 @@ def _simulate(stop, ev, seed=5, batch=200):
 
 
 def _by_hand(cols, strata, q):
-    """(lambda with every failed run as no exceedance, as an exceedance) by plain loops over the rows."""
-    lo = hi = 0.0
+    """(lambda with every failed run as no exceedance, as an exceedance, and as its weight times its stratum's
+    weighted exceedance share among the successful runs -- the estimate) by plain loops over the rows."""
+    lo = hi = mid = 0.0
     for h, st in enumerate(strata.strata):
         rows = [i for i in range(len(cols["status"])) if cols["stratum"][i] == h and cols["status"][i] != -1]
         n = len(rows)
+        ok_w = ok_wy = failed_w = 0.0
         for i in rows:
             w = float(cols["weight"][i])
             if cols["status"][i] != 0:
-                hi += st.rate * w / n
-            elif cols["collapsed"][i] or (q.edp is not None and cols[q.edp][i] >= q.threshold):
-                lo += st.rate * w / n
-                hi += st.rate * w / n
-    return lo, hi
+                failed_w += w
+                continue
+            ok_w += w
+            if cols["collapsed"][i] or (q.edp is not None and cols[q.edp][i] >= q.threshold):
+                ok_wy += w
+        lo += st.rate * ok_wy / n
+        hi += st.rate * (ok_wy + failed_w) / n
+        mid += st.rate * (ok_wy + failed_w * (ok_wy / ok_w if ok_w > 0 else 0.0)) / n
+    return lo, hi, mid
 
 
 def test_failed_runs_bound_every_level_between_what_they_could_have_been():
     """The pilot (the same 70 rows whatever fails) with the runs of u_top >= 1 failing: one run, whose u_top
     without failure is in [1, 1.3): it exceeded every level but collapse. So the bound with failed runs as
     exceedances is the clean rate of every other level, and the bound with them as none the clean collapse
-    rate (0); both bounds also by plain loops, the estimate between them."""
+    rate (0); both bounds, and the estimate (the failed run imputed at its stratum's weighted exceedance
+    share), also by plain loops."""
     stop = StopRule(0.2, 70)
     clean = _simulate(stop, SurrogateEvaluator())
     run = _simulate(stop, SurrogateEvaluator(fail_at=1.0))
@@ -74,9 +81,10 @@ def test_failed_runs_bound_every_level_between_what_they_could_have_been():
                                                                   minlength=14).tolist()
     for q in QUANTITIES:
         e, c = run.estimate.levels[q.label], clean.estimate.levels[q.label]
-        lo, hi = _by_hand(run.cols, run.strata, q)
+        lo, hi, mid = _by_hand(run.cols, run.strata, q)
         assert e.failed == 1 and e.failed_low == pytest.approx(lo, rel=1e-12, abs=1e-300)
         assert e.failed_high == pytest.approx(hi, rel=1e-12)
+        assert e.rate == pytest.approx(mid, rel=1e-12, abs=1e-300)
         assert e.failed_low * (1 - 1e-12) <= e.rate <= e.failed_high * (1 + 1e-12)
         truth = e.failed_low if q.edp is None else e.failed_high
         assert truth == pytest.approx(c.rate, rel=1e-12, abs=1e-300), q.label
@@ -92,8 +100,9 @@ def test_a_level_the_failures_could_move_beyond_its_cov_is_unresolved_not_conver
     assert run.estimate.n_failed == 20
     for q in QUANTITIES:
         e = run.estimate.levels[q.label]
-        lo, hi = _by_hand(run.cols, run.strata, q)
-        assert (e.failed_low, e.failed_high) == (pytest.approx(lo, rel=1e-12), pytest.approx(hi, rel=1e-12))
+        lo, hi, mid = _by_hand(run.cols, run.strata, q)
+        assert (e.failed_low, e.failed_high, e.rate) == (pytest.approx(lo, rel=1e-12), pytest.approx(hi, rel=1e-12),
+                                                         pytest.approx(mid, rel=1e-12))
         assert (e.status == UNRESOLVED) == (hi - lo > e.cov * e.rate), q.label
     for label in ("u_top > 1", "collapse"):
         e = run.estimate.levels[label]
