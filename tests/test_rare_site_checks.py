@@ -111,6 +111,16 @@ def test_a_level_the_failures_could_move_beyond_its_cov_is_unresolved_not_conver
     assert run.stopped == "budget"                               # unresolved levels never meet the target
 
 
+def test_the_simulation_stops_when_only_failures_keep_levels_from_the_target():
+    """Target CoV 0.3, budget 6000, runs of u_top >= 2 failing: at 1870 runs every level converged but u_top > 1
+    and collapse, unresolved with CoV 0.199 and 0.293 -- at the target already; more runs would shrink their
+    CoV, not the range the failed runs leave. It stops there ("failures") instead of spending the budget."""
+    run = _simulate(StopRule(0.3, 6000), SurrogateEvaluator(fail_at=2.0))
+    assert run.stopped == "failures" and run.runs == 1870
+    for e in run.estimate.levels.values():
+        assert e.status == "converged" or (e.status == UNRESOLVED and e.cov <= 0.3), e.label
+
+
 def test_a_pilot_whose_every_run_failed_is_refused():
     with pytest.raises(ParameterError, match=r"every one of the pilot's 70 runs failed, e.g. .SolverError: the "
                                              r"surrogate's solver refuses this motion. \(70 of them alike\)"):

@@ -228,8 +228,10 @@ def _header(run) -> list:
     s, st, d = run.site, run.settings, run.design
     runs_by = ", ".join(f"{b['name']} {b['runs']}" + (f" of {b['planned']}" if b["runs"] < b["planned"] else "")
                         for b in run.batches)
-    why = ("every requested level reached the target" if run.stopped == "target" else
-           f"the run budget ({run.stop.max_runs}) was spent")
+    why = {"target": "every requested level reached the target",
+           "failures": "every requested level converged or, its CoV at the target, is left unresolved by failed "
+                       "runs (more runs would not resolve it)"}.get(run.stopped,
+                                                                     f"the run budget ({run.stop.max_runs}) was spent")
     L = [f"- site file: `{s.path}`; {len(run.strata)} strata (source x Mw bin x R bin x pulse) over "
          f"{len(s.sources)} source(s), total event rate {run.strata.total_rate:.4g} /yr",
          f"- runs: {run.runs} ({runs_by}); failed runs: {run.estimate.n_failed}; stopped because {why}",

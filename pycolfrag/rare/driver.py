@@ -31,7 +31,7 @@ import numpy as np
 from .. import results as _results
 from ..errors import ParameterError, ResultsFileError
 from . import allocation as _alloc
-from .estimate import DEFAULT_MAX_SHARE, DEFAULT_MIN_NEFF, estimate, exceedances, row_weights
+from .estimate import DEFAULT_MAX_SHARE, DEFAULT_MIN_NEFF, UNRESOLVED, estimate, exceedances, row_weights
 from .plans import PulseMap, interleave, plan_inputs
 from .proposal import FAMILIES, PILOT_MIXTURE, Design, cross_entropy_means, production_mixture, score
 from .strata import DEFAULT_MW_STEP, DEFAULT_R_EDGES_KM, build_strata
@@ -124,7 +124,7 @@ class SiteRun:
     requested: tuple
     cols: dict
     estimate: object
-    stopped: str                     # "target" or "budget"
+    stopped: str                     # "target", "failures" (the rest unresolved at the target CoV) or "budget"
     batches: list = field(default_factory=list)
     history: list = field(default_factory=list)
 
@@ -202,6 +202,17 @@ def failures(cols) -> tuple[int, int, str]:
     kind, k = kinds.most_common(1)[0]
     example = next(t for t in texts if re.sub(r"\d[\d.eE+-]*", "#", t) == kind)
     return int(np.sum(bad)), int(np.sum(done)), f"{example!r} ({k} of them alike)"
+
+
+def _stop_reason(est, requested, stop: StopRule) -> str:
+    """"target" when every requested level converged; "failures" when the others are unresolved with their CoV
+    at the target already (more runs shrink the CoV, not the range the failed runs leave); else "budget"."""
+    levels = [est.levels[q.label] for q in requested]
+    if all(e.status == "converged" for e in levels):
+        return "target"
+    if all(e.status == "converged" or (e.status == UNRESOLVED and e.cov <= stop.target_cov) for e in levels):
+        return "failures"
+    return "budget"
 
 
 def _check_pilot(cols) -> None:
@@ -331,8 +342,8 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
         if run.batches[-1]["limit"] < run.batches[-1]["planned"]:
             break                                      # the budget cut this batch
         if evaluator.stored(batch_name(stage)) is None:
-            if all(est.levels[q.label].status == "converged" for q in run.requested):
-                stopped = "target"
+            stopped = _stop_reason(est, run.requested, stop)
+            if stopped != "budget":
                 break
             if used >= stop.max_runs:
                 break
