@@ -18,6 +18,9 @@ min(t e^-D_OFF, COLLAPSE_AT) for u_d), whose probability is
 the strata, weights or quadrature of :mod:`pycolfrag.rare` -- so it is an independent reference for the
 estimator. The coefficients make the levels span p per event ~0.1 to ~3e-4, collapse rare and almost
 only reached with a pulse, as at the example site.
+
+``fail_at``: the runs whose u_top would reach it fail instead (status 3, no EDPs, as a solver that
+refuses the strongest motions), deterministically: a run fails or not by its own inputs.
 """
 from __future__ import annotations
 
@@ -43,9 +46,9 @@ def _mean(pulse: bool, a: dict, mw, r):
     return a[pulse] + B_M * (mw - 6.0) - B_R * np.log(r)
 
 
-def columns(inputs) -> dict:
-    """The rows of the events ``inputs`` (the evaluator's inputs) as the event layout's columns."""
-    n = len(inputs)
+def columns(inputs, fail_at: float = math.inf) -> dict:
+    """The rows of the events ``inputs`` (the evaluator's inputs) as the event layout's columns; those whose
+    u_top would reach ``fail_at`` failed (status 3, u_top and u_d NaN, not collapsed, a message)."""
     mw = np.array([x["mw"] for x in inputs])
     r = np.array([x["dist_km"] for x in inputs])
     pulse = np.array([x["pulse"] is not None for x in inputs])
@@ -61,8 +64,12 @@ def columns(inputs) -> dict:
                          for t in tags]) for k in ("stage", "stratum", "index", "source", "component", "z_mw",
                                                    "z_dist", "z_nu", "z_gamma", "weight", "occurrence_weight",
                                                    "stratum_rate_per_yr")}
+    fail = u_top >= fail_at
+    collapsed = (u_top >= COLLAPSE_AT) & ~fail
+    u_top, u_d = np.where(fail, np.nan, u_top), np.where(fail, np.nan, u_d)
     cols.update(z_vp=zv, z_fp=zf, mw=mw, dist_km=r, pulse=pulse.astype(np.uint8), u_top=u_top, u_d=u_d,
-                collapsed=(u_top >= COLLAPSE_AT).astype(np.uint8), status=np.zeros(n, dtype=np.int32),
+                collapsed=collapsed.astype(np.uint8), status=np.where(fail, 3, 0).astype(np.int32),
+                message=np.where(fail, b"SolverError: the surrogate's solver refuses this motion", b""),
                 hf_seed=np.array([x["hf_seed"] for x in inputs], dtype=np.uint64))
     return cols
 
@@ -76,9 +83,10 @@ def _pending(cols: dict, limit: int) -> dict:
 class SurrogateEvaluator:
     """The evaluator interface, in memory: batches planned and their rows (the surrogate's outcomes)."""
 
-    def __init__(self):
+    def __init__(self, fail_at: float = math.inf):
         self.record = RecordSettings()
         self.plans, self.calls = {}, []
+        self.fail_at = fail_at
 
     def stored(self, name):
         return self.plans.get(name)
@@ -86,7 +94,7 @@ class SurrogateEvaluator:
     def evaluate(self, name, inputs, purpose, limit=None):
         self.plans.setdefault(name, (purpose, list(inputs)))
         self.calls.append((name, len(inputs), limit))
-        cols = columns(self.plans[name][1])
+        cols = columns(self.plans[name][1], self.fail_at)
         return _pending(cols, len(inputs) if limit is None else limit)
 
 

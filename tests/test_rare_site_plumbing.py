@@ -110,17 +110,25 @@ def test_kill_9_mid_batch_then_resume_gives_the_uninterrupted_estimate(tmp_path)
     assert _levels(tmp_path / "ref") == _levels(out)
 
 
-def test_a_larger_budget_extends_the_same_plan(one_rank, tmp_path):
+def test_a_batch_is_sized_by_the_budget_and_a_larger_budget_goes_on_after_it(one_rank, tmp_path):
+    """A batch is never larger than the budget left: with batches of 20 and a budget of 50 the third batch is
+    planned (and its file made) for 10 runs, not 20 cut to 10. A larger budget then reads the three batches
+    back unchanged and plans the rest after them; the first two are those of a run asked for 60 at once."""
     out1, _ = one_rank
     out = tmp_path / "ext"
     first = _run(ARGS + ["--max-runs", "50", "--simulate", str(out)])
-    assert first.returncode == 6 and "batch 2 done, 50 runs" in first.stdout   # the last batch cut to 10 of its 20
+    assert first.returncode == 6 and "batch 2 done, 50 runs" in first.stdout
     plan = json.loads((out / "batch_002.plan.json").read_text())
-    assert len(plan["inputs"]) == 20
+    assert len(plan["inputs"]) == 10 and sum(n for _, n in plan["purpose"]["counts"]) == 10
+    before = {p.name: p.read_bytes() for p in out.glob("batch_*")}
     second = _run(ARGS + ["--max-runs", "60", "--simulate", str(out)])
     assert second.returncode in (0, 6), second.stdout + second.stderr
-    _same_rows(out1, out)                            # the same 60 runs as a run asked for 60 at once
-    assert _levels(out1) == _levels(out)
+    assert "batch 3 done, 60 runs" in second.stdout
+    assert all((out / name).read_bytes() == data for name, data in before.items())   # read back, not rerun
+    assert len(json.loads((out / "batch_003.plan.json").read_text())["inputs"]) == 10
+    for n in ("batch_000.h5", "batch_001.h5"):
+        c = compare_results(out1 / n, out / n)
+        assert c.identical, f"{n}: {c.summary()}"
 
 
 def test_a_resume_with_another_site_or_settings_is_refused(one_rank, tmp_path):

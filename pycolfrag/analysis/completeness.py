@@ -65,7 +65,9 @@ def check_complete(source, allow_incomplete: bool, what: str, path=None) -> str:
     output to carry."""
     note = incomplete_note(source, path)
     if note and not allow_incomplete:
-        raise IncompleteResultsError(f"{what} refused: {note[len(MARK) + 2:]}. Finish the run (rerun its command "
+        err = IncompleteResultsError(f"{what} refused: {note[len(MARK) + 2:]}. Finish the run (rerun its command "
                                      "to resume) or pass --allow-incomplete (allow_incomplete=True) to get outputs "
                                      "marked INCOMPLETE")
+        err.note = note         # for a command whose own advice differs (risk --simulate has no --allow-incomplete)
+        raise err
     return note

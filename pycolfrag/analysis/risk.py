@@ -417,15 +417,16 @@ def _simulate_main(argv) -> int:
     from . import risk_rare  # here: only this form of the command needs it
     ap = risk_rare.build_parser()
     a = ap.parse_args(argv)
-    code, run = run_simulation(a, QUANTITIES, argv)
+    beside = {}                       # the grid route, read and checked on every rank before any run
+
+    def before(site, settings):
+        beside.update(risk_rare.grid_route(a, site, settings, site_risk))
+
+    code, run = run_simulation(a, QUANTITIES, argv, before=before)
     if run is None:
         return code
     try:
-        cmp = None
-        if a.results is not None:
-            kw = dict(pulse_only=a.pulse_only, pulse_model=a.pulse_model, n_draws=a.draws, curves=False)
-            cmp = risk_rare.compare_with_grid(run, site_risk(a.site, a.results, a.no_pulse, outside="zero", **kw),
-                                              site_risk(a.site, a.results, a.no_pulse, outside="clamp", **kw))
+        cmp = risk_rare.compare_with_grid(run, beside["zero"], beside["clamp"]) if beside else None
         kept = risk_rare.larger_estimate(run, a.simulate)    # a subset never replaces a larger estimate
         paths = None if kept else risk_rare.write_outputs(run, a.simulate, cmp, figures=not a.no_figures)
     except PycolfragError as exc:   # the grid's files, the output folder: every run stays in OUTDIR

@@ -26,13 +26,16 @@ import numpy as np
 
 from ..errors import OutputError, ParameterError
 from ..rare import command as _rare_command
-from ..rare.estimate import efficiency, estimate
+from ..rare.driver import failures
+from ..rare.estimate import UNRESOLVED, efficiency, estimate
+from ..rare.strata import build_strata
 from ..site import OUTSIDE_CHOICES
+from .completeness import MARK, IncompleteResultsError
 from .risk_rare_like import check_like_with_like
 from .risk_report import _write_text, check_outdir
 
-__all__ = ["build_parser", "GridComparison", "compare_with_grid", "report", "to_json", "write_outputs",
-           "larger_estimate", "print_summary", "PRINTED_YEARS"]
+__all__ = ["build_parser", "GridComparison", "grid_route", "check_grid_range", "compare_with_grid", "report", "to_json",
+           "write_outputs", "larger_estimate", "print_summary", "PRINTED_YEARS"]
 
 #: Horizon of the probabilities printed and tabled, years.
 PRINTED_YEARS = 50.0
@@ -84,11 +87,52 @@ def _half_width(low: float, high: float) -> float:
 
 
 def _agree(e, g) -> bool | None:
-    """|ln a - ln b| <= sqrt(h_a^2 + h_b^2); None when either has no interval (a refused level, a zero rate)."""
+    """|ln a - ln b| <= sqrt(h_a^2 + h_b^2); None when either has no interval (a refused level, a zero rate) or
+    failed runs leave the simulation's unresolved."""
     lam, lo, hi = g
-    if e.status == "refused" or not (e.rate > 0 and lam > 0 and lo > 0):
+    if e.status in ("refused", UNRESOLVED) or not (e.rate > 0 and lam > 0 and lo > 0):
         return None
     return abs(math.log(e.rate) - math.log(lam)) <= math.hypot(_half_width(e.low, e.high), _half_width(lo, hi))
+
+
+def check_grid_range(strata, mws, ds) -> tuple:
+    """The grid's (Mw, R) box; ParameterError when its limits cut a stratum (they must be bin edges, so
+    that the simulation's part inside the grid is a sum over whole strata), saying which edges to add."""
+    mws, ds = np.asarray(mws, float), np.asarray(ds, float)
+    box = ((mws[0], mws[-1]), (ds[0], ds[-1]))
+    cut = [st for st in strata.strata if st.straddles(*box)]
+    if cut:
+        raise ParameterError(
+            f"the grid's range Mw {mws[0]:g}-{mws[-1]:g}, R {ds[0]:g}-{ds[-1]:g} km cuts {len(cut)} strata (e.g. Mw "
+            f"{cut[0].mw}, R {cut[0].r_km} km): the part of the simulation inside it is not a sum over whole strata. "
+            "Run the simulation (another folder) with --r-edges and --mw-step that put the grid's limits on edges")
+    return box
+
+
+def grid_route(args, site, settings, site_risk) -> dict:
+    """The grid route beside the simulation (``{"zero": SiteRisk, "clamp": SiteRisk}``), computed from the
+    parsed arguments before any run, so that grid files that cannot serve -- missing, incomplete, of other
+    branches, or a range that cuts the strata of ``site`` and ``settings`` -- are refused before the
+    simulation, not after it (ParameterError or the reader's error). ``site_risk``:
+    :func:`pycolfrag.analysis.risk.site_risk`."""
+    if args.results is None:
+        if args.no_pulse is not None:
+            raise ParameterError("--no-pulse was given without the pulse grid's results: give both "
+                                 "(risk SITE PULSE.h5 --no-pulse NOPULSE.h5 --simulate OUTDIR) or neither")
+        return {}
+    kw = dict(pulse_only=args.pulse_only, pulse_model=args.pulse_model, n_draws=args.draws, curves=False)
+    try:
+        zero = site_risk(args.site, args.results, args.no_pulse, outside="zero", **kw)
+        clamp = site_risk(args.site, args.results, args.no_pulse, outside="clamp", **kw)
+    except IncompleteResultsError as exc:
+        note = getattr(exc, "note", "")
+        raise ParameterError(
+            f"the grid route beside the simulation refused: {note[len(MARK) + 2:] or exc}. The comparison needs "
+            "complete grids: finish that grid (rerun its command to resume), or run --simulate without the grid's "
+            "files (the grid route alone takes --allow-incomplete: risk SITE PULSE.h5 OUTDIR --allow-incomplete)"
+        ) from None
+    check_grid_range(build_strata(site, settings.mw_step, settings.r_edges_km), zero.mws, zero.ds)
+    return {"zero": zero, "clamp": clamp}
 
 
 def compare_with_grid(run, risk_zero, risk_clamp) -> GridComparison:
@@ -100,13 +144,7 @@ def compare_with_grid(run, risk_zero, risk_clamp) -> GridComparison:
     if getattr(run, "record", None) is not None:
         check_like_with_like(run.record, risk_zero.files)
     mws, ds = np.asarray(risk_zero.mws, float), np.asarray(risk_zero.ds, float)
-    box = ((mws[0], mws[-1]), (ds[0], ds[-1]))
-    cut = [st for st in run.strata.strata if st.straddles(*box)]
-    if cut:
-        raise ParameterError(
-            f"the grid's range Mw {mws[0]:g}-{mws[-1]:g}, R {ds[0]:g}-{ds[-1]:g} km cuts {len(cut)} strata (e.g. Mw "
-            f"{cut[0].mw}, R {cut[0].r_km} km): the part of the simulation inside it is not a sum over whole strata. "
-            "Rerun the simulation (another folder) with --r-edges and --mw-step that put the grid's limits on edges")
+    box = check_grid_range(run.strata, mws, ds)
     keep = [st.inside(*box) for st in run.strata.strata]
     s = run.stop
     in_grid = estimate(run.cols, run.strata, run.design, run.quantities, confidence=s.confidence, min_neff=s.min_neff,
@@ -133,10 +171,16 @@ def _rate_cell(e) -> str:
     return f"{_e(e.rate)} [{_e(e.low)}, {_e(e.high)}]"
 
 
+def _failed_cell(e) -> str:
+    """The rate with every failed run counted as no exceedance and as an exceedance (``-`` without failures)."""
+    return "-" if not e.failed else f"{e.failed} runs: {_e(e.failed_low)} - {_e(e.failed_high)}"
+
+
 def _levels_table(run) -> list:
     est, pct = run.estimate, f"{100 * run.stop.confidence:g} %"
-    L = [f"| level | lambda (1/yr) [{pct}] | CoV | P in {PRINTED_YEARS:g} yr [{pct}] | n_eff | largest run | status | "
-         "crude runs for this CoV | efficiency |", "|---|---|---:|---|---:|---:|---|---:|---:|"]
+    L = [f"| level | lambda (1/yr) [{pct}] | CoV | P in {PRINTED_YEARS:g} yr [{pct}] | n_eff | largest run | failed "
+         "runs: lambda as none - as exceeding | status | crude runs for this CoV | efficiency |",
+         "|---|---|---:|---|---:|---:|---|---|---:|---:|"]
     for q in run.quantities:
         e = est.levels[q.label]
         eff = efficiency(e, run.strata.total_rate, run.runs)
@@ -145,8 +189,30 @@ def _levels_table(run) -> list:
         cov, crude, gain = ("-", "-", "-") if refused else (f"{e.cov:.3f}", f"{eff['crude_runs']:.3g}",
                                                              f"{eff['efficiency']:.3g}")
         mark = "" if q in run.requested else " (not requested)"
+        status = e.status.upper() if e.status == UNRESOLVED else e.status
         L.append(f"| {q.label} | {_rate_cell(e)} | {cov} | {p} | {e.n_eff:.1f} | {100 * min(e.max_share, 1):.1f} % | "
-                 f"{e.status}{mark} | {crude} | {gain} |")
+                 f"{_failed_cell(e)} | {status}{mark} | {crude} | {gain} |")
+    return L
+
+
+def _failures(run) -> list:
+    """The failed runs by stratum and their most common message (nothing when every run succeeded)."""
+    failed, done, text = failures(run.cols)
+    if not failed:
+        return []
+    by = run.estimate.failed_by_stratum
+    L = ["", f"**{failed} of {done} runs failed** (most common message: {text}). A failed run is not a non-exceedance: "
+             "its outcome is unknown. Each level's rate rests on the successful runs of each stratum, and is bounded "
+             "by counting every failed run as no exceedance and as an exceedance, weighted as the estimator weights "
+             "a run; a level whose two bounds differ by more than its CoV x rate is UNRESOLVED (not converged: the "
+             "failed runs, not the number of runs, limit it; docs/rare_events.md).", "",
+         "| stratum | source | Mw | R (km) | pulse | runs | failed |", "|---:|---|---|---|---|---:|---:|"]
+    for st in run.strata.strata:
+        k = int(by[st.index]) if st.index < by.size else 0
+        if k:
+            n = k + int(run.estimate.n_by_stratum[st.index])
+            L.append(f"| {st.index} | {st.source_name} | {st.mw[0]:g}-{st.mw[1]:g} | {st.r_km[0]:g}-{st.r_km[1]:g} | "
+                     f"{'yes' if st.pulse else 'no'} | {n} | {k} |")
     return L
 
 
@@ -169,8 +235,10 @@ def _header(run) -> list:
     s, st, d = run.site, run.settings, run.design
     runs_by = ", ".join(f"{b['name']} {b['runs']}" + (f" of {b['planned']}" if b["runs"] < b["planned"] else "")
                         for b in run.batches)
-    why = ("every requested level reached the target" if run.stopped == "target" else
-           f"the run budget ({run.stop.max_runs}) was spent")
+    why = {"target": "every requested level reached the target",
+           "failures": "every requested level converged or, its CoV at the target, is left unresolved by failed "
+                       "runs (more runs would not resolve it)"}.get(run.stopped,
+                                                                     f"the run budget ({run.stop.max_runs}) was spent")
     L = [f"- site file: `{s.path}`; {len(run.strata)} strata (source x Mw bin x R bin x pulse) over "
          f"{len(s.sources)} source(s), total event rate {run.strata.total_rate:.4g} /yr",
          f"- runs: {run.runs} ({runs_by}); failed runs: {run.estimate.n_failed}; stopped because {why}",
@@ -246,12 +314,13 @@ def report(run, cmp: GridComparison | None = None, figures: dict | None = None) 
         L += [run.site.description, ""]
     L += _header(run) + [""] + _levels_table(run)
     L += ["", "Refused: a level whose estimate rests on fewer effective exceedances than the floor, or on one run "
-              "carrying more than the largest share allowed; only an upper bound is stated. Crude runs for this "
+              "carrying more than the largest share allowed; only an upper bound is stated (failed runs counted as "
+              "exceeding). Unresolved: failed runs could move the level by more than its CoV. Crude runs for this "
               "CoV: N = (1 - p) / (p CoV^2), p = lambda / (the site's event rate); efficiency = that over the runs "
               "used." + _at_target(run)]
     if cmp is not None:
         L += _comparison_table(cmp, run)
-    L += _deaggregation(run) + _history(run)
+    L += _failures(run) + _deaggregation(run) + _history(run)
     for caption, rel in (figures or {}).items():
         L += ["", f"![{caption}]({rel})"]
     return "\n".join(L) + "\n"
@@ -265,7 +334,9 @@ def to_json(run, cmp: GridComparison | None = None) -> dict:
                            f"probability_{PRINTED_YEARS:g}_years": [_p(e.rate), _p(e.low), _p(e.high)],
                            "requested": q in run.requested}
     return {"site": run.site.name, "site_file": run.site.path, "method": "event-based simulation",
-            "runs": run.runs, "failed_runs": run.estimate.n_failed, "stopped": run.stopped,
+            "runs": run.runs, "failed_runs": run.estimate.n_failed,
+            "failed_runs_by_stratum": run.estimate.failed_by_stratum.tolist(),
+            "failure_most_common": failures(run.cols)[2] or None, "stopped": run.stopped,
             "settings": run.settings.as_dict(), "stop_rule": dict(run.stop.__dict__), "design": run.design.as_dict(),
             "batches": run.batches, "history": run.history, "levels": levels, "strata": run.strata.as_dict(),
             "runs_by_stratum": run.estimate.n_by_stratum.tolist(),
@@ -305,12 +376,19 @@ def larger_estimate(run, outdir) -> int | None:
 
 
 def print_summary(run, cmp: GridComparison | None = None) -> None:
-    """One line per level: rate, interval, CoV and status; the grid route's verdict beside it."""
+    """One line per level: rate, interval, CoV, the failed runs' bounds and status; the grid route's verdict
+    beside it."""
+    failed, done, _ = failures(run.cols)
+    if failed:
+        print(f"{failed} of {done} runs FAILED (by stratum in risk.md); each level's rate with them counted as none - "
+              "as exceeding:")
     for q in run.quantities:
         e = run.estimate.levels[q.label]
+        status = e.status.upper() if e.status == UNRESOLVED else e.status
         text = (f"{q.label:>14}: {_rate_cell(e)} /yr" + ("" if e.status == "refused" else
                 f", CoV {e.cov:.3f}, P{PRINTED_YEARS:g} {_p(e.rate):.3g}") + f", n_eff {e.n_eff:.1f}, largest run "
-                f"{100 * min(e.max_share, 1):.1f} % ({e.status})")
+                f"{100 * min(e.max_share, 1):.1f} %" + (f", failed runs {_e(e.failed_low)} - {_e(e.failed_high)}"
+                                                          if e.failed else "") + f" ({status})")
         if cmp is not None and cmp.agree[q.label] is not None:
             text += f"; grid route (its range) {'agrees' if cmp.agree[q.label] else 'DISAGREES'}"
         print(text)

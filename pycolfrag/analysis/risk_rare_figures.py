@@ -20,13 +20,17 @@ from .figures import Figure
 __all__ = ["CAPTIONS", "fig_rates", "fig_convergence", "fig_deaggregation", "make_all"]
 
 CAPTIONS = {
-    "rare_rates": "Annual rate of each level by event-based simulation (and beside the grid route)",
+    "rare_rates": "Annual rate of each level by event-based simulation (and beside the grid route; grey: the "
+                  "range failed runs leave, from all counted as none to all as exceedances)",
     "rare_convergence": "CoV of each level after each batch against the runs used (crude Monte Carlo dotted)",
     "rare_deaggregation": "Share of each distance and magnitude bin in the annual rate",
 }
 
 
 def _errorbar(ax, x, e, **kw):
+    if getattr(e, "failed", 0) and e.failed_high > 0:      # what the failed runs could have been: a grey band
+        ax.plot([x, x], [e.failed_low if e.failed_low > 0 else e.failed_high / 10, e.failed_high], color="0.6",
+                lw=6, alpha=0.5, solid_capstyle="butt", zorder=0)
     if e.status == "refused":
         ax.plot([x], [e.bound], marker="v", linestyle="none", **kw)
         return

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import OutputError
+from ..errors import OutputError, ParameterError
 from . import risk_figures
 from .codes import summarize
 from .risk_fit import EQ4_FIT_ALPHA, Degeneracy
@@ -234,6 +234,9 @@ def report_section(risk: SiteRisk, figures: dict | None = None, heading: str = "
 def check_outdir(outdir) -> Path:
     """Refuse, before any work, an output folder that cannot be one: a file in its place (or above it),
     or one that cannot be written. Nothing is created here."""
+    if isinstance(outdir, str) and not outdir:
+        raise ParameterError(f"output folder {outdir!r} is an empty path (it would write into the current "
+                             "directory): give a folder")
     p = Path(outdir)
     probe = p
     while not probe.exists():

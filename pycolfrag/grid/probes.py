@@ -27,7 +27,7 @@ from ..ground_motion import rupakhety_2011
 from .spec import DEFAULT_RECORD_DT_S, resolve_solver_options, solver_defaults
 
 __all__ = ["MAX_CHECK_STEPS", "MAX_ROW_STEPS", "SAY_WORK_ABOVE_S", "check_solver_options", "probe_rows",
-           "check_work", "check_space", "check_models"]
+           "check_work", "check_space", "check_models", "check_record_dt"]
 
 #: Largest number of solver steps of the pre-run check (3 samples of zero record plus the solver's
 #: tail, ~4000 steps with the defaults): a dt_solver needing more is refused before it runs (2e7 is
@@ -246,7 +246,12 @@ def check_models(spec) -> None:
                 rupakhety_2011.check_scenario(mw, dist)
         except ParameterError as exc:
             raise ParameterError(f"--mw/--dist: scenario Mw {mw:g}, R {dist:g} km is refused: {exc}") from None
-    dt = spec.record_dt_s
+    check_record_dt(spec.record_dt_s)
+
+
+def check_record_dt(dt: float) -> None:
+    """Refuse a record step outside the stochastic generator's range (``atkinson_silva_2000.DT_MIN/DT_MAX``):
+    every synthetic record would fail. The one text of this refusal (the grid's and the site simulation's)."""
     if not as00.DT_MIN <= dt <= as00.DT_MAX:
         raise ParameterError(f"--record-dt {dt!r} s is outside the record generator's range "
                              f"[{as00.DT_MIN:g}, {as00.DT_MAX:g}] s")

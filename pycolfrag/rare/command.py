@@ -17,27 +17,29 @@ from pathlib import Path
 
 from .. import results as _results
 from ..column import Column
-from ..errors import ParameterError, RecordFileError, ResultsFileError
+from ..errors import ParameterError, PycolfragError, ResultsFileError
 from ..grid import get_comm
-from ..grid.probes import check_solver_options
+from ..grid.probes import check_record_dt, check_solver_options
 from ..grid.serve import EXIT_DRAINED
 from ..grid.spec import DEFAULT_RECORD_DT_S
 from ..ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
 from ..site import OUTSIDE_CHOICES, load_site, read_pulse_model
 from ..site_models import PulseOnly, Table
-from .driver import DEFAULT_SEED, SiteSettings, StopRule, simulate_site
-from .estimate import WeightError
+from .driver import DEFAULT_SEED, SiteSettings, StopRule, failures, simulate_site
+from .estimate import UNRESOLVED, WeightError
 from .evaluator import BatchStopped, GridEvaluator, RecordSettings
 from .strata import DEFAULT_MW_STEP, DEFAULT_R_EDGES_KM
 
-__all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_NOT_CONVERGED", "EXIT_DRAINED",
-           "add_arguments", "settings_from_args", "run_simulation"]
+__all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_NOT_CONVERGED", "EXIT_UNRESOLVED",
+           "EXIT_DRAINED", "add_arguments", "settings_from_args", "run_simulation"]
 
 #: Exit codes: those of the grid (0 ok, 2 bad arguments or a folder of another simulation, 4 an
 #: operating-system error, 5 a batch file written by another run, 75 stopped by SIGTERM: the batch
-#: drained, rerun the same command), and 6: the run budget was spent before every requested level
-#: converged (the report is written, those levels marked).
-EXIT_OK, EXIT_ARGS, EXIT_OS_ERROR, EXIT_LOCKED, EXIT_NOT_CONVERGED = 0, 2, 4, 5, 6
+#: drained, rerun the same command), 6: the run budget was spent before every requested level
+#: converged (the report is written, those levels marked), and 7: failed runs leave a requested level
+#: unresolved (they could move it by more than its CoV; the report is written, those levels marked;
+#: :mod:`pycolfrag.rare.estimate`).
+EXIT_OK, EXIT_ARGS, EXIT_OS_ERROR, EXIT_LOCKED, EXIT_NOT_CONVERGED, EXIT_UNRESOLVED = 0, 2, 4, 5, 6, 7
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -107,6 +109,9 @@ def site_of(args):
 
 def settings_from_args(args):
     """(site, SiteSettings, StopRule, RecordSettings) of parsed arguments; ParameterError naming a bad value."""
+    if not str(args.simulate):
+        raise ParameterError(f"--simulate {args.simulate!r} is an empty path (it would write into the current "
+                             "directory): give the folder for the batches and the report")
     site = site_of(args)
     settings = SiteSettings(seed=args.seed, pilot_per_stratum=args.pilot, batch=args.batch, defensive=args.defensive,
                             mw_step=args.mw_step, r_edges_km=tuple(args.r_edges), levels=tuple(args.levels))
@@ -116,6 +121,7 @@ def settings_from_args(args):
                             record_dt_s=args.record_dt, max_record_s=args.max_record_s, tp_model=args.tp_model)
     if args.chunk_max < 1:
         raise ParameterError(f"--chunk-max must be >= 1, got {args.chunk_max}")
+    check_record_dt(record.record_dt_s)            # the grid's check: every record would fail
     check_solver_options(col, record.solver_options, record.record_dt_s)
     if Path(args.simulate).exists() and not Path(args.simulate).is_dir():
         raise ParameterError(f"--simulate {args.simulate} is a file: give a folder")
@@ -137,16 +143,21 @@ def _failed(exc, comm, size: int, log) -> int:
     return code
 
 
-def run_simulation(args, quantities, argv=None):
+def run_simulation(args, quantities, argv=None, before=None):
     """Run (or resume) the simulation of parsed arguments on every rank: ``(exit code, SiteRun or None)``;
-    the run is given on rank 0 only, when the simulation ended (at its target or its budget)."""
+    the run is given on rank 0 only, when the simulation ended (at its target or its budget).
+
+    ``before(site, settings)``: a check of the caller's, on every rank before any run (the grid's files
+    beside the simulation); a :class:`~pycolfrag.errors.PycolfragError` it raises is a refusal (exit 2)."""
     comm = get_comm(args.mpi)
     rank = comm.Get_rank() if comm is not None else 0
     size = comm.Get_size() if comm is not None else 1
     log = (lambda s: print(s, flush=True)) if rank == 0 else (lambda s: None)
     try:
         site, settings, stop, record = settings_from_args(args)
-    except (ParameterError, RecordFileError, OSError) as exc:
+        if before is not None:
+            before(site, settings)
+    except (PycolfragError, OSError) as exc:
         log(f"risk --simulate: {exc}")
         return EXIT_ARGS, None
     ev = GridEvaluator(args.simulate, record, comm, allow_code_change=args.allow_code_change, progress=args.progress,
@@ -174,5 +185,19 @@ def run_simulation(args, quantities, argv=None):
             comm.Abort(code)
         raise
     ev.close()
-    converged = all(run.estimate.levels[q.label].status == "converged" for q in run.requested)
-    return (EXIT_OK if converged else EXIT_NOT_CONVERGED), run
+    return _exit_code(run, log), run
+
+
+def _exit_code(run, log) -> int:
+    """0 when every requested level converged; 7 (said with the failures) when failed runs leave one
+    unresolved; 6 when the budget ran out first."""
+    levels = [run.estimate.levels[q.label] for q in run.requested]
+    unresolved = [e.label for e in levels if e.status == UNRESOLVED]
+    if unresolved:
+        failed, done, text = failures(run.cols)
+        log(f"risk --simulate: {failed} of {done} runs failed (most common: {text}); level(s) {', '.join(unresolved)} "
+            "unresolved: counting the failed runs as exceedances or as none moves them by more than their CoV, and more "
+            "runs do not shrink what the failed runs hide. Make the runs succeed (the column, --solver, --vp-scale, "
+            "--record-dt) and rerun in another folder; risk.md lists the failures by stratum.")
+        return EXIT_UNRESOLVED
+    return EXIT_OK if all(e.status == "converged" for e in levels) else EXIT_NOT_CONVERGED

@@ -21,6 +21,8 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
+from collections import Counter
 from dataclasses import dataclass, field, fields, is_dataclass
 from types import ModuleType
 
@@ -29,13 +31,13 @@ import numpy as np
 from .. import results as _results
 from ..errors import ParameterError, ResultsFileError
 from . import allocation as _alloc
-from .estimate import DEFAULT_MAX_SHARE, DEFAULT_MIN_NEFF, estimate, exceedances, row_weights
+from .estimate import DEFAULT_MAX_SHARE, DEFAULT_MIN_NEFF, UNRESOLVED, estimate, exceedances, row_weights
 from .plans import PulseMap, interleave, plan_inputs
 from .proposal import FAMILIES, PILOT_MIXTURE, Design, cross_entropy_means, production_mixture, score
 from .strata import DEFAULT_MW_STEP, DEFAULT_R_EDGES_KM, build_strata
 
 __all__ = ["DEFAULT_SEED", "SiteSettings", "StopRule", "SiteRun", "site_fingerprint", "simulate_site", "batch_name",
-           "ALGORITHM"]
+           "ALGORITHM", "failures"]
 
 #: The root seed when none is given (the grid's).
 DEFAULT_SEED = 20160601
@@ -122,7 +124,7 @@ class SiteRun:
     requested: tuple
     cols: dict
     estimate: object
-    stopped: str                     # "target" or "budget"
+    stopped: str                     # "target", "failures" (the rest unresolved at the target CoV) or "budget"
     batches: list = field(default_factory=list)
     history: list = field(default_factory=list)
     record: object = None            # the evaluator's RecordSettings: what every run was computed with
@@ -188,26 +190,66 @@ def _ce_design(cols, strata, settings, requested) -> Design:
     return Design(PILOT_MIXTURE, production_mixture(settings.defensive, means), tuple(notes))
 
 
-def _allocate(cols, strata, design, settings, requested, stage: int, used: int, events) -> dict:
-    """The runs of production batch ``stage`` per stratum (minimax-CoV Neyman, model-steered)."""
+def failures(cols) -> tuple[int, int, str]:
+    """(failed runs, finished runs, the most common failure message with its count) of a simulation's rows."""
+    status = np.asarray(cols["status"])
+    done = status != _results.STATUS_PENDING
+    bad = done & (status != _results.STATUS_OK)
+    if not bad.any():
+        return 0, int(np.sum(done)), ""
+    raw = np.asarray(cols["message"])[bad] if "message" in cols else np.full(int(np.sum(bad)), b"")
+    texts = [(m.decode("utf-8", "replace") if isinstance(m, bytes) else str(m)) or "(no message)" for m in raw]
+    kinds = Counter(re.sub(r"\d[\d.eE+-]*", "#", t) for t in texts)     # the same failure with other numbers
+    kind, k = kinds.most_common(1)[0]
+    example = next(t for t in texts if re.sub(r"\d[\d.eE+-]*", "#", t) == kind)
+    return int(np.sum(bad)), int(np.sum(done)), f"{example!r} ({k} of them alike)"
+
+
+def _stop_reason(est, requested, stop: StopRule) -> str:
+    """"target" when every requested level converged; "failures" when the others are unresolved with their CoV
+    at the target already (more runs shrink the CoV, not the range the failed runs leave); else "budget"."""
+    levels = [est.levels[q.label] for q in requested]
+    if all(e.status == "converged" for e in levels):
+        return "target"
+    if all(e.status == "converged" or (e.status == UNRESOLVED and e.cov <= stop.target_cov) for e in levels):
+        return "failures"
+    return "budget"
+
+
+def _check_pilot(cols) -> None:
+    """Refuse to go on when not one run of the pilot succeeded: every later run would fail as well, and a
+    failed run says nothing of the levels (ParameterError with the most common failure)."""
+    failed, done, text = failures(cols)
+    if done and failed == done:
+        raise ParameterError(f"every one of the pilot's {done} runs failed, e.g. {text}: the column, solver or record "
+                             "settings (--vp-scale, --record-dt, --solver) cannot be run; the failed runs are in the "
+                             "folder's batch_000.h5")
+
+
+def _allocate(cols, strata, design, settings, requested, stage: int, used: int, events, size: int) -> dict:
+    """The ``size`` runs of production batch ``stage`` per stratum (minimax-CoV Neyman, model-steered)."""
     model = _alloc.SteeringModel(cols, requested)
     rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
     mean, var = _alloc.predicted_moments(strata, design.production, model, requested, rng, events)
     W = strata.rates
     finished = np.asarray(cols["status"]) != _results.STATUS_PENDING
     done = np.bincount(np.asarray(cols["stratum"])[finished], minlength=len(strata))
-    n, _ = _alloc.minimax_allocation(W, var, W @ mean, done, used + settings.batch)
-    new = _alloc.batch_counts(n, done, settings.batch)
+    n, _ = _alloc.minimax_allocation(W, var, W @ mean, done, used + size)
+    new = _alloc.batch_counts(n, done, size)
     return {int(h): int(k) for h, k in enumerate(new) if k > 0}
 
 
 def _progress_lines(stage: int, runs: int, est, requested, stop: StopRule) -> list:
-    lines = [f"site simulation: batch {stage} done, {runs} runs (target CoV {stop.target_cov:g}, budget "
-             f"{stop.max_runs})", f"  {'level':<16} {'rate /yr':>10} {'CoV':>7} {'n_eff':>7} {'top run':>8}  status"]
+    failed = est.n_failed
+    lines = [f"site simulation: batch {stage} done, {runs} runs" + (f", {failed} FAILED" if failed else "")
+             + f" (target CoV {stop.target_cov:g}, budget {stop.max_runs})",
+             f"  {'level':<16} {'rate /yr':>10} {'CoV':>7} {'n_eff':>7} {'top run':>8}"
+             + (f" {'failed runs as none - as exceeding':>35}" if failed else "") + "  status"]
     for q in requested:
         e = est.levels[q.label]
         share = f"{100 * e.max_share:7.1f}%" if math.isfinite(e.max_share) else f"{'-':>8}"
-        lines.append(f"  {q.label:<16} {e.rate:10.3e} {e.cov:7.3f} {e.n_eff:7.1f} {share}  {e.status}")
+        span = f" {e.failed_low:16.3e} - {e.failed_high:<16.3e}" if failed else ""
+        lines.append(f"  {q.label:<16} {e.rate:10.3e} {e.cov:7.3f} {e.n_eff:7.1f} {share}{span}  {e.status}")
     return lines
 
 
@@ -288,6 +330,7 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
     run = _Run(site, settings, stop, evaluator, quantities, log)
     pilot = {h: settings.pilot_per_stratum for h in range(len(run.strata))}
     run.run_batch(0, *run.planned(0, pilot, PILOT_MIXTURE))
+    _check_pilot(run.parts[0])
     stored = evaluator.stored(batch_name(1))
     if stored is not None:
         _check_same_run(batch_name(1), stored[0], run.fp)
@@ -304,13 +347,13 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
         if run.batches[-1]["limit"] < run.batches[-1]["planned"]:
             break                                      # the budget cut this batch
         if evaluator.stored(batch_name(stage)) is None:
-            if all(est.levels[q.label].status == "converged" for q in run.requested):
-                stopped = "target"
+            stopped = _stop_reason(est, run.requested, stop)
+            if stopped != "budget":
                 break
             if used >= stop.max_runs:
                 break
             counts = _allocate(_cat(run.parts), run.strata, run.design, settings, run.requested, stage, used,
-                               run.steering_events())
+                               run.steering_events(), min(settings.batch, stop.max_runs - used))
         else:
             counts = {}
         run.run_batch(stage, *run.planned(stage, counts, run.design.production))

@@ -14,11 +14,23 @@ effective sample size of the level's exceeding runs; Kong 1992) and the largest 
 of lambda; of every stratum, Kong's relative effective sample size of its weights. A level resting on
 fewer than ``min_neff`` effective exceedances, or whose largest run carries more than ``max_share`` of
 it, is *refused*: no CoV or interval is stated for it, only an upper bound (every stratum's largest
-weight times the Jeffreys 95 % upper limit of its share of exceeding runs). A weight above its
-mixture's defensive bound can only come from wrong density code: :class:`WeightError`.
+weight times the Jeffreys 95 % upper limit of its share of exceeding runs, failed runs counted as
+exceeding). A weight above its mixture's defensive bound can only come from wrong density code:
+:class:`WeightError`.
 
-Sums are :func:`math.fsum` over a stratum's rows, so the numbers do not depend on the order rows were
-read in.
+Failed runs (status not 0: the record, the IMs or the solver raised) are not non-exceedances: their
+outcome is unknown. They keep their place in their stratum (n_h counts every finished run), and every
+level is bounded by what they could have been, each weighted as the estimator weights a row::
+
+    lambda_lo = sum_h W_h (1 / n_h) sum_{i ok} w_i y_il                  (every failed run as no exceedance)
+    lambda_hi = lambda_lo + sum_h W_h (1 / n_h) sum_{i failed} w_i      (every failed run as an exceedance)
+
+In mu_hl and s_hl^2 a failed row's w_i y_il is imputed as w_i p_hl, p_hl = sum_ok w y / sum_ok w the
+stratum's weighted exceedance share among its successful rows (0 when none succeeded), so lambda_l lies
+between the two bounds. A level with failed runs whose spread lambda_hi - lambda_lo exceeds
+CoV_l x lambda_l (its own statistical error) is *unresolved* (:data:`UNRESOLVED`): the failed runs could
+move it further than its CoV says, so it is not converged, whatever its CoV; more runs do not help, as
+the spread shrinks no faster than the rate. Without failed runs every number is the one above, bit for bit.
 """
 from __future__ import annotations
 
@@ -33,12 +45,14 @@ from ..analysis import fragility as _fragility
 from ..errors import PycolfragError
 
 __all__ = ["WeightError", "LevelEstimate", "Estimate", "exceedances", "row_weights", "estimate", "DEFAULT_MIN_NEFF",
-           "DEFAULT_MAX_SHARE", "efficiency"]
+           "DEFAULT_MAX_SHARE", "UNRESOLVED", "efficiency"]
 
 #: Fewest effective exceedances a level's estimate may rest on (the stopping rule's floor too).
 DEFAULT_MIN_NEFF = 10.0
 #: Largest share of a level's rate one run may carry.
 DEFAULT_MAX_SHARE = 0.25
+#: The status of a level whose failed runs could move it by more than its CoV (module docstring).
+UNRESOLVED = "unresolved"
 
 
 class WeightError(PycolfragError, ArithmeticError):
@@ -91,12 +105,20 @@ class LevelEstimate:
     n_eff: float
     max_share: float
     hits: int
-    status: str            # "converged", "above target" or "refused"
+    status: str            # "converged", "above target", "unresolved" or "refused"
     bound: float           # upper bound on the rate (the only number stated for a refused level)
     reason: str = ""
+    failed: int = 0        # failed runs in the level's strata
+    failed_low: float = math.nan    # the rate with every failed run counted as no exceedance
+    failed_high: float = math.nan   # ... and as an exceedance
+
+    @property
+    def failed_spread(self) -> float:
+        """How far the failed runs could move the rate: ``failed_high - failed_low``."""
+        return self.failed_high - self.failed_low
 
     def as_dict(self) -> dict:
-        return dict(self.__dict__)
+        return {**self.__dict__, "failed_spread": self.failed_spread}
 
 
 @dataclass
@@ -111,11 +133,12 @@ class Estimate:
     max_ratio: dict
     contributions: dict = field(default_factory=dict)   # label -> W_h mu_hl per stratum
     confidence: float = 0.90
+    failed_by_stratum: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     def as_dict(self) -> dict:
         return {"levels": {k: v.as_dict() for k, v in self.levels.items()}, "n_runs": self.n_runs,
                 "n_failed": self.n_failed, "confidence": self.confidence,
-                "runs_by_stratum": self.n_by_stratum.tolist(),
+                "runs_by_stratum": self.n_by_stratum.tolist(), "failed_runs_by_stratum": self.failed_by_stratum.tolist(),
                 "kong_ess_relative_min": float(np.nanmin(self.ess_relative)) if self.ess_relative.size else None}
 
 
@@ -123,22 +146,66 @@ def _jeffreys_upper(k: int, n: int, level: float = 0.95) -> float:
     return 1.0 if k >= n else float(stats.beta.ppf(level, k + 0.5, n - k + 0.5))
 
 
-def _level(q, W, groups, w, y, confidence, min_neff, max_share, target):
+@dataclass(frozen=True)
+class _Group:
+    """The finished rows of one stratum (``rows``, in a fixed order) and which of them failed."""
+
+    h: int
+    rows: np.ndarray
+    failed: np.ndarray          # bool over rows
+
+
+def _status(lam, cov, n_eff, share, hits, bound, spread, failed, limits):
+    """(status, reason) of a level: refused (too few effective exceedances, or one run too large a share),
+    unresolved (failed runs that could move it beyond its CoV), converged or above the target."""
+    min_neff, max_share, target = limits
+    if lam <= 0 or n_eff < min_neff or share > max_share:
+        return "refused", (f"the estimate rests on {n_eff:.1f} effective exceedances ({hits} runs exceed), the largest "
+                           f"run carries {100 * min(share, 1.0):.0f} % of it (needs >= {min_neff:g} and <= "
+                           f"{100 * max_share:.0f} %); upper bound {bound:.3g} /yr"
+                           + (f" (its {failed} failed runs counted as exceeding)" if failed else ""))
+    if failed and spread > cov * lam:
+        return UNRESOLVED, (f"{failed} failed runs: counted as exceedances or as none they move the rate over "
+                            f"{spread:.3g} /yr, more than its CoV x rate ({cov * lam:.3g} /yr); the failed runs, not "
+                            "the number of runs, limit what is known of it")
+    status = "converged" if target is None or cov <= target else "above target"
+    return status, ("" if status == "converged" else f"CoV {cov:.3f} above the target {target:g}")
+
+
+def _stratum_values(g, w, y) -> tuple[np.ndarray, float, float]:
+    """(w_i y_i of the stratum's rows, a failed row's imputed, as its weight times the stratum's weighted
+    exceedance share among its successful rows; sum of w y over the successful rows; of w over the failed)."""
+    v = w[g.rows] * y[g.rows]
+    if not g.failed.any():
+        return v, math.fsum(v), 0.0
+    good = ~g.failed
+    s_ok, w_ok = math.fsum(v[good]), math.fsum(w[g.rows][good])
+    v[g.failed] = w[g.rows][g.failed] * (s_ok / w_ok if w_ok > 0 else 0.0)
+    return v, s_ok, math.fsum(w[g.rows][g.failed])
+
+
+def _level(q, W, groups, w, y, confidence, limits):
     """One level from the rows grouped by stratum: (LevelEstimate, per-stratum W_h mu_h)."""
-    lam_terms, var_terms, contrib, bound_terms, per = [], [], [], [], np.zeros(W.size)
-    for h, idx in groups:
-        v = w[idx] * y[idx]
-        n = idx.size
+    lam_terms, var_terms, contrib, bound_terms, lo_terms, fail_terms = [], [], [], [], [], []
+    per = np.zeros(W.size)
+    for g in groups:
+        v, s_ok, w_failed = _stratum_values(g, w, y)
+        n = g.rows.size
         mu = math.fsum(v) / n
         s2 = math.fsum((v - mu) ** 2) / (n - 1)
-        per[h] = W[h] * mu
-        lam_terms.append(per[h])
-        var_terms.append(W[h] ** 2 * s2 / n)
-        contrib.append(W[h] * v[v > 0] / n)
-        bound_terms.append(W[h] * float(np.max(w[idx])) * _jeffreys_upper(int(np.sum(y[idx])), n))
+        per[g.h] = W[g.h] * mu
+        lam_terms.append(per[g.h])
+        var_terms.append(W[g.h] ** 2 * s2 / n)
+        real = v[~g.failed]
+        contrib.append(W[g.h] * real[real > 0] / n)
+        lo_terms.append(W[g.h] * (s_ok / n))                # as per[h] when no run failed: the same bits
+        fail_terms.append(W[g.h] * (w_failed / n))
+        k = int(np.sum(y[g.rows])) + int(np.sum(g.failed))   # failed runs counted as exceeding
+        bound_terms.append(W[g.h] * float(np.max(w[g.rows])) * _jeffreys_upper(k, n))
     lam, var = math.fsum(lam_terms), math.fsum(var_terms)
     c = np.concatenate(contrib) if contrib else np.zeros(0)
-    hits = int(sum(int(np.sum(y[idx])) for _, idx in groups))
+    hits = int(sum(int(np.sum(y[g.rows])) for g in groups))
+    failed = int(sum(int(np.sum(g.failed)) for g in groups))
     n_eff = math.fsum(c) ** 2 / math.fsum(c * c) if c.size else 0.0
     share = float(np.max(c)) / lam if lam > 0 else math.inf
     cov = math.sqrt(var) / lam if lam > 0 else math.inf
@@ -146,15 +213,27 @@ def _level(q, W, groups, w, y, confidence, min_neff, max_share, target):
     half = zq * math.sqrt(math.log1p(cov * cov)) if math.isfinite(cov) else math.inf
     low, high = (lam * math.exp(-half), lam * math.exp(half)) if lam > 0 else (0.0, math.inf)
     bound = math.fsum(bound_terms)
-    if lam <= 0 or n_eff < min_neff or share > max_share:
-        status = "refused"
-        reason = (f"the estimate rests on {n_eff:.1f} effective exceedances ({hits} runs exceed), the largest run "
-                  f"carries {100 * min(share, 1.0):.0f} % of it (needs >= {min_neff:g} and <= {100 * max_share:.0f} %); "
-                  f"upper bound {bound:.3g} /yr")
-    else:
-        status = "converged" if target is None or cov <= target else "above target"
-        reason = "" if status == "converged" else f"CoV {cov:.3f} above the target {target:g}"
-    return LevelEstimate(q.label, lam, cov, low, high, n_eff, share, hits, status, bound, reason), per
+    f_lo = math.fsum(lo_terms)
+    f_hi = f_lo + math.fsum(fail_terms)
+    status, reason = _status(lam, cov, n_eff, share, hits, bound, f_hi - f_lo, failed, limits)
+    return LevelEstimate(q.label, lam, cov, low, high, n_eff, share, hits, status, bound, reason, failed, f_lo,
+                         f_hi), per
+
+
+def _groups(h_all, ok, order, strata, keep) -> list:
+    """The :class:`_Group` of every stratum kept (an error when one has fewer than two finished runs)."""
+    groups, short = [], []
+    for h in range(len(strata)):
+        if not keep[h]:
+            continue
+        rows = order[h_all[order] == h]
+        if rows.size < 2:
+            short.append(h)
+            continue
+        groups.append(_Group(h, rows, ~ok[rows]))
+    if short:
+        raise PycolfragError(f"strata {short[:10]} hold fewer than two finished runs: no estimate yet")
+    return groups
 
 
 def estimate(cols: dict, strata, design, quantities, *, confidence: float = 0.90, min_neff: float = DEFAULT_MIN_NEFF,
@@ -162,31 +241,33 @@ def estimate(cols: dict, strata, design, quantities, *, confidence: float = 0.90
     """The estimate of every level of ``quantities`` from the rows ``cols`` (columns of the event layout).
 
     ``keep``: a boolean mask over the strata (e.g. those inside a grid's range): only they enter (the
-    rate of that part of the site). Rows not computed yet are ignored; failed rows are counted and left
-    out (the rows of their stratum stand for it). Every stratum kept must hold at least two rows.
+    rate of that part of the site). Rows not computed yet are ignored; failed rows are counted, left out
+    of a stratum's mean (its successful rows stand for it) and bound every level (module docstring:
+    a level they could move beyond its CoV is unresolved). Every stratum kept must hold at least two
+    finished rows.
     """
     status = np.asarray(cols["status"])
     done = status != _results.STATUS_PENDING
-    ok = status == _results.STATUS_OK
     keep = np.ones(len(strata), dtype=bool) if keep is None else np.asarray(keep, dtype=bool)
-    sub = {k: np.asarray(v)[ok] for k, v in cols.items()}
-    w, checks = row_weights(sub, strata, design) if ok.any() else (np.zeros(0), {})
-    h_all = np.asarray(sub["stratum"]) if ok.any() else np.zeros(0, dtype=int)
+    sub = {k: np.asarray(v)[done] for k, v in cols.items()}
+    ok = np.asarray(sub["status"]) == _results.STATUS_OK
+    w, checks = row_weights(sub, strata, design) if done.any() else (np.zeros(0), {})
+    h_all = np.asarray(sub["stratum"]) if done.any() else np.zeros(0, dtype=int)
     W = strata.rates
     order = np.lexsort((np.asarray(sub.get("index", h_all)), np.asarray(sub.get("stage", h_all)), h_all))
-    n_by = np.bincount(h_all, minlength=len(strata)) if h_all.size else np.zeros(len(strata), dtype=int)
-    short = [h for h in range(len(strata)) if keep[h] and n_by[h] < 2]
-    if short:
-        raise PycolfragError(f"strata {short[:10]} hold fewer than two finished runs: no estimate yet")
-    groups = [(h, order[h_all[order] == h]) for h in range(len(strata)) if keep[h]]
+    n_by = np.bincount(h_all[ok], minlength=len(strata)) if h_all.size else np.zeros(len(strata), dtype=int)
+    failed_by = np.bincount(h_all[~ok], minlength=len(strata)) if h_all.size else np.zeros(len(strata), dtype=int)
+    groups = _groups(h_all, ok, order, strata, keep)
     ess = np.full(len(strata), np.nan)
-    for h, idx in groups:
-        ess[h] = math.fsum(w[idx]) ** 2 / math.fsum(w[idx] ** 2) / idx.size
+    for g in groups:
+        ess[g.h] = math.fsum(w[g.rows]) ** 2 / math.fsum(w[g.rows] ** 2) / g.rows.size
     levels, contributions = {}, {}
     for q in quantities:
-        levels[q.label], contributions[q.label] = _level(q, W, groups, w, exceedances(sub, q), confidence, min_neff,
-                                                         max_share, target_cov)
-    return Estimate(levels, int(np.sum(done)), int(np.sum(done & ~ok)), n_by, ess, checks, contributions, confidence)
+        y = np.where(ok, exceedances(sub, q), False)      # a failed row's outcome is unknown: bounded, not counted
+        levels[q.label], contributions[q.label] = _level(q, W, groups, w, y, confidence,
+                                                         (min_neff, max_share, target_cov))
+    return Estimate(levels, int(np.sum(done)), int(np.sum(~ok)), n_by, ess, checks, contributions, confidence,
+                    failed_by)
 
 
 def efficiency(level: LevelEstimate, total_rate: float, runs: int) -> dict:

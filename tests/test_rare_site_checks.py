@@ -1,0 +1,220 @@
+"""The site simulation's honesty checks: failed runs bound every level and
+leave it unresolved where they could move it beyond its CoV; a record step the generator cannot make and
+empty output paths are refused before any run; a batch is sized by the budget left; grid files given
+beside --simulate are checked before the simulation, with advice that form accepts.
+
+Expected numbers: the bounds are recomputed here from the rows by plain loops (the plan's ``weight``
+column, not the estimator's own weights); the surrogate of tests/rare_surrogate.py fails every run whose
+u_top would reach ``fail_at``, and such a run would have exceeded every level (u_top >= 2 is above every
+u_top threshold and collapse at 1.3, and u_d >= 2 e^-3.3 = 0.074 above every u_d threshold), so with
+every failed run counted as an exceedance the rate is the one of the same rows without failures, exactly
+(the pilot alone: the same rows whatever failed). Real runs: the two-drum column of the plumbing tests at
+``--vp-scale 60``, where the strongest pulse runs fail (accelerations above 10 g): 8 of 60 runs.
+"""
+from __future__ import annotations
+
+import io
+import json
+import os
+import sys
+import time
+from contextlib import redirect_stdout
+
+import numpy as np
+import pytest
+
+from pycolfrag.analysis import risk
+from pycolfrag.analysis.risk import QUANTITIES
+from pycolfrag.errors import ParameterError
+from pycolfrag.grid.probes import check_record_dt
+from pycolfrag.rare.driver import SiteSettings, StopRule, simulate_site
+from pycolfrag.rare.estimate import UNRESOLVED
+
+sys.path.insert(0, os.path.dirname(__file__))
+from rare_surrogate import SurrogateEvaluator  # noqa: E402
+from test_figures import write_results  # noqa: E402
+from test_rare_site import SMALL, small_site  # noqa: E402
+from test_rare_site_plumbing import BASE, SITE, _run  # noqa: E402
+
+
+def _simulate(stop, ev, seed=5, batch=200):
+    with redirect_stdout(io.StringIO()):
+        return simulate_site(small_site(), SiteSettings(seed=seed, batch=batch, **SMALL), stop, ev, QUANTITIES,
+                             log=lambda s: None)
+
+
+def _by_hand(cols, strata, q):
+    """(lambda with every failed run as no exceedance, as an exceedance, and as its weight times its stratum's
+    weighted exceedance share among the successful runs -- the estimate) by plain loops over the rows."""
+    lo = hi = mid = 0.0
+    for h, st in enumerate(strata.strata):
+        rows = [i for i in range(len(cols["status"])) if cols["stratum"][i] == h and cols["status"][i] != -1]
+        n = len(rows)
+        ok_w = ok_wy = failed_w = 0.0
+        for i in rows:
+            w = float(cols["weight"][i])
+            if cols["status"][i] != 0:
+                failed_w += w
+                continue
+            ok_w += w
+            if cols["collapsed"][i] or (q.edp is not None and cols[q.edp][i] >= q.threshold):
+                ok_wy += w
+        lo += st.rate * ok_wy / n
+        hi += st.rate * (ok_wy + failed_w) / n
+        mid += st.rate * (ok_wy + failed_w * (ok_wy / ok_w if ok_w > 0 else 0.0)) / n
+    return lo, hi, mid
+
+
+def test_failed_runs_bound_every_level_between_what_they_could_have_been():
+    """The pilot (the same 70 rows whatever fails) with the runs of u_top >= 1 failing: one run, whose u_top
+    without failure is in [1, 1.3): it exceeded every level but collapse. So the bound with failed runs as
+    exceedances is the clean rate of every other level, and the bound with them as none the clean collapse
+    rate (0); both bounds, and the estimate (the failed run imputed at its stratum's weighted exceedance
+    share), also by plain loops."""
+    stop = StopRule(0.2, 70)
+    clean = _simulate(stop, SurrogateEvaluator())
+    run = _simulate(stop, SurrogateEvaluator(fail_at=1.0))
+    failed = np.asarray(run.cols["status"]) != 0
+    assert failed.sum() == run.estimate.n_failed == 1
+    assert 1.0 <= clean.cols["u_top"][failed][0] < 1.3
+    assert run.estimate.failed_by_stratum.tolist() == np.bincount(np.asarray(run.cols["stratum"])[failed],
+                                                                  minlength=14).tolist()
+    for q in QUANTITIES:
+        e, c = run.estimate.levels[q.label], clean.estimate.levels[q.label]
+        lo, hi, mid = _by_hand(run.cols, run.strata, q)
+        assert e.failed == 1 and e.failed_low == pytest.approx(lo, rel=1e-12, abs=1e-300)
+        assert e.failed_high == pytest.approx(hi, rel=1e-12)
+        assert e.rate == pytest.approx(mid, rel=1e-12, abs=1e-300)
+        assert e.failed_low * (1 - 1e-12) <= e.rate <= e.failed_high * (1 + 1e-12)
+        truth = e.failed_low if q.edp is None else e.failed_high
+        assert truth == pytest.approx(c.rate, rel=1e-12, abs=1e-300), q.label
+    coll = run.estimate.levels["collapse"]
+    assert coll.rate == 0 and coll.status == "refused" and "1 failed runs counted as exceeding" in coll.reason
+
+
+def test_a_level_the_failures_could_move_beyond_its_cov_is_unresolved_not_converged():
+    """Runs of u_top >= 2 fail (20 of 2000): u_top > 1 and collapse, which they would all have exceeded, are
+    moved by more than their CoV and are unresolved; the frequent levels, whose rate the failures barely
+    touch, converge. Before: every level converged or above target, the failures silently dropped."""
+    run = _simulate(StopRule(0.2, 2000), SurrogateEvaluator(fail_at=2.0))
+    assert run.estimate.n_failed == 20
+    for q in QUANTITIES:
+        e = run.estimate.levels[q.label]
+        lo, hi, mid = _by_hand(run.cols, run.strata, q)
+        assert (e.failed_low, e.failed_high, e.rate) == (pytest.approx(lo, rel=1e-12), pytest.approx(hi, rel=1e-12),
+                                                         pytest.approx(mid, rel=1e-12))
+        assert (e.status == UNRESOLVED) == (hi - lo > e.cov * e.rate), q.label
+    for label in ("u_top > 1", "collapse"):
+        e = run.estimate.levels[label]
+        assert e.status == UNRESOLVED and "20 failed runs" in e.reason and e.failed_spread > e.cov * e.rate
+    assert run.estimate.levels["u_top > 0.15"].status == "converged"
+    assert run.stopped == "budget"                               # unresolved levels never meet the target
+
+
+def test_the_simulation_stops_when_only_failures_keep_levels_from_the_target():
+    """Target CoV 0.3, budget 6000, runs of u_top >= 2 failing: at 1870 runs every level converged but u_top > 1
+    and collapse, unresolved with CoV 0.199 and 0.293 -- at the target already; more runs would shrink their
+    CoV, not the range the failed runs leave. It stops there ("failures") instead of spending the budget."""
+    run = _simulate(StopRule(0.3, 6000), SurrogateEvaluator(fail_at=2.0))
+    assert run.stopped == "failures" and run.runs == 1870
+    for e in run.estimate.levels.values():
+        assert e.status == "converged" or (e.status == UNRESOLVED and e.cov <= 0.3), e.label
+
+
+def test_a_pilot_whose_every_run_failed_is_refused():
+    with pytest.raises(ParameterError, match=r"every one of the pilot's 70 runs failed, e.g. .SolverError: the "
+                                             r"surrogate's solver refuses this motion. \(70 of them alike\)"):
+        _simulate(StopRule(0.2, 2000), SurrogateEvaluator(fail_at=0.0))
+
+
+def test_a_batch_is_never_larger_than_the_budget_left():
+    ev = SurrogateEvaluator()
+    run = _simulate(StopRule(0.2, 80), ev, batch=5000)
+    assert [(name, n) for name, n, _ in ev.calls] == [("batch_000", 70), ("batch_001", 10)]   # before: 5000 cut to 10
+    assert run.runs == 80 and run.batches[-1]["planned"] == 10
+
+
+# --------------------------------------------------------------------------- real runs, the command line
+
+def test_failed_runs_are_counted_marked_and_refused_in_every_output(tmp_path):
+    """--vp-scale 60: 8 of 60 runs of the strongest pulses fail. Exit 7, every requested level unresolved,
+    the failures in the printed table, risk.md and risk.json (before: 'converged' or refused, exit 0 or 6,
+    the failures a count in one header line)."""
+    out = tmp_path / "vp60"
+    p = _run(BASE + ["--batch", "20", "--max-runs", "60", "--vp-scale", "60", "--simulate", str(out)])
+    assert p.returncode == 7, p.stdout + p.stderr
+    assert "batch 2 done, 60 runs, 8 FAILED" in p.stdout and "failed runs as none - as exceeding" in p.stdout
+    assert "8 of 60 runs failed (most common: 'ParameterError: acc_x[" in p.stdout and "unresolved" in p.stdout
+    js = json.loads((out / "risk.json").read_text())
+    assert js["failed_runs"] == 8 and sum(js["failed_runs_by_stratum"]) == 8
+    assert js["failed_runs_by_stratum"][0] == js["failed_runs_by_stratum"][2] == 0   # the no-pulse strata never fail
+    for label, e in js["levels"].items():
+        assert e["failed"] == 8, label                    # between the bounds, to round-off (sums in other orders)
+        assert e["failed_low"] * (1 - 1e-12) <= e["rate"] <= e["failed_high"] * (1 + 1e-12), label
+        assert e["status"] != "converged", label
+    md = (out / "risk.md").read_text()
+    assert "**8 of 60 runs failed**" in md and "| UNRESOLVED |" in md and "| stratum | source |" in md
+
+
+def test_a_record_step_the_generator_cannot_make_is_refused_before_any_run_with_the_grids_text(tmp_path, capsys):
+    out = tmp_path / "dt"
+    assert risk.main(BASE + ["--record-dt", "0.5", "--simulate", str(out)]) == 2
+    with pytest.raises(ParameterError) as grid_text:
+        check_record_dt(0.5)                                    # the grid's check (check_models), one text
+    assert f"risk --simulate: {grid_text.value}" in capsys.readouterr().out
+    assert not out.exists()
+
+
+def test_a_huge_batch_on_a_small_budget_plans_only_the_budget(tmp_path):
+    """--batch 200000 --max-runs 30 on the four strata (pilot 20): the production batch is the 10 runs left,
+    its plan and its file of that size (before: a plan of 200000 inputs, 89 MB, a 161 MB batch file and 1 GB of
+    memory for those 10 runs, two minutes)."""
+    out = tmp_path / "huge"
+    t0 = time.time()
+    p = _run(BASE + ["--batch", "200000", "--max-runs", "30", "--simulate", str(out)])
+    assert p.returncode in (0, 6), p.stdout + p.stderr
+    assert "batch 1 done, 30 runs" in p.stdout
+    assert len(json.loads((out / "batch_001.plan.json").read_text())["inputs"]) == 10
+    assert (out / "batch_001.plan.json").stat().st_size < 100_000 and (out / "batch_001.h5").stat().st_size < 1_000_000
+    assert time.time() - t0 < 60
+
+
+def test_empty_output_paths_are_refused_by_name(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert risk.main(BASE + ["--simulate", ""]) == 2
+    assert "--simulate '' is an empty path (it would write into the current directory)" in capsys.readouterr().out
+    assert risk.main([str(SITE), str(tmp_path / "missing.h5"), ""]) == 2       # the grid route's OUTDIR
+    assert "output folder '' is an empty path" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture()
+def grids(tmp_path):
+    """Pulse grids of the tiny site's Mw: at 5 and 10 km (edges of its strata), complete and interrupted, and
+    at 5 and 8 km (8 cuts its 7.5-10 km stratum)."""
+    kw = dict(mws=(6.5,), n=10, n_failed=0)
+    return (write_results(tmp_path / "done.h5", complete=True, dists=(5.0, 10.0), **kw),
+            write_results(tmp_path / "part.h5", complete=False, pending=5, dists=(5.0, 10.0), **kw),
+            write_results(tmp_path / "short.h5", complete=True, dists=(5.0, 8.0), **kw))
+
+
+def test_grid_files_beside_the_simulation_are_checked_before_any_run(tmp_path, grids, capsys):
+    """Before: the simulation ran to its end, then the grid's files were read and refused, the incomplete one
+    with advice to pass --allow-incomplete, which this form of the command rejects."""
+    done, part, short = grids
+    args = BASE + ["--pulse-only", "--max-runs", "10"]
+    out = tmp_path / "sim"
+
+    def refused(files, extra=()):
+        code = risk.main([args[0], *map(str, files)] + args[1:] + list(extra) + ["--simulate", str(out)])
+        assert code == 2 and not list(out.glob("batch_*")) if out.exists() else code == 2
+        return capsys.readouterr().out
+
+    text = refused([part])
+    assert "part.h5 holds 15 of the 20 rows" in text and "finish that grid" in text
+    assert "or pass --allow-incomplete" not in text                   # the advice of the form that takes it
+    assert "nowhere.h5" in refused([tmp_path / "nowhere.h5"])
+    assert "cuts 1 strata" in refused([short])
+    assert "--no-pulse was given without the pulse grid's results" in refused([], ["--no-pulse", str(done)])
+    assert risk.main([args[0], str(done)] + args[1:] + ["--simulate", str(out)]) in (0, 6)   # the good one runs
+    assert (out / "batch_000.h5").exists() and "Beside the grid route" in (out / "risk.md").read_text()
