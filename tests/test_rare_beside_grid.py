@@ -76,10 +76,13 @@ def test_a_grid_of_the_simulated_column_is_compared(files):
 
 def test_a_parthenon_grid_beside_a_two_drum_simulation_is_refused(files):
     """The issue's case: it printed "grid route (its range) agrees" for most levels."""
+    fresh = files["sim"].parent / "sim_beside_parthenon"
     p = _pycolfrag("risk", str(SITE), str(files["parthenon"]), "--no-pulse", str(files["parthenon_np"]), *SIM,
-                   "--simulate", str(files["sim"]))
+                   "--simulate", str(fresh))
     text = p.stdout + p.stderr
     assert p.returncode == 2, text
+    # refused before any run: no batch of the simulation was computed (the check used to come after it)
+    assert not list(fresh.glob("**/*.h5")), sorted(fresh.glob("**/*"))
     assert "not runs of the simulated model" in text and "grid route (its range)" not in text
     assert "column: the simulation ran the column 'two drums" in text and "the grid the column 'Parthenon" in text
     # the column is the only difference: the rest of the options are the simulation's

@@ -419,8 +419,8 @@ def _simulate_main(argv) -> int:
     a = ap.parse_args(argv)
     beside = {}                       # the grid route, read and checked on every rank before any run
 
-    def before(site, settings):
-        beside.update(risk_rare.grid_route(a, site, settings, site_risk))
+    def before(site, settings, record):
+        beside.update(risk_rare.grid_route(a, site, settings, site_risk, record))
 
     code, run = run_simulation(a, QUANTITIES, argv, before=before)
     if run is None:

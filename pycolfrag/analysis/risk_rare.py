@@ -109,12 +109,13 @@ def check_grid_range(strata, mws, ds) -> tuple:
     return box
 
 
-def grid_route(args, site, settings, site_risk) -> dict:
+def grid_route(args, site, settings, site_risk, record=None) -> dict:
     """The grid route beside the simulation (``{"zero": SiteRisk, "clamp": SiteRisk}``), computed from the
     parsed arguments before any run, so that grid files that cannot serve -- missing, incomplete, of other
-    branches, or a range that cuts the strata of ``site`` and ``settings`` -- are refused before the
-    simulation, not after it (ParameterError or the reader's error). ``site_risk``:
-    :func:`pycolfrag.analysis.risk.site_risk`."""
+    branches, runs of another model than the simulation's ``record`` settings (column, solver options,
+    records, pulse model, seeds' meaning: :func:`~.risk_rare_like.check_like_with_like`), or a range that
+    cuts the strata of ``site`` and ``settings`` -- are refused before the simulation, not after it
+    (ParameterError or the reader's error). ``site_risk``: :func:`pycolfrag.analysis.risk.site_risk`."""
     if args.results is None:
         if args.no_pulse is not None:
             raise ParameterError("--no-pulse was given without the pulse grid's results: give both "
@@ -131,6 +132,8 @@ def grid_route(args, site, settings, site_risk) -> dict:
             "complete grids: finish that grid (rerun its command to resume), or run --simulate without the grid's "
             "files (the grid route alone takes --allow-incomplete: risk SITE PULSE.h5 OUTDIR --allow-incomplete)"
         ) from None
+    if record is not None:
+        check_like_with_like(record, zero.files)
     check_grid_range(build_strata(site, settings.mw_step, settings.r_edges_km), zero.mws, zero.ds)
     return {"zero": zero, "clamp": clamp}
 

@@ -147,7 +147,7 @@ def run_simulation(args, quantities, argv=None, before=None):
     """Run (or resume) the simulation of parsed arguments on every rank: ``(exit code, SiteRun or None)``;
     the run is given on rank 0 only, when the simulation ended (at its target or its budget).
 
-    ``before(site, settings)``: a check of the caller's, on every rank before any run (the grid's files
+    ``before(site, settings, record)``: a check of the caller's, on every rank before any run (the grid's files
     beside the simulation); a :class:`~pycolfrag.errors.PycolfragError` it raises is a refusal (exit 2)."""
     comm = get_comm(args.mpi)
     rank = comm.Get_rank() if comm is not None else 0
@@ -156,7 +156,7 @@ def run_simulation(args, quantities, argv=None, before=None):
     try:
         site, settings, stop, record = settings_from_args(args)
         if before is not None:
-            before(site, settings)
+            before(site, settings, record)
     except (PycolfragError, OSError) as exc:
         log(f"risk --simulate: {exc}")
         return EXIT_ARGS, None
