@@ -108,7 +108,8 @@ class Response:
     A column with connectors or a scene (:class:`~pycolfrag.scene.Colonnade`) reports also
     ``columns`` (per column: ``u_top``, ``u_d``, ``max_top_disp`` m, ``collapsed``), ``epistyles``
     (per epistyle: peak ``slip`` m at its bearings, ``residual_slip`` m, ``unseat`` = peak slip / its
-    seat length, ``collapsed``), ``dowels`` (per dowel: ``joint``, ``peak_shear`` N, ``peak_slip`` m,
+    seat length, ``collapsed``), ``dowels`` (per dowel: ``joint``, ``peak_shear`` N, ``peak_slip`` m (a broken
+    dowel's: the slip at its break),
     ``peak_axial`` N, ``yielded``, ``broken``, ``break_time`` s, ``dissipated`` J), and the EDPs
     ``dowel_shear_kn``, ``dowel_slip_mm``, ``dowels_yielded``, ``dowels_broken``, ``epistyle_slip_mm``,
     ``epistyle_unseat``
