@@ -133,7 +133,7 @@ def test_a_signature_difference_names_the_key_that_differs():
     old = {"settings": dict(base, zz_batch=200), "site": "a" * 300 + "B"}
     new = {"settings": dict(base, zz_batch=100), "site": "a" * 300 + "C"}
     diffs = signature_mismatch(old, new)
-    assert "settings.zz_batch: file has 200, this run asks for 100" in diffs
+    assert "settings: zz_batch: file has 200, this run asks for 100" in diffs
     site = [d for d in diffs if d.startswith("site:")][0]
     assert 'B"' in site and 'C"' in site, site
 

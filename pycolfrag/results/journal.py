@@ -172,7 +172,7 @@ class Journal:
 
 def signature_mismatch(old: Mapping, new: Mapping, names=("file has", "this run asks for")) -> list[str]:
     """Human-readable differences between two grid signatures (empty when they agree). A value that
-    is a table on both sides is compared key by key (``settings.batch: ...``), and a long value is
+    is a table on both sides is compared key by key (``settings: batch: ...``), and a long value is
     shown around its first difference, so the key and the part that differ are always in the text
     (they were cut off after 120 characters)."""
     diffs: list[str] = []
@@ -183,8 +183,8 @@ def signature_mismatch(old: Mapping, new: Mapping, names=("file has", "this run 
 def _mismatch(old: Mapping, new: Mapping, names, prefix: str, diffs: list) -> None:
     for k in sorted(set(old) | set(new)):
         a, b = old.get(k, "<absent>"), new.get(k, "<absent>")
-        if isinstance(a, Mapping) and isinstance(b, Mapping):
-            _mismatch(a, b, names, f"{prefix}{k}.", diffs)
+        if isinstance(a, Mapping) and isinstance(b, Mapping):   # "settings: batch.size: ..." (the top key first,
+            _mismatch(a, b, names, f"{prefix}{k}." if prefix else f"{k}: ", diffs)   # as callers split on ":")
             continue
         sa, sb = (json.dumps(v, sort_keys=True) for v in (a, b))
         if sa != sb:
