@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag.scene import Colonnade
+from pycolfrag.column import JointProperties
+from pycolfrag.scene import Colonnade, Epistyle
 
 G = 9.81   # the package's gravity (pycolfrag/data/constants.json), the solver's default
 
@@ -119,3 +120,26 @@ def test_every_block_sits_lower_by_the_settlements_of_the_joints_below_it():
     g = parts.bearings[0]
     overlap = bearings[0] / (g.joints.kn * g.kn_factor * g.side ** 2)
     assert z[2 * nb] == pytest.approx(base - settle - overlap + 0.5 * parts.beams[0].height, abs=1e-8)
+
+
+@pytest.mark.parametrize("where", ["bearings", "bases"])
+def test_slip_starts_at_the_friction_coefficient_times_g(where):
+    """Two squat prisms (2 m wide, 1 m high: they would rock only at 2 g) 4 m apart under an epistyle
+    0.5 m high, stiff contacts (kn = ks = 1e11 Pa/m), friction 10 degrees at the bearings or at the
+    columns' bases and 60 elsewhere; a 10 s ramp to 1.5 tan(10 deg) g. Nothing is vertical but gravity,
+    so the joints that slip carry in all the weight above them and Coulomb's law lets them go at
+    a = tan(phi) g (the epistyle on its bearings; the whole portal on the ground). Onset: a slip of
+    1e-5 m at any such joint (the elastic shear before it is 1e-7 m); measured 1.009 at both, of
+    tan(phi) g, the ramp's lag. Tolerance 2 %: a friction x 1.05 in the C's set-up of the bearings or
+    the scene's column joints, which no other test caught, fails here."""
+    low, high = JointProperties(kn=1e11, ks=1e11, friction_deg=10.0), JointProperties(kn=1e11, ks=1e11, friction_deg=60.0)
+    col = pcf.Column.single_block(2.0, 1.0, joints=low if where == "bases" else high)
+    sc = Colonnade(col, 2, 4.0, epistyle=Epistyle(0.5, joints=high if where == "bases" else low))
+    mu_g = math.tan(math.radians(10.0)) * G
+    t = np.arange(0.0, 10.0, 0.002)
+    rate = 1.5 * mu_g / 10.0
+    r = pcf.simulate(sc, rate * t, 0.002, history=True, planar=True, early_exit=False, tail_s=0.0, history_dt=0.001)
+    joints = slice(2, 4) if where == "bearings" else slice(0, 2)
+    slip = np.hypot(r.history.joint_slip[:, joints, 0], r.history.joint_slip[:, joints, 1]).max(axis=1)
+    onset = rate * r.history.t[int(np.argmax(slip > 1e-5))] / mu_g
+    assert onset == pytest.approx(1.0, abs=0.02)
