@@ -119,6 +119,11 @@ def test_axial_part_tension_only_slip_and_pull_out():
     assert z[back] == pytest.approx(0.5e-3) and fz[back] == 0.0
     assert out["state"][-1] == 2 and fz[-1] == 0.0
     assert out["dissipated"][i15] == pytest.approx(5e4 * 1e-3, rel=1e-9)
+    # the pull-out is at d_ult itself (a point of the path): still whole, and at N_y, one step of
+    # 0.1 mm before it (1.9 mm), broken from 2 mm on (a break at 0.9 d_ult passed every test)
+    brk = int(np.argmax(out["state"] == 2))
+    assert z[brk] == pytest.approx(2e-3, rel=1e-12) and z[brk - 1] == pytest.approx(1.9e-3, rel=1e-12)
+    assert fz[brk - 1] == pytest.approx(-5e4, rel=1e-12)
 
 
 @pytest.mark.parametrize("changes, text", [
