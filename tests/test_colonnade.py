@@ -208,7 +208,7 @@ def row(n, gamma):
 
 
 def test_a_row_of_three_columns_is_not_the_rocking_frame():
-    """Issue 37 item 15: the frame's threshold g tan(alpha) holds for 2 columns only. Three of the
+    """The frame's threshold g tan(alpha) holds for 2 columns only. Three of the
     frame's columns under two epistyles (the inner column carries each on half its capital), the same
     10 s ramp: every base open at 0.950 and 0.891 g tan(alpha) for gamma 0.5 and 2 (measured), below
     the 2-column frame's 1.000 by more than the 2 % that test allows and lower for the heavier

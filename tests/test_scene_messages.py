@@ -1,4 +1,4 @@
-"""Issue 37 item 13: what scenes, dowels and the risk command say when something is wrong -- the
+"""What scenes, dowels and the risk command say when something is wrong -- the
 real quantities of a beam too heavy for its columns, the part that sets a tiny automatic step (a
 near-massless epistyle, a dowel far too stiff) named in a bounded pre-run check and in a warning
 before a run of hundreds of millions of steps, advice that fits the command, a signature difference

@@ -4,8 +4,9 @@ of its epistyle's weight, and the ground the whole weight -- each against masses
 density x volume of each part (the drums' polygonal frustums, the epistyles' boxes), not from the
 package's own ``mass``. The initial state is built by the C from the masses it holds (solver_scene.c),
 so a mass scaled there (an epistyle's or a drum's) is still an equilibrium of its own: only a weight
-computed independently tells it (issue 37, item 20; docs/validation.md lists which test catches each
-mutation of a law or a mass)."""
+computed independently tells it. The joints' and bearings' kn are pinned by the blocks' heights at rest
+(the settlements), their friction by the onset of slip under a quasi-static ramp (docs/accuracy.md lists which test catches each scratch mutation of a
+law or a mass)."""
 import math
 
 import numpy as np
