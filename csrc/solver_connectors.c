@@ -204,7 +204,9 @@ void cf_solver_connectors_step(cf_solver *s, cf_connectors *c, cf_step_energy *e
         fs = sqrt(st->f[0] * st->f[0] + st->f[1] * st->f[1]);
         us = sqrt(u[0] * u[0] + u[1] * u[1]);
         if (fs > c->peak[3 * i]) c->peak[3 * i] = fs;
-        if (us > c->peak[3 * i + 1]) c->peak[3 * i + 1] = us;
+        /* the dowel's slip, frozen at the break: a broken dowel no longer spans the joint, whose
+         * slide after it is the joint's (history joint_slip), not the dowel's */
+        if (!was_broken && us > c->peak[3 * i + 1]) c->peak[3 * i + 1] = us;
         if (-st->f[2] > c->peak[3 * i + 2]) c->peak[3 * i + 2] = -st->f[2];
         if (e->need) e->vc += st->v;
         if (st->f[0] == 0.0 && st->f[1] == 0.0 && st->f[2] == 0.0) continue;

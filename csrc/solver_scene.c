@@ -278,9 +278,11 @@ static int rest_state(cf_solver *s, const cf_solver_scene *sc, const cf_scene_in
     double *shim = (double *)calloc((size_t)ncol, sizeof(double));
     int *set = (int *)calloc((size_t)ncol, sizeof(int));
     double *under = (double *)calloc((size_t)(sc->n_beams > 0 ? sc->n_beams : 1), sizeof(double));
+    double *hgt = (double *)calloc((size_t)ncol, sizeof(double));     /* each column's height at rest, m */
+    double *held = (double *)calloc((size_t)ncol, sizeof(double));    /* the beams' load on each column's top, N */
     int st = CF_OK;
-    if (!top || !shim || !set || !under) {
-        free(top); free(shim); free(set); free(under);
+    if (!top || !shim || !set || !under || !hgt || !held) {
+        free(top); free(shim); free(set); free(under); free(hgt); free(held);
         return cf_solver_fail(s, CF_ENOMEM, "out of memory (scene)");
     }
     /* each column: its blocks bottom up, every joint pre-compressed by what it carries */
@@ -297,10 +299,17 @@ static int rest_state(cf_solver *s, const cf_solver_scene *sc, const cf_scene_in
             z += bp[k0 + i].height;
         }
         top[c] = z - settle;
+        hgt[c] = z; held[c] = topload;
+        /* a settlement of a hundredth of the column's height is no longer a joint's small overlap: the
+         * soft contacts cannot carry such a load (a beam of absurd weight, joints of absurd softness) */
+        if (!st && !(settle <= 0.01 * z))
+            st = cf_solver_fail(s, CF_EINVAL, "column %d settles by %.6g m under its blocks and %.6g N of beams, over "
+                                "1/100 of its height %.6g m (base kn %.6g Pa/m): lighter beams or stiffer joints", c,
+                                settle, topload, z, s->jt[j0].kn);
     }
     /* the levelling courses: a beam's two supports at one height, propagated over the beams' graph
      * from a first column of each connected part, the lowest course then set to 0 */
-    for (pass = 0; pass < ncol && !st; pass++) {
+    for (pass = 0; pass < ncol && !st; pass++) {   /* (after a refused settlement: nothing) */
         int root = -1;
         for (c = 0; c < ncol; c++) if (!set[c]) { root = c; break; }
         if (root < 0) break;
@@ -331,9 +340,11 @@ static int rest_state(cf_solver *s, const cf_solver_scene *sc, const cf_scene_in
             int k0 = info->col_blk0[c], i;
             shim[c] -= lo;
             /* a course of more than a hundredth of the column's height is a difference of geometry, not of settlement */
-            if (shim[c] > 0.01 * top[c])
-                st = cf_solver_fail(s, CF_EINVAL, "column %d: the columns carrying one beam differ in height by %g m: a "
-                                    "beam rests level on columns of one height", c, shim[c]);
+            if (!st && shim[c] > 0.01 * top[c])
+                st = cf_solver_fail(s, CF_EINVAL, "column %d: a levelling course of %.6g m, over 1/100 of its settled "
+                                    "height %.6g m (%.6g m, settling %.6g m under %.6g N of beams): columns under one "
+                                    "beam must be of like height and settlement", c, shim[c], top[c], hgt[c],
+                                    hgt[c] - top[c], held[c]);
             for (i = 0; i < info->col_nblk[c]; i++) s->x0[3 * (k0 + i + 1) + 2] += shim[c];
             s->jt[info->col_j0[c]].fl.c[2] = shim[c];
         }
@@ -343,7 +354,7 @@ static int rest_state(cf_solver *s, const cf_solver_scene *sc, const cf_scene_in
         under[b] = top[ca] + shim[ca] - load[j0] / (s->jt[j0].kn * s->jt[j0].area);
         s->x0[3 * i + 2] = under[b] + 0.5 * sc->beams[b].height;
     }
-    free(top); free(shim); free(set); free(under);
+    free(top); free(shim); free(set); free(under); free(hgt); free(held);
     return st;
 }
 

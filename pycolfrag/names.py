@@ -166,7 +166,8 @@ EDPS: dict[str, Quantity] = {q.name: q for q in (
     Quantity("dowel_shear_kn", "kN", "peak dowel shear force (kN)", "F_dowel",
              description="peak shear force of a dowel, max over the dowels; NaN without dowels"),
     Quantity("dowel_slip_mm", "mm", "peak dowel shear displacement (mm)", "u_dowel",
-             description="peak shear displacement of a dowel across its joint, max over the dowels; NaN without dowels"),
+             description="peak shear displacement of a dowel across its joint, max over the dowels, frozen "
+                         "at a dowel's break; NaN without dowels"),
     Quantity("dowels_yielded", "-", "dowels yielded (-)", "n_yielded",
              description="number of dowels that yielded (a plastic shear displacement) in the run, broken ones "
                          "included; NaN without dowels"),

@@ -271,14 +271,24 @@ class Colonnade:
 
     @property
     def gamma(self) -> float:
-        """The epistyles' mass over the columns' mass (the ratio of Makris & Vassiliou's rocking frame)."""
+        """The epistyles' mass over the columns' mass (the ratio of Makris & Vassiliou's rocking frame).
+
+        The rocking frame's results hold for a **2-column portal only**: its mechanism lifts at
+        ``g tan(alpha)`` whatever gamma, and rocks as one column of ``p sqrt((1 + 2 gamma) / (1 + 3
+        gamma))``. A row of 3 or more columns is not that frame: its inner columns carry two
+        epistyles' ends, each on half the capital, so the row lifts below ``g tan(alpha)``, the more so
+        the heavier its epistyles (measured with rigid contacts, every base open: 0.950 and 0.891
+        ``g tan(alpha)`` for 3 columns at gamma 0.5 and 2, 0.932 and 0.855 for 4; docs/solver.md
+        "Scenes"). For such a row gamma is a mass ratio, not the frame's parameter."""
         return (self.mass - self.n_columns * self.column.mass) / (self.n_columns * self.column.mass)
 
     # ---- examples, files -------------------------------------------------------------------
     @classmethod
     def portal(cls, n_columns: int = 2, column: Column | None = None, **kwargs) -> "Colonnade":
         """A portal of ``n_columns`` default columns (or ``column``) with epistyles: the examples
-        (spacing :data:`PORTAL_SPACING`, epistyle height :data:`PORTAL_EPISTYLE_HEIGHT`)."""
+        (spacing :data:`PORTAL_SPACING`, epistyle height :data:`PORTAL_EPISTYLE_HEIGHT`). Only
+        ``portal(2)`` is Makris & Vassiliou's rocking frame; ``portal(3)``, ``portal(4)`` lift below
+        its ``g tan(alpha)``, depending on :attr:`gamma` (see there)."""
         column = Column.parthenon() if column is None else column
         kwargs.setdefault("name", f"{n_columns}-column portal")
         return cls(column, n_columns, **kwargs)

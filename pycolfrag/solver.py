@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import scene_run
+from . import scene_run, step_cause
 from ._ffi import check, ffi, lib, ptr
 from ._validate import flag, float_array, positive_float
 from .column import Column
@@ -108,7 +108,8 @@ class Response:
     A column with connectors or a scene (:class:`~pycolfrag.scene.Colonnade`) reports also
     ``columns`` (per column: ``u_top``, ``u_d``, ``max_top_disp`` m, ``collapsed``), ``epistyles``
     (per epistyle: peak ``slip`` m at its bearings, ``residual_slip`` m, ``unseat`` = peak slip / its
-    seat length, ``collapsed``), ``dowels`` (per dowel: ``joint``, ``peak_shear`` N, ``peak_slip`` m,
+    seat length, ``collapsed``), ``dowels`` (per dowel: ``joint``, ``peak_shear`` N, ``peak_slip`` m (a broken
+    dowel's: the slip at its break),
     ``peak_axial`` N, ``yielded``, ``broken``, ``break_time`` s, ``dissipated`` J), and the EDPs
     ``dowel_shear_kn``, ``dowel_slip_mm``, ``dowels_yielded``, ``dowels_broken``, ``epistyle_slip_mm``,
     ``epistyle_unseat``
@@ -289,6 +290,11 @@ class _Job:
         if options.dt_solver is not None and options.dt_solver > dt:
             warnings.warn(f"{caller}: dt_solver = {options.dt_solver:.4g} s is longer than the record's dt = "
                           f"{dt:.4g} s: the solver skips record samples", StepWarning, stacklevel=3)
+        step = options.dt_solver or options.dt_factor * float(lib.cf_solver_dt_crit(solver))
+        long_run = step_cause.run_steps_warning(col, (ax.size * dt + options.tail_s) / step, step,
+                                                ax.size * dt + options.tail_s, caller)
+        if long_run:   # a dowel law or an epistyle that forces a tiny step: say so before the run takes hours
+            warnings.warn(long_run, StepWarning, stacklevel=3)
         nb = col.n_blocks if parts is None else parts.n_blocks
         nj = col.n_blocks if parts is None else parts.n_joints
         self.cap = 0

@@ -119,6 +119,11 @@ def test_axial_part_tension_only_slip_and_pull_out():
     assert z[back] == pytest.approx(0.5e-3) and fz[back] == 0.0
     assert out["state"][-1] == 2 and fz[-1] == 0.0
     assert out["dissipated"][i15] == pytest.approx(5e4 * 1e-3, rel=1e-9)
+    # the pull-out is at d_ult itself (a point of the path): still whole, and at N_y, one step of
+    # 0.1 mm before it (1.9 mm), broken from 2 mm on (a break at 0.9 d_ult passed every test)
+    brk = int(np.argmax(out["state"] == 2))
+    assert z[brk] == pytest.approx(2e-3, rel=1e-12) and z[brk - 1] == pytest.approx(1.9e-3, rel=1e-12)
+    assert fz[brk - 1] == pytest.approx(-5e4, rel=1e-12)
 
 
 @pytest.mark.parametrize("changes, text", [
@@ -284,3 +289,22 @@ def test_named_laws_have_their_provenance():
         assert lw.name == name and law(name) is lw
     assert LAWS["titanium"].u_yield == pytest.approx(1e-3)
     assert LAWS["wood"].kind == "clearance" and LAWS["wood"].u_yield == pytest.approx(2e-3 + 2e-3)
+
+
+def test_a_broken_dowels_slip_is_frozen_at_its_break():
+    """One weak dowel (12 mm ultimate slip) at the centre of the base joint of a column on joints of
+    8 degrees' friction, under a 0.3 g 1 Hz burst: the dowel breaks at 0.33 s and the base then slides
+    on to 56 mm (the history's displacement across the joint at the dowel). The dowel's ``peak_slip``
+    (and the EDP ``dowel_slip_mm``) is the slip at which it broke: the law's break criterion
+    |u| >= u_ultimate = 12 mm, overshot by at most one step's slide (measured 12.099 mm: dt 0.8 ms at a
+    slide of about 0.12 m/s; bound 2 % of u_ultimate). Before the slip was frozen at the break it kept
+    counting the joint's slide: 55.6 mm."""
+    lw = DowelLaw("elastoplastic", k_shear=2e6, f_yield=2e3, u_ultimate=0.012)
+    col = pcf.Column.parthenon().with_joints(friction_deg=8.0).with_connectors(Connectors(lw, (0,)))
+    t = np.arange(0.0, 3.0, 0.005)
+    r = pcf.simulate(col, 0.3 * G * np.sin(2 * np.pi * t), 0.005, history=True, early_exit=False, tail_s=0.5)
+    d = r.dowels
+    assert d["broken"][0]
+    assert r.history.dowels[:, 0, 0].max() > 3 * lw.u_ultimate      # the joint slid on well past the break
+    assert lw.u_ultimate <= d["peak_slip"][0] <= 1.02 * lw.u_ultimate
+    assert r.dowel_slip_mm == pytest.approx(d["peak_slip"][0] * 1e3)

@@ -250,11 +250,20 @@ def check_outdir(outdir) -> Path:
     return p
 
 
+def _umask() -> int:
+    """The process's umask (read by setting it and setting it back)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def _write_text(path: Path, text: str) -> None:
     """Write through a temporary file in the same folder and rename it into place, so that a full disk
     leaves the old file (or none), never half of one."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
+        # mkstemp makes the file 0600; the outputs get the mode any new file gets (0666 less the umask)
+        os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(text)
         os.replace(tmp, path)

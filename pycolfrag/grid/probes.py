@@ -21,6 +21,7 @@ from .. import ground_motion as _gm
 from .. import results as _results
 from .. import sample as _sample
 from .. import solver as _solver
+from .. import step_cause as _step_cause
 from ..errors import ParameterError, SolverError
 from ..ground_motion import atkinson_silva_2000 as as00
 from ..ground_motion import rupakhety_2011
@@ -36,6 +37,10 @@ MAX_CHECK_STEPS = 2e7
 #: Largest number of solver steps a row of a synthetic grid may need (its longest record plus the
 #: tail): 5e7 is ~2000 times a default row, about 2.5 min per row at 3 us per step.
 MAX_ROW_STEPS = 5e7
+#: Most solver steps the pre-run check's run takes: its tail is cut to this many steps (a model of a
+#: tiny step -- a near-massless epistyle on stiff bearings -- ran the check for 86 s: 1.25e6 steps at 4e-7 s
+#: until its run stopped at rest; 3e5 steps take about 1 s of a scene).
+MAX_CHECK_RUN_STEPS = 3e5
 #: Estimated CPU time (s) above which the grid says how long it expects to take before it starts.
 SAY_WORK_ABOVE_S = 600.0
 
@@ -46,32 +51,34 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
     column's stability limit or longer than the records' step ``record_dt_s`` (the solver would
     warn with :class:`~pycolfrag.solver.StepWarning` in every row: a grid refuses instead), a run
     that stops as unstable, a step so short that this check alone would need more than
-    :data:`MAX_CHECK_STEPS` steps, and a column that collapses under gravity alone. Returns the
-    solver step (``dt_s``) and the measured time per step (``step_s``) for :func:`check_work`."""
+    :data:`MAX_CHECK_STEPS` steps, and a column that collapses under gravity alone. The step is read
+    from the set-up solver (no steps run) and the check's run is at most :data:`MAX_CHECK_RUN_STEPS`
+    steps (its tail cut to fit), so it takes seconds whatever the model. Where the step is automatic
+    and too short, the refusal names the part that sets it (:func:`pycolfrag.step_cause.describe`), not
+    a dt_solver the user did not give. Returns the solver step (``dt_s``), the measured time per step
+    (``step_s``) and, for :func:`check_work`, that cause (``cause``; None with a dt_solver)."""
     options = resolve_solver_options(options)
     changed = {k: v for k, v in options.to_dict().items() if v != solver_defaults()[k]}
     caught, failure, res = [], None, None
     try:
         # the step the rows will use, from a run of a few steps: a tiny dt_solver must be refused
         # before the check below runs for minutes
-        dt_step, collapsed = options.dt_solver, False
-        if dt_step is None:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                probe = _solver.simulate(column, np.zeros(3), record_dt_s, options=options.replace(tail_s=0.0))
-            dt_step, collapsed = probe.dt, probe.collapsed
+        dt_step = options.dt_solver or _step_cause.automatic_step(column, options)
+        cause = None if options.dt_solver else _step_cause.describe(column)
         check_steps = (3 * record_dt_s + options.tail_s) / dt_step
-        if check_steps > MAX_CHECK_STEPS and not collapsed:  # a collapse stops the check at once
+        if check_steps > MAX_CHECK_STEPS:
             raise ParameterError(f"solver options {changed}: a step of {dt_step:.3g} s needs {check_steps:.3g} steps for "
                                  f"{options.tail_s:g} s of response alone (a row of a {DEFAULT_RECORD_DT_S * 4000:g} s "
                                  f"record: {(20.0 + options.tail_s) / dt_step:.3g} steps, about "
                                  f"{(20.0 + options.tail_s) / dt_step * 3e-6 / 3600:.2g} h each at 3 us per step); "
-                                 "choose a longer dt_solver or leave it automatic (dt_factor)")
-        # a 3-sample zero record (~20 ms) asks the solver itself: set-up, stability limit, collapse
+                                 + _step_advice(cause))
+        # a 3-sample zero record (~20 ms) asks the solver itself: set-up, stability limit, collapse;
+        # its tail cut to MAX_CHECK_RUN_STEPS steps
+        tail = min(options.tail_s, max(MAX_CHECK_RUN_STEPS * dt_step - 3 * record_dt_s, 0.0))
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             t0 = time.perf_counter()
-            res = _solver.simulate(column, np.zeros(3), record_dt_s, options=options)
+            res = _solver.simulate(column, np.zeros(3), record_dt_s, options=options.replace(tail_s=tail))
             step_s = (time.perf_counter() - t0) / max(res.n_steps, 1)
     except (TypeError, SolverError) as exc:
         failure = exc
@@ -93,7 +100,15 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
             f"the column collapses under gravity alone (no ground motion; block {res.collapse_block}, "
             f"{res.collapse_reason} at t = {res.collapse_time:g} s) with joint kn = {column.joints.kn:g} Pa/m "
             f"and solver options {changed}: every run would report a collapse; raise --kn")
-    return {"dt_s": float(res.dt), "step_s": float(step_s)}
+    return {"dt_s": float(res.dt), "step_s": float(step_s), "cause": cause}
+
+
+def _step_advice(cause) -> str:
+    """What lengthens a step too short: a longer dt_solver where one was given, else the model's part
+    that sets the automatic step (advising dt_solver there would advise the option the user left out)."""
+    if cause is None:
+        return "choose a longer dt_solver or leave it automatic (dt_factor)"
+    return f"the step is automatic (dt_factor x the stability limit), and {cause}"
 
 
 def probe_rows(spec) -> list[tuple[str, float]]:
@@ -209,7 +224,7 @@ def check_work(spec, durations, solver: dict, log) -> None:
         if steps > MAX_ROW_STEPS:
             raise ParameterError(f"a row of {label} ({dur:.3g} s of record + {tail:g} s of tail) needs {steps:.3g} "
                                  f"solver steps of {dt:.3g} s (at most {MAX_ROW_STEPS:.0e}; about {hours(row_s(dur))} "
-                                 "per row): choose a longer dt_solver or leave it automatic (dt_factor)")
+                                 "per row): " + _step_advice(solver.get("cause")))
         total = spec.n_rows * row_s(dur)
     if total > SAY_WORK_ABOVE_S:
         log(f"run_grid: expected work about {hours(total)} of CPU time ({spec.n_rows} rows; the longest records, "

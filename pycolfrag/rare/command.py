@@ -23,6 +23,7 @@ from ..grid.probes import check_record_dt, check_solver_options
 from ..grid.serve import EXIT_DRAINED
 from ..grid.spec import DEFAULT_RECORD_DT_S
 from ..ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
+from ..results import lock as _lock
 from ..site import OUTSIDE_CHOICES, load_site, read_pulse_model
 from ..site_models import PulseOnly, Table
 from .driver import DEFAULT_SEED, SiteSettings, StopRule, failures, simulate_site
@@ -131,13 +132,16 @@ def settings_from_args(args):
 def _failed(exc, comm, size: int, log) -> int:
     """The exit code of a failure on rank 0, said in one line; the other ranks, if they are inside a
     batch (the failure came in the middle of one), are ended."""
+    text = str(exc)
     if isinstance(exc, _results.ResultsLockedError):
         code = EXIT_LOCKED
+        # the lock's advice names the grid's --out, which risk lacks: its files live in the --simulate folder
+        text = text.replace(_lock.OTHER_FILE, "give --simulate another folder")
     elif isinstance(exc, (ResultsFileError, ParameterError, WeightError)):
         code = EXIT_ARGS
     else:
         code = EXIT_OS_ERROR
-    log(f"risk --simulate: {exc}")
+    log(f"risk --simulate: {text}")
     if comm is not None and size > 1 and getattr(exc, "pcf_during_run", False):
         comm.Abort(code)
     return code

@@ -171,16 +171,33 @@ class Journal:
 
 
 def signature_mismatch(old: Mapping, new: Mapping, names=("file has", "this run asks for")) -> list[str]:
-    """Human-readable differences between two grid signatures (empty when they agree)."""
-    def short(v):
-        return v if len(v) <= 120 else v[:117] + "..."
-
-    diffs = []
-    for k in sorted(set(old) | set(new)):
-        sa, sb = (json.dumps(d.get(k, "<absent>"), sort_keys=True) for d in (old, new))
-        if sa != sb:
-            diffs.append(f"{k}: {names[0]} {short(sa)}, {names[1]} {short(sb)}")
+    """Human-readable differences between two grid signatures (empty when they agree). A value that
+    is a table on both sides is compared key by key (``settings: batch: ...``), and a long value is
+    shown around its first difference, so the key and the part that differ are always in the text
+    (they were cut off after 120 characters)."""
+    diffs: list[str] = []
+    _mismatch(old, new, names, "", diffs)
     return diffs
+
+
+def _mismatch(old: Mapping, new: Mapping, names, prefix: str, diffs: list) -> None:
+    for k in sorted(set(old) | set(new)):
+        a, b = old.get(k, "<absent>"), new.get(k, "<absent>")
+        if isinstance(a, Mapping) and isinstance(b, Mapping):   # "settings: batch.size: ..." (the top key first,
+            _mismatch(a, b, names, f"{prefix}{k}." if prefix else f"{k}: ", diffs)   # as callers split on ":")
+            continue
+        sa, sb = (json.dumps(v, sort_keys=True) for v in (a, b))
+        if sa != sb:
+            diffs.append(f"{prefix}{k}: {names[0]} {_around(sa, sb)}, {names[1]} {_around(sb, sa)}")
+
+
+def _around(v: str, other: str, width: int = 120) -> str:
+    """``v`` whole when short, else ``width`` characters of it around where it first differs from ``other``."""
+    if len(v) <= width:
+        return v
+    i = next((n for n, (x, y) in enumerate(zip(v, other)) if x != y), min(len(v), len(other)))
+    lo = max(0, min(i - width // 3, len(v) - width))
+    return ("..." if lo > 0 else "") + v[lo:lo + width] + ("..." if lo + width < len(v) else "")
 
 
 def write_journal_header(jp: Path, n_rows: int, periods_s, signature: Mapping, attrs: Mapping) -> None:

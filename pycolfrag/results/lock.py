@@ -121,11 +121,16 @@ def _lock_inode(path: Path) -> int | None:
     return fd
 
 
+#: The lock refusal's advice for the grid; a command without ``--out`` (``risk --simulate``) puts its
+#: own in its place (:func:`pycolfrag.rare.command`'s failure line).
+OTHER_FILE = "use --out for another file"
+
+
 def _identity_text(path: Path, st) -> str:
     holder = _holder_of_same_file(path, st)
     return (f"{path} is being written by another run under another name of the same file (device {st.st_dev}, "
             f"inode {st.st_ino}: a hard link){': ' + holder if holder else ''}. Two names of one file are one "
-            "file: wait for that run to end, or use --out for another file.")
+            f"file: wait for that run to end, or {OTHER_FILE}.")
 
 
 def _holder_of_same_file(path: Path, st) -> str:
@@ -222,7 +227,7 @@ class RunLock:
                 os.close(fd)
                 raise ResultsLockedError(
                     f"{results_path} is being written by another run: {_holder_text(holder)}; lock file {lp}. "
-                    "Wait for that run to end, or use --out for another file.") from None
+                    f"Wait for that run to end, or {OTHER_FILE}.") from None
             except BaseException:
                 os.close(fd)
                 raise
