@@ -38,6 +38,7 @@ from . import solver as _solver
 from ._validate import finite_float, integer, positive_float, real
 from .errors import ParameterError
 from .names import G as _G  # m/s^2, only to show accelerations in g
+from .plots_base import _axes, _history, _mark_collapse
 
 __all__ = [
     "U_TOP_LEVELS", "U_D_LEVELS", "plot_top_displacement", "plot_joint_openings", "plot_joint_slips",
@@ -59,31 +60,6 @@ def _edp_text(value) -> str:
     return f"{float(value):.3g}"
 
 
-def _history(res):
-    h = getattr(res, "history", None)
-    if h is None:
-        raise ParameterError("the response has no history: run simulate(..., history=True)")
-    if np.size(h.t) == 0:
-        raise ParameterError("the response's history is empty (no samples)")
-    return h
-
-
-def _axes(ax, n=1, projection=None, figsize=(8.0, 4.0)):
-    """``n`` axes: new ones stacked in a new Figure, or the given Axes (one, or a sequence of ``n``)."""
-    if ax is None:
-        fig = Figure(figsize=figsize, layout="constrained")
-        kw = {"projection": projection} if projection else {}
-        axes = [fig.add_subplot(n, 1, i + 1, **kw) for i in range(n)]
-        if n > 1 and projection is None:
-            for a in axes[1:]:
-                a.sharex(axes[0])
-        return fig, axes
-    axes = list(ax) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
-    if len(axes) != n:
-        raise ParameterError(f"expected {n} Axes, got {len(axes)}")
-    return axes[0].figure, axes
-
-
 def _base_diameter(res, col):
     """Base diameter (m) from the column, else from u_top = max|u| / D of the response, else None."""
     if col is not None:
@@ -92,15 +68,6 @@ def _base_diameter(res, col):
     if u and umax and u > 0 and umax > 0 and math.isfinite(u) and math.isfinite(umax):
         return umax / u
     return None
-
-
-def _mark_collapse(ax, res):
-    if getattr(res, "collapsed", False):
-        tc = getattr(res, "collapse_time", float("nan"))
-        if tc is not None and math.isfinite(tc):
-            blk = getattr(res, "collapse_block", None)
-            ax.axvline(tc, color="k", ls="--", lw=1.0,
-                       label=f"collapse (block {blk})" if blk is not None else "collapse")
 
 
 def _joint_labels(nj):

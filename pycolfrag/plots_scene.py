@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from .errors import ParameterError
+from .plots_base import _axes, _history, _mark_collapse
 
 __all__ = ["is_scene", "first_column", "rest_faces", "limits", "joint_labels", "column_joint_diameters",
            "plot_dowels"]
@@ -117,7 +118,6 @@ def plot_dowels(res, col=None, ax=None, max_lines: int = 16):
     """
     import matplotlib  # here: the plotting stack, as in pycolfrag.plots
 
-    from .plots import _axes, _history, _mark_collapse  # here: plots imports this module on use
     h = _history(res)
     d = getattr(h, "dowels", None)
     if d is None or np.size(d) == 0:

@@ -580,3 +580,10 @@ def simulate_batch(col, records, history=False, options=None, *, width=None, err
             if isinstance(r, BaseException):
                 raise r
     return out
+
+
+def automatic_step(model, options) -> float:
+    """The solver's automatic step of ``model`` with ``options`` (``dt_factor`` x the stability limit),
+    s, from the set-up solver: no step is run (a run of a few samples at a tiny step took minutes)."""
+    s, opts, _ = _setup(model, options, {}, "automatic_step")
+    return opts.dt_factor * float(lib.cf_solver_dt_crit(s))

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["MAX_RUN_STEPS", "part_steps", "describe", "run_steps_warning", "automatic_step"]
+__all__ = ["MAX_RUN_STEPS", "part_steps", "describe", "run_steps_warning"]
 
 #: Solver steps above which ``simulate`` warns that a run will be long (the grid's MAX_ROW_STEPS:
 #: ~2000 times a default row, minutes per run at 3 us per step).
@@ -68,15 +68,6 @@ def describe(model) -> str:
     """The part that sets the model's step, its estimate and what would lengthen it (one clause)."""
     dt, what, fix = part_steps(model)[0]
     return f"the step is set by {what}, whose own limit 2 sqrt(m / k) is {dt:.3g} s: {fix} lengthens it"
-
-
-def automatic_step(model, options) -> float:
-    """The solver's automatic step of ``model`` with ``options`` (``dt_factor`` x the stability limit),
-    s, from the set-up solver: no step is run (a run of a few samples at a tiny step took minutes)."""
-    from . import solver as _solver  # solver imports this module
-    from ._ffi import lib
-    s, opts, _ = _solver._setup(model, options, {}, "automatic_step")
-    return opts.dt_factor * float(lib.cf_solver_dt_crit(s))
 
 
 def run_steps_warning(model, steps: float, dt: float, duration: float, caller: str) -> str | None:

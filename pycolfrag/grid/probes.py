@@ -63,7 +63,7 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
     try:
         # the step the rows will use, from a run of a few steps: a tiny dt_solver must be refused
         # before the check below runs for minutes
-        dt_step = options.dt_solver or _step_cause.automatic_step(column, options)
+        dt_step = options.dt_solver or _solver.automatic_step(column, options)
         cause = None if options.dt_solver else _step_cause.describe(column)
         check_steps = (3 * record_dt_s + options.tail_s) / dt_step
         if check_steps > MAX_CHECK_STEPS:
