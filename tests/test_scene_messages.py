@@ -44,15 +44,17 @@ def test_a_beam_too_heavy_for_its_columns_is_refused_with_its_settlement():
 def test_the_pre_run_check_names_the_near_massless_epistyle_and_takes_no_run():
     """An epistyle of 1e-6 kg/m^3 (13 mg) on stiff bearings: the automatic step is 4e-8 s. The
     check used to run 3 samples at that step (3.7e5 steps, 13 s here) before refusing, and advised a
-    longer dt_solver, which the user had not given; it now reads the step from the set-up solver (no
-    run at all) and names the epistyle, its density, and what lengthens the step."""
+    longer dt_solver, which the user had not given; it now reads the step from the set-up solver and
+    names the epistyle, its density, and what lengthens the step. Its one run is the probe for a collapse
+    at t = 0 (three samples at the solver's own step: at most 3 steps), which would be the better message."""
     sc = Colonnade.portal(2, epistyle=Epistyle(density=1e-6))
     runs = []
     real = probes._solver.simulate
 
     def spy(*a, **k):
-        runs.append(1)
-        return real(*a, **k)
+        res = real(*a, **k)
+        runs.append(res.n_steps)
+        return res
 
     probes._solver.simulate = spy
     try:
@@ -61,7 +63,7 @@ def test_the_pre_run_check_names_the_near_massless_epistyle_and_takes_no_run():
     finally:
         probes._solver.simulate = real
     text = str(exc.value)
-    assert runs == []
+    assert len(runs) <= 1 and sum(runs) <= 3, runs
     assert "choose a longer dt_solver" not in text
     assert "the step is automatic" in text and "epistyle 0" in text and "density 1e-06 kg/m^3" in text, text
 
