@@ -32,7 +32,7 @@ from ..ground_motion.registry import DEFAULT_PULSE_SHAPE, pulse_shape_of, tp_mod
 from .chunks import synthetic_record_s
 from .protocol import RowFunction
 from .signing import build_identity, code_digest
-from .spec import MAX_ROWS, RunSettings, _check_im_options, resolve_solver_options
+from .spec import MAX_ROWS, RunSettings, resolve_solver_options
 
 __all__ = ["EventBatchSpec", "EventContext", "run_event", "run_events", "EVENT_ROWS", "TAG_FIELDS",
            "inputs_digest"]
@@ -131,11 +131,7 @@ class EventBatchSpec(RunSettings):
         if self.limit is not None and (isinstance(self.limit, bool) or not isinstance(self.limit, int)
                                        or self.limit < 0):
             raise ParameterError(f"limit must be None or an integer >= 0, got {self.limit!r}")
-        for name in ("vp_scale", "record_dt_s"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ParameterError(f"{name} must be finite and > 0, got {v!r}")
-        _check_im_options(self)
+        self._check_run_settings()
 
     @property
     def n_rows(self) -> int:

@@ -103,6 +103,15 @@ class RunSettings:
         """These settings by name (keywords of any of the classes that share them)."""
         return {f.name: getattr(self, f.name) for f in fields(RunSettings)}
 
+    def _check_run_settings(self) -> None:
+        """ParameterError naming the first bad setting: vp_scale and record_dt_s finite and > 0, then the
+        IM and record-length options (:func:`_check_im_options`)."""
+        for name in ("vp_scale", "record_dt_s"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ParameterError(f"{name} must be finite and > 0, got {v!r}")
+        _check_im_options(self)
+
 
 @dataclass(frozen=True)
 class GridSpec(RunSettings):
@@ -166,11 +175,7 @@ class GridSpec(RunSettings):
         if self.samples > MAX_SAMPLES:
             raise ParameterError(f"samples must be at most {MAX_SAMPLES:.0e} per scenario, got {self.samples!r} (every "
                                  "rank computes a scenario's Latin hypercube, ~0.3 ms per sample, before its first row)")
-        for name in ("vp_scale", "record_dt_s"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ParameterError(f"{name} must be finite and > 0, got {v!r}")
-        _check_im_options(self)
+        self._check_run_settings()
 
     @property
     def scenarios(self) -> list[tuple[float, float]]:
