@@ -21,6 +21,8 @@
  * axial, in tension only (the connector resists the joint's opening; compression is the joint's):
  *   Fz = -ka (uz - a)+, capped at N_y by a growing slack a (pull-out slip), and breaking the
  *   connector when uz reaches d_ult.
+ * The clearance kind's shear and the axial law are one spring beyond a growing slack
+ * (cf_connector_slack_spring), each on its own displacement, stiffness, cap and slack.
  *
  * Energy: stored V = |Fs|^2 / (2 k) + Fz^2 / (2 ka) (|Fs| = k (|u| - c)+ for the clearance kind);
  * an inelastic step (yield, crushing, axial slip, break) dissipates the trapezoidal work the
@@ -59,6 +61,28 @@ static inline void cf_connector_rest(const cf_solver_connector *d, cf_connector_
     st->yielded = st->broken = 0;
 }
 
+/* The one text of a spring of stiffness k beyond a slack s that grows to cap its force at f_cap: the
+ * clearance kind's shear (s the clearance, growing as the seat crushes) and the axial law (s the
+ * pull-out slip). At displacement u (>= 0, along the force): the force's magnitude into *n and its
+ * stored energy into *v, the slack grown and *yielded set on a capped step; returns 1 on a capped
+ * step, 0 on an elastic one, -1 inside the slack (no force; *n and *v untouched). */
+static inline int cf_connector_slack_spring(double k, double f_cap, double u, double *s, int *yielded, double *n,
+                                            double *v)
+{
+    double e = u - *s;
+    int plastic;
+    if (!(e > 0.0)) return -1;
+    *n = k * e;
+    plastic = *n > f_cap;
+    if (plastic) {
+        *s = u - f_cap / k;
+        *n = f_cap;
+        *yielded = 1;
+    }
+    *v = *n * *n / (2.0 * k);
+    return plastic;
+}
+
 /* The shear force (fx, fy) and its stored energy at shear displacement (ux, uy); updates the
  * offset or clearance where it yields; returns 1 on an inelastic step. */
 static inline int cf_connector_shear(const cf_solver_connector *d, cf_connector_state *st, double ux, double uy,
@@ -80,18 +104,10 @@ static inline int cf_connector_shear(const cf_solver_connector *d, cf_connector_
         *v = (tx * tx + ty * ty) / (2.0 * k);
         return plastic;
     } else {
-        double um = sqrt(ux * ux + uy * uy), e = um - st->c, fm;
-        int plastic;
-        if (!(e > 0.0)) return 0;
-        fm = k * e;
-        plastic = fm > d->f_yield;
-        if (plastic) {
-            st->c = um - d->f_yield / k;
-            fm = d->f_yield;
-            st->yielded = 1;
-        }
+        double um = sqrt(ux * ux + uy * uy), fm;
+        int plastic = cf_connector_slack_spring(k, d->f_yield, um, &st->c, &st->yielded, &fm, v);
+        if (plastic < 0) return 0;
         *fx = -fm * ux / um; *fy = -fm * uy / um;
-        *v = fm * fm / (2.0 * k);
         return plastic;
     }
 }
@@ -100,19 +116,13 @@ static inline int cf_connector_shear(const cf_solver_connector *d, cf_connector_
 static inline int cf_connector_axial(const cf_solver_connector *d, cf_connector_state *st, double uz, double *fz,
                                      double *v)
 {
-    double ka = d->k_axial, e = uz - st->a, n;
+    double ka = d->k_axial, n;
     int plastic;
     *fz = 0.0; *v = 0.0;
-    if (!(ka > 0.0) || !(e > 0.0)) return 0;
-    n = ka * e;
-    plastic = n > d->n_yield;
-    if (plastic) {
-        st->a = uz - d->n_yield / ka;
-        n = d->n_yield;
-        st->yielded = 1;
-    }
+    if (!(ka > 0.0)) return 0;
+    plastic = cf_connector_slack_spring(ka, d->n_yield, uz, &st->a, &st->yielded, &n, v);
+    if (plastic < 0) return 0;
     *fz = -n;
-    *v = n * n / (2.0 * ka);
     return plastic;
 }
 

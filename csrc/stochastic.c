@@ -262,33 +262,32 @@ static int record_layout(const cf_stochastic_def *def, const scenario *s, cf_sto
     return CF_OK;
 }
 
+/* *p grown to n doubles; on failure *p stays as it was (still owned by the generator); returns 0 then. */
+static int grow_doubles(double **p, int n)
+{
+    double *q = realloc(*p, sizeof(double) * (size_t)n);
+    if (q)
+        *p = q;
+    return q != NULL;
+}
+
 /* Buffers for the layout in (grown, never shrunk) and the FFT plan (rebuilt only when nfft changes). */
 static int grow_buffers(cf_stochastic *g, const cf_stochastic_info *in)
 {
     if (in->n_window > g->cap_window) {
-        double *w = realloc(g->window, sizeof(double) * (size_t)in->n_window);
-        if (w)
-            g->window = w;
-        double *z = realloc(g->noise, sizeof(double) * (size_t)in->n_window);
-        if (z)
-            g->noise = z;
-        if (!w || !z) {
+        int ok = grow_doubles(&g->window, in->n_window);
+        ok &= grow_doubles(&g->noise, in->n_window);
+        if (!ok) {
             snprintf(g->msg, CF_MSG_LEN, "out of memory (window)");
             return CF_ENOMEM;
         }
         g->cap_window = in->n_window;
     }
     if (in->nfft > g->cap_fft) {
-        double *f = realloc(g->filt, sizeof(double) * (size_t)(in->nfft / 2 + 1));
-        if (f)
-            g->filt = f;
-        double *sp = realloc(g->spec, sizeof(double) * (size_t)(in->nfft + 2));
-        if (sp)
-            g->spec = sp;
-        double *x = realloc(g->x, sizeof(double) * (size_t)in->nfft);
-        if (x)
-            g->x = x;
-        if (!f || !sp || !x) {
+        int ok = grow_doubles(&g->filt, in->nfft / 2 + 1);
+        ok &= grow_doubles(&g->spec, in->nfft + 2);
+        ok &= grow_doubles(&g->x, in->nfft);
+        if (!ok) {
             snprintf(g->msg, CF_MSG_LEN, "out of memory (nfft = %d)", in->nfft);
             return CF_ENOMEM;
         }

@@ -1,6 +1,9 @@
 """The one import site of the compiled library (``ffi``, ``lib``) and the one
 place where C status codes become Python exceptions.
 
+:func:`segment_arrays` is the one text of a column's geometry as C reads it (``cf_geometry_segment``),
+for the plain column's set-up (:mod:`pycolfrag.solver`) and a scene's (:mod:`pycolfrag.scene_run`) alike.
+
 Arrays reach C through :func:`pycolfrag._validate.float_array` (type, shape and finiteness checks, a
 C-contiguous float64 array) and :func:`ptr`, which gives the ``double *`` for it (``ffi.from_buffer``
 does not check dtype, so never skip the conversion).
@@ -56,3 +59,18 @@ def ptr(arr: np.ndarray):
     """``double *`` view of a float64 C-contiguous array (no copy)."""
     assert arr.dtype == np.float64 and arr.flags.c_contiguous
     return ffi.from_buffer("double[]", arr)
+
+
+def segment_arrays(blocks):
+    """The ``cf_geometry_segment[]`` of ``blocks``' segments, block by block, and the ``int[]`` of
+    each block's segment count (what ``cf_solver_setup_joints`` and ``cf_solver_scene`` read)."""
+    segs = [s for b in blocks for s in b.segments]
+    arr = ffi.new("cf_geometry_segment[]", len(segs))
+    for i, s in enumerate(segs):
+        arr[i].height = s.height
+        arr[i].r_bottom = s.r_bottom
+        arr[i].r_top = s.r_top
+        arr[i].phase_rad = s.phase_rad
+        arr[i].n_sides = int(s.n_sides)
+    nseg = ffi.new("int[]", [len(b.segments) for b in blocks])
+    return arr, nseg

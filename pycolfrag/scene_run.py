@@ -13,7 +13,7 @@ import warnings
 
 import numpy as np
 
-from ._ffi import check, ffi, lib, ptr
+from ._ffi import check, ffi, lib, ptr, segment_arrays
 from .errors import ParameterError
 from .scene import SceneParts
 
@@ -42,26 +42,13 @@ def parts_of(model, monolithic: bool, caller: str) -> SceneParts | None:
     return model.scene_parts()
 
 
-def _segments(columns):
-    segs = [s for col, _, _ in columns for b in col.blocks for s in b.segments]
-    arr = ffi.new("cf_geometry_segment[]", len(segs))
-    for i, s in enumerate(segs):
-        arr[i].height = s.height
-        arr[i].r_bottom = s.r_bottom
-        arr[i].r_top = s.r_top
-        arr[i].phase_rad = s.phase_rad
-        arr[i].n_sides = int(s.n_sides)
-    nseg = ffi.new("int[]", [len(b.segments) for col, _, _ in columns for b in col.blocks])
-    return arr, nseg
-
-
 def setup(solver, d, parts: SceneParts, caller: str) -> list:
     """Set the solver up for ``parts`` with the definition ``d`` (``cf_solver_setup_scene``); returns
     the C objects that must outlive the call (none is kept by the solver: it copies what it needs)."""
     cols = ffi.new("cf_solver_scene_column[]", len(parts.columns))
     for c, (col, x, y) in zip(cols, parts.columns):
         c.x = x; c.y = y; c.n_blocks = col.n_blocks
-    segs, nseg = _segments(parts.columns)
+    segs, nseg = segment_arrays([b for col, _, _ in parts.columns for b in col.blocks])
     props = [col.joint(i) for col, _, _ in parts.columns for i in range(col.n_blocks)]
     kn = np.array([p.kn for p in props]); ks = np.array([p.ks for p in props]); mu = np.array([p.mu for p in props])
     beams = ffi.new("cf_solver_scene_beam[]", max(len(parts.beams), 1))

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import scene_run, step_cause
-from ._ffi import check, ffi, lib, ptr
+from ._ffi import check, ffi, lib, ptr, segment_arrays
 from ._validate import flag, float_array, positive_float
 from .column import Column
 from .errors import ParameterError
@@ -221,19 +221,6 @@ def _motion(acc_x, dt, acc_y, acc_z, what: str = "") -> tuple:
     return run
 
 
-def _segments(col: Column, monolithic: bool):
-    segs = [s for b in col.blocks for s in b.segments]
-    arr = ffi.new("cf_geometry_segment[]", len(segs))
-    for i, s in enumerate(segs):
-        arr[i].height = s.height
-        arr[i].r_bottom = s.r_bottom
-        arr[i].r_top = s.r_top
-        arr[i].phase_rad = s.phase_rad
-        arr[i].n_sides = int(s.n_sides)
-    nseg = ffi.new("int[]", [len(b.segments) for b in col.blocks])
-    return arr, nseg
-
-
 def _model(col) -> bool:
     """A column or a scene (anything with ``scene_parts``, a Colonnade)."""
     return isinstance(col, Column) or hasattr(col, "scene_parts")
@@ -263,7 +250,7 @@ def _setup(col, options, overrides, caller):
             warnings.warn(f"{caller}: monolithic=True has the base joint only; joint_overrides of joints "
                           f"{sorted(j for j in c.joint_overrides if j > 0)} do not act", UserWarning, stacklevel=3)
     if parts is None:
-        segs, nseg = _segments(col, monolithic)
+        segs, nseg = segment_arrays(col.blocks)
         props = [col.joint(i) for i in range(col.n_blocks)]
         kn = np.array([p.kn for p in props]); ks = np.array([p.ks for p in props]); mu = np.array([p.mu for p in props])
         st = lib.cf_solver_setup_joints(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks), ptr(mu))

@@ -28,12 +28,11 @@ from .. import results as _results
 from .. import sample as _sample
 from ..column import Column
 from ..errors import ParameterError
-from ..ground_motion.registry import DEFAULT_PULSE_SHAPE, DEFAULT_TP_MODEL, pulse_shape_of, tp_model_of
-from ..sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S
+from ..ground_motion.registry import DEFAULT_PULSE_SHAPE, pulse_shape_of, tp_model_of
 from .chunks import synthetic_record_s
 from .protocol import RowFunction
 from .signing import build_identity, code_digest
-from .spec import DEFAULT_RECORD_DT_S, MAX_ROWS, _check_im_options, resolve_solver_options
+from .spec import MAX_ROWS, RunSettings, resolve_solver_options
 
 __all__ = ["EventBatchSpec", "EventContext", "run_event", "run_events", "EVENT_ROWS", "TAG_FIELDS",
            "inputs_digest"]
@@ -90,7 +89,7 @@ def _check_input(i: int, x, shape) -> dict:
 
 
 @dataclass(frozen=True)
-class EventBatchSpec:
+class EventBatchSpec(RunSettings):
     """Everything that fixes the results of a batch of events (stored as the file's ``grid_signature``).
 
     Parameters
@@ -115,16 +114,7 @@ class EventBatchSpec:
     inputs: tuple = ()
     purpose: dict = field(default_factory=dict)
     limit: int | None = field(default=None, compare=False)
-    column: dict = field(default_factory=dict)
-    solver_options: object = field(default_factory=dict)  # resolved to a SolverOptions by __post_init__
-    vp_scale: float = 1.0
-    periods_s: tuple = DEFAULT_PERIODS_S
-    damping: float = DEFAULT_DAMPING
-    record_dt_s: float = DEFAULT_RECORD_DT_S
-    max_record_s: float | None = None
-    sample_function: str | None = None
     pulse_shape: str = DEFAULT_PULSE_SHAPE
-    tp_model: str = DEFAULT_TP_MODEL
 
     layout = "events"
 
@@ -141,11 +131,7 @@ class EventBatchSpec:
         if self.limit is not None and (isinstance(self.limit, bool) or not isinstance(self.limit, int)
                                        or self.limit < 0):
             raise ParameterError(f"limit must be None or an integer >= 0, got {self.limit!r}")
-        for name in ("vp_scale", "record_dt_s"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ParameterError(f"{name} must be finite and > 0, got {v!r}")
-        _check_im_options(self)
+        self._check_run_settings()
 
     @property
     def n_rows(self) -> int:

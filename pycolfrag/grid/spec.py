@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from .signing import build_identity, code_digest
 
 __all__ = ["DEFAULT_MW", "DEFAULT_DIST_KM", "DEFAULT_SAMPLES", "DEFAULT_SEED", "DEFAULT_PERIODS_S",
            "DEFAULT_DAMPING", "DEFAULT_RECORD_DT_S", "PULSES", "DEFAULT_PULSE", "SEED_MAX", "MAX_ROWS",
-           "MAX_SAMPLES", "GridSpec", "RecordGridSpec", "resolve_solver_options", "solver_defaults"]
+           "MAX_SAMPLES", "RunSettings", "GridSpec", "RecordGridSpec", "resolve_solver_options", "solver_defaults"]
 
 DEFAULT_MW = (5.5, 6.0, 6.5, 7.0, 7.5)
 DEFAULT_DIST_KM = (5.0, 7.5, 10.0, 12.5, 15.0, 17.5, 20.0)
@@ -83,7 +83,38 @@ def _check_im_options(spec) -> None:
 
 
 @dataclass(frozen=True)
-class GridSpec:
+class RunSettings:
+    """The settings every run of a grid shares besides its inputs and its pulse: the one text of them
+    for :class:`GridSpec`, :class:`~pycolfrag.grid.EventBatchSpec` and
+    :class:`pycolfrag.rare.evaluator.RecordSettings` (their meaning: the Parameters of :class:`GridSpec`).
+    Each class resolves ``solver_options`` in its own ``__post_init__``."""
+
+    column: dict = field(default_factory=dict)
+    solver_options: object = field(default_factory=dict)  # resolved to a SolverOptions by __post_init__
+    vp_scale: float = 1.0
+    periods_s: tuple = DEFAULT_PERIODS_S
+    damping: float = DEFAULT_DAMPING
+    record_dt_s: float = DEFAULT_RECORD_DT_S
+    max_record_s: float | None = None
+    sample_function: str | None = None
+    tp_model: str = DEFAULT_TP_MODEL
+
+    def run_settings(self) -> dict:
+        """These settings by name (keywords of any of the classes that share them)."""
+        return {f.name: getattr(self, f.name) for f in fields(RunSettings)}
+
+    def _check_run_settings(self) -> None:
+        """ParameterError naming the first bad setting: vp_scale and record_dt_s finite and > 0, then the
+        IM and record-length options (:func:`_check_im_options`)."""
+        for name in ("vp_scale", "record_dt_s"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ParameterError(f"{name} must be finite and > 0, got {v!r}")
+        _check_im_options(self)
+
+
+@dataclass(frozen=True)
+class GridSpec(RunSettings):
     """Everything that fixes the results of a grid run (stored as the file's ``grid_signature``).
 
     Parameters
@@ -122,16 +153,7 @@ class GridSpec:
     dist_km: tuple = DEFAULT_DIST_KM
     samples: int = DEFAULT_SAMPLES
     seed: int = DEFAULT_SEED
-    column: dict = field(default_factory=dict)
-    solver_options: object = field(default_factory=dict)  # resolved to a SolverOptions by __post_init__
-    vp_scale: float = 1.0
-    periods_s: tuple = DEFAULT_PERIODS_S
-    damping: float = DEFAULT_DAMPING
-    record_dt_s: float = DEFAULT_RECORD_DT_S
-    max_record_s: float | None = None
-    sample_function: str | None = None
     pulse: str = DEFAULT_PULSE
-    tp_model: str = DEFAULT_TP_MODEL
 
     def __post_init__(self):
         _check_pulse_options(self)
@@ -153,11 +175,7 @@ class GridSpec:
         if self.samples > MAX_SAMPLES:
             raise ParameterError(f"samples must be at most {MAX_SAMPLES:.0e} per scenario, got {self.samples!r} (every "
                                  "rank computes a scenario's Latin hypercube, ~0.3 ms per sample, before its first row)")
-        for name in ("vp_scale", "record_dt_s"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ParameterError(f"{name} must be finite and > 0, got {v!r}")
-        _check_im_options(self)
+        self._check_run_settings()
 
     @property
     def scenarios(self) -> list[tuple[float, float]]:

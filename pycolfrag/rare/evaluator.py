@@ -35,7 +35,7 @@ import json
 import os
 import signal
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -44,9 +44,8 @@ from .. import results as _results
 from ..errors import ResultsFileError, StaleBuildError
 from ..grid import EventBatchSpec, run_grid
 from ..grid.signing import CODE_KEYS
-from ..grid.spec import DEFAULT_RECORD_DT_S, resolve_solver_options
-from ..ground_motion.registry import DEFAULT_PULSE_SHAPE, DEFAULT_TP_MODEL
-from ..sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S
+from ..grid.spec import RunSettings, resolve_solver_options
+from ..ground_motion.registry import DEFAULT_PULSE_SHAPE
 
 __all__ = ["RecordSettings", "PLAN_KIND", "plan_path", "write_plan", "read_plan", "read_columns", "GridEvaluator",
            "BatchStopped"]
@@ -56,29 +55,18 @@ PLAN_KIND = "pycolfrag-event-plan"
 
 
 @dataclass(frozen=True)
-class RecordSettings:
-    """How every run of a batch is computed besides its inputs: column, solver, records, IMs."""
+class RecordSettings(RunSettings):
+    """How every run of a batch is computed besides its inputs: column, solver, records, IMs
+    (:class:`~pycolfrag.grid.spec.RunSettings`), and the pulse shape of the rows with a pulse."""
 
-    column: dict = field(default_factory=dict)
-    solver_options: object = field(default_factory=dict)
-    vp_scale: float = 1.0
-    periods_s: tuple = DEFAULT_PERIODS_S
-    damping: float = DEFAULT_DAMPING
-    record_dt_s: float = DEFAULT_RECORD_DT_S
-    max_record_s: float | None = None
     pulse_shape: str = DEFAULT_PULSE_SHAPE
-    tp_model: str = DEFAULT_TP_MODEL
-    sample_function: str | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "solver_options", resolve_solver_options(self.solver_options))
 
     def spec(self, inputs, purpose, limit=None) -> EventBatchSpec:
-        return EventBatchSpec(inputs=tuple(inputs), purpose=purpose, limit=limit, column=self.column,
-                              solver_options=self.solver_options, vp_scale=self.vp_scale, periods_s=self.periods_s,
-                              damping=self.damping, record_dt_s=self.record_dt_s, max_record_s=self.max_record_s,
-                              sample_function=self.sample_function, pulse_shape=self.pulse_shape,
-                              tp_model=self.tp_model)
+        return EventBatchSpec(inputs=tuple(inputs), purpose=purpose, limit=limit, pulse_shape=self.pulse_shape,
+                              **self.run_settings())
 
 
 class BatchStopped(Exception):

@@ -48,6 +48,7 @@ import numpy as np
 from .. import names, sample
 from .._ffi import ffi, lib, ptr
 from .._validate import integer
+from ..analysis.fragility import exceedance_score
 from ..column import Column
 from ..errors import ParameterError, RareEventError
 from ..ground_motion import normals_layout, registry, stochastic, synthesize
@@ -74,15 +75,15 @@ Z90 = 1.6448536269514722
 
 
 def score(row: dict, edp: str) -> float:
-    """The score of a run's row: its ``edp`` (a key of :data:`pycolfrag.names.EDPS`), +inf when the column
-    collapsed, -inf when the run failed (``status`` not 0, or no finite EDP): a level ``edp >= t`` is
-    exceeded by a collapse as in :func:`pycolfrag.analysis.fragility.exceeded`."""
-    if row.get("status", 0) != 0:
+    """The score of a run's row: -inf when the run failed (``status`` not 0, or no collapse and no finite
+    EDP), else its :func:`pycolfrag.analysis.fragility.exceedance_score` on ``edp`` (a key of
+    :data:`pycolfrag.names.EDPS`): +inf for a collapse, the EDP otherwise -- a level ``edp >= t`` is
+    exceeded as in :func:`pycolfrag.analysis.fragility.exceeded`."""
+    collapsed = bool(row.get("collapsed"))
+    v = row.get(edp, math.nan)
+    if row.get("status", 0) != 0 or not (collapsed or math.isfinite(float(v))):
         return -math.inf
-    if row.get("collapsed"):
-        return math.inf
-    v = float(row.get(edp, math.nan))
-    return v if math.isfinite(v) else -math.inf
+    return float(exceedance_score(v, collapsed))
 
 
 @dataclass(frozen=True)

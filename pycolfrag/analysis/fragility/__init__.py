@@ -49,6 +49,7 @@ from .eq4 import (
     empirical_exceedance,
     eq4_degenerate,
     exceedance,
+    exceedance_score,
     exceeded,
     lognormal_parameters,
 )
@@ -107,6 +108,7 @@ __all__ = [
     "BETA_MAX",
     "fit_ordered_fragility",
     "exceeded",
+    "exceedance_score",
     "DegenerateFitWarning",
     "MIN_FIT_POINTS",
     "eq4_degenerate",

@@ -172,12 +172,20 @@ def empirical_exceedance(edp, collapsed, threshold) -> float:
     return float(np.mean(exceeded(edp, collapsed, threshold)))
 
 
+def exceedance_score(edp, collapsed) -> np.ndarray:
+    """Each simulation's value on the EDP's scale, the one text of what exceeds a level (Eq. (1)): a
+    level t is exceeded where it is >= t. +inf where the column collapsed (a collapse exceeds every
+    level), -inf where the EDP is NaN (no value: it exceeds none), the EDP otherwise. Unchecked (callers
+    check): :func:`exceeded` and the subset simulation's score (:func:`pycolfrag.rare.subset.score`)."""
+    edp = np.asarray(edp, dtype=float)
+    return np.where(collapsed, np.inf, np.where(np.isnan(edp), -np.inf, edp))
+
+
 def exceeded(edp, collapsed, threshold) -> np.ndarray:
     """Bernoulli outcome of each simulation: collapsed or EDP >= threshold (bool array)."""
     edp = float_array(edp, "edp", ndim=None, allow_empty=True, finite=False)
     collapsed = _as_flags(collapsed)
     threshold = positive_float(threshold, "threshold")
-    with np.errstate(invalid="ignore"):
-        return collapsed | (np.nan_to_num(edp, nan=-np.inf) >= threshold)
+    return exceedance_score(edp, collapsed) >= threshold
 
 
