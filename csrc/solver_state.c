@@ -190,7 +190,9 @@ int cf_solver_state_capture(cf_solver *s, const cf_run *r)
  * record's duration on that axis t_rec; the state's step k */
 static long first_sample(const cf_solver *s, long k, double dtr)
 {
-    return (long)((double)k * s->dt / dtr) + 1;   /* ground_acc's f at the state's time, the next sample */
+    /* ground_acc's f at the state's time, floored: the sample at or before it is f0, the ground is
+     * still at f0 + 1 too (the state's run saw it still at its time), the record starts at f0 + 2 */
+    return (long)((double)k * s->dt / dtr) + 2;
 }
 
 long cf_solver_state_history_capacity(const cf_solver *s, int n, double dtr)
