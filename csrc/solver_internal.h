@@ -19,6 +19,7 @@
  *   solver_monitor.c    energy ledger, EDPs, collapse criteria, histories
  *   solver_connectors.c connectors (dowels) across joints: their state, springs, forces, reports
  *   solver_scene.c      a scene's bodies and joints: several columns, beams on bearings
+ *   solver_state.c      the state that carries over from one run to the next (docs/sequences.md)
  *   connector_law.h     the connectors' law, one text
  *   contact_law.h       the contact law itself, one text for every path above
  *
