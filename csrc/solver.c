@@ -25,6 +25,7 @@ static void release(cf_solver *s)
     s->conn = NULL;
     cf_solver_scene_free(s->scene);
     s->scene = NULL;
+    cf_solver_state_release(s);
     cf_solver_stack_release(s);
     memcpy(msg, s->msg, CF_MSG_LEN);
     memset(s, 0, sizeof *s);
@@ -234,6 +235,7 @@ long cf_solver_history_capacity(const cf_solver *s, int n, double dt_rec)
 {
     double t_final, cap;
     if (!s || !s->ready || n < 1 || !(dt_rec > 0)) return 0;
+    if (s->state_resume) return cf_solver_state_history_capacity(s, n, dt_rec);
     t_final = (n - 1) * dt_rec + s->def.tail_s;
     cap = floor(t_final / s->def.history_dt + 1e-9) + 2;
     if (!(cap <= CF_SOLVER_MAX_HISTORY)) return -1;
@@ -260,16 +262,21 @@ int cf_solver_set_history(cf_solver *s, long cap, double *t, double *top, double
 
 /* ---- the run --------------------------------------------------------------------- */
 
-static double ground_acc(const double *a, int n, double dtr, double t)
+/* The ground acceleration at t of a record of n samples at dtr whose first sample is sample i0 of
+ * the time axis (0: at t = 0; a continued run's record later, the ground still before it): the
+ * samples before i0 are 0.0, so that the values are those of one long record padded with zeros. */
+static double ground_acc(const double *a, int n, long i0, double dtr, double t)
 {
-    double f;
-    long i;
+    double f, lo, hi;
+    long i, nt = i0 + n;
     if (!a) return 0.0;
     f = t / dtr;
-    if (f > (double)(n - 1)) return 0.0;
+    if (f > (double)(nt - 1)) return 0.0;
     i = (long)f;
-    if (i >= n - 1) return a[n - 1];
-    return a[i] + (f - (double)i) * (a[i + 1] - a[i]);
+    if (i >= nt - 1) return a[n - 1];
+    lo = i < i0 ? 0.0 : a[i - i0];
+    hi = i + 1 < i0 ? 0.0 : a[i + 1 - i0];
+    return lo + (f - (double)i) * (hi - lo);
 }
 
 
@@ -315,14 +322,14 @@ void cf_solver_run_pre(const cf_solver *s, cf_run *r, cf_step_energy *e, double 
     double dt = s->dt;
     long n = r->n;
     r->t = n * dt;
-    r->hist_now = s->h_cap > 0 && r->m.hcount < s->h_cap && r->t + 0.5 * dt > r->m.hcount * s->def.history_dt;
+    r->hist_now = s->h_cap > 0 && r->m.hcount - r->m.h0 < s->h_cap && r->t + 0.5 * dt > r->m.hcount * s->def.history_dt;
     /* the spring energies at CF_LEDGER_STEPS, history samples and the last step; the rest of the
      * ledger every step */
     e->need = n % CF_LEDGER_STEPS == 0 || n == r->nsteps || r->hist_now;
     e->vc = 0.0; e->dconn = 0.0;
-    ag[0] = ground_acc(r->ax, r->nrec, r->dtr, r->t);
-    ag[1] = ground_acc(r->ay, r->nrec, r->dtr, r->t);
-    ag[2] = ground_acc(r->az, r->nrec, r->dtr, r->t);
+    ag[0] = ground_acc(r->ax, r->nrec, r->i0, r->dtr, r->t);
+    ag[1] = ground_acc(r->ay, r->nrec, r->i0, r->dtr, r->t);
+    ag[2] = ground_acc(r->az, r->nrec, r->i0, r->dtr, r->t);
 }
 
 /* collapse criteria every 4th step (a few ms: far finer than any collapse) */
@@ -413,7 +420,16 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
     for (i = 0; i < s->nbody; i++) quat_to_mat(s->q + 4 * i, s->R + 9 * i);
     st = cf_solver_run_begin(s, &r);   /* reads the rest state: after the reset */
     if (st) return st;
-    for (r.n = 0;; r.n++) {
+    if (s->state_resume) {
+        /* a continued run: the state (positions at its step, velocities half a step on), then the
+         * positions its run did not take (docs/sequences.md) */
+        st = cf_solver_state_resume(s, &r);
+        free(s->state_resume);
+        s->state_resume = NULL;
+        if (st) { cf_solver_monitor_end(&r.m); return st; }
+        cf_solver_step_positions(s);
+    }
+    for (r.n = r.n_first;; r.n++) {
         cf_step_energy e;
         double ag[3], ke, vg;
         cf_solver_run_pre(s, &r, &e, ag);
@@ -426,6 +442,10 @@ int cf_solver_run(cf_solver *s, const double *ax, const double *ay, const double
             break;
         }
         cf_solver_step_positions(s);
+    }
+    if (s->keep_state) {
+        st = cf_solver_state_capture(s, &r);
+        if (st && r.st == CF_OK) r.st = st;
     }
     cf_solver_run_finish(s, &r, resid, res);
     return r.st;

@@ -268,6 +268,23 @@ int cf_solver_set_history_connectors(cf_solver *s, double *energy, double *conne
  * refused (CF_EINVAL) before it starts. */
 int cf_solver_run(cf_solver *s, const double *acc_x, const double *acc_y, const double *acc_z, int n,
                   double dt_rec, double *residual_dislocation, cf_solver_result *res);
+
+/* ---- the state that carries over (docs/sequences.md) ---- */
+/* A state is a flat array of doubles (every value exact): the step and the bodies' positions,
+ * rotations and velocities, the contact model's joint state, the connectors' law state, and the
+ * monitor's running values (energy ledger, peaks, residual window, history count, collapse). Its
+ * length for the set-up solver (0 before set-up): */
+long cf_solver_state_size(const cf_solver *s);
+/* keep 1: every later run keeps its final state (cf_solver_state_get); 0: none kept (the default). */
+int cf_solver_state_keep(cf_solver *s, int keep);
+/* The state kept at the end of the last run into out (n doubles, n = cf_solver_state_size):
+ * CF_ESTATE when none was kept, CF_EINVAL for a wrong n. */
+int cf_solver_state_get(const cf_solver *s, double *out, long n);
+/* The next run continues from this state (n doubles) instead of rest: its record starts at the first
+ * sample of its time axis after the state's time (the ground still before it), its steps, times,
+ * EDPs and history continue those of the state's runs. Used by that run only. CF_EINVAL (message
+ * naming the difference) for a state of another shape, contact model or step. NULL: from rest. */
+int cf_solver_state_set(cf_solver *s, const double *state, long n);
 /* cffi:end */
 
 

@@ -178,6 +178,23 @@ static void exact_reset(const cf_solver *s, void *state)
 
 static void exact_free(void *state) { free(state); }
 
+/* The state that carries over (solver_state.c): each joint's shear force and torsional moment. */
+static long exact_state_doubles(const cf_solver *s, const void *state)
+{
+    (void)state;
+    return 3 * (long)s->nj;
+}
+
+static void exact_state_copy(const cf_solver *s, void *state, double *buf, int to_buf)
+{
+    exact_joint *ej = (exact_joint *)state;
+    int j;
+    for (j = 0; j < s->nj; j++) {
+        if (to_buf) { buf[3 * j] = ej[j].fs[0]; buf[3 * j + 1] = ej[j].fs[1]; buf[3 * j + 2] = ej[j].mt; }
+        else { ej[j].fs[0] = buf[3 * j]; ej[j].fs[1] = buf[3 * j + 1]; ej[j].mt = buf[3 * j + 2]; }
+    }
+}
+
 /* For the stability limit: the face integral by the edge-midpoint rule on the fan
  * triangles (exact for the quadratic integrands of the stiffness). */
 static void exact_stiffness(const cf_solver *s, const void *state, const cf_joint *J, cf_springs *K)
@@ -211,4 +228,5 @@ const cf_solver_contact_model cf_solver_exact_model = {
     "spring, both capped by Coulomb friction.",
     NULL, 0,
     exact_create, exact_reset, exact_free, exact_stiffness, joint_exact, NULL, 0,
+    exact_state_doubles, exact_state_copy,
 };

@@ -19,6 +19,7 @@
  *   solver_monitor.c    energy ledger, EDPs, collapse criteria, histories
  *   solver_connectors.c connectors (dowels) across joints: their state, springs, forces, reports
  *   solver_scene.c      a scene's bodies and joints: several columns, beams on bearings
+ *   solver_state.c      the state that carries over from one run to the next (docs/sequences.md)
  *   connector_law.h     the connectors' law, one text
  *   contact_law.h       the contact law itself, one text for every path above
  *
@@ -166,6 +167,11 @@ typedef struct cf_solver_contact_model {
      * the points' state, cf_points of solver_points_internal.h) runs this model's runs side by
      * side; 0: one after the other */
     int batch_lanes;
+    /* optional (NULL: no state that carries over): the doubles of its state that a run continued
+     * from a cf_solver_state needs (solver_state.c), and their copy out of (to_buf 1) or into
+     * (to_buf 0) the model's state, each value exact (an int as a double) */
+    long (*state_doubles)(const struct cf_solver *s, const void *state);
+    void (*state_copy)(const struct cf_solver *s, void *state, double *buf, int to_buf);
 } cf_solver_contact_model;
 
 /* the registry (solver_contact_model.c): cf_solver_contact_model_table[def.contact] */
@@ -240,6 +246,11 @@ struct cf_solver {
     cf_scene_info *scene;
     double *out_col, *out_beam, *out_conn;          /* caller-owned per-run outputs (cf_solver_set_outputs) */
     double *h_conn_en, *h_conn;                     /* caller-owned connector histories */
+    /* the state that carries over (solver_state.c): kept at the end of every run when keep_state,
+     * and the state the next run continues from (NULL: from rest), both owned */
+    int keep_state;
+    long state_len;
+    double *state_final, *state_resume;
 };
 
 /* Fail with a message on the solver s (its msg buffer) and return status: cf_common_fail, the
@@ -325,6 +336,7 @@ typedef struct {
      * largest top displacement (m), per beam its largest slip at a bearing (m); the ring then holds
      * every joint's dislocation */
     double *col_top0, *col_max, *beam_slip;
+    long h0;                           /* history samples of the runs before (a continued run): written at hcount - h0 */
 } cf_monitor;
 
 /* The spring energies (a sum over every sub-contact) enter the ledger every CF_LEDGER_STEPS steps
@@ -359,6 +371,8 @@ typedef struct {
     long n, nsteps;                    /* this step, the last step */
     double t, ctime;                   /* time of this step, collapse time (s) */
     int collapsed, cblk, creason, at_rest, st, hist_now;
+    long i0;                           /* the record's first sample is sample i0 of the time axis (a continued run; 0) */
+    long n_first;                      /* the first step of this run (0; a continued run: its state's step + 1) */
     cf_monitor m;
 } cf_run;
 
@@ -381,6 +395,16 @@ void cf_solver_result_none(cf_solver_result *res);
 /* the caller's check asked to stop: the run ends with CF_EINTR and says where */
 void cf_solver_run_stopped(struct cf_solver *s, cf_run *r);
 void cf_solver_run_finish(struct cf_solver *s, cf_run *r, double *resid, cf_solver_result *res);
+
+/* solver_state.c: the state that carries over. resume: a continued run's state into the solver,
+ * the monitor and the run (after cf_solver_run_begin on the rest state; r's record set by
+ * cf_solver_run_check), CF_EINVAL when its record does not fit; capture: the state at the end of the
+ * run into s->state_final (before cf_solver_run_finish); release: both buffers freed. */
+int cf_solver_state_resume(struct cf_solver *s, cf_run *r);
+int cf_solver_state_capture(struct cf_solver *s, const cf_run *r);
+void cf_solver_state_release(struct cf_solver *s);
+/* history samples of a continued run's record of n samples at dtr (cf_solver_history_capacity) */
+long cf_solver_state_history_capacity(const struct cf_solver *s, int n, double dtr);
 
 /* solver_step.c: the phases of one leapfrog step */
 void cf_solver_step_rotations(struct cf_solver *s);

@@ -286,7 +286,7 @@ void cf_solver_monitor_record(cf_solver *s, cf_monitor *m, long n, double t, dou
     }
     }
     if (hist_now) {
-        size_t h = (size_t)m->hcount++;
+        size_t h = (size_t)(m->hcount++ - m->h0);
         if (s->h_t) s->h_t[h] = t;
         if (s->h_top) { s->h_top[2 * h] = dx; s->h_top[2 * h + 1] = dy; }
         if (s->scene) scene_history(s, h);
@@ -426,5 +426,5 @@ void cf_solver_monitor_finish(cf_solver *s, cf_monitor *m, int collapsed, double
     res->energy_error = m->err_max / m->scale_max;
     res->energy_scale = m->scale_max;
     res->energy_warning = res->energy_error > s->def.energy_tolerance;
-    res->n_history = (int)m->hcount;
+    res->n_history = (int)(m->hcount - m->h0);
 }

@@ -469,6 +469,30 @@ static void points_reset(const cf_solver *s, void *state)
     memset(p->hint, 0, sizeof(int) * n);
 }
 
+/* The state that carries over (solver_state.c): per point its shear spring (x, y), contact state,
+ * offset and the polygon test's starting edge (an int, exact as a double). */
+static long points_state_doubles(const cf_solver *s, const void *state)
+{
+    (void)s;
+    return 5 * (long)((const cf_points *)state)->np;
+}
+
+static void points_state_copy(const cf_solver *s, void *state, double *buf, int to_buf)
+{
+    cf_points *p = (cf_points *)state;
+    size_t n = (size_t)p->np, k, sz = sizeof(double) * n;
+    (void)s;
+    if (to_buf) {
+        memcpy(buf, p->fsx, sz); memcpy(buf + n, p->fsy, sz); memcpy(buf + 2 * n, p->state, sz);
+        memcpy(buf + 3 * n, p->pen0, sz);
+        for (k = 0; k < n; k++) buf[4 * n + k] = p->hint[k];
+    } else {
+        memcpy(p->fsx, buf, sz); memcpy(p->fsy, buf + n, sz); memcpy(p->state, buf + 2 * n, sz);
+        memcpy(p->pen0, buf + 3 * n, sz);
+        for (k = 0; k < n; k++) p->hint[k] = (int)buf[4 * n + k];
+    }
+}
+
 /* For the stability limit: every point's springs at its rest position. */
 static void points_stiffness(const cf_solver *s, const void *state, const cf_joint *J, cf_springs *K)
 {
@@ -494,6 +518,7 @@ const cf_solver_contact_model cf_solver_points_vertex = {
     "Coulomb law of contact_law.h.",
     vertex_options, (int)(sizeof vertex_options / sizeof vertex_options[0]),
     vertex_create, points_reset, points_free, points_stiffness, points_joint, points_all, 1,
+    points_state_doubles, points_state_copy,
 };
 
 const cf_solver_contact_model cf_solver_points_perimeter = {
@@ -503,4 +528,5 @@ const cf_solver_contact_model cf_solver_points_perimeter = {
     "converges to the exact interface as points_per_edge grows.",
     perimeter_options, (int)(sizeof perimeter_options / sizeof perimeter_options[0]),
     perimeter_create, points_reset, points_free, points_stiffness, points_joint, points_all, 1,
+    points_state_doubles, points_state_copy,
 };

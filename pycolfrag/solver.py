@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import scene_run, step_cause
+from . import scene_run, state, step_cause
 from ._ffi import check, ffi, lib, ptr, segment_arrays
 from ._validate import flag, float_array, positive_float
 from .column import Column
@@ -146,6 +146,7 @@ class Response:
     epistyle_slip_mm: float = math.nan
     epistyle_unseat: float = math.nan
     collapse_part: str = ""
+    final_state: object = None   # the State at the end of the run (simulate; docs/sequences.md)
 
 
 _runs = threading.local()  # per thread: the exceptions caught during the current C run
@@ -369,7 +370,8 @@ class _Job:
             collapse_part=part, **extra)
 
 
-def simulate(col, acc_x, dt=None, acc_y=None, acc_z=None, history=False, options=None, **overrides) -> Response:
+def simulate(col, acc_x, dt=None, acc_y=None, acc_z=None, history=False, options=None, initial_state=None,
+             **overrides) -> Response:
     """Simulate the column under one ground-motion record.
 
     Parameters
@@ -402,7 +404,10 @@ def simulate(col, acc_x, dt=None, acc_y=None, acc_z=None, history=False, options
         ``collapse_block`` (0-based or None), ``collapse_time`` (s or nan), ``collapse_reason``,
         ``n_steps``, ``t_end`` (s), ``dt``, ``dt_crit`` (s), ``energy_error``,
         ``residual_dislocation`` (m per joint, NaN after a collapse), ``options`` (the
-        :class:`SolverOptions` as a dict), ``history``.
+        :class:`SolverOptions` as a dict), ``history``, ``final_state`` (a :class:`~pycolfrag.state.State`).
+    initial_state : State, optional
+        Continue from this state (a ``final_state`` of the same model, contact model and code) instead
+        of rest: steps, times, EDPs and history go on from it (docs/sequences.md).
 
     Warns
     -----
@@ -418,6 +423,7 @@ def simulate(col, acc_x, dt=None, acc_y=None, acc_z=None, history=False, options
     motion = _motion(acc_x, dt, acc_y, acc_z)   # before the set-up: a bad record fails fast
     history = flag(history, "history")
     solver, options, parts = _setup(col, options, overrides, "simulate")
+    state.prepare(solver, col, options, initial_state, "simulate")
     job = _Job(solver, col, options, motion, history, "simulate", parts)
     job.set_history(solver, "simulate")
     r = ffi.new("cf_solver_result *")
@@ -427,7 +433,9 @@ def simulate(col, acc_x, dt=None, acc_y=None, acc_z=None, history=False, options
     message = ffi.string(lib.cf_solver_message(solver)).decode(errors="replace")
     if r.energy_warning:
         warnings.warn(f"simulate: {message}", EnergyWarning, stacklevel=2)
-    return job.response(r, message, options)
+    res = job.response(r, message, options)
+    res.final_state = state.take(solver, col, options)
+    return res
 
 
 def batch_width(col=None, options=None, n_runs=None, **overrides) -> int:
