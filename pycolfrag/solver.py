@@ -279,10 +279,10 @@ class _Job:
             warnings.warn(f"{caller}: dt_solver = {options.dt_solver:.4g} s is longer than the record's dt = "
                           f"{dt:.4g} s: the solver skips record samples", StepWarning, stacklevel=3)
         step = options.dt_solver or options.dt_factor * float(lib.cf_solver_dt_crit(solver))
-        long_run = step_cause.run_steps_warning(col, (ax.size * dt + options.tail_s) / step, step,
-                                                ax.size * dt + options.tail_s, caller)
-        if long_run:   # a dowel law or an epistyle that forces a tiny step: say so before the run takes hours
-            warnings.warn(long_run, StepWarning, stacklevel=3)
+        run_steps = (ax.size * dt + options.tail_s) / step
+        if run_steps > step_cause.MAX_RUN_STEPS:   # a dowel law or an epistyle that forces a tiny step: say so
+            warnings.warn(step_cause.run_steps_warning(col, run_steps, step, ax.size * dt + options.tail_s, caller),
+                          StepWarning, stacklevel=3)   # before the run takes hours (a row never comes here)
         nb = col.n_blocks if parts is None else parts.n_blocks
         nj = col.n_blocks if parts is None else parts.n_joints
         self.cap = 0
