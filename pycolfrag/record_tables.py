@@ -254,7 +254,7 @@ def _resolve(folder: Path, name: str, table: Path, line: int, column: str, allow
         if root != real and root not in real.parents:
             raise RecordFileError(f"{table}, line {line}: {column} {name!r} is outside the suite's folder {root} "
                                   "(record files must be in the table's folder or below it; allow_outside=True, "
-                                  "run_grid.py --records-outside, accepts others)")
+                                  "pycolfrag grid --records-outside, accepts others)")
     if not p.is_file():
         raise RecordFileError(f"{table}, line {line}: {column} {name!r} is not a regular file")
     return p

@@ -74,11 +74,11 @@ def test_synthetic_grid_outputs_refuse_a_record_suite_file(suite_file, tmp_path,
     the command that analyses it; the command line exits 2 with that message, not a traceback."""
     from pycolfrag.analysis import figures, report
     out, _, _ = suite_file
-    with pytest.raises(R.ResultsFileError, match="record-suite results file.*pycolfrag.analysis.record_report"):
+    with pytest.raises(R.ResultsFileError, match="record-suite results file.*pycolfrag record-report"):
         report.write_report(out, tmp_path / "report.md")
     assert not (tmp_path / "report.md").exists()
     assert report.main([str(out), str(tmp_path / "report.md")]) == 2
-    assert "python -m pycolfrag.analysis.record_report" in capsys.readouterr().err
+    assert "pycolfrag record-report" in capsys.readouterr().err
     with pytest.raises(R.ResultsFileError, match="record-suite"):
         figures.make_all(out, tmp_path / "figs")
 

@@ -83,7 +83,7 @@ def test_make_validation_on_a_record_suite_file_says_what_to_use(files, tmp_path
         f.attrs["layout"] = "records"
     p = _script("make_validation.py", suite, "--out", tmp_path / "v.md")
     assert p.returncode == 2 and "Traceback" not in p.stderr
-    assert "is a record-suite results file" in p.stderr and "pycolfrag.analysis.record_report" in p.stderr
+    assert "is a record-suite results file" in p.stderr and "pycolfrag record-report" in p.stderr
 
 
 def test_record_report(tmp_path):

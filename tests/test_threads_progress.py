@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import time
 
 import pytest
 
@@ -107,3 +108,26 @@ def test_the_report_shows_a_bar_that_reaches_its_total(bars, tmp_path):
     assert [b.desc for b in bars] == ["report"]
     # 4 scenarios' fits, then 4 IMs x the performance levels (pycolfrag.analysis.report._n_fits)
     assert bars[0].unit == "fit" and bars[0].n == bars[0].total > 4 and bars[0].closed
+
+
+def test_in_a_log_the_first_line_comes_after_the_log_delay_not_the_interval(monkeypatch):
+    """Into a file or a pipe the bar's first line is due after LOG_DELAY_S (docs/grid.md: "in a log after
+    5 s, a line every 30 s"); tqdm alone waited its mininterval, LOG_INTERVAL_S, from the bar's creation,
+    so a 20 s ``pycolfrag report`` into a log showed no line. Scaled down here (0.2 s delay, 30 s interval;
+    the step at 0.4 s must print, the next one at once must not)."""
+    import io
+    log = io.StringIO()                                   # not a terminal
+    monkeypatch.setattr(sys, "stderr", log)
+    monkeypatch.setattr(progress, "LOG_DELAY_S", 0.2)
+    progress.enable(True)
+    try:
+        with progress.task("report", 10, unit="fit"):
+            time.sleep(0.4)
+            progress.advance(unit="fit")
+            first = log.getvalue()
+            progress.advance(unit="fit")
+            second = log.getvalue()
+    finally:
+        progress.enable(False)
+    assert "report" in first and "1/10" in first, repr(first)
+    assert second == first, repr(second)                  # then every LOG_INTERVAL_S, not every step

@@ -329,7 +329,7 @@ def read_results(path) -> ResultsData:
         # a suite's rows are records x components x scales, not (Mw, R) scenarios of one distribution:
         # pooling them as scenarios would mix scale factors into one probability
         raise ResultsFileError(f"{path} is a record-suite results file (pycolfrag grid --records), not a synthetic "
-                               f"grid: analyse it with python -m pycolfrag.analysis.record_report {path} OUT_DIR")
+                               f"grid: analyse it with pycolfrag record-report {path} OUT_DIR")
     periods = r.periods_s if len(r.periods_s) else None
     missing = [k for k in ("mw", "dist_km", "u_top", "u_d", "collapsed", "status") if k not in samples]
     if missing:
@@ -370,7 +370,7 @@ def read_table(results, layout: str | None = None) -> dict:
     if layout == "records":
         if r.attrs.get("layout") != "records":
             raise ResultsFileError(f"{results} is not a record-suite results file (pycolfrag grid --records); "
-                                   "for a synthetic grid use python -m pycolfrag.analysis.report")
+                                   "for a synthetic grid use pycolfrag report")
         if len(r) == 0:
             raise ResultsFileError(f"{results} holds no finished rows yet")
     t = dict(r.samples)

@@ -256,7 +256,7 @@ def _figures_section(d, out_path, figures_dir) -> list:
             rel = os.path.relpath(png, out_path.parent)
             L += [f"![{stem}]({rel})", "", f"*{rt.CAPTIONS.get(stem, stem)}*", ""]
     if not found:
-        L.append(f"No figures found in `{figures_dir}`; run `python scripts/make_figures.py {d.path} "
+        L.append(f"No figures found in `{figures_dir}`; run `pycolfrag figures {d.path} "
                  f"--out {figures_dir}`.")
     return L
 

@@ -22,7 +22,7 @@ def _parser():
                                             "(OpenQuake's classical damage). docs/risk.md")
     sub = p.add_subparsers(dest="cmd", required=True)
     e = sub.add_parser("export", help="fit IM-based fragility curves to a results file and write NRML 0.5")
-    e.add_argument("results", help="results file (run_grid.py)")
+    e.add_argument("results", help="results file (pycolfrag grid)")
     e.add_argument("out", help="file to write (" + ", ".join(f"{w.name}: {w.suffix}" for w in WRITERS.values()) + ")")
     e.add_argument("--to", choices=sorted(WRITERS), default="nrml",
                    help="output format: " + "; ".join(f"{w.name}: {w.description}" for w in WRITERS.values()))
