@@ -143,7 +143,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         # command, not a traceback
         print(f"pycolfrag {command.name}: {exc}", file=sys.stderr)
         return 2
-    finally:                       # a caller in this process (a test, a script) gets both back as they were
+    finally:   # a caller in this process gets argv and the bars back as they were; the BLAS limit stays
         sys.argv[0] = prog
         progress.enable(bars)
     return 0 if code is None else int(code)

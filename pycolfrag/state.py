@@ -132,6 +132,9 @@ def prepare(solver, model, options, initial_state, caller: str) -> None:
     if not isinstance(initial_state, State):
         raise ParameterError(f"{caller}: initial_state must be a State, got {type(initial_state).__name__}")
     initial_state.check_for(model, options, caller)
+    if initial_state.collapsed:   # one long run stops at the collapse: there is nothing to continue
+        raise ParameterError(f"{caller}: initial_state is the state of a run that collapsed (at t = "
+                             f"{initial_state.time:g} s): a sequence ends at a collapse, so no record continues it")
     v = np.ascontiguousarray(initial_state.values, dtype=np.float64)
     check(lib.cf_solver_state_set(solver, ptr(v), v.size), lib.cf_solver_message(solver), caller)
 

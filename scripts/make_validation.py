@@ -7,7 +7,10 @@ checkout's docs/validation.md unless ``--out`` says otherwise.
 import os
 import sys
 
-from pycolfrag.commands import main
+# the checkout's package first, as these scripts always ran it (no install needed)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+
+from pycolfrag.commands import main  # noqa: E402
 
 DOCS_PAGE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs", "validation.md")
 

@@ -107,6 +107,19 @@ def test_the_digest_signs_the_loaded_library_not_the_sources(scratch):
         scratch("unsigned", csrc=False, library=_source_digest.UNSIGNED)
 
 
+def test_a_stale_build_is_refused_on_every_call_not_only_the_first(monkeypatch):
+    """The code's digest is kept once per process; a refusal must not leave half of it kept, or the next
+    run in the same process (a retry in a notebook, a script's loop) signs its rows with the stale library."""
+    monkeypatch.setattr(signing, "sources_digest", lambda: "f" * 64)
+    signing._CODE.clear()
+    try:
+        for _ in range(2):
+            with pytest.raises(StaleBuildError, match="stale build"):
+                signing.code_digest(SolverOptions())
+    finally:
+        signing._CODE.clear()
+
+
 def test_the_analysis_and_the_options_count_as_they_should(scratch):
     same = scratch("same")
     # the analysis reads results files and computes no row: editing it changes no run's signature

@@ -111,3 +111,16 @@ def test_a_state_of_another_model_is_refused_naming_the_difference():
         pcf.simulate(col, a1, DT, initial_state=s, dt_factor=0.4)
     with pytest.raises(pcf.ParameterError, match="must be a State"):
         pcf.simulate(col, a1, DT, initial_state=s.values)
+
+
+def test_a_collapsed_state_is_not_continued():
+    """One long run stops at its collapse, so a state taken at a collapse has no continuation: refused by name
+    (it used to go on simulating the fallen drums). A 1.5 g, 1 Hz sine topples the default column (its
+    quasi-static threshold is about 0.15 g, tests/test_hard_cases.py)."""
+    col = pcf.Column.parthenon()
+    dt = 0.01
+    t = np.arange(0.0, 6.0, dt)
+    res = pcf.simulate(col, 1.5 * 9.81 * np.sin(2 * np.pi * t), dt)
+    assert res.collapsed and res.final_state is not None and res.final_state.collapsed
+    with pytest.raises(pcf.ParameterError, match="collapsed"):
+        pcf.simulate(col, np.zeros(100), dt, initial_state=res.final_state)

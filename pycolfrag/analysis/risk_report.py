@@ -251,10 +251,16 @@ def check_outdir(outdir) -> Path:
 
 
 def _umask() -> int:
-    """The process's umask (read by setting it and setting it back)."""
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
+    """The process's umask, read from /proc/self/status (Linux): setting it and setting it back, the only
+    portable way, would race with another thread creating a file meanwhile; there, 022 is assumed."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0o022
 
 
 def _write_text(path: Path, text: str) -> None:

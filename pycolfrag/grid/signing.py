@@ -142,8 +142,9 @@ def _code_part() -> str:
     this process's loaded C library (:func:`checked_library_digest`)."""
     if "sources" not in _CODE:
         if "python" not in _CODE:
-            _CODE["python"] = _python_part()
-            _CODE["library"] = checked_library_digest()
+            # both read before either is kept: a refused (stale) library must be refused again on the next call
+            python, library = _python_part(), checked_library_digest()
+            _CODE["python"], _CODE["library"] = python, library
         else:   # rank 0 checked its sources; this rank's own library is what it runs
             _CODE["library"] = library_digest()
         _CODE["sources"] = hashlib.sha256(

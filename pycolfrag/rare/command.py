@@ -151,8 +151,9 @@ def run_simulation(args, quantities, argv=None, before=None):
     """Run (or resume) the simulation of parsed arguments on every rank: ``(exit code, SiteRun or None)``;
     the run is given on rank 0 only, when the simulation ended (at its target or its budget).
 
-    ``before(site, settings, record)``: a check of the caller's, on every rank before any run (the grid's files
-    beside the simulation); a :class:`~pycolfrag.errors.PycolfragError` it raises is a refusal (exit 2)."""
+    ``before(site, settings, record)``: a check of the caller's before any run (the grid's files beside the
+    simulation), run by rank 0 alone (:func:`_on_rank0`); a :class:`~pycolfrag.errors.PycolfragError` or
+    OSError it raises is a refusal on every rank (exit 2)."""
     comm = get_comm(args.mpi)
     rank = comm.Get_rank() if comm is not None else 0
     size = comm.Get_size() if comm is not None else 1
@@ -160,7 +161,7 @@ def run_simulation(args, quantities, argv=None, before=None):
     try:
         site, settings, stop, record = settings_from_args(args)
         if before is not None:
-            before(site, settings, record)
+            _on_rank0(before, comm, site, settings, record)
     except (PycolfragError, OSError) as exc:
         log(f"risk --simulate: {exc}")
         return EXIT_ARGS, None
@@ -190,6 +191,26 @@ def run_simulation(args, quantities, argv=None, before=None):
         raise
     ev.close()
     return _exit_code(run, log), run
+
+
+def _on_rank0(check, comm, *args) -> None:
+    """``check(*args)`` on rank 0 alone (the grid route beside a simulation reads and computes two site risks:
+    once, not once a rank), its refusal then raised on every rank, so that no rank waits for batches that
+    will never come."""
+    if comm is None or comm.Get_size() == 1:
+        check(*args)
+        return
+    error = None
+    if comm.Get_rank() == 0:
+        try:
+            check(*args)
+        except (PycolfragError, OSError) as exc:
+            error = exc
+    refused = comm.bcast(None if error is None else str(error), root=0)
+    if error is not None:
+        raise error
+    if refused is not None:
+        raise ParameterError(refused)
 
 
 def _exit_code(run, log) -> int:

@@ -41,8 +41,10 @@ __all__ = ["DEFAULT_SEED", "SiteSettings", "StopRule", "SiteRun", "site_fingerpr
 
 #: The root seed when none is given (the grid's).
 DEFAULT_SEED = 20160601
-#: What a batch's purpose names the algorithm (a change of what the plans mean changes it).
-ALGORITHM = "stratified site simulation, defensive mixture, one cross-entropy step; v1"
+#: What a batch's purpose names the algorithm (a change of what the plans mean changes it): v2 sizes the
+#: last batch by the runs left in the budget (v1 planned whole batches), so the same command and seed plan
+#: other runs, and a v1 folder is not resumed.
+ALGORITHM = "stratified site simulation, defensive mixture, one cross-entropy step; v2"
 
 
 def batch_name(stage: int) -> str:

@@ -192,11 +192,17 @@ def _level(q, W, groups, w, y, confidence, limits):
         v, s_ok, w_failed = _stratum_values(g, w, y)
         n = g.rows.size
         mu = math.fsum(v) / n
-        s2 = math.fsum((v - mu) ** 2) / (n - 1)
         per[g.h] = W[g.h] * mu
         lam_terms.append(per[g.h])
-        var_terms.append(W[g.h] ** 2 * s2 / n)
+        # the variance from the successful runs alone: an imputed value is no observation, and counting it
+        # would shrink the CoV by about n_ok / n (0.086 for 0.107 at 20 % failed); with no failure, the same bits
         real = v[~g.failed]
+        n_ok = real.size
+        if n_ok >= 2:
+            mu_ok = math.fsum(real) / n_ok
+            var_terms.append(W[g.h] ** 2 * (math.fsum((real - mu_ok) ** 2) / (n_ok - 1)) / n_ok)
+        else:
+            var_terms.append(math.inf)
         contrib.append(W[g.h] * real[real > 0] / n)
         lo_terms.append(W[g.h] * (s_ok / n))                # as per[h] when no run failed: the same bits
         fail_terms.append(W[g.h] * (w_failed / n))
