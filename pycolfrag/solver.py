@@ -281,8 +281,9 @@ class _Job:
         step = options.dt_solver or options.dt_factor * float(lib.cf_solver_dt_crit(solver))
         run_steps = (ax.size * dt + options.tail_s) / step
         if run_steps > step_cause.MAX_RUN_STEPS:   # a dowel law or an epistyle that forces a tiny step: say so
-            warnings.warn(step_cause.run_steps_warning(col, run_steps, step, ax.size * dt + options.tail_s, caller),
-                          StepWarning, stacklevel=3)   # before the run takes hours (a row never comes here)
+            long_run = step_cause.run_steps_warning(col, run_steps, step, ax.size * dt + options.tail_s, caller)
+            if long_run:                           # before the run takes hours (a row never comes here)
+                warnings.warn(long_run, StepWarning, stacklevel=3)
         nb = col.n_blocks if parts is None else parts.n_blocks
         nj = col.n_blocks if parts is None else parts.n_joints
         self.cap = 0
