@@ -14,7 +14,6 @@ import os
 import shutil
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -23,6 +22,7 @@ import pytest
 from pycolfrag import results as R
 from pycolfrag.analysis import risk
 from pycolfrag.rare import evaluator as _evaluator
+from test_faults import _rank_pids  # the python ranks of an mpirun writing a path, from /proc
 from test_rare_site_plumbing import ARGS, BASE, ROOT, _cmd, _env, _run, _same_rows
 
 #: Two batches: the pilot (20 runs) and batch_001 of 300, cut by the budget to 300.
@@ -32,23 +32,6 @@ SLOW = BASE + ["--batch", "300", "--max-runs", "320"]
 def _journal_rows(path: Path) -> int:
     jp = R.journal_path(path)
     return max(0, jp.read_text().count("\n") - 1) if jp.exists() else 0
-
-
-def _rank_pids(out: Path) -> list:
-    """pids of the python ranks of an mpirun simulating into ``out`` (from /proc: this python, ``-m mpi4py``
-    and ``out`` in argv)."""
-    pids = []
-    for d in Path("/proc").iterdir():
-        if not d.name.isdigit():
-            continue
-        try:
-            argv = (d / "cmdline").read_bytes().split(b"\0")
-        except OSError:
-            continue
-        if argv and argv[0].decode(errors="replace") == sys.executable and b"mpi4py" in argv \
-                and str(out).encode() in argv:
-            pids.append(int(d.name))
-    return pids
 
 
 def _term_in_batch_1(args, out: Path, ranks: int):

@@ -96,10 +96,11 @@ class Drain:
 
 
 @contextmanager
-def _sigterm_ignored():
-    """A worker leaves SIGTERM to rank 0 (which drains, and then this worker's chunk comes back)."""
+def sigterm_handler(handler):
+    """SIGTERM handled by ``handler`` (a function, or ``signal.SIG_IGN``) inside the block, the handler
+    before it restored after; nothing changes off the main thread (signals are the main thread's)."""
     try:
-        prev = signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        prev = signal.signal(signal.SIGTERM, handler)
     except ValueError:  # not the main thread
         prev = None
     try:
@@ -107,6 +108,11 @@ def _sigterm_ignored():
     finally:
         if prev is not None:
             signal.signal(signal.SIGTERM, prev)
+
+
+def _sigterm_ignored():
+    """A worker leaves SIGTERM to rank 0 (which drains, and then this worker's chunk comes back)."""
+    return sigterm_handler(signal.SIG_IGN)
 
 
 def _compute(fn, ctx, chunk, tl, width) -> list:

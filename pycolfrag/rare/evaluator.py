@@ -43,6 +43,7 @@ import numpy as np
 from .. import results as _results
 from ..errors import ResultsFileError, StaleBuildError
 from ..grid import EventBatchSpec, run_grid
+from ..grid.serve import sigterm_handler as _sigterm_handler
 from ..grid.signing import CODE_KEYS
 from ..grid.spec import RunSettings, resolve_solver_options
 from ..ground_motion.registry import DEFAULT_PULSE_SHAPE
@@ -268,16 +269,3 @@ class GridEvaluator:
         """Rank 0: the other ranks stop serving."""
         if self.size > 1 and self.is_root:
             self.comm.bcast({"op": "stop"}, root=0)
-
-
-@contextmanager
-def _sigterm_handler(handler):
-    try:
-        prev = signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread: signals are the main thread's
-        prev = None
-    try:
-        yield
-    finally:
-        if prev is not None:
-            signal.signal(signal.SIGTERM, prev)
