@@ -119,3 +119,16 @@ def test_tilted_column_with_connectors_is_refused():
     assert dowels.foundation_tilt_deg == 1.0
     with pytest.raises(ParameterError, match="tilted foundation"):
         pcf.simulate(dowels, np.zeros(2), 0.01, tail_s=0.1)
+
+
+def test_batch_runs_the_tilt_as_single_runs_do():
+    """simulate_batch (the lanes' path: the same phases and the same rotation of the record) gives a
+    tilted column's runs bit for bit as simulate does, in 3D with two components."""
+    col = block(3.0, 30.0)
+    t = np.arange(0.0, 2.0, 0.01)
+    recs = [(a * G * np.sin(2 * np.pi * t), 0.01, 0.5 * a * G * np.cos(2 * np.pi * t), None) for a in (0.03, 0.06, 0.09)]
+    batch = pcf.simulate_batch(col, recs, tail_s=1.0)
+    assert not any(rb.collapsed for rb in batch) and batch[2].u_top > 1e-6
+    for (ax, dt, ay, _), rb in zip(recs, batch):
+        r = pcf.simulate(col, ax, dt, acc_y=ay, tail_s=1.0)
+        assert (r.u_top, r.u_d, r.n_steps, r.energy_error) == (rb.u_top, rb.u_d, rb.n_steps, rb.energy_error)
