@@ -1,5 +1,6 @@
 """A column's foundation tilt (as-built geometry; docs/sequences.md, "As-built geometry: a tilted
-foundation"): its check against the static thresholds, and its values for the C solver.
+foundation"): its check against the static thresholds (``pycolfrag/solver.py`` hands the checked
+tilt to ``cf_solver_def.foundation_tilt_rad`` and ``foundation_tilt_azimuth_rad``).
 
 The foundation's surface descends by ``tilt_deg`` towards the horizontal direction at
 ``azimuth_deg`` (from +x towards +y, in the column's axes). The solver works in the foundation's
@@ -91,8 +92,3 @@ def tilted(col, d: dict):
         return col
     return type(col)(col.blocks, density=col.density, joints=col.joints, name=col.name, connectors=col.connectors,
                      **file_kw(d))
-
-
-def c_values(col) -> tuple[float, float]:
-    """The solver definition's foundation_tilt_rad and foundation_tilt_azimuth_rad of a column."""
-    return math.radians(col.foundation_tilt_deg), math.radians(col.foundation_tilt_azimuth_deg)

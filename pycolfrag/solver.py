@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import foundation, scene_run, state, step_cause
+from . import scene_run, state, step_cause
 from ._ffi import check, ffi, lib, ptr, segment_arrays
 from ._validate import flag, float_array, positive_float
 from .column import Column
@@ -240,7 +240,8 @@ def _setup(col, options, overrides, caller):
         options = options.replace(**overrides)
     d = options.to_c()
     if isinstance(col, Column):   # the solver's frame is the foundation's (docs/sequences.md)
-        d.foundation_tilt_rad, d.foundation_tilt_azimuth_rad = foundation.c_values(col)
+        d.foundation_tilt_rad = math.radians(col.foundation_tilt_deg)   # checked by Column (pycolfrag/foundation.py)
+        d.foundation_tilt_azimuth_rad = math.radians(col.foundation_tilt_azimuth_deg)
     monolithic = options.monolithic
 
     solver = ffi.gc(lib.cf_solver_create(), lib.cf_solver_free)

@@ -1,4 +1,4 @@
-"""A tilted foundation (issue 34, item 2; docs/sequences.md, "As-built geometry: a tilted foundation").
+"""A tilted foundation (docs/sequences.md, "As-built geometry: a tilted foundation").
 
 The closed form: a rigid block of slenderness angle alpha = atan(b / h_cg) on a base tilted by theta0
 starts to rock (and, held there quasi-statically, overturns) at a horizontal ground acceleration
