@@ -13,7 +13,33 @@
 
 void cf_solver_def_default(cf_solver_def *d)
 {
-    if (d) cf_solver_options_default(d);   /* the defaults of the option tables (solver_options.c) */
+    if (!d) return;
+    cf_solver_options_default(d);   /* the defaults of the option tables (solver_options.c) */
+    d->foundation_tilt_rad = 0.0;
+    d->foundation_tilt_azimuth_rad = 0.0;
+}
+
+/* Gravity and the ground's rotation in the foundation's frame (R: rotation by the tilt about the
+ * horizontal axis k = (-sin az, cos az, 0), which takes the world's vertical to the foundation's
+ * normal; the solver's vectors are R^T times the world's). Untilted: gravity exactly def.g. */
+static void foundation_frame(cf_solver *s)
+{
+    double th = s->def.foundation_tilt_rad, az = s->def.foundation_tilt_azimuth_rad;
+    s->tilted = th != 0.0;
+    s->g_normal = s->def.g; s->g_x = 0.0; s->g_y = 0.0;
+    if (s->tilted) {
+        double c = cos(th), sn = sin(th), k[3], K[9], R[9];
+        int i, j;
+        k[0] = -sin(az); k[1] = cos(az); k[2] = 0.0;
+        K[0] = 0; K[1] = -k[2]; K[2] = k[1]; K[3] = k[2]; K[4] = 0; K[5] = -k[0]; K[6] = -k[1]; K[7] = k[0]; K[8] = 0;
+        for (i = 0; i < 3; i++)
+            for (j = 0; j < 3; j++) R[3 * i + j] = (i == j ? c : 0.0) + sn * K[3 * i + j] + (1.0 - c) * k[i] * k[j];
+        for (i = 0; i < 3; i++)
+            for (j = 0; j < 3; j++) s->ground_rt[3 * i + j] = R[3 * j + i];
+        /* R^T (0, 0, -g): the downhill pull g sin(th) along the surface, the normal g cos(th) */
+        s->g_x = -s->def.g * s->ground_rt[2]; s->g_y = -s->def.g * s->ground_rt[5];
+        s->g_normal = s->def.g * s->ground_rt[8];
+    }
 }
 
 static void release(cf_solver *s)
@@ -64,6 +90,10 @@ int cf_solver_check_def(cf_solver *s, const cf_solver_def *d)
 {
     if (!s) return CF_EINVAL;
     if (!d) return cf_solver_fail(s, CF_EINVAL, "no solver definition");
+    if (!(d->foundation_tilt_rad >= 0.0 && d->foundation_tilt_rad < 1.5707963267948966)
+        || !isfinite(d->foundation_tilt_azimuth_rad))
+        return cf_solver_fail(s, CF_EINVAL, "foundation_tilt_rad must be in [0, pi/2) and foundation_tilt_azimuth_rad "
+                              "finite, got %g and %g", d->foundation_tilt_rad, d->foundation_tilt_azimuth_rad);
     return cf_solver_options_check(d, s->msg);   /* the ranges of the option tables (solver_options.c) */
 }
 
@@ -120,6 +150,7 @@ static int setup_begin(cf_solver *s, const cf_solver_def *def)
     st = cf_solver_check_def(s, def);
     if (st) return st;
     s->def = *def;
+    foundation_frame(s);
     s->model = cf_solver_contact_model_table[def->contact];
     s->lanes = cf_solver_points_lanes_widest();
     return CF_OK;
@@ -330,6 +361,14 @@ void cf_solver_run_pre(const cf_solver *s, cf_run *r, cf_step_energy *e, double 
     ag[0] = ground_acc(r->ax, r->nrec, r->i0, r->dtr, r->t);
     ag[1] = ground_acc(r->ay, r->nrec, r->i0, r->dtr, r->t);
     ag[2] = ground_acc(r->az, r->nrec, r->i0, r->dtr, r->t);
+    if (s->tilted) {
+        /* the record's world axes into the foundation's frame */
+        const double *M = s->ground_rt;
+        double a0 = ag[0], a1 = ag[1], a2 = ag[2];
+        ag[0] = M[0] * a0 + M[1] * a1 + M[2] * a2;
+        ag[1] = M[3] * a0 + M[4] * a1 + M[5] * a2;
+        ag[2] = M[6] * a0 + M[7] * a1 + M[8] * a2;
+    }
 }
 
 /* collapse criteria every 4th step (a few ms: far finer than any collapse) */

@@ -82,6 +82,13 @@ typedef struct {
     double unstable_tolerance; /* - */
     double initial_tilt_rad;   /* rad */
     double model_options[CF_SOLVER_MAX_MODEL_OPTIONS];   /* the contact models' options, by name */
+    /* The foundation's tilt (the column's, not an option of the tables; cf_solver_def_default sets 0):
+     * the ground surface descends by foundation_tilt_rad (in [0, pi/2)) towards the horizontal
+     * direction at foundation_tilt_azimuth_rad from +x towards +y. The solver's frame is the
+     * foundation's: gravity rotated into it, the ground record (world axes) rotated into it
+     * (docs/sequences.md). Exactly 0: the untilted solver, bit for bit. Not in a scene. */
+    double foundation_tilt_rad;
+    double foundation_tilt_azimuth_rad;
 } cf_solver_def;
 
 /* Every option (the solver's own, then each contact model's in the registry's order, an option

@@ -216,6 +216,11 @@ struct cf_solver {
     cf_solver_check_fn check;       /* the caller's check (cf_solver_set_check), NULL: none */
     void *check_user;
     cf_solver_def def;
+    /* the foundation's frame (def.foundation_tilt_*; set-up): tilted = tilt != 0; gravity's
+     * components there (pull along x and y, normal magnitude: def.g untilted); ground_rt the
+     * world-to-foundation rotation of the record (read when tilted) */
+    int tilted;
+    double g_x, g_y, g_normal, ground_rt[9];
     const cf_solver_contact_model *model;
     int lanes;                      /* SIMD lanes of the points runner and the joint chunks (set-up) */
     double density;

@@ -36,7 +36,7 @@ static inline void CF_PH_NAME(velocities)(const struct cf_solver *c, CF_PH_STATE
                                           CF_PH_T *vg_out)
 {
     int i, k, planar = c->def.planar;
-    double dt = c->dt, g = c->def.g, alpha = c->def.damping_alpha;
+    double dt = c->dt, g = c->g_normal, alpha = c->def.damping_alpha;
     const CF_PH_T zero = {0};
     CF_PH_T ke = zero, vg = zero;
     for (i = 1; i < c->nbody; i++) {
@@ -70,6 +70,7 @@ static inline void CF_PH_NAME(velocities)(const struct cf_solver *c, CF_PH_STATE
         v[0] = v[0] + dt * (F[0] + fe[0] + fd[0]) / mi;
         v[1] = v[1] + dt * (F[1] + fe[1] + fd[1]) / mi;
         v[2] = v[2] + dt * (F[2] + fe[2] + fd[2] - mi * g) / mi;
+        if (c->tilted) { v[0] = v[0] + dt * c->g_x; v[1] = v[1] + dt * c->g_y; }   /* the downhill pull */
         CF_MAT_TVEC(CF_PH_T, st->R + 9 * i, st->T + 3 * i, tb);
         tb[0] = tb[0] + td[0]; tb[1] = tb[1] + td[1]; tb[2] = tb[2] + td[2];
         /* Euler: I dw/dt = tb - w x I w, the gyroscopic term at the mid-step estimate */
@@ -87,6 +88,7 @@ static inline void CF_PH_NAME(velocities)(const struct cf_solver *c, CF_PH_STATE
         ke = ke + (0.5 * mi * (vold[0] * v[0] + vold[1] * v[1] + vold[2] * v[2])
                    + 0.5 * (I[0] * wold[0] * w[0] + I[1] * wold[1] * w[1] + I[2] * wold[2] * w[2]));
         vg = vg + mi * g * st->x[3 * i + 2];
+        if (c->tilted) vg = vg - mi * (c->g_x * st->x[3 * i] + c->g_y * st->x[3 * i + 1]);
     }
     *ke_out = ke;
     *vg_out = vg;

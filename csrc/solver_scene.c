@@ -434,6 +434,9 @@ int cf_solver_scene_build(cf_solver *s, const cf_solver_scene *sc)
     int c, b, r, st, nblk_col = 0, nj_col, seg = 0;
     double *col_r, *load;
     cf_geometry_massprops *bp;
+    if (s->tilted)
+        return cf_solver_fail(s, CF_EINVAL, "a scene (beams, several columns or connectors) stands on level ground: "
+                              "foundation_tilt_rad must be 0, got %g", s->def.foundation_tilt_rad);
     for (c = 0; c < sc->n_columns; c++) nblk_col += sc->columns[c].n_blocks;
     nj_col = nblk_col;
     col_r = (double *)calloc((size_t)(sc->n_columns > 0 ? sc->n_columns : 1), sizeof(double));

@@ -168,7 +168,9 @@ static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometr
 }
 
 /* Initial state: exact static equilibrium, joint j pre-compressed by the weight above
- * it (uniform overlap W / (kn A) over the face), shear zero (the tilt is cf_solver_stack_tilt's). */
+ * it (uniform overlap W / (kn A) over the face; W the weight's part normal to a tilted foundation),
+ * shear zero (the tilt is cf_solver_stack_tilt's; a foundation's downhill pull loads the shear
+ * springs in the first steps, a small transient: docs/sequences.md). */
 static void equilibrium(cf_solver *s, int nblk, const cf_geometry_massprops *bp, const double *zbot)
 {
     int i, j, k, nj = s->nj, nbody = s->nbody;
@@ -178,7 +180,7 @@ static void equilibrium(cf_solver *s, int nblk, const cf_geometry_massprops *bp,
         for (i = 0; i < 4 * nbody; i += 4) s->q0[i] = 1.0;
         for (j = 0; j < nj; j++) {
             wabove = 0;
-            for (k = (def->monolithic ? 0 : j); k < nblk; k++) wabove += s->blk_m[k] * def->g;
+            for (k = (def->monolithic ? 0 : j); k < nblk; k++) wabove += s->blk_m[k] * s->g_normal;
             settle += wabove / (s->jt[j].kn * s->jt[j].area);
             if (def->monolithic) {
                 /* the column's centre-of-mass height: bodies_place set blk_bot[2] = 0 - com_z */

@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 from importlib import resources
 from typing import Iterable, Sequence
 
-from . import input_files
+from . import foundation, input_files
 from ._ffi import lib as _lib
 from ._validate import positive_float, real
 from .connectors import Connectors, connectors_on
@@ -68,7 +68,8 @@ _SHAFT_KEYS = ("drum_heights", "diameter_bottom", "diameter_top", "n_sides", "ph
 _CAPITAL_KEYS = ("echinus_height", "echinus_diameter_bottom", "echinus_diameter_top", "abacus_height",
                  "abacus_side", "n_sides", "provenance")
 _COLUMN_KEYS = ("name", "provenance", "description", "units", "density", "n_sides", "phase_deg", "shaft",
-                "capital", "joints", "joint_overrides", "blocks", "connectors")
+                "capital", "joints", "joint_overrides", "blocks", "connectors", "foundation_tilt_deg",
+                "foundation_tilt_azimuth_deg")
 
 
 @dataclass(frozen=True)
@@ -282,11 +283,13 @@ class Column:
         ground), e.g. a mortar bed at the base or a weathered joint. Other joints take ``joints``.
     connectors : sequence of Connectors, optional
         Dowels across joints (:mod:`pycolfrag.connectors`); each must lie on both faces of its joint.
+    foundation_tilt_deg, foundation_tilt_azimuth_deg : float
+        The foundation descends by this angle (>= 0) towards this azimuth: :mod:`pycolfrag.foundation`.
     """
 
     def __init__(self, blocks: Sequence[Block], density: float = 2700.0,
                  joints: JointProperties | None = None, name: str = "custom", joint_overrides=None,
-                 connectors=()):
+                 connectors=(), foundation_tilt_deg=0.0, foundation_tilt_azimuth_deg=0.0):
         if isinstance(blocks, (str, bytes)) or not isinstance(blocks, Iterable):
             raise ParameterError(f"blocks must be a sequence of Block (from the bottom up), got "
                                  f"{type(blocks).__name__} {blocks!r}")
@@ -317,6 +320,8 @@ class Column:
         self.joint_overrides = dict(sorted(over.items()))
         self.name = str(name)
         self.connectors = connectors_on(self, connectors) if connectors else ()
+        self.foundation_tilt_deg, self.foundation_tilt_azimuth_deg = foundation.check(
+            self, foundation_tilt_deg, foundation_tilt_azimuth_deg)
 
     def dowels(self) -> list[tuple]:
         """Every dowel as (joint, x, y, law): the connectors expanded, in their order."""
@@ -325,7 +330,7 @@ class Column:
     def with_connectors(self, *connectors) -> "Column":
         """A copy with these connectors (none: without connectors); the rest is kept."""
         return Column(self.blocks, density=self.density, joints=self.joints, name=self.name,
-                      joint_overrides=self.joint_overrides, connectors=connectors)
+                      joint_overrides=self.joint_overrides, connectors=connectors, **foundation.kw(self))
 
     # ---- constructors -------------------------------------------------------------
     @classmethod
@@ -427,7 +432,7 @@ class Column:
             col = col.with_connectors(*(Connectors.from_dict(c, f"connectors[{i}]") for i, c in enumerate(conn)))
         over = d.get("joint_overrides")
         if over is None:
-            return col
+            return foundation.tilted(col, d)
         if not isinstance(over, dict):
             raise ParameterError(f"joint_overrides must be a mapping (JSON object / TOML table) of joint index -> "
                                  f"joint properties, got {type(over).__name__}")
@@ -444,7 +449,7 @@ class Column:
             # keys not given keep the column's own [joints] values (not the library defaults)
             parsed[j] = JointProperties.from_dict({**joints.to_dict(), **v})
         return Column(col.blocks, density=col.density, joints=col.joints, name=col.name, joint_overrides=parsed,
-                      connectors=col.connectors)
+                      connectors=col.connectors, **foundation.file_kw(d))
 
     @classmethod
     def _from_dict_blocks(cls, d: dict, density, joints, name) -> "Column":
@@ -518,6 +523,7 @@ class Column:
             d["joint_overrides"] = {str(j): p.to_dict() for j, p in self.joint_overrides.items()}
         if self.connectors:        # the same
             d["connectors"] = [c.to_dict() for c in self.connectors]
+        d.update(foundation.kw(self) if self.foundation_tilt_deg else {})   # the same
         return d
 
     def joint(self, j: int) -> JointProperties:
@@ -534,7 +540,7 @@ class Column:
         ``joint_overrides`` are kept."""
         j = joints if joints is not None else replace(self.joints, **changes)
         return Column(self.blocks, density=self.density, joints=j, name=self.name,
-                      joint_overrides=self.joint_overrides, connectors=self.connectors)
+                      joint_overrides=self.joint_overrides, connectors=self.connectors, **foundation.kw(self))
 
     # ---- derived quantities ----------------------------------------------------------
     @property

@@ -239,6 +239,9 @@ def _setup(col, options, overrides, caller):
     if overrides:
         options = options.replace(**overrides)
     d = options.to_c()
+    if isinstance(col, Column):   # the solver's frame is the foundation's (docs/sequences.md)
+        d.foundation_tilt_rad = math.radians(col.foundation_tilt_deg)   # checked by Column (pycolfrag/foundation.py)
+        d.foundation_tilt_azimuth_rad = math.radians(col.foundation_tilt_azimuth_deg)
     monolithic = options.monolithic
 
     solver = ffi.gc(lib.cf_solver_create(), lib.cf_solver_free)
@@ -247,6 +250,9 @@ def _setup(col, options, overrides, caller):
     # a plain column keeps its own set-up (and its row never passes through the scene's modules)
     parts = None if isinstance(col, Column) and not col.connectors else scene_run.parts_of(col, monolithic, caller)
     for c in ([col] if parts is None else [c for c, _, _ in parts.columns]):
+        if parts is not None and c.foundation_tilt_deg:
+            raise ParameterError(f"{caller}: a tilted foundation (foundation_tilt_deg = {c.foundation_tilt_deg:g}) "
+                                 "is for a plain column, without connectors, beams or other columns")
         if monolithic and any(j > 0 for j in c.joint_overrides):
             warnings.warn(f"{caller}: monolithic=True has the base joint only; joint_overrides of joints "
                           f"{sorted(j for j in c.joint_overrides if j > 0)} do not act", UserWarning, stacklevel=3)

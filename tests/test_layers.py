@@ -31,7 +31,7 @@ LAYERS = (
     ("sample", ("pycolfrag.sample",)),
     ("run and results layout", ("pycolfrag.solver", "pycolfrag.scene_run", "pycolfrag.results")),
     ("inputs", ("pycolfrag.records", "pycolfrag.record_tables", "pycolfrag.scene", "pycolfrag.column",
-                "pycolfrag.connectors", "pycolfrag.options", "pycolfrag.step_cause")),
+                "pycolfrag.connectors", "pycolfrag.foundation", "pycolfrag.options", "pycolfrag.step_cause")),
     ("ground motions", ("pycolfrag.ground_motion",)),
     ("kernels", ("pycolfrag.intensity",)),
     ("foundation", ("pycolfrag._ffi", "pycolfrag.names", "pycolfrag._validate", "pycolfrag.input_files",
