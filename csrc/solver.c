@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cf_math.h"
 #include "solver_internal.h"
 
 void cf_solver_def_default(cf_solver_def *d)
@@ -28,9 +29,9 @@ static void foundation_frame(cf_solver *s)
     s->tilted = th != 0.0;
     s->g_normal = s->def.g; s->g_x = 0.0; s->g_y = 0.0;
     if (s->tilted) {
-        double c = cos(th), sn = sin(th), k[3], K[9], R[9];
+        double c = cf_math_cos(th), sn = cf_math_sin(th), k[3], K[9], R[9];
         int i, j;
-        k[0] = -sin(az); k[1] = cos(az); k[2] = 0.0;
+        k[0] = -cf_math_sin(az); k[1] = cf_math_cos(az); k[2] = 0.0;
         K[0] = 0; K[1] = -k[2]; K[2] = k[1]; K[3] = k[2]; K[4] = 0; K[5] = -k[0]; K[6] = -k[1]; K[7] = k[0]; K[8] = 0;
         for (i = 0; i < 3; i++)
             for (j = 0; j < 3; j++) R[3 * i + j] = (i == j ? c : 0.0) + sn * K[3 * i + j] + (1.0 - c) * k[i] * k[j];
