@@ -41,34 +41,37 @@ def test_a_beam_too_heavy_for_its_columns_is_refused_with_its_settlement():
     assert settle > 10 * height > 100
 
 
-def test_the_pre_run_check_names_the_near_massless_epistyle_and_takes_no_run():
+def _count_runs(monkeypatch) -> list:
+    """The solver's step counts of every run the pre-run check makes (simulate spied on where probes calls it)."""
+    seen = []
+    real = probes._solver.simulate
+
+    def spy(*a, **k):
+        res = real(*a, **k)
+        seen.append(res.n_steps)
+        return res
+
+    monkeypatch.setattr(probes._solver, "simulate", spy)
+    return seen
+
+
+def test_the_pre_run_check_names_the_near_massless_epistyle_and_runs_only_a_probe(monkeypatch):
     """An epistyle of 1e-6 kg/m^3 (13 mg) on stiff bearings: the automatic step is 4e-8 s. The
     check used to run 3 samples at that step (3.7e5 steps, 13 s here) before refusing, and advised a
     longer dt_solver, which the user had not given; it now reads the step from the set-up solver and
     names the epistyle, its density, and what lengthens the step. Its one run is the probe for a collapse
     at t = 0 (three samples at the solver's own step: at most 3 steps), which would be the better message."""
     sc = Colonnade.portal(2, epistyle=Epistyle(density=1e-6))
-    runs = []
-    real = probes._solver.simulate
-
-    def spy(*a, **k):
-        res = real(*a, **k)
-        runs.append(res.n_steps)
-        return res
-
-    probes._solver.simulate = spy
-    try:
-        with pytest.raises(pcf.ParameterError) as exc:
-            probes.check_solver_options(sc, None)
-    finally:
-        probes._solver.simulate = real
+    runs = _count_runs(monkeypatch)
+    with pytest.raises(pcf.ParameterError) as exc:
+        probes.check_solver_options(sc, None)
     text = str(exc.value)
     assert len(runs) <= 1 and sum(runs) <= 3, runs
     assert "choose a longer dt_solver" not in text
     assert "the step is automatic" in text and "epistyle 0" in text and "density 1e-06 kg/m^3" in text, text
 
 
-def test_the_pre_run_check_runs_at_most_its_bound_of_steps():
+def test_the_pre_run_check_runs_at_most_its_bound_of_steps(monkeypatch):
     """An epistyle of 1e-4 kg/m^3: a step of 4e-7 s, 7.4e6 steps for the check's 3 samples and 3 s of
     tail, under MAX_CHECK_STEPS (2e7), so the check ran: 2.5e4 steps of a probe, then 1.25e6 until the
     run stopped at rest after 0.5 s (measured; 21 s here, the issue's 86 s case at a smaller density).
@@ -77,19 +80,8 @@ def test_the_pre_run_check_runs_at_most_its_bound_of_steps():
     sc = Colonnade.portal(2, epistyle=Epistyle(density=1e-4))
     dt = pcf.solver.automatic_step(sc, pcf.SolverOptions())
     assert (3 * 0.005 + pcf.SolverOptions().tail_s) / dt > 5 * probes.MAX_CHECK_RUN_STEPS
-    seen = []
-    real = probes._solver.simulate
-
-    def spy(*a, **k):
-        r = real(*a, **k)
-        seen.append(r.n_steps)
-        return r
-
-    probes._solver.simulate = spy
-    try:
-        out = probes.check_solver_options(sc, None)
-    finally:
-        probes._solver.simulate = real
+    seen = _count_runs(monkeypatch)
+    out = probes.check_solver_options(sc, None)
     assert len(seen) == 1 and seen[0] <= probes.MAX_CHECK_RUN_STEPS + 10
     assert "epistyle 0" in out["cause"]
 

@@ -97,15 +97,21 @@ def _listing(d: dict) -> list:
             for k, v in sorted(d.items())]
 
 
+def _json_object(raw) -> dict | None:
+    """An attribute's JSON object, or None when it is not one (then it is printed as it is)."""
+    try:
+        d = json.loads(raw)
+    except (TypeError, ValueError):
+        return None
+    return d if isinstance(d, dict) else None
+
+
 def model_lines(raw) -> list:
     """The ``column`` attribute of a results file as Markdown lines (see the module docstring)."""
     from ..errors import PycolfragError
     from ..scene import Colonnade, model_from_dict
-    try:
-        d = json.loads(raw)
-    except (TypeError, ValueError):
-        return [f"- column: `{raw}`"]
-    if not isinstance(d, dict):
+    d = _json_object(raw)
+    if d is None:
         return [f"- column: `{raw}`"]
     try:
         model = model_from_dict(d)
@@ -122,11 +128,8 @@ def model_lines(raw) -> list:
 
 def solver_lines(raw) -> list:
     """The ``solver`` attribute (the solver's options) as one line of ``key = value`` pairs."""
-    try:
-        d = json.loads(raw)
-    except (TypeError, ValueError):
-        return [f"- solver: `{raw}`"]
-    if not isinstance(d, dict):
+    d = _json_object(raw)
+    if d is None:
         return [f"- solver: `{raw}`"]
     return ["- solver options: " + ", ".join(f"{k} = `{v}`" for k, v in sorted(d.items()))]
 
