@@ -62,7 +62,9 @@ def run(n_ranks: int, args: list[str], timeout: float) -> float:
 
 def phase_split(extra_args: list[str]) -> dict:
     """Time record / IMs / solver / driver for one sample of every scenario, in this process."""
-    from pycolfrag import grid, ground_motion, intensity, solver
+    from pycolfrag import grid, ground_motion
+    from pycolfrag.ground_motion import intensity
+    from pycolfrag.solver import run as solver
     spec = grid.spec_from_args(grid.build_parser().parse_args(["--samples", "2", *extra_args]))
     ctx = grid.SampleContext(spec)
     acc_t = {"record": 0.0, "ims": 0.0, "solver": 0.0}

@@ -10,7 +10,7 @@ Rows (median over --n calls, after one warm-up call; dt = 0.005 s):
   FFT plan); the C kernel alone (``cf_stochastic_run`` through cffi, no Python wrapper);
 * NumPy twin (``_numpy_reference.simulate``, its layout and spectrum cached the same way) and cold;
 * one FFT of the padded length: own radix-2 (C) vs ``numpy.fft.rfft``;
-* ``combine`` (steps 3-6) on the record, and -- if ``pycolfrag.intensity.measures`` exists --
+* ``combine`` (steps 3-6) on the record, and -- if ``pycolfrag.ground_motion.intensity.measures`` exists --
   the intensity measures at 5 periods.
 The machine may be shared with other jobs: the table is what this run saw. Never a test.
 """
@@ -26,7 +26,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from pycolfrag._ffi import ffi, lib, ptr  # noqa: E402
+from pycolfrag.core.ffi import ffi, lib, ptr  # noqa: E402
 from pycolfrag.ground_motion import _numpy_reference as npref  # noqa: E402
 from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # noqa: E402
 from pycolfrag.ground_motion.combine import combine  # noqa: E402
@@ -87,11 +87,11 @@ def rows_for(mw: float, d: float, n: int):
     pulse[acc.size // 3: acc.size // 3 + 400] = np.sin(np.linspace(0, 4 * np.pi, 400))
     rows.append(("`combine` (steps 3-6)", median_ms(lambda i: combine(acc, pulse), n)))
     try:
-        from pycolfrag.intensity import measures
+        from pycolfrag.ground_motion.intensity import measures
     except ImportError:
         measures = None
     if measures is not None:
-        rows.append(("IMs at 5 periods (`pycolfrag.intensity.measures`)",
+        rows.append(("IMs at 5 periods (`pycolfrag.ground_motion.intensity.measures`)",
                      median_ms(lambda i: measures(acc, DT, periods=PERIODS), n)))
     return rows, info, acc.size, c_ms, np_ms
 

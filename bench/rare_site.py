@@ -38,14 +38,14 @@ import numpy as np
 from scipy import stats
 
 from pycolfrag import Column
-from pycolfrag.analysis.risk import QUANTITIES
 from pycolfrag.grid import get_comm
 from pycolfrag.rare.driver import SiteSettings, StopRule, simulate_site
 from pycolfrag.rare.estimate import exceedances
 from pycolfrag.rare.evaluator import GridEvaluator, RecordSettings
 from pycolfrag.rare.plans import PulseMap, event_normals
 from pycolfrag.rare.strata import phi
-from pycolfrag.site import load_site
+from pycolfrag.risk.site_risk import QUANTITIES
+from pycolfrag.site.sources import load_site
 
 ROOT = Path(__file__).resolve().parents[1]
 WORK = ROOT / "results" / "rare_site"

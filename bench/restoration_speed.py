@@ -14,8 +14,8 @@ import time
 import numpy as np
 
 import pycolfrag as pcf
-from pycolfrag.connectors import Connectors
-from pycolfrag.scene import Colonnade
+from pycolfrag.structure.connectors import Connectors
+from pycolfrag.structure.scene import Colonnade
 
 
 def cases() -> dict:

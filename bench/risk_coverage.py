@@ -3,7 +3,7 @@
 Subsamples a grid of many runs per cell (default: the default grid's EDPs shipped in
 tests/data/default_grid_edps.npz, 100 runs per cell; or a results file) down to ``--runs`` per cell,
 ``--reps`` times, and prints per level how often each method's interval holds the full grid's value,
-how often that value lies above it, and the median width (pycolfrag.analysis.risk_coverage). The
+how often that value lies above it, and the median width (pycolfrag.risk.coverage). The
 site is the example site, pulse branch alone. The table of docs/risk.md ("Sampling error") is this
 script's output:
 
@@ -18,11 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
-from pycolfrag import site as site_file
 from pycolfrag.analysis.data import ResultsData
-from pycolfrag.analysis.risk import ESTIMATORS
-from pycolfrag.analysis.risk_coverage import expected_coverage, subsample_coverage
-from pycolfrag.analysis.risk_uncertainty import UNCERTAINTY_METHODS
+from pycolfrag.risk.coverage import expected_coverage, subsample_coverage
+from pycolfrag.risk.site_risk import ESTIMATORS
+from pycolfrag.risk.uncertainty import UNCERTAINTY_METHODS
+from pycolfrag.site import sources as site_file
 
 ROOT = Path(__file__).resolve().parents[1]
 

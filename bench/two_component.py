@@ -276,7 +276,7 @@ def edge_column(h_upper, friction_deg):
     0.8 m tall) and an upper drum of the same section, h_upper tall, whose joint has the given
     (low) friction angle, so that a strong pulse slides the upper drum a good part of its radius past
     the lower drum's edge and rocks it there; the ground joint keeps the default 37 deg."""
-    from pycolfrag.column import Block, Column, JointProperties, Segment
+    from pycolfrag.structure.column import Block, Column, JointProperties, Segment
     seg = lambda h: Segment(height=h, r_bottom=0.8, r_top=0.8, n_sides=10)
     j = JointProperties()
     return Column(blocks=(Block((seg(0.8),)), Block((seg(h_upper),))), joints=j,

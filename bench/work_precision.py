@@ -105,7 +105,7 @@ def run_one(job):
         t0 = time.perf_counter()
         try:
             r = pcf.simulate(col, acc, dt, **kw)
-        except pcf.errors.SolverError if hasattr(pcf, "errors") else Exception as e:  # noqa: B030 (a conditional class: older trees lack pycolfrag.errors)
+        except pcf.errors.SolverError if hasattr(pcf, "errors") else Exception as e:  # noqa: B030 (a conditional class: older trees lack pycolfrag.core.errors)
             return (name, group, math.nan, math.nan, True, 0, time.perf_counter() - t0, str(e), idx)
         wall = time.perf_counter() - t0
     # u_d is NaN by definition after a collapse (no residual): only a standing run's NaN is bad

@@ -14,18 +14,12 @@ Quick tour (the public names the tests, scripts and README rely on)::
 Everything that reads results files is :mod:`pycolfrag.analysis` (``pycolfrag.analysis.data.load``,
 ``python -m pycolfrag.analysis.report``, ...); the writing side is :mod:`pycolfrag.results`.
 """
-__version__ = "0.1.0"
-
-# The imports below keep their order (no sorting): `time` first starts the timeline, and the fragility
-# package comes last (see its comment).
+# The imports below keep their order (no sorting): the version module first (it starts the timeline of a
+# grid rank's imports), and the fragility package last (see its comment).
 # isort: off
-import time as _time  # noqa: E402
+from pycolfrag.core.version import __version__  # noqa: F401
 
-#: When this package began to load (wall s since the epoch, process CPU s): where a grid rank's
-#: imports begin in its timeline (pycolfrag.grid.timeline).
-_IMPORT_STARTED = (_time.time(), _time.process_time())
-
-from .errors import (  # noqa: E402,F401
+from pycolfrag.core.errors import (  # noqa: E402,F401
     HazardFileError,
     ModelRangeError,
     ParameterError,
@@ -34,14 +28,20 @@ from .errors import (  # noqa: E402,F401
     ResultsFileError,
     SolverError,
 )
-from .column import Block, Column, JointProperties, Segment  # noqa: E402,F401
-from .connectors import Connectors, DowelLaw  # noqa: E402,F401
-from .scene import Colonnade, Epistyle  # noqa: E402,F401
-from .options import SolverOptions  # noqa: E402,F401
-from .solver import History, Response, simulate, simulate_batch  # noqa: E402,F401
-from . import ground_motion, intensity, names, records, results, sample  # noqa: E402,F401
+from pycolfrag.structure.column import Block, Column, JointProperties, Segment  # noqa: E402,F401
+from pycolfrag.structure.connectors import Connectors, DowelLaw  # noqa: E402,F401
+from pycolfrag.structure.scene import Colonnade, Epistyle  # noqa: E402,F401
+from pycolfrag.solver.options import SolverOptions  # noqa: E402,F401
+from pycolfrag.solver.run import History, Response, simulate, simulate_batch  # noqa: E402,F401
+# The submodules the quick tour and the docs call through the package (``pcf.ground_motion.synthesize``,
+# ``pcf.records.RecordSet``, ``pcf.names.G``, ...), bound under their public names.
+from pycolfrag.core import errors  # noqa: E402,F401
+from pycolfrag import ground_motion, results  # noqa: E402,F401
+from pycolfrag.core import names  # noqa: E402,F401
+from pycolfrag.ground_motion import intensity, record_suites as records  # noqa: E402,F401
+from pycolfrag.solver import sample  # noqa: E402,F401
 # ``pcf.fragility.exceedance(...)`` after ``import pycolfrag as pcf`` is public (the statistics of the
 # paper's Eqs. 1-4). A plain submodule attribute: it costs ``import pycolfrag`` the fragility package's
-# own modules alone, since their scipy is imported on first use (pycolfrag/_scipy_on_first_use.py: a grid
+# own modules alone, since their scipy is imported on first use (pycolfrag/core/scipy_on_first_use.py: a grid
 # rank that imports pycolfrag loads no scipy; docs/architecture.md).
-from .analysis import fragility  # noqa: E402,F401
+from pycolfrag.analysis import fragility  # noqa: E402,F401

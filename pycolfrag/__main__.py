@@ -1,7 +1,7 @@
-"""``python -m pycolfrag COMMAND ...``: the ``pycolfrag`` command (:mod:`pycolfrag.commands`)."""
+"""``python -m pycolfrag COMMAND ...``: the ``pycolfrag`` command (:mod:`pycolfrag.cli.main`)."""
 import sys
 
-from .commands import main
+from pycolfrag.cli.main import main
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -11,7 +11,7 @@ Built by ``pip install -e .`` through ``cffi_modules`` in ``setup.py``; there is
 other build path for the extension (a stale ``_libcolfrag.cpython-*.so`` left by
 ``ffibuilder.compile()`` would shadow the ``.abi3.so`` pip builds).
 
-The extension depends on every build input (:func:`pycolfrag._source_digest.build_inputs`: the
+The extension depends on every build input (:func:`pycolfrag.core.source_digest.build_inputs`: the
 headers, ``flags.mk``, this script, ``constants.json``, not only the ``.c`` files), so
 ``setup.py build_ext`` rebuilds after an edit of a header alone; and it carries the digest of those
 inputs (``cf_common_source_digest()``), by which results are signed (docs/grid.md, "Signed by its
@@ -57,16 +57,16 @@ CFLAGS = _flags_mk()
 def _defines() -> list[tuple[str, str]]:
     """Compile-time values whose one home is a data file of the package: the default gravity
     (``CF_G_M_S2``, the ``g_m_s2`` of ``pycolfrag/data/constants.json``, which
-    :mod:`pycolfrag.names` reads as ``G``). ``repr`` of the float gives the literal that parses
+    :mod:`pycolfrag.core.names` reads as ``G``). ``repr`` of the float gives the literal that parses
     back to the same double."""
     with open(os.path.join(HERE, "data", "constants.json"), encoding="utf-8") as fh:
         g = float(json.load(fh)["g_m_s2"])
     return [("CF_G_M_S2", repr(g))]
 
 def _source_digest_module():
-    """pycolfrag/_source_digest.py, loaded by its path (the package cannot be imported before its
+    """pycolfrag/core/source_digest.py, loaded by its path (the package cannot be imported before its
     extension is built)."""
-    spec = importlib.util.spec_from_file_location("_pcf_source_digest", os.path.join(HERE, "_source_digest.py"))
+    spec = importlib.util.spec_from_file_location("_pcf_source_digest", os.path.join(HERE, "core", "source_digest.py"))
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -104,7 +104,7 @@ def make_builder() -> FFI:
     headers = _public_headers()
     ffi = FFI()
     ffi.cdef(_cdefs(headers))
-    # the Python side of cf_solver_set_check (pycolfrag.solver: Ctrl-C stops a run promptly)
+    # the Python side of cf_solver_set_check (pycolfrag.solver.run: Ctrl-C stops a run promptly)
     ffi.cdef('extern "Python" int _pcf_solver_check(void *);')
     includes = "\n".join(f'#include "{os.path.basename(h)}"' for h in headers)
     sources = sorted(glob.glob(os.path.join(CSRC, "*.c")))

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""``pycolfrag validation`` under its old name (pycolfrag/analysis/validation_command.py), writing this
+"""``pycolfrag validation`` under its old name (pycolfrag/cli/validation.py), writing this
 checkout's docs/validation.md unless ``--out`` says otherwise.
 
     python scripts/make_validation.py results/grid.h5 [--sensitivity NAME=FILE ...] [--notes FILE]
@@ -10,7 +10,7 @@ import sys
 # the checkout's package first, as these scripts always ran it (no install needed)
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-from pycolfrag.commands import main  # noqa: E402
+from pycolfrag.cli.main import main  # noqa: E402
 
 DOCS_PAGE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs", "validation.md")
 

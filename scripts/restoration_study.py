@@ -64,7 +64,7 @@ def _runs(folder: Path, v: str) -> dict:
     """Both branches' successful runs of a variant, pooled (numpy arrays by field)."""
     from pycolfrag.analysis.completeness import check_complete
     from pycolfrag.analysis.data import read_results
-    from pycolfrag.scene import model_from_dict
+    from pycolfrag.structure.scene import model_from_dict
     out: dict = {}
     for branch in ("pulse", "nopulse"):
         path = folder / v / f"{branch}.h5"
@@ -82,7 +82,7 @@ def _runs(folder: Path, v: str) -> dict:
 
 def _fit(r: dict, level: str):
     from pycolfrag.analysis import fragility as fr
-    from pycolfrag.errors import ParameterError
+    from pycolfrag.core.errors import ParameterError
     edp, thr = CURVES[level]
     coll = r["collapsed"].astype(bool)
     e = np.zeros(coll.size) if edp is None else np.where(coll, np.nan, r[edp])
@@ -99,7 +99,7 @@ def _fit(r: dict, level: str):
 def _risk(folder: Path, v: str) -> dict:
     out = folder / v / "risk"
     if not (out / "risk.json").exists():
-        subprocess.run([sys.executable, "-m", "pycolfrag.analysis.risk", str(SITE), str(folder / v / "pulse.h5"),
+        subprocess.run([sys.executable, "-m", "pycolfrag.risk.site_risk", str(SITE), str(folder / v / "pulse.h5"),
                         str(out), "--no-pulse", str(folder / v / "nopulse.h5"), "--no-figures"], check=True)
     return json.loads((out / "risk.json").read_text())
 

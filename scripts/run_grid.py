@@ -13,7 +13,7 @@ import sys
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-from pycolfrag.commands import main  # noqa: E402
+from pycolfrag.cli.main import main  # noqa: E402
 
 if __name__ == "__main__":
     sys.exit(main(["grid", *sys.argv[1:]]))

@@ -1,7 +1,7 @@
 """How the analysis package sits in pycolfrag: what imports what.
 
 * the Monte Carlo driver (``pycolfrag.grid``) imports nothing of the analysis: the command line
-  (``pycolfrag/cli.py``) runs the summary, figures and report after a grid;
+  (``pycolfrag/cli/grid.py``) runs the summary, figures and report after a grid;
 * no import circle between pycolfrag's modules, counting the imports inside functions too -- none
   allowed;
 * the statistics import no C binding: ``analysis.fragility``, ``analysis.data`` and ``analysis.summary``
@@ -31,8 +31,8 @@ import pycolfrag
 PKG = Path(pycolfrag.__file__).resolve().parent
 
 #: Modules with a ``pycolfrag`` prefix that load the C extension or sit on the driver's side.
-C_BINDINGS = {"pycolfrag._ffi", "pycolfrag._libcolfrag", "pycolfrag.solver", "pycolfrag.column",
-              "pycolfrag.options", "pycolfrag.intensity"}
+C_BINDINGS = {"pycolfrag.core.ffi", "pycolfrag._libcolfrag", "pycolfrag.solver.run", "pycolfrag.structure.column",
+              "pycolfrag.solver.options", "pycolfrag.ground_motion.intensity"}
 
 
 def _module_name(path: Path) -> str:
@@ -84,10 +84,10 @@ def test_the_driver_imports_nothing_of_the_analysis():
     driver = [m for m in modules if m == "pycolfrag.grid" or m.startswith("pycolfrag.grid.")]  # a module or a package
     assert driver
     for name in driver:
-        analysis = {m for m in _imports(modules[name], modules) if m.startswith(("pycolfrag.analysis", "pycolfrag.cli"))}
+        analysis = {m for m in _imports(modules[name], modules) if m.startswith(("pycolfrag.analysis", "pycolfrag.cli.grid"))}
         assert not analysis, f"{name} imports {sorted(analysis)}"
     # the command line is what ties the two together
-    cli = _imports(modules["pycolfrag.cli"], modules)
+    cli = _imports(modules["pycolfrag.cli.grid"], modules)
     assert "pycolfrag.grid" in cli and any(m.startswith("pycolfrag.analysis") for m in cli)
 
 
@@ -115,7 +115,7 @@ def test_no_import_circle():
 def test_statistics_name_no_c_binding():
     modules = _modules()
     for name in ("pycolfrag.analysis.fragility", "pycolfrag.analysis.summary", "pycolfrag.analysis.data"):
-        bad = _imports(modules[name], modules) & (C_BINDINGS | {"pycolfrag.grid", "pycolfrag.sample"})
+        bad = _imports(modules[name], modules) & (C_BINDINGS | {"pycolfrag.grid", "pycolfrag.solver.sample"})
         assert not bad, f"{name} imports {sorted(bad)}"
 
 
@@ -155,7 +155,7 @@ def test_importing_the_package_or_the_driver_loads_only_the_statistics_of_the_an
     ``pcf.fragility`` names -- and no other analysis module, no command line, no matplotlib. Fragility
     imports numpy, scipy and pycolfrag's names and checks only, which the package loads anyway."""
     code = (f"import sys, {target}\n"
-            "print(sorted(m for m in sys.modules if m.startswith(('pycolfrag.analysis', 'pycolfrag.cli', "
+            "print(sorted(m for m in sys.modules if m.startswith(('pycolfrag.analysis', 'pycolfrag.cli.grid', "
             "'matplotlib'))))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag.errors import PycolfragError, RecordFileError
+from pycolfrag.core.errors import PycolfragError, RecordFileError
 from pycolfrag.ground_motion import read_at2
 
 DATA = Path(__file__).parent / "data"

@@ -1,4 +1,4 @@
-"""Runs in SIMD lanes (pycolfrag.solver.simulate_batch, csrc/solver_batch.c) against the single run.
+"""Runs in SIMD lanes (pycolfrag.solver.run.simulate_batch, csrc/solver_batch.c) against the single run.
 
 The reference of every test here is :func:`pycolfrag.simulate` on the same record and options (the
 single-run path, validated on its own by test_solver.py and test_solver_physics.py): a batch must give
@@ -19,9 +19,11 @@ import pytest
 sys.path.insert(0, os.path.dirname(__file__))
 import pycolfrag as pcf  # noqa: E402
 import record_suite as rs  # noqa: E402
-from pycolfrag import grid, records, sample  # noqa: E402
-from pycolfrag.errors import ParameterError, SolverError  # noqa: E402
-from pycolfrag.solver import batch_width, simulate_batch  # noqa: E402
+from pycolfrag import grid
+from pycolfrag.core.errors import ParameterError, SolverError  # noqa: E402
+from pycolfrag.ground_motion import record_suites as records
+from pycolfrag.solver import sample  # noqa: E402
+from pycolfrag.solver.run import batch_width, simulate_batch  # noqa: E402
 
 COL = pcf.Column.parthenon()
 DT = 0.005

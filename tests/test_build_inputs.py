@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from pycolfrag import _source_digest
+from pycolfrag.core import source_digest as _source_digest
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -33,7 +33,7 @@ def _builder():
 def test_the_extension_depends_on_every_build_input():
     """Every header, flags.mk, the build script and the constants it compiles in are the extension's
     ``depends`` (setuptools rebuilds when one is newer than the library), and the digest compiled in is
-    the digest of those files (pycolfrag/_source_digest.py)."""
+    the digest of those files (pycolfrag/core/source_digest.py)."""
     build = _builder()
     kwds = build.ffibuilder._assigned_source[3]
     depends = {Path(p).as_posix() for p in kwds["depends"]}

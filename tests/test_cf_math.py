@@ -26,7 +26,7 @@ import pytest
 import scipy.special as sp
 from scipy import stats
 
-from pycolfrag._ffi import lib
+from pycolfrag.core.ffi import lib
 from pycolfrag.ground_motion import mavroeidis_papageorgiou_2003 as mp
 from pycolfrag.ground_motion import rupakhety_2011 as r11
 
@@ -107,7 +107,7 @@ def test_sample_map_matches_scipy_inverse_cdfs():
     u[:4, 3] = [0.0, 1e-12, 0.5, 1.0 - 1e-12]            # the truncation point and the far tail
     log_vp, log_fp = lib.cf_math_log10(r11.mean_vp_cm_s(7.0, 10.0)), r11.log10_fp_mean(7.0)
     vp, fp, nu, gamma = (np.empty(u.shape[0]) for _ in range(4))
-    from pycolfrag._ffi import ptr
+    from pycolfrag.core.ffi import ptr
     assert lib.cf_pulse_sample_map(mp._distribution(log_vp, log_fp, r11.SIGMA_LOG10_FP), ptr(np.ascontiguousarray(u)),
                                    u.shape[0], ptr(vp), ptr(fp), ptr(nu), ptr(gamma)) == 0
     a = (mp.GAMMA_MIN - mp.GAMMA_MEAN) / mp.GAMMA_SD
@@ -128,7 +128,7 @@ def test_sample_map_matches_scipy_inverse_cdfs():
 def test_sample_map_refuses_bad_uniforms():
     u = np.full((1, 4), 0.5)
     u[0, 2] = 1.5
-    from pycolfrag._ffi import ptr
+    from pycolfrag.core.ffi import ptr
     out = [np.empty(1) for _ in range(4)]
     d = mp._distribution(1.0, -0.5, r11.SIGMA_LOG10_FP)
     assert lib.cf_pulse_sample_map(d, ptr(u), 1, *(ptr(o) for o in out)) == lib.CF_EINVAL

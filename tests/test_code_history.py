@@ -40,7 +40,7 @@ def resumed(tmp_path_factory):
     import pycolfrag.grid.spec as spec
     mp.setattr(spec, "code_digest", lambda opts: OTHER)
     try:
-        from pycolfrag.cli import main
+        from pycolfrag.cli.grid import main
         assert main(args + ["--allow-code-change", "--mpi", "no"]) == 0
     finally:
         mp.undo()
@@ -71,7 +71,7 @@ def test_report_shows_every_code(resumed, tmp_path):
 
 def test_risk_shows_every_code(resumed, tmp_path, capsys):
     out, before, first = resumed
-    from pycolfrag.analysis.risk import main
+    from pycolfrag.risk.site_risk import main
     site = __import__("pathlib").Path(__file__).resolve().parents[1] / "examples" / "site_athens.toml"
     rc = main([str(site), str(out), str(tmp_path / "risk"), "--pulse-only", "--outside", "zero", "--no-figures",
                "--draws", "200"])

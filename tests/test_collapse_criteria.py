@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag.column import Block, Column, Segment
+from pycolfrag.structure.column import Block, Column, Segment
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""Colonnades (pycolfrag.scene): the rocking frame of Makris & Vassiliou (2013) against their closed
+"""Colonnades (pycolfrag.structure.scene): the rocking frame of Makris & Vassiliou (2013) against their closed
 forms, the rest state of the portals, a one-column scene against its column's bits, the reports of
 columns and epistyles (unseating), the energy ledger, the scene files, and bad input."""
 import math
@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag import scene, scene_run
-from pycolfrag.column import JointProperties
-from pycolfrag.scene import Colonnade, Epistyle
+from pycolfrag.solver import scene_setup as scene_run
+from pycolfrag.structure import scene
+from pycolfrag.structure.column import JointProperties
+from pycolfrag.structure.scene import Colonnade, Epistyle
 
 sys.path.insert(0, os.path.dirname(__file__))
 from reference_solutions import rocking_frame_first_excursion  # noqa: E402  (tests/ is not a package)

@@ -1,4 +1,4 @@
-"""Column geometry (pycolfrag/column.py): mass properties, the default scene, file formats, bad input.
+"""Column geometry (pycolfrag/structure/column.py): mass properties, the default scene, file formats, bad input.
 
 Where the expected numbers come from:
 - frustum volume and centroid: closed forms for a regular n-gon frustum (the cross-section area is

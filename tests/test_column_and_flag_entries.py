@@ -3,7 +3,7 @@ file (None, a number, a folder, a FIFO), and flags given as integers (``history=
 
 A flag is True or False (Python's or numpy's bool) and nothing else; the flags of a results file's
 solver options still read back (JSON and HDF5 give bools). The column file goes through the one
-policy for files a user names (``pycolfrag.input_files``): a FIFO is refused before it is opened,
+policy for files a user names (``pycolfrag.core.input_files``): a FIFO is refused before it is opened,
 where a plain ``open`` would wait for a writer forever."""
 import json
 import os
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag.errors import ParameterError
+from pycolfrag.core.errors import ParameterError
 
 COL = pcf.Column.parthenon()
 ACC = np.zeros(5)          # at rest: the run is instant and its numbers do not matter here

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pycolfrag.errors import ParameterError
+from pycolfrag.core.errors import ParameterError
 from pycolfrag.ground_motion import atkinson_silva_2000 as as00
 from pycolfrag.ground_motion.combine import combine
 

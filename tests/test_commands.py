@@ -1,4 +1,4 @@
-"""The ``pycolfrag`` command (pycolfrag/commands.py): one entry point over every command line, each
+"""The ``pycolfrag`` command (pycolfrag/cli/main.py): one entry point over every command line, each
 command dispatched to the ``main(argv)`` of the module that owns it, imported only when it runs.
 
 The list of command lines a command must exist for is read from the sources (every ``def main(`` of
@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from pycolfrag import commands
 from pycolfrag.analysis.data import load
+from pycolfrag.cli import main as commands
 
 ROOT = Path(__file__).resolve().parent.parent
 from test_grid import _env, _ok, _same_rows, _serial  # noqa: E402
@@ -43,7 +43,7 @@ def _command_lines() -> set[str]:
 def test_every_command_line_has_its_command():
     targets = {c.target.partition(":")[0] for c in commands.COMMANDS.values()}
     # the dispatcher itself is the one main without a command of its own; run_grid.py calls it
-    missing = _command_lines() - targets - {"pycolfrag.commands", "scripts/run_grid.py"} - set(commands.DEVELOPER_SCRIPTS)
+    missing = _command_lines() - targets - {"pycolfrag.cli.main", "scripts/run_grid.py"} - set(commands.DEVELOPER_SCRIPTS)
     assert not missing, f"command lines without a 'pycolfrag' command: {sorted(missing)}"
     assert not targets - _command_lines(), "a command names a main that does not exist"
 
@@ -52,10 +52,10 @@ def test_help_lists_every_command_and_loads_no_command():
     """``pycolfrag --help`` in a fresh interpreter: every command with its older equivalent, and none
     of the commands' modules (the analysis beyond what ``import pycolfrag`` binds -- the fragility
     statistics of the public ``pcf.fragility`` --, the grid driver, the grid's command line) loaded."""
-    code = ("import sys\nfrom pycolfrag.commands import main\n"
+    code = ("import sys\nfrom pycolfrag.cli.main import main\n"
             "try:\n    main(['--help'])\nexcept SystemExit as e:\n    assert e.code == 0, e.code\n"
             "print(sorted(m for m in sys.modules if m.startswith(('pycolfrag.analysis', 'pycolfrag.grid',"
-            " 'pycolfrag.cli', 'matplotlib', '_pycolfrag_script'))))\n")
+            " 'pycolfrag.cli.grid', 'matplotlib', '_pycolfrag_script'))))\n")
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=_env(), cwd=ROOT)
     assert p.returncode == 0, p.stderr
     text, loaded = p.stdout.rsplit("\n", 2)[0], p.stdout.strip().splitlines()[-1]

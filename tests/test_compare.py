@@ -151,7 +151,7 @@ def test_command_line(base):
 
 
 def test_bad_alpha_is_refused(base):
-    from pycolfrag.errors import ParameterError
+    from pycolfrag.core.errors import ParameterError
     a = base[3]
     with pytest.raises(ParameterError, match="alpha"):
         compare_results(a, a, alpha=1.5)
@@ -253,7 +253,7 @@ def test_grids_of_other_scenario_sets_are_matched_by_mw_r_sample(tmp_path):
 def test_grids_without_a_common_key_are_refused(tmp_path):
     """Mw 6.5 alone against Mw 7.5 alone: no (Mw, R, sample) in common -- refused, naming both sets (before,
     both were scenario 0 and their rows were compared as one scenario)."""
-    from pycolfrag.errors import ParameterError
+    from pycolfrag.core.errors import ParameterError
     cols, spectra = _rows()
     a = _write(tmp_path / "a.h5", *_scenarios(cols, spectra, [6.5]))
     b = _write(tmp_path / "b.h5", *_scenarios(cols, spectra, [7.5]))
@@ -265,7 +265,7 @@ def test_grids_without_a_common_key_are_refused(tmp_path):
 
 
 def test_a_grid_and_a_record_suite_are_refused(tmp_path):
-    from pycolfrag.errors import ParameterError
+    from pycolfrag.core.errors import ParameterError
     cols, spectra = _rows()
     a = _write(tmp_path / "a.h5", cols, spectra)
     rc, rs = _record_rows()
@@ -294,7 +294,7 @@ def test_small_grid_against_a_larger_fake_grid_from_the_command(tmp_path):
 
 
 def test_a_row_without_mw_cannot_be_matched_and_says_so(base):
-    from pycolfrag.errors import ParameterError
+    from pycolfrag.core.errors import ParameterError
     tmp, cols, spectra, a = base
     cols = {k: v.copy() for k, v in cols.items()}
     cols["mw"][7] = np.nan

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag.connectors import LAWS, Connectors, DowelLaw, law
+from pycolfrag.structure.connectors import LAWS, Connectors, DowelLaw, law
 
 G = 9.81
 

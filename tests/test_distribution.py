@@ -25,7 +25,7 @@ FAKE = ["--mw", "6", "--dist", "5", "--samples", "2", "--sample-function", "grid
 #: Runs the command line with mpi4py made unimportable (None in sys.modules is how Python marks a module
 #: that must not load), as on a machine where the `mpi` extra is not installed.
 NO_MPI4PY = ("import sys; sys.modules['mpi4py'] = None\n"
-             "from pycolfrag.commands import main\n"
+             "from pycolfrag.cli.main import main\n"
              "sys.exit(main(sys.argv[1:]))\n")
 
 

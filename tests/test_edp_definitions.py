@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag.column import Block, Segment
+from pycolfrag.structure.column import Block, Segment
 
 G = 9.81
 MU37 = math.tan(math.radians(37.0))   # default friction angle of the joints (paper Table I)
@@ -684,7 +684,7 @@ def test_plots_show_nan_u_d_of_a_collapsed_run_as_not_available():
     """Debug plots of a collapsed run (u_d NaN) draw, and say "n/a (collapsed)" instead of "nan"."""
     from types import SimpleNamespace
 
-    from pycolfrag import plots
+    from pycolfrag.plots import response as plots
     col = pcf.Column.from_drums([1.0, 1.0], 1.0)
     dt = 0.01
     t = np.arange(0.0, 1.0, dt)

@@ -1,4 +1,4 @@
-"""One entry-type policy for the public API (pycolfrag._validate): numbers are real numbers, seeds and
+"""One entry-type policy for the public API (pycolfrag.core.validate): numbers are real numbers, seeds and
 counts are integers, arrays hold integers or floats. Strings that float() would read, bools and arrays of
 strings or bools are refused with a ParameterError naming the argument and the value, the same words in
 every module; numpy numbers keep working and give the same results as Python floats.
@@ -14,11 +14,11 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag import intensity
 from pycolfrag import results as R
 from pycolfrag.analysis import fragility as fr
 from pycolfrag.analysis.data import load
-from pycolfrag.errors import ParameterError, ResultsFileError
+from pycolfrag.core.errors import ParameterError, ResultsFileError
+from pycolfrag.ground_motion import intensity
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DT = 0.01
@@ -128,7 +128,7 @@ def test_a_results_file_lacking_a_field_an_output_needs_names_it(tmp_path):
 
 
 def test_plot_arguments_follow_the_same_policy(tmp_path):
-    from pycolfrag import plots
+    from pycolfrag.plots import response as plots
     res = pcf.simulate(COL, ACC, DT, history=True)
     for kw, needle in (({"fps": "20"}, "fps must be a real number, got str '20'"),
                        ({"max_frames": True}, "max_frames must be an integer, got the bool True"),

@@ -28,7 +28,7 @@ import pytest
 
 from pycolfrag import results as R
 from pycolfrag.analysis.data import load
-from pycolfrag.errors import ParameterError, RecordFileError, ResultsFileError
+from pycolfrag.core.errors import ParameterError, RecordFileError, ResultsFileError
 from test_grid import ROOT, SCRIPT, _env, _journal_rows, _ok, _same_rows, _serial
 
 # 2 Mw x 2 R x 4 samples = 16 rows of the fake sample function
@@ -440,7 +440,7 @@ def test_read_only_folder_is_one_clear_line_and_nothing_is_lost(tmp_path, tmpfs)
 ])
 def test_bad_grid_arguments_are_refused_before_any_file(tmp_path, capsys, change, expect):
     # in process (main() is what scripts/run_grid.py calls), a dozen runs in a second
-    from pycolfrag.cli import main
+    from pycolfrag.cli.grid import main
     out = tmp_path / "o" / "g.h5"
     base = ["--mw", "6", "--dist", "5", "--samples", "2", "--no-figures", "--no-progress", "--mpi", "no",
             "--out", str(out)]
@@ -544,7 +544,7 @@ def test_column_file_input_is_type_checked_where_it_enters(tmp_path, change, nam
 
 
 def test_column_constructors_refuse_strings_none_bools_and_too_many_sides():
-    from pycolfrag.column import Column, JointProperties, Segment
+    from pycolfrag.structure.column import Column, JointProperties, Segment
     for bad in ("1", None, True):
         with pytest.raises(ParameterError, match=repr(bad)):
             Segment(bad, 0.5, 0.5)

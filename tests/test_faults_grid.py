@@ -31,7 +31,7 @@ import pytest
 
 from pycolfrag import results as R
 from pycolfrag.analysis.data import load
-from pycolfrag.errors import ParameterError
+from pycolfrag.core.errors import ParameterError
 from test_faults import FAKE, _fresh, _kill9, _rank_pids, _start, _wait_gone, _wait_rows, tmpfs  # noqa: F401 (tmpfs: a fixture)
 from test_grid import ROOT, SCRIPT, _env, _journal_rows, _mpirun, _ok, _same_rows, _serial
 
@@ -62,7 +62,7 @@ def _partial_whole(tmp_path, n=3):
 
 def _main_patched(patch, args, **env):
     """``cli.main(args)`` in a child process after ``patch`` (Python source) has run: another build."""
-    code = textwrap.dedent(patch) + "\nimport sys\nfrom pycolfrag.cli import main\nsys.exit(main(sys.argv[1:]))\n"
+    code = textwrap.dedent(patch) + "\nimport sys\nfrom pycolfrag.cli.grid import main\nsys.exit(main(sys.argv[1:]))\n"
     return subprocess.run(["timeout", "-k", "10", "120", sys.executable, "-c", code, *args], capture_output=True,
                           text=True, env=_env(**env), cwd=ROOT)
 
@@ -90,7 +90,7 @@ def test_specs_of_the_same_physics_have_one_signature():
 # cf_solver_def_default gives): Python reads its defaults from C, so this is the same change
 _PATCH_DEFAULT = """
 import dataclasses
-import pycolfrag.options as o, pycolfrag.solver as so
+import pycolfrag.solver.options as o, pycolfrag.solver.run as so
 @dataclasses.dataclass(frozen=True)
 class Rebuilt(o.SolverOptions):
     dt_factor: float = 0.7
@@ -98,7 +98,7 @@ o.SolverOptions = so.SolverOptions = Rebuilt
 """
 # a build that computes other numbers with the same options (a changed formula in the C library)
 _PATCH_PHYSICS = """
-import pycolfrag.solver as so
+import pycolfrag.solver.run as so
 _orig = so.simulate
 def simulate(col, acc_x, dt, *a, **k):
     return _orig(col, acc_x * (1 + 1e-12), dt, *a, **k)
@@ -216,7 +216,7 @@ def test_a_resume_by_a_library_of_other_sources_is_refused(tmp_path):
 
 def _refused(argv, capsys, tmp_path):
     """main(argv) in process: exit code 2, one line, no file made; returns the line."""
-    from pycolfrag.cli import main
+    from pycolfrag.cli.grid import main
     out = tmp_path / "o" / "g.h5"
     code = main([*argv, "--no-figures", "--no-progress", "--mpi", "no", "--out", str(out)])
     text = capsys.readouterr().out.strip()
@@ -248,8 +248,9 @@ def test_a_step_longer_than_the_records_dt_is_refused(tmp_path, capsys):
 
 def test_a_row_keeps_the_step_warning_in_its_message():
     # outside the grid (run_suite, run_record_sample) a row computed with such a step says so
-    from pycolfrag import Column, sample
+    from pycolfrag import Column
     from pycolfrag.ground_motion import Record
+    from pycolfrag.solver import sample
     row = sample.response_row(Column.parthenon(), Record(np.zeros(40), 0.01), solver_options={"dt_solver": 0.00102})
     assert row["status"] == 0 and row["message"].startswith("StepWarning: simulate: dt_solver = 0.00102 s exceeds"), row
 
@@ -388,8 +389,8 @@ def test_a_long_grid_says_its_expected_work_and_a_long_record_is_named():
     # The estimate: solver steps (record + tail) / dt times the measured time per step.
     import tempfile
 
-    from pycolfrag import records
     from pycolfrag.grid import GridSpec, RecordGridSpec, check_work
+    from pycolfrag.ground_motion import record_suites as records
     from record_suite import write_suite
     said = []
     spec = GridSpec(mw=(6.0,), dist_km=(5.0,), samples=10000)
@@ -412,7 +413,7 @@ def test_a_long_grid_says_its_expected_work_and_a_long_record_is_named():
 # ------------------------------------------------------------------------------ misleading messages
 
 def test_out_naming_a_folder_is_refused_as_such_not_called_damaged(tmp_path, capsys):
-    from pycolfrag.cli import main
+    from pycolfrag.cli.grid import main
     code = main([*FAKE, "--mpi", "no", "--out", str(tmp_path)])
     line = capsys.readouterr().out.strip()
     assert code == 2 and line == f"run_grid: --out {tmp_path} is a folder: give the results file's path, e.g. " \
@@ -441,8 +442,8 @@ def test_a_pair_of_unequal_lengths_runs_as_recorded_and_a_failing_record_says_wh
     # the pair (align="error") where simulate() runs either component. Here a pair of 601 and 451
     # samples, and a record whose H1 file is not an AT2: its rows fail and the summary says why.
     import pycolfrag as pcf
-    from pycolfrag.demo_records import pulse, write_at2
     from pycolfrag.ground_motion import read_at2
+    from pycolfrag.ground_motion.demo_records import pulse, write_at2
     dt = 0.01
     h1, h2 = pulse(0.30, 1.0, 6.0, dt), pulse(0.25, 0.8, 4.5, dt)
     assert (h1.size, h2.size) == (601, 451)
@@ -555,8 +556,8 @@ def _suite_csv(folder, file_h1, rid="R1"):
 
 def test_suite_files_outside_the_suite_folder_are_refused_unless_allowed(tmp_path):
     # Reported: a row naming ../somewhere/.token stored that file's 4th line in the results.
-    from pycolfrag import records
-    from pycolfrag.demo_records import write_at2
+    from pycolfrag.ground_motion import record_suites as records
+    from pycolfrag.ground_motion.demo_records import write_at2
     (tmp_path / "secret").mkdir()
     (tmp_path / "secret" / ".token").write_text("line 1\nline 2\nline 3\nTOKEN-VALUE-42\n")
     write_at2(tmp_path / "secret" / "ok.AT2", np.full(100, 0.01), 0.01)
@@ -582,7 +583,8 @@ def test_suite_files_outside_the_suite_folder_are_refused_unless_allowed(tmp_pat
 
 def test_devices_are_refused_as_tables_and_record_files(tmp_path):
     # Reported: /dev/zero was hashed without bound.
-    from pycolfrag import record_tables, records
+    from pycolfrag.ground_motion import record_suites as records
+    from pycolfrag.ground_motion import record_tables
     with pytest.raises(records.RecordFileError, match="suite table /dev/zero is not a regular file"):
         records.load_records("/dev/zero")
     csv = _suite_csv(tmp_path, "/dev/zero")
@@ -594,7 +596,7 @@ def test_devices_are_refused_as_tables_and_record_files(tmp_path):
 def test_record_file_hash_is_that_of_its_bytes_and_bounded(tmp_path, monkeypatch):
     import hashlib
 
-    from pycolfrag import record_tables
+    from pycolfrag.ground_motion import record_tables
     p = tmp_path / "a.bin"
     data = bytes(range(256)) * 40
     p.write_bytes(data)
@@ -646,7 +648,7 @@ def test_a_results_file_larger_than_the_disk_is_one_clear_line(tmpfs):  # noqa: 
     # Reported: a full disk while the HDF5 file was created gave a RuntimeError traceback and a
     # segfault (exit 139). 4 x 4 x 500 rows of ~900 bytes do not fit 1 MB: refused before creating.
     from pycolfrag.results import row_bytes
-    from pycolfrag.sample import DEFAULT_PERIODS_S
+    from pycolfrag.solver.sample import DEFAULT_PERIODS_S
     mnt, _ = tmpfs
     n_p = len(DEFAULT_PERIODS_S)   # the grid's spectral periods per row
     out = mnt / "g.h5"

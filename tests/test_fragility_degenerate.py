@@ -14,7 +14,7 @@ import pytest
 
 from pycolfrag.analysis import fragility as fr
 from pycolfrag.analysis.fragility import DegenerateFitWarning, degenerate
-from pycolfrag.errors import ParameterError
+from pycolfrag.core.errors import ParameterError
 
 
 def test_a_fit_with_every_run_at_one_im_level_is_degenerate():

@@ -14,7 +14,7 @@ import pytest
 from scipy import optimize
 
 from pycolfrag.analysis import fragility as fr
-from pycolfrag.errors import ParameterError
+from pycolfrag.core.errors import ParameterError
 
 
 def _draw(n=4000, seed=5):

@@ -14,7 +14,7 @@ import pytest
 from scipy import special, stats
 
 from pycolfrag.analysis import fragility as fr
-from pycolfrag.errors import ParameterError
+from pycolfrag.core.errors import ParameterError
 
 REPS = 200
 

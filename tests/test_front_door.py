@@ -12,7 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from pycolfrag import commands
+from pycolfrag.cli import main as commands
 
 ROOT = Path(__file__).resolve().parent.parent
 README = (ROOT / "README.md").read_text(encoding="utf-8")

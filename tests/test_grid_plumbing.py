@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag import cli, grid
+from pycolfrag import grid
 from pycolfrag import results as R
 from pycolfrag.analysis.data import load
 from pycolfrag.analysis.summary import format_table, summary_table
+from pycolfrag.cli import grid as cli
 
 
 @pytest.fixture

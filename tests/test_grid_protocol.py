@@ -94,18 +94,18 @@ def test_a_plain_function_is_a_row_function_of_one_row():
 
 def test_no_module_of_the_driver_imports_the_analysis():
     """Every module of the grid package, imports inside functions counted (read with ast): nothing of
-    ``pycolfrag.analysis`` nor the command line that runs it after a grid (``pycolfrag.cli``); the
-    dispatcher (``pycolfrag.commands``) is allowed, since it imports no command until one runs."""
+    ``pycolfrag.analysis`` nor the command line that runs it after a grid (``pycolfrag.cli.grid``); the
+    dispatcher (``pycolfrag.cli.main``) is allowed, since it imports no command until one runs."""
     from test_analysis_package import _imports, _modules
     modules = _modules()
     driver = sorted(m for m in modules if m == "pycolfrag.grid" or m.startswith("pycolfrag.grid."))
     assert len(driver) >= 8, driver
     for name in driver:
-        bad = {m for m in _imports(modules[name], modules) if m.startswith(("pycolfrag.analysis", "pycolfrag.cli"))}
+        bad = {m for m in _imports(modules[name], modules) if m.startswith(("pycolfrag.analysis", "pycolfrag.cli.grid"))}
         assert not bad, f"{name} imports {sorted(bad)}"
     # the dispatcher imports the package's version, its errors, and the thread limit and progress bars every
     # command runs under: each a leaf that imports nothing of pycolfrag, so no command is loaded with them
-    leaves = {"pycolfrag.errors", "pycolfrag.threads", "pycolfrag.progress"}
-    assert not {m for m in _imports(modules["pycolfrag.commands"], modules) if m != "pycolfrag"} - leaves
+    leaves = {"pycolfrag.core.errors", "pycolfrag.core.threads", "pycolfrag.core.progress"}
+    assert not {m for m in _imports(modules["pycolfrag.cli.main"], modules) if m != "pycolfrag"} - leaves
     for leaf in leaves:
         assert not {m for m in _imports(modules[leaf], modules) if m != leaf}, leaf

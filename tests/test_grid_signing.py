@@ -18,9 +18,10 @@ from pathlib import Path
 
 import pytest
 
-from pycolfrag import SolverOptions, _source_digest
+from pycolfrag import SolverOptions
 from pycolfrag import results as R
-from pycolfrag.errors import ResultsFileError, StaleBuildError
+from pycolfrag.core import source_digest as _source_digest
+from pycolfrag.core.errors import ResultsFileError, StaleBuildError
 from pycolfrag.grid import signing
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -13,12 +13,12 @@ import pytest
 matplotlib.use("Agg")
 
 import pycolfrag as pcf  # noqa: E402
-from pycolfrag.errors import ModelRangeError, ParameterError, PycolfragError  # noqa: E402
+from pycolfrag.core.errors import ModelRangeError, ParameterError, PycolfragError  # noqa: E402
 from pycolfrag.ground_motion import Record, sample_pulse_parameters, stochastic, synthesize  # noqa: E402
 from pycolfrag.ground_motion import mavroeidis_papageorgiou_2003 as mp  # noqa: E402
 from pycolfrag.ground_motion import rupakhety_2011 as r11  # noqa: E402
 from pycolfrag.ground_motion.combine import combine  # noqa: E402
-from pycolfrag.intensity import G, integrate  # noqa: E402
+from pycolfrag.ground_motion.intensity import G, integrate  # noqa: E402
 
 META_KEYS = ("Mw", "dist_km", "seed", "vp_scale", "Vp_cm_s", "fp_hz", "nu_rad", "gamma", "t0_s",
              "A_cm_s", "Ap_g", "Tp_s")   # docs/architecture.md, "Records"

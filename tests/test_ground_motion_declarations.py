@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 
 from pycolfrag import results as R
-from pycolfrag import sample
-from pycolfrag.errors import ModelRangeError, ParameterError
+from pycolfrag.core.errors import ModelRangeError, ParameterError
 from pycolfrag.ground_motion import atkinson_silva_2000 as as00
 from pycolfrag.ground_motion import baker_2007 as b07
 from pycolfrag.ground_motion import mavroeidis_papageorgiou_2003 as mp
 from pycolfrag.ground_motion import record, registry, synthesize
 from pycolfrag.ground_motion import rupakhety_2011 as r11
 from pycolfrag.ground_motion import shahi_baker_2014 as sb14
+from pycolfrag.solver import sample
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 

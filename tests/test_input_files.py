@@ -1,4 +1,4 @@
-"""The one policy for the text files a user names (pycolfrag/input_files.py): regular files only,
+"""The one policy for the text files a user names (pycolfrag/core/input_files.py): regular files only,
 bounded, UTF-8, and a clear exception naming the file for everything else. Each case is a hostile
 input that once hung the reader (a FIFO), exhausted memory (/dev/zero) or ended in a traceback."""
 import os
@@ -6,8 +6,8 @@ import threading
 
 import pytest
 
-from pycolfrag import input_files
-from pycolfrag.errors import HazardFileError, ParameterError
+from pycolfrag.core import input_files
+from pycolfrag.core.errors import HazardFileError, ParameterError
 
 
 def test_reads_utf8_text_and_drops_a_bom(tmp_path):
@@ -80,7 +80,7 @@ def _column_json(tmp_path, text: str):
 def test_a_json_column_with_a_key_twice_is_refused_naming_it(tmp_path):
     """JSON keeps the last of two equal keys silently: a column file with "density" twice read as the
     second value. Refused, at the top level and inside a nested table (the joints), with the key named."""
-    from pycolfrag.column import Column
+    from pycolfrag.structure.column import Column
     good = Column.single_block(1.0, 2.0).to_dict()
     import json
     text = json.dumps(good)
@@ -99,8 +99,8 @@ def test_a_json_column_with_a_key_twice_is_refused_naming_it(tmp_path):
 def test_a_json_scene_with_a_key_twice_is_refused_naming_it(tmp_path):
     import json
 
-    from pycolfrag.column import Column
-    from pycolfrag.scene import Colonnade
+    from pycolfrag.structure.column import Column
+    from pycolfrag.structure.scene import Colonnade
     scene = {"name": "portal", "n_columns": 2, "spacing": 3.0, "column": Column.single_block(1.0, 2.0).to_dict()}
     p = tmp_path / "scene.json"
     p.write_text(json.dumps(scene), encoding="utf-8")

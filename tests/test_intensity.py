@@ -1,4 +1,4 @@
-"""Intensity measures (pycolfrag.intensity, csrc/spectra.c) against an independent NumPy twin
+"""Intensity measures (pycolfrag.ground_motion.intensity, csrc/spectra.c) against an independent NumPy twin
 and against closed forms. Each expected number's source is stated next to it."""
 
 import numpy as np
@@ -6,10 +6,10 @@ import pytest
 from scipy.integrate import cumulative_trapezoid
 from scipy.linalg import expm
 
-from pycolfrag import intensity as im
-from pycolfrag.errors import ParameterError
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.ground_motion import intensity as im
 
-G = 9.81  # m/s^2, the package's g (pycolfrag.solver default, intensity.G)
+G = 9.81  # m/s^2, the package's g (pycolfrag.solver.run default, intensity.G)
 
 
 def twin_sdof(acc, dt, period, zeta):

@@ -28,14 +28,14 @@ import record_suite as rs  # noqa: E402
 #: The layers, from the top: a module belongs to the first layer one of whose names it is or lies under.
 LAYERS = (
     ("driver", ("pycolfrag.grid",)),
-    ("sample", ("pycolfrag.sample",)),
-    ("run and results layout", ("pycolfrag.solver", "pycolfrag.scene_run", "pycolfrag.results")),
-    ("inputs", ("pycolfrag.records", "pycolfrag.record_tables", "pycolfrag.scene", "pycolfrag.column",
-                "pycolfrag.connectors", "pycolfrag.foundation", "pycolfrag.options", "pycolfrag.step_cause")),
+    ("sample", ("pycolfrag.solver.sample",)),
+    ("run and results layout", ("pycolfrag.solver.run", "pycolfrag.solver.scene_setup", "pycolfrag.results")),
+    ("inputs", ("pycolfrag.ground_motion.record_suites", "pycolfrag.ground_motion.record_tables", "pycolfrag.structure.scene", "pycolfrag.structure.column",
+                "pycolfrag.structure.connectors", "pycolfrag.structure.foundation", "pycolfrag.solver.options", "pycolfrag.solver.step_cause")),
     ("ground motions", ("pycolfrag.ground_motion",)),
-    ("kernels", ("pycolfrag.intensity",)),
-    ("foundation", ("pycolfrag._ffi", "pycolfrag.names", "pycolfrag._validate", "pycolfrag.input_files",
-                    "pycolfrag.errors")),
+    ("kernels", ("pycolfrag.ground_motion.intensity",)),
+    ("foundation", ("pycolfrag.core.ffi", "pycolfrag.core.names", "pycolfrag.core.validate", "pycolfrag.core.input_files",
+                    "pycolfrag.core.errors")),
 )
 FOUNDATION = len(LAYERS) - 1
 #: Most stations of a row's walk (see the module docstring).
@@ -148,7 +148,8 @@ def test_a_synthetic_row_calls_downwards_only():
     """Two rows of the paper's grid below the driver, as its row function makes them: the scenario's
     pulse parameters (ground_motion.sample_pulse_parameters), then sample.run_synthetic_samples; 2 s of
     record each, the grid's resolved solver options."""
-    from pycolfrag import Column, SolverOptions, ground_motion, sample
+    from pycolfrag import Column, SolverOptions, ground_motion
+    from pycolfrag.solver import sample
     col, options, rows = Column.parthenon(), SolverOptions(), []
 
     def rows_of_the_grid():
@@ -159,28 +160,30 @@ def test_a_synthetic_row_calls_downwards_only():
     order, edges = _walk(rows_of_the_grid)
     assert [r["status"] for r in rows] == [0, 0], rows
     stations = _check_walk(order, edges, "synthetic row")
-    assert stations[:2] == ["pycolfrag.ground_motion", "pycolfrag.sample"], stations
+    assert stations[:2] == ["pycolfrag.ground_motion", "pycolfrag.solver.sample"], stations
 
 
 def test_a_record_row_calls_downwards_only(tmp_path):
     """Two rows of a record suite below the driver, as its row function makes them: the members taken
     from the suite (RecordSet indexing), then sample.run_record_samples: a component alone and the
     pair, scaled; the grid's resolved solver options. The suite's tables were read before the rows."""
-    from pycolfrag import Column, SolverOptions, records, sample
+    from pycolfrag import Column, SolverOptions
+    from pycolfrag.ground_motion import record_suites as records
+    from pycolfrag.solver import sample
     suite = records.load_records(rs.write_suite(tmp_path))
     col, options, rows = Column.parthenon(), SolverOptions(), []
     order, edges = _walk(lambda: rows.extend(sample.run_record_samples(
         [(suite[1], "h1", 0.5), (suite[1], "both", 1.0)], column=col, max_record_s=2.0, solver_options=options)))
     assert [r["status"] for r in rows] == [0, 0], rows
     stations = _check_walk(order, edges, "record row")
-    assert stations[:2] == ["pycolfrag.records", "pycolfrag.sample"] and "pycolfrag.record_tables" not in stations
+    assert stations[:2] == ["pycolfrag.ground_motion.record_suites", "pycolfrag.solver.sample"] and "pycolfrag.ground_motion.record_tables" not in stations
 
 
 def test_the_walk_check_sees_a_climb():
     """Code that the profiler attributes to intensity.py (the kernels) calling the sample module is
     reported as a climb: the checks above can fail."""
-    from pycolfrag import sample
+    from pycolfrag.solver import sample
     code = compile("sample.rows_to_table([])", str(PKG / "intensity.py"), "exec")
     order, edges = _walk(lambda: exec(code, {"sample": sample}))
-    with pytest.raises(AssertionError, match="calls up a layer: .*pycolfrag.intensity -> pycolfrag.sample"):
+    with pytest.raises(AssertionError, match="calls up a layer: .*pycolfrag.ground_motion.intensity -> pycolfrag.solver.sample"):
         _check_walk(order, edges, "a climb")

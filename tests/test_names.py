@@ -1,4 +1,4 @@
-"""pycolfrag.names: one g, and a registry that matches what the code computes and stores."""
+"""pycolfrag.core.names: one g, and a registry that matches what the code computes and stores."""
 from __future__ import annotations
 
 import json
@@ -12,8 +12,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pycolfrag import intensity, names, results, solver
-from pycolfrag.ground_motion import at2
+from pycolfrag import results
+from pycolfrag.core import names
+from pycolfrag.ground_motion import at2, intensity
+from pycolfrag.solver import run as solver
 
 
 def test_one_g_everywhere():
@@ -63,7 +65,7 @@ _NO_C = textwrap.dedent("""
     import importlib
     for name in {modules!r}:
         importlib.import_module(name)
-    print("C loaded:", "pycolfrag._ffi" in sys.modules)
+    print("C loaded:", "pycolfrag.core.ffi" in sys.modules)
 """)
 
 
@@ -76,10 +78,10 @@ def _import_without_c(*modules):
 def test_names_and_the_declarations_import_no_c():
     """names.py is pure data, and so are what the results layout is built from (the ground-motion
     declarations of the registry) and the layout itself: they import with the C extension unimportable."""
-    p = _import_without_c("pycolfrag.names", "pycolfrag.ground_motion.registry", "pycolfrag.results")
+    p = _import_without_c("pycolfrag.core.names", "pycolfrag.ground_motion.registry", "pycolfrag.results")
     assert p.returncode == 0 and p.stdout.strip() == "C loaded: False", p.stderr
     # the block is real: a module that needs C fails in the same child
-    p = _import_without_c("pycolfrag.intensity")
+    p = _import_without_c("pycolfrag.ground_motion.intensity")
     assert p.returncode != 0 and "made unimportable" in p.stderr
 
 

@@ -13,8 +13,8 @@ import hashlib
 import numpy as np
 import pytest
 
-from pycolfrag._ffi import ffi, lib
-from pycolfrag.errors import ParameterError
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.ffi import ffi, lib
 from pycolfrag.ground_motion import atkinson_silva_2000 as as00
 from pycolfrag.ground_motion import draw_normals, normals_layout, sample_pulse_parameters, stochastic, synthesize
 from pycolfrag.ground_motion import mavroeidis_papageorgiou_2003 as mp

@@ -15,7 +15,8 @@ import pytest
 from scipy import stats
 
 from pycolfrag.analysis import openquake as oq
-from pycolfrag.errors import HazardFileError, ParameterError
+from pycolfrag.cli import openquake as oq_cli
+from pycolfrag.core.errors import HazardFileError, ParameterError
 
 CASE1 = Path(__file__).resolve().parent / "data" / "oq_classical_damage_case_1"
 
@@ -233,17 +234,17 @@ def test_command_line_export_and_damage(tmp_path, capsys):
     from test_figures import write_results
     h5 = write_results(tmp_path / "grid.h5", mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0), n=60, n_failed=0)
     out = tmp_path / "frag.xml"
-    assert oq.main(["export", str(h5), str(out), "--im", "pga_g", "--no-collapse"]) == 0
+    assert oq_cli.main(["export", str(h5), str(out), "--im", "pga_g", "--no-collapse"]) == 0
     hz = tmp_path / "hz.csv"
     hz.write_text("# investigation_time=50.0, imt=\"PGA\"\nlon,lat,poe-0.05,poe-0.1,poe-0.2,poe-0.4,poe-0.8\n"
                   "23.7,37.9,0.5,0.2,0.05,0.01,0.001\n")
     capsys.readouterr()
-    assert oq.main(["damage", str(hz), str(out)]) == 0
+    assert oq_cli.main(["damage", str(hz), str(out)]) == 0
     line = [ln for ln in capsys.readouterr().out.splitlines() if "damage states" in ln][0]
     probs = [float(t.rstrip(",")) for t in line.split()[3::2]]
     assert sum(probs) == pytest.approx(1.0, abs=1e-3) and len(probs) == 4
     hz.write_text("lon,lat,poe-0.05,poe-0.1\n1,2,0.1,0.01\n")
-    assert oq.main(["damage", str(hz), str(out)]) == 2
+    assert oq_cli.main(["damage", str(hz), str(out)]) == 2
     assert "investigation_time" in capsys.readouterr().err
 
 
@@ -264,8 +265,8 @@ def test_export_formats_come_from_the_registry(tmp_path, monkeypatch, capsys):
 
     monkeypatch.setitem(outputs.WRITERS, "toy", outputs.Writer("toy", ".txt", "limit state and median", toy))
     h5 = write_results(tmp_path / "grid.h5", mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0), n=60, n_failed=0)
-    assert oq.main(["export", str(h5), str(tmp_path / "f.txt"), "--to", "toy", "--im", "pga_g", "--no-collapse"]) == 0
-    assert oq.main(["export", str(h5), str(tmp_path / "f.xml"), "--im", "pga_g", "--no-collapse"]) == 0
+    assert oq_cli.main(["export", str(h5), str(tmp_path / "f.txt"), "--to", "toy", "--im", "pga_g", "--no-collapse"]) == 0
+    assert oq_cli.main(["export", str(h5), str(tmp_path / "f.xml"), "--im", "pga_g", "--no-collapse"]) == 0
     [nrml] = oq.read_nrml(tmp_path / "f.xml").values()
     got = dict(line.split() for line in (tmp_path / "f.txt").read_text().splitlines())
     assert list(got) == list(nrml.limit_states)
@@ -275,5 +276,5 @@ def test_export_formats_come_from_the_registry(tmp_path, monkeypatch, capsys):
         outputs.write_fragility(nrml, tmp_path / "x.txt", "no-such-format")
     monkeypatch.delitem(outputs.WRITERS, "toy")
     with pytest.raises(SystemExit):
-        oq.main(["export", str(h5), str(tmp_path / "g.txt"), "--to", "toy"])
+        oq_cli.main(["export", str(h5), str(tmp_path / "g.txt"), "--to", "toy"])
     assert "invalid choice: 'toy'" in capsys.readouterr().err

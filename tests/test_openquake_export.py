@@ -20,7 +20,7 @@ import pytest
 from pycolfrag.analysis import fragility as F
 from pycolfrag.analysis import openquake as oq
 from pycolfrag.analysis.fragility import U_TOP_LEVELS
-from pycolfrag.errors import ParameterError, ResultsFileError
+from pycolfrag.core.errors import ParameterError, ResultsFileError
 
 sys.path.insert(0, os.path.dirname(__file__))
 from test_figures import write_results  # noqa: E402

@@ -20,9 +20,10 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pycolfrag import input_files
 from pycolfrag.analysis import openquake as oq
-from pycolfrag.errors import HazardFileError, ParameterError
+from pycolfrag.cli import openquake as oq_cli
+from pycolfrag.core import input_files
+from pycolfrag.core.errors import HazardFileError, ParameterError
 
 sys.path.insert(0, os.path.dirname(__file__))
 CASE1 = Path(__file__).resolve().parent / "data" / "oq_classical_damage_case_1"
@@ -140,14 +141,14 @@ def test_bad_damage_arguments_are_named(kw, words):
 def test_command_line_refuses_risk_time_zero_and_an_unknown_taxonomy(tmp_path, capsys):
     hz = CASE1 / "hazard_curves_continuous.csv"
     xml = CASE1 / "fragility_model_continuous.xml"
-    assert oq.main(["damage", str(hz), str(xml), "--risk-time", "0"]) == 2
+    assert oq_cli.main(["damage", str(hz), str(xml), "--risk-time", "0"]) == 2
     assert "0.0 (risk)" in capsys.readouterr().err
-    assert oq.main(["damage", str(hz), str(xml), "--taxonomy", "nope"]) == 2
+    assert oq_cli.main(["damage", str(hz), str(xml), "--taxonomy", "nope"]) == 2
     err = capsys.readouterr().err
     assert "--taxonomy 'nope' is not in" in err and "(it holds ['W'])" in err
     latin = tmp_path / "latin1.csv"
     latin.write_bytes(b"# investigation_time=50.0, imt=\"PGA\"\nlon,lat,poe-0.1,poe-0.2\n1,2,0.1,0.01\n\xe9\n")
-    assert oq.main(["damage", str(latin), str(xml)]) == 2
+    assert oq_cli.main(["damage", str(latin), str(xml)]) == 2
     assert "is not UTF-8 text" in capsys.readouterr().err
 
 
@@ -175,7 +176,7 @@ def test_continuous_fragility_discretization_is_openquakes(n, capsys):
                               continuous_fragility_discretization=n)["damage"]
     want = _oq_fine_levels_damage(model, hc.imls, hc.poes[0], 50.0, 100.0, n)
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)       # the same sums in another order
-    assert oq.main(["damage", str(CASE1 / "hazard_curves_continuous.csv"),
+    assert oq_cli.main(["damage", str(CASE1 / "hazard_curves_continuous.csv"),
                     str(CASE1 / "fragility_model_continuous.xml"), "--risk-time", "100", "--steps-per-interval",
                     "4", "--continuous-fragility-discretization", str(n)]) == 0
     line = [ln for ln in capsys.readouterr().out.splitlines() if "damage states" in ln][0]

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag.options import CONTACT_DOCS, CONTACT_OPTIONS, OPTIONS, SolverOptions
+from pycolfrag.solver.options import CONTACT_DOCS, CONTACT_OPTIONS, OPTIONS, SolverOptions
 
 G = 9.81
 
@@ -94,7 +94,7 @@ def test_fields_defaults_and_c_definition_are_the_c_tables():
     """SolverOptions has one field per option of the C tables, in their order, with the default the C
     definition holds (cf_solver_def_default read back by name), and to_c puts every field where C reads
     it: a non-default value of each option, read back by name from the definition."""
-    from pycolfrag._ffi import ffi, lib
+    from pycolfrag.core.ffi import ffi, lib
     c_names = [ffi.string(lib.cf_solver_options_get(i).name).decode() for i in range(lib.cf_solver_options_count())]
     assert [o.c_name for o in OPTIONS.values()] == c_names
     assert [f.name for f in dataclasses.fields(SolverOptions)] == list(OPTIONS) == list(SolverOptions.names())
@@ -122,9 +122,9 @@ def test_fields_defaults_and_c_definition_are_the_c_tables():
 def test_docs_table_is_the_c_tables():
     """docs/solver.md's options table is options.docs_table() (printed from the C tables): paste it
     again when an option or a contact model changes."""
-    from pycolfrag.options import docs_table
+    from pycolfrag.solver.options import docs_table
     text = (Path(__file__).resolve().parents[1] / "docs" / "solver.md").read_text()
-    assert docs_table() in text, "docs/solver.md's options table differs from pycolfrag.options.docs_table()"
+    assert docs_table() in text, "docs/solver.md's options table differs from pycolfrag.solver.options.docs_table()"
 
 
 def test_the_docstring_names_every_option_with_its_default():
@@ -214,7 +214,7 @@ def test_contact_options_are_the_c_registry():
     """The contact option's names and codes come from the C library's registry of contact models: every
     entry, in its order, each with its description; the C callers' names of the first entries
     (CF_SOLVER_CONTACT_*) index the models they name; a model's options name it."""
-    from pycolfrag._ffi import ffi, lib
+    from pycolfrag.core.ffi import ffi, lib
     n = lib.cf_solver_contact_model_count()
     assert CONTACT_OPTIONS == {ffi.string(lib.cf_solver_contact_model_name(i)).decode(): i for i in range(n)}
     assert set(CONTACT_DOCS) == set(CONTACT_OPTIONS) and all(len(d) > 20 for d in CONTACT_DOCS.values())

@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag import _ffi, _validate
+from pycolfrag.core import ffi as _ffi
+from pycolfrag.core import validate as _validate
 
 
 def test_c_library_version_matches_package():

@@ -1,4 +1,4 @@
-"""Debug plots of one run (pycolfrag/plots.py): the matplotlib objects, not pixels.
+"""Debug plots of one run (pycolfrag/plots/response.py): the matplotlib objects, not pixels.
 
 Most tests use a small fake response (a SimpleNamespace with the fields of solver.History and
 Response): a 3-block column rocking rigidly about its +x base edge with a known tilt, so the 3D
@@ -18,7 +18,8 @@ from matplotlib.figure import Figure  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 import pycolfrag as pcf  # noqa: E402
-from pycolfrag import ParameterError, plots  # noqa: E402
+from pycolfrag import ParameterError  # noqa: E402
+from pycolfrag.plots import response as plots
 
 N_SIDES = 8
 
@@ -270,7 +271,7 @@ def test_real_simulation(tmp_path):
 @pytest.fixture(scope="module")
 def portal_run():
     """A 2-column portal (26 drums and capitals, one epistyle) rocking under 2 s of a 1 Hz, 0.41 g sine."""
-    from pycolfrag.scene import Colonnade
+    from pycolfrag.structure.scene import Colonnade
     sc = Colonnade.portal(2)
     dt = 0.01
     t = np.arange(0.0, 3.0, dt)

@@ -8,7 +8,7 @@ import pytest
 from scipy import stats
 from scipy.integrate import trapezoid
 
-from pycolfrag.errors import ModelRangeError, ParameterError
+from pycolfrag.core.errors import ModelRangeError, ParameterError
 from pycolfrag.ground_motion import mavroeidis_papageorgiou_2003 as mp
 from pycolfrag.ground_motion import rupakhety_2011 as r11
 from pycolfrag.ground_motion import sample_pulse_parameters
@@ -239,8 +239,8 @@ def test_the_registry_refuses_a_shape_that_breaks_the_interface():
     naming it), instead of failing later in a grid."""
     from types import SimpleNamespace
 
+    from pycolfrag.core.names import Parameter
     from pycolfrag.ground_motion import registry
-    from pycolfrag.names import Parameter
 
     def shape(name, params=mp.PARAMETERS, **kw):
         return SimpleNamespace(**{"NAME": f"toy_{name}", "KIND": "pulse", "SHAPE": name, "PARAMETERS": params,

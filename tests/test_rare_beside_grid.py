@@ -5,7 +5,7 @@ tests/data/site_rare_tiny.toml, records cut to 8 s, 60 runs (as tests/test_rare_
 grids of Mw 6, 6.5, 7 x R 5, 7.5, 10 km (the strata's edges) with and without pulses. A grid of the same
 column and options is compared (its verdicts printed); a grid of the Parthenon column -- the hostile case,
 which printed "agree: yes" -- is refused with the column named, and so is every other difference
-(:func:`pycolfrag.analysis.risk_rare_like.differences` against the RecordSettings the simulation ran with).
+(:func:`pycolfrag.risk.rare_like.differences` against the RecordSettings the simulation ran with).
 No expected numbers: which settings differ is an identity of the files.
 """
 from __future__ import annotations
@@ -18,10 +18,10 @@ from pathlib import Path
 
 import pytest
 
-from pycolfrag.analysis.risk_rare_like import check_like_with_like, differences
-from pycolfrag.column import Column
-from pycolfrag.errors import ParameterError
+from pycolfrag.core.errors import ParameterError
 from pycolfrag.rare.evaluator import RecordSettings
+from pycolfrag.risk.rare_like import check_like_with_like, differences
+from pycolfrag.structure.column import Column
 
 h5py = pytest.importorskip("h5py")
 

@@ -22,14 +22,14 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from pycolfrag.analysis.risk import QUANTITIES
-from pycolfrag.errors import ParameterError, ResultsFileError
+from pycolfrag.core.errors import ParameterError, ResultsFileError
 from pycolfrag.rare import allocation, proposal
 from pycolfrag.rare.driver import SiteSettings, StopRule, simulate_site
 from pycolfrag.rare.estimate import WeightError, estimate
 from pycolfrag.rare.plans import PulseMap, event_input, interleave
 from pycolfrag.rare.strata import build_strata
-from pycolfrag.site import load_site, site_from_dict
+from pycolfrag.risk.site_risk import QUANTITIES
+from pycolfrag.site.sources import load_site, site_from_dict
 from rare_surrogate import SurrogateEvaluator, exact_rates
 
 PULSE = {"model": "shahi_baker_2014", "mechanism": "non-strike-slip", "s_km": 5.0, "angle_deg": 30.0}

@@ -23,12 +23,12 @@ from contextlib import redirect_stdout
 import numpy as np
 import pytest
 
-from pycolfrag.analysis import risk
-from pycolfrag.analysis.risk import QUANTITIES
-from pycolfrag.errors import ParameterError
+from pycolfrag.core.errors import ParameterError
 from pycolfrag.grid.probes import check_record_dt
 from pycolfrag.rare.driver import SiteSettings, StopRule, simulate_site
 from pycolfrag.rare.estimate import UNRESOLVED
+from pycolfrag.risk import site_risk as risk
+from pycolfrag.risk.site_risk import QUANTITIES
 
 sys.path.insert(0, os.path.dirname(__file__))
 from rare_surrogate import SurrogateEvaluator  # noqa: E402
@@ -232,7 +232,7 @@ def test_grid_files_beside_the_simulation_are_checked_before_any_run(tmp_path, g
     The files here are written without a solver (test_figures.write_results), so they are runs of no model at
     all: the like-with-like check of the files against the simulation's model (tests/test_rare_beside_grid.py
     holds it, on real grids) is set aside to reach the checks this test is about."""
-    from pycolfrag.analysis import risk_rare
+    from pycolfrag.risk import rare_route as risk_rare
     monkeypatch.setattr(risk_rare, "check_like_with_like", lambda record, files: None)
     done, part, short = grids
     args = BASE + ["--pulse-only", "--max-runs", "10"]
@@ -272,7 +272,7 @@ class _Comm:
 def test_the_check_before_the_runs_runs_on_rank_0_alone_and_its_refusal_reaches_every_rank():
     """The grid route beside a simulation (two site risks) ran on every rank, N times the work and memory, and a
     refusal on rank 0 alone (a file it could not read) left the other ranks waiting for batches forever."""
-    from pycolfrag.rare.command import _on_rank0
+    from pycolfrag.risk.simulate import _on_rank0
     calls = []
 
     def check(*args):

@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 
 from pycolfrag import grid
-from pycolfrag.analysis import risk
 from pycolfrag.analysis.compare import compare_results
-from pycolfrag.column import Column
+from pycolfrag.risk import site_risk as risk
+from pycolfrag.structure.column import Column
 
 ROOT = Path(__file__).resolve().parents[1]
 SITE = ROOT / "tests" / "data" / "site_rare_tiny.toml"

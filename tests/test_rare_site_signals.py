@@ -20,8 +20,8 @@ from pathlib import Path
 import pytest
 
 from pycolfrag import results as R
-from pycolfrag.analysis import risk
 from pycolfrag.rare import evaluator as _evaluator
+from pycolfrag.risk import site_risk as risk
 from test_faults import _rank_pids  # the python ranks of an mpirun writing a path, from /proc
 from test_rare_site_plumbing import ARGS, BASE, ROOT, _cmd, _env, _run, _same_rows
 

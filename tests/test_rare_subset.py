@@ -30,7 +30,7 @@ import pytest
 from scipy import stats
 
 import pycolfrag as pcf
-from pycolfrag.errors import ParameterError, RareEventError
+from pycolfrag.core.errors import ParameterError, RareEventError
 from pycolfrag.rare import subset as sus
 
 REFERENCE = Path(__file__).parent / "data" / "rare_subset_reference.json"

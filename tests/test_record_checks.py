@@ -1,5 +1,5 @@
 """The paper's natural-record checks: Fig. 10 (pycolfrag.analysis.record_figures) and Table II
-(pycolfrag.table_ii), and the serial suite runner they use (pycolfrag.sample.run_suite)."""
+(pycolfrag.analysis.table_ii), and the serial suite runner they use (pycolfrag.solver.sample.run_suite)."""
 from __future__ import annotations
 
 import math
@@ -12,10 +12,11 @@ from scipy import optimize
 
 sys.path.insert(0, os.path.dirname(__file__))
 import record_suite as rs  # noqa: E402
-from pycolfrag import records, sample  # noqa: E402
-from pycolfrag import table_ii as t2  # noqa: E402
 from pycolfrag.analysis import record_figures as rf  # noqa: E402
-from pycolfrag.errors import ParameterError  # noqa: E402
+from pycolfrag.analysis import table_ii as t2  # noqa: E402
+from pycolfrag.core.errors import ParameterError  # noqa: E402
+from pycolfrag.ground_motion import record_suites as records
+from pycolfrag.solver import sample  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -130,7 +131,7 @@ def test_table_ii_procedure(suite):
 
 def test_table_ii_passes_the_damping_switch(suite, monkeypatch):
     """The damped run gets damping_alpha and damping_start_s = end of D5-95; the undamped run neither."""
-    from pycolfrag import solver
+    from pycolfrag.solver import run as solver
     calls = []
     real = solver.simulate
 
@@ -158,7 +159,7 @@ def test_table_ii_is_medians_ranges_and_collapse_counts(suite, monkeypatch):
     percentiles (linear between order statistics, positions 0.3 and 2.7 of 0..3) 0.013 and 0.037; the
     damped value rests on one member and says so; the error exists for member 0 only:
     100 (0.01 - 0.012) / 0.012 = -16.67 %. Nothing is dropped silently: 1 of 5 and 4 of 5 collapsed."""
-    from pycolfrag import solver
+    from pycolfrag.solver import run as solver
     und = [0.01, 0.02, 0.03, 0.04, None]
     dam = [0.012, None, None, None, None]
     answers = [_Fake(x) for pair in zip(und, dam) for x in pair]      # undamped, then damped, per member
@@ -195,8 +196,8 @@ def test_the_papers_table_ii_as_printed():
 
 
 def test_record_checks_script(tmp_path, capsys):
-    """pycolfrag record-checks (pycolfrag/analysis/record_checks.py): fig10 writes the figure and the run table; table2 prints the table."""
-    from pycolfrag.analysis import record_checks as mod
+    """pycolfrag record-checks (pycolfrag/cli/record_checks.py): fig10 writes the figure and the run table; table2 prints the table."""
+    from pycolfrag.cli import record_checks as mod
     assert mod.main(["demo-suite", str(tmp_path / "suite")]) == 0
     folder = tmp_path / "suite"
     assert mod.main(["fig10", "--records", str(folder), "--out", str(tmp_path / "out"), "--max-record-s", "1"]) == 0
@@ -213,7 +214,7 @@ def test_record_checks_fig10_splits_fn_fp_and_draws_several_sets(tmp_path, capsy
     fault-normal one (along 180 deg) is -H1: the FP run's PGA is H2's closed-form 0.20 g and the FN
     run's H1's 0.30 g (RSN9001: sines of 0.30 g and 0.20 g). Both sets appear in one figure, and the
     binned means come in FN and FP groups for the oriented set only."""
-    from pycolfrag.analysis import record_checks as mod
+    from pycolfrag.cli import record_checks as mod
     folder = tmp_path / "suite"
     assert mod.main(["demo-suite", str(folder)]) == 0
     lines = (folder / "suite.csv").read_text().splitlines()

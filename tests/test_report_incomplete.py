@@ -17,7 +17,7 @@ import pytest
 
 from pycolfrag.analysis import figures, record_report, report, validation
 from pycolfrag.analysis.data import load
-from pycolfrag.errors import ResultsFileError
+from pycolfrag.core.errors import ResultsFileError
 
 sys.path.insert(0, os.path.dirname(__file__))
 import record_suite as rs  # noqa: E402

@@ -48,7 +48,7 @@ def test_edps_are_defined_at_the_top(report_text):
 
 def test_the_column_is_a_table_not_a_cut_blob(report_text):
     """The default column: 12 drums and a capital (13 blocks), 10.08 m, base diameter 1.65 m, 2700 kg/m3,
-    kn = 1e9 Pa/m, friction 37 degrees (pycolfrag.column.Column.parthenon)."""
+    kn = 1e9 Pa/m, friction 37 degrees (pycolfrag.structure.column.Column.parthenon)."""
     col = report_text[report_text.index("### The column"):report_text.index("## Collapse")]
     assert "13 blocks, height 10.08 m, base diameter 1.650 m" in col and "density 2700 kg/m\u00b3" in col
     assert "kn = 1e+09 Pa/m" in col and "friction angle 37\u00b0" in col
@@ -63,7 +63,7 @@ def test_a_scene_and_dowels_are_described():
     20 mm); a description that is not a model is listed key by key, not cut."""
     from pathlib import Path
 
-    from pycolfrag.scene import Colonnade
+    from pycolfrag.structure.scene import Colonnade
     ex = Path(__file__).resolve().parents[1] / "examples"
     portal = "\n".join(rt.model_lines(Colonnade.from_file(ex / "portal_2.toml").to_json()))
     assert "2 columns, axes 4.000 m apart; an epistyle 1.350 m high over every span" in portal

@@ -10,11 +10,11 @@ from pathlib import Path
 import numpy as np
 
 import pycolfrag as pcf
-from pycolfrag import names
 from pycolfrag.analysis import report
 from pycolfrag.analysis.compare import compare_results
 from pycolfrag.analysis.data import load
-from pycolfrag.scene import Colonnade, model_from_dict
+from pycolfrag.core import names
+from pycolfrag.structure.scene import Colonnade, model_from_dict
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"

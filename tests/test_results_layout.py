@@ -1,5 +1,5 @@
 """The results layouts: the IM/EDP fields come from the one registry
-(pycolfrag.names) without changing the synthetic layout, and the record-suite layout is the one
+(pycolfrag.core.names) without changing the synthetic layout, and the record-suite layout is the one
 documented in docs/results_format.md."""
 import re
 import subprocess
@@ -7,8 +7,8 @@ import sys
 import textwrap
 from pathlib import Path
 
-from pycolfrag import names
 from pycolfrag import results as R
+from pycolfrag.core import names
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "results_format.md"
 
@@ -59,7 +59,7 @@ def test_event_layout_is_the_documented_one():
 
 
 def test_a_new_im_in_the_registry_reaches_both_layouts():
-    """Declaring an IM in pycolfrag.names is enough for the writer: a child interpreter adds one
+    """Declaring an IM in pycolfrag.core.names is enough for the writer: a child interpreter adds one
     and (re)loads the layout of pycolfrag.results, and finds it in both layouts with its description."""
     code = textwrap.dedent("""
         import importlib

@@ -241,7 +241,7 @@ def _tampered(tmp_path):
 
 @pytest.mark.parametrize("command", [
     ["-m", "pycolfrag.analysis.report", "{h5}", "{tmp}/report.md"],
-    ["-m", "pycolfrag.analysis.risk", str(ROOT / "examples" / "site_athens.toml"), "{h5}", "{tmp}/risk"],
+    ["-m", "pycolfrag.risk.site_risk", str(ROOT / "examples" / "site_athens.toml"), "{h5}", "{tmp}/risk"],
 ])
 def test_readers_of_a_tampered_file_say_how_to_salvage_it(tmp_path, command):
     # Reported: the report and risk on a tampered file said only "checksum mismatch". The hint is in

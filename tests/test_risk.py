@@ -1,4 +1,4 @@
-"""Site risk by the Mw-R route (pycolfrag.analysis.risk, pycolfrag.site) and the pulse-occurrence model of
+"""Site risk by the Mw-R route (pycolfrag.risk.site_risk, pycolfrag.site.sources) and the pulse-occurrence model of
 Shahi & Baker (2014).
 
 Every expected number is computed here from a closed form (the truncated Gutenberg-Richter pdf,
@@ -15,13 +15,13 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pycolfrag import site as site_file
-from pycolfrag import site_models as models
 from pycolfrag.analysis import fragility as fr
-from pycolfrag.analysis import risk
 from pycolfrag.analysis.data import read_results
-from pycolfrag.errors import ParameterError
+from pycolfrag.core.errors import ParameterError
 from pycolfrag.ground_motion import shahi_baker_2014 as sb14
+from pycolfrag.risk import site_risk as risk
+from pycolfrag.site import models
+from pycolfrag.site import sources as site_file
 
 # --------------------------------------------------------------------------- helpers
 

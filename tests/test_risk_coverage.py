@@ -3,7 +3,7 @@
 The reference is the default grid of 100 runs per cell (tests/data/default_grid_edps.npz, its EDPs;
 tests/data/README.md). Drawing 20 of each cell's 100 runs and computing the risk of the example site
 (pulse branch alone: the default grid has no no-pulse twin) gives an interval; how often it contains
-the 100-run value is its coverage (pycolfrag.analysis.risk_coverage). The 20 runs are part of the
+the 100-run value is its coverage (pycolfrag.risk.coverage). The 20 runs are part of the
 100, so an exact 90 % interval contains the 100-run value about 93.4 % of the time
 (risk_coverage.expected_coverage). With R = 150 repetitions the measured coverage has a standard
 error of about sqrt(0.934 * 0.066 / 150) = 0.020; a method is called honest here when every level's
@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pycolfrag import site as site_file
-from pycolfrag.analysis import risk
 from pycolfrag.analysis.data import ResultsData
-from pycolfrag.analysis.risk_coverage import expected_coverage, subsample_coverage
-from pycolfrag.analysis.risk_uncertainty import DEFAULT_UNCERTAINTY
+from pycolfrag.risk import site_risk as risk
+from pycolfrag.risk.coverage import expected_coverage, subsample_coverage
+from pycolfrag.risk.uncertainty import DEFAULT_UNCERTAINTY
+from pycolfrag.site import sources as site_file
 
 ROOT = Path(__file__).resolve().parents[1]
 REPS, DRAWS = 150, 300

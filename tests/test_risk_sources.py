@@ -1,4 +1,4 @@
-"""Site sources as classes (pycolfrag.site, pycolfrag.site_models): joint (Mw, R) events, random draws,
+"""Site sources as classes (pycolfrag.site.sources, pycolfrag.site.models): joint (Mw, R) events, random draws,
 the pulse-occurrence branches, and the site file's reading and range checks.
 
 Expected numbers come from closed forms and from scipy.integrate.quad/dblquad of the closed-form
@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from pycolfrag import site as site_file
-from pycolfrag import site_models as models
-from pycolfrag.analysis import risk
-from pycolfrag.errors import ParameterError
+from pycolfrag.core.errors import ParameterError
 from pycolfrag.ground_motion import shahi_baker_2014 as sb14
 from pycolfrag.ground_motion import shahi_baker_earlier as sbe
+from pycolfrag.risk import site_risk as risk
+from pycolfrag.site import models
+from pycolfrag.site import sources as site_file
 
 GOOD = {"name": "f", "rate": 0.01, "magnitude": {"type": "gutenberg-richter", "b": 1.0, "m_min": 5.5, "m_max": 7.0},
         "distance": {"type": "uniform", "min_km": 5.0, "max_km": 20.0}}

@@ -15,9 +15,10 @@ import pytest
 from scipy import stats
 
 from pycolfrag.analysis import fragility as fr
-from pycolfrag.analysis import risk, risk_report
-from pycolfrag.analysis.risk_fit import two_sided_pvalue
-from pycolfrag.errors import ParameterError, ResultsFileError
+from pycolfrag.core.errors import ParameterError, ResultsFileError
+from pycolfrag.risk import report as risk_report
+from pycolfrag.risk import site_risk as risk
+from pycolfrag.risk.fit import two_sided_pvalue
 from test_risk import char_source, site, write_cells
 
 CELLS = {(7.0, 10.0): (40, 10, 0.3), (7.0, 20.0): (40, 2, 0.1)}

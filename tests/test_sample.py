@@ -1,4 +1,4 @@
-"""pycolfrag.sample: one definition of a sample row, for synthetic scenarios and natural records."""
+"""pycolfrag.solver.sample: one definition of a sample row, for synthetic scenarios and natural records."""
 from __future__ import annotations
 
 import math
@@ -10,9 +10,11 @@ import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import record_suite as rs  # noqa: E402
-from pycolfrag import names, records, sample  # noqa: E402
-from pycolfrag.column import Column  # noqa: E402
+from pycolfrag.core import names
 from pycolfrag.ground_motion import Record  # noqa: E402
+from pycolfrag.ground_motion import record_suites as records
+from pycolfrag.solver import sample  # noqa: E402
+from pycolfrag.structure.column import Column  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -110,7 +110,7 @@ def test_a_grid_rank_starts_without_scipy_or_the_analysis():
     """Importing what every rank of a grid imports (the command, the driver) loads no scipy module and,
     of the analysis, only the fragility statistics ``import pycolfrag`` binds (whose scipy loads on first
     use): scipy was 0.9 s of a rank's 1.1 s start-up."""
-    code = ("import sys, pycolfrag.commands, pycolfrag.cli, pycolfrag.grid\n"
+    code = ("import sys, pycolfrag.cli.main, pycolfrag.cli.grid, pycolfrag.grid\n"
             "print(sorted(m for m in sys.modules if m.split('.')[0] == 'scipy' or m.startswith('pycolfrag.analysis')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr

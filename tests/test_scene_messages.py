@@ -12,14 +12,14 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag import step_cause
-from pycolfrag.analysis import risk_report
-from pycolfrag.connectors import Connectors, DowelLaw
 from pycolfrag.grid import probes
-from pycolfrag.rare import command as risk_command
 from pycolfrag.results import ResultsLockedError, RunLock, signature_mismatch
-from pycolfrag.scene import Colonnade, Epistyle
-from pycolfrag.solver import StepWarning
+from pycolfrag.risk import report as risk_report
+from pycolfrag.risk import simulate as risk_command
+from pycolfrag.solver import step_cause
+from pycolfrag.solver.run import StepWarning
+from pycolfrag.structure.connectors import Connectors, DowelLaw
+from pycolfrag.structure.scene import Colonnade, Epistyle
 
 
 def test_a_beam_too_heavy_for_its_columns_is_refused_with_its_settlement():

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag.column import JointProperties
-from pycolfrag.scene import Colonnade, Epistyle
+from pycolfrag.structure.column import JointProperties
+from pycolfrag.structure.scene import Colonnade, Epistyle
 
 G = 9.81   # the package's gravity (pycolfrag/data/constants.json), the solver's default
 

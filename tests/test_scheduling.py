@@ -8,11 +8,12 @@ from collections import deque
 import numpy as np
 import pytest
 
-from pycolfrag import Column, solver
+from pycolfrag import Column
 from pycolfrag.grid import GridSpec, chunks, replay, serve
 from pycolfrag.grid.chunks import ChunkQueue, rank0_chunk_max, synthetic_record_s
 from pycolfrag.grid.replay_sim import batch_width_rule
 from pycolfrag.ground_motion import atkinson_silva_2000 as as00
+from pycolfrag.solver import run as solver
 
 
 def _b2afe10_chunk(queue: deque, size: int, chunk_max: int) -> list:

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag.connectors import Connectors
-from pycolfrag.names import G
-from pycolfrag.scene import Colonnade
-from pycolfrag.state import State
+from pycolfrag.core.names import G
+from pycolfrag.solver.state import State
+from pycolfrag.structure.connectors import Connectors
+from pycolfrag.structure.scene import Colonnade
 
 DT = 0.01
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag.solver import EnergyWarning
+from pycolfrag.solver.run import EnergyWarning
 
 G = 9.81
 

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag.column import JointProperties
-from pycolfrag.scene import Colonnade, Epistyle
-from pycolfrag.state import _HEAD, _MON
+from pycolfrag.solver.state import _HEAD, _MON
+from pycolfrag.structure.column import JointProperties
+from pycolfrag.structure.scene import Colonnade, Epistyle
 
 _BODIES = _HEAD + _MON   # where the bodies' x, v, q, w start in State.values (state.py)
 

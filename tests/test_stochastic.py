@@ -26,7 +26,7 @@ import sys
 import numpy as np
 import pytest
 
-from pycolfrag.errors import ModelRangeError, ParameterError
+from pycolfrag.core.errors import ModelRangeError, ParameterError
 from pycolfrag.ground_motion import _numpy_reference as npref
 from pycolfrag.ground_motion import atkinson_silva_2000 as as00
 
@@ -46,7 +46,7 @@ BANDS = {
 BAND_BT15_M65 = (0.94, 1.09)    # as00.json 1.00-1.03 at Mw 6.5 / 10 km (BT15); 3 SE ~ 3-6 %
 
 
-# ---- helpers: independent peak measures (not pycolfrag.intensity) ---------------------
+# ---- helpers: independent peak measures (not pycolfrag.ground_motion.intensity) ---------------------
 
 def pga_pgv(acc: np.ndarray, dt: float):
     """Peak |acc| and peak |vel| (trapezoidal integration from rest), rows = records."""

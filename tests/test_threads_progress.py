@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from pycolfrag import progress, threads
+from pycolfrag.core import progress, threads
 from test_grid import ROOT, SMALL, _ok, _serial
 
 PROBE = '''

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
-from pycolfrag import foundation
-from pycolfrag.connectors import Connectors, DowelLaw
-from pycolfrag.errors import ParameterError
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.structure import foundation
+from pycolfrag.structure.connectors import Connectors, DowelLaw
 
 G = 9.81
 JOINTS = pcf.JointProperties(kn=1e11, ks=1e11)

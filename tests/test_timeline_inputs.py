@@ -11,7 +11,7 @@ import sys
 import h5py
 import pytest
 
-from pycolfrag.errors import ResultsFileError
+from pycolfrag.core.errors import ResultsFileError
 from pycolfrag.results.timeline import GROUP, KINDS, read_timeline
 from test_grid import ROOT, SMALL, _ok, _serial
 

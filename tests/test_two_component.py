@@ -288,7 +288,7 @@ def test_collapse_time_of_a_drum_pushed_past_the_edge_converges_with_the_step():
     per edge, gives 2.30, 2.21, 2.23 s and the exact interface 2.57, 2.56, 2.55 s: the contact models
     differ, each converges.) Bound: 0.1 s between 0.8 and 0.2, about three times the spread of the
     default rule and a third of the former rule's; and the collapse within 0.15 s of 2.01 s."""
-    from pycolfrag.column import Block, Column, JointProperties, Segment
+    from pycolfrag.structure.column import Block, Column, JointProperties, Segment
     seg = lambda h: Segment(height=h, r_bottom=0.8, r_top=0.8, n_sides=10)
     j = JointProperties()
     col = Column(blocks=(Block((seg(0.8),)), Block((seg(3.0),))), joints=j,

@@ -7,8 +7,8 @@
 * :mod:`~pycolfrag.analysis.figures`, :mod:`~pycolfrag.analysis.report`, :mod:`~pycolfrag.analysis.validation`
   -- the paper's figures, the markdown report, docs/validation.md;
 * :mod:`~pycolfrag.analysis.record_report`, :mod:`~pycolfrag.analysis.record_figures` -- record suites;
-* :mod:`~pycolfrag.analysis.risk` (with its parts ``risk_weights``, ``risk_cells``, ``risk_uncertainty``,
-  ``risk_fit``, ``risk_branches``, ``risk_report``, ``risk_coverage``), :mod:`~pycolfrag.analysis.risk_figures`,
+* :mod:`~pycolfrag.risk.site_risk` (with its parts ``risk_weights``, ``risk_cells``, ``risk_uncertainty``,
+  ``risk_fit``, ``risk_branches``, ``risk_report``, ``risk_coverage``), :mod:`~pycolfrag.risk.figures`,
   :mod:`~pycolfrag.analysis.openquake` -- site risk, OpenQuake hazard curves in and fragility models out;
 * :mod:`~pycolfrag.analysis.compare` -- two results files, row by row.
 

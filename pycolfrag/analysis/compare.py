@@ -38,9 +38,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from .. import results as _results
-from ..errors import ParameterError, PycolfragError
-from .data import Results, load
+from pycolfrag import results as _results
+from pycolfrag.analysis.data import Results, load
+from pycolfrag.core.errors import ParameterError, PycolfragError
 
 __all__ = ["compare_results", "Comparison", "ScenarioStats", "main"]
 

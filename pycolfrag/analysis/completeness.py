@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 
-from ..errors import ResultsFileError
+from pycolfrag.core.errors import ResultsFileError
 
 __all__ = ["IncompleteResultsError", "incomplete_note", "check_complete", "ALLOW_INCOMPLETE_HELP", "MARK"]
 

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import fragility as fr
-from .data import as_data
+from pycolfrag.analysis import fragility as fr
+from pycolfrag.analysis.data import as_data
 
 __all__ = ["fig_08_map", "fig_12_map", "fig_13_map", "PROBABILITY_LEVELS"]
 

@@ -27,9 +27,9 @@ from typing import Mapping
 
 import numpy as np
 
-from .. import results as _results
-from ..errors import ResultsFileError
-from ..results import STATUS_OK, STATUS_PENDING
+from pycolfrag import results as _results
+from pycolfrag.core.errors import ResultsFileError
+from pycolfrag.results import STATUS_OK, STATUS_PENDING
 
 __all__ = ["Results", "load", "as_results", "ResultsData", "read_results", "as_data", "read_table",
            ]
@@ -189,7 +189,7 @@ def load(path, pending: bool = False, journal: bool = True, timeout_s: float | N
     any_layout : bool
         Also read a file in the documented ``/samples`` layout written by other code (no
         ``grid_signature``; fields or ``/spectra`` may be missing). Default False: such a file is
-        refused (:class:`~pycolfrag.errors.ResultsFileError`).
+        refused (:class:`~pycolfrag.core.errors.ResultsFileError`).
     verify : bool
         Check the stored checksums (every attribute; every dataset of a complete file, each finished row of
         another; a file of the grid without them is damaged: docs/results_format.md, "Integrity"). Default

@@ -19,21 +19,21 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import names as _names
-from .. import progress
-from ..errors import ParameterError
-from . import fragility as fr
-from .completeness import check_complete
-from .contour_figures import fig_08_map, fig_12_map, fig_13_map
-from .data import ResultsData, as_data, read_results
-from .fit_check import stripe_departures
+from pycolfrag.analysis import fragility as fr
+from pycolfrag.analysis.completeness import check_complete
+from pycolfrag.analysis.contour_figures import fig_08_map, fig_12_map, fig_13_map
+from pycolfrag.analysis.data import ResultsData, as_data, read_results
+from pycolfrag.analysis.fit_check import stripe_departures
+from pycolfrag.core import names as _names
+from pycolfrag.core import progress
+from pycolfrag.core.errors import ParameterError
 
 __all__ = ["FIGURES", "make_all", "mark_figure", "ROCKING_INITIATION_G"]
 
 #: Minimum base acceleration initiating rocking of the column as a rigid block (paper Fig. 11c), g.
 ROCKING_INITIATION_G = 0.17
 
-#: Axis labels, from the one registry (:mod:`pycolfrag.names`).
+#: Axis labels, from the one registry (:mod:`pycolfrag.core.names`).
 EDP_LABELS = {k: q.label for k, q in _names.EDPS.items()}
 IM_LABELS = {k: q.label for k, q in _names.IMS.items()}
 
@@ -278,7 +278,7 @@ def im_curves(d: ResultsData, im_values, levels=fr.PERFORMANCE_LEVELS, *, n_stri
         except ParameterError:
             mle = None
         out.append((lev, sc, mle))
-        progress.advance(unit="fit")   # one step of a command's bar (pycolfrag.progress)
+        progress.advance(unit="fit")   # one step of a command's bar (pycolfrag.core.progress)
     return out
 
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .fragility import binomial_ci
+from pycolfrag.analysis.fragility import binomial_ci
 
 __all__ = ["stripe_departures", "departure_note"]
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from ..errors import ParameterError
+from pycolfrag.core.errors import ParameterError
 
 __all__ = ["Writer", "WRITERS", "writer", "write_fragility", "write_nrml", "NRML_NS"]
 

@@ -23,12 +23,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import names
-from ..errors import ParameterError
-from ..sample import rows_to_table
-from . import fragility as fr
-from .data import as_data
-from .figures import Figure
+from pycolfrag.analysis import fragility as fr
+from pycolfrag.analysis.data import as_data
+from pycolfrag.analysis.figures import Figure
+from pycolfrag.core import names
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.solver.sample import rows_to_table
 
 __all__ = ["FIG10_BAND_KM", "FIG10_DIST_KM", "FIG10_MW_BIN_WIDTH", "PAPER_FIG10_MEAN_U_TOP", "synthetic_mean_u_top",
            "binned_means", "fig_10"]
@@ -147,7 +147,7 @@ def fig_10(records, synthetic=None, *, band_km=FIG10_BAND_KM, dist_km=FIG10_DIST
 
     Parameters
     ----------
-    records : a suite table (dict of arrays: :func:`pycolfrag.sample.run_suite`), a list of row dicts,
+    records : a suite table (dict of arrays: :func:`pycolfrag.solver.sample.run_suite`), a list of row dicts,
         or ``{label: table}`` for several record sets at once. Needs ``mw``, ``rrup_km``, ``component``,
         ``u_top``, ``collapsed`` (``status``: only 0 rows are used; ``direction`` "FN"/"FP" optional).
     synthetic : results path, ResultsData, dict or None (no pycolfrag line)

@@ -34,14 +34,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import names
-from ..errors import ParameterError, PycolfragError
-from . import fragility as fr
-from . import record_figures as rf
-from .completeness import ALLOW_INCOMPLETE_HELP, check_complete
-from .data import Results, as_results, read_table
-from .figures import Figure, mark_figure
-from .summary import format_table, summary_table
+from pycolfrag.analysis import fragility as fr
+from pycolfrag.analysis import record_figures as rf
+from pycolfrag.analysis.completeness import ALLOW_INCOMPLETE_HELP, check_complete
+from pycolfrag.analysis.data import Results, as_results, read_table
+from pycolfrag.analysis.figures import Figure, mark_figure
+from pycolfrag.analysis.summary import format_table, summary_table
+from pycolfrag.core import names
+from pycolfrag.core.errors import ParameterError, PycolfragError
 
 __all__ = ["STRIPE_IMS", "suite_table", "analyse", "write_record_report", "main"]
 

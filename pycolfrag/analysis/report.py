@@ -26,17 +26,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import names, progress
-from ..errors import PycolfragError
-from . import fragility as fr
-from . import report_text as rt
-from .codes import code_lines
-from .completeness import ALLOW_INCOMPLETE_HELP, check_complete
-from .data import read_results
-from .figures import FIGURES, im_curves
-from .fit_check import departure_note, stripe_departures
-from .fragility import binomial_ci
-from .risk import report_section
+from pycolfrag.analysis import fragility as fr
+from pycolfrag.analysis import report_text as rt
+from pycolfrag.analysis.codes import code_lines
+from pycolfrag.analysis.completeness import ALLOW_INCOMPLETE_HELP, check_complete
+from pycolfrag.analysis.data import read_results
+from pycolfrag.analysis.figures import FIGURES, im_curves
+from pycolfrag.analysis.fit_check import departure_note, stripe_departures
+from pycolfrag.analysis.fragility import binomial_ci
+from pycolfrag.core import names, progress
+from pycolfrag.core.errors import PycolfragError
 
 __all__ = ["write_report", "binomial_ci", "fmt_ci"]
 
@@ -108,8 +107,8 @@ def write_report(results_path, out_path=None, *, figures_dir=None, n_boot=1000, 
         Bootstrap resamples per interval.
     rng : int
         Seed of the bootstrap (reports are reproducible).
-    risk : pycolfrag.analysis.risk.SiteRisk, optional
-        A site risk computed from this results file (:func:`pycolfrag.analysis.risk.site_risk`): its section
+    risk : pycolfrag.risk.site_risk.SiteRisk, optional
+        A site risk computed from this results file (:func:`pycolfrag.risk.site_risk.site_risk`): its section
         is added before the figures.
     allow_incomplete : bool
         Report on a file whose run has not finished (refused otherwise, :mod:`pycolfrag.analysis.completeness`);
@@ -148,7 +147,7 @@ def _write(d, out_path, figures_dir, n_boot, g, risk, note="") -> str:
     L += _exceedance_tables(rows)
     L += _im_table(d, n_boot, g)
     if risk is not None:
-        L += ["", report_section(risk)]
+        L += ["", risk.section()]   # the site risk writes its own section (pycolfrag.risk sits above this layer)
     L += _figures_section(d, out_path, figures_dir)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     out_path.write_text("\n".join(L) + "\n", encoding="utf-8")

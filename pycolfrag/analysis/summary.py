@@ -10,8 +10,8 @@ import math
 
 import numpy as np
 
-from ..errors import ParameterError
-from .data import as_results
+from pycolfrag.analysis.data import as_results
+from pycolfrag.core.errors import ParameterError
 
 __all__ = ["summary_table", "failure_lines", "format_table"]
 

@@ -22,8 +22,8 @@ from typing import Sequence
 
 import numpy as np
 
-from ..commands import HelpFormatter
-from ..results.timeline import read_timeline
+from pycolfrag.core.help import HelpFormatter
+from pycolfrag.results.timeline import read_timeline
 
 __all__ = ["CAUSES", "summarise", "format_summary", "plot", "main"]
 

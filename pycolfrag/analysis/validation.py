@@ -25,14 +25,14 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from ..errors import ParameterError
-from . import fragility as fr
-from .completeness import check_complete
-from .data import ResultsData, read_results
-from .figures import ROCKING_INITIATION_G
-from .fragility import binomial_ci
-from .record_figures import PAPER_FIG10_MEAN_U_TOP
-from .report import fmt_ci
+from pycolfrag.analysis import fragility as fr
+from pycolfrag.analysis.completeness import check_complete
+from pycolfrag.analysis.data import ResultsData, read_results
+from pycolfrag.analysis.figures import ROCKING_INITIATION_G
+from pycolfrag.analysis.fragility import binomial_ci
+from pycolfrag.analysis.record_figures import PAPER_FIG10_MEAN_U_TOP
+from pycolfrag.analysis.report import fmt_ci
+from pycolfrag.core.errors import ParameterError
 
 __all__ = ["Claim", "claims", "key_numbers", "write_validation"]
 

@@ -6,15 +6,15 @@ For every scenario (Mw, R) of the grid and every sample ``k`` of that scenario:
    (:func:`pycolfrag.ground_motion.sample_pulse_parameters`, seeded from (seed, Mw, R) only);
 2. record = :func:`pycolfrag.ground_motion.synthesize` with those pulse parameters and a
    high-frequency noise seed derived from (seed, Mw, R, k) through :class:`numpy.random.SeedSequence`;
-3. intensity measures (:func:`pycolfrag.intensity.measures`);
+3. intensity measures (:func:`pycolfrag.ground_motion.intensity.measures`);
 4. response of the column (:func:`pycolfrag.simulate`): EDPs, collapse, timing.
 
 Nothing random depends on the rank or the order of work, so 1 rank and N ranks write identical
 datasets (except ``wall_s`` and the ``n_ranks`` attribute). The scenario enters the streams by its
 (Mw, R) values (in thousandths), not its index, so a sub-grid reproduces the full grid's records.
 Record suites (``--records SOURCE``, :class:`RecordGridSpec`) run the rows of
-:func:`pycolfrag.sample.record_jobs` (record x component x scale) under the same scheduler, journal,
-lock, resume and refusals. What a row holds is defined once, in :mod:`pycolfrag.sample`.
+:func:`pycolfrag.solver.sample.record_jobs` (record x component x scale) under the same scheduler, journal,
+lock, resume and refusals. What a row holds is defined once, in :mod:`pycolfrag.solver.sample`.
 
 The package, by the sections a reader looks for:
 
@@ -33,12 +33,12 @@ The package, by the sections a reader looks for:
 * :mod:`~pycolfrag.grid.timeline` -- every rank's timeline, stored in the results file;
 * :mod:`~pycolfrag.grid.replay` -- the replay model: the scheduling policy simulated at N ranks;
 * :mod:`~pycolfrag.grid.command` -- the command line's options and run (:func:`run_command`; what
-  follows a run is :mod:`pycolfrag.cli`'s).
+  follows a run is :mod:`pycolfrag.cli.grid`'s).
 """
 from __future__ import annotations
 
-from ..errors import ParameterError  # noqa: F401 (the driver's refusals; callers catch it as grid.ParameterError)
-from .command import (
+from pycolfrag.core.errors import ParameterError  # noqa: F401 (the driver's refusals; callers catch it as grid.ParameterError)
+from pycolfrag.grid.command import (
     EXIT_ARGS,
     EXIT_DRAINED,
     EXIT_LOCKED,
@@ -50,8 +50,8 @@ from .command import (
     run_command,
     spec_from_args,
 )
-from .events import EVENT_ROWS, EventBatchSpec, EventContext, run_event, run_events
-from .probes import (
+from pycolfrag.grid.events import EVENT_ROWS, EventBatchSpec, EventContext, run_event, run_events
+from pycolfrag.grid.probes import (
     MAX_CHECK_STEPS,
     MAX_ROW_STEPS,
     SAY_WORK_ABOVE_S,
@@ -61,8 +61,8 @@ from .probes import (
     check_work,
     probe_rows,
 )
-from .protocol import RowContext, RowFunction, RunSpec
-from .rows import (
+from pycolfrag.grid.protocol import RowContext, RowFunction, RunSpec
+from pycolfrag.grid.rows import (
     RECORD_ROWS,
     SYNTHETIC_ROWS,
     RecordContext,
@@ -73,9 +73,9 @@ from .rows import (
     run_sample,
     run_samples,
 )
-from .schedule import RunSummary, get_comm, run_grid
-from .signing import build_identity, code_digest
-from .spec import (
+from pycolfrag.grid.schedule import RunSummary, get_comm, run_grid
+from pycolfrag.grid.signing import build_identity, code_digest
+from pycolfrag.grid.spec import (
     DEFAULT_DAMPING,
     DEFAULT_DIST_KM,
     DEFAULT_MW,

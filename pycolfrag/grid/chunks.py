@@ -104,8 +104,8 @@ def synthetic_record_s(mw: float, dist_km: float) -> float:
     and after it (``cf_stochastic_def``'s ``pre_s`` and ``tail_s``). A velocity pulse that reaches past
     the record pads it further; the estimate leaves that out (a few rows of Mw >= 6 are longer).
     ``tests/test_scheduling.py`` holds it to the generator's own lengths."""
-    from .._ffi import ffi, lib
-    from ..ground_motion import atkinson_silva_2000 as as00  # loads C: only rank 0 building its queue needs it
+    from pycolfrag.core.ffi import ffi, lib
+    from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C: only rank 0 building its queue needs it
     df = ffi.new("cf_stochastic_def *")
     lib.cf_stochastic_def_default(df)
     return float(df.pre_s + 2.0 * as00.duration_s(mw, dist_km) + df.tail_s)

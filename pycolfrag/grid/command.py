@@ -2,7 +2,7 @@
 (:func:`build_parser`), the spec they make (:func:`spec_from_args`) and the run of a command
 (:func:`run_command`: checks, the run on every rank, the exit code of a failure).
 
-What follows a finished run -- the summary table, figures, report -- is :mod:`pycolfrag.cli`'s, so
+What follows a finished run -- the summary table, figures, report -- is :mod:`pycolfrag.cli.grid`'s, so
 that the driver imports nothing of :mod:`pycolfrag.analysis`.
 """
 from __future__ import annotations
@@ -17,19 +17,15 @@ import warnings
 from pathlib import Path
 from typing import Sequence
 
-from .. import results as _results
-from .. import sample as _sample
-from ..column import Column
-from ..commands import HelpFormatter
-from ..errors import ParameterError, RecordFileError, ResultsFileError
-from ..ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
-from ..scene import Colonnade, model_from_dict
-from .probes import check_models, check_solver_options, check_space, check_work, probe_rows
-from .protocol import RunSpec
-from .rows import _key, load_function
-from .schedule import RANK0_WORKS_UP_TO, RunSummary, get_comm, run_grid
-from .serve import DRAIN_S, EXIT_DRAINED
-from .spec import (
+from pycolfrag import results as _results
+from pycolfrag.core.errors import ParameterError, RecordFileError, ResultsFileError
+from pycolfrag.core.help import HelpFormatter
+from pycolfrag.grid.probes import check_models, check_solver_options, check_space, check_work, probe_rows
+from pycolfrag.grid.protocol import RunSpec
+from pycolfrag.grid.rows import _key, load_function
+from pycolfrag.grid.schedule import RANK0_WORKS_UP_TO, RunSummary, get_comm, run_grid
+from pycolfrag.grid.serve import DRAIN_S, EXIT_DRAINED
+from pycolfrag.grid.spec import (
     DEFAULT_DAMPING,
     DEFAULT_PERIODS_S,
     DEFAULT_PULSE,
@@ -40,12 +36,16 @@ from .spec import (
     GridSpec,
     RecordGridSpec,
 )
-from .timeline import Recorder
+from pycolfrag.grid.timeline import Recorder
+from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
+from pycolfrag.solver import sample as _sample
+from pycolfrag.structure.column import Column
+from pycolfrag.structure.scene import Colonnade, model_from_dict
 
 __all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OUTPUTS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_DRAINED", "HelpFormatter",
            "build_parser", "spec_from_args", "run_command"]
 
-#: Exit codes of the command line, :func:`pycolfrag.cli.main` (also in docs/grid.md); a run stopped by
+#: Exit codes of the command line, :func:`pycolfrag.cli.grid.main` (also in docs/grid.md); a run stopped by
 #: SIGTERM with rows left exits :data:`~pycolfrag.grid.serve.EXIT_DRAINED` (75).
 EXIT_OK, EXIT_ARGS, EXIT_OUTPUTS, EXIT_OS_ERROR, EXIT_LOCKED = 0, 2, 3, 4, 5
 
@@ -228,7 +228,7 @@ def _os_error_line(exc: OSError, out) -> str:
 
 
 def run_command(args, argv: Sequence[str] | None = None) -> tuple[int, RunSummary | None, RunSpec | None]:
-    """The run of the command line (:func:`pycolfrag.cli.main`) from its parsed arguments
+    """The run of the command line (:func:`pycolfrag.cli.grid.main`) from its parsed arguments
     (:func:`build_parser`): checks, the run on every rank, the exit code of a failure. Returns
     ``(exit code, summary, spec)``; the summary is None on worker ranks and when the run did not end
     (the code says why: 2 bad arguments, a results file of another run or a damaged one; 4 an

@@ -5,7 +5,7 @@ distance, the seed of the record's high-frequency noise and, when the motion car
 pulse's parameters (the shape's ``INPUTS``), plus *tags* -- the fields that name the row in the
 algorithm that asked for it (stage, stratum, index, the standard normals it was drawn from, its
 sampling weight: :data:`pycolfrag.results.EVENT_SAMPLE_FIELDS`). The row itself is the synthetic
-grid's (:func:`pycolfrag.sample.run_synthetic_samples`), so an event with the inputs of a grid row
+grid's (:func:`pycolfrag.solver.sample.run_synthetic_samples`), so an event with the inputs of a grid row
 gives that row's record and response bit for bit.
 
 :class:`EventBatchSpec` implements :class:`~pycolfrag.grid.protocol.RunSpec`: the scheduler, the
@@ -24,15 +24,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import results as _results
-from .. import sample as _sample
-from ..column import Column
-from ..errors import ParameterError
-from ..ground_motion.registry import DEFAULT_PULSE_SHAPE, pulse_shape_of, tp_model_of
-from .chunks import synthetic_record_s
-from .protocol import RowFunction
-from .signing import build_identity, code_digest
-from .spec import MAX_ROWS, RunSettings, resolve_solver_options
+from pycolfrag import results as _results
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.grid.chunks import synthetic_record_s
+from pycolfrag.grid.protocol import RowFunction
+from pycolfrag.grid.signing import build_identity, code_digest
+from pycolfrag.grid.spec import MAX_ROWS, RunSettings, resolve_solver_options
+from pycolfrag.ground_motion.registry import DEFAULT_PULSE_SHAPE, pulse_shape_of, tp_model_of
+from pycolfrag.solver import sample as _sample
+from pycolfrag.structure.column import Column
 
 __all__ = ["EventBatchSpec", "EventContext", "run_event", "run_events", "EVENT_ROWS", "TAG_FIELDS",
            "inputs_digest"]
@@ -225,7 +225,7 @@ def run_event(ctx: EventContext, row: int) -> dict:
 
 def run_events(ctx: EventContext, rows) -> list[dict]:
     """The rows of a chunk: those with a pulse side by side in SIMD lanes, then those without
-    (:func:`pycolfrag.sample.run_synthetic_samples`; each row bitwise its run on its own), each with
+    (:func:`pycolfrag.solver.sample.run_synthetic_samples`; each row bitwise its run on its own), each with
     its tags; in the order asked."""
     spec = ctx.spec
     out: dict = {}

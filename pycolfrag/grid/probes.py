@@ -3,7 +3,7 @@ impossible are refused before any file is made (docs/grid.md, "Refused before an
 
 Each probe asks the code the rows will run -- the solver on a 3-sample zero record, the record of
 one representative row and its IMs -- rather than a rule of its own, and each refusal is a
-:class:`~pycolfrag.errors.ParameterError` (exit code 2) or, for a disk too small, an ``OSError`` of
+:class:`~pycolfrag.core.errors.ParameterError` (exit code 2) or, for a disk too small, an ``OSError`` of
 ``ENOSPC`` (exit code 4) naming the value and what works.
 """
 from __future__ import annotations
@@ -17,15 +17,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import ground_motion as _gm
-from .. import results as _results
-from .. import sample as _sample
-from .. import solver as _solver
-from .. import step_cause as _step_cause
-from ..errors import ParameterError, SolverError
-from ..ground_motion import atkinson_silva_2000 as as00
-from ..ground_motion import rupakhety_2011
-from .spec import DEFAULT_RECORD_DT_S, resolve_solver_options, solver_defaults
+from pycolfrag import ground_motion as _gm
+from pycolfrag import results as _results
+from pycolfrag.core.errors import ParameterError, SolverError
+from pycolfrag.grid.spec import DEFAULT_RECORD_DT_S, resolve_solver_options, solver_defaults
+from pycolfrag.ground_motion import atkinson_silva_2000 as as00
+from pycolfrag.ground_motion import rupakhety_2011
+from pycolfrag.solver import run as _solver
+from pycolfrag.solver import sample as _sample
+from pycolfrag.solver import step_cause as _step_cause
 
 __all__ = ["MAX_CHECK_STEPS", "MAX_ROW_STEPS", "SAY_WORK_ABOVE_S", "check_solver_options", "probe_rows",
            "check_work", "check_space", "check_models", "check_record_dt"]
@@ -49,12 +49,12 @@ def check_solver_options(column, options, record_dt_s: float = DEFAULT_RECORD_DT
     """Refuse, before any file is touched, solver options that would fail or spoil every row:
     values the C library rejects (:class:`pycolfrag.SolverOptions`), a ``dt_solver`` above the
     column's stability limit or longer than the records' step ``record_dt_s`` (the solver would
-    warn with :class:`~pycolfrag.solver.StepWarning` in every row: a grid refuses instead), a run
+    warn with :class:`~pycolfrag.solver.run.StepWarning` in every row: a grid refuses instead), a run
     that stops as unstable, a step so short that this check alone would need more than
     :data:`MAX_CHECK_STEPS` steps, and a column that collapses under gravity alone. The step is read
     from the set-up solver (no steps run) and the check's run is at most :data:`MAX_CHECK_RUN_STEPS`
     steps (its tail cut to fit), so it takes seconds whatever the model. Where the step is automatic
-    and too short, the refusal names the part that sets it (:func:`pycolfrag.step_cause.describe`), not
+    and too short, the refusal names the part that sets it (:func:`pycolfrag.solver.step_cause.describe`), not
     a dt_solver the user did not give. Returns the solver step (``dt_s``), the measured time per step
     (``step_s``) and, for :func:`check_work`, that cause (``cause``; None with a dt_solver)."""
     options = resolve_solver_options(options)
@@ -129,7 +129,7 @@ def probe_rows(spec) -> list[tuple[str, float]]:
     row (a synthetic grid: the weakest scenario, lowest Mw at the largest R, sample 0 of a small LHS; a suite: the
     first readable record at its smallest scale) is made and its IMs computed with the run's options
     (``--vp-scale``, ``--damping``, ``--periods``...), and its accelerations must be within what the
-    solver accepts (:data:`pycolfrag.solver.MAX_ABS_ACC`). Returns (label, duration s) of the longest
+    solver accepts (:data:`pycolfrag.solver.run.MAX_ABS_ACC`). Returns (label, duration s) of the longest
     record of the run (the synthetic grid: the largest Mw at the largest R, sample 0)."""
     probe = _probe_suite(spec) if spec.layout == "records" else _probe_synthetic(spec)
     if probe[0] is None:  # a suite of unreadable records only: each row fails on its own

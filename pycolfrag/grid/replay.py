@@ -35,9 +35,9 @@ from typing import Sequence
 
 import numpy as np
 
-from .chunks import ChunkQueue, synthetic_record_s
-from .replay_sim import batch_width_rule, run_ranks
-from .serve import RANK0_WORKS_UP_TO
+from pycolfrag.grid.chunks import ChunkQueue, synthetic_record_s
+from pycolfrag.grid.replay_sim import batch_width_rule, run_ranks
+from pycolfrag.grid.serve import RANK0_WORKS_UP_TO
 
 __all__ = ["Rows", "Costs", "Policy", "Machine", "CURRENT", "BEFORE", "batch_width_rule", "simulate",
            "efficiency", "main"]
@@ -73,8 +73,8 @@ class Rows:
     def from_results(cls, path) -> tuple["Rows", dict]:
         """The finished rows of a results file of the synthetic grid, and what the file measured
         (``sum_wall_s``; its last timeline's chunk CPU and session, when it has one)."""
-        from .. import results as _results  # here: reading a file is only this entry's
-        from ..results.timeline import MAX_RANKS
+        from pycolfrag import results as _results  # here: reading a file is only this entry's
+        from pycolfrag.results.timeline import MAX_RANKS
         raw = _results.read_h5_bounded(path)
         g, attrs = raw["samples"], raw["attrs"]
         ok = (g["status"] == 0) & (g["n_steps"] > 0)
@@ -121,7 +121,7 @@ def _rests_on(path, g, attrs, used) -> dict:
     """What a prediction from a file's rows rests on: the rows the grid asked for, those its HDF5 file holds
     finished, those used (successful, with solver steps), and those only its journal holds (an interrupted or
     running grid's, not read here); ``complete`` when every row asked for is in the HDF5 file."""
-    from .. import results as _results  # here: reading a file is only this entry's
+    from pycolfrag import results as _results  # here: reading a file is only this entry's
     status = np.asarray(g["status"])
     in_h5 = status != _results.STATUS_PENDING
     journal_only = 0
@@ -336,7 +336,10 @@ def measured(path) -> tuple[Rows, Costs, dict]:
     measured: a file with one session's timeline was written by this scheduler (:data:`CURRENT`), whose
     timeline gives the fixed costs and the chunks' CPU; a file without is b2afe10's (:data:`BEFORE`),
     whose rows' summed ``wall_s`` is the chunks' time."""
-    from ..results.timeline import check_regular_file, read_timeline  # here: reading a file is only this entry's
+    from pycolfrag.results.timeline import (  # here: reading a file is only this entry's
+        check_regular_file,
+        read_timeline,
+    )
     check_regular_file(path)   # a FIFO would hold the reading child until its time limit
     rows, info = Rows.from_results(path)
     sessions = list(read_timeline(path).values())
@@ -364,7 +367,7 @@ REST_KEYS = ("rows_asked", "rows_in_h5", "rows_used", "rows_in_journal_only", "s
 
 
 def build_parser(prog: str = "pycolfrag replay") -> argparse.ArgumentParser:
-    from ..commands import HelpFormatter  # imports nothing of pycolfrag but its version
+    from pycolfrag.core.help import HelpFormatter  # a leaf
     p = argparse.ArgumentParser(prog=prog, formatter_class=HelpFormatter,
                                 description="Predict a grid's time and parallel efficiency on N ranks (one core "
                                             "each) by replaying the scheduler with the costs a results file measured "

@@ -18,7 +18,7 @@ from __future__ import annotations
 import heapq
 from collections import OrderedDict
 
-from .chunks import rank0_chunk_max
+from pycolfrag.grid.chunks import rank0_chunk_max
 
 __all__ = ["Sim", "run_ranks", "batch_width_rule"]
 
@@ -29,7 +29,7 @@ _ANY = -1
 def batch_width_rule(n: int, lanes: int) -> int:
     """The batch width the C library takes for ``n`` runs on a CPU of ``lanes`` lanes
     (``cf_solver_batch_width``: 8 from 5 runs on, 4 from 3 on, else one run after the other;
-    ``tests/test_scheduling.py`` holds it to :func:`pycolfrag.solver.batch_width`)."""
+    ``tests/test_scheduling.py`` holds it to :func:`pycolfrag.solver.run.batch_width`)."""
     if lanes >= 8 and n >= 5:
         return 8
     if lanes >= 4 and n >= 3:

@@ -1,6 +1,6 @@
 """The rows of a grid: their seeds, the context a rank computes them in, and their row functions.
 
-What a row holds -- synthetic or natural -- is defined once, in :mod:`pycolfrag.sample`; this module
+What a row holds -- synthetic or natural -- is defined once, in :mod:`pycolfrag.solver.sample`; this module
 gives a synthetic row its seeds and pulse parameters, and a record row its record, component and
 scale. Nothing here depends on the rank or the order of work.
 """
@@ -12,12 +12,12 @@ from collections import OrderedDict
 
 import numpy as np
 
-from .. import ground_motion as _gm
-from .. import results as _results
-from .. import sample as _sample
-from ..errors import ParameterError
-from ..scene import model_from_dict
-from .protocol import RowFunction, as_row_function
+from pycolfrag import ground_motion as _gm
+from pycolfrag import results as _results
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.grid.protocol import RowFunction, as_row_function
+from pycolfrag.solver import sample as _sample
+from pycolfrag.structure.scene import model_from_dict
 
 __all__ = ["derive_seed", "SampleContext", "run_sample", "run_samples", "SYNTHETIC_ROWS",
            "RecordContext", "run_record_row", "run_record_rows", "RECORD_ROWS", "load_function"]
@@ -96,14 +96,14 @@ class SampleContext:
 
 def run_sample(ctx: SampleContext, row: int) -> dict:
     """Compute one row of the synthetic grid: the grid's seeds and pulse parameters for the row, then
-    :func:`pycolfrag.sample.run_synthetic_sample` (the one definition of a sample). Never raises for
+    :func:`pycolfrag.solver.sample.run_synthetic_sample` (the one definition of a sample). Never raises for
     a failing sample (``status`` > 0 and ``message`` instead)."""
     return run_samples(ctx, [row])[0]
 
 
 def run_samples(ctx: SampleContext, rows) -> list[dict]:
     """:func:`run_sample` of many rows, their runs side by side in SIMD lanes
-    (:func:`pycolfrag.sample.run_synthetic_samples`): the same rows, faster."""
+    (:func:`pycolfrag.solver.sample.run_synthetic_samples`): the same rows, faster."""
     outs, samples, owner, t_seed = [], [], [], []
     spec = ctx.spec
     with_pulse = spec.pulse != _gm.registry.NO_PULSE
@@ -158,14 +158,14 @@ class RecordContext:
 
 
 def run_record_row(ctx: RecordContext, row: int) -> dict:
-    """Compute one row of a record-suite grid: :func:`pycolfrag.sample.run_record_sample` of the
+    """Compute one row of a record-suite grid: :func:`pycolfrag.solver.sample.run_record_sample` of the
     row's record, component and scale. Never raises for a failing sample."""
     return run_record_rows(ctx, [row])[0]
 
 
 def run_record_rows(ctx: RecordContext, rows) -> list[dict]:
     """:func:`run_record_row` of many rows, their runs side by side in SIMD lanes
-    (:func:`pycolfrag.sample.run_record_samples`): the same rows, faster."""
+    (:func:`pycolfrag.solver.sample.run_record_samples`): the same rows, faster."""
     spec = ctx.spec
     where = [ctx.locate(row) for row in rows]
     done = _sample.run_record_samples([(spec.suite[k], c, f) for k, c, f in where], column=ctx.column,

@@ -23,17 +23,17 @@ from typing import Callable
 
 import numpy as np
 
-from .. import __version__
-from .. import results as _results
-from .. import solver as _solver
-from ..errors import MissingDependencyError, ParameterError
-from ..results import timeline as _tl_store
-from .chunks import ChunkQueue
-from .protocol import RunSpec, as_row_function
-from .rows import load_function
-from .serve import DRAIN_S, RANK0_WORKS_UP_TO, Drain, compute_alone, serve, work
-from .signing import code_digest, code_entry, git_revision, now, resume_signature, share_code_digest
-from .timeline import Recorder
+from pycolfrag import results as _results
+from pycolfrag.core.errors import MissingDependencyError, ParameterError
+from pycolfrag.core.version import __version__
+from pycolfrag.grid.chunks import ChunkQueue
+from pycolfrag.grid.protocol import RunSpec, as_row_function
+from pycolfrag.grid.rows import load_function
+from pycolfrag.grid.serve import DRAIN_S, RANK0_WORKS_UP_TO, Drain, compute_alone, serve, work
+from pycolfrag.grid.signing import code_digest, code_entry, git_revision, now, resume_signature, share_code_digest
+from pycolfrag.grid.timeline import Recorder
+from pycolfrag.results import timeline as _tl_store
+from pycolfrag.solver import run as _solver
 
 __all__ = ["get_comm", "run_grid", "RunSummary", "RANK0_WORKS_UP_TO"]
 
@@ -46,7 +46,7 @@ def get_comm(mode: str = "auto"):
     ``auto``: use MPI when started by a launcher (mpirun/srun environment) or when ``mpi4py.MPI``
     is already imported (``python -m mpi4py``); otherwise do not import it at all. ``yes``: always;
     ``no``: never. MPI asked for (``yes``, or ``auto`` under a launcher) without mpi4py installed raises
-    :class:`~pycolfrag.errors.MissingDependencyError` with the install command: each rank running the
+    :class:`~pycolfrag.core.errors.MissingDependencyError` with the install command: each rank running the
     whole job alone, as if it were the only process, would be a silent change of what was asked.
     """
     if mode == "no":
@@ -108,7 +108,7 @@ def run_grid(spec: RunSpec, out, *, overwrite: bool = False, retry_failed: bool 
     seconds rank 0 waits for the chunks in flight after a SIGTERM (:mod:`pycolfrag.grid.serve`).
     ``timeline``: this rank's :class:`~pycolfrag.grid.timeline.Recorder` with its start-up so far (the
     command's); a new one by default.
-    Raises :class:`~pycolfrag.errors.ResultsFileError` on rank 0 when ``out`` holds another run
+    Raises :class:`~pycolfrag.core.errors.ResultsFileError` on rank 0 when ``out`` holds another run
     (other ranks then return None).
     """
     log = log or (lambda s: print(s, flush=True))

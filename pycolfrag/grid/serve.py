@@ -23,8 +23,8 @@ import signal
 import time
 from contextlib import contextmanager
 
-from .chunks import ChunkQueue, rank0_chunk_max
-from .rows import guarded_rows
+from pycolfrag.grid.chunks import ChunkQueue, rank0_chunk_max
+from pycolfrag.grid.rows import guarded_rows
 
 __all__ = ["RANK0_WORKS_UP_TO", "EXIT_DRAINED", "DRAIN_S", "Drain", "serve", "work", "compute_alone"]
 

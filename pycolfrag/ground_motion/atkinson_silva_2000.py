@@ -16,7 +16,7 @@ normals needs), and ``draw_normals(Mw, dist_km, seed)`` are the normals a seed d
 
 Accepted scenario range (the limits this project adopted for AS00; the paper's scenarios,
 M 5.5-7.5 at 5-20 km, lie well inside): ``4.0 <= Mw <= 8.0`` and ``0 < dist_km <= 200``;
-outside, or non-finite, :class:`~pycolfrag.errors.ModelRangeError` is raised.
+outside, or non-finite, :class:`~pycolfrag.core.errors.ModelRangeError` is raised.
 """
 from __future__ import annotations
 
@@ -27,10 +27,10 @@ from importlib import resources
 
 import numpy as np
 
-from .._ffi import check, ffi, lib, ptr
-from .._validate import float_array, integer, real
-from ..errors import ParameterError
-from ..names import Parameter
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.ffi import check, ffi, lib, ptr
+from pycolfrag.core.names import Parameter
+from pycolfrag.core.validate import float_array, integer, real
 
 __all__ = ["NAME", "KIND", "PARAMETERS", "PARAMS", "check_scenario", "fourier_amplitude", "duration_s", "simulate",
            "n_normals", "draw_normals", "window"]

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 
-from . import rupakhety_2011 as _r11
+from pycolfrag.ground_motion import rupakhety_2011 as _r11
 
 __all__ = ["NAME", "KIND", "PARAMETERS", "C0", "C1", "SIGMA_LN_TP", "SIGMA_LOG10_FP", "mean_tp_s", "log10_fp_mean"]
 
@@ -57,5 +57,5 @@ def log10_fp_mean(Mw) -> float:
 
 def mean_tp_s(Mw) -> float:
     """Median pulse period, s: ``exp(-6.45 + 1.11 Mw)``."""
-    from .._ffi import lib  # C on first use: the declaration above is read without the C library
+    from pycolfrag.core.ffi import lib  # C on first use: the declaration above is read without the C library
     return lib.cf_math_pow(10.0, -log10_fp_mean(Mw))

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._ffi import check, ffi, lib, ptr
-from .._validate import float_array
-from ..errors import ParameterError
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.ffi import check, ffi, lib, ptr
+from pycolfrag.core.validate import float_array
 
 __all__ = ["combine"]
 

@@ -22,12 +22,12 @@ import math
 
 import numpy as np
 
-from .._validate import finite_float, float_array, integer, positive_float
-from ..errors import ParameterError
-from ..names import G, Parameter
-from . import rupakhety_2011 as _r11
-from .pulse_shape import PreparedPulse
-from .sampling import latin_hypercube, minimize_bounded
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.names import G, Parameter
+from pycolfrag.core.validate import finite_float, float_array, integer, positive_float
+from pycolfrag.ground_motion import rupakhety_2011 as _r11
+from pycolfrag.ground_motion.pulse_shape import PreparedPulse
+from pycolfrag.ground_motion.sampling import latin_hypercube, minimize_bounded
 
 __all__ = ["NAME", "KIND", "SHAPE", "PARAMETERS", "INPUTS", "prepare", "GAMMA_MEAN", "GAMMA_SD", "GAMMA_MIN", "NU_RANGE_RAD", "pulse", "velocity",
            "acceleration", "displacement", "support", "envelope_amplitude", "peak_velocity_time",
@@ -72,7 +72,7 @@ NORMALS = ("z_vp", "z_fp", "z_nu", "z_gamma")
 def _c():
     """The compiled library's module (``ffi``, ``lib``, ``check``, ``ptr``), loaded on first use rather
     than at import: the declarations above are read by the results layout, which must not need C."""
-    from .. import _ffi  # loads C on first use (docstring)
+    from pycolfrag.core import ffi as _ffi  # loads C on first use (docstring)
     return _ffi
 
 

@@ -16,9 +16,9 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..errors import ParameterError
-from ..intensity import G, integrate, response_spectrum
-from .record import Record
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.ground_motion.intensity import G, integrate, response_spectrum
+from pycolfrag.ground_motion.record import Record
 
 __all__ = ["plot_record", "plot_fourier", "plot_spectra", "plot_components", "fourier_amplitude"]
 
@@ -101,7 +101,7 @@ def plot_fourier(rec, target=True, dt=None):
         fp_, ap = fourier_amplitude(r.components["pulse"], r.dt)
         ax.loglog(fp_, ap, color="C1", lw=1.0, label="pulse")
     if target and "Mw" in r.meta and "dist_km" in r.meta:
-        from . import atkinson_silva_2000 as as00  # loads C, only for the target curve
+        from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C, only for the target curve
         ax.loglog(f, as00.fourier_amplitude(f, r.meta["Mw"], r.meta["dist_km"]), "C0--", lw=1.4,
                   label="AS00 target")
     ax.set_xlim(max(f[0], 0.05), f[-1])

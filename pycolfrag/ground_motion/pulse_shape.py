@@ -8,7 +8,7 @@ at its top:
 * ``NAME`` (the registry's name, after the paper), ``KIND = "pulse"``;
 * ``SHAPE`` -- its short name: a choice of the grid's ``--pulse`` and ``synthesize(shape=...)``
   ("none" is taken: the grid's choice of the stochastic record alone);
-* ``PARAMETERS`` -- :class:`pycolfrag.names.Parameter` rows: the keys its records carry in ``meta`` and
+* ``PARAMETERS`` -- :class:`pycolfrag.core.names.Parameter` rows: the keys its records carry in ``meta`` and
   the fields it gives a sample row, in order (a row field another shape declares too must mean the
   same: same meta key, unit and description; the registry checks it);
 * ``INPUTS`` -- the parameters a pulse row must give (``synthesize(pulse=row)``), a subset of

@@ -5,7 +5,7 @@ one time axis at a constant step, with their metadata.
   sampled pulse parameter in ``meta`` (keys fixed in docs/architecture.md) and their parts in
   ``components`` (``"hf"``, ``"pulse"``);
 * natural records (:func:`pycolfrag.ground_motion.read_at2`) carry the file's header;
-* a member of a record suite (:class:`pycolfrag.records.RecordSet`) carries its ``record_id``, its
+* a member of a record suite (:class:`pycolfrag.ground_motion.record_suites.RecordSet`) carries its ``record_id``, its
   second horizontal ``h2`` and vertical ``v`` components when it has them, and the suite table's
   metadata (:data:`SUITE_KEYS`, read as attributes: ``record.mw``, ``record.rrup_km``, ...);
 * the motion of one run (:meth:`Record.motion`: a component or the pair, scaled, cut) is a Record
@@ -23,9 +23,9 @@ from typing import cast
 
 import numpy as np
 
-from .._validate import finite_float, float_array, positive_float
-from ..errors import ParameterError
-from ..names import Parameter
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.names import Parameter
+from pycolfrag.core.validate import finite_float, float_array, positive_float
 
 __all__ = ["NAME", "KIND", "PARAMETERS", "SUITE_KEYS", "COMPONENTS", "UNITS", "MAX_SAMPLES", "Record",
            "RecordMetadata"]
@@ -76,7 +76,7 @@ def _meta_field(key: str):
 class RecordMetadata:
     """The identity of a suite member read off ``record_id`` and ``meta`` (:data:`SUITE_KEYS`):
     shared by :class:`Record` and the marker of an unreadable member
-    (:class:`pycolfrag.records.UnreadableRecord`)."""
+    (:class:`pycolfrag.ground_motion.record_suites.UnreadableRecord`)."""
 
     record_id: str
     meta: dict
@@ -229,18 +229,18 @@ class Record(RecordMetadata):
     # ------------------------------------------------------------------ integrals and measures
     def velocity(self) -> np.ndarray:
         """Trapezoidal velocity from rest, m/s (the integral behind PGV)."""
-        from ..intensity import integrate  # loads C: a Record is read where C may be absent
+        from pycolfrag.ground_motion.intensity import integrate  # loads C: a Record is read where C may be absent
         return integrate(self.acc, self.dt)[0]
 
     def displacement(self) -> np.ndarray:
         """Trapezoidal displacement from rest, m (the integral behind PGD)."""
-        from ..intensity import integrate  # loads C: a Record is read where C may be absent
+        from pycolfrag.ground_motion.intensity import integrate  # loads C: a Record is read where C may be absent
         return integrate(self.acc, self.dt)[1]
 
     def measures(self, periods=None, damping=0.05) -> dict:
-        """:func:`pycolfrag.intensity.measures` of this record (``periods`` None: its
+        """:func:`pycolfrag.ground_motion.intensity.measures` of this record (``periods`` None: its
         ``DEFAULT_PERIODS_S``)."""
-        from ..intensity import DEFAULT_PERIODS_S, measures  # loads C: as above
+        from pycolfrag.ground_motion.intensity import DEFAULT_PERIODS_S, measures  # loads C: as above
         return measures(self.acc, self.dt, periods=DEFAULT_PERIODS_S if periods is None else periods,
                         damping=damping)
 
@@ -248,7 +248,9 @@ class Record(RecordMetadata):
     def rotated(self, theta_deg: float) -> "Record":
         """The pair rotated by ``theta_deg`` clockwise (:func:`~pycolfrag.ground_motion.rotation.rotate_pair`);
         ``v`` unchanged. The new ``h1`` points along azimuth ``azimuth_h1_deg + theta`` (kept in ``meta``)."""
-        from .rotation import rotate_pair  # the rotation's module loads C (RotD); a Record need not
+        from pycolfrag.ground_motion.rotation import (
+            rotate_pair,  # the rotation's module loads C (RotD); a Record need not
+        )
         theta = finite_float(theta_deg, "theta_deg")
         a1, a2 = rotate_pair(self.acc, self.component("h2"), theta)
         meta = dict(self.meta)
@@ -262,7 +264,7 @@ class Record(RecordMetadata):
                               azimuth_h1_deg: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(FN, FP) accelerations, m/s^2 (:func:`~pycolfrag.ground_motion.rotation.fault_normal_parallel`);
         strike and H1 azimuth default to ``meta["strike_deg"]`` and ``meta["azimuth_h1_deg"]``."""
-        from .rotation import fault_normal_parallel  # as in rotated
+        from pycolfrag.ground_motion.rotation import fault_normal_parallel  # as in rotated
         strike = self.meta.get("strike_deg") if strike_deg is None else strike_deg
         az = self.meta.get("azimuth_h1_deg") if azimuth_h1_deg is None else azimuth_h1_deg
         if not (_finite(strike) and _finite(az)):
@@ -273,7 +275,7 @@ class Record(RecordMetadata):
 
     def rotd(self, measure="pga", percentiles=(50.0, 100.0), damping=0.05, angles_deg=None) -> dict:
         """:func:`~pycolfrag.ground_motion.rotation.rotd` of this record's horizontal pair."""
-        from .rotation import rotd  # as in rotated
+        from pycolfrag.ground_motion.rotation import rotd  # as in rotated
         return rotd(self.acc, self.component("h2"), self.dt, measure=measure, percentiles=percentiles,
                     damping=damping, angles_deg=angles_deg)
 

@@ -1,7 +1,7 @@
 """The ground-motion models that declare their parameters, one line each, and what is built from them.
 
 Every module listed in :data:`MODELS` declares, as data at its top, ``NAME``, ``KIND`` and
-``PARAMETERS`` (:class:`pycolfrag.names.Parameter` rows: name, unit, accepted range, description,
+``PARAMETERS`` (:class:`pycolfrag.core.names.Parameter` rows: name, unit, accepted range, description,
 ``Record.meta`` key, sample-row field). From them, and from nowhere else:
 
 * :data:`PULSE_SHAPES` -- the velocity-pulse shapes (kind ``"pulse"``, the interface of
@@ -9,7 +9,7 @@ Every module listed in :data:`MODELS` declares, as data at its top, ``NAME``, ``
   ``synthesize(shape=...)``, ``sample_pulse_parameters(shape=...)`` and, with "none" (the stochastic
   record alone), of the grid's ``--pulse``;
 * :data:`PULSE_FIELDS` -- the pulse fields of a synthetic sample row and of ``/samples``
-  (:mod:`pycolfrag.sample` fills them from a record's ``meta``, :mod:`pycolfrag.results` lays them out):
+  (:mod:`pycolfrag.solver.sample` fills them from a record's ``meta``, :mod:`pycolfrag.results` lays them out):
   the parameters with a row field of the pulse shapes, each field once (a shape that has no value for a
   field leaves it NaN in its rows);
 * :data:`TP_MODELS` -- the pulse-period relations (kind ``"pulse_period"``), the choices of
@@ -25,8 +25,8 @@ loads, and it adds no row field; it declares its ``PARAMETERS`` all the same.)
 """
 from __future__ import annotations
 
-from ..errors import ParameterError
-from . import (
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.ground_motion import (
     baker_2007,
     mavroeidis_papageorgiou_2003,
     pulse_shape,
@@ -116,7 +116,7 @@ def _pulse_fields(shapes) -> tuple:
     return tuple(fields.values())
 
 
-#: The pulse fields of a sample row (:class:`~pycolfrag.names.Parameter` rows), in layout order.
+#: The pulse fields of a sample row (:class:`~pycolfrag.core.names.Parameter` rows), in layout order.
 PULSE_FIELDS = _pulse_fields(PULSE_SHAPES.values())
 
 #: Pulse-period relations (name -> module with ``log10_fp_mean(Mw)`` and ``SIGMA_LOG10_FP``).
@@ -145,7 +145,7 @@ def markdown_table(module) -> str:
 def docs_section() -> str:
     """The declared parameters of every model, as docs/ground_motion.md prints them: the high-frequency
     model (loads C: its ranges are the generator's) and then :data:`MODELS` in their order."""
-    from . import atkinson_silva_2000  # loads C (see the module docstring); docs only
+    from pycolfrag.ground_motion import atkinson_silva_2000  # loads C (see the module docstring); docs only
     parts = []
     for m in (atkinson_silva_2000, *MODELS.values()):
         parts += [f"**`{m.NAME}`** ({m.KIND}: {KINDS[m.KIND]})", "", markdown_table(m), ""]

@@ -3,7 +3,7 @@ the orientation-independent RotDnn (Boore 2010) of PGA, PGV and SA.
 
 Azimuths are in degrees clockwise from north; H2 is taken 90 degrees clockwise from H1 (the NGA
 convention; if a station's H2 points the other way, give its negative). The SDOF histories behind
-RotD of SA come from the spectra's own recurrence (:func:`pycolfrag.intensity.sdof_displacement`,
+RotD of SA come from the spectra's own recurrence (:func:`pycolfrag.ground_motion.intensity.sdof_displacement`,
 ``csrc/spectra.c``), so RotD100 of a pair (a, 0) is the spectrum's SA of a to the last bit.
 """
 from __future__ import annotations
@@ -12,10 +12,10 @@ import math
 
 import numpy as np
 
-from .._validate import finite_float, float_array
-from ..errors import ParameterError
-from ..intensity import integrate, sdof_displacement
-from ..names import CM_PER_M, G
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.names import CM_PER_M, G
+from pycolfrag.core.validate import finite_float, float_array
+from pycolfrag.ground_motion.intensity import integrate, sdof_displacement
 
 __all__ = ["rotate_pair", "component_at", "fault_normal_parallel", "rotd"]
 

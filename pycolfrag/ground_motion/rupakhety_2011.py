@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import math
 
-from ..errors import ParameterError
-from ..names import Parameter
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.names import Parameter
 
 __all__ = ["NAME", "KIND", "PARAMETERS", "M_SAT", "SIGMA_LOG10_VP", "SIGMA_LOG10_FP", "MW_RANGE", "DIST_RANGE_KM",
            "mean_vp_cm_s", "mean_fp_hz", "mean_tp_s", "log10_fp_mean", "check_scenario"]
@@ -64,7 +64,7 @@ def check_scenario(Mw, dist_km):
 def _lib():
     """The compiled library, loaded on first use rather than at import: the declarations above are
     read by the results layout, which must not need the C library."""
-    from .._ffi import lib  # loads C on first use (docstring)
+    from pycolfrag.core.ffi import lib  # loads C on first use (docstring)
     return lib
 
 

@@ -30,7 +30,7 @@ here: the coefficients are checked against that one secondary implementation, no
 paper (``tests/test_risk.py``).
 
 pycolfrag uses the model to weight the pulse and no-pulse branches of a site's risk
-(:mod:`pycolfrag.analysis.risk`, ``docs/risk.md``).
+(:mod:`pycolfrag.risk.site_risk`, ``docs/risk.md``).
 """
 from __future__ import annotations
 
@@ -38,8 +38,8 @@ import math
 
 import numpy as np
 
-from ..errors import ParameterError
-from ..names import Parameter
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.names import Parameter
 
 __all__ = ["NAME", "KIND", "CITATION", "PROVENANCE", "PARAMETERS", "COEFFICIENTS", "MECHANISMS",
            "pulse_probability", "logistic_probability"]

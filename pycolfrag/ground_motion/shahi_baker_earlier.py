@@ -21,8 +21,8 @@ formula with these numbers, not a figure of a paper.
 """
 from __future__ import annotations
 
-from ..errors import ParameterError
-from . import shahi_baker_2014 as _sb14
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.ground_motion import shahi_baker_2014 as _sb14
 
 __all__ = ["NAME", "KIND", "CITATION", "PROVENANCE", "PARAMETERS", "COEFFICIENTS", "MECHANISMS",
            "pulse_probability"]

@@ -16,8 +16,8 @@ The stratified event-based site estimator (``pycolfrag risk SITE.toml --simulate
   (``evaluate(name, inputs, purpose) -> rows``), the interface other algorithms run their runs through;
 * :mod:`~pycolfrag.rare.driver` -- the site simulation: pilot, cross-entropy step, batches, the
   stopping rule, resume;
-* :mod:`~pycolfrag.rare.command` -- its command line (``--simulate``; the report is
-  :mod:`pycolfrag.analysis.risk_rare`).
+* :mod:`~pycolfrag.risk.simulate` -- its command line (``--simulate``; the report is
+  :mod:`pycolfrag.risk.rare_route`).
 
 The record-to-record tail within a scenario:
 

@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from .estimate import exceedances
+from pycolfrag.rare.estimate import exceedances
 
 __all__ = ["RIDGE", "STEERING_DRAWS", "STREAM_STEER", "SteeringModel", "steering_events", "predicted_moments", "minimax_allocation",
            "batch_counts"]

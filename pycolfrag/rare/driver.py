@@ -28,13 +28,13 @@ from types import ModuleType
 
 import numpy as np
 
-from .. import results as _results
-from ..errors import ParameterError, ResultsFileError
-from . import allocation as _alloc
-from .estimate import DEFAULT_MAX_SHARE, DEFAULT_MIN_NEFF, UNRESOLVED, estimate, exceedances, row_weights
-from .plans import PulseMap, interleave, plan_inputs
-from .proposal import FAMILIES, PILOT_MIXTURE, Design, cross_entropy_means, production_mixture, score
-from .strata import DEFAULT_MW_STEP, DEFAULT_R_EDGES_KM, build_strata
+from pycolfrag import results as _results
+from pycolfrag.core.errors import ParameterError, ResultsFileError
+from pycolfrag.rare import allocation as _alloc
+from pycolfrag.rare.estimate import DEFAULT_MAX_SHARE, DEFAULT_MIN_NEFF, UNRESOLVED, estimate, exceedances, row_weights
+from pycolfrag.rare.plans import PulseMap, interleave, plan_inputs
+from pycolfrag.rare.proposal import FAMILIES, PILOT_MIXTURE, Design, cross_entropy_means, production_mixture, score
+from pycolfrag.rare.strata import DEFAULT_MW_STEP, DEFAULT_R_EDGES_KM, build_strata
 
 __all__ = ["DEFAULT_SEED", "SiteSettings", "StopRule", "SiteRun", "site_fingerprint", "simulate_site", "batch_name",
            "ALGORITHM", "failures"]
@@ -328,7 +328,7 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
     evaluator's other ranks serve). Returns the :class:`SiteRun`.
 
     ``quantities``: the levels (``label``, ``edp``, ``threshold``; collapse with ``edp`` None), e.g.
-    :data:`pycolfrag.analysis.risk.QUANTITIES`."""
+    :data:`pycolfrag.risk.site_risk.QUANTITIES`."""
     run = _Run(site, settings, stop, evaluator, quantities, log)
     pilot = {h: settings.pilot_per_stratum for h in range(len(run.strata))}
     run.run_batch(0, *run.planned(0, pilot, PILOT_MIXTURE))

@@ -40,9 +40,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from .. import results as _results
-from ..analysis import fragility as _fragility
-from ..errors import PycolfragError
+from pycolfrag import damage as _damage
+from pycolfrag import results as _results
+from pycolfrag.core.errors import PycolfragError
 
 __all__ = ["WeightError", "LevelEstimate", "Estimate", "exceedances", "row_weights", "estimate", "DEFAULT_MIN_NEFF",
            "DEFAULT_MAX_SHARE", "UNRESOLVED", "efficiency"]
@@ -61,12 +61,12 @@ class WeightError(PycolfragError, ArithmeticError):
 
 def exceedances(cols: dict, q) -> np.ndarray:
     """y of every row for level ``q`` (``edp``, ``threshold``; collapse when ``edp`` is None): the exceedance of
-    the fragility curves, collapsed or EDP >= threshold (:func:`pycolfrag.analysis.fragility.exceeded`, the one
+    the fragility curves, collapsed or EDP >= threshold (:func:`pycolfrag.damage.exceeded`, the one
     text of it; ``pcf.fragility``, loaded with the package)."""
     collapsed = np.asarray(cols["collapsed"], dtype=bool)
     if q.edp is None:
         return collapsed
-    return _fragility.exceeded(np.asarray(cols[q.edp], dtype=float), collapsed, q.threshold)
+    return _damage.exceeded(np.asarray(cols[q.edp], dtype=float), collapsed, q.threshold)
 
 
 def row_weights(cols: dict, strata, design) -> tuple[np.ndarray, dict]:

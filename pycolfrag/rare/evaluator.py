@@ -40,13 +40,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import results as _results
-from ..errors import ResultsFileError, StaleBuildError
-from ..grid import EventBatchSpec, run_grid
-from ..grid.serve import sigterm_handler as _sigterm_handler
-from ..grid.signing import CODE_KEYS
-from ..grid.spec import RunSettings, resolve_solver_options
-from ..ground_motion.registry import DEFAULT_PULSE_SHAPE
+from pycolfrag import results as _results
+from pycolfrag.core.errors import ResultsFileError, StaleBuildError
+from pycolfrag.grid import EventBatchSpec, run_grid
+from pycolfrag.grid.serve import sigterm_handler as _sigterm_handler
+from pycolfrag.grid.signing import CODE_KEYS
+from pycolfrag.grid.spec import RunSettings, resolve_solver_options
+from pycolfrag.ground_motion.registry import DEFAULT_PULSE_SHAPE
 
 __all__ = ["RecordSettings", "PLAN_KIND", "plan_path", "write_plan", "read_plan", "read_columns", "GridEvaluator",
            "BatchStopped"]

@@ -5,7 +5,7 @@ A run is named by (stage s, stratum h, index j); everything random about it come
 xoshiro256** generator, whose :data:`N_NORMALS` standard normals place the event (Mw, R in their bins,
 the mixture's component, the four pulse normals), the second is the seed of the record's
 high-frequency noise. Uniforms are Phi of normals by the library's own CDF, and the inverse CDFs use the
-library's exp and log (:mod:`pycolfrag.site_models`), so a run's inputs are the same bits on every CPU,
+library's exp and log (:mod:`pycolfrag.site.models`), so a run's inputs are the same bits on every CPU,
 rank count and order of work. The pulse parameters are the pulse shape's own map of its standard
 normals (z_vp, z_fp, z_nu, z_gamma) (``parameters_from_normals`` of the pulse-shape interface: the
 inverse CDFs of the distributions the grid samples by Latin hypercube, the one map subset simulation
@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ground_motion.registry import pulse_shape_of, tp_model_of
-from .strata import phi
+from pycolfrag.ground_motion.registry import pulse_shape_of, tp_model_of
+from pycolfrag.rare.strata import phi
 
 __all__ = ["STREAM_SITE", "N_NORMALS", "event_streams", "event_normals", "interleave", "PulseMap", "event_input",
            "plan_inputs"]
@@ -40,7 +40,7 @@ def event_streams(seed: int, stage: int, stratum: int, index: int) -> tuple[int,
 
 def event_normals(rng_seed: int, n: int = N_NORMALS) -> np.ndarray:
     """``n`` standard normals of the library's generator (xoshiro256**, polar method) seeded with ``rng_seed``."""
-    from .._ffi import ffi, lib, ptr  # loads C on first use: reading this module needs no C library
+    from pycolfrag.core.ffi import ffi, lib, ptr  # loads C on first use: reading this module needs no C library
     rng = ffi.new("cf_rng *")
     lib.cf_rng_seed(rng, int(rng_seed))
     out = np.empty(n)

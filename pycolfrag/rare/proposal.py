@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ParameterError
+from pycolfrag.core.errors import ParameterError
 
 __all__ = ["Mixture", "Design", "PILOT_MIXTURE", "production_mixture", "FAMILIES", "family_of", "score",
            "cross_entropy_means", "MEAN_DECIMALS"]

@@ -13,8 +13,8 @@ limits of the ground-motion models (a stratum lies wholly inside or wholly outsi
 grid's range (5 and 20 km, the magnitudes 5.5-7.5 are bin edges), so that the part of lambda inside a
 grid's range is a sum over whole strata.
 
-Only sources whose magnitude and distance are independent (:class:`pycolfrag.site.MagnitudeDistanceSource`,
-models that give bins: :mod:`pycolfrag.site_models`) can be stratified this way; another source type
+Only sources whose magnitude and distance are independent (:class:`pycolfrag.site.sources.MagnitudeDistanceSource`,
+models that give bins: :mod:`pycolfrag.site.models`) can be stratified this way; another source type
 is refused by name.
 """
 from __future__ import annotations
@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ParameterError
-from ..site_models import QUAD_POINTS
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.site.models import QUAD_POINTS
 
 __all__ = ["DEFAULT_MW_STEP", "DEFAULT_R_EDGES_KM", "ModelRange", "model_ranges", "Stratum", "OutsideShare",
            "Strata", "build_strata", "phi"]
@@ -40,7 +40,7 @@ _EDGE_TOL = 1e-9
 
 def phi(z: float) -> float:
     """Standard normal CDF by the library's own function: the same bits on every CPU."""
-    from .._ffi import lib  # loads C on first use: reading this module needs no C library
+    from pycolfrag.core.ffi import lib  # loads C on first use: reading this module needs no C library
     return float(lib.cf_math_norm_cdf(float(z)))
 
 
@@ -61,8 +61,8 @@ def model_ranges() -> dict:
     """The model range of each branch: the stochastic record alone (Atkinson & Silva 2000's generator),
     and with a pulse (that generator and the pulse model's Eqs. 6-7, Rupakhety et al. 2011), both read
     from the models' own declarations."""
-    from ..ground_motion import atkinson_silva_2000 as as00  # loads C (its ranges are the C generator's)
-    from ..ground_motion import rupakhety_2011 as r11
+    from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C (its ranges are the C generator's)
+    from pycolfrag.ground_motion import rupakhety_2011 as r11
     hf = ModelRange(tuple(as00.MW_RANGE), float(as00.DIST_MAX_KM), as00.NAME)
     pulse = ModelRange((max(hf.mw[0], r11.MW_RANGE[0]), min(hf.mw[1], r11.MW_RANGE[1])),
                        min(hf.r_max_km, r11.DIST_RANGE_KM[1]), f"{as00.NAME} and {r11.NAME}")
@@ -170,7 +170,7 @@ def _check_source(k: int, s) -> None:
             raise ParameterError(
                 f"source {s.name!r} ({type(s).__name__}, type {getattr(s, 'TYPE', '?')!r}): the event-based "
                 "simulation stratifies a source's magnitude and distance separately, and needs models that give "
-                "bins (pycolfrag.site_models: atoms, or support/probability_between/draw_between); this source "
+                "bins (pycolfrag.site.models: atoms, or support/probability_between/draw_between); this source "
                 f"has no such {part} model")
 
 

@@ -45,14 +45,15 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from .. import names, sample
-from .._ffi import ffi, lib, ptr
-from .._validate import integer
-from ..analysis.fragility import exceedance_score
-from ..column import Column
-from ..errors import ParameterError, RareEventError
-from ..ground_motion import normals_layout, registry, stochastic, synthesize
-from ..options import SolverOptions
+from pycolfrag.core import names
+from pycolfrag.core.errors import ParameterError, RareEventError
+from pycolfrag.core.ffi import ffi, lib, ptr
+from pycolfrag.core.validate import integer
+from pycolfrag.damage import exceedance_score
+from pycolfrag.ground_motion import normals_layout, registry, stochastic, synthesize
+from pycolfrag.solver import sample
+from pycolfrag.solver.options import SolverOptions
+from pycolfrag.structure.column import Column
 
 __all__ = ["STREAM", "P0", "N_PER_LEVEL", "MAX_LEVELS", "ACS_TARGET_ACCEPTANCE", "ACS_INITIAL_SCALE", "Z90",
            "SubsetProblem", "Level", "SubsetResult", "run_normals", "run_batch", "PoolEvaluator", "score",
@@ -76,9 +77,9 @@ Z90 = 1.6448536269514722
 
 def score(row: dict, edp: str) -> float:
     """The score of a run's row: -inf when the run failed (``status`` not 0, or no collapse and no finite
-    EDP), else its :func:`pycolfrag.analysis.fragility.exceedance_score` on ``edp`` (a key of
-    :data:`pycolfrag.names.EDPS`): +inf for a collapse, the EDP otherwise -- a level ``edp >= t`` is
-    exceeded as in :func:`pycolfrag.analysis.fragility.exceeded`."""
+    EDP), else its :func:`pycolfrag.damage.exceedance_score` on ``edp`` (a key of
+    :data:`pycolfrag.core.names.EDPS`): +inf for a collapse, the EDP otherwise -- a level ``edp >= t`` is
+    exceeded as in :func:`pycolfrag.damage.exceeded`."""
     collapsed = bool(row.get("collapsed"))
     v = row.get(edp, math.nan)
     if row.get("status", 0) != 0 or not (collapsed or math.isfinite(float(v))):
@@ -171,9 +172,9 @@ def _record_row(inp: dict):
 
 def run_batch(batch: Sequence[dict]) -> list[dict]:
     """The rows of a batch of run inputs (:meth:`SubsetProblem.run_input`), in order: the grid's row of
-    each record made from its normals (IMs, EDPs, collapse, status; :mod:`pycolfrag.sample`), plus its
+    each record made from its normals (IMs, EDPs, collapse, status; :mod:`pycolfrag.solver.sample`), plus its
     ``level``, ``chain`` and ``step``. The runs on one column and one set of solver options are
-    integrated side by side (:func:`pycolfrag.sample.response_rows`: bitwise each run alone). Serial."""
+    integrated side by side (:func:`pycolfrag.solver.sample.response_rows`: bitwise each run alone). Serial."""
     rows, groups = [], {}
     for i, inp in enumerate(batch):
         out, motion = _record_row(inp)

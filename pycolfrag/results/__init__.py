@@ -57,11 +57,17 @@ Faults from outside a run
 * A journal whose header was cut (full disk) raises :class:`JournalHeaderError` in
   :func:`read_journal`; callers set it aside or ignore it, never crash.
 """
-from ..errors import ResultsFileError  # the base of this package's errors, importable beside them
-from .bounded import OPEN_TIMEOUT_S, read_h5_bounded
-from .checksums import ResultsDamagedError
-from .journal import JournalHeaderError, journal_mismatch, journal_path, read_journal, signature_mismatch
-from .layout import (
+from pycolfrag.core.errors import ResultsFileError  # the base of this package's errors, importable beside them
+from pycolfrag.results.bounded import OPEN_TIMEOUT_S, read_h5_bounded
+from pycolfrag.results.checksums import ResultsDamagedError
+from pycolfrag.results.journal import (
+    JournalHeaderError,
+    journal_mismatch,
+    journal_path,
+    read_journal,
+    signature_mismatch,
+)
+from pycolfrag.results.layout import (
     EVENT_SAMPLE_FIELDS,
     FORMAT_VERSION,
     LABEL_BYTES,
@@ -83,8 +89,8 @@ from .layout import (
     merged_columns,
     row_bytes,
 )
-from .lock import ResultsLockedError, RunLock, lock_held, lock_path
-from .writer import ResultsWriter, create, open_for_run
+from pycolfrag.results.lock import ResultsLockedError, RunLock, lock_held, lock_path
+from pycolfrag.results.writer import ResultsWriter, create, open_for_run
 
 __all__ = [
     "FORMAT_VERSION", "SAMPLE_FIELDS", "RECORD_SAMPLE_FIELDS", "EVENT_SAMPLE_FIELDS", "SPECTRA_FIELDS", "LAYOUTS", "LABEL_BYTES",

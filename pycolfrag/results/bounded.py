@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ResultsFileError
-from .checksums import ResultsDamagedError, all_attrs, verify_checksums
-from .layout import ROW_CRC, h5open
+from pycolfrag.core.errors import ResultsFileError
+from pycolfrag.results.checksums import ResultsDamagedError, all_attrs, verify_checksums
+from pycolfrag.results.layout import ROW_CRC, h5open
 
 #: Seconds a results file may take to open and read fully before it is called damaged (a damaged
 #: HDF5 file can make the HDF5 library loop forever; the read runs in a forked child that is killed

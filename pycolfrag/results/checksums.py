@@ -16,9 +16,9 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import ResultsFileError
-from .journal import journal_path
-from .layout import ROW_CRC, STATUS_PENDING
+from pycolfrag.core.errors import ResultsFileError
+from pycolfrag.results.journal import journal_path
+from pycolfrag.results.layout import ROW_CRC, STATUS_PENDING
 
 
 class ResultsDamagedError(ResultsFileError):

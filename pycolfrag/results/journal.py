@@ -17,8 +17,8 @@ from typing import Iterable, Mapping
 
 import numpy as np
 
-from ..errors import ResultsFileError
-from .layout import FORMAT_VERSION, row_to_json
+from pycolfrag.core.errors import ResultsFileError
+from pycolfrag.results.layout import FORMAT_VERSION, row_to_json
 
 
 def journal_path(path) -> Path:

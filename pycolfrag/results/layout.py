@@ -13,10 +13,10 @@ from typing import Mapping
 
 import numpy as np
 
-from .. import names as _names
-from ..errors import ResultsFileError
-from ..ground_motion import record as _gm_record
-from ..ground_motion import registry as _gm_registry
+from pycolfrag.core import names as _names
+from pycolfrag.core.errors import ResultsFileError
+from pycolfrag.ground_motion import record as _gm_record
+from pycolfrag.ground_motion import registry as _gm_registry
 
 #: Version of the file layout (root attribute ``format_version``): 2 added ``/row_crc32``, each finished
 #: row's checksum, so that the rows of an interrupted file can be verified before a resume keeps them.
@@ -34,7 +34,7 @@ STATUS_OTHER_FAILED = 9     # anything else (EDP extraction, a user sample funct
 MESSAGE_BYTES = 256
 
 # name: (numpy dtype, fill value for rows not computed yet, unit/description)
-# The IM and EDP fields are not spelled here: they come from the one registry (pycolfrag.names),
+# The IM and EDP fields are not spelled here: they come from the one registry (pycolfrag.core.names),
 # "<description>, <unit>"; nor are the scenario and pulse fields of a synthetic row: they come from
 # the ground-motion models' declarations (pycolfrag.ground_motion.registry).
 
@@ -80,7 +80,7 @@ SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
     # sampled pulse parameters and record metadata (from Record.meta)
     **_declared_fields(_gm_registry.PULSE_FIELDS),
     "record_s": ("f8", math.nan, "record duration used (len(acc) * dt), s"),
-    # intensity measures of the record, then the response (EDPs): from pycolfrag.names
+    # intensity measures of the record, then the response (EDPs): from pycolfrag.core.names
     **_quantity_fields(_names.IMS),
     **_quantity_fields(_names.EDPS),
     **_RESPONSE_FIELDS,
@@ -91,7 +91,7 @@ LABEL_BYTES = 96
 
 #: ``/samples`` of a record-suite grid (root attribute ``layout = "records"``,
 #: ``scripts/run_grid.py --records``): one row per record x component x scale
-#: (:func:`pycolfrag.sample.record_jobs`).
+#: (:func:`pycolfrag.solver.sample.record_jobs`).
 RECORD_SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
     # identity of the run
     "record": ("i4", -1, "index of the record in the suite (order of the suite table)"),
@@ -172,7 +172,7 @@ def fields_of(layout) -> dict:
 #: Fields whose values depend on the machine/ranks rather than the inputs.
 TIMING_FIELDS = ("wall_s",)
 
-#: ``/spectra`` datasets (rows x periods): the spectral IMs of :mod:`pycolfrag.names`.
+#: ``/spectra`` datasets (rows x periods): the spectral IMs of :mod:`pycolfrag.core.names`.
 SPECTRA_FIELDS = {name: f"{q.description}, {q.unit}" for name, q in _names.IMS.items() if q.spectral}
 
 

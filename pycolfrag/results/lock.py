@@ -19,7 +19,7 @@ import warnings
 from pathlib import Path
 from typing import Mapping
 
-from ..errors import ResultsFileError
+from pycolfrag.core.errors import ResultsFileError
 
 
 class ResultsLockedError(ResultsFileError):
@@ -122,7 +122,7 @@ def _lock_inode(path: Path) -> int | None:
 
 
 #: The lock refusal's advice for the grid; a command without ``--out`` (``risk --simulate``) puts its
-#: own in its place (:func:`pycolfrag.rare.command`'s failure line).
+#: own in its place (:func:`pycolfrag.risk.simulate`'s failure line).
 OTHER_FILE = "use --out for another file"
 
 

@@ -22,8 +22,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ..errors import ResultsFileError
-from .layout import h5open
+from pycolfrag.core.errors import ResultsFileError
+from pycolfrag.results.layout import h5open
 
 __all__ = ["GROUP", "KINDS", "DTYPE", "MAX_RANKS", "kind_code", "records", "append_timeline", "next_session",
            "read_timeline", "check_regular_file"]
@@ -164,7 +164,7 @@ def read_timeline(path) -> dict:
     A dataset whose bytes or attributes fail their CRC-32 is returned with ``crc_ok`` False (the caller
     says so); a file written before ``attrs_crc32`` was stored is checked on its rows alone. A path that
     is not a regular file, a ``kinds`` or an ``n_ranks`` that cannot be right raise
-    :class:`~pycolfrag.errors.ResultsFileError` naming them."""
+    :class:`~pycolfrag.core.errors.ResultsFileError` naming them."""
     check_regular_file(path)
     out: dict[str, dict] = {}
     with h5open(path, "r") as f:

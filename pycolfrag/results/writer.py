@@ -11,10 +11,10 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from ..errors import ResultsFileError
-from .bounded import ChildLost, read_h5_bounded, start_child
-from .checksums import ResultsDamagedError, row_checksums, store_checksums
-from .journal import (
+from pycolfrag.core.errors import ResultsFileError
+from pycolfrag.results.bounded import ChildLost, read_h5_bounded, start_child
+from pycolfrag.results.checksums import ResultsDamagedError, row_checksums, store_checksums
+from pycolfrag.results.journal import (
     Journal,
     JournalHeaderError,
     journal_mismatch,
@@ -25,7 +25,7 @@ from .journal import (
     signature_mismatch,
     write_journal_header,
 )
-from .layout import (
+from pycolfrag.results.layout import (
     FORMAT_VERSION,
     ROW_CRC,
     SPECTRA_FIELDS,
@@ -40,8 +40,8 @@ from .layout import (
     put_row,
     rows_of,
 )
-from .lock import RunLock
-from .timeline import append_timeline, next_session
+from pycolfrag.results.lock import RunLock
+from pycolfrag.results.timeline import append_timeline, next_session
 
 # ---------------------------------------------------------------------------------------
 # creating
@@ -192,7 +192,7 @@ def open_for_run(path, signature: Mapping, attrs: Mapping, n_rows: int, periods_
     which rows are already computed.
 
     On resume the stored ``grid_signature`` must equal ``signature``, else
-    :class:`~pycolfrag.errors.ResultsFileError` (unless ``overwrite``). The journal must belong to
+    :class:`~pycolfrag.core.errors.ResultsFileError` (unless ``overwrite``). The journal must belong to
     the file (same signature and ``run_id``): a journal of another run, or one whose header is bad,
     is set aside (renamed ``<journal>.set-aside-<time>``, with a message through ``log``) and none
     of its rows is used. A damaged HDF5 file (an error, a checksum mismatch -- of an attribute, a

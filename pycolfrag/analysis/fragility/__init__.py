@@ -41,23 +41,20 @@ file (PGA in g, PGV in cm/s, SA in g, SV in cm/s).
 """
 from __future__ import annotations
 
-from .bootstrap import as_rng, bootstrap_interval, eq4_statistic
-from .degenerate import MIN_FIT_POINTS, DegenerateFitWarning
-from .eq4 import (
+from pycolfrag.analysis.fragility.bootstrap import as_rng, bootstrap_interval, eq4_statistic
+from pycolfrag.analysis.fragility.degenerate import MIN_FIT_POINTS, DegenerateFitWarning
+from pycolfrag.analysis.fragility.eq4 import (
     binomial_ci,
     collapse_probability,
     empirical_exceedance,
     eq4_degenerate,
     exceedance,
-    exceedance_score,
-    exceeded,
     lognormal_parameters,
 )
-from .levels import PERFORMANCE_LEVELS, U_D_LEVELS, U_TOP_LEVELS, PerformanceLevel
-from .mle import BETA_MAX, BETA_MIN, LognormalFragility, fit_lognormal_fragility
-from .ordered import fit_ordered_fragility
-from .stripes import StripeCurve, stripe_curve, stripe_edges
-from .suites import (
+from pycolfrag.analysis.fragility.mle import BETA_MAX, BETA_MIN, LognormalFragility, fit_lognormal_fragility
+from pycolfrag.analysis.fragility.ordered import fit_ordered_fragility
+from pycolfrag.analysis.fragility.stripes import StripeCurve, stripe_curve, stripe_edges
+from pycolfrag.analysis.fragility.suites import (
     CloudFit,
     LogisticCollapse,
     MSAFragility,
@@ -69,7 +66,7 @@ from .suites import (
     stripe_analysis,
     table_im,
 )
-from .surfaces import (
+from pycolfrag.analysis.fragility.surfaces import (
     ScenarioRow,
     Surface,
     collapse_surface,
@@ -77,6 +74,14 @@ from .surfaces import (
     exceedance_surface,
     mean_edp_surface,
     scenario_table,
+)
+from pycolfrag.damage import (
+    PERFORMANCE_LEVELS,
+    U_D_LEVELS,
+    U_TOP_LEVELS,
+    PerformanceLevel,
+    exceedance_score,
+    exceeded,
 )
 
 __all__ = [

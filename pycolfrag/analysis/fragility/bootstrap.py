@@ -3,11 +3,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..._scipy_on_first_use import stats
-from ..._validate import integer, real
-from ...errors import ParameterError
-from .eq4 import exceeded
-from .levels import _as_inputs
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.scipy_on_first_use import stats
+from pycolfrag.core.validate import integer, real
+from pycolfrag.damage import _as_inputs, exceeded
 
 
 def eq4_statistic(threshold):

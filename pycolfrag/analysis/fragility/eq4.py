@@ -3,12 +3,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..._scipy_on_first_use import stats
-from ..._validate import float_array, integer, positive_float, real
-from ...errors import ParameterError
-from . import degenerate as _degenerate
-from .degenerate import MIN_FIT_POINTS
-from .levels import _as_flags, _as_inputs
+from pycolfrag.analysis.fragility import degenerate as _degenerate
+from pycolfrag.analysis.fragility.degenerate import MIN_FIT_POINTS
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.scipy_on_first_use import stats
+from pycolfrag.core.validate import float_array, integer, real
+from pycolfrag.damage import _as_flags, _as_inputs, exceeded
 
 
 def collapse_probability(collapsed) -> float:
@@ -170,22 +170,3 @@ def empirical_exceedance(edp, collapsed, threshold) -> float:
     """
     edp, collapsed, threshold = _as_inputs(edp, collapsed, threshold)
     return float(np.mean(exceeded(edp, collapsed, threshold)))
-
-
-def exceedance_score(edp, collapsed) -> np.ndarray:
-    """Each simulation's value on the EDP's scale, the one text of what exceeds a level (Eq. (1)): a
-    level t is exceeded where it is >= t. +inf where the column collapsed (a collapse exceeds every
-    level), -inf where the EDP is NaN (no value: it exceeds none), the EDP otherwise. Unchecked (callers
-    check): :func:`exceeded` and the subset simulation's score (:func:`pycolfrag.rare.subset.score`)."""
-    edp = np.asarray(edp, dtype=float)
-    return np.where(collapsed, np.inf, np.where(np.isnan(edp), -np.inf, edp))
-
-
-def exceeded(edp, collapsed, threshold) -> np.ndarray:
-    """Bernoulli outcome of each simulation: collapsed or EDP >= threshold (bool array)."""
-    edp = float_array(edp, "edp", ndim=None, allow_empty=True, finite=False)
-    collapsed = _as_flags(collapsed)
-    threshold = positive_float(threshold, "threshold")
-    return exceedance_score(edp, collapsed) >= threshold
-
-

@@ -6,14 +6,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..._scipy_on_first_use import optimize, special, stats
-from ..._validate import float_array, integer, real
-from ...errors import ParameterError
-from . import degenerate as _degenerate
-from .bootstrap import as_rng
-from .degenerate import MIN_FIT_POINTS
-from .eq4 import exceeded
-from .levels import _as_inputs
+from pycolfrag.analysis.fragility import degenerate as _degenerate
+from pycolfrag.analysis.fragility.bootstrap import as_rng
+from pycolfrag.analysis.fragility.degenerate import MIN_FIT_POINTS
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.scipy_on_first_use import optimize, special, stats
+from pycolfrag.core.validate import float_array, integer, real
+from pycolfrag.damage import _as_inputs, exceeded
 
 
 @dataclass

@@ -19,11 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..._scipy_on_first_use import optimize, special
-from ..._validate import float_array
-from ...errors import ParameterError
-from . import degenerate as _degenerate
-from .mle import BETA_MAX, BETA_MIN, LognormalFragility, _fit_reasons, _mle_bounds
+from pycolfrag.analysis.fragility import degenerate as _degenerate
+from pycolfrag.analysis.fragility.mle import BETA_MAX, BETA_MIN, LognormalFragility, _fit_reasons, _mle_bounds
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.scipy_on_first_use import optimize, special
+from pycolfrag.core.validate import float_array
 
 
 def _log_prob_between(u, v):

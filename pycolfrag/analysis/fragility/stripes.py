@@ -5,11 +5,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..._validate import float_array, integer
-from ...errors import ParameterError
-from .bootstrap import as_rng, boot_settings, bootstrap_interval
-from .eq4 import _eq4_why, _exceedance, empirical_exceedance
-from .levels import _as_inputs
+from pycolfrag.analysis.fragility.bootstrap import as_rng, boot_settings, bootstrap_interval
+from pycolfrag.analysis.fragility.eq4 import _eq4_why, _exceedance, empirical_exceedance
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.validate import float_array, integer
+from pycolfrag.damage import _as_inputs
 
 
 @dataclass

@@ -2,7 +2,7 @@
 multiple-stripe fragility (Baker 2015).
 
 A record-suite table is a dict of arrays in the layout of ``/samples`` (one row per run; keys of
-:mod:`pycolfrag.names`), optionally with 2-D ``sa_g`` / ``sv_cm_s`` (rows x periods) and
+:mod:`pycolfrag.core.names`), optionally with 2-D ``sa_g`` / ``sv_cm_s`` (rows x periods) and
 ``periods_s``. Fits use scipy only (no new dependency): ``scipy.stats.linregress`` for the cloud
 regression, ``scipy.optimize.minimize`` for the logistic collapse model and the MSA likelihood.
 statsmodels would give the same numbers (ordinary least squares and a binomial GLM) but would be a
@@ -14,16 +14,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ... import names as _names
-from ..._scipy_on_first_use import optimize, special, stats
-from ..._validate import float_array
-from ...errors import ParameterError
-from . import degenerate as _degenerate
-from .bootstrap import as_rng
-from .eq4 import exceeded
-from .levels import PERFORMANCE_LEVELS, PerformanceLevel, _as_flags
-from .mle import LognormalFragility, _fit_reasons, _mle_bounds
-from .stripes import stripe_curve
+from pycolfrag.analysis.fragility import degenerate as _degenerate
+from pycolfrag.analysis.fragility.bootstrap import as_rng
+from pycolfrag.analysis.fragility.mle import LognormalFragility, _fit_reasons, _mle_bounds
+from pycolfrag.analysis.fragility.stripes import stripe_curve
+from pycolfrag.core import names as _names
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.scipy_on_first_use import optimize, special, stats
+from pycolfrag.core.validate import float_array
+from pycolfrag.damage import PERFORMANCE_LEVELS, PerformanceLevel, _as_flags, exceeded
 
 
 def ok_rows(table) -> np.ndarray:

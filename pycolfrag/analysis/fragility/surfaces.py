@@ -5,12 +5,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ... import progress
-from ..._validate import float_array
-from ...errors import ParameterError
-from .bootstrap import _mean_ok_vectorised, as_rng, boot_settings, bootstrap_interval
-from .eq4 import _exceedance, empirical_exceedance, eq4_degenerate, exceedance, lognormal_parameters
-from .levels import PERFORMANCE_LEVELS, _as_inputs
+from pycolfrag.analysis.fragility.bootstrap import _mean_ok_vectorised, as_rng, boot_settings, bootstrap_interval
+from pycolfrag.analysis.fragility.eq4 import (
+    _exceedance,
+    empirical_exceedance,
+    eq4_degenerate,
+    exceedance,
+    lognormal_parameters,
+)
+from pycolfrag.core import progress
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.validate import float_array
+from pycolfrag.damage import PERFORMANCE_LEVELS, _as_inputs
 
 
 @dataclass
@@ -106,7 +112,7 @@ def scenario_table(mw, dist_km, edps: dict, collapsed, levels=PERFORMANCE_LEVELS
                 row.ci[lev.label] = bootstrap_interval(e, c, lev.threshold, n_boot=n_boot,
                                                        confidence=confidence, rng=g)
             rows.append(row)
-            progress.advance(unit="fit")   # a scenario's fits: one step of a command's bar (pycolfrag.progress)
+            progress.advance(unit="fit")   # a scenario's fits: one step of a command's bar (pycolfrag.core.progress)
     return rows
 
 

@@ -25,22 +25,33 @@ Three pieces, none of which needs OpenQuake installed:
 
 Command line::
 
-    python -m pycolfrag.analysis.openquake export results/grid.h5 column_fragility.xml --im pga_g
-    python -m pycolfrag.analysis.openquake damage hazard_curve-mean-PGA.csv column_fragility.xml --risk-time 50
+    pycolfrag openquake export results/grid.h5 column_fragility.xml --im pga_g
+    pycolfrag openquake damage hazard_curve-mean-PGA.csv column_fragility.xml --risk-time 50
 
 Units are OpenQuake's: PGA and SA in g, PGV in cm/s (pycolfrag's ``pga_g``, ``sa_g``, ``pgv_cm_s``).
 """
 from __future__ import annotations
 
-from ..outputs import NRML_NS, write_nrml
-from .cli import main
-from .damage import DiscretisationWarning, HazardRangeWarning, classical_damage, fine_rates
-from .export import fragility_from_results
-from .functions import CROSSING_TOL, MIN_IML, ContinuousFragility, DiscreteFragility, FragilityModel
-from .hazard import HazardCurves, annual_rates, im_of_imt, imt_of, occurrence_rates, read_hazard_curves
-from .nrml import read_nrml
+from pycolfrag.analysis.openquake.damage import DiscretisationWarning, HazardRangeWarning, classical_damage, fine_rates
+from pycolfrag.analysis.openquake.export import fragility_from_results
+from pycolfrag.analysis.openquake.functions import (
+           CROSSING_TOL,
+           MIN_IML,
+           ContinuousFragility,
+           DiscreteFragility,
+           FragilityModel,
+)
+from pycolfrag.analysis.openquake.hazard import (
+           HazardCurves,
+           annual_rates,
+           im_of_imt,
+           imt_of,
+           occurrence_rates,
+           read_hazard_curves,
+)
+from pycolfrag.analysis.openquake.nrml import read_nrml
+from pycolfrag.analysis.outputs import NRML_NS, write_nrml
 
 __all__ = ["NRML_NS", "MIN_IML", "HazardCurves", "read_hazard_curves", "imt_of", "im_of_imt", "annual_rates",
            "occurrence_rates", "ContinuousFragility", "DiscreteFragility", "FragilityModel",
-           "classical_damage", "fine_rates", "HazardRangeWarning", "DiscretisationWarning", "CROSSING_TOL", "fragility_from_results", "write_nrml", "read_nrml",
-           "main"]
+           "classical_damage", "fine_rates", "HazardRangeWarning", "DiscretisationWarning", "CROSSING_TOL", "fragility_from_results", "write_nrml", "read_nrml"]

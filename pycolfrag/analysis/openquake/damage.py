@@ -5,10 +5,10 @@ import warnings
 
 import numpy as np
 
-from ..._validate import finite_float, integer
-from ...errors import ParameterError
-from .functions import FragilityModel
-from .hazard import annual_rates, occurrence_rates
+from pycolfrag.analysis.openquake.functions import FragilityModel
+from pycolfrag.analysis.openquake.hazard import annual_rates, occurrence_rates
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.validate import finite_float, integer
 
 
 def _fine_graining(points, steps):

@@ -35,14 +35,14 @@ import re
 import numpy as np
 from scipy import stats
 
-from ...errors import ParameterError
-from .. import fragility as _frag
-from ..completeness import check_complete
-from ..data import read_table
-from ..fragility import U_TOP_LEVELS
-from ..fragility.degenerate import one_warning_per_cause
-from .functions import CROSSING_TOL, ContinuousFragility, DiscreteFragility, FragilityModel
-from .hazard import imt_of
+from pycolfrag.analysis import fragility as _frag
+from pycolfrag.analysis.completeness import check_complete
+from pycolfrag.analysis.data import read_table
+from pycolfrag.analysis.fragility import U_TOP_LEVELS
+from pycolfrag.analysis.fragility.degenerate import one_warning_per_cause
+from pycolfrag.analysis.openquake.functions import CROSSING_TOL, ContinuousFragility, DiscreteFragility, FragilityModel
+from pycolfrag.analysis.openquake.hazard import imt_of
+from pycolfrag.core.errors import ParameterError
 
 #: The word that marks a degenerate fit in the description and the printout (read back by ``read_nrml``).
 DEGENERATE_MARK = "DEGENERATE"

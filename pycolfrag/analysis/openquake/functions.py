@@ -9,8 +9,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from ...errors import ParameterError
-from .hazard import im_of_imt
+from pycolfrag.analysis.openquake.hazard import im_of_imt
+from pycolfrag.core.errors import ParameterError
 
 
 @dataclass(frozen=True)

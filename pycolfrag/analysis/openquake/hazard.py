@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import HazardFileError, ParameterError
-from ...input_files import read_text
+from pycolfrag.core.errors import HazardFileError, ParameterError
+from pycolfrag.core.input_files import read_text
 
 #: pycolfrag IM name -> OpenQuake IMT (spectral ones take a period: ``SA(1.0)``); units agree.
 _IMT = {"pga_g": "PGA", "pgv_cm_s": "PGV", "sa_g": "SA"}
@@ -247,9 +247,9 @@ def read_hazard_curves(path, *, investigation_time: float | None = None, imt: st
 
     The investigation time and the IMT come from the file's comment lines; ``investigation_time`` and
     ``imt`` supply them for a file without them (and must agree with it when both are given).
-    The file is read by the project's policy for files a user names (:mod:`pycolfrag.input_files`:
+    The file is read by the project's policy for files a user names (:mod:`pycolfrag.core.input_files`:
     a regular file of at most ``LIMITS["hazard-curve file"]`` bytes, UTF-8 text).
-    Refused with :class:`~pycolfrag.errors.HazardFileError` naming the file and the problem: not a
+    Refused with :class:`~pycolfrag.core.errors.HazardFileError` naming the file and the problem: not a
     regular file, too big, not UTF-8 or binary (a NUL byte); comment lines that disagree on a key; a
     column named twice; no ``lon``/``lat`` or no ``poe-<IML>`` column; fewer than two levels; an IML
     that is not a positive number or not increasing; a value that is not a number; a probability outside

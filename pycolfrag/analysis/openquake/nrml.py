@@ -6,11 +6,11 @@ import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from ...errors import HazardFileError
-from ...input_files import read_text
-from ..completeness import MARK
-from .export import DEGENERATE_MARK
-from .functions import MIN_IML, ContinuousFragility, DiscreteFragility, FragilityModel
+from pycolfrag.analysis.completeness import MARK
+from pycolfrag.analysis.openquake.export import DEGENERATE_MARK
+from pycolfrag.analysis.openquake.functions import MIN_IML, ContinuousFragility, DiscreteFragility, FragilityModel
+from pycolfrag.core.errors import HazardFileError
+from pycolfrag.core.input_files import read_text
 
 
 def _floats(text, what, path):
@@ -73,9 +73,9 @@ def read_nrml(path) -> dict:
     """The fragility functions of an NRML 0.5 ``fragilityModel`` file: ``{taxonomy: FragilityModel}``
     (``logncdf`` continuous and discrete functions; a pycolfrag export's marks of degenerate fits and of an
     incomplete results file, in its description, become the model's ``notes``). The file is read by the project's policy for files
-    a user names (:mod:`pycolfrag.input_files`: a regular file of at most ``LIMITS["fragility model
+    a user names (:mod:`pycolfrag.core.input_files`: a regular file of at most ``LIMITS["fragility model
     file"]`` bytes, UTF-8); bad or missing values, and a taxonomy given twice, raise
-    :class:`~pycolfrag.errors.HazardFileError` naming them."""
+    :class:`~pycolfrag.core.errors.HazardFileError` naming them."""
     text = read_text(path, "fragility model file", error=HazardFileError)
     path = Path(path)
     try:

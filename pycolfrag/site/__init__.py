@@ -1,0 +1,3 @@
+"""A site: its sources behind the one :class:`~pycolfrag.site.sources.SiteSource` interface and the
+site file (:mod:`.sources`), and the models of rates, pulse occurrence and pulse period they use
+(:mod:`.models`). Read by both risk routes (:mod:`pycolfrag.risk`, :mod:`pycolfrag.rare`)."""

@@ -1,0 +1,135 @@
+"""The C side of a scene: a column with connectors or a :class:`~pycolfrag.structure.scene.Colonnade` as the
+solver's ``cf_solver_scene`` (``csrc/solver.h``), and what a run reports of its columns, epistyles and
+dowels (``cf_solver_set_outputs``, ``cf_solver_set_history_connectors``).
+
+:func:`pycolfrag.simulate` and :func:`pycolfrag.simulate_batch` call this for anything that is not a
+plain column (a plain column keeps its own set-up, ``cf_solver_setup_joints``); a one-column scene
+without connectors gives that column's results bit for bit.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.ffi import check, ffi, lib, ptr, segment_arrays
+from pycolfrag.structure.scene import SceneParts
+
+__all__ = ["parts_of", "setup", "Outputs", "EDP_DEFAULTS"]
+
+#: The scene EDPs of a :class:`~pycolfrag.solver.run.Response` and their value where the scene has no
+#: such part (no dowels, no epistyles): NaN, the quantity does not exist.
+EDP_DEFAULTS = {"dowel_shear_kn": math.nan, "dowel_slip_mm": math.nan, "dowels_yielded": math.nan,
+                "dowels_broken": math.nan,
+                "epistyle_slip_mm": math.nan, "epistyle_unseat": math.nan}
+
+
+def parts_of(model, monolithic: bool, caller: str) -> SceneParts | None:
+    """The scene parts of a column with connectors or of anything with ``scene_parts()`` (a
+    Colonnade); None for a plain column, which the solver sets up as before. A monolithic column keeps
+    the dowels of its base joint only (its other joints do not exist: warned)."""
+    if not hasattr(model, "scene_parts"):
+        if not model.connectors:
+            return None
+        dowels = model.dowels()
+        if monolithic and any(j > 0 for j, _, _, _ in dowels):
+            warnings.warn(f"{caller}: monolithic=True has the base joint only; the dowels of joints "
+                          f"{sorted({j for j, _, _, _ in dowels if j > 0})} do not act", UserWarning, stacklevel=4)
+            dowels = [d for d in dowels if d[0] == 0]
+        return SceneParts([(model, 0.0, 0.0)], dowels=dowels)
+    return model.scene_parts()
+
+
+def setup(solver, d, parts: SceneParts, caller: str) -> list:
+    """Set the solver up for ``parts`` with the definition ``d`` (``cf_solver_setup_scene``); returns
+    the C objects that must outlive the call (none is kept by the solver: it copies what it needs)."""
+    cols = ffi.new("cf_solver_scene_column[]", len(parts.columns))
+    for c, (col, x, y) in zip(cols, parts.columns):
+        c.x = x; c.y = y; c.n_blocks = col.n_blocks
+    segs, nseg = segment_arrays([b for col, _, _ in parts.columns for b in col.blocks])
+    props = [col.joint(i) for col, _, _ in parts.columns for i in range(col.n_blocks)]
+    kn = np.array([p.kn for p in props]); ks = np.array([p.ks for p in props]); mu = np.array([p.mu for p in props])
+    beams = ffi.new("cf_solver_scene_beam[]", max(len(parts.beams), 1))
+    for c, b in zip(beams, parts.beams):
+        c.x = b.x; c.y = b.y; c.length = b.length; c.width = b.width; c.height = b.height; c.density = b.density
+    bears = ffi.new("cf_solver_scene_bearing[]", max(len(parts.bearings), 1))
+    for c, g in zip(bears, parts.bearings):
+        c.beam = g.beam; c.column = g.column; c.x = g.x; c.y = g.y; c.side = g.side
+        c.kn = g.joints.kn * g.kn_factor; c.ks = g.joints.ks * g.kn_factor; c.mu = g.joints.mu
+    conns = ffi.new("cf_solver_connector[]", max(len(parts.dowels), 1))
+    for c, (j, x, y, law) in zip(conns, parts.dowels):
+        law.fill(c)
+        c.joint = j; c.x = x; c.y = y
+    sc = ffi.new("cf_solver_scene *")
+    sc.n_columns = len(parts.columns); sc.columns = cols
+    sc.n_segments = nseg; sc.segments = segs; sc.density = parts.columns[0][0].density
+    sc.kn = ptr(kn); sc.ks = ptr(ks); sc.mu = ptr(mu)
+    sc.n_beams = len(parts.beams); sc.beams = beams
+    sc.n_bearings = len(parts.bearings); sc.bearings = bears
+    sc.n_connectors = len(parts.dowels); sc.connectors = conns
+    densities = {col.density for col, _, _ in parts.columns}
+    if len(densities) > 1:
+        raise ParameterError(f"the columns of a scene share one density, got {sorted(densities)} kg/m^3")
+    st = lib.cf_solver_setup_scene(solver, d, sc)
+    check(st, lib.cf_solver_message(solver), caller)
+    return [cols, segs, nseg, kn, ks, mu, beams, bears, conns, sc]
+
+
+class Outputs:
+    """One run's output buffers of a scene's columns, beams and dowels, and their histories, and what
+    they report once the run has finished (:meth:`report`)."""
+
+    def __init__(self, parts: SceneParts, cap: int):
+        self.parts = parts
+        self.col = np.full((len(parts.columns), lib.CF_SOLVER_COLUMN_OUT), np.nan)
+        self.beam = np.full((max(len(parts.beams), 1), lib.CF_SOLVER_BEAM_OUT), np.nan)
+        self.conn = np.full((max(len(parts.dowels), 1), lib.CF_SOLVER_CONNECTOR_OUT), np.nan)
+        nd = len(parts.dowels)
+        self.h_en = np.zeros((cap, 2)) if nd and cap else None
+        self.h_dowel = np.zeros((cap, nd, 3)) if nd and cap else None
+
+    def attach(self, solver) -> None:
+        """Point the solver at these buffers (before a run)."""
+        lib.cf_solver_set_outputs(solver, ptr(self.col), ptr(self.beam), ptr(self.conn))
+        if self.h_en is not None:
+            lib.cf_solver_set_history_connectors(solver, ptr(self.h_en), ptr(self.h_dowel))
+
+    def report(self, r) -> dict:
+        """The Response's scene attributes after the run whose result is r: ``columns``,
+        ``epistyles``, ``dowels`` (dicts of arrays, None where the scene has no such part), the scene
+        EDPs (:data:`EDP_DEFAULTS`). A one-column scene (set up as its column) reports its column
+        from the run's result."""
+        p = self.parts
+        out = dict(EDP_DEFAULTS)
+        if len(p.columns) == 1 and not p.beams:
+            self.col[0] = (r.u_top, r.u_d, r.max_top_disp, 1.0 if r.collapsed else 0.0)
+        out["columns"] = {"u_top": self.col[:, 0].copy(), "u_d": self.col[:, 1].copy(),
+                          "max_top_disp": self.col[:, 2].copy(), "collapsed": self.col[:, 3] > 0.5}
+        out["epistyles"] = None
+        out["dowels"] = None
+        if p.beams:
+            b = self.beam[:len(p.beams)]
+            out["epistyles"] = {"slip": b[:, 0].copy(), "residual_slip": b[:, 1].copy(), "unseat": b[:, 2].copy(),
+                                "collapsed": b[:, 3] > 0.5}
+            out["epistyle_slip_mm"] = float(b[:, 0].max() * 1000.0)
+            out["epistyle_unseat"] = float(b[:, 2].max())
+        if p.dowels:
+            c = self.conn[:len(p.dowels)]
+            out["dowels"] = {"joint": np.array([j for j, _, _, _ in p.dowels]), "peak_shear": c[:, 0].copy(),
+                             "peak_slip": c[:, 1].copy(), "peak_axial": c[:, 2].copy(), "yielded": c[:, 3] > 0.5,
+                             "broken": c[:, 4] > 0.5, "break_time": c[:, 5].copy(), "dissipated": c[:, 6].copy()}
+            out["dowel_shear_kn"] = float(c[:, 0].max() / 1000.0)
+            out["dowel_slip_mm"] = float(c[:, 1].max() * 1000.0)
+            out["dowels_yielded"] = float((c[:, 3] > 0.5).sum())
+            out["dowels_broken"] = float((c[:, 4] > 0.5).sum())
+        return out
+
+    def history(self, n: int) -> dict:
+        """The connectors' histories of the first n samples (empty without dowels)."""
+        if self.h_en is None:
+            return {}
+        return {"connector_energy": {"connector_stored": self.h_en[:n, 0].copy(),
+                                     "connector_dissipated": self.h_en[:n, 1].copy()},
+                "dowels": self.h_dowel[:n].copy()}
