@@ -1,11 +1,16 @@
-"""The architecture map (docs/architecture.md) names every file of the library, the package, the
-scripts and the benchmarks, and no source comment sends the reader to a document outside the
-repository.
+"""The architecture map (docs/architecture.md): every file of the C library, the scripts and the
+benchmarks, and every package of the Python package, has its line; the packages keep to the layer board
+the page draws; and no source comment sends the reader to a document outside the repository.
 
-A newcomer finds a file's purpose and contracts on the map; a file missing from it is a file nobody
-explained. The check is exact: a file counts as mapped when its path (from the repository root, or
-from ``pycolfrag/`` for the package's subpackages, as the map's tables write them) appears in a code
-span of the page, with ``{a,b}`` alternatives expanded (``csrc/rng.{h,c}``).
+A newcomer finds a file's or a package's purpose and contracts on the map; one missing from it is one
+nobody explained. The check is exact: a file counts as mapped when its path (from the repository root)
+appears in a code span of the page, with ``{a,b}`` alternatives expanded (``csrc/rng.{h,c}``); a
+package when its folder (``pycolfrag/core/``) or its module's path does.
+
+The layers: the import graph between packages (a package and a top-level module of ``pycolfrag`` each
+count as one room), read from the sources with :mod:`ast`, must follow the board's table (a room
+imports rooms of its own layer or lower), have no circle, and stay within the sizes the house set:
+at most 22 rooms, 90 edges between them and 8 modules at the package's top level.
 
 And the package's sizes: no module over 600 lines, no function over 80 (the house's measure).
 """
@@ -15,12 +20,13 @@ import itertools
 import re
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "architecture.md"
 
 # What the map must cover: the library's sources, the package, the scripts and the benchmarks.
-COVERED = [("csrc", ("*.c", "*.h")), ("pycolfrag", ("*.py",)), ("scripts", ("*.py", "*.sh")),
-           ("bench", ("*.py", "*.c", "*.h"))]
+COVERED = [("csrc", ("*.c", "*.h")), ("scripts", ("*.py", "*.sh")), ("bench", ("*.py", "*.c", "*.h"))]
 
 
 def _expand(span: str) -> set[str]:
@@ -60,20 +66,16 @@ def _files() -> list[str]:
 
 def test_every_file_is_on_the_architecture_map():
     names = _mapped()
-    missing = [f for f in _files()
-               if f not in names and f.removeprefix("pycolfrag/") not in names]
+    missing = [f for f in _files() if f not in names]
     assert not missing, f"files not on docs/architecture.md's map: {missing}"
 
 
 def test_the_map_names_no_file_that_does_not_exist():
     # A row left behind by a move or a removal misleads as much as a missing one.
-    files = set(_files())
     mapped = _mapped(until=EXAMPLES)
     stale = sorted(n for n in mapped
-                   if re.fullmatch(r"(csrc|pycolfrag|scripts|bench)/[\w/]+\.(c|h|py|sh)", n)
-                   and n not in files and "pycolfrag/" + n not in files)
-    stale += sorted(n for n in mapped
-                    if re.fullmatch(r"(ground_motion|analysis)/[\w/]+\.py", n) and "pycolfrag/" + n not in files)
+                   if re.fullmatch(r"(csrc|pycolfrag|scripts|bench)/[\w/]+\.(c|h|py|sh)", n) and not (ROOT / n).is_file())
+    stale += sorted(n for n in mapped if re.fullmatch(r"pycolfrag/[\w/]+/", n) and not (ROOT / n).is_dir())
     assert not stale, f"docs/architecture.md names files that do not exist: {stale}"
 
 
@@ -129,3 +131,109 @@ def test_the_size_rule_sees_a_long_method(tmp_path):
     for n, found in ((80, 0), (81, 1)):
         src.write_text("class C:\n    def f(self):\n" + "        x = 1\n" * (n - 1), encoding="utf-8")
         assert len(_long_functions(src, MAX_FUNCTION_LINES)) == found, n
+
+
+# ---------------------------------------------------------------------------------- packages and layers
+PKG = ROOT / "pycolfrag"
+#: The house's sizes for the package graph (docs/architecture.md, "Python package").
+MAX_ROOMS, MAX_EDGES, MAX_TOP_LEVEL_MODULES = 22, 90, 8
+
+
+def _modname(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _graph(pkg: Path = PKG):
+    """(rooms, edges): every room of the package (a subpackage, or a module at its top level) and the
+    set of rooms each imports, read from every ``import`` of its modules (inside functions too)."""
+    import ast
+    modules = {_modname(p): p for p in pkg.rglob("*.py") if "__pycache__" not in p.parts}
+    packages = {_modname(p) for p in pkg.rglob("__init__.py") if "__pycache__" not in p.parts}
+
+    def room(m: str) -> str:
+        if m == "pycolfrag._libcolfrag":          # the C library: the core's one import site loads it
+            return "pycolfrag.core"
+        parts = m.split(".")
+        for i in range(len(parts), 1, -1):
+            if ".".join(parts[:i]) in packages:
+                return ".".join(parts[:i])
+        return m if m in modules else "pycolfrag"
+
+    edges: dict[str, set] = {room(m): set() for m in modules}
+    for m, path in modules.items():
+        package = m if path.name == "__init__.py" else m.rpartition(".")[0]
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = package.rsplit(".", node.level - 1)[0] if node.level > 1 else package
+                mod = ".".join(x for x in ((base if node.level else ""), node.module or "") if x)
+                targets = [f"{mod}.{a.name}" if f"{mod}.{a.name}" in modules or a.name == "_libcolfrag" else mod
+                           for a in node.names]
+            else:
+                continue
+            for t in targets:
+                if t == "pycolfrag" or t.startswith("pycolfrag."):
+                    if room(t) != room(m):
+                        edges[room(m)].add(room(t))
+    return set(edges), edges
+
+
+def _board() -> list[tuple[str, list[str]]]:
+    """The layer board of docs/architecture.md, top first: (layer, [rooms])."""
+    text = DOC.read_text().split("## The layers on one board", 1)[1].split("\n## ", 1)[0]
+    rows = re.findall(r"^\| ([^|`]+?) \| (`.+`) \|$", text, flags=re.M)
+    return [(name, re.findall(r"`([\w.]+)`", cells)) for name, cells in rows]
+
+
+def _upward(edges, board) -> list[str]:
+    level = {r: i for i, (_, rooms) in enumerate(board) for r in rooms}
+    return sorted(f"{a} -> {b}" for a, bs in edges.items() for b in bs if level[b] < level[a])
+
+
+def test_every_package_is_on_the_map_and_the_board_once():
+    rooms, _ = _graph()
+    names = _mapped()
+    unmapped = sorted(r for r in rooms if r != "pycolfrag" and not (
+        r.replace(".", "/") + "/" in names or r.replace(".", "/") + ".py" in names))
+    assert not unmapped, f"packages without a line on docs/architecture.md's map: {unmapped}"
+    on_board = [r for _, rs in _board() for r in rs]
+    assert sorted(on_board) == sorted(rooms), (
+        f"the board and the package differ: not on the board {sorted(rooms - set(on_board))}, "
+        f"not in the package {sorted(set(on_board) - rooms)}, twice {sorted({r for r in on_board if on_board.count(r) > 1})}")
+
+
+def test_the_packages_import_only_downwards_without_a_circle():
+    import graphlib
+    rooms, edges = _graph()
+    up = _upward(edges, _board())
+    assert not up, "imports pointing up the board (docs/architecture.md, 'The layers on one board'):\n" + "\n".join(up)
+    tuple(graphlib.TopologicalSorter(edges).static_order())     # raises CycleError on a circle
+    n_edges = sum(len(v) for v in edges.values())
+    top = [p for p in PKG.glob("*.py")]
+    assert len(rooms) <= MAX_ROOMS and n_edges <= MAX_EDGES and len(top) <= MAX_TOP_LEVEL_MODULES, (
+        len(rooms), n_edges, len(top))
+
+
+def test_the_layer_check_finds_an_upward_import_and_a_circle(tmp_path):
+    """The graph sees an import inside a function, relative and absolute forms, and the board check
+    flags it: a toy package whose bottom room imports its top one, and back."""
+    import graphlib
+    pkg = tmp_path / "pycolfrag"
+    (pkg / "core").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("from pycolfrag.core import x\n")
+    (pkg / "core" / "__init__.py").write_text("")
+    (pkg / "core" / "x.py").write_text("def f():\n    from .. import cli\n")
+    (pkg / "cli.py").write_text("from .core import x\n")
+    global ROOT
+    saved, ROOT = ROOT, tmp_path
+    try:
+        rooms, edges = _graph(pkg)
+    finally:
+        ROOT = saved
+    assert edges["pycolfrag.core"] == {"pycolfrag.cli"} and edges["pycolfrag.cli"] == {"pycolfrag.core"}
+    board = [("top", ["pycolfrag", "pycolfrag.cli"]), ("bottom", ["pycolfrag.core"])]
+    assert _upward(edges, board) == ["pycolfrag.core -> pycolfrag.cli"]
+    with pytest.raises(graphlib.CycleError):
+        tuple(graphlib.TopologicalSorter(edges).static_order())

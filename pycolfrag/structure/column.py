@@ -20,6 +20,7 @@ or TOML file (:meth:`Column.from_file`, format in ``docs/column_format.md``).
 """
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import numbers
@@ -571,12 +572,8 @@ class Column:
 
     @property
     def joint_heights(self) -> list[float]:
-        """Height of each joint above the ground at rest, m."""
-        z, out = 0.0, []
-        for b in self.blocks:
-            out.append(z)
-            z += b.height
-        return out
+        """Height of each joint above the ground at rest, m (the running sum of the heights below)."""
+        return [0.0, *itertools.accumulate(b.height for b in self.blocks[:-1])]
 
     @property
     def block_masses(self) -> list[float]:
