@@ -138,10 +138,10 @@ def test_batch_errors_are_those_of_simulate():
     with pytest.raises(ParameterError, match=r"records\[0\] must be a Record, a dict"):
         simulate_batch(COL, [np.zeros(3)])
     # an unstable run (a step far beyond the stability limit) fails alone, as simulate's SolverError
-    with pytest.warns(pcf.solver.StepWarning):
+    with pytest.warns(pcf.solver.run.StepWarning):
         bad = simulate_batch(COL, [(_sine(0.3, 2.0, 1.0), DT)] * 5, dt_solver=5e-3, errors="return")
     with pytest.raises(SolverError) as single:
-        with pytest.warns(pcf.solver.StepWarning):
+        with pytest.warns(pcf.solver.run.StepWarning):
             pcf.simulate(COL, _sine(0.3, 2.0, 1.0), DT, dt_solver=5e-3)
     assert all(isinstance(b, SolverError) and str(b) == str(single.value) for b in bad)
 

@@ -154,7 +154,7 @@ def test_batch_of_a_portal_is_its_single_runs():
     p = Colonnade.portal(2)
     t = np.arange(0.0, 2.0, 0.005)
     recs = [(a * G * np.sin(2 * np.pi * 2 * t), 0.005) for a in (0.2, 0.3)]
-    assert pcf.solver.batch_width(p) == 1
+    assert pcf.solver.run.batch_width(p) == 1
     for (acc, dt), b in zip(recs, pcf.simulate_batch(p, recs)):
         s = pcf.simulate(p, acc, dt)
         assert (s.u_top, s.u_d, s.n_steps, s.epistyle_slip_mm) == (b.u_top, b.u_d, b.n_steps, b.epistyle_slip_mm)
@@ -191,7 +191,7 @@ def test_the_solver_refuses_a_beam_on_one_column():
     one = scene.SceneParts([(col, -1.5, 0.0), (col, 1.5, 0.0)],
                                beams=[scene.Beam(-1.5, 0.0, 0.5, 0.5, 0.3, 2700.0)],
                                bearings=[scene.Bearing(0, 0, -1.5, 0.0, 0.5, col.joints)])
-    solver = pcf._ffi.ffi.gc(pcf._ffi.lib.cf_solver_create(), pcf._ffi.lib.cf_solver_free)
+    solver = pcf.core.ffi.ffi.gc(pcf.core.ffi.lib.cf_solver_create(), pcf.core.ffi.lib.cf_solver_free)
     d = pcf.SolverOptions().to_c()
     with pytest.raises(pcf.ParameterError, match="beam 0 does not reach two capitals"):
         scene_run.setup(solver, d, one, "test")

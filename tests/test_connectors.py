@@ -267,7 +267,7 @@ def test_ledger_converges_with_the_step_on_a_hard_case():
 def test_batch_of_a_dowelled_column_is_its_single_runs():
     col = pcf.Column.parthenon().with_connectors(Connectors.of("wood", "all"))
     recs = [_burst(a, 2.0, 2.0) for a in (0.2, 0.3, 0.25)]
-    assert pcf.solver.batch_width(col) == 1
+    assert pcf.solver.run.batch_width(col) == 1
     batch = pcf.simulate_batch(col, recs, history=True)
     for (acc, dt), b in zip(recs, batch):
         s = pcf.simulate(col, acc, dt, history=True)

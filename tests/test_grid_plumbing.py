@@ -60,7 +60,7 @@ def fake_physics(monkeypatch):
             raise pcf.SolverError("instability at t = 1.2 s")
         big = float(np.abs(acc_x).max()) > 3.5
         # a Response of a run without dowels or epistyles: their EDPs NaN, as the real one's
-        return SimpleNamespace(**pcf.scene_run.EDP_DEFAULTS, u_top=0.01 * len(acc_x) * dt, u_d=0.002, collapsed=big,
+        return SimpleNamespace(**pcf.solver.scene_setup.EDP_DEFAULTS, u_top=0.01 * len(acc_x) * dt, u_d=0.002, collapsed=big,
                                collapse_block=4 if big else -1, collapse_time=2.5 if big else None,
                                n_steps=len(acc_x) * 10, t_end=len(acc_x) * dt, energy_error=1e-6, options=opts)
 
@@ -81,8 +81,8 @@ def fake_physics(monkeypatch):
                 out.append(exc)
         return out
 
-    monkeypatch.setattr(pcf.solver, "simulate", simulate)
-    monkeypatch.setattr(pcf.solver, "simulate_batch", simulate_batch)  # the grid's chunks run through it
+    monkeypatch.setattr(pcf.solver.run, "simulate", simulate)
+    monkeypatch.setattr(pcf.solver.run, "simulate_batch", simulate_batch)  # the grid's chunks run through it
     return calls
 
 

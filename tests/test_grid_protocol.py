@@ -103,9 +103,10 @@ def test_no_module_of_the_driver_imports_the_analysis():
     for name in driver:
         bad = {m for m in _imports(modules[name], modules) if m.startswith(("pycolfrag.analysis", "pycolfrag.cli.grid"))}
         assert not bad, f"{name} imports {sorted(bad)}"
-    # the dispatcher imports the package's version, its errors, and the thread limit and progress bars every
+    # the dispatcher imports the package's version, its help style, its errors, and the thread limit and progress bars every
     # command runs under: each a leaf that imports nothing of pycolfrag, so no command is loaded with them
-    leaves = {"pycolfrag.core.errors", "pycolfrag.core.threads", "pycolfrag.core.progress"}
+    leaves = {"pycolfrag.core.errors", "pycolfrag.core.threads", "pycolfrag.core.progress", "pycolfrag.core.help",
+              "pycolfrag.core.version"}
     assert not {m for m in _imports(modules["pycolfrag.cli.main"], modules) if m != "pycolfrag"} - leaves
     for leaf in leaves:
         assert not {m for m in _imports(modules[leaf], modules) if m != leaf}, leaf

@@ -70,7 +70,7 @@ _NO_C = textwrap.dedent("""
 
 
 def _import_without_c(*modules):
-    pkg = Path(names.__file__).resolve().parent
+    pkg = Path(names.__file__).resolve().parents[1]   # the package (names lives in its core)
     return subprocess.run([sys.executable, "-c", _NO_C.format(pkg=str(pkg), modules=list(modules))],
                           capture_output=True, text=True, timeout=120)
 

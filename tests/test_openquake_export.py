@@ -20,6 +20,7 @@ import pytest
 from pycolfrag.analysis import fragility as F
 from pycolfrag.analysis import openquake as oq
 from pycolfrag.analysis.fragility import U_TOP_LEVELS
+from pycolfrag.cli import openquake as oq_cli
 from pycolfrag.core.errors import ParameterError, ResultsFileError
 
 sys.path.insert(0, os.path.dirname(__file__))
@@ -64,7 +65,7 @@ def test_limit_states_that_do_not_cross_keep_their_own_fits(tmp_path, capsys):
     refused it, exit 2) and fits them together; damage limitation stays its own fit."""
     h5 = write_results(tmp_path / "grid.h5", mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0), n=60, n_failed=0)
     out = tmp_path / "column_fragility.xml"
-    assert oq.main(["export", str(h5), str(out), "--im", "pga_g"]) == 0
+    assert oq_cli.main(["export", str(h5), str(out), "--im", "pga_g"]) == 0
     printed = capsys.readouterr().out
     assert "common beta with" in printed and "IML range" in printed
     [back] = oq.read_nrml(out).values()
@@ -121,9 +122,9 @@ def test_degenerate_fits_are_refused_unless_asked_for_and_then_marked(tmp_path, 
             oq.fragility_from_results(h5, "pga_g", collapse=False)
     out = tmp_path / "f.xml"
     argv = ["export", str(h5), str(out), "--im", "pga_g", "--no-collapse"]
-    assert oq.main(argv) == 2
+    assert oq_cli.main(argv) == 2
     assert "--allow-degenerate" in capsys.readouterr().err and not out.exists()
-    assert oq.main(argv + ["--allow-degenerate"]) == 0
+    assert oq_cli.main(argv + ["--allow-degenerate"]) == 0
     io = capsys.readouterr()
     assert io.out.count("DEGENERATE") == 2 * 3        # each limit state's line and its note
     warned = [ln for ln in io.err.splitlines() if "warning:" in ln and "steps_per_interval > 1" not in ln]
@@ -134,7 +135,7 @@ def test_degenerate_fits_are_refused_unless_asked_for_and_then_marked(tmp_path, 
     assert back.description.count("DEGENERATE fit of") == 3
     assert len(back.notes) == 3 and back.notes[0].startswith("DEGENERATE fit of damage_limitation (not an estimate): "
                                                               "every exceeding run") and "[0.02, 5]" in back.notes[0]
-    assert oq.main(["damage", str(CASE1 / "hazard_curves_continuous.csv"), str(out)]) == 0   # an xml made so:
+    assert oq_cli.main(["damage", str(CASE1 / "hazard_curves_continuous.csv"), str(out)]) == 0   # an xml made so:
     assert capsys.readouterr().out.count("DEGENERATE fit of") == 3                          # its printout says so
 
 
@@ -144,16 +145,16 @@ def test_incomplete_files_are_refused_unless_asked_for_and_then_marked(tmp_path,
     with pytest.raises(ResultsFileError, match="holds 420 of the 480 rows"):
         oq.fragility_from_results(h5, "pga_g")
     out = tmp_path / "f.xml"
-    assert oq.main(["export", str(h5), str(out), "--im", "pga_g"]) == 2
+    assert oq_cli.main(["export", str(h5), str(out), "--im", "pga_g"]) == 2
     assert "--allow-incomplete" in capsys.readouterr().err and not out.exists()
-    assert oq.main(["export", str(h5), str(out), "--im", "pga_g", "--allow-incomplete"]) == 0
+    assert oq_cli.main(["export", str(h5), str(out), "--im", "pga_g", "--allow-incomplete"]) == 0
     assert "INCOMPLETE RESULTS: " in capsys.readouterr().out
     [back] = oq.read_nrml(out).values()
     assert "INCOMPLETE RESULTS: " in back.description and "holds 420 of the 480 rows" in back.description
     assert [n[:20] for n in back.notes] == ["INCOMPLETE RESULTS: "]
     hz = CASE1 / "hazard_curves_continuous.csv"
-    assert oq.main(["damage", str(hz), str(h5)]) == 2
-    assert oq.main(["damage", str(hz), str(h5), "--allow-incomplete"]) == 0
+    assert oq_cli.main(["damage", str(hz), str(h5)]) == 2
+    assert oq_cli.main(["damage", str(hz), str(h5), "--allow-incomplete"]) == 0
     assert capsys.readouterr().out.rstrip().splitlines()[-1].startswith("INCOMPLETE RESULTS: ")
     done = write_results(tmp_path / "done.h5", mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0), n=60, n_failed=0,
                          complete=True)
@@ -197,8 +198,8 @@ def test_the_wide_export_warns_of_openquakes_linear_levels(tmp_path, capsys):
         one = oq.classical_damage(m, hc.imls, hc.poes[0], 50.0)["rates"][0]      # the hazard's own levels
     assert one == pytest.approx(fine, rel=0.1)
     h5 = write_results(tmp_path / "grid.h5", mws=(6.0, 6.5, 7.0, 7.5), dists=(5.0, 10.0), n=60, n_failed=0)
-    assert oq.main(["export", str(h5), str(tmp_path / "m.xml"), "--im", "pga_g"]) == 0
+    assert oq_cli.main(["export", str(h5), str(tmp_path / "m.xml"), "--im", "pga_g"]) == 0
     err = capsys.readouterr().err
     assert "warning: continuous functions over" in err and "x 406 with 20 levels" in err
-    assert oq.main(["export", str(h5), str(tmp_path / "d.xml"), "--im", "pga_g", "--format", "discrete"]) == 0
+    assert oq_cli.main(["export", str(h5), str(tmp_path / "d.xml"), "--im", "pga_g", "--format", "discrete"]) == 0
     assert "x 406" not in capsys.readouterr().err       # log-spaced IMLs, cut into steps each

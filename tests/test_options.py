@@ -165,12 +165,12 @@ def test_unstable_tolerance_is_settable_and_acts(col):
 def test_step_warnings(col):
     acc = np.zeros(200)
     crit = pcf.simulate(col, acc[:2], 0.01, tail_s=0.0).dt_crit
-    with pytest.warns(pcf.solver.StepWarning, match="stability limit"):
+    with pytest.warns(pcf.solver.run.StepWarning, match="stability limit"):
         try:   # warned before the run starts; the run itself may then stop as unstable
             pcf.simulate(col, acc, 0.01, dt_solver=1.2 * crit, tail_s=0.0)
         except pcf.SolverError:
             pass
-    with pytest.warns(pcf.solver.StepWarning, match="record's dt"):
+    with pytest.warns(pcf.solver.run.StepWarning, match="record's dt"):
         pcf.simulate(col, np.zeros(20), 1e-4, dt_solver=0.9 * crit, tail_s=0.0)
 
 

@@ -78,7 +78,7 @@ def test_the_pre_run_check_runs_at_most_its_bound_of_steps(monkeypatch):
     Its tail is now cut to MAX_CHECK_RUN_STEPS (3e5) steps, and the probe run is gone; the count is the
     solver's own (n_steps)."""
     sc = Colonnade.portal(2, epistyle=Epistyle(density=1e-4))
-    dt = pcf.solver.automatic_step(sc, pcf.SolverOptions())
+    dt = pcf.solver.run.automatic_step(sc, pcf.SolverOptions())
     assert (3 * 0.005 + pcf.SolverOptions().tail_s) / dt > 5 * probes.MAX_CHECK_RUN_STEPS
     seen = _count_runs(monkeypatch)
     out = probes.check_solver_options(sc, None)

@@ -16,7 +16,7 @@ from test_grid import ROOT, SMALL, _ok, _serial
 PROBE = '''
 import json, os
 import scipy.linalg  # noqa: F401  (scipy's own OpenBLAS loads after the entry: it must read the variables)
-from pycolfrag import threads
+from pycolfrag.core import threads
 
 def main(argv):
     print(json.dumps({"blas": threads.blas_threads(), "env": {v: os.environ.get(v) for v in threads.ENV_VARS}}))
@@ -25,7 +25,8 @@ def main(argv):
 
 DRIVER = '''
 import sys
-from pycolfrag import commands, threads
+from pycolfrag.cli import main as commands
+from pycolfrag.core import threads
 for path in threads._loaded_libraries():   # a many-core machine's default: several threads
     threads._api(path)[1](3)
 assert set(threads.blas_threads().values()) == {3}, threads.blas_threads()
