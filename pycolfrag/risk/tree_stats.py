@@ -156,10 +156,10 @@ def tornado(values, weights, index, sets, names=None) -> list:
     for k, (name, n_alt) in enumerate(sets):
         cond = {a: float(m) for a, (_, m) in _conditional(v, w, idx, k, n_alt).items()}
         lo, hi = min(cond, key=cond.__getitem__), max(cond, key=cond.__getitem__)
-        label = (lambda a: names[k][a]) if names is not None else str
-        bars.append({"set": name, "low": cond[lo], "low_branch": label(lo), "high": cond[hi], "high_branch": label(hi),
-                     "swing": cond[hi] - cond[lo], "means": {label(a): m for a, m in cond.items()},
-                     "missing": [label(a) for a in range(n_alt) if a not in cond]})
+        label = list(names[k]) if names is not None else [str(a) for a in range(n_alt)]
+        bars.append({"set": name, "low": cond[lo], "low_branch": label[lo], "high": cond[hi], "high_branch": label[hi],
+                     "swing": cond[hi] - cond[lo], "means": {label[a]: m for a, m in cond.items()},
+                     "missing": [label[a] for a in range(n_alt) if a not in cond]})
     return sorted(bars, key=lambda b: -b["swing"])
 
 
