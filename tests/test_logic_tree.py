@@ -233,3 +233,13 @@ def test_sampling_rule_is_the_inverse_cdf_of_the_weights():
     u = np.random.Generator(np.random.PCG64(11)).random((50, 1))[:, 0]
     expected = np.where(u < 0.2, 0, np.where(u < 0.5, 1, 2))
     assert [e.index[0] for e in tree.end_branches()] == expected.tolist()
+
+
+def test_the_example_tree_reads_and_passes_the_checks_against_the_example_site():
+    """examples/logic_tree_athens_site.toml: 2 x 3 x 3 x 3 = 54 end branches, all site choices (no new runs),
+    every branch's site accepted by the site loader."""
+    tree = lt.load_tree(ROOT / "examples" / "logic_tree_athens_site.toml")
+    checked = ta.check_tree(tree, SITE, "site_athens.toml")
+    assert tree.site_only and len(checked.ends) == 54
+    assert math.fsum(e.weight for e in checked.ends) == pytest.approx(1.0, abs=1e-14)
+    assert {s.sources[1].magnitude.m_max for s in checked.sites} == {6.6, 6.8, 7.0}
