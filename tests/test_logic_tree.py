@@ -243,3 +243,12 @@ def test_the_example_tree_reads_and_passes_the_checks_against_the_example_site()
     assert tree.site_only and len(checked.ends) == 54
     assert math.fsum(e.weight for e in checked.ends) == pytest.approx(1.0, abs=1e-14)
     assert {s.sources[1].magnitude.m_max for s in checked.sites} == {6.6, 6.8, 7.0}
+
+
+def test_the_probe_refuses_a_column_that_collapses_under_gravity():
+    """kn = 1e5 Pa/m passes the joints' own check (> 0) but the parthenon column falls under gravity alone:
+    the grid's check (a few solver steps, well under a second) refuses it, naming the branch, before any run."""
+    tree = lt.tree_from_dict({"branch_sets": [bset("joint_kn", (1e9, 0.5), (1e5, 0.5))]})
+    ta.check_tree(tree, SITE)
+    with pytest.raises(ParameterError, match=r"branch 'joint_kn=100000'.*collapses under gravity alone"):
+        ta.check_tree(tree, SITE, probe=True)
