@@ -180,3 +180,10 @@ def test_pulse_model_override_and_a_pulse_model_set_are_refused_together(files, 
     with pytest.raises(ParameterError, match="would override the tree's pulse_model"):
         tree_grid.tree_risk(site, tree, h5, pulse_only=True, n_draws=50)
     assert Path(site).read_text() == SITE
+
+
+def test_a_generator_instead_of_a_seed_is_refused(files):
+    """A Generator would give each branch other draws (no common random numbers): an integer seed is needed."""
+    site, tree, h5 = files
+    with pytest.raises(ParameterError, match="integer seed"):
+        tree_grid.tree_risk(site, tree, h5, n_draws=50, rng=np.random.default_rng(0))

@@ -122,6 +122,9 @@ def tree_risk(site, tree, pulse_results, no_pulse_results=None, **options) -> Tr
     the single model's, and their statistics. Every branch is checked before any is computed."""
     from pycolfrag.analysis.data import as_data
     from pycolfrag.analysis.risk import QUANTITIES, site_risk
+    seed = options.get("rng", 0)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise ParameterError(f"the tree's branches need an integer seed (rng), so that each has the same draws, got {seed!r}")
     site_dict = site_dict_of(site)
     lt = tree if isinstance(tree, LogicTree) else _tree_of(site, site_dict, tree)
     _refuse_run_sets(lt, options.get("pulse_model"), options.get("pulse_only", False))
