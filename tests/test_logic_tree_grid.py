@@ -187,3 +187,16 @@ def test_a_generator_instead_of_a_seed_is_refused(files):
     site, tree, h5 = files
     with pytest.raises(ParameterError, match="integer seed"):
         tree_grid.tree_risk(site, tree, h5, n_draws=50, rng=np.random.default_rng(0))
+
+
+def test_a_branch_the_grid_route_refuses_is_named(files, tmp_path):
+    """The site (G-R Mw 6.5-7.5 inside the grid, outside = "refuse") is computed; a branch whose Mmax is 8.0 puts
+    part of the rate beyond the grid, which the risk refuses: the message names that branch."""
+    _, _, h5 = files
+    site = tmp_path / "gr.toml"
+    site.write_text(SITE.replace('outside = "zero"', 'outside = "refuse"').replace(
+        '{type = "characteristic", mw = 7.5}', '{type = "gutenberg-richter", b = 1.0, m_min = 6.5, m_max = 7.5}'))
+    tree = tmp_path / "t.toml"
+    tree.write_text('[[branch_sets]]\nchoice = "m_max"\nbranches = [{value = 7.5, weight = 0.5}, {value = 8.0, weight = 0.5}]\n')
+    with pytest.raises(ParameterError, match=r"logic tree branch 'm_max=8': source 'fault' lies partly outside"):
+        tree_grid.tree_risk(site, tree, h5, n_draws=50)

@@ -136,7 +136,10 @@ def tree_risk(site, tree, pulse_results, no_pulse_results=None, **options) -> Tr
     done: dict = {}
     for end, s in zip(checked.ends, checked.sites):
         if end.index not in done:
-            done[end.index] = site_risk(s, pulse, no_pulse, **options)
+            try:
+                done[end.index] = site_risk(s, pulse, no_pulse, **options)
+            except ParameterError as exc:        # e.g. a branch's Mmax beyond the grid under outside = "refuse"
+                raise ParameterError(f"logic tree branch {end.path!r}: {exc}") from None
     out = TreeRisk(lt, checked.ends, base, tuple(done[e.index] for e in checked.ends),
                    tuple(q.label for q in QUANTITIES), tuple(base.prob))
     names = [[b.name for b in s.branches] for s in lt.branch_sets]
