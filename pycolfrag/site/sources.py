@@ -173,7 +173,8 @@ class Site:
     path: str = ""
 
 
-_SITE_KEYS = ("name", "description", "outside", "years", "pulse", "sources")
+# logic_tree: a logic tree over the site's and the model's choices, read by pycolfrag/risk/logic_tree.py
+_SITE_KEYS = ("name", "description", "outside", "years", "pulse", "sources", "logic_tree")
 _COMMON_KEYS = ("type", "name", "rate", "pulse")
 
 
