@@ -166,13 +166,13 @@ risk: setup
 # The example's branches for docs/risk.md (scripts/risk_example.py writes its table from them):
 # the part outside the grid clamped, the pulse branch alone, Baker (2007) pulse periods (a third
 # grid), the earlier Shahi & Baker pulse model, the directivity geometry drawn per event, Eq. (4).
-RISK_CMD = $(PY) -m pycolfrag.risk.site_risk $(SITE) $(RISK_DIR)/pulse.h5
+RISK_CMD = $(PCF) risk $(SITE) $(RISK_DIR)/pulse.h5
 RISK_NP  = --no-pulse $(RISK_DIR)/nopulse.h5 --no-figures
 risk-docs: risk
 	$(RUN_GRID) $(RISK_GRID) --tp-model baker_2007 --out $(RISK_DIR)/baker.h5
 	$(RISK_CMD) $(RISK_DIR)/clamp $(RISK_NP) --outside clamp
 	$(RISK_CMD) $(RISK_DIR)/pulse_only --pulse-only --no-figures
-	$(PY) -m pycolfrag.risk.site_risk $(SITE) $(RISK_DIR)/baker.h5 $(RISK_DIR)/baker $(RISK_NP)
+	$(PCF) risk $(SITE) $(RISK_DIR)/baker.h5 $(RISK_DIR)/baker $(RISK_NP)
 	$(RISK_CMD) $(RISK_DIR)/earlier $(RISK_NP) --pulse-model \
 	  '{model = "shahi_baker_earlier", mechanism = "non-strike-slip", s_km = 5.0, angle_deg = 30.0}'
 	$(RISK_CMD) $(RISK_DIR)/geometry $(RISK_NP) --pulse-model \
