@@ -14,7 +14,8 @@ from pycolfrag import names
 from pycolfrag.analysis import report
 from pycolfrag.analysis.compare import compare_results
 from pycolfrag.analysis.data import load
-from pycolfrag.scene import Colonnade, model_from_dict
+from pycolfrag.scene import Colonnade
+from pycolfrag.structures import model_from_dict
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"

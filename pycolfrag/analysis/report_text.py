@@ -109,7 +109,8 @@ def _json_object(raw) -> dict | None:
 def model_lines(raw) -> list:
     """The ``column`` attribute of a results file as Markdown lines (see the module docstring)."""
     from ..errors import PycolfragError
-    from ..scene import Colonnade, model_from_dict
+    from ..scene import Colonnade
+    from ..structures import model_from_dict
     d = _json_object(raw)
     if d is None:
         return [f"- column: `{raw}`"]

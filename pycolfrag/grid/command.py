@@ -23,7 +23,8 @@ from ..column import Column
 from ..commands import HelpFormatter
 from ..errors import ParameterError, RecordFileError, ResultsFileError
 from ..ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
-from ..scene import Colonnade, model_from_dict
+from ..scene import Colonnade
+from ..structures import model_from_dict
 from .probes import check_models, check_solver_options, check_space, check_work, probe_rows
 from .protocol import RunSpec
 from .rows import _key, load_function

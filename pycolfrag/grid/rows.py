@@ -16,7 +16,7 @@ from .. import ground_motion as _gm
 from .. import results as _results
 from .. import sample as _sample
 from ..errors import ParameterError
-from ..scene import model_from_dict
+from ..structures import model_from_dict
 from .protocol import RowFunction, as_row_function
 
 __all__ = ["derive_seed", "SampleContext", "run_sample", "run_samples", "SYNTHETIC_ROWS",

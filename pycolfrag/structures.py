@@ -1,0 +1,81 @@
+"""The Structure contract and the registry of structure kinds (docs/architecture.md, "Costs of change").
+
+A structure is what :func:`~pycolfrag.simulate`, :func:`~pycolfrag.simulate_batch`, a grid and a
+results file take: today a :class:`~pycolfrag.column.Column` or a :class:`~pycolfrag.scene.Colonnade`.
+Every kind of structure
+
+* is a class with ``scene_parts()``, its parts for C (a :class:`~pycolfrag.scene_parts.SceneParts`:
+  columns at their places, beams, bearings, dowels; a column is a one-column scene), which
+  :func:`pycolfrag.scene_run.setup`, the one text of a set-up, hands to C (``cf_solver_setup_scene``);
+  and ``name``, ``to_dict()``, ``to_json()``, ``from_dict()``, ``n_blocks``, ``n_joints``, ``joints``,
+  ``with_joints()`` as the column has them;
+* has one line in :data:`KINDS`: its name, its class, its file key (the key of its ``to_dict()`` that
+  says the kind; the default kind, a column, has none), whether a run reports its parts (per column,
+  epistyle and dowel) even without dowels, and the EDPs its runs give (``names.EDPS``).
+
+The kind of a structure is the line of its class (:func:`kind_of`), of a file's table the line whose
+key it has (:func:`kind_of_dict`): no attribute or key is tested anywhere else. A new kind (a lintel
+resting on a column and a wall) is its class, its line here, and the C it truly needs.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .column import Column
+from .errors import ParameterError
+from .scene import Colonnade
+
+__all__ = ["StructureKind", "KINDS", "BY_CLASS", "ACCEPTED", "kind_of", "kind_of_dict", "model_from_dict"]
+
+#: The EDPs of every structure, of its dowels, of its epistyles (keys of ``names.EDPS``; a run of a
+#: structure without such parts gives NaN for theirs).
+STACK_EDPS = ("u_top", "u_d")
+DOWEL_EDPS = ("dowel_shear_kn", "dowel_slip_mm", "dowels_yielded", "dowels_broken")
+EPISTYLE_EDPS = ("epistyle_slip_mm", "epistyle_unseat")
+
+
+@dataclass(frozen=True)
+class StructureKind:
+    """One kind of structure: see the module's text."""
+
+    name: str
+    cls: type
+    file_key: str            # "" for the default kind (a table with no other kind's key)
+    reports_parts: bool      # its Response has ``columns``, ``epistyles``, ``dowels`` (else only with dowels)
+    edps: tuple[str, ...]
+
+
+#: The registry, one line per kind; the default kind (no file key) first.
+KINDS: tuple[StructureKind, ...] = (
+    StructureKind("column", Column, "", False, STACK_EDPS + DOWEL_EDPS),
+    StructureKind("colonnade", Colonnade, "n_columns", True, STACK_EDPS + DOWEL_EDPS + EPISTYLE_EDPS),
+)
+#: The kinds by their class (what the solver reads: data, so a row's walk enters no function here).
+BY_CLASS: dict[type, StructureKind] = {k.cls: k for k in KINDS}
+#: The kinds a model may be, in words, for messages ("a Column or a Colonnade").
+ACCEPTED = " or ".join(f"a {k.cls.__name__}" for k in KINDS)
+
+
+def kind_of(model, what: str = "col") -> StructureKind:
+    """The kind of ``model`` (its class's line, or a base class's); ParameterError naming the accepted
+    classes for anything else."""
+    kind = next((BY_CLASS[c] for c in type(model).__mro__ if c in BY_CLASS), None)
+    if kind is None:
+        raise ParameterError(f"{what} must be {ACCEPTED}, got {type(model).__name__}")
+    return kind
+
+
+def kind_of_dict(d: dict) -> StructureKind:
+    """The kind of a structure's table (a ``to_dict()``, a file): the kind whose file key it has, else
+    the default kind."""
+    return next((k for k in KINDS if k.file_key and k.file_key in d), KINDS[0])
+
+
+def model_from_dict(d):
+    """A structure from its ``to_dict()`` (a results file's ``column`` attribute, a grid's spec), of the
+    kind its keys say (:func:`kind_of_dict`); an empty table is the default column."""
+    if not d:
+        return Column.parthenon()
+    if not isinstance(d, dict):
+        return Column.from_dict(d)   # the column's own message for what is not a table
+    return kind_of_dict(d).cls.from_dict(d)
