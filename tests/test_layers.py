@@ -32,7 +32,7 @@ LAYERS = (
     ("run and results layout", ("pycolfrag.solver", "pycolfrag.scene_run", "pycolfrag.results")),
     ("inputs", ("pycolfrag.records", "pycolfrag.record_tables", "pycolfrag.scene", "pycolfrag.scene_parts",
                 "pycolfrag.structures", "pycolfrag.column",
-                "pycolfrag.connectors", "pycolfrag.foundation", "pycolfrag.options", "pycolfrag.step_cause")),
+                "pycolfrag.connectors", "pycolfrag.connector_laws", "pycolfrag.foundation", "pycolfrag.options", "pycolfrag.step_cause")),
     ("ground motions", ("pycolfrag.ground_motion",)),
     ("kernels", ("pycolfrag.intensity",)),
     ("foundation", ("pycolfrag._ffi", "pycolfrag.names", "pycolfrag._validate", "pycolfrag.input_files",
