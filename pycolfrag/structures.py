@@ -19,13 +19,17 @@ resting on a column and a wall) is its class, its line here, and the C it truly 
 """
 from __future__ import annotations
 
+import os
+import tomllib
 from dataclasses import dataclass
 
+from . import input_files
 from .column import Column
 from .errors import ParameterError
 from .scene import Colonnade
 
-__all__ = ["StructureKind", "KINDS", "BY_CLASS", "ACCEPTED", "kind_of", "kind_of_dict", "model_from_dict"]
+__all__ = ["StructureKind", "KINDS", "BY_CLASS", "ACCEPTED", "kind_of", "kind_of_dict", "model_from_dict",
+           "scene_from_file"]
 
 #: The EDPs of every structure, of its dowels, of its epistyles (keys of ``names.EDPS``; a run of a
 #: structure without such parts gives NaN for theirs).
@@ -79,3 +83,18 @@ def model_from_dict(d):
     if not isinstance(d, dict):
         return Column.from_dict(d)   # the column's own message for what is not a table
     return kind_of_dict(d).cls.from_dict(d)
+
+
+def scene_from_file(path):
+    """A scene file (a grid's ``--scene``; docs/scene_format.md) read by the class of its kind: the scene
+    kind whose file key it has, else the first scene kind (a colonnade, whose ``n_columns`` a file may
+    leave out). The file is read by the one policy for files a user names (:mod:`pycolfrag.input_files`)."""
+    name = os.fspath(path)
+    text = input_files.read_text(path, "scene file")
+    try:
+        d = tomllib.loads(text) if name.lower().endswith(".toml") else input_files.json_loads(text)
+    except ValueError as exc:
+        raise ParameterError(f"cannot parse scene file {name}: {exc}") from None
+    scenes = [k for k in KINDS if k.file_key]
+    kind = next((k for k in scenes if isinstance(d, dict) and k.file_key in d), scenes[0])
+    return kind.cls.from_file(path)

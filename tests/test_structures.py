@@ -121,3 +121,51 @@ def test_every_kind_declares_its_edps_and_parts():
     for kind in structures.KINDS:
         assert set(kind.edps) <= set(names.EDPS) and set(kind.edps) <= fields, kind
         assert isinstance(examples[kind.name].scene_parts(), SceneParts)
+
+
+class _Lintel:
+    """A stand-in for a new scene kind (its class is all a kind adds besides its registry line)."""
+
+    name, n_blocks, n_joints = "a lintel", 3, 4
+
+    def __init__(self, span):
+        self.span = span
+
+    @classmethod
+    def from_dict(cls, d):
+        return cls(d["lintel"])
+
+    @classmethod
+    def from_file(cls, path):
+        return cls(("file", str(path)))
+
+
+def _register_lintel(monkeypatch):
+    line = structures.StructureKind("lintel", _Lintel, "lintel", True, structures.STACK_EDPS)
+    monkeypatch.setattr(structures, "KINDS", (*structures.KINDS, line))
+    monkeypatch.setattr(structures, "BY_CLASS", {**structures.BY_CLASS, _Lintel: line})
+
+
+def test_a_scene_file_is_read_by_its_kind(monkeypatch, tmp_path):
+    """A grid's --scene file: a colonnade's (n_columns given or left out, as the scene format allows),
+    or, once a kind is registered, the file of that kind by its key."""
+    import os
+    examples = os.path.join(os.path.dirname(__file__), "..", "examples")
+    assert structures.scene_from_file(os.path.join(examples, "portal_2.toml")).to_json() == \
+        Colonnade.portal(2).to_json()
+    bare = tmp_path / "bare.toml"
+    bare.write_text('column = "' + os.path.abspath(os.path.join(examples, "column_parthenon.toml")) + '"\n')
+    assert structures.scene_from_file(bare).n_columns == 2
+    _register_lintel(monkeypatch)
+    lintel = tmp_path / "lintel.toml"
+    lintel.write_text("lintel = 3.5\n")
+    assert structures.scene_from_file(lintel).span == ("file", str(lintel))
+
+
+def test_the_report_describes_a_kind_it_does_not_know(monkeypatch):
+    """A results file's model of a registered kind without a report text of its own is described by
+    what every structure has (its name, blocks and joints), not read as a column."""
+    from pycolfrag.analysis.report_text import model_lines
+    _register_lintel(monkeypatch)
+    assert model_lines('{"lintel": 2.0}') == ["- lintel: a lintel; 3 blocks, 4 joints"]
+    assert model_lines(pcf.Column.parthenon().to_json())[0].startswith("- column")

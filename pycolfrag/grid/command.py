@@ -23,8 +23,7 @@ from ..column import Column
 from ..commands import HelpFormatter
 from ..errors import ParameterError, RecordFileError, ResultsFileError
 from ..ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
-from ..scene import Colonnade
-from ..structures import model_from_dict
+from ..structures import model_from_dict, scene_from_file
 from .probes import check_models, check_solver_options, check_space, check_work, probe_rows
 from .protocol import RunSpec
 from .rows import _key, load_function
@@ -165,7 +164,7 @@ def spec_from_args(args) -> RunSpec:
     else a :class:`GridSpec`; options of the other kind refused."""
     if args.scene and args.column:
         raise ParameterError("--column and --scene: give one (a scene file names its column)")
-    col = Colonnade.from_file(args.scene) if args.scene else Column.from_file(args.column) if args.column \
+    col = scene_from_file(args.scene) if args.scene else Column.from_file(args.column) if args.column \
         else Column.parthenon()
     if args.kn is not None:
         col = col.with_joints(kn=args.kn)
