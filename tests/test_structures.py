@@ -169,3 +169,16 @@ def test_the_report_describes_a_kind_it_does_not_know(monkeypatch):
     _register_lintel(monkeypatch)
     assert model_lines('{"lintel": 2.0}') == ["- lintel: a lintel; 3 blocks, 4 joints"]
     assert model_lines(pcf.Column.parthenon().to_json())[0].startswith("- column")
+
+
+def test_the_debug_plots_read_a_scene_by_its_parts():
+    """plots_scene knows a scene by its kind and draws its parts: a portal's joints by column then its
+    bearings, its columns' joint diameters in the history's order (the first column's top for top_disp)."""
+    from pycolfrag import plots_scene
+    portal, col = Colonnade.portal(2), pcf.Column.parthenon()
+    assert plots_scene.is_scene(portal) and not plots_scene.is_scene(col) and not plots_scene.is_scene(None)
+    n = col.n_joints
+    labels = plots_scene.joint_labels(portal, portal.n_joints)
+    assert labels[:2] == ["c1 base", "c1 joint 1"] and labels[n] == "c2 base" and labels[-1].startswith("bearing")
+    assert list(plots_scene.column_joint_diameters(portal)) == 2 * list(col.joint_diameters)
+    assert plots_scene.first_column(portal) is portal.column and plots_scene.first_column(col) is col
