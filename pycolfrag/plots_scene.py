@@ -32,7 +32,7 @@ __all__ = ["is_scene", "first_column", "rest_faces", "limits", "joint_labels", "
 def is_scene(model) -> bool:
     """A structure of a kind other than the column's (structures.py), whose parts the plots draw."""
     from .structures import BY_CLASS  # here: the structures only when a model is asked about
-    kind = next((BY_CLASS[c] for c in type(model).__mro__ if c in BY_CLASS), None)
+    kind = BY_CLASS[type(model)]
     return kind is not None and kind.name != "column"
 
 

@@ -224,7 +224,7 @@ def _motion(acc_x, dt, acc_y, acc_z, what: str = "") -> tuple:
 
 def _model(col) -> structures.StructureKind:
     """The kind of a structure (the registry's line of its class, read as data: structures.py)."""
-    kind = next((structures.BY_CLASS[c] for c in type(col).__mro__ if c in structures.BY_CLASS), None)
+    kind = structures.BY_CLASS[type(col)]
     if kind is None:
         raise ParameterError(f"col must be {structures.ACCEPTED}, got {type(col).__name__}")
     return kind

@@ -28,7 +28,7 @@ from .column import Column
 from .errors import ParameterError
 from .scene import Colonnade
 
-__all__ = ["StructureKind", "KINDS", "BY_CLASS", "ACCEPTED", "kind_of", "kind_of_dict", "model_from_dict",
+__all__ = ["StructureKind", "Kinds", "KINDS", "BY_CLASS", "ACCEPTED", "kind_of", "kind_of_dict", "model_from_dict",
            "scene_from_file"]
 
 #: The EDPs of every structure, of its dowels, of its epistyles (keys of ``names.EDPS``; a run of a
@@ -54,8 +54,19 @@ KINDS: tuple[StructureKind, ...] = (
     StructureKind("column", Column, "", False, STACK_EDPS + DOWEL_EDPS),
     StructureKind("colonnade", Colonnade, "n_columns", True, STACK_EDPS + DOWEL_EDPS + EPISTYLE_EDPS),
 )
-#: The kinds by their class (what the solver reads: data, so a row's walk enters no function here).
-BY_CLASS: dict[type, StructureKind] = {k.cls: k for k in KINDS}
+
+
+class Kinds(dict):
+    """The kinds by class: ``BY_CLASS[type(model)]``, a subclass taking its base's line (looked up, not
+    stored), None for a class of no kind. A registered class is found without a call into this module
+    (so a grid row's walk does not enter it)."""
+
+    def __missing__(self, cls):
+        return next((self[c] for c in cls.__mro__[1:] if dict.__contains__(self, c)), None)
+
+
+#: The kinds by their class (:class:`Kinds`).
+BY_CLASS = Kinds({k.cls: k for k in KINDS})
 #: The kinds a model may be, in words, for messages ("a Column or a Colonnade").
 ACCEPTED = " or ".join(f"a {k.cls.__name__}" for k in KINDS)
 
@@ -63,7 +74,7 @@ ACCEPTED = " or ".join(f"a {k.cls.__name__}" for k in KINDS)
 def kind_of(model, what: str = "col") -> StructureKind:
     """The kind of ``model`` (its class's line, or a base class's); ParameterError naming the accepted
     classes for anything else."""
-    kind = next((BY_CLASS[c] for c in type(model).__mro__ if c in BY_CLASS), None)
+    kind = BY_CLASS[type(model)]
     if kind is None:
         raise ParameterError(f"{what} must be {ACCEPTED}, got {type(model).__name__}")
     return kind

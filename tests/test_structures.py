@@ -143,7 +143,7 @@ class _Lintel:
 def _register_lintel(monkeypatch):
     line = structures.StructureKind("lintel", _Lintel, "lintel", True, structures.STACK_EDPS)
     monkeypatch.setattr(structures, "KINDS", (*structures.KINDS, line))
-    monkeypatch.setattr(structures, "BY_CLASS", {**structures.BY_CLASS, _Lintel: line})
+    monkeypatch.setattr(structures, "BY_CLASS", structures.Kinds({**structures.BY_CLASS, _Lintel: line}))
 
 
 def test_a_scene_file_is_read_by_its_kind(monkeypatch, tmp_path):
