@@ -1,14 +1,16 @@
 /*
  * connector_law.h -- THE law of a connector (a dowel across a joint), written once: the solver's
  * connectors (solver_connectors.c) and the driver of a prescribed displacement history
- * (cf_solver_connectors_drive, how the tests reach the law) run this text.
+ * (cf_solver_connectors_drive, how the tests reach the law) run this text. Its kinds of shear law are
+ * a registry (solver_connector_law.c), each kind its own file defining its cf_connector_law entry; a
+ * new kind is its file and one line there.
  *
  * A connector joins the two blocks of a joint at one point of the joint plane. Its deformation is
  * the displacement u of its upper end relative to its lower end since the rest state, in the lower
  * face's frame: (ux, uy) shear in the joint plane, uz the opening of the joint there (> 0 apart).
  * The force F it puts on the upper block (the opposite on the lower one) is, in the same frame:
  *
- * shear, one of two kinds (CF_SOLVER_CONNECTOR_*):
+ * shear, one of the registry's kinds (today's two: connector_elastoplastic.c, connector_clearance.c):
  *   ELASTOPLASTIC (a metal dowel: titanium)  F = -k (u - p), |F| <= F_y: elastic-perfectly plastic
  *       in the joint plane; beyond F_y the plastic offset p moves along the trial force until
  *       |F| = F_y (radial return), so after yielding the dowel unloads elastically about p;
@@ -37,10 +39,10 @@
 
 #include "solver.h"
 
-/* The per-run state of one connector, from the rest state (all zero) on. */
+/* The per-run state of one connector, from the rest state (all zero but the law's own) on. */
 typedef struct {
-    double px, py;      /* plastic offset of an elastoplastic connector, m */
-    double c;           /* clearance of a clearance connector now (grows as its seat crushes), m */
+    double w[3];        /* the shear law's own state (the elastoplastic law: its plastic offset w[0], w[1], m;
+                         * the clearance law: its clearance now, w[2], m), kept in a carried-over state */
     double a;           /* axial slack (pull-out slip), m */
     double u[3];        /* displacement at the last step, m */
     double f[3];        /* force on the upper block at the last step (lower face frame), N */
@@ -49,11 +51,34 @@ typedef struct {
     int broken;         /* 1 once it broke (shear or axial ultimate reached) */
 } cf_connector_state;
 
-/* The state at rest: no force, no slack beyond the clearance. */
+/* A kind of shear law: the registry's entry (solver_connector_law.c), defined in the law's own file
+ * (connector_elastoplastic.c, connector_clearance.c). */
+typedef struct cf_connector_law {
+    const char *name;
+    const char *doc;                 /* one sentence, exported (cf_solver_connector_law_doc) */
+    const cf_solver_option *values;  /* its own values (cf_solver_connector.law[k]), declared as data */
+    int n_values;
+    /* its own checks of d (beyond the common values'), the message into msg (CF_MSG_LEN); NULL: none */
+    int (*check)(const cf_solver_connector *d, char *msg);
+    /* its own state at rest (st->w, which comes zeroed); NULL: all zero */
+    void (*rest)(const cf_solver_connector *d, cf_connector_state *st);
+    /* the shear force (fx, fy) and its stored energy at shear displacement (ux, uy) (k_shear > 0;
+     * fx, fy, v come zeroed); updates its state where it yields; returns 1 on an inelastic step */
+    int (*shear)(const cf_solver_connector *d, cf_connector_state *st, double ux, double uy, double *fx,
+                 double *fy, double *v);
+    /* the shear displacement |u| at which it yields, m (k_shear > 0) */
+    double (*u_yield)(const cf_solver_connector *d);
+} cf_connector_law;
+
+/* the registry (solver_connector_law.c): cf_connector_law_table[d->kind], kind checked at set-up */
+extern const cf_connector_law *const cf_connector_law_table[];
+
+/* The state at rest: no force, no slack beyond the law's own. */
 static inline void cf_connector_rest(const cf_solver_connector *d, cf_connector_state *st)
 {
-    st->px = st->py = 0.0;
-    st->c = d->kind == CF_SOLVER_CONNECTOR_CLEARANCE ? d->clearance : 0.0;
+    const cf_connector_law *law = cf_connector_law_table[d->kind];
+    st->w[0] = st->w[1] = st->w[2] = 0.0;
+    if (law->rest) law->rest(d, st);
     st->a = 0.0;
     st->u[0] = st->u[1] = st->u[2] = 0.0;
     st->f[0] = st->f[1] = st->f[2] = 0.0;
@@ -83,33 +108,14 @@ static inline int cf_connector_slack_spring(double k, double f_cap, double u, do
     return plastic;
 }
 
-/* The shear force (fx, fy) and its stored energy at shear displacement (ux, uy); updates the
- * offset or clearance where it yields; returns 1 on an inelastic step. */
+/* The shear force (fx, fy) and its stored energy at shear displacement (ux, uy): the law's own; returns
+ * 1 on an inelastic step. */
 static inline int cf_connector_shear(const cf_solver_connector *d, cf_connector_state *st, double ux, double uy,
                                      double *fx, double *fy, double *v)
 {
-    double k = d->k_shear;
     *fx = 0.0; *fy = 0.0; *v = 0.0;
-    if (!(k > 0.0)) return 0;
-    if (d->kind == CF_SOLVER_CONNECTOR_ELASTOPLASTIC) {
-        double tx = -k * (ux - st->px), ty = -k * (uy - st->py), m = sqrt(tx * tx + ty * ty);
-        int plastic = m > d->f_yield;
-        if (plastic) {
-            double sc = d->f_yield / m;
-            tx = tx * sc; ty = ty * sc;
-            st->px = ux + tx / k; st->py = uy + ty / k;
-            st->yielded = 1;
-        }
-        *fx = tx; *fy = ty;
-        *v = (tx * tx + ty * ty) / (2.0 * k);
-        return plastic;
-    } else {
-        double um = sqrt(ux * ux + uy * uy), fm;
-        int plastic = cf_connector_slack_spring(k, d->f_yield, um, &st->c, &st->yielded, &fm, v);
-        if (plastic < 0) return 0;
-        *fx = -fm * ux / um; *fy = -fm * uy / um;
-        return plastic;
-    }
+    if (!(d->k_shear > 0.0)) return 0;
+    return cf_connector_law_table[d->kind]->shear(d, st, ux, uy, fx, fy, v);
 }
 
 /* The axial force at opening uz (tension only) and its stored energy; returns 1 on a slip step. */

@@ -174,23 +174,39 @@ int cf_solver_set_check(cf_solver *s, cf_solver_check_fn fn, void *user);
 
 /* ---- connectors and scenes (docs/solver.md, "Connectors" and "Scenes") ---- */
 
-/* A connector (a dowel) across a joint: its place and its law (the law's text: connector_law.h).
- * Kinds of shear law: */
+/* A connector (a dowel) across a joint: its place and its law. The laws' common text (the break,
+ * the axial part, the energy) is connector_law.h; each kind of shear law is its own file, listed in
+ * the registry of connector laws (solver_connector_law.c), whose order is that of these indices: */
 #define CF_SOLVER_CONNECTOR_ELASTOPLASTIC 0   /* a metal dowel: elastic-perfectly plastic, breaks at u_ultimate */
 #define CF_SOLVER_CONNECTOR_CLEARANCE 1       /* a wooden empolion / polos: clearance, then linear; the seat
                                                * crushes at f_yield; breaks at u_ultimate */
+#define CF_SOLVER_CONNECTOR_LAW_VALUES 4      /* a law's own values, at most */
 typedef struct {
     int joint;            /* the joint it crosses (a scene's numbering: every column's joints, then the bearings) */
     double x, y;          /* its place in the joint plane from the joint's face centre, along the lower face's x and y, m */
-    int kind;             /* CF_SOLVER_CONNECTOR_* */
-    double k_shear;       /* shear stiffness (once the clearance is taken up), N/m, >= 0 */
+    int kind;             /* its law: an index into the registry (cf_solver_connector_law_name) */
+    double k_shear;       /* shear stiffness (once engaged), N/m, >= 0 */
     double f_yield;       /* shear force at yield (elastoplastic) or at which the seat crushes (clearance), N, > 0; INFINITY: never */
     double u_ultimate;    /* shear displacement |u| at which it breaks, m, > 0; INFINITY: never */
-    double clearance;     /* initial clearance of the clearance kind, m, >= 0 (0 for the elastoplastic kind) */
     double k_axial;       /* stiffness against the joint's opening at the connector (tension only), N/m, >= 0; 0: none */
     double n_yield;       /* axial force at which it slips out, N, > 0; INFINITY: never */
     double d_ultimate;    /* opening at which it pulls out (breaks), m, > 0; INFINITY: never */
+    double law[CF_SOLVER_CONNECTOR_LAW_VALUES];   /* the law's own values, in the order of its table
+                                                   * (cf_solver_connector_law_value; the clearance law's:
+                                                   * its initial clearance, m); 0 beyond them */
 } cf_solver_connector;
+
+/* The registry of connector laws, read by Python (pycolfrag/connector_laws.py) and the docs: how many,
+ * each one's name and one-sentence doc, and its own values (name, range, default, unit, doc; the
+ * range is checked by the law's own check, with its message). NULL / 0 out of range. */
+int cf_solver_connector_law_count(void);
+const char *cf_solver_connector_law_name(int i);
+const char *cf_solver_connector_law_doc(int i);
+int cf_solver_connector_law_n_values(int i);
+const cf_solver_option *cf_solver_connector_law_value(int i, int k);
+/* The shear displacement |u| at which a connector's law yields (or its seat starts to crush), m, from
+ * the rest state; INFINITY without shear stiffness. NAN for a law out of the registry. */
+double cf_solver_connectors_u_yield(const cf_solver_connector *c);
 
 /* Check one connector's law (not its place): CF_OK, or CF_EINVAL with the message in msg
  * (CF_MSG_LEN bytes) naming the bad value. */

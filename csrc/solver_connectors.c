@@ -19,11 +19,14 @@
 int cf_solver_connectors_check(const cf_solver_connector *c, char *msg)
 {
     char dummy[CF_MSG_LEN];
+    const cf_connector_law *law;
+    int k;
     if (!msg) msg = dummy;
     if (!c) return cf_common_fail(msg, CF_EINVAL, "no connector");
-    if (c->kind != CF_SOLVER_CONNECTOR_ELASTOPLASTIC && c->kind != CF_SOLVER_CONNECTOR_CLEARANCE)
-        return cf_common_fail(msg, CF_EINVAL, "connector kind must be %d (elastoplastic) or %d (clearance), got %d",
-                              CF_SOLVER_CONNECTOR_ELASTOPLASTIC, CF_SOLVER_CONNECTOR_CLEARANCE, c->kind);
+    if (c->kind < 0 || c->kind >= cf_solver_connector_law_count())
+        return cf_common_fail(msg, CF_EINVAL, "connector kind must be a law of the registry, 0 to %d, got %d",
+                              cf_solver_connector_law_count() - 1, c->kind);
+    law = cf_connector_law_table[c->kind];
     if (!(c->k_shear >= 0.0) || !isfinite(c->k_shear))
         return cf_common_fail(msg, CF_EINVAL, "connector k_shear must be finite and >= 0 N/m, got %g", c->k_shear);
     if (!(c->k_axial >= 0.0) || !isfinite(c->k_axial))
@@ -36,15 +39,11 @@ int cf_solver_connectors_check(const cf_solver_connector *c, char *msg)
         return cf_common_fail(msg, CF_EINVAL, "connector u_ultimate must be > 0 m (inf: never), got %g", c->u_ultimate);
     if (!(c->d_ultimate > 0.0))
         return cf_common_fail(msg, CF_EINVAL, "connector d_ultimate must be > 0 m (inf: never), got %g", c->d_ultimate);
-    if (!(c->clearance >= 0.0) || !isfinite(c->clearance))
-        return cf_common_fail(msg, CF_EINVAL, "connector clearance must be finite and >= 0 m, got %g", c->clearance);
-    if (c->kind == CF_SOLVER_CONNECTOR_ELASTOPLASTIC && c->clearance != 0.0)
-        return cf_common_fail(msg, CF_EINVAL, "an elastoplastic connector has no clearance (got %g m): use the "
-                              "clearance kind", c->clearance);
-    if (!(c->clearance < c->u_ultimate))
-        return cf_common_fail(msg, CF_EINVAL, "connector clearance %g m must be below u_ultimate %g m", c->clearance,
-                              c->u_ultimate);
-    return CF_OK;
+    for (k = law->n_values; k < CF_SOLVER_CONNECTOR_LAW_VALUES; k++)
+        if (c->law[k] != 0.0)
+            return cf_common_fail(msg, CF_EINVAL, "a connector of the %s law has no value law[%d] (it has %d), got %g",
+                                  law->name, k, law->n_values, c->law[k]);
+    return law->check ? law->check(c, msg) : CF_OK;
 }
 
 int cf_solver_connectors_drive(const cf_solver_connector *c, int n, const double *u, double *force, double *stored,

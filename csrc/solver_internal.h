@@ -21,6 +21,8 @@
  *   solver_scene.c      a scene's bodies and joints: several columns, beams on bearings
  *   solver_state.c      the state that carries over from one run to the next (docs/sequences.md)
  *   connector_law.h     the connectors' law, one text
+ *   solver_connector_law.c  the registry of connector laws (cf_connector_law); each law its own
+ *                       file: connector_elastoplastic.c, connector_clearance.c
  *   contact_law.h       the contact law itself, one text for every path above
  *
  * Bodies: index 0 is the ground (fixed in the frame that moves with the ground),

@@ -147,14 +147,14 @@ static void body(cf_solver *s, cf_monitor *m, double *p, int to_buf)
         cf_connector_state *c = &s->conn->st[i];
         double b[CF_ST_CONN];
         if (to_buf) {
-            b[0] = c->px; b[1] = c->py; b[2] = c->c; b[3] = c->a; memcpy(b + 4, c->u, 3 * sizeof(double));
+            b[0] = c->w[0]; b[1] = c->w[1]; b[2] = c->w[2]; b[3] = c->a; memcpy(b + 4, c->u, 3 * sizeof(double));
             memcpy(b + 7, c->f, 3 * sizeof(double)); b[10] = c->v; b[11] = c->yielded; b[12] = c->broken;
             memcpy(b + 13, s->conn->peak + 3 * i, 3 * sizeof(double)); b[16] = s->conn->t_break[i];
             b[17] = s->conn->diss[i];
         }
         move(b, CF_ST_CONN, &p, to_buf);
         if (!to_buf) {
-            c->px = b[0]; c->py = b[1]; c->c = b[2]; c->a = b[3]; memcpy(c->u, b + 4, 3 * sizeof(double));
+            c->w[0] = b[0]; c->w[1] = b[1]; c->w[2] = b[2]; c->a = b[3]; memcpy(c->u, b + 4, 3 * sizeof(double));
             memcpy(c->f, b + 7, 3 * sizeof(double)); c->v = b[10]; c->yielded = (int)b[11]; c->broken = (int)b[12];
             memcpy(s->conn->peak + 3 * i, b + 13, 3 * sizeof(double)); s->conn->t_break[i] = b[16];
             s->conn->diss[i] = b[17];

@@ -64,7 +64,7 @@ def _runs(folder: Path, v: str) -> dict:
     """Both branches' successful runs of a variant, pooled (numpy arrays by field)."""
     from pycolfrag.analysis.completeness import check_complete
     from pycolfrag.analysis.data import read_results
-    from pycolfrag.structure.scene import model_from_dict
+    from pycolfrag.structure.kinds import model_from_dict
     out: dict = {}
     for branch in ("pulse", "nopulse"):
         path = folder / v / f"{branch}.h5"

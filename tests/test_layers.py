@@ -29,7 +29,7 @@ import record_suite as rs  # noqa: E402
 LAYERS = (
     ("driver", ("pycolfrag.grid",)),
     ("sample", ("pycolfrag.solver.sample",)),
-    ("run and results layout", ("pycolfrag.solver.run", "pycolfrag.solver.scene_setup", "pycolfrag.results")),
+    ("run and results layout", ("pycolfrag.solver", "pycolfrag.results")),   # run, scene_setup, state: one station
     ("inputs", ("pycolfrag.ground_motion.record_suites", "pycolfrag.ground_motion.record_tables", "pycolfrag.structure",
                 "pycolfrag.solver.options", "pycolfrag.solver.step_cause")),
     ("ground motions", ("pycolfrag.ground_motion",)),

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from pycolfrag.core.errors import ParameterError
+from pycolfrag.risk import grid_route
 from pycolfrag.risk import site_risk as risk
 from pycolfrag.risk import tree_grid
 
@@ -141,8 +142,8 @@ def test_sampled_trees_compute_each_path_once(files, tmp_path, monkeypatch):
     tree = tmp_path / "sampled.toml"
     tree.write_text("samples = 20\nseed = 5\n" + FACTORS)
     calls = []
-    real = risk.site_risk
-    monkeypatch.setattr(risk, "site_risk", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = grid_route.site_risk
+    monkeypatch.setattr(grid_route, "site_risk", lambda *a, **k: calls.append(1) or real(*a, **k))
     tr = tree_grid.tree_risk(site, tree, h5, n_draws=50, rng=0)
     assert len(tr.ends) == 20 and set(tr.weights.tolist()) == {1 / 20}
     assert len(calls) == 1 + len({e.index for e in tr.ends}) <= 4
@@ -160,7 +161,7 @@ def test_command_refuses_a_bad_tree_before_any_risk(files, tmp_path, capsys, tre
     site, _, h5 = files
     tree = tmp_path / "bad.toml"
     tree.write_text(tree_text)
-    monkeypatch.setattr(risk, "site_risk", lambda *a, **k: pytest.fail("a risk was computed"))
+    monkeypatch.setattr(grid_route, "site_risk", lambda *a, **k: pytest.fail("a risk was computed"))
     assert risk.main([str(site), h5, str(tmp_path / "out"), "--logic-tree", str(tree), "--no-figures"]) == 2
     import re
     assert re.search(match, capsys.readouterr().err)

@@ -14,7 +14,8 @@ from pycolfrag.analysis import report
 from pycolfrag.analysis.compare import compare_results
 from pycolfrag.analysis.data import load
 from pycolfrag.core import names
-from pycolfrag.structure.scene import Colonnade, model_from_dict
+from pycolfrag.structure.kinds import model_from_dict
+from pycolfrag.structure.scene import Colonnade
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"

@@ -109,7 +109,8 @@ def _json_object(raw) -> dict | None:
 def model_lines(raw) -> list:
     """The ``column`` attribute of a results file as Markdown lines (see the module docstring)."""
     from pycolfrag.core.errors import PycolfragError
-    from pycolfrag.structure.scene import Colonnade, model_from_dict
+    from pycolfrag.structure.kinds import kind_of, model_from_dict
+    from pycolfrag.structure.scene import Colonnade
     d = _json_object(raw)
     if d is None:
         return [f"- column: `{raw}`"]
@@ -117,8 +118,11 @@ def model_lines(raw) -> list:
         model = model_from_dict(d)
     except (PycolfragError, KeyError, TypeError, ValueError) as exc:
         return [f"The column description could not be read as a model ({exc}); its keys:", ""] + _listing(d)
-    if not isinstance(model, Colonnade):
+    kind = kind_of(model).name
+    if kind == "column":
         return _column_lines(model)
+    if not isinstance(model, Colonnade):   # a kind of its own: what every structure has
+        return [f"- {kind}: {model.name}; {model.n_blocks} blocks, {model.n_joints} joints"]
     e = model.epistyle
     head = [f"- scene: {model.name}; {model.n_columns} columns, axes {sig(model.spacing, 4)} m apart"
             + ("" if e is None else f"; an epistyle {sig(e.height, 4)} m high over every span (its mass over the "

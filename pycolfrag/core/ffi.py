@@ -2,7 +2,7 @@
 place where C status codes become Python exceptions.
 
 :func:`segment_arrays` is the one text of a column's geometry as C reads it (``cf_geometry_segment``),
-for the plain column's set-up (:mod:`pycolfrag.solver.run`) and a scene's (:mod:`pycolfrag.solver.scene_setup`) alike.
+read by the one set-up of every structure (:mod:`pycolfrag.solver.scene_setup`, a plain column as a one-column scene).
 
 Arrays reach C through :func:`pycolfrag.core.validate.float_array` (type, shape and finiteness checks, a
 C-contiguous float64 array) and :func:`ptr`, which gives the ``double *`` for it (``ffi.from_buffer``

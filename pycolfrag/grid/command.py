@@ -40,7 +40,7 @@ from pycolfrag.grid.timeline import Recorder
 from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
 from pycolfrag.solver import sample as _sample
 from pycolfrag.structure.column import Column
-from pycolfrag.structure.scene import Colonnade, model_from_dict
+from pycolfrag.structure.kinds import model_from_dict, scene_from_file
 
 __all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OUTPUTS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_DRAINED", "HelpFormatter",
            "build_parser", "spec_from_args", "run_command"]
@@ -164,7 +164,7 @@ def spec_from_args(args) -> RunSpec:
     else a :class:`GridSpec`; options of the other kind refused."""
     if args.scene and args.column:
         raise ParameterError("--column and --scene: give one (a scene file names its column)")
-    col = Colonnade.from_file(args.scene) if args.scene else Column.from_file(args.column) if args.column \
+    col = scene_from_file(args.scene) if args.scene else Column.from_file(args.column) if args.column \
         else Column.parthenon()
     if args.kn is not None:
         col = col.with_joints(kn=args.kn)

@@ -17,7 +17,7 @@ from pycolfrag import results as _results
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.grid.protocol import RowFunction, as_row_function
 from pycolfrag.solver import sample as _sample
-from pycolfrag.structure.scene import model_from_dict
+from pycolfrag.structure.kinds import model_from_dict
 
 __all__ = ["derive_seed", "SampleContext", "run_sample", "run_samples", "SYNTHETIC_ROWS",
            "RecordContext", "run_record_row", "run_record_rows", "RECORD_ROWS", "load_function"]

@@ -30,13 +30,19 @@ __all__ = ["is_scene", "first_column", "rest_faces", "limits", "joint_labels", "
 
 
 def is_scene(model) -> bool:
-    from pycolfrag.structure.scene import Colonnade  # here: the scene module only when a model is asked about
-    return isinstance(model, Colonnade)
+    """A structure of a kind other than the column's (structures.py), whose parts the plots draw."""
+    from pycolfrag.structure.kinds import BY_CLASS  # here: the structures only when a model is asked about
+    kind = BY_CLASS[type(model)]
+    return kind is not None and kind.name != "column"
+
+
+def _columns(model) -> list:
+    return [c for c, _, _ in model.scene_parts().columns]
 
 
 def first_column(model):
-    """The column whose top ``history.top_disp`` follows: the model itself, or a colonnade's first."""
-    return model.column if is_scene(model) else model
+    """The column whose top ``history.top_disp`` follows: the model itself, or a scene's first."""
+    return _columns(model)[0] if is_scene(model) else model
 
 
 def _box(x, y, z0, length, width, height):
@@ -56,7 +62,7 @@ def rest_faces(model, column_faces):
     for col, x, y in parts.columns:
         shift = np.array([x, y, 0.0])
         out += [([f + shift for f in faces], com + shift) for faces, com in column_faces(col)]
-    z0 = model.column.height
+    z0 = parts.columns[0][0].height   # the beams rest on the tops of the (equal) columns
     for b in parts.beams:
         out.append((_box(b.x, b.y, z0, b.length, b.width, b.height), np.array([b.x, b.y, z0 + b.height / 2])))
     return out
@@ -78,8 +84,8 @@ def joint_labels(model, nj):
     bearings; a column's "base joint", "joint j"."""
     if not is_scene(model):
         return ["base joint" if j == 0 else f"joint {j}" for j in range(nj)]
-    n = model.column.n_joints
-    out = [f"c{i + 1} {'base' if j == 0 else f'joint {j}'}" for i in range(model.n_columns) for j in range(n)]
+    out = [f"c{i + 1} {'base' if j == 0 else f'joint {j}'}" for i, c in enumerate(_columns(model))
+           for j in range(c.n_joints)]
     return (out + [f"bearing {k + 1}" for k in range(nj - len(out))])[:nj]
 
 
@@ -87,7 +93,7 @@ def column_joint_diameters(model) -> np.ndarray:
     """The diameter (m) of every column joint of the model, in the history's order (the bearings, which
     follow them in a colonnade's history, excluded)."""
     if is_scene(model):
-        return np.tile(np.asarray(model.column.joint_diameters, dtype=float), model.n_columns)
+        return np.concatenate([np.asarray(c.joint_diameters, dtype=float) for c in _columns(model)])
     return np.asarray(model.joint_diameters, dtype=float)
 
 

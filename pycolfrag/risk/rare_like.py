@@ -33,7 +33,8 @@ def grid_streams() -> str:
 def _describe(column: dict) -> str:
     if not column:
         return "the default column (Column.parthenon())"
-    if "n_columns" in column:
+    from pycolfrag.structure.kinds import kind_of_dict
+    if kind_of_dict(column).name == "colonnade":
         return f"the scene {column.get('name', '')!r} ({column['n_columns']} columns)"
     n = len(column.get("blocks", []))
     return f"the column {column.get('name', '')!r} ({n} blocks)"

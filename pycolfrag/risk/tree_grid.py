@@ -121,7 +121,7 @@ def tree_risk(site, tree, pulse_results, no_pulse_results=None, **options) -> Tr
     files (``options``: site_risk's keywords, the seed an integer so that every branch has the same draws),
     the single model's, and their statistics. Every branch is checked before any is computed."""
     from pycolfrag.analysis.data import as_data
-    from pycolfrag.risk.site_risk import QUANTITIES, site_risk
+    from pycolfrag.risk.grid_route import QUANTITIES, site_risk
     seed = options.get("rng", 0)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
         raise ParameterError(f"the tree's branches need an integer seed (rng), so that each has the same draws, got {seed!r}")

@@ -30,12 +30,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from pycolfrag.core.errors import ParameterError
-from pycolfrag.core.ffi import check, ffi, lib, ptr, segment_arrays
+from pycolfrag.core.ffi import check, ffi, lib, ptr
 from pycolfrag.core.validate import flag, float_array, positive_float
 from pycolfrag.ground_motion.record import Record
 from pycolfrag.solver import scene_setup as scene_run
 from pycolfrag.solver import state, step_cause
 from pycolfrag.solver.options import CONTACT_OPTIONS, SolverOptions
+from pycolfrag.structure import kinds as structures
 from pycolfrag.structure.column import Column
 
 __all__ = ["simulate", "simulate_batch", "batch_width", "Response", "History", "EnergyWarning", "StepWarning", "CONTACT_OPTIONS", "MAX_ABS_ACC",
@@ -223,16 +224,18 @@ def _motion(acc_x, dt, acc_y, acc_z, what: str = "") -> tuple:
     return run
 
 
-def _model(col) -> bool:
-    """A column or a scene (anything with ``scene_parts``, a Colonnade)."""
-    return isinstance(col, Column) or hasattr(col, "scene_parts")
+def _model(col) -> structures.StructureKind:
+    """The kind of a structure (the registry's line of its class, read as data: structures.py)."""
+    kind = structures.BY_CLASS[type(col)]
+    if kind is None:
+        raise ParameterError(f"col must be {structures.ACCEPTED}, got {type(col).__name__}")
+    return kind
 
 
 def _setup(col, options, overrides, caller):
-    """The set-up C solver of a column or scene and options (one per call of simulate /
-    simulate_batch), the options, and the scene's parts (None for a plain column)."""
-    if not _model(col):
-        raise ParameterError(f"col must be a Column or a Colonnade, got {type(col).__name__}")
+    """The set-up C solver of a structure and options (one per call of simulate / simulate_batch), the
+    options, and the parts whose outputs a run reports (None for a plain column: no connectors)."""
+    kind = _model(col)
     if options is None:
         options = SolverOptions()
     elif not isinstance(options, SolverOptions):
@@ -240,38 +243,32 @@ def _setup(col, options, overrides, caller):
     if overrides:
         options = options.replace(**overrides)
     d = options.to_c()
-    if isinstance(col, Column):   # the solver's frame is the foundation's (docs/sequences.md)
-        d.foundation_tilt_rad = math.radians(col.foundation_tilt_deg)   # checked by Column (pycolfrag/structure/foundation.py)
-        d.foundation_tilt_azimuth_rad = math.radians(col.foundation_tilt_azimuth_deg)
     monolithic = options.monolithic
 
     solver = ffi.gc(lib.cf_solver_create(), lib.cf_solver_free)
     if solver == ffi.NULL:
         raise MemoryError("cf_solver_create failed")
-    # a plain column keeps its own set-up (and its row never passes through the scene's modules)
-    parts = None if isinstance(col, Column) and not col.connectors else scene_run.parts_of(col, monolithic, caller)
-    for c in ([col] if parts is None else [c for c, _, _ in parts.columns]):
-        if parts is not None and c.foundation_tilt_deg:
+    # every structure through its parts (a plain column is a one-column scene): one set-up
+    parts = scene_run.parts_of(col, monolithic, caller)
+    plain = not kind.reports_parts and not any(c.connectors for c, _, _ in parts.columns)   # reports no parts
+    for c, _, _ in parts.columns:
+        if not plain and c.foundation_tilt_deg:
             raise ParameterError(f"{caller}: a tilted foundation (foundation_tilt_deg = {c.foundation_tilt_deg:g}) "
                                  "is for a plain column, without connectors, beams or other columns")
         if monolithic and any(j > 0 for j in c.joint_overrides):
             warnings.warn(f"{caller}: monolithic=True has the base joint only; joint_overrides of joints "
                           f"{sorted(j for j in c.joint_overrides if j > 0)} do not act", UserWarning, stacklevel=3)
-    if parts is None:
-        segs, nseg = segment_arrays(col.blocks)
-        props = [col.joint(i) for i in range(col.n_blocks)]
-        kn = np.array([p.kn for p in props]); ks = np.array([p.ks for p in props]); mu = np.array([p.mu for p in props])
-        st = lib.cf_solver_setup_joints(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks), ptr(mu))
-        check(st, lib.cf_solver_message(solver), caller)
-    else:
-        scene_run.setup(solver, d, parts, caller)
+    if plain:   # the solver's frame is the foundation's (docs/sequences.md)
+        d.foundation_tilt_rad = math.radians(col.foundation_tilt_deg)   # checked by Column (pycolfrag/structure/foundation.py)
+        d.foundation_tilt_azimuth_rad = math.radians(col.foundation_tilt_azimuth_deg)
+    scene_run.setup(solver, d, parts, caller)
     if options.dt_solver is not None:
         crit = float(lib.cf_solver_dt_crit(solver))
         if options.dt_solver > crit:
             warnings.warn(f"{caller}: dt_solver = {options.dt_solver:.4g} s exceeds the whole-stack stability limit "
                           f"{crit:.4g} s: the run may go unstable (it stops with SolverError when the energy balance "
                           "breaks)", StepWarning, stacklevel=3)
-    return solver, options, parts
+    return solver, options, None if plain else parts
 
 
 class _Job:
@@ -426,8 +423,7 @@ def simulate(col, acc_x, dt=None, acc_y=None, acc_z=None, history=False, options
 
     See :func:`simulate_batch` for many records on one column (the same results, faster).
     """
-    if not _model(col):
-        raise ParameterError(f"col must be a Column or a Colonnade, got {type(col).__name__}")
+    _model(col)   # a bad model fails first
     motion = _motion(acc_x, dt, acc_y, acc_z)   # before the set-up: a bad record fails fast
     history = flag(history, "history")
     solver, options, parts = _setup(col, options, overrides, "simulate")

@@ -1,10 +1,11 @@
-"""The C side of a scene: a column with connectors or a :class:`~pycolfrag.structure.scene.Colonnade` as the
+"""The C side of a structure: its parts (the Structure contract, :mod:`pycolfrag.structure.kinds`) as the
 solver's ``cf_solver_scene`` (``csrc/solver.h``), and what a run reports of its columns, epistyles and
 dowels (``cf_solver_set_outputs``, ``cf_solver_set_history_connectors``).
 
-:func:`pycolfrag.simulate` and :func:`pycolfrag.simulate_batch` call this for anything that is not a
-plain column (a plain column keeps its own set-up, ``cf_solver_setup_joints``); a one-column scene
-without connectors gives that column's results bit for bit.
+:func:`pycolfrag.simulate` and :func:`pycolfrag.simulate_batch` set every structure up here: a plain
+column is a one-column scene, which C sets up as the column's own stack (bit for bit the results of
+``cf_solver_setup_joints``); only the runs of a scene (a column with connectors, a colonnade) report
+its parts (:class:`Outputs`).
 """
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ import numpy as np
 
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.core.ffi import check, ffi, lib, ptr, segment_arrays
-from pycolfrag.structure.scene import SceneParts
+from pycolfrag.structure.scene_parts import SceneParts
 
 __all__ = ["parts_of", "setup", "Outputs", "EDP_DEFAULTS"]
 
@@ -26,20 +27,17 @@ EDP_DEFAULTS = {"dowel_shear_kn": math.nan, "dowel_slip_mm": math.nan, "dowels_y
                 "epistyle_slip_mm": math.nan, "epistyle_unseat": math.nan}
 
 
-def parts_of(model, monolithic: bool, caller: str) -> SceneParts | None:
-    """The scene parts of a column with connectors or of anything with ``scene_parts()`` (a
-    Colonnade); None for a plain column, which the solver sets up as before. A monolithic column keeps
-    the dowels of its base joint only (its other joints do not exist: warned)."""
-    if not hasattr(model, "scene_parts"):
-        if not model.connectors:
-            return None
-        dowels = model.dowels()
-        if monolithic and any(j > 0 for j, _, _, _ in dowels):
-            warnings.warn(f"{caller}: monolithic=True has the base joint only; the dowels of joints "
-                          f"{sorted({j for j, _, _, _ in dowels if j > 0})} do not act", UserWarning, stacklevel=4)
-            dowels = [d for d in dowels if d[0] == 0]
-        return SceneParts([(model, 0.0, 0.0)], dowels=dowels)
-    return model.scene_parts()
+def parts_of(model, monolithic: bool, caller: str) -> SceneParts:
+    """The parts for C of a structure (its ``scene_parts()``, the Structure contract; a column is a
+    one-column scene). A monolithic column keeps the dowels of its base joint only (its other joints
+    do not exist: warned)."""
+    parts = model.scene_parts()
+    dowels = parts.dowels
+    if monolithic and len(parts.columns) == 1 and any(j > 0 for j, _, _, _ in dowels):
+        warnings.warn(f"{caller}: monolithic=True has the base joint only; the dowels of joints "
+                      f"{sorted({j for j, _, _, _ in dowels if j > 0})} do not act", UserWarning, stacklevel=4)
+        parts.dowels = [d for d in dowels if d[0] == 0]
+    return parts
 
 
 def setup(solver, d, parts: SceneParts, caller: str) -> list:

@@ -20,11 +20,9 @@ MAX_RUN_STEPS = 5e7
 
 
 def _parts(model):
-    """(columns with their places, beams, bearings, dowels) of a column or a colonnade."""
-    if hasattr(model, "scene_parts"):
-        p = model.scene_parts()
-        return [c for c, _, _ in p.columns], p.beams, p.bearings, p.dowels
-    return [model], [], [], list(model.dowels())
+    """(columns, beams, bearings, dowels) of a structure: its parts (the Structure contract)."""
+    p = model.scene_parts()
+    return [c for c, _, _ in p.columns], p.beams, p.bearings, p.dowels
 
 
 def part_steps(model) -> list[tuple[float, str, str]]:

@@ -36,6 +36,7 @@ from pycolfrag.core.ffi import lib as _lib
 from pycolfrag.core.validate import positive_float, real
 from pycolfrag.structure import foundation
 from pycolfrag.structure.connectors import Connectors, connectors_on
+from pycolfrag.structure.scene_parts import SceneParts
 
 #: Most polygon sides the solver handles (``CF_SOLVER_MAX_SIDES`` in csrc/solver.h).
 MAX_SIDES = int(_lib.CF_SOLVER_MAX_SIDES)
@@ -329,6 +330,9 @@ class Column:
         """Every dowel as (joint, x, y, law): the connectors expanded, in their order."""
         return [(j, x, y, c.law) for c in self.connectors for j in c.joint_list(self.n_blocks) for x, y in c.positions()]
 
+    def scene_parts(self) -> SceneParts:   # the Structure contract (structures.py): a one-column scene
+        return SceneParts([(self, 0.0, 0.0)], dowels=self.dowels())
+
     def with_connectors(self, *connectors) -> "Column":
         """A copy with these connectors (none: without connectors); the rest is kept."""
         return Column(self.blocks, density=self.density, joints=self.joints, name=self.name,
@@ -515,12 +519,8 @@ class Column:
 
     def to_dict(self) -> dict:
         """Lossless description in the generic ``blocks`` form (what results files store)."""
-        d = {
-            "name": self.name,
-            "density": self.density,
-            "joints": self.joints.to_dict(),
-            "blocks": [b.to_dict() for b in self.blocks],
-        }
+        d = {"name": self.name, "density": self.density, "joints": self.joints.to_dict(),
+             "blocks": [b.to_dict() for b in self.blocks]}
         if self.joint_overrides:   # only when used: the default layout (and results signatures) unchanged
             d["joint_overrides"] = {str(j): p.to_dict() for j, p in self.joint_overrides.items()}
         if self.connectors:        # the same

@@ -30,78 +30,111 @@ import numpy as np
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.core.ffi import ffi, lib
 from pycolfrag.core.validate import integer, real
+from pycolfrag.structure.connector_laws import COMMON, LAW_KINDS
 
 __all__ = ["DowelLaw", "Connectors", "LAWS", "KINDS", "law", "dowel_positions"]
 
-#: The kinds of shear law, by name: the C library's ``CF_SOLVER_CONNECTOR_*``.
-KINDS = {"elastoplastic": lib.CF_SOLVER_CONNECTOR_ELASTOPLASTIC, "clearance": lib.CF_SOLVER_CONNECTOR_CLEARANCE}
+#: The kinds of shear law, by name: their index in the C library's registry (:mod:`pycolfrag.structure.connector_laws`).
+KINDS = {name: k.index for name, k in LAW_KINDS.items()}
 
-_LAW_NUMBERS = ("k_shear", "f_yield", "u_ultimate", "clearance", "k_axial", "n_yield", "d_ultimate")
-_LAW_KEYS = ("kind", *_LAW_NUMBERS, "name", "provenance")
+_LAW_NUMBERS = tuple(COMMON)
+_OWN = tuple(sorted({v.name for k in LAW_KINDS.values() for v in k.values}))   # every kind's own values
+_LAW_KEYS = ("kind", *_LAW_NUMBERS, *_OWN, "name", "provenance")
 _SET_KEYS = ("joints", "law", "count", "radius", "phase_deg")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class DowelLaw:
-    """The law of one dowel (``csrc/connector_law.h``).
+    """The law of one dowel (``csrc/connector_law.h``; its kinds: :data:`KINDS`, read from C).
 
     Parameters
     ----------
-    kind : {"elastoplastic", "clearance"}
-        Elastic-perfectly plastic (a metal dowel), or a clearance then linear with a crushing seat
-        (a wooden empolion and polos).
+    kind : str
+        A kind of :data:`KINDS`: ``"elastoplastic"`` (a metal dowel), ``"clearance"`` (a clearance then
+        linear with a crushing seat: a wooden empolion and polos), or any kind the C registry adds.
     k_shear : float
         Shear stiffness once engaged, N/m (>= 0).
     f_yield : float
         Shear force at yield, or at which the seat crushes, N (> 0; ``inf``: never).
     u_ultimate : float
         Shear displacement |u| at which the dowel breaks, m (> 0; ``inf``: never).
-    clearance : float
-        Initial clearance of the clearance kind, m (>= 0; 0 for the elastoplastic kind).
     k_axial, n_yield, d_ultimate : float
         The axial part: stiffness against the joint's opening at the dowel (N/m, 0: none), the force at
         which it slips out (N) and the opening at which it pulls out and breaks (m).
     name : str
         A label (the key of :data:`LAWS` for a named law).
+    **values
+        The kind's own values by name (``LAW_KINDS[kind].values``; the clearance kind's ``clearance``,
+        its initial clearance in m), read as attributes (``law.clearance``); missing ones take their
+        defaults. ``own`` gives them all at once, in the kind's order (what ``dataclasses.replace`` passes).
     """
 
-    kind: str = "elastoplastic"
-    k_shear: float = 0.0
-    f_yield: float = math.inf
-    u_ultimate: float = math.inf
-    clearance: float = 0.0
-    k_axial: float = 0.0
-    n_yield: float = math.inf
-    d_ultimate: float = math.inf
-    name: str = ""
+    kind: str
+    k_shear: float
+    f_yield: float
+    u_ultimate: float
+    k_axial: float
+    n_yield: float
+    d_ultimate: float
+    name: str
+    own: tuple   # the kind's own values, in the order of its C table
 
-    def __post_init__(self):
-        if self.kind not in KINDS:
-            raise ParameterError(f"dowel law: kind must be one of {sorted(KINDS)}, got {self.kind!r}")
-        for key in _LAW_NUMBERS:
-            v = real(getattr(self, key), f"dowel law {key}")
+    def __init__(self, kind: str = "elastoplastic", k_shear=0.0, f_yield=math.inf, u_ultimate=math.inf, *,
+                 k_axial=0.0, n_yield=math.inf, d_ultimate=math.inf, name: str = "", own: tuple | None = None,
+                 **values):
+        if kind not in KINDS:
+            raise ParameterError(f"dowel law: kind must be one of {sorted(KINDS)}, got {kind!r}")
+        spec = LAW_KINDS[kind].values
+        label = f" {name}" if name else ""
+        unknown = sorted(set(values) - {v.name for v in spec})
+        if unknown:
+            article = "an" if kind[0] in "aeiou" else "a"
+            raise ParameterError(f"dowel law{label}: {article} {kind} connector has no {', '.join(unknown)} (its own "
+                                 f"values: {', '.join(v.name for v in spec) or 'none'}; use another kind)")
+        mine = dict(zip((v.name for v in spec), own)) if own is not None else {}
+        mine.update(values)
+        given = {"k_shear": k_shear, "f_yield": f_yield, "u_ultimate": u_ultimate, "k_axial": k_axial,
+                 "n_yield": n_yield, "d_ultimate": d_ultimate, **{v.name: mine.get(v.name, v.default) for v in spec}}
+        for key, x in given.items():
+            v = real(x, f"dowel law {key}")
             if math.isnan(v):
-                raise ParameterError(f"dowel law {key} must be a number, got {getattr(self, key)!r}")
-            object.__setattr__(self, key, v)
+                raise ParameterError(f"dowel law {key} must be a number, got {x!r}")
+            given[key] = v
+        object.__setattr__(self, "kind", kind)
+        object.__setattr__(self, "name", name)
+        for key in _LAW_NUMBERS:
+            object.__setattr__(self, key, given[key])
+        object.__setattr__(self, "own", tuple(given[v.name] for v in spec))
         msg = ffi.new("char[]", 256)
         c = ffi.new("cf_solver_connector *")
         self.fill(c)
         if lib.cf_solver_connectors_check(c, msg) != lib.CF_OK:
-            raise ParameterError(f"dowel law{' ' + self.name if self.name else ''}: "
-                                 f"{ffi.string(msg).decode(errors='replace')}")
+            raise ParameterError(f"dowel law{label}: {ffi.string(msg).decode(errors='replace')}")
+
+    def __getattr__(self, key: str) -> float:
+        """A kind's own value by its name (``law.clearance``)."""
+        if key.startswith("__") or "own" not in self.__dict__:
+            raise AttributeError(key)
+        for v, x in zip(LAW_KINDS[self.kind].values, self.own):
+            if v.name == key:
+                return x
+        raise AttributeError(f"a {self.kind} dowel law has no value {key!r}")
 
     def fill(self, c) -> None:
         """Write the law into a ``cf_solver_connector`` (its place is the caller's)."""
         c.kind = KINDS[self.kind]
         for key in _LAW_NUMBERS:
             setattr(c, key, getattr(self, key))
+        for k, x in enumerate(self.own):
+            c.law[k] = x
 
     @property
     def u_yield(self) -> float:
-        """Shear displacement at yield (elastoplastic) or at crushing (clearance included), m."""
-        if self.k_shear == 0.0:
-            return math.inf
-        return self.f_yield / self.k_shear + (self.clearance if self.kind == "clearance" else 0.0)
+        """Shear displacement at yield (elastoplastic) or at crushing (clearance included), m: the kind's
+        own (``cf_solver_connectors_u_yield``)."""
+        c = ffi.new("cf_solver_connector *")
+        self.fill(c)
+        return float(lib.cf_solver_connectors_u_yield(c))
 
     def drive(self, u) -> dict:
         """The law along a prescribed displacement history ``u`` ((n, 3) m: shear x, y and the
@@ -126,10 +159,12 @@ class DowelLaw:
 
     def to_dict(self) -> dict:
         """Its keys, the infinite ones (``never``) and the zero axial part left out."""
-        d = {"kind": self.kind}
-        for key in _LAW_NUMBERS:
-            v = getattr(self, key)
-            if math.isinf(v) or (v == 0.0 and key in ("clearance", "k_axial")):
+        d: dict[str, Any] = {"kind": self.kind}
+        own = [(v.name, x, v.default) for v, x in zip(LAW_KINDS[self.kind].values, self.own)]
+        shear = [(key, getattr(self, key), None) for key in ("k_shear", "f_yield", "u_ultimate")]
+        axial = [(key, getattr(self, key), 0.0 if key == "k_axial" else None) for key in ("k_axial", "n_yield", "d_ultimate")]
+        for key, v, default in shear + own + axial:   # the order of a file's table
+            if math.isinf(v) or v == default:
                 continue
             d[key] = v
         if self.name:

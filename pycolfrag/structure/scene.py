@@ -21,7 +21,7 @@ from __future__ import annotations
 import json
 import os
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from pycolfrag.core import input_files
@@ -29,8 +29,9 @@ from pycolfrag.core.errors import ParameterError
 from pycolfrag.core.validate import integer, positive_float
 from pycolfrag.structure.column import Column, JointProperties, _check_keys
 from pycolfrag.structure.connectors import inside_polygon
+from pycolfrag.structure.scene_parts import Beam, Bearing, SceneParts
 
-__all__ = ["Epistyle", "Colonnade", "SceneParts", "Beam", "Bearing", "model_from_dict", "PORTAL_SPACING",
+__all__ = ["Epistyle", "Colonnade", "SceneParts", "Beam", "Bearing", "PORTAL_SPACING",
            "PORTAL_EPISTYLE_HEIGHT"]
 
 #: The portals' axial spacing of the columns, m: an assumption of the order of the Parthenon's
@@ -41,54 +42,6 @@ PORTAL_EPISTYLE_HEIGHT = 1.35
 
 _SCENE_KEYS = ("name", "description", "provenance", "column", "n_columns", "spacing", "epistyle")
 _EPISTYLE_KEYS = ("height", "width", "density", "joints", "provenance")
-
-
-@dataclass(frozen=True)
-class Beam:
-    """A rectangular block resting on two columns: the centre of its underside (x, y) m, its
-    length (x), width (y), height (z) m, density kg/m^3."""
-
-    x: float
-    y: float
-    length: float
-    width: float
-    height: float
-    density: float
-
-
-@dataclass(frozen=True)
-class Bearing:
-    """A square patch of beam ``beam`` on the top of column ``column``: centre (x, y) m, side m, and
-    the joint law there (a :class:`~pycolfrag.structure.column.JointProperties`, kn scaled by ``kn_factor`` when
-    tiles stand for a rectangle of another area)."""
-
-    beam: int
-    column: int
-    x: float
-    y: float
-    side: float
-    joints: object
-    kn_factor: float = 1.0
-
-
-@dataclass
-class SceneParts:
-    """What the solver builds: columns at their places ((Column, x, y)), beams, bearings (listed beam
-    by beam), dowels ((scene joint, x, y, DowelLaw): every column's joints, column by column, then the
-    bearings)."""
-
-    columns: list
-    beams: list = field(default_factory=list)
-    bearings: list = field(default_factory=list)
-    dowels: list = field(default_factory=list)
-
-    @property
-    def n_blocks(self) -> int:
-        return sum(c.n_blocks for c, _, _ in self.columns) + len(self.beams)
-
-    @property
-    def n_joints(self) -> int:
-        return sum(c.n_blocks for c, _, _ in self.columns) + len(self.bearings)
 
 
 @dataclass(frozen=True)
@@ -343,10 +296,3 @@ class Colonnade:
         return (f"Colonnade({self.name!r}, {self.n_columns} x {self.column.name!r}, spacing={self.spacing:g} m, "
                 f"epistyle={'none' if self.epistyle is None else f'{self.epistyle.height:g} m'})")
 
-
-def model_from_dict(d):
-    """A column or a colonnade from its ``to_dict()`` (a results file's ``column`` attribute, a grid's
-    spec): a colonnade's has ``n_columns``; an empty dict is the default column."""
-    if not d:
-        return Column.parthenon()
-    return Colonnade.from_dict(d) if isinstance(d, dict) and "n_columns" in d else Column.from_dict(d)
