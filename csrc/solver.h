@@ -143,6 +143,17 @@ int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int n_blocks,
                            const cf_geometry_segment *segments, double density, const double *kn,
                            const double *ks, const double *mu);
 
+/* The same with the column as built (docs/sequences.md, "As-built geometry: offset and turned
+ * drums"): placement (n_blocks x 3) holds block i's horizontal offset dx, dy of its axis from the
+ * column's (m) and its rotation about its axis (rad, counter-clockwise seen from above), at rest.
+ * A joint whose two faces are offset or turned against each other carries their overlap at rest
+ * (every contact model); one whose faces do not overlap is refused (CF_EINVAL, the joint named), as
+ * are a non-finite value and a monolithic definition. NULL, or every value 0: cf_solver_setup_joints
+ * bit for bit. */
+int cf_solver_setup_as_built(cf_solver *s, const cf_solver_def *def, int n_blocks, const int *n_segments,
+                             const cf_geometry_segment *segments, double density, const double *kn,
+                             const double *ks, const double *mu, const double *placement);
+
 /* Whole-stack stability limit of the set-up column, s (after setup). */
 double cf_solver_dt_crit(const cf_solver *s);
 /* Step the run will use, s (after setup). */

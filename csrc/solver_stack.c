@@ -137,41 +137,52 @@ static void bodies_place(cf_solver *s, int nblk, const cf_geometry_segment *segs
     }
 }
 
-/* Joints and their faces: joint j carries block j on block j - 1 (or on the ground). */
-static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs)
+/* Joints and their faces: joint j carries block j on block j - 1 (or on the ground). As built (place:
+ * per block dx, dy, rotation), each face turned by its block's rotation; a joint whose faces are offset
+ * or turned against each other carries their overlap (solver_as_built.c). */
+static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs, const double *place)
 {
-    int i, j, nj = s->nj;
+    int i, j, nj = s->nj, st = CF_OK;
     const cf_solver_def *def = &s->def;
     {
         int off = 0;
         int *first = (int *)calloc((size_t)nblk, sizeof(int)), *last = (int *)calloc((size_t)nblk, sizeof(int));
         if (!first || !last) { free(first); free(last); return cf_solver_fail(s, CF_ENOMEM, "out of memory"); }
         for (i = 0; i < nblk; i++) { first[i] = off; last[i] = off + nseg[i] - 1; off += nseg[i]; }
-        for (j = 0; j < nj; j++) {
+        for (j = 0; j < nj && !st; j++) {
             cf_joint *J = &s->jt[j];
             const cf_geometry_segment *bot = &segs[first[j]];
+            /* the faces' phases, turned by their blocks' rotations as built (untouched otherwise) */
+            double ru = place ? place[3 * j + 2] : 0.0, rl = place && j > 0 ? place[3 * (j - 1) + 2] : ru;
+            double phu = place ? bot->phase_rad + ru : bot->phase_rad;
             J->logical = j;
             J->bl = def->monolithic ? 0 : j;
             J->bu = def->monolithic ? 1 : j + 1;
-            cf_solver_stack_face(&J->fu, bot->n_sides, bot->r_bottom, bot->phase_rad, s->blk_bot[3 * j + 2]);
+            cf_solver_stack_face(&J->fu, bot->n_sides, bot->r_bottom, phu, s->blk_bot[3 * j + 2]);
             if (j == 0) {
-                cf_solver_stack_face(&J->fl, bot->n_sides, bot->r_bottom, bot->phase_rad, 0.0);
+                cf_solver_stack_face(&J->fl, bot->n_sides, bot->r_bottom, phu, 0.0);
             } else {
                 const cf_geometry_segment *top = &segs[last[j - 1]];
-                cf_solver_stack_face(&J->fl, top->n_sides, top->r_top, top->phase_rad, s->blk_top[3 * (j - 1) + 2]);
+                double phl = place ? top->phase_rad + rl : top->phase_rad;
+                cf_solver_stack_face(&J->fl, top->n_sides, top->r_top, phl, s->blk_top[3 * (j - 1) + 2]);
             }
             J->area = J->fl.area < J->fu.area ? J->fl.area : J->fu.area;
+            if (place && j > 0) {
+                double dx = place[3 * j] - place[3 * (j - 1)], dy = place[3 * j + 1] - place[3 * (j - 1) + 1];
+                if (dx != 0.0 || dy != 0.0 || ru != rl) st = cf_solver_as_built_joint(s, J, dx, dy);
+            }
         }
         free(first); free(last);
     }
-    return CF_OK;
+    return st;
 }
 
 /* Initial state: exact static equilibrium, joint j pre-compressed by the weight above
  * it (uniform overlap W / (kn A) over the face; W the weight's part normal to a tilted foundation),
  * shear zero (the tilt is cf_solver_stack_tilt's; a foundation's downhill pull loads the shear
  * springs in the first steps, a small transient: docs/sequences.md). */
-static void equilibrium(cf_solver *s, int nblk, const cf_geometry_massprops *bp, const double *zbot)
+static void equilibrium(cf_solver *s, int nblk, const cf_geometry_massprops *bp, const double *zbot,
+                        const double *place)
 {
     int i, j, k, nj = s->nj, nbody = s->nbody;
     const cf_solver_def *def = &s->def;
@@ -187,6 +198,9 @@ static void equilibrium(cf_solver *s, int nblk, const cf_geometry_massprops *bp,
                 s->x0[3 * 1 + 2] = -s->blk_bot[2] - settle;
             } else {
                 s->x0[3 * (j + 1) + 2] = zbot[j] + bp[j].com_z - settle;
+                /* as built: the block's axis at its offset (its contact settles uniformly over the
+                 * joint's overlap; the offset centre of mass tips it a little: docs/sequences.md) */
+                if (place) { s->x0[3 * (j + 1)] = place[3 * j]; s->x0[3 * (j + 1) + 1] = place[3 * j + 1]; }
             }
         }
     }
@@ -204,6 +218,7 @@ void cf_solver_stack_tilt(cf_solver *s)
         double xp = f->vx[0], th = def->initial_tilt_rad, c = cf_math_cos(th), sn = cf_math_sin(th);
         double zp = s->x0[3 * 1 + 2] + f->c[2];
         for (k = 1; k < f->n; k++) if (f->vx[k] > xp) xp = f->vx[k];
+        if (s->asb) xp += s->x0[3 * 1];   /* the base block's axis at its offset */
         for (i = 1; i < nbody; i++) {
             double dx = s->x0[3 * i] - xp, dz = s->x0[3 * i + 2] - zp;
             s->x0[3 * i] = xp + c * dx + sn * dz;
@@ -215,7 +230,7 @@ void cf_solver_stack_tilt(cf_solver *s)
 }
 
 int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs,
-                          const double *kn, const double *ks, const double *mu)
+                          const double *kn, const double *ks, const double *mu, const double *place)
 {
     int i, st, nseg_tot = 0;
     cf_geometry_massprops *bp;
@@ -231,7 +246,7 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
     if (!bp || !zbot) { free(bp); free(zbot); return cf_solver_fail(s, CF_ENOMEM, "out of memory"); }
     block_masses(s, nblk, nseg, segs, bp, zbot);
     bodies_place(s, nblk, segs, nseg_tot, bp, zbot);
-    st = joints_make(s, nblk, nseg, segs);
+    st = joints_make(s, nblk, nseg, segs, place);
     if (!st) {
         /* joint j (under block j) takes the j-th properties; a monolithic column has joint 0 only */
         int j;
@@ -240,7 +255,7 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
             s->jt[j].above = s->nbody; s->jt[j].bearing = 0;   /* a column carries everything above */
         }
     }
-    if (!st) equilibrium(s, nblk, bp, zbot);
+    if (!st) equilibrium(s, nblk, bp, zbot, place);
     free(bp); free(zbot);
     return st;
 }

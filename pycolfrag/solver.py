@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import scene_run, state, step_cause
+from . import as_built, scene_run, state, step_cause
 from ._ffi import check, ffi, lib, ptr, segment_arrays
 from ._validate import flag, float_array, positive_float
 from .column import Column
@@ -253,6 +253,8 @@ def _setup(col, options, overrides, caller):
         if parts is not None and c.foundation_tilt_deg:
             raise ParameterError(f"{caller}: a tilted foundation (foundation_tilt_deg = {c.foundation_tilt_deg:g}) "
                                  "is for a plain column, without connectors, beams or other columns")
+        if parts is not None:   # the dowels' places and the scene's faces are those of an aligned column
+            as_built.refuse(c, caller, "are for a plain column, without connectors, beams or other columns")
         if monolithic and any(j > 0 for j in c.joint_overrides):
             warnings.warn(f"{caller}: monolithic=True has the base joint only; joint_overrides of joints "
                           f"{sorted(j for j in c.joint_overrides if j > 0)} do not act", UserWarning, stacklevel=3)
@@ -260,8 +262,7 @@ def _setup(col, options, overrides, caller):
         segs, nseg = segment_arrays(col.blocks)
         props = [col.joint(i) for i in range(col.n_blocks)]
         kn = np.array([p.kn for p in props]); ks = np.array([p.ks for p in props]); mu = np.array([p.mu for p in props])
-        st = lib.cf_solver_setup_joints(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks), ptr(mu))
-        check(st, lib.cf_solver_message(solver), caller)
+        as_built.setup(solver, d, col, nseg, segs, kn, ks, mu, monolithic, caller)
     else:
         scene_run.setup(solver, d, parts, caller)
     if options.dt_solver is not None:

@@ -1,0 +1,180 @@
+"""A column's blocks placed as built (docs/sequences.md, "As-built geometry: offset and turned drums";
+the column file's block keys ``offset`` and ``rotation_deg``, docs/column_format.md).
+
+Each block's axis may stand off the column's by ``offset = (dx, dy)`` (m, in the column's axes) and
+the block may be turned about its axis by ``rotation_deg`` (degrees, counter-clockwise seen from
+above: its polygons' phases grow by it), at rest. The solver places the bodies there and a joint whose
+two faces are offset or turned against each other carries their overlap (``cf_solver_setup_as_built``,
+csrc/solver_as_built.c) in every contact model.
+
+Refused when the column is made (ParameterError naming the value), for every joint j (under block j):
+
+* a joint whose faces do not overlap;
+* the centre of the upper face (block j's axis) outside the lower face: more than half of the joint
+  overhangs, the run's off-footprint criterion at rest;
+* the centre of mass of the blocks above the joint (block j included) outside its support (the overlap
+  of its two faces; on the ground, block j's own bottom face): the column would not stand.
+
+Not for a monolithic run (one body), a column with connectors or in a scene, or on a tilted
+foundation: refused when run or made, naming why.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._ffi import check as _check
+from ._ffi import lib, ptr
+from ._validate import real
+from .errors import ParameterError
+
+#: the column file's block keys this module reads
+KEYS: tuple[str, ...] = ("offset", "rotation_deg")
+
+
+def placement(offset, rotation_deg, where: str = "block") -> tuple[tuple[float, float], float]:
+    """A block's offset (dx, dy) in m and rotation in degrees as floats, or ParameterError."""
+    if isinstance(offset, (str, bytes)) or not hasattr(offset, "__len__") or len(offset) != 2:
+        raise ParameterError(f"{where}: offset must be two numbers (dx, dy) in m, got {offset!r}")
+    dx, dy = (real(v, f"{where}: offset (m)") for v in offset)
+    rot = real(rotation_deg, f"{where}: rotation_deg")
+    if not all(math.isfinite(v) for v in (dx, dy, rot)):
+        raise ParameterError(f"{where}: offset and rotation_deg must be finite, got offset = {offset!r}, "
+                             f"rotation_deg = {rotation_deg!r}")
+    return (dx, dy), rot
+
+
+def place(block) -> None:
+    """Block's offset and rotation_deg checked and stored as floats (its ``__post_init__``)."""
+    offset, rot = placement(block.offset, block.rotation_deg, f"block {block.name!r}")
+    object.__setattr__(block, "offset", offset)
+    object.__setattr__(block, "rotation_deg", rot)
+
+
+def block_kw(block) -> dict:
+    """A block's placement as the column file's keys: only what differs from an aligned block."""
+    out: dict = {}
+    if block.offset != (0.0, 0.0):
+        out["offset"] = list(block.offset)
+    if block.rotation_deg != 0.0:
+        out["rotation_deg"] = block.rotation_deg
+    return out
+
+
+def file_kw(bd: dict) -> dict:
+    """The placement keys of a column file's block mapping as Block's keyword arguments."""
+    return {k: bd[k] for k in KEYS if k in bd}
+
+
+def placed(col) -> bool:
+    """Is any block of col offset or turned?"""
+    return any(b.offset != (0.0, 0.0) or b.rotation_deg != 0.0 for b in col.blocks)
+
+
+def placement_array(col) -> np.ndarray:
+    """(n_blocks x 3) dx, dy (m) and rotation (rad) per block: what cf_solver_setup_as_built reads."""
+    return np.array([[b.offset[0], b.offset[1], math.radians(b.rotation_deg)] for b in col.blocks], dtype=np.float64)
+
+
+def face(col, i: int, top: bool) -> list[tuple[float, float]]:
+    """Block i's bottom (or top) polygon at rest, counter-clockwise, in the column's axes (m)."""
+    b = col.blocks[i]
+    seg = b.top if top else b.bottom
+    r = seg.r_top if top else seg.r_bottom
+    ph = seg.phase_rad + math.radians(b.rotation_deg)
+    return [(b.offset[0] + r * math.cos(ph + 2.0 * math.pi * k / seg.n_sides),
+             b.offset[1] + r * math.sin(ph + 2.0 * math.pi * k / seg.n_sides)) for k in range(seg.n_sides)]
+
+
+def _margin(poly, x: float, y: float) -> float:
+    """The signed distance (m) of (x, y) inside the convex counter-clockwise polygon (< 0: outside)."""
+    out = math.inf
+    for (x0, y0), (x1, y1) in zip(poly, poly[1:] + poly[:1]):
+        ex, ey = x1 - x0, y1 - y0
+        if ex or ey:   # a vertex given twice makes an edge of no length
+            out = min(out, (ex * (y - y0) - ey * (x - x0)) / math.hypot(ex, ey))
+    return out
+
+
+def overlap(a, b) -> list[tuple[float, float]]:
+    """The intersection of two convex counter-clockwise polygons (Sutherland-Hodgman; [] when disjoint)."""
+    out = list(a)
+    for (x0, y0), (x1, y1) in zip(b, b[1:] + b[:1]):
+        src, out = out, []
+        side = [(x1 - x0) * (y - y0) - (y1 - y0) * (x - x0) for x, y in src]
+        for k, p in enumerate(src):
+            q, fp, fq = src[(k + 1) % len(src)], side[k], side[(k + 1) % len(src)]
+            if fp >= 0.0:
+                out.append(p)
+            if (fp >= 0.0) != (fq >= 0.0):
+                t = fp / (fp - fq)
+                out.append((p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])))
+        if not out:
+            return []
+    return out
+
+
+def area(poly) -> float:
+    """The area of a counter-clockwise polygon, m^2."""
+    return 0.5 * sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in zip(poly, poly[1:] + poly[:1]))
+
+
+def support(col, j: int) -> list[tuple[float, float]]:
+    """The support polygon of joint j at rest (column axes): the overlap of its two faces; on the
+    ground, block 0's own bottom face."""
+    lower = face(col, j - 1, True) if j > 0 else None
+    return face(col, j, False) if lower is None else overlap(lower, face(col, j, False))
+
+
+def _offsets(col, j0: int) -> str:
+    """The placements of blocks j0.. that are not aligned, as the message names them."""
+    return ", ".join(f"blocks[{i}] offset = ({b.offset[0]:g}, {b.offset[1]:g}) m, rotation_deg = {b.rotation_deg:g}"
+                     for i, b in enumerate(col.blocks) if i >= j0 and (b.offset != (0.0, 0.0) or b.rotation_deg))
+
+
+def check(col) -> None:
+    """ParameterError naming the value when col's placement cannot stand (the module's list)."""
+    if not placed(col):
+        return
+    if col.foundation_tilt_deg:
+        raise ParameterError(f"as-built offsets or rotations ({_offsets(col, 0)}) on a tilted foundation "
+                             f"(foundation_tilt_deg = {col.foundation_tilt_deg:g}) are not supported: its static "
+                             "threshold (pycolfrag/foundation.py) is that of an aligned stack")
+    masses = col.block_masses
+    for j in range(col.n_blocks):
+        sup = support(col, j)
+        if j > 0 and (len(sup) < 3 or area(sup) <= 1e-12 * area(face(col, j, False))):
+            raise ParameterError(f"joint {j}: the faces of blocks[{j - 1}] and blocks[{j}] do not overlap "
+                                 f"({_offsets(col, j - 1)})")
+        if j > 0 and _margin(face(col, j - 1, True), *col.blocks[j].offset) < 0.0:
+            raise ParameterError(f"joint {j}: the axis of blocks[{j}] lies outside the top face of blocks[{j - 1}] "
+                                 f"(more than half of the joint overhangs; {_offsets(col, j - 1)})")
+        m = sum(masses[j:])
+        gx = sum(mk * col.blocks[k].offset[0] for k, mk in enumerate(masses) if k >= j) / m
+        gy = sum(mk * col.blocks[k].offset[1] for k, mk in enumerate(masses) if k >= j) / m
+        inside = _margin(sup, gx, gy)
+        if not inside > 0.0:
+            raise ParameterError(f"joint {j}: the centre of mass of blocks[{j}:] lies at ({gx:.4g}, {gy:.4g}) m, "
+                                 f"{-inside:.4g} m outside the joint's support (the overlap of its faces): the "
+                                 f"column would not stand ({_offsets(col, max(j - 1, 0))})")
+
+
+def refuse(col, caller: str, why: str) -> None:
+    """ParameterError when col is placed as built and a run cannot honour it (why)."""
+    if placed(col):
+        raise ParameterError(f"{caller}: as-built offsets or rotations of blocks ({_offsets(col, 0)}) {why}")
+
+
+def setup(solver, d, col, nseg, segs, kn, ks, mu, monolithic: bool, caller: str) -> None:
+    """Set up the C solver for the plain column col: as built (cf_solver_setup_as_built) when it is
+    placed, else cf_solver_setup_joints as before."""
+    if not placed(col):
+        st = lib.cf_solver_setup_joints(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks), ptr(mu))
+    else:
+        if monolithic:
+            refuse(col, caller, "are not for a monolithic run (one body)")
+        place = placement_array(col)
+        st = lib.cf_solver_setup_as_built(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks),
+                                          ptr(mu), ptr(place))
+    _check(st, lib.cf_solver_message(solver), caller)
