@@ -6,6 +6,7 @@
  *   solver_options.c    the options as data: the solver's own table and the models' (defaults,
  *                       ranges, messages, options by name)
  *   solver_stack.c      bodies, mass properties, joints, faces, equilibrium
+ *   solver_as_built.c   a joint of blocks placed as built: the overlap of its faces at rest
  *   solver_face_points.c  the sub-contact points of the faces, for the models that carry points
  *   solver_timestep.c   stability limit of the whole linearised stack -> time step
  *   solver_step.c       the integrator step, as named phases

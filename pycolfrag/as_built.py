@@ -167,14 +167,11 @@ def refuse(col, caller: str, why: str) -> None:
 
 
 def setup(solver, d, col, nseg, segs, kn, ks, mu, monolithic: bool, caller: str) -> None:
-    """Set up the C solver for the plain column col: as built (cf_solver_setup_as_built) when it is
-    placed, else cf_solver_setup_joints as before."""
-    if not placed(col):
-        st = lib.cf_solver_setup_joints(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks), ptr(mu))
-    else:
-        if monolithic:
-            refuse(col, caller, "are not for a monolithic run (one body)")
-        place = placement_array(col)
-        st = lib.cf_solver_setup_as_built(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks),
-                                          ptr(mu), ptr(place))
+    """Set up the C solver for the plain column col placed as built (cf_solver_setup_as_built; an aligned
+    column is solver.py's cf_solver_setup_joints, as before)."""
+    if monolithic:
+        refuse(col, caller, "are not for a monolithic run (one body)")
+    place = placement_array(col)
+    st = lib.cf_solver_setup_as_built(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks),
+                                      ptr(mu), ptr(place))
     _check(st, lib.cf_solver_message(solver), caller)
