@@ -213,3 +213,18 @@ def test_support_polygon_is_the_overlap():
     xs = [x for x, _ in sup]
     assert min(xs) == pytest.approx(0.05 - B) and max(xs) == pytest.approx(B)
     assert as_built.area(sup) == pytest.approx((2 * B - 0.05) * 2 * B)
+
+
+def test_the_example_as_built_column_stands_and_reports_its_dislocations():
+    """examples/column_as_built.json (the Parthenon column, its upper drums off the axis by up to 3.5 cm
+    and turned): it loads, stands at rest, and its u_d at rest is its largest joint offset over that
+    joint's diameter (the start transient adds microns)."""
+    from pathlib import Path
+    col = Column.from_file(Path(__file__).resolve().parents[1] / "examples" / "column_as_built.json")
+    assert as_built.placed(col) and col.n_blocks == 13
+    expected = max(math.hypot(b.offset[0] - (col.blocks[j - 1].offset[0] if j else 0.0),
+                              b.offset[1] - (col.blocks[j - 1].offset[1] if j else 0.0)) / col.joint_diameters[j]
+                   for j, b in enumerate(col.blocks))
+    r = pcf.simulate(col, np.zeros(2), 0.01, tail_s=0.5, early_exit=False)
+    assert not r.collapsed
+    assert r.u_d == pytest.approx(expected, abs=2e-5)
