@@ -202,10 +202,12 @@ static int check_placement(cf_solver *s, int nblk, const double **place)
 {
     int i, any = 0;
     if (!*place) return CF_OK;
-    for (i = 0; i < 3 * nblk; i++) {
-        if (!isfinite((*place)[i]))
-            return cf_solver_fail(s, CF_EINVAL, "block %d: its as-built %s must be finite, got %g", i / 3,
-                                  i % 3 == 2 ? "rotation" : "offset", (*place)[i]);
+    static const char *const what[CF_SOLVER_AS_BUILT] = {"offset", "offset", "rotation", "inner radius", "outer radius"};
+    for (i = 0; i < CF_SOLVER_AS_BUILT * nblk; i++) {
+        int k = i % CF_SOLVER_AS_BUILT;
+        if (!isfinite((*place)[i]) || (k >= 3 && (*place)[i] < 0.0))
+            return cf_solver_fail(s, CF_EINVAL, "block %d: its as-built %s must be finite%s, got %g", i / CF_SOLVER_AS_BUILT,
+                                  what[k], k >= 3 ? " and >= 0" : "", (*place)[i]);
         any |= (*place)[i] != 0.0;
     }
     if (!any) { *place = NULL; return CF_OK; }

@@ -143,13 +143,17 @@ int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int n_blocks,
                            const cf_geometry_segment *segments, double density, const double *kn,
                            const double *ks, const double *mu);
 
-/* The same with the column as built (docs/sequences.md, "As-built geometry: offset and turned
- * drums"): placement (n_blocks x 3) holds block i's horizontal offset dx, dy of its axis from the
- * column's (m) and its rotation about its axis (rad, counter-clockwise seen from above), at rest.
- * A joint whose two faces are offset or turned against each other carries their overlap at rest
- * (every contact model); one whose faces do not overlap is refused (CF_EINVAL, the joint named), as
- * are a non-finite value and a monolithic definition. NULL, or every value 0: cf_solver_setup_joints
- * bit for bit. */
+/* The same with the column as built (docs/sequences.md, "As-built geometry"): placement
+ * (n_blocks x CF_SOLVER_AS_BUILT) holds per block i: the horizontal offset dx, dy of its axis from
+ * the column's (m) and its rotation about its axis (rad, counter-clockwise seen from above), at rest;
+ * then its bottom face chipped to an annulus: the inner and outer circumradii (m) of the concentric
+ * polygons (of the face's sides and phase) it bears between (0, 0: the whole face; outer 0: the face's
+ * own). A joint whose two faces are offset or turned against each other carries their overlap at rest,
+ * a chipped one its annulus (every contact model). Refused (CF_EINVAL, the joint or block named): faces
+ * that do not overlap, an annulus with no area (inner >= outer) or wider than its face or than the face
+ * below it, a chipped face on a joint that is offset or turned, a non-finite or negative value, a
+ * monolithic definition. NULL, or every value 0: cf_solver_setup_joints bit for bit. */
+#define CF_SOLVER_AS_BUILT 5
 int cf_solver_setup_as_built(cf_solver *s, const cf_solver_def *def, int n_blocks, const int *n_segments,
                              const cf_geometry_segment *segments, double density, const double *kn,
                              const double *ks, const double *mu, const double *placement);

@@ -40,3 +40,28 @@ int cf_solver_as_built_joint(cf_solver *s, cf_joint *J, double dx, double dy)
     J->cpolar = m[3] + m[5] - m[0] * (J->ccen[0] * J->ccen[0] + J->ccen[1] * J->ccen[1]);
     return CF_OK;
 }
+
+int cf_solver_as_built_chipped(cf_solver *s, cf_joint *J, double inner, double outer)
+{
+    const cf_face *f = &J->fu;
+    double m[6], sc = outer / f->rc;
+    int k;
+    if (!(inner >= 0.0 && outer > inner && outer <= f->rc))
+        return cf_solver_fail(s, CF_EINVAL, "joint %d: its chipped face bears on no area or beyond the face: inner "
+                              "radius %g m, outer %g m (the face's circumradius %g m)", J->logical, inner, outer, f->rc);
+    for (k = 0; k < f->n; k++) {
+        J->cpoly[2 * k] = sc * f->vx[k]; J->cpoly[2 * k + 1] = sc * f->vy[k];
+        /* on the face below (the ground is unbounded) */
+        if (J->bl != 0 && !cf_face_inside(&J->fl, J->cpoly[2 * k], J->cpoly[2 * k + 1], 1e-9 * J->fl.rc))
+            return cf_solver_fail(s, CF_EINVAL, "joint %d: its chipped face (outer radius %g m) reaches beyond the "
+                                  "face below it", J->logical, outer);
+    }
+    cf_contact_polygon_moments(J->cpoly, f->n, m);
+    J->asb = 1; J->cn = f->n;
+    J->d0[0] = J->d0[1] = 0.0;
+    J->ccen[0] = J->ccen[1] = 0.0;
+    J->chole = inner / outer; J->cout = sc;
+    J->area = m[0] * (1.0 - J->chole * J->chole);
+    J->cpolar = (m[3] + m[5]) * (1.0 - J->chole * J->chole * J->chole * J->chole);
+    return CF_OK;
+}

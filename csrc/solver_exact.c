@@ -54,6 +54,42 @@ static inline void rel_vel(const cf_solver *s, int bl, int bu, const double *wwl
     }
 }
 
+/* A chipped joint (solver_as_built.c): the upper face (up, its vertices in the lower face's frame) bears on
+ * the annulus between its polygon scaled by cout and by cout * chole (0: no hole) about its centre; the pressure being
+ * linear, the annulus's integrals are the outer polygon's less the inner one's (each clipped by the lower
+ * face, or on the ground unbounded). Returns the outer region's vertex count, 0 when nothing presses. */
+static int exact_annulus(const cf_solver *s, const cf_joint *J, const double *cL, const double *up, double p0,
+                         double px, double py, cf_contact_exact_result *r)
+{
+    const double *RL = s->R + 9 * J->bl, *RU = s->R + 9 * J->bu;
+    double uo[2 * CF_MAXS], uh[2 * CF_MAXS], pw[3], uc[3], F, Fh;
+    cf_contact_exact_result h;
+    int k, n = J->fu.n, nv;
+    mat_vec(RU, J->fu.c, pw);
+    pw[0] += s->x[3 * J->bu] - cL[0]; pw[1] += s->x[3 * J->bu + 1] - cL[1]; pw[2] += s->x[3 * J->bu + 2] - cL[2];
+    mat_tvec(RL, pw, uc);
+    for (k = 0; k < n; k++) {
+        double dx = up[2 * k] - uc[0], dy = up[2 * k + 1] - uc[1];
+        uo[2 * k] = uc[0] + J->cout * dx; uo[2 * k + 1] = uc[1] + J->cout * dy;
+        uh[2 * k] = uc[0] + J->cout * J->chole * dx; uh[2 * k + 1] = uc[1] + J->cout * J->chole * dy;
+    }
+    nv = J->bl == 0 ? cf_contact_exact(uo, n, uo, n, p0, px, py, J->kn, r)
+                    : cf_contact_exact(J->fl.poly, J->fl.n, uo, n, p0, px, py, J->kn, r);
+    if (nv == 0) return 0;
+    if (J->bl == 0) cf_contact_exact(uh, n, uh, n, p0, px, py, J->kn, &h);
+    else cf_contact_exact(J->fl.poly, J->fl.n, uh, n, p0, px, py, J->kn, &h);
+    F = r->force; Fh = h.force;
+    r->force = F - Fh;
+    if (!(r->force > 0.0)) return 0;
+    r->xc = (F * r->xc - Fh * h.xc) / r->force; r->yc = (F * r->yc - Fh * h.yc) / r->force;
+    r->cx = (r->area * r->cx - h.area * h.cx) / (r->area - h.area);
+    r->cy = (r->area * r->cy - h.area * h.cy) / (r->area - h.area);
+    r->area -= h.area;
+    r->energy -= h.energy;
+    r->polar = 0.0;   /* not read by the model */
+    return nv;
+}
+
 /* The compressed overlap of joint J's faces at this step (cf_contact_exact: force, centre of
  * pressure, area, energy into r), with the lower face's centre cL and normal nL (world); returns
  * the overlap polygon's vertex count, 0 when the faces do not press on each other. */
@@ -82,6 +118,7 @@ static int exact_overlap(const cf_solver *s, const cf_joint *J, double *cL, doub
      * beside or through the other one (tumbling blocks after a collapse) */
     for (k = 0; k < J->fu.n; k++)
         if (p0 + px * up[2 * k] + py * up[2 * k + 1] > 0.1 * J->fl.rc) return 0;
+    if (J->cout > 0.0) return exact_annulus(s, J, cL, up, p0, px, py, r);   /* chipped */
     /* the ground is unbounded: the overlap is the upper face itself */
     if (bl == 0) return cf_contact_exact(up, J->fu.n, up, J->fu.n, p0, px, py, J->kn, r);
     return cf_contact_exact(J->fl.poly, J->fl.n, up, J->fu.n, p0, px, py, J->kn, r);

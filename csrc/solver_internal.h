@@ -85,9 +85,11 @@ typedef struct {
     /* an as-built joint (asb 1: its faces offset or turned against each other at rest, solver_as_built.c):
      * its contact region is the overlap of its faces at rest, cn vertices cpoly (counter-clockwise, in the
      * lower face's frame from its centre), of area `area`, centroid ccen and polar moment cpolar about it
-     * (m^4); d0 the upper face's centre from the lower one's at rest (lower face frame). 0: aligned. */
+     * (m^4); d0 the upper face's centre from the lower one's at rest (lower face frame). 0: aligned.
+     * Chipped (chole > 0, an aligned joint): the region is cpoly (the upper face at its outer radius) less
+     * cpoly scaled by chole about ccen (the face at its inner radius); area and cpolar are the annulus's. */
     int asb, cn;
-    double d0[2], ccen[2], cpolar;
+    double d0[2], ccen[2], cpolar, chole, cout;   /* cout: chipped, the outer radius / the upper face's */
     double cpoly[4 * CF_MAXS];
 } cf_joint;
 
@@ -280,6 +282,9 @@ int cf_solver_stack_build(struct cf_solver *s, int nblk, const int *nseg, const 
  * (dx, dy) from the lower one's (lower face frame, at rest); CF_EINVAL naming the joint when they do
  * not overlap */
 int cf_solver_as_built_joint(struct cf_solver *s, cf_joint *J, double dx, double dy);
+/* joint J's contact region as the annulus of its upper face between circumradii inner and outer (its faces
+ * aligned; outer within the lower face): CF_EINVAL naming the joint otherwise */
+int cf_solver_as_built_chipped(struct cf_solver *s, cf_joint *J, double inner, double outer);
 /* the initial tilt of the definition applied to the built (untilted) column: a rigid rotation of
  * every moving body about the +x base edge (after the connectors have taken the untilted rest) */
 void cf_solver_stack_tilt(struct cf_solver *s);

@@ -153,7 +153,8 @@ static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometr
             cf_joint *J = &s->jt[j];
             const cf_geometry_segment *bot = &segs[first[j]];
             /* the faces' phases, turned by their blocks' rotations as built (untouched otherwise) */
-            double ru = place ? place[3 * j + 2] : 0.0, rl = place && j > 0 ? place[3 * (j - 1) + 2] : ru;
+            const double *pu = place ? place + CF_SOLVER_AS_BUILT * j : NULL, *pl = pu && j > 0 ? pu - CF_SOLVER_AS_BUILT : pu;
+            double ru = pu ? pu[2] : 0.0, rl = pl ? pl[2] : 0.0;
             double phu = place ? bot->phase_rad + ru : bot->phase_rad;
             J->logical = j;
             J->bl = def->monolithic ? 0 : j;
@@ -167,9 +168,17 @@ static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometr
                 cf_solver_stack_face(&J->fl, top->n_sides, top->r_top, phl, s->blk_top[3 * (j - 1) + 2]);
             }
             J->area = J->fl.area < J->fu.area ? J->fl.area : J->fu.area;
-            if (place && j > 0) {
-                double dx = place[3 * j] - place[3 * (j - 1)], dy = place[3 * j + 1] - place[3 * (j - 1) + 1];
-                if (dx != 0.0 || dy != 0.0 || ru != rl) st = cf_solver_as_built_joint(s, J, dx, dy);
+            if (pu) {
+                double dx = j > 0 ? pu[0] - pl[0] : 0.0, dy = j > 0 ? pu[1] - pl[1] : 0.0;
+                int turned = dx != 0.0 || dy != 0.0 || ru != rl;
+                if (pu[3] != 0.0 || pu[4] != 0.0) {   /* its bottom face chipped to an annulus */
+                    if (turned)
+                        st = cf_solver_fail(s, CF_EINVAL, "joint %d: a chipped face is for a joint whose faces are "
+                                            "aligned (not offset or turned against each other)", j);
+                    else st = cf_solver_as_built_chipped(s, J, pu[3], pu[4] > 0.0 ? pu[4] : J->fu.rc);
+                } else if (turned) {
+                    st = cf_solver_as_built_joint(s, J, dx, dy);
+                }
             }
         }
         free(first); free(last);
@@ -200,7 +209,10 @@ static void equilibrium(cf_solver *s, int nblk, const cf_geometry_massprops *bp,
                 s->x0[3 * (j + 1) + 2] = zbot[j] + bp[j].com_z - settle;
                 /* as built: the block's axis at its offset (its contact settles uniformly over the
                  * joint's overlap; the offset centre of mass tips it a little: docs/sequences.md) */
-                if (place) { s->x0[3 * (j + 1)] = place[3 * j]; s->x0[3 * (j + 1) + 1] = place[3 * j + 1]; }
+                if (place) {
+                    s->x0[3 * (j + 1)] = place[CF_SOLVER_AS_BUILT * j];
+                    s->x0[3 * (j + 1) + 1] = place[CF_SOLVER_AS_BUILT * j + 1];
+                }
             }
         }
     }
@@ -218,6 +230,7 @@ void cf_solver_stack_tilt(cf_solver *s)
         double xp = f->vx[0], th = def->initial_tilt_rad, c = cf_math_cos(th), sn = cf_math_sin(th);
         double zp = s->x0[3 * 1 + 2] + f->c[2];
         for (k = 1; k < f->n; k++) if (f->vx[k] > xp) xp = f->vx[k];
+        if (s->asb && s->jt[0].cout > 0.0) xp *= s->jt[0].cout;   /* a chipped base face's annulus */
         if (s->asb) xp += s->x0[3 * 1];   /* the base block's axis at its offset */
         for (i = 1; i < nbody; i++) {
             double dx = s->x0[3 * i] - xp, dz = s->x0[3 * i + 2] - zp;

@@ -1,15 +1,19 @@
-"""A column's blocks placed as built (docs/sequences.md, "As-built geometry: offset and turned drums";
-the column file's block keys ``offset`` and ``rotation_deg``, docs/column_format.md).
+"""A column's blocks placed as built (docs/sequences.md, "As-built geometry: offset and turned drums" and
+"chipped joints"; the column file's block keys ``offset``, ``rotation_deg``, ``bottom_annulus``,
+docs/column_format.md).
 
 Each block's axis may stand off the column's by ``offset = (dx, dy)`` (m, in the column's axes) and
 the block may be turned about its axis by ``rotation_deg`` (degrees, counter-clockwise seen from
 above: its polygons' phases grow by it), at rest. The solver places the bodies there and a joint whose
 two faces are offset or turned against each other carries their overlap (``cf_solver_setup_as_built``,
-csrc/solver_as_built.c) in every contact model.
+csrc/solver_as_built.c) in every contact model. A block's bottom face may be chipped to an annulus,
+``bottom_annulus = (inner, outer)`` circumradii in m (outer 0: the face's own): the joint under it bears
+only there.
 
 Refused when the column is made (ParameterError naming the value), for every joint j (under block j):
 
-* a joint whose faces do not overlap;
+* a joint whose faces do not overlap; an annulus with no area or beyond its face (when the block is
+  made), a chipped face reaching beyond the face below or on an offset or turned joint;
 * the centre of the upper face (block j's axis) outside the lower face: more than half of the joint
   overhangs, the run's off-footprint criterion at rest;
 * the centre of mass of the blocks above the joint (block j included) outside its support (the overlap
@@ -30,7 +34,7 @@ from ._validate import real
 from .errors import ParameterError
 
 #: the column file's block keys this module reads
-KEYS: tuple[str, ...] = ("offset", "rotation_deg")
+KEYS: tuple[str, ...] = ("offset", "rotation_deg", "bottom_annulus")
 
 
 def placement(offset, rotation_deg, where: str = "block") -> tuple[tuple[float, float], float]:
@@ -45,11 +49,31 @@ def placement(offset, rotation_deg, where: str = "block") -> tuple[tuple[float, 
     return (dx, dy), rot
 
 
+def annulus(value, r_face: float, where: str = "block") -> tuple[float, float]:
+    """A bottom face's annulus (inner, outer) circumradii in m as floats (outer 0: the face's own), or
+    ParameterError: not two finite numbers >= 0, an outer beyond the face, or no area (inner >= outer)."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
+        raise ParameterError(f"{where}: bottom_annulus must be two numbers (inner, outer radius) in m, got {value!r}")
+    inner, outer = (real(v, f"{where}: bottom_annulus (m)") for v in value)
+    if not all(math.isfinite(v) and v >= 0.0 for v in (inner, outer)):
+        raise ParameterError(f"{where}: bottom_annulus radii must be finite and >= 0, got {value!r}")
+    if (inner, outer) != (0.0, 0.0):
+        if outer > r_face:
+            raise ParameterError(f"{where}: bottom_annulus outer radius {outer:g} m is beyond its face's "
+                                 f"circumradius {r_face:g} m")
+        if inner >= (outer or r_face):
+            raise ParameterError(f"{where}: bottom_annulus {value!r} has no area: its inner radius {inner:g} m must be "
+                                 f"below its outer radius {outer or r_face:g} m (a reduced face with no area)")
+    return inner, outer
+
+
 def place(block) -> None:
-    """Block's offset and rotation_deg checked and stored as floats (its ``__post_init__``)."""
+    """Block's offset, rotation_deg and bottom_annulus checked and stored as floats (its ``__post_init__``)."""
     offset, rot = placement(block.offset, block.rotation_deg, f"block {block.name!r}")
     object.__setattr__(block, "offset", offset)
     object.__setattr__(block, "rotation_deg", rot)
+    object.__setattr__(block, "bottom_annulus", annulus(block.bottom_annulus, block.bottom.r_bottom,
+                                                        f"block {block.name!r}"))
 
 
 def block_kw(block) -> dict:
@@ -59,6 +83,8 @@ def block_kw(block) -> dict:
         out["offset"] = list(block.offset)
     if block.rotation_deg != 0.0:
         out["rotation_deg"] = block.rotation_deg
+    if block.bottom_annulus != (0.0, 0.0):
+        out["bottom_annulus"] = list(block.bottom_annulus)
     return out
 
 
@@ -68,20 +94,27 @@ def file_kw(bd: dict) -> dict:
 
 
 def placed(col) -> bool:
-    """Is any block of col offset or turned?"""
-    return any(b.offset != (0.0, 0.0) or b.rotation_deg != 0.0 for b in col.blocks)
+    """Is any block of col offset, turned or chipped?"""
+    return any(_placed(b) for b in col.blocks)
+
+
+def _placed(b) -> bool:
+    return b.offset != (0.0, 0.0) or b.rotation_deg != 0.0 or b.bottom_annulus != (0.0, 0.0)
 
 
 def placement_array(col) -> np.ndarray:
-    """(n_blocks x 3) dx, dy (m) and rotation (rad) per block: what cf_solver_setup_as_built reads."""
-    return np.array([[b.offset[0], b.offset[1], math.radians(b.rotation_deg)] for b in col.blocks], dtype=np.float64)
+    """(n_blocks x CF_SOLVER_AS_BUILT) per block dx, dy (m), rotation (rad), its bottom face's annulus (inner,
+    outer radius, m): what cf_solver_setup_as_built reads."""
+    return np.array([[b.offset[0], b.offset[1], math.radians(b.rotation_deg), *b.bottom_annulus] for b in col.blocks],
+                    dtype=np.float64)
 
 
-def face(col, i: int, top: bool) -> list[tuple[float, float]]:
-    """Block i's bottom (or top) polygon at rest, counter-clockwise, in the column's axes (m)."""
+def face(col, i: int, top: bool, bearing: bool = False) -> list[tuple[float, float]]:
+    """Block i's bottom (or top) polygon at rest, counter-clockwise, in the column's axes (m); bearing: a
+    chipped bottom face at the outer radius of its annulus."""
     b = col.blocks[i]
     seg = b.top if top else b.bottom
-    r = seg.r_top if top else seg.r_bottom
+    r = seg.r_top if top else (b.bottom_annulus[1] if bearing and b.bottom_annulus[1] else seg.r_bottom)
     ph = seg.phase_rad + math.radians(b.rotation_deg)
     return [(b.offset[0] + r * math.cos(ph + 2.0 * math.pi * k / seg.n_sides),
              b.offset[1] + r * math.sin(ph + 2.0 * math.pi * k / seg.n_sides)) for k in range(seg.n_sides)]
@@ -121,16 +154,18 @@ def area(poly) -> float:
 
 
 def support(col, j: int) -> list[tuple[float, float]]:
-    """The support polygon of joint j at rest (column axes): the overlap of its two faces; on the
-    ground, block 0's own bottom face."""
+    """The support polygon of joint j at rest (column axes): the overlap of its two faces (a chipped
+    face at its annulus's outer radius); on the ground, block j's own bottom face."""
     lower = face(col, j - 1, True) if j > 0 else None
-    return face(col, j, False) if lower is None else overlap(lower, face(col, j, False))
+    return face(col, j, False, True) if lower is None else overlap(lower, face(col, j, False, True))
 
 
 def _offsets(col, j0: int) -> str:
     """The placements of blocks j0.. that are not aligned, as the message names them."""
     return ", ".join(f"blocks[{i}] offset = ({b.offset[0]:g}, {b.offset[1]:g}) m, rotation_deg = {b.rotation_deg:g}"
-                     for i, b in enumerate(col.blocks) if i >= j0 and (b.offset != (0.0, 0.0) or b.rotation_deg))
+                     + (f", bottom_annulus = ({b.bottom_annulus[0]:g}, {b.bottom_annulus[1]:g}) m"
+                        if b.bottom_annulus != (0.0, 0.0) else "")
+                     for i, b in enumerate(col.blocks) if i >= j0 and _placed(b))
 
 
 def check(col) -> None:
@@ -147,6 +182,7 @@ def check(col) -> None:
         if j > 0 and (len(sup) < 3 or area(sup) <= 1e-12 * area(face(col, j, False))):
             raise ParameterError(f"joint {j}: the faces of blocks[{j - 1}] and blocks[{j}] do not overlap "
                                  f"({_offsets(col, j - 1)})")
+        _chipped(col, j)
         if j > 0 and _margin(face(col, j - 1, True), *col.blocks[j].offset) < 0.0:
             raise ParameterError(f"joint {j}: the axis of blocks[{j}] lies outside the top face of blocks[{j - 1}] "
                                  f"(more than half of the joint overhangs; {_offsets(col, j - 1)})")
@@ -158,6 +194,22 @@ def check(col) -> None:
             raise ParameterError(f"joint {j}: the centre of mass of blocks[{j}:] lies at ({gx:.4g}, {gy:.4g}) m, "
                                  f"{-inside:.4g} m outside the joint's support (the overlap of its faces): the "
                                  f"column would not stand ({_offsets(col, max(j - 1, 0))})")
+
+
+def _chipped(col, j: int) -> None:
+    """A chipped joint j: its faces aligned, its annulus on the face below (ParameterError otherwise)."""
+    b = col.blocks[j]
+    if b.bottom_annulus == (0.0, 0.0) or j == 0:
+        return
+    a = col.blocks[j - 1]
+    if a.offset != b.offset or a.rotation_deg != b.rotation_deg:
+        raise ParameterError(f"joint {j}: a chipped face (blocks[{j}] bottom_annulus) is for a joint whose faces are "
+                             f"aligned, not offset or turned against each other ({_offsets(col, j - 1)})")
+    lower = face(col, j - 1, True)
+    if any(_margin(lower, x, y) < -1e-9 * b.bottom.r_bottom for x, y in face(col, j, False, True)):
+        raise ParameterError(f"joint {j}: the chipped face of blocks[{j}] (outer radius "
+                             f"{b.bottom_annulus[1] or b.bottom.r_bottom:g} m) reaches beyond the top face of "
+                             f"blocks[{j - 1}]: give a smaller outer radius")
 
 
 def refuse(col, caller: str, why: str) -> None:

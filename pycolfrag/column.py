@@ -156,7 +156,7 @@ class Block:
 
     segments: tuple
     name: str = ""
-    offset: tuple = (0.0, 0.0); rotation_deg: float = 0.0   # as built: axis at (dx, dy) m, turned by degrees
+    offset: tuple = (0.0, 0.0); rotation_deg: float = 0.0; bottom_annulus: tuple = (0.0, 0.0)   # as built
 
     def __post_init__(self):
         segs = tuple(self.segments)

@@ -96,7 +96,7 @@ static void test_as_built(void)
 {
     cf_geometry_segment seg[2];
     int nseg[2] = {1, 1}, i;
-    double kn[2] = {1e9, 1e9}, ks[2] = {1e9, 1e9}, mu[2] = {0.75, 0.75}, place[6] = {0}, dt0;
+    double kn[2] = {1e9, 1e9}, ks[2] = {1e9, 1e9}, mu[2] = {0.75, 0.75}, place[2 * CF_SOLVER_AS_BUILT] = {0}, dt0;
     cf_solver_def d;
     cf_solver *s = cf_solver_create();
     for (i = 0; i < 2; i++) {
@@ -108,7 +108,7 @@ static void test_as_built(void)
     dt0 = cf_solver_dt(s);
     CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_OK);
     CF_CHECK(cf_solver_dt(s) == dt0 && !s->jt[1].asb && !s->asb);
-    place[3] = 0.05;
+    place[CF_SOLVER_AS_BUILT] = 0.05;
     CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_OK);
     CF_CHECK(s->jt[1].asb && !s->jt[0].asb);
     CF_CHECK_REL(s->jt[1].area, 0.35 * 0.4, 1e-12);
@@ -116,15 +116,31 @@ static void test_as_built(void)
     CF_CHECK_CLOSE(s->jt[1].ccen[1], 0.0, 1e-12);
     CF_CHECK(s->jt[1].cn == 4);
     CF_CHECK(s->x0[3 * 2] == 0.05);
-    place[3] = 0.5;
+    place[CF_SOLVER_AS_BUILT] = 0.5;
     CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
     CF_CHECK(strstr(cf_solver_message(s), "joint 1: its faces do not overlap") != NULL);
-    place[3] = NAN;
+    place[CF_SOLVER_AS_BUILT] = NAN;
     CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
     CF_CHECK(strstr(cf_solver_message(s), "block 1: its as-built offset must be finite") != NULL);
-    place[3] = 0.05; d.monolithic = 1;
+    place[CF_SOLVER_AS_BUILT] = 0.05; d.monolithic = 1;
     CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
     CF_CHECK(strstr(cf_solver_message(s), "monolithic") != NULL);
+    d.monolithic = 0;
+    /* chipped: block 1's bottom face bears between the squares of half-widths 0.05 and 0.15 m (inner and
+     * outer circumradii 0.05 sqrt 2, 0.15 sqrt 2): area 0.3^2 - 0.1^2 = 0.08 m^2 */
+    place[CF_SOLVER_AS_BUILT] = 0.0; place[CF_SOLVER_AS_BUILT + 3] = 0.05 * sqrt(2.0); place[CF_SOLVER_AS_BUILT + 4] = 0.15 * sqrt(2.0);
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_OK);
+    CF_CHECK_REL(s->jt[1].area, 0.08, 1e-12);
+    CF_CHECK_REL(s->jt[1].chole, 1.0 / 3.0, 1e-12);
+    place[CF_SOLVER_AS_BUILT + 3] = 0.2 * sqrt(2.0);   /* inner beyond outer: no area */
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "joint 1: its chipped face bears on no area") != NULL);
+    place[CF_SOLVER_AS_BUILT + 3] = -0.1;
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "inner radius must be finite and >= 0") != NULL);
+    place[CF_SOLVER_AS_BUILT + 3] = 0.05; place[CF_SOLVER_AS_BUILT] = 0.01;   /* chipped and offset */
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "a chipped face is for a joint whose faces are aligned") != NULL);
     cf_solver_free(s);
 }
 
