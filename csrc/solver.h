@@ -152,8 +152,11 @@ int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int n_blocks,
  * a chipped one its annulus (every contact model). Refused (CF_EINVAL, the joint or block named): faces
  * that do not overlap, an annulus with no area (inner >= outer) or wider than its face or than the face
  * below it, a chipped face on a joint that is offset or turned, a non-finite or negative value, a
- * monolithic definition. NULL, or every value 0: cf_solver_setup_joints bit for bit. */
-#define CF_SOLVER_AS_BUILT 5
+ * monolithic definition. Then, for a block missing a part, its mass properties (mass 0: those of its
+ * segments): mass (kg), centre of mass (x, y from its axis in the column's axes, z above its bottom
+ * face, m) and principal moments of inertia about it along x, y, z (kg m^2, > 0; the body's axes stay
+ * the column's). NULL, or every value 0: cf_solver_setup_joints bit for bit. */
+#define CF_SOLVER_AS_BUILT 12
 int cf_solver_setup_as_built(cf_solver *s, const cf_solver_def *def, int n_blocks, const int *n_segments,
                              const cf_geometry_segment *segments, double density, const double *kn,
                              const double *ks, const double *mu, const double *placement);

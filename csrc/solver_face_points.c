@@ -188,8 +188,10 @@ static int face_symmetric(const cf_face *f)
 static int planar_mirror(const cf_solver *s, cf_face_points *fp)
 {
     int j, k, c = 0;
-    for (j = 0; j < s->nj; j++)   /* an as-built joint's overlap: not mirrored */
-        if (s->jt[j].asb || !face_symmetric(&s->jt[j].fl) || !face_symmetric(&s->jt[j].fu)) return fp->np;
+    for (j = 0; j < s->nj; j++)   /* an as-built joint's overlap, a face centred off its body's x-z plane: not mirrored */
+        if (s->jt[j].asb || (s->asb && (s->jt[j].fl.c[1] != 0.0 || s->jt[j].fu.c[1] != 0.0)) || !face_symmetric(&s->jt[j].fl)
+            || !face_symmetric(&s->jt[j].fu))
+            return fp->np;
     for (j = 0; j < s->nj; j++) {
         int start = c, n0 = 0;
         double r = s->jt[j].fu.rc;

@@ -78,7 +78,7 @@ int cf_solver_stack_alloc(cf_solver *s, int nblk, int nbody, int nj)
 
 /* Mass properties of each logical block (bp), bottom heights (zbot), totals. */
 static void block_masses(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs,
-                         cf_geometry_massprops *bp, double *zbot)
+                         cf_geometry_massprops *bp, double *zbot, const double *place)
 {
     int i, k;
     double density = s->density;
@@ -88,6 +88,9 @@ static void block_masses(cf_solver *s, int nblk, const int *nseg, const cf_geome
         s->total_mass = 0;
         for (i = 0; i < nblk; i++) {
             cf_geometry_block_props(segs + off, nseg[i], density, &bp[i]);
+            if (place && place[CF_SOLVER_AS_BUILT * i + 5] > 0.0) {   /* as built, missing a part */
+                bp[i].mass = place[CF_SOLVER_AS_BUILT * i + 5]; bp[i].com_z = place[CF_SOLVER_AS_BUILT * i + 8];
+            }
             zbot[i + 1] = zbot[i] + bp[i].height;
             s->blk_h[i] = bp[i].height; s->blk_m[i] = bp[i].mass;
             s->joint_diam[i] = 2.0 * segs[off].r_bottom;
@@ -108,7 +111,7 @@ static void block_masses(cf_solver *s, int nblk, const int *nseg, const cf_geome
 
 /* Bodies: frame origin at the body's centre of mass, axes along the column. */
 static void bodies_place(cf_solver *s, int nblk, const cf_geometry_segment *segs, int nseg_tot,
-                         const cf_geometry_massprops *bp, const double *zbot)
+                         const cf_geometry_massprops *bp, const double *zbot, const double *place)
 {
     int i;
     const cf_solver_def *def = &s->def;
@@ -133,6 +136,14 @@ static void bodies_place(cf_solver *s, int nblk, const cf_geometry_segment *segs
             s->blk_body[i] = i + 1;
             s->blk_bot[3 * i + 2] = -bp[i].com_z;
             s->blk_top[3 * i + 2] = bp[i].height - bp[i].com_z;
+            if (place && place[CF_SOLVER_AS_BUILT * i + 5] > 0.0) {
+                /* missing a part: its own principal inertia, its centre of mass off the axis (the faces' centres
+                 * in its frame off the origin by as much) */
+                const double *p = place + CF_SOLVER_AS_BUILT * i;
+                s->inertia[3 * (i + 1)] = p[9]; s->inertia[3 * (i + 1) + 1] = p[10]; s->inertia[3 * (i + 1) + 2] = p[11];
+                s->blk_bot[3 * i] = s->blk_top[3 * i] = -p[6];
+                s->blk_bot[3 * i + 1] = s->blk_top[3 * i + 1] = -p[7];
+            }
         }
     }
 }
@@ -168,6 +179,10 @@ static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometr
                 cf_solver_stack_face(&J->fl, top->n_sides, top->r_top, phl, s->blk_top[3 * (j - 1) + 2]);
             }
             J->area = J->fl.area < J->fu.area ? J->fl.area : J->fu.area;
+            if (pu) {   /* the faces' centres off the bodies' origins (a block missing a part) */
+                J->fu.c[0] = s->blk_bot[3 * j]; J->fu.c[1] = s->blk_bot[3 * j + 1];
+                if (j > 0) { J->fl.c[0] = s->blk_top[3 * (j - 1)]; J->fl.c[1] = s->blk_top[3 * (j - 1) + 1]; }
+            }
             if (pu) {
                 double dx = j > 0 ? pu[0] - pl[0] : 0.0, dy = j > 0 ? pu[1] - pl[1] : 0.0;
                 int turned = dx != 0.0 || dy != 0.0 || ru != rl;
@@ -210,8 +225,8 @@ static void equilibrium(cf_solver *s, int nblk, const cf_geometry_massprops *bp,
                 /* as built: the block's axis at its offset (its contact settles uniformly over the
                  * joint's overlap; the offset centre of mass tips it a little: docs/sequences.md) */
                 if (place) {
-                    s->x0[3 * (j + 1)] = place[CF_SOLVER_AS_BUILT * j];
-                    s->x0[3 * (j + 1) + 1] = place[CF_SOLVER_AS_BUILT * j + 1];
+                    s->x0[3 * (j + 1)] = place[CF_SOLVER_AS_BUILT * j] - s->blk_bot[3 * j];
+                    s->x0[3 * (j + 1) + 1] = place[CF_SOLVER_AS_BUILT * j + 1] - s->blk_bot[3 * j + 1];
                 }
             }
         }
@@ -231,7 +246,7 @@ void cf_solver_stack_tilt(cf_solver *s)
         double zp = s->x0[3 * 1 + 2] + f->c[2];
         for (k = 1; k < f->n; k++) if (f->vx[k] > xp) xp = f->vx[k];
         if (s->asb && s->jt[0].cout > 0.0) xp *= s->jt[0].cout;   /* a chipped base face's annulus */
-        if (s->asb) xp += s->x0[3 * 1];   /* the base block's axis at its offset */
+        if (s->asb) xp += s->x0[3 * 1] + f->c[0];   /* the base block's axis at its offset */
         for (i = 1; i < nbody; i++) {
             double dx = s->x0[3 * i] - xp, dz = s->x0[3 * i + 2] - zp;
             s->x0[3 * i] = xp + c * dx + sn * dz;
@@ -257,8 +272,8 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
     bp = (cf_geometry_massprops *)calloc((size_t)nblk, sizeof *bp);
     zbot = (double *)calloc((size_t)nblk + 1, sizeof(double));
     if (!bp || !zbot) { free(bp); free(zbot); return cf_solver_fail(s, CF_ENOMEM, "out of memory"); }
-    block_masses(s, nblk, nseg, segs, bp, zbot);
-    bodies_place(s, nblk, segs, nseg_tot, bp, zbot);
+    block_masses(s, nblk, nseg, segs, bp, zbot, place);
+    bodies_place(s, nblk, segs, nseg_tot, bp, zbot, place);
     st = joints_make(s, nblk, nseg, segs, place);
     if (!st) {
         /* joint j (under block j) takes the j-th properties; a monolithic column has joint 0 only */

@@ -8,7 +8,8 @@ above: its polygons' phases grow by it), at rest. The solver places the bodies t
 two faces are offset or turned against each other carries their overlap (``cf_solver_setup_as_built``,
 csrc/solver_as_built.c) in every contact model. A block's bottom face may be chipped to an annulus,
 ``bottom_annulus = (inner, outer)`` circumradii in m (outer 0: the face's own): the joint under it bears
-only there.
+only there. A block may miss a part, ``missing_part = (volume, x, y, z)`` (m^3; its centroid in the
+block's frame, m): its mass, centre of mass and inertia move (:func:`mass_props`).
 
 Refused when the column is made (ParameterError naming the value), for every joint j (under block j):
 
@@ -29,12 +30,12 @@ import math
 import numpy as np
 
 from ._ffi import check as _check
-from ._ffi import lib, ptr
+from ._ffi import ffi, lib, ptr, segment_arrays
 from ._validate import real
 from .errors import ParameterError
 
 #: the column file's block keys this module reads
-KEYS: tuple[str, ...] = ("offset", "rotation_deg", "bottom_annulus")
+KEYS: tuple[str, ...] = ("offset", "rotation_deg", "bottom_annulus", "missing_part")
 
 
 def placement(offset, rotation_deg, where: str = "block") -> tuple[tuple[float, float], float]:
@@ -67,8 +68,50 @@ def annulus(value, r_face: float, where: str = "block") -> tuple[float, float]:
     return inner, outer
 
 
+def missing(value, block, where: str = "block") -> tuple:
+    """A block's missing part as (volume m^3, x, y, z m: its centroid in the block's frame, from its axis and
+    its bottom face), or () for none; ParameterError: not four finite numbers, a volume not in (0, the
+    block's), a centroid outside the block's height or beyond its widest radius."""
+    if value is None or (hasattr(value, "__len__") and len(value) == 0):
+        return ()
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 4:
+        raise ParameterError(f"{where}: missing_part must be (volume m^3, x, y, z m of its centroid), got {value!r}")
+    v, x, y, z = (real(u, f"{where}: missing_part") for u in value)
+    whole = sum(s.volume for s in block.segments)
+    r_max = max(max(s.r_bottom, s.r_top) for s in block.segments)
+    if not all(math.isfinite(u) for u in (v, x, y, z)) or not 0.0 < v < whole:
+        raise ParameterError(f"{where}: missing_part volume must be finite and in (0, {whole:.4g}) m^3 (the "
+                             f"block's), its centroid finite; got {value!r}")
+    if not (0.0 <= z <= block.height and math.hypot(x, y) <= r_max):
+        raise ParameterError(f"{where}: missing_part centroid ({x:g}, {y:g}, {z:g}) m lies outside the block "
+                             f"(height {block.height:g} m, widest radius {r_max:g} m)")
+    return v, x, y, z
+
+
+def mass_props(block, density: float) -> tuple:
+    """A block missing a part: its mass (kg), centre of mass (x, y from its axis, z above its bottom face; m,
+    in its own frame) and moments of inertia about it along x, y, z (kg m^2), the part taken away as a point
+    mass at its centroid (its own inertia about its centroid neglected) and the products of inertia the
+    off-axis centre brings neglected (the body keeps the column's axes; docs/sequences.md)."""
+    segs, nseg = segment_arrays([block])
+    bp = ffi.new("cf_geometry_massprops *")
+    lib.cf_geometry_block_props(segs, len(block.segments), density, bp)
+    v, x, y, z = block.missing_part
+    mp = density * v
+    m = bp.mass - mp
+    c = (-mp * x / m, -mp * y / m, (bp.mass * bp.com_z - mp * z) / m)
+    d = (c[0], c[1], c[2] - bp.com_z)             # the old centre from the new one is -d
+    e = (x - c[0], y - c[1], z - c[2])            # the part from the new centre
+    own = (bp.ixx, bp.ixx, bp.izz)
+    inertia = tuple(own[k] + bp.mass * (sum(u * u for u in d) - d[k] ** 2) - mp * (sum(u * u for u in e) - e[k] ** 2)
+                    for k in range(3))
+    return m, c, inertia
+
+
 def place(block) -> None:
-    """Block's offset, rotation_deg and bottom_annulus checked and stored as floats (its ``__post_init__``)."""
+    """Block's offset, rotation_deg, bottom_annulus and missing_part checked and stored as floats (its
+    ``__post_init__``)."""
+    object.__setattr__(block, "missing_part", missing(block.missing_part, block, f"block {block.name!r}"))
     offset, rot = placement(block.offset, block.rotation_deg, f"block {block.name!r}")
     object.__setattr__(block, "offset", offset)
     object.__setattr__(block, "rotation_deg", rot)
@@ -85,12 +128,21 @@ def block_kw(block) -> dict:
         out["rotation_deg"] = block.rotation_deg
     if block.bottom_annulus != (0.0, 0.0):
         out["bottom_annulus"] = list(block.bottom_annulus)
+    if block.missing_part:
+        out["missing_part"] = {"volume": block.missing_part[0], "centroid": list(block.missing_part[1:])}
     return out
 
 
 def file_kw(bd: dict) -> dict:
-    """The placement keys of a column file's block mapping as Block's keyword arguments."""
-    return {k: bd[k] for k in KEYS if k in bd}
+    """The placement keys of a column file's block mapping as Block's keyword arguments (``missing_part``
+    a table {volume, centroid = [x, y, z]})."""
+    out = {k: bd[k] for k in KEYS if k in bd}
+    if "missing_part" in out:
+        mp = out["missing_part"]
+        if not isinstance(mp, dict) or set(mp) != {"volume", "centroid"} or not isinstance(mp["centroid"], list):
+            raise ParameterError(f"missing_part must be a table with volume (m^3) and centroid = [x, y, z] (m), got {mp!r}")
+        out["missing_part"] = (mp["volume"], *mp["centroid"])
+    return out
 
 
 def placed(col) -> bool:
@@ -99,14 +151,24 @@ def placed(col) -> bool:
 
 
 def _placed(b) -> bool:
-    return b.offset != (0.0, 0.0) or b.rotation_deg != 0.0 or b.bottom_annulus != (0.0, 0.0)
+    return b.offset != (0.0, 0.0) or b.rotation_deg != 0.0 or b.bottom_annulus != (0.0, 0.0) or bool(b.missing_part)
+
+
+def _own(block, density: float) -> list[float]:
+    """A block missing a part: mass, centre of mass (its x, y turned by its rotation into the column's axes),
+    inertia, as cf_solver_setup_as_built reads them; zeros for a whole block."""
+    if not block.missing_part:
+        return [0.0] * 7
+    m, (cx, cy, cz), inertia = mass_props(block, density)
+    a = math.radians(block.rotation_deg)
+    return [m, cx * math.cos(a) - cy * math.sin(a), cx * math.sin(a) + cy * math.cos(a), cz, *inertia]
 
 
 def placement_array(col) -> np.ndarray:
     """(n_blocks x CF_SOLVER_AS_BUILT) per block dx, dy (m), rotation (rad), its bottom face's annulus (inner,
     outer radius, m): what cf_solver_setup_as_built reads."""
-    return np.array([[b.offset[0], b.offset[1], math.radians(b.rotation_deg), *b.bottom_annulus] for b in col.blocks],
-                    dtype=np.float64)
+    return np.array([[b.offset[0], b.offset[1], math.radians(b.rotation_deg), *b.bottom_annulus, *_own(b, col.density)]
+                     for b in col.blocks], dtype=np.float64)
 
 
 def face(col, i: int, top: bool, bearing: bool = False) -> list[tuple[float, float]]:
@@ -187,8 +249,9 @@ def check(col) -> None:
             raise ParameterError(f"joint {j}: the axis of blocks[{j}] lies outside the top face of blocks[{j - 1}] "
                                  f"(more than half of the joint overhangs; {_offsets(col, j - 1)})")
         m = sum(masses[j:])
-        gx = sum(mk * col.blocks[k].offset[0] for k, mk in enumerate(masses) if k >= j) / m
-        gy = sum(mk * col.blocks[k].offset[1] for k, mk in enumerate(masses) if k >= j) / m
+        cxy = [_own(b, col.density)[1:3] for b in col.blocks]   # a missing part's centre of mass off the axis
+        gx = sum(mk * (col.blocks[k].offset[0] + cxy[k][0]) for k, mk in enumerate(masses) if k >= j) / m
+        gy = sum(mk * (col.blocks[k].offset[1] + cxy[k][1]) for k, mk in enumerate(masses) if k >= j) / m
         inside = _margin(sup, gx, gy)
         if not inside > 0.0:
             raise ParameterError(f"joint {j}: the centre of mass of blocks[{j}:] lies at ({gx:.4g}, {gy:.4g}) m, "

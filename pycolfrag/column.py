@@ -156,7 +156,7 @@ class Block:
 
     segments: tuple
     name: str = ""
-    offset: tuple = (0.0, 0.0); rotation_deg: float = 0.0; bottom_annulus: tuple = (0.0, 0.0)   # as built
+    offset: tuple = (0.0, 0.0); rotation_deg: float = 0.0; bottom_annulus: tuple = (0.0, 0.0); missing_part: tuple = ()
 
     def __post_init__(self):
         segs = tuple(self.segments)
@@ -173,7 +173,7 @@ class Block:
 
     @property
     def volume(self) -> float:
-        return sum(s.volume for s in self.segments)
+        return sum(s.volume for s in self.segments) - (self.missing_part[0] if self.missing_part else 0.0)
 
     @property
     def centroid_height(self) -> float:
@@ -182,7 +182,7 @@ class Block:
         for s in self.segments:
             acc += s.volume * (z0 + s.centroid_height)
             z0 += s.height
-        return acc / self.volume
+        return (acc - (self.missing_part[0] * self.missing_part[3] if self.missing_part else 0.0)) / self.volume
 
     @property
     def bottom(self) -> Segment:

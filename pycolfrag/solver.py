@@ -262,7 +262,8 @@ def _setup(col, options, overrides, caller):
         segs, nseg = segment_arrays(col.blocks)
         props = [col.joint(i) for i in range(col.n_blocks)]
         kn = np.array([p.kn for p in props]); ks = np.array([p.ks for p in props]); mu = np.array([p.mu for p in props])
-        if any(b.offset != (0.0, 0.0) or b.rotation_deg or b.bottom_annulus != (0.0, 0.0) for b in col.blocks):
+        if any(b.offset != (0.0, 0.0) or b.rotation_deg or b.bottom_annulus != (0.0, 0.0) or b.missing_part
+               for b in col.blocks):
             as_built.setup(solver, d, col, nseg, segs, kn, ks, mu, monolithic, caller)   # as built (as_built.py)
         else:
             st = lib.cf_solver_setup_joints(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks), ptr(mu))

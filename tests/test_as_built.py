@@ -301,3 +301,66 @@ def test_annulus_file_keys_round_trip():
     d = col.to_dict()
     assert d["blocks"][0]["bottom_annulus"] == pytest.approx([0.05 * math.sqrt(2), 0.15 * math.sqrt(2)])
     assert Column.from_dict(d).to_json() == col.to_json()
+
+
+# ---- a drum missing a part -----------------------------------------------------------------------------
+def block_missing_a_part(joints=JOINTS):
+    """Housner's block (0.4 m square, 2 m tall: 0.32 m^3, 864 kg) missing 0.02 m^3 (54 kg) centred at
+    x = 0.15 m, mid-height: 810 kg, its centre of mass at x = -54 * 0.15 / 810 = -0.01 m, still 1 m up."""
+    one = Column.single_block(2 * B, 2 * H_C, joints=joints)
+    return Column((Block(one.blocks[0].segments, "block", missing_part=(0.02, 0.15, 0.0, 1.0)),), joints=joints)
+
+
+def test_missing_part_moves_mass_centroid_and_inertia():
+    """By hand: the whole prism's inertia about its centre (864 kg: 299.52, 299.52, 23.04 kg m^2) moved to
+    the new centre (d = 0.01 m along x) less the part's as a point mass 0.16 m from it:
+    ixx 299.52, iyy 299.52 + 864 * 0.01^2 - 54 * 0.16^2 = 298.224, izz 23.04 + 0.0864 - 1.3824 = 21.744."""
+    col = block_missing_a_part()
+    b = col.blocks[0]
+    assert b.volume == pytest.approx(0.30, rel=1e-12) and b.centroid_height == pytest.approx(1.0, rel=1e-12)
+    assert col.mass == pytest.approx(810.0, rel=1e-12)
+    m, c, inertia = as_built.mass_props(b, col.density)
+    assert m == pytest.approx(810.0, rel=1e-12)
+    assert c == pytest.approx((-0.01, 0.0, 1.0), abs=1e-12)
+    assert inertia == pytest.approx((299.52, 298.224, 21.744), rel=1e-12)
+
+
+@pytest.mark.parametrize("contact", ["vertex", "perimeter", "exact"])
+def test_block_missing_a_part_lifts_at_its_moved_centroid(contact):
+    """Its centre of mass 0.01 m towards -x: it lifts about its -x edge at g (b - 0.01) / h_c and about its
+    +x edge at g (b + 0.01) / h_c. Measured by bisection: vertex and perimeter 0.99991 of both; exact
+    0.96007 and 0.96373 (its soft-joint shift, 7.6 mm of lever arm: the test takes off the aligned 7.76 mm)."""
+    shift = EXACT_SHIFT if contact == "exact" else 0.0
+    col = block_missing_a_part()
+    for sign, lever in ((1.0, B - 0.01), (-1.0, B + 0.01)):
+        closed = (lever - shift) / H_C
+        assert not ramp_and_hold(col, sign * 0.99 * closed, contact).collapsed, (contact, sign)
+        r = ramp_and_hold(col, sign * 1.01 * closed, contact)
+        assert r.collapsed and r.collapse_block == 0, (contact, sign)
+
+
+def test_missing_part_stands_at_rest_and_round_trips():
+    """At rest its start is a small transient (the uniform settlement is not the moment balance of the
+    moved centre of mass): microns; the file's table {volume, centroid} reads back."""
+    col = block_missing_a_part()
+    r = pcf.simulate(col, np.zeros(2), 0.01, tail_s=1.0, history=True, early_exit=False)
+    assert not r.collapsed and np.abs(r.history.top_disp).max() < 1e-5 and r.energy_error < 1e-6
+    d = col.to_dict()
+    assert d["blocks"][0]["missing_part"] == {"volume": 0.02, "centroid": [0.15, 0.0, 1.0]}
+    assert Column.from_dict(d).to_json() == col.to_json()
+    d["blocks"][0]["missing_part"] = {"volume": 0.02}
+    with pytest.raises(ParameterError, match="missing_part must be a table with volume"):
+        Column.from_dict(d)
+
+
+def test_missing_parts_that_cannot_be_are_refused_by_name():
+    seg = square(2 * B, 2 * H_C)
+    with pytest.raises(ParameterError, match=r"missing_part volume must be finite and in \(0, 0.32\)"):
+        Block((seg,), missing_part=(0.32, 0.0, 0.0, 1.0))
+    with pytest.raises(ParameterError, match=r"missing_part centroid \(0, 0, 2.5\) m lies outside the block"):
+        Block((seg,), missing_part=(0.01, 0.0, 0.0, 2.5))
+    with pytest.raises(ParameterError, match="missing_part must be"):
+        Block((seg,), missing_part=(0.01, 0.0, 0.0))
+    # most of a drum gone from one side: the centre of mass of what is left past the support
+    with pytest.raises(ParameterError, match="joint 0: the centre of mass of blocks\\[0:\\]"):
+        Column((Block((seg,), missing_part=(0.31, 0.0065, 0.0, 1.0)),))
