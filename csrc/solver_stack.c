@@ -149,8 +149,9 @@ static void bodies_place(cf_solver *s, int nblk, const cf_geometry_segment *segs
 }
 
 /* Joints and their faces: joint j carries block j on block j - 1 (or on the ground). As built (place:
- * per block dx, dy, rotation), each face turned by its block's rotation; a joint whose faces are offset
- * or turned against each other carries their overlap (solver_as_built.c). */
+ * CF_SOLVER_AS_BUILT values per block), each face turned by its block's rotation and centred off its
+ * body's origin as its block's centre of mass moved; a joint whose faces are offset or turned against
+ * each other carries their overlap, a chipped one its annulus (solver_as_built.c). */
 static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs, const double *place)
 {
     int i, j, nj = s->nj, st = CF_OK;
@@ -179,13 +180,12 @@ static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometr
                 cf_solver_stack_face(&J->fl, top->n_sides, top->r_top, phl, s->blk_top[3 * (j - 1) + 2]);
             }
             J->area = J->fl.area < J->fu.area ? J->fl.area : J->fu.area;
-            if (pu) {   /* the faces' centres off the bodies' origins (a block missing a part) */
-                J->fu.c[0] = s->blk_bot[3 * j]; J->fu.c[1] = s->blk_bot[3 * j + 1];
-                if (j > 0) { J->fl.c[0] = s->blk_top[3 * (j - 1)]; J->fl.c[1] = s->blk_top[3 * (j - 1) + 1]; }
-            }
             if (pu) {
                 double dx = j > 0 ? pu[0] - pl[0] : 0.0, dy = j > 0 ? pu[1] - pl[1] : 0.0;
                 int turned = dx != 0.0 || dy != 0.0 || ru != rl;
+                /* the faces' centres off the bodies' origins (a block missing a part) */
+                J->fu.c[0] = s->blk_bot[3 * j]; J->fu.c[1] = s->blk_bot[3 * j + 1];
+                if (j > 0) { J->fl.c[0] = s->blk_top[3 * (j - 1)]; J->fl.c[1] = s->blk_top[3 * (j - 1) + 1]; }
                 if (pu[3] != 0.0 || pu[4] != 0.0) {   /* its bottom face chipped to an annulus */
                     if (turned)
                         st = cf_solver_fail(s, CF_EINVAL, "joint %d: a chipped face is for a joint whose faces are "
