@@ -19,6 +19,7 @@ forms: the lever arm short of its closed form by 7.76, 7.65 and 7.52 mm, the sam
 closed form with that aligned shift taken off the lever arm.
 """
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -33,6 +34,7 @@ G = 9.81
 JOINTS = pcf.JointProperties(kn=1e11, ks=1e11)
 B, H_C = 0.2, 1.0                       # the top drum: 0.4 m square, 2 m tall
 EXACT_SHIFT = B * (1.0 - 0.96124)       # the exact model's soft-joint shift of the lever arm, aligned (m)
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "column_as_built.json"
 
 
 def square(width, height):
@@ -219,8 +221,7 @@ def test_the_example_as_built_column_stands_and_reports_its_dislocations():
     """examples/column_as_built.json (the Parthenon column, its upper drums off the axis by up to 3.5 cm
     and turned): it loads, stands at rest, and its u_d at rest is its largest joint offset over that
     joint's diameter (the start transient adds microns)."""
-    from pathlib import Path
-    col = Column.from_file(Path(__file__).resolve().parents[1] / "examples" / "column_as_built.json")
+    col = Column.from_file(EXAMPLE)
     assert as_built.placed(col) and col.n_blocks == 13
     expected = max(math.hypot(b.offset[0] - (col.blocks[j - 1].offset[0] if j else 0.0),
                               b.offset[1] - (col.blocks[j - 1].offset[1] if j else 0.0)) / col.joint_diameters[j]
@@ -364,3 +365,18 @@ def test_missing_parts_that_cannot_be_are_refused_by_name():
     # most of a drum gone from one side: the centre of mass of what is left past the support
     with pytest.raises(ParameterError, match="joint 0: the centre of mass of blocks\\[0:\\]"):
         Column((Block((seg,), missing_part=(0.31, 0.0065, 0.0, 1.0)),))
+
+
+@pytest.mark.parametrize("contact", ["vertex", "exact"])
+def test_an_as_built_column_continues_bitwise(contact):
+    """The state that carries over (docs/sequences.md) holds for an as-built column too: the example column
+    (offset, turned drums) continued from its state after record 1 equals one long run, bit for bit, and a
+    state of the aligned column is refused for it (another model: its description differs)."""
+    import test_sequences as seq
+    col = Column.from_file(EXAMPLE)
+    r1, r2, rl = seq._sequence(col, contact=contact, early_exit=False, tail_s=0.5)
+    assert r1.u_top > 0.01
+    seq._assert_bitwise(r1, r2, rl)
+    aligned = pcf.simulate(Column.parthenon(), np.zeros(2), 0.01, tail_s=0.1, early_exit=False, contact=contact)
+    with pytest.raises(ParameterError, match="initial_state"):
+        pcf.simulate(col, np.zeros(2), 0.01, initial_state=aligned.final_state, contact=contact)
