@@ -194,13 +194,44 @@ int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int nblk, con
                            const cf_geometry_segment *segs, double density, const double *kn, const double *ks,
                            const double *mu)
 {
+    return cf_solver_setup_as_built(s, def, nblk, nseg, segs, density, kn, ks, mu, NULL);
+}
+
+/* An as-built placement's values: finite, not monolithic; NULL for one that places nothing. */
+static int check_placement(cf_solver *s, int nblk, const double **place)
+{
+    int i, any = 0;
+    if (!*place) return CF_OK;
+    static const char *const what[CF_SOLVER_AS_BUILT] = {"offset", "offset", "rotation", "inner radius",
+        "outer radius", "mass", "centre of mass", "centre of mass", "centre of mass", "inertia", "inertia", "inertia"};
+    for (i = 0; i < CF_SOLVER_AS_BUILT * nblk; i++) {
+        int k = i % CF_SOLVER_AS_BUILT, pos = k == 3 || k == 4 || k == 5;
+        /* a block's own mass properties: inertias > 0 */
+        int given = k >= 9 && (*place)[i - k + 5] > 0.0;
+        if (!isfinite((*place)[i]) || (pos && (*place)[i] < 0.0) || (given && !((*place)[i] > 0.0)))
+            return cf_solver_fail(s, CF_EINVAL, "block %d: its as-built %s must be finite%s, got %g", i / CF_SOLVER_AS_BUILT,
+                                  what[k], pos ? " and >= 0" : given ? " and > 0" : "", (*place)[i]);
+        any |= (*place)[i] != 0.0;
+    }
+    if (!any) { *place = NULL; return CF_OK; }
+    if (s->def.monolithic)
+        return cf_solver_fail(s, CF_EINVAL, "a monolithic column is one body: it takes no as-built placement of its blocks");
+    s->asb = 1;
+    return CF_OK;
+}
+
+int cf_solver_setup_as_built(cf_solver *s, const cf_solver_def *def, int nblk, const int *nseg,
+                             const cf_geometry_segment *segs, double density, const double *kn, const double *ks,
+                             const double *mu, const double *place)
+{
     int st;
     if (!s) return CF_EINVAL;
     st = setup_begin(s, def);
     if (!st) st = check_column(s, nblk, nseg, segs, density, kn, ks, mu);
+    if (!st) st = check_placement(s, nblk, &place);
     if (st) { release(s); return st; }
     s->density = density;
-    st = cf_solver_stack_build(s, nblk, nseg, segs, kn, ks, mu);
+    st = cf_solver_stack_build(s, nblk, nseg, segs, kn, ks, mu, place);
     if (st) { release(s); return st; }
     return setup_finish(s, 0, NULL);
 }
@@ -228,7 +259,7 @@ int cf_solver_setup_scene(cf_solver *s, const cf_solver_def *def, const cf_solve
         if (!st) st = check_column(s, nblk, sc->n_segments, sc->segments, sc->density, sc->kn, sc->ks, sc->mu);
         if (!st) {
             s->density = sc->density;
-            st = cf_solver_stack_build(s, nblk, sc->n_segments, sc->segments, sc->kn, sc->ks, sc->mu);
+            st = cf_solver_stack_build(s, nblk, sc->n_segments, sc->segments, sc->kn, sc->ks, sc->mu, NULL);
         }
     } else if (!st) {
         st = check_column(s, nblk, sc->n_segments, sc->segments, sc->density, sc->kn, sc->ks, sc->mu);

@@ -143,6 +143,24 @@ int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int n_blocks,
                            const cf_geometry_segment *segments, double density, const double *kn,
                            const double *ks, const double *mu);
 
+/* The same with the column as built (docs/sequences.md, "As-built geometry"): placement
+ * (n_blocks x CF_SOLVER_AS_BUILT) holds per block i: the horizontal offset dx, dy of its axis from
+ * the column's (m) and its rotation about its axis (rad, counter-clockwise seen from above), at rest;
+ * then its bottom face chipped to an annulus: the inner and outer circumradii (m) of the concentric
+ * polygons (of the face's sides and phase) it bears between (0, 0: the whole face; outer 0: the face's
+ * own). A joint whose two faces are offset or turned against each other carries their overlap at rest,
+ * a chipped one its annulus (every contact model). Refused (CF_EINVAL, the joint or block named): faces
+ * that do not overlap, an annulus with no area (inner >= outer) or wider than its face or than the face
+ * below it, a chipped face on a joint that is offset or turned, a non-finite or negative value, a
+ * monolithic definition. Then, for a block missing a part, its mass properties (mass 0: those of its
+ * segments): mass (kg), centre of mass (x, y from its axis in the column's axes, z above its bottom
+ * face, m) and principal moments of inertia about it along x, y, z (kg m^2, > 0; the body's axes stay
+ * the column's). NULL, or every value 0: cf_solver_setup_joints bit for bit. */
+#define CF_SOLVER_AS_BUILT 12
+int cf_solver_setup_as_built(cf_solver *s, const cf_solver_def *def, int n_blocks, const int *n_segments,
+                             const cf_geometry_segment *segments, double density, const double *kn,
+                             const double *ks, const double *mu, const double *placement);
+
 /* Whole-stack stability limit of the set-up column, s (after setup). */
 double cf_solver_dt_crit(const cf_solver *s);
 /* Step the run will use, s (after setup). */

@@ -54,6 +54,42 @@ static inline void rel_vel(const cf_solver *s, int bl, int bu, const double *wwl
     }
 }
 
+/* A chipped joint (solver_as_built.c): the upper face (up, its vertices in the lower face's frame) bears on
+ * the annulus between its polygon scaled by cout and by cout * chole (0: no hole) about its centre; the pressure being
+ * linear, the annulus's integrals are the outer polygon's less the inner one's (each clipped by the lower
+ * face, or on the ground unbounded). Returns the outer region's vertex count, 0 when nothing presses. */
+static int exact_annulus(const cf_solver *s, const cf_joint *J, const double *cL, const double *up, double p0,
+                         double px, double py, cf_contact_exact_result *r)
+{
+    const double *RL = s->R + 9 * J->bl, *RU = s->R + 9 * J->bu;
+    double uo[2 * CF_MAXS], uh[2 * CF_MAXS], pw[3], uc[3], F, Fh;
+    cf_contact_exact_result h;
+    int k, n = J->fu.n, nv;
+    mat_vec(RU, J->fu.c, pw);
+    pw[0] += s->x[3 * J->bu] - cL[0]; pw[1] += s->x[3 * J->bu + 1] - cL[1]; pw[2] += s->x[3 * J->bu + 2] - cL[2];
+    mat_tvec(RL, pw, uc);
+    for (k = 0; k < n; k++) {
+        double dx = up[2 * k] - uc[0], dy = up[2 * k + 1] - uc[1];
+        uo[2 * k] = uc[0] + J->cout * dx; uo[2 * k + 1] = uc[1] + J->cout * dy;
+        uh[2 * k] = uc[0] + J->cout * J->chole * dx; uh[2 * k + 1] = uc[1] + J->cout * J->chole * dy;
+    }
+    nv = J->bl == 0 ? cf_contact_exact(uo, n, uo, n, p0, px, py, J->kn, r)
+                    : cf_contact_exact(J->fl.poly, J->fl.n, uo, n, p0, px, py, J->kn, r);
+    if (nv == 0) return 0;
+    if (J->bl == 0) cf_contact_exact(uh, n, uh, n, p0, px, py, J->kn, &h);
+    else cf_contact_exact(J->fl.poly, J->fl.n, uh, n, p0, px, py, J->kn, &h);
+    F = r->force; Fh = h.force;
+    r->force = F - Fh;
+    if (!(r->force > 0.0)) return 0;
+    r->xc = (F * r->xc - Fh * h.xc) / r->force; r->yc = (F * r->yc - Fh * h.yc) / r->force;
+    r->cx = (r->area * r->cx - h.area * h.cx) / (r->area - h.area);
+    r->cy = (r->area * r->cy - h.area * h.cy) / (r->area - h.area);
+    r->area -= h.area;
+    r->energy -= h.energy;
+    r->polar = 0.0;   /* not read by the model */
+    return nv;
+}
+
 /* The compressed overlap of joint J's faces at this step (cf_contact_exact: force, centre of
  * pressure, area, energy into r), with the lower face's centre cL and normal nL (world); returns
  * the overlap polygon's vertex count, 0 when the faces do not press on each other. */
@@ -82,6 +118,7 @@ static int exact_overlap(const cf_solver *s, const cf_joint *J, double *cL, doub
      * beside or through the other one (tumbling blocks after a collapse) */
     for (k = 0; k < J->fu.n; k++)
         if (p0 + px * up[2 * k] + py * up[2 * k + 1] > 0.1 * J->fl.rc) return 0;
+    if (J->cout > 0.0) return exact_annulus(s, J, cL, up, p0, px, py, r);   /* chipped */
     /* the ground is unbounded: the overlap is the upper face itself */
     if (bl == 0) return cf_contact_exact(up, J->fu.n, up, J->fu.n, p0, px, py, J->kn, r);
     return cf_contact_exact(J->fl.poly, J->fl.n, up, J->fu.n, p0, px, py, J->kn, r);
@@ -115,11 +152,19 @@ static void joint_exact(cf_solver *s, void *state, const cf_joint *J, const doub
         return;
     }
     {
-        double P[3], loc[3], du[3], duf[3], fsf[3], Fs[3], Fw[3], pen_eq, wr, mt_trial, lim, kt, req;
+        double P[3], loc[3], du[3], duf[3], fsf[3], Fs[3], Fw[3], pen_eq, wr, mt_trial, lim, kt, req, cS[3];
         loc[0] = r.xc; loc[1] = r.yc; loc[2] = 0.0;
         mat_vec(RL, loc, P);
         P[0] += cL[0]; P[1] += cL[1]; P[2] += cL[2];
-        rel_vel(s, bl, bu, ww + 3 * bl, ww + 3 * bu, cL, du);
+        /* the shear spring's point: the lower face's centre, or as built the overlap's centroid at rest */
+        cS[0] = cL[0]; cS[1] = cL[1]; cS[2] = cL[2];
+        if (J->asb) {
+            double oc[3], ow[3];
+            oc[0] = J->ccen[0]; oc[1] = J->ccen[1]; oc[2] = 0.0;
+            mat_vec(RL, oc, ow);
+            cS[0] += ow[0]; cS[1] += ow[1]; cS[2] += ow[2];
+        }
+        rel_vel(s, bl, bu, ww + 3 * bl, ww + 3 * bu, cS, du);
         du[0] *= dt; du[1] *= dt; du[2] *= dt;
         /* the joint as one contact of contact_law.h in the lower face's frame: the
          * equivalent uniform overlap carries the integrated normal force */
@@ -131,7 +176,7 @@ static void joint_exact(cf_solver *s, void *state, const cf_joint *J, const doub
         apply_pair(s, bl, bu, P, Fw);
         fsf[0] = ej->fs[0]; fsf[1] = ej->fs[1]; fsf[2] = 0.0;
         mat_vec(RL, fsf, Fs);
-        apply_pair(s, bl, bu, cL, Fs);
+        apply_pair(s, bl, bu, cS, Fs);
         /* torsion about the joint normal */
         kt = ks * ej->polar;
         wr = v3_dot(ww + 3 * bu, nL) - (bl ? v3_dot(ww + 3 * bl, nL) : 0.0);
@@ -163,6 +208,7 @@ static int exact_create(cf_solver *s, const double *opt, void **state)
         const cf_joint *J = &s->jt[j];
         const cf_face *fa = J->fl.area < J->fu.area ? &J->fl : &J->fu;
         ej[j].polar = fa->area * fa->rc * fa->rc * (2.0 + cf_math_cos(2.0 * CF_PI / fa->n)) / 6.0;
+        if (J->asb) ej[j].polar = J->cpolar;   /* as built: the overlap's about its centroid */
     }
     *state = ej;
     return CF_OK;
@@ -195,6 +241,28 @@ static void exact_state_copy(const cf_solver *s, void *state, double *buf, int t
     }
 }
 
+/* The same over an as-built joint's overlap (its fan triangles from its centroid, lower face frame). */
+static void exact_stiffness_overlap(const cf_solver *s, const cf_joint *J, cf_springs *K)
+{
+    int k, t, n = J->cn;
+    double cx = J->ccen[0], cy = J->ccen[1];
+    for (k = 0; k < n; k++) {
+        int k1 = k + 1 == n ? 0 : k + 1;
+        double ax = J->cpoly[2 * k], ay = J->cpoly[2 * k + 1], bx = J->cpoly[2 * k1], by = J->cpoly[2 * k1 + 1];
+        double wq = 0.5 * ((ax - cx) * (by - cy) - (ay - cy) * (bx - cx)) / 3.0, mids[3][2];
+        mids[0][0] = 0.5 * (cx + ax); mids[0][1] = 0.5 * (cy + ay);
+        mids[1][0] = 0.5 * (cx + bx); mids[1][1] = 0.5 * (cy + by);
+        mids[2][0] = 0.5 * (ax + bx); mids[2][1] = 0.5 * (ay + by);
+        for (t = 0; t < 3; t++) {
+            double p[3];
+            p[0] = s->x0[3 * J->bl] + J->fl.c[0] + mids[t][0];
+            p[1] = s->x0[3 * J->bl + 1] + J->fl.c[1] + mids[t][1];
+            p[2] = s->x0[3 * J->bl + 2] + J->fl.c[2];
+            cf_springs_add_contact(K, J, p, wq);
+        }
+    }
+}
+
 /* For the stability limit: the face integral by the edge-midpoint rule on the fan
  * triangles (exact for the quadratic integrands of the stiffness). */
 static void exact_stiffness(const cf_solver *s, const void *state, const cf_joint *J, cf_springs *K)
@@ -203,6 +271,7 @@ static void exact_stiffness(const cf_solver *s, const void *state, const cf_join
     double wq = J->area / f->n / 3.0;
     int k, t;
     (void)state;
+    if (J->asb) { exact_stiffness_overlap(s, J, K); return; }
     for (k = 0; k < f->n; k++) {
         int k1 = (k + 1) % f->n;
         double mids[3][2];

@@ -57,6 +57,111 @@ static int face_points(const cf_face *f, int m, double wsum, double *loc, double
     return c;
 }
 
+/* An as-built joint's points (solver_as_built.c): those of its contact region, the overlap polygon of
+ * its faces at rest, on the body of side (0: the upper, 1: the lower), weights summing to wsum. The
+ * polygon is fanned from its centroid; m = 0: its vertices, each with half the area of the two fan
+ * triangles beside it (their centroid is the polygon's); m >= 1: the nodes of every fan triangle refined
+ * m times (ring i, fan k, place t as face_points orders them), each with a third of the area of every
+ * sub-triangle it is a corner of. Returns the count (count_face_points(cn, m)). */
+static int node_of(int n, int i, int k, int t)
+{
+    if (i == 0) return 0;
+    if (t == i) { k = k + 1 == n ? 0 : k + 1; t = 0; }
+    return 1 + n * i * (i - 1) / 2 + k * i + t;
+}
+
+/* The points of a chipped joint's annulus (chole > 0): per fan sector the trapezoid between the
+ * region scaled by chole and the region, as a grid of M = max(m, 1) steps each way (rings i from the
+ * inner boundary out, places t along the sector), each quad split into two triangles whose thirds go to
+ * their corners (the lumping keeps the area and its centroid). m = 0: the inner and outer vertices. */
+static int count_annulus_points(int n, int m)
+{
+    int M = m > 0 ? m : 1;
+    return (M + 1) * n * M;
+}
+
+static int annulus_node(int n, int M, int i, int k, int t)
+{
+    if (t == M) { k = k + 1 == n ? 0 : k + 1; t = 0; }
+    return i * n * M + k * M + t;
+}
+
+static int annulus_points(const cf_joint *J, int m, int side, double wsum, double ox, double oy, double z,
+                          double *loc, double *wt)
+{
+    int n = J->cn, M = m > 0 ? m : 1, k, i, t, c, np = count_annulus_points(n, m);
+    double cx = J->ccen[0], cy = J->ccen[1], sc = wsum / J->area, h = J->chole;
+    (void)side;
+    for (c = 0; c < np; c++) wt[c] = 0.0;
+    for (k = 0; k < n; k++) {
+        int k1 = k + 1 == n ? 0 : k + 1;
+        double ax = J->cpoly[2 * k] - cx, ay = J->cpoly[2 * k + 1] - cy;
+        double bx = J->cpoly[2 * k1] - cx, by = J->cpoly[2 * k1 + 1] - cy;
+        for (i = 0; i <= M; i++)
+            for (t = 0; t < M; t++) {
+                double f = h + (1.0 - h) * i / M, u = (double)t / M;
+                c = annulus_node(n, M, i, k, t);
+                loc[3 * c] = ox + cx + f * (ax + u * (bx - ax));
+                loc[3 * c + 1] = oy + cy + f * (ay + u * (by - ay));
+                loc[3 * c + 2] = z;
+            }
+    }
+    for (k = 0; k < n; k++)   /* the weights, once every sector's nodes are placed */
+        for (i = 0; i < M; i++)
+            for (t = 0; t < M; t++) {
+                int q[4], e;
+                double P[4][2];
+                q[0] = annulus_node(n, M, i, k, t); q[1] = annulus_node(n, M, i + 1, k, t);
+                q[2] = annulus_node(n, M, i + 1, k, t + 1); q[3] = annulus_node(n, M, i, k, t + 1);
+                for (e = 0; e < 4; e++) { P[e][0] = loc[3 * q[e]]; P[e][1] = loc[3 * q[e] + 1]; }
+                for (e = 0; e < 2; e++) {   /* triangles (0, 1, 2) and (0, 2, 3) */
+                    int a = 0, b = 1 + e, d = 2 + e;
+                    double tri = 0.5 * ((P[b][0] - P[a][0]) * (P[d][1] - P[a][1]) - (P[b][1] - P[a][1]) * (P[d][0] - P[a][0]));
+                    wt[q[a]] += sc * tri / 3.0; wt[q[b]] += sc * tri / 3.0; wt[q[d]] += sc * tri / 3.0;
+                }
+            }
+    return np;
+}
+
+static int overlap_points(const cf_joint *J, int m, int side, double wsum, double *loc, double *wt)
+{
+    int n = J->cn, k, i, t, c, np = count_face_points(n, m);
+    const cf_face *own = side == 0 ? &J->fu : &J->fl;
+    double cx = J->ccen[0], cy = J->ccen[1], sc = wsum / J->area;
+    /* the body frame of side's face: the lower face's frame shifted by -d0 on the upper body */
+    double ox = own->c[0] - (side == 0 ? J->d0[0] : 0.0), oy = own->c[1] - (side == 0 ? J->d0[1] : 0.0);
+    if (J->chole > 0.0) return annulus_points(J, m, side, wsum, ox, oy, own->c[2], loc, wt);
+    for (c = 0; c < np; c++) wt[c] = 0.0;
+    for (k = 0; k < n; k++) {
+        int k1 = k + 1 == n ? 0 : k + 1;
+        double ax = J->cpoly[2 * k] - cx, ay = J->cpoly[2 * k + 1] - cy;
+        double bx = J->cpoly[2 * k1] - cx, by = J->cpoly[2 * k1 + 1] - cy;
+        double tri = 0.5 * (ax * by - ay * bx) * sc;   /* the fan triangle's share of wsum */
+        if (m == 0) {
+            wt[k] += 0.5 * tri; wt[k1] += 0.5 * tri;
+            loc[3 * k] = ox + J->cpoly[2 * k]; loc[3 * k + 1] = oy + J->cpoly[2 * k + 1]; loc[3 * k + 2] = own->c[2];
+            continue;
+        }
+        for (i = 1; i <= m; i++)
+            for (t = 0; t < i; t++) {
+                double f = (double)i / m, u = (double)t / i;
+                c = node_of(n, i, k, t);
+                loc[3 * c] = ox + cx + f * (ax + u * (bx - ax));
+                loc[3 * c + 1] = oy + cy + f * (ay + u * (by - ay));
+                loc[3 * c + 2] = own->c[2];
+            }
+        for (i = 0; i < m; i++) {   /* the m^2 sub-triangles between rings i and i + 1 */
+            double a3 = tri / ((double)m * m) / 3.0;
+            for (t = 0; t <= i; t++) {
+                wt[node_of(n, i, k, t)] += a3; wt[node_of(n, i + 1, k, t)] += a3; wt[node_of(n, i + 1, k, t + 1)] += a3;
+                if (t < i) { wt[node_of(n, i, k, t)] += a3; wt[node_of(n, i, k, t + 1)] += a3; wt[node_of(n, i + 1, k, t + 1)] += a3; }
+            }
+        }
+    }
+    if (m > 0) { loc[0] = ox + cx; loc[1] = oy + cy; loc[2] = own->c[2]; }
+    return np;
+}
+
 /* Point k moves to place c (c <= k) with its weight times scale. */
 static void keep_point(cf_face_points *fp, int c, int k, double scale)
 {
@@ -83,8 +188,10 @@ static int face_symmetric(const cf_face *f)
 static int planar_mirror(const cf_solver *s, cf_face_points *fp)
 {
     int j, k, c = 0;
-    for (j = 0; j < s->nj; j++)
-        if (!face_symmetric(&s->jt[j].fl) || !face_symmetric(&s->jt[j].fu)) return fp->np;
+    for (j = 0; j < s->nj; j++)   /* an as-built joint's overlap, a face centred off its body's x-z plane: not mirrored */
+        if (s->jt[j].asb || (s->asb && (s->jt[j].fl.c[1] != 0.0 || s->jt[j].fu.c[1] != 0.0)) || !face_symmetric(&s->jt[j].fl)
+            || !face_symmetric(&s->jt[j].fu))
+            return fp->np;
     for (j = 0; j < s->nj; j++) {
         int start = c, n0 = 0;
         double r = s->jt[j].fu.rc;
@@ -119,7 +226,7 @@ static int drop_faces_off_the_other(const cf_solver *s, cf_face_points *fp)
             in[side] += cf_face_inside(oth, fp->loc[3 * k] - own->c[0], fp->loc[3 * k + 1] - own->c[1],
                                        1e-9 * oth->rc);
         }
-        if (J->bl != 0 && fp->n0[j] > 0 && fp->n[j] > fp->n0[j]) {
+        if (J->bl != 0 && !J->asb && fp->n0[j] > 0 && fp->n[j] > fp->n0[j]) {   /* an overlap's lie on both */
             if (in[1] == 0 && in[0] > 0) drop = 1;
             else if (in[0] == 0 && in[1] > 0) drop = 0;
         }
@@ -147,7 +254,9 @@ int cf_solver_face_points_make(cf_solver *s, int mm, cf_face_points *fp)
     size_t nja = (size_t)(nj > 0 ? nj : 1);
     memset(fp, 0, sizeof *fp);
     for (j = 0; j < nj; j++)
-        np += count_face_points(s->jt[j].fu.n, mm) + (s->jt[j].bl == 0 ? 0 : count_face_points(s->jt[j].fl.n, mm));
+        np += s->jt[j].asb ? (s->jt[j].bl == 0 ? 1 : 2) * (s->jt[j].chole > 0.0 ? count_annulus_points(s->jt[j].cn, mm)
+                                                                               : count_face_points(s->jt[j].cn, mm))
+                           : count_face_points(s->jt[j].fu.n, mm) + (s->jt[j].bl == 0 ? 0 : count_face_points(s->jt[j].fl.n, mm));
     fp->side = (int *)calloc((size_t)(np > 0 ? np : 1), sizeof(int));
     fp->loc = (double *)calloc((size_t)(np > 0 ? np : 1) * 3, sizeof(double));
     fp->w = (double *)calloc((size_t)(np > 0 ? np : 1), sizeof(double));
@@ -163,10 +272,12 @@ int cf_solver_face_points_make(cf_solver *s, int mm, cf_face_points *fp)
         int n1, n2;
         fp->p0[j] = c;
         /* the ground (under a column, joint 0 of a single one) is unbounded: the block's own points carry the whole area */
-        n1 = face_points(&J->fu, mm, (J->bl == 0 ? 1.0 : 0.5) * J->area, fp->loc + 3 * c, fp->w + c);
+        if (J->asb) n1 = overlap_points(J, mm, 0, (J->bl == 0 ? 1.0 : 0.5) * J->area, fp->loc + 3 * c, fp->w + c);
+        else n1 = face_points(&J->fu, mm, (J->bl == 0 ? 1.0 : 0.5) * J->area, fp->loc + 3 * c, fp->w + c);
         for (k = 0; k < n1; k++) fp->side[c + k] = 0;
         c += n1;
-        n2 = J->bl == 0 ? 0 : face_points(&J->fl, mm, 0.5 * J->area, fp->loc + 3 * c, fp->w + c);
+        if (J->asb && J->bl != 0) n2 = overlap_points(J, mm, 1, 0.5 * J->area, fp->loc + 3 * c, fp->w + c);
+        else n2 = J->bl == 0 ? 0 : face_points(&J->fl, mm, 0.5 * J->area, fp->loc + 3 * c, fp->w + c);
         for (k = 0; k < n2; k++) fp->side[c + k] = 1;
         c += n2;
         fp->n[j] = n1 + n2;

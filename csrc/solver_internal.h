@@ -6,6 +6,7 @@
  *   solver_options.c    the options as data: the solver's own table and the models' (defaults,
  *                       ranges, messages, options by name)
  *   solver_stack.c      bodies, mass properties, joints, faces, equilibrium
+ *   solver_as_built.c   a joint of blocks placed as built: the overlap of its faces at rest
  *   solver_face_points.c  the sub-contact points of the faces, for the models that carry points
  *   solver_timestep.c   stability limit of the whole linearised stack -> time step
  *   solver_step.c       the integrator step, as named phases
@@ -83,6 +84,15 @@ typedef struct {
      * column every body from bu on); a bearing (a beam on a column's top block) is not tested for
      * overturning, the beam's centre of mass lying over neither of its bearings */
     int above, bearing;
+    /* an as-built joint (asb 1: its faces offset or turned against each other at rest, solver_as_built.c):
+     * its contact region is the overlap of its faces at rest, cn vertices cpoly (counter-clockwise, in the
+     * lower face's frame from its centre), of area `area`, centroid ccen and polar moment cpolar about it
+     * (m^4); d0 the upper face's centre from the lower one's at rest (lower face frame). 0: aligned.
+     * Chipped (chole > 0, an aligned joint): the region is cpoly (the upper face at its outer radius) less
+     * cpoly scaled by chole about ccen (the face at its inner radius); area and cpolar are the annulus's. */
+    int asb, cn;
+    double d0[2], ccen[2], cpolar, chole, cout;   /* cout: chipped, the outer radius / the upper face's */
+    double cpoly[4 * CF_MAXS];
 } cf_joint;
 
 /* What the contacts of one step add to the energy ledger. */
@@ -223,6 +233,7 @@ struct cf_solver {
      * world-to-foundation rotation of the record (read when tilted) */
     int tilted;
     double g_x, g_y, g_normal, ground_rt[9];
+    int asb;                        /* the column is placed as built (cf_solver_setup_as_built) */
     const cf_solver_contact_model *model;
     int lanes;                      /* SIMD lanes of the points runner and the joint chunks (set-up) */
     double density;
@@ -267,7 +278,15 @@ struct cf_solver {
 
 /* solver_stack.c */
 int cf_solver_stack_build(struct cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs,
-                          const double *kn, const double *ks, const double *mu);
+                          const double *kn, const double *ks, const double *mu, const double *place);
+
+/* solver_as_built.c: joint J's contact region as the overlap of its faces, the upper face's centre at
+ * (dx, dy) from the lower one's (lower face frame, at rest); CF_EINVAL naming the joint when they do
+ * not overlap */
+int cf_solver_as_built_joint(struct cf_solver *s, cf_joint *J, double dx, double dy);
+/* joint J's contact region as the annulus of its upper face between circumradii inner and outer (its faces
+ * aligned; outer within the lower face): CF_EINVAL naming the joint otherwise */
+int cf_solver_as_built_chipped(struct cf_solver *s, cf_joint *J, double inner, double outer);
 /* the initial tilt of the definition applied to the built (untilted) column: a rigid rotation of
  * every moving body about the +x base edge (after the connectors have taken the untilted rest) */
 void cf_solver_stack_tilt(struct cf_solver *s);

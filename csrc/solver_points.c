@@ -373,7 +373,7 @@ static cf_points *points_alloc(int np, int nj)
 }
 
 /* The hot loop's view of the points of joint j: rest position of each point in the frame of the
- * face it touches (face centres aligned); a point within contact_tolerance of a home that lies
+ * face it touches (the face centres aligned, or d0 apart as built); a point within contact_tolerance of a home that lies
  * inside that face is inside the grown polygon: the cheap test of the hot loop. */
 static void points_derived(const cf_joint *J, cf_points *p, int j)
 {
@@ -383,6 +383,10 @@ static void points_derived(const cf_joint *J, cf_points *p, int j)
         const cf_face *own = p->side[k] == 0 ? &J->fu : &J->fl, *oth = p->side[k] == 0 ? &J->fl : &J->fu;
         double hx = p->loc[3 * k] - own->c[0], hy = p->loc[3 * k + 1] - own->c[1];
         double tol = p->contact_tolerance * oth->rc;
+        if (J->asb) {   /* as built: the faces' centres d0 apart at rest (lower face frame) */
+            double sg = p->side[k] == 0 ? 1.0 : -1.0;
+            hx += sg * J->d0[0]; hy += sg * J->d0[1];
+        }
         int homein = cf_face_inside(oth, hx, hy, 1e-9 * oth->rc);
         p->lx[k] = p->loc[3 * k]; p->ly[k] = p->loc[3 * k + 1];
         p->hx[k] = hx; p->hy[k] = hy;

@@ -78,7 +78,7 @@ int cf_solver_stack_alloc(cf_solver *s, int nblk, int nbody, int nj)
 
 /* Mass properties of each logical block (bp), bottom heights (zbot), totals. */
 static void block_masses(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs,
-                         cf_geometry_massprops *bp, double *zbot)
+                         cf_geometry_massprops *bp, double *zbot, const double *place)
 {
     int i, k;
     double density = s->density;
@@ -88,6 +88,9 @@ static void block_masses(cf_solver *s, int nblk, const int *nseg, const cf_geome
         s->total_mass = 0;
         for (i = 0; i < nblk; i++) {
             cf_geometry_block_props(segs + off, nseg[i], density, &bp[i]);
+            if (place && place[CF_SOLVER_AS_BUILT * i + 5] > 0.0) {   /* as built, missing a part */
+                bp[i].mass = place[CF_SOLVER_AS_BUILT * i + 5]; bp[i].com_z = place[CF_SOLVER_AS_BUILT * i + 8];
+            }
             zbot[i + 1] = zbot[i] + bp[i].height;
             s->blk_h[i] = bp[i].height; s->blk_m[i] = bp[i].mass;
             s->joint_diam[i] = 2.0 * segs[off].r_bottom;
@@ -108,7 +111,7 @@ static void block_masses(cf_solver *s, int nblk, const int *nseg, const cf_geome
 
 /* Bodies: frame origin at the body's centre of mass, axes along the column. */
 static void bodies_place(cf_solver *s, int nblk, const cf_geometry_segment *segs, int nseg_tot,
-                         const cf_geometry_massprops *bp, const double *zbot)
+                         const cf_geometry_massprops *bp, const double *zbot, const double *place)
 {
     int i;
     const cf_solver_def *def = &s->def;
@@ -133,45 +136,77 @@ static void bodies_place(cf_solver *s, int nblk, const cf_geometry_segment *segs
             s->blk_body[i] = i + 1;
             s->blk_bot[3 * i + 2] = -bp[i].com_z;
             s->blk_top[3 * i + 2] = bp[i].height - bp[i].com_z;
+            if (place && place[CF_SOLVER_AS_BUILT * i + 5] > 0.0) {
+                /* missing a part: its own principal inertia, its centre of mass off the axis (the faces' centres
+                 * in its frame off the origin by as much) */
+                const double *p = place + CF_SOLVER_AS_BUILT * i;
+                s->inertia[3 * (i + 1)] = p[9]; s->inertia[3 * (i + 1) + 1] = p[10]; s->inertia[3 * (i + 1) + 2] = p[11];
+                s->blk_bot[3 * i] = s->blk_top[3 * i] = -p[6];
+                s->blk_bot[3 * i + 1] = s->blk_top[3 * i + 1] = -p[7];
+            }
         }
     }
 }
 
-/* Joints and their faces: joint j carries block j on block j - 1 (or on the ground). */
-static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs)
+/* Joints and their faces: joint j carries block j on block j - 1 (or on the ground). As built (place:
+ * CF_SOLVER_AS_BUILT values per block), each face turned by its block's rotation and centred off its
+ * body's origin as its block's centre of mass moved; a joint whose faces are offset or turned against
+ * each other carries their overlap, a chipped one its annulus (solver_as_built.c). */
+static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs, const double *place)
 {
-    int i, j, nj = s->nj;
+    int i, j, nj = s->nj, st = CF_OK;
     const cf_solver_def *def = &s->def;
     {
         int off = 0;
         int *first = (int *)calloc((size_t)nblk, sizeof(int)), *last = (int *)calloc((size_t)nblk, sizeof(int));
         if (!first || !last) { free(first); free(last); return cf_solver_fail(s, CF_ENOMEM, "out of memory"); }
         for (i = 0; i < nblk; i++) { first[i] = off; last[i] = off + nseg[i] - 1; off += nseg[i]; }
-        for (j = 0; j < nj; j++) {
+        for (j = 0; j < nj && !st; j++) {
             cf_joint *J = &s->jt[j];
             const cf_geometry_segment *bot = &segs[first[j]];
+            /* the faces' phases, turned by their blocks' rotations as built (untouched otherwise) */
+            const double *pu = place ? place + CF_SOLVER_AS_BUILT * j : NULL, *pl = pu && j > 0 ? pu - CF_SOLVER_AS_BUILT : pu;
+            double ru = pu ? pu[2] : 0.0, rl = pl ? pl[2] : 0.0;
+            double phu = place ? bot->phase_rad + ru : bot->phase_rad;
             J->logical = j;
             J->bl = def->monolithic ? 0 : j;
             J->bu = def->monolithic ? 1 : j + 1;
-            cf_solver_stack_face(&J->fu, bot->n_sides, bot->r_bottom, bot->phase_rad, s->blk_bot[3 * j + 2]);
+            cf_solver_stack_face(&J->fu, bot->n_sides, bot->r_bottom, phu, s->blk_bot[3 * j + 2]);
             if (j == 0) {
-                cf_solver_stack_face(&J->fl, bot->n_sides, bot->r_bottom, bot->phase_rad, 0.0);
+                cf_solver_stack_face(&J->fl, bot->n_sides, bot->r_bottom, phu, 0.0);
             } else {
                 const cf_geometry_segment *top = &segs[last[j - 1]];
-                cf_solver_stack_face(&J->fl, top->n_sides, top->r_top, top->phase_rad, s->blk_top[3 * (j - 1) + 2]);
+                double phl = place ? top->phase_rad + rl : top->phase_rad;
+                cf_solver_stack_face(&J->fl, top->n_sides, top->r_top, phl, s->blk_top[3 * (j - 1) + 2]);
             }
             J->area = J->fl.area < J->fu.area ? J->fl.area : J->fu.area;
+            if (pu) {
+                double dx = j > 0 ? pu[0] - pl[0] : 0.0, dy = j > 0 ? pu[1] - pl[1] : 0.0;
+                int turned = dx != 0.0 || dy != 0.0 || ru != rl;
+                /* the faces' centres off the bodies' origins (a block missing a part) */
+                J->fu.c[0] = s->blk_bot[3 * j]; J->fu.c[1] = s->blk_bot[3 * j + 1];
+                if (j > 0) { J->fl.c[0] = s->blk_top[3 * (j - 1)]; J->fl.c[1] = s->blk_top[3 * (j - 1) + 1]; }
+                if (pu[3] != 0.0 || pu[4] != 0.0) {   /* its bottom face chipped to an annulus */
+                    if (turned)
+                        st = cf_solver_fail(s, CF_EINVAL, "joint %d: a chipped face is for a joint whose faces are "
+                                            "aligned (not offset or turned against each other)", j);
+                    else st = cf_solver_as_built_chipped(s, J, pu[3], pu[4] > 0.0 ? pu[4] : J->fu.rc);
+                } else if (turned) {
+                    st = cf_solver_as_built_joint(s, J, dx, dy);
+                }
+            }
         }
         free(first); free(last);
     }
-    return CF_OK;
+    return st;
 }
 
 /* Initial state: exact static equilibrium, joint j pre-compressed by the weight above
  * it (uniform overlap W / (kn A) over the face; W the weight's part normal to a tilted foundation),
  * shear zero (the tilt is cf_solver_stack_tilt's; a foundation's downhill pull loads the shear
  * springs in the first steps, a small transient: docs/sequences.md). */
-static void equilibrium(cf_solver *s, int nblk, const cf_geometry_massprops *bp, const double *zbot)
+static void equilibrium(cf_solver *s, int nblk, const cf_geometry_massprops *bp, const double *zbot,
+                        const double *place)
 {
     int i, j, k, nj = s->nj, nbody = s->nbody;
     const cf_solver_def *def = &s->def;
@@ -187,6 +222,12 @@ static void equilibrium(cf_solver *s, int nblk, const cf_geometry_massprops *bp,
                 s->x0[3 * 1 + 2] = -s->blk_bot[2] - settle;
             } else {
                 s->x0[3 * (j + 1) + 2] = zbot[j] + bp[j].com_z - settle;
+                /* as built: the block's axis at its offset (its contact settles uniformly over the
+                 * joint's overlap; the offset centre of mass tips it a little: docs/sequences.md) */
+                if (place) {
+                    s->x0[3 * (j + 1)] = place[CF_SOLVER_AS_BUILT * j] - s->blk_bot[3 * j];
+                    s->x0[3 * (j + 1) + 1] = place[CF_SOLVER_AS_BUILT * j + 1] - s->blk_bot[3 * j + 1];
+                }
             }
         }
     }
@@ -204,6 +245,8 @@ void cf_solver_stack_tilt(cf_solver *s)
         double xp = f->vx[0], th = def->initial_tilt_rad, c = cf_math_cos(th), sn = cf_math_sin(th);
         double zp = s->x0[3 * 1 + 2] + f->c[2];
         for (k = 1; k < f->n; k++) if (f->vx[k] > xp) xp = f->vx[k];
+        if (s->asb && s->jt[0].cout > 0.0) xp *= s->jt[0].cout;   /* a chipped base face's annulus */
+        if (s->asb) xp += s->x0[3 * 1] + f->c[0];   /* the base block's axis at its offset */
         for (i = 1; i < nbody; i++) {
             double dx = s->x0[3 * i] - xp, dz = s->x0[3 * i + 2] - zp;
             s->x0[3 * i] = xp + c * dx + sn * dz;
@@ -215,7 +258,7 @@ void cf_solver_stack_tilt(cf_solver *s)
 }
 
 int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geometry_segment *segs,
-                          const double *kn, const double *ks, const double *mu)
+                          const double *kn, const double *ks, const double *mu, const double *place)
 {
     int i, st, nseg_tot = 0;
     cf_geometry_massprops *bp;
@@ -229,9 +272,9 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
     bp = (cf_geometry_massprops *)calloc((size_t)nblk, sizeof *bp);
     zbot = (double *)calloc((size_t)nblk + 1, sizeof(double));
     if (!bp || !zbot) { free(bp); free(zbot); return cf_solver_fail(s, CF_ENOMEM, "out of memory"); }
-    block_masses(s, nblk, nseg, segs, bp, zbot);
-    bodies_place(s, nblk, segs, nseg_tot, bp, zbot);
-    st = joints_make(s, nblk, nseg, segs);
+    block_masses(s, nblk, nseg, segs, bp, zbot, place);
+    bodies_place(s, nblk, segs, nseg_tot, bp, zbot, place);
+    st = joints_make(s, nblk, nseg, segs, place);
     if (!st) {
         /* joint j (under block j) takes the j-th properties; a monolithic column has joint 0 only */
         int j;
@@ -240,7 +283,7 @@ int cf_solver_stack_build(cf_solver *s, int nblk, const int *nseg, const cf_geom
             s->jt[j].above = s->nbody; s->jt[j].bearing = 0;   /* a column carries everything above */
         }
     }
-    if (!st) equilibrium(s, nblk, bp, zbot);
+    if (!st) equilibrium(s, nblk, bp, zbot, place);
     free(bp); free(zbot);
     return st;
 }

@@ -17,9 +17,8 @@ import numpy as np
 import pytest
 
 from pycolfrag.core.errors import ParameterError
-from pycolfrag.risk import grid_route
+from pycolfrag.risk import grid_route, tree_grid
 from pycolfrag.risk import site_risk as risk
-from pycolfrag.risk import tree_grid
 
 NU = 0.002
 P = 4 / 40

@@ -36,6 +36,7 @@ from pycolfrag.ground_motion.record import Record
 from pycolfrag.solver import scene_setup as scene_run
 from pycolfrag.solver import state, step_cause
 from pycolfrag.solver.options import CONTACT_OPTIONS, SolverOptions
+from pycolfrag.structure import as_built
 from pycolfrag.structure import kinds as structures
 from pycolfrag.structure.column import Column
 
@@ -255,13 +256,18 @@ def _setup(col, options, overrides, caller):
         if not plain and c.foundation_tilt_deg:
             raise ParameterError(f"{caller}: a tilted foundation (foundation_tilt_deg = {c.foundation_tilt_deg:g}) "
                                  "is for a plain column, without connectors, beams or other columns")
+        if not plain:   # the dowels' places and the scene's faces are those of an aligned column
+            as_built.refuse(c, caller, "are for a plain column, without connectors, beams or other columns")
         if monolithic and any(j > 0 for j in c.joint_overrides):
             warnings.warn(f"{caller}: monolithic=True has the base joint only; joint_overrides of joints "
                           f"{sorted(j for j in c.joint_overrides if j > 0)} do not act", UserWarning, stacklevel=3)
     if plain:   # the solver's frame is the foundation's (docs/sequences.md)
         d.foundation_tilt_rad = math.radians(col.foundation_tilt_deg)   # checked by Column (pycolfrag/structure/foundation.py)
         d.foundation_tilt_azimuth_rad = math.radians(col.foundation_tilt_azimuth_deg)
-    scene_run.setup(solver, d, parts, caller)
+    if plain and as_built.any_as_built(col):   # a plain column as built (pycolfrag/structure/as_built.py)
+        as_built.setup(solver, d, col, monolithic, caller)
+    else:
+        scene_run.setup(solver, d, parts, caller)
     if options.dt_solver is not None:
         crit = float(lib.cf_solver_dt_crit(solver))
         if options.dt_solver > crit:

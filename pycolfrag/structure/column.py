@@ -34,7 +34,7 @@ from pycolfrag.core import input_files
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.core.ffi import lib as _lib
 from pycolfrag.core.validate import positive_float, real
-from pycolfrag.structure import foundation
+from pycolfrag.structure import as_built, foundation
 from pycolfrag.structure.connectors import Connectors, connectors_on
 from pycolfrag.structure.scene_parts import SceneParts
 
@@ -66,7 +66,7 @@ def _n_sides(value, where: str) -> int:
 
 
 _SEGMENT_KEYS = ("height", "diameter_bottom", "diameter_top", "n_sides", "phase_deg")
-_BLOCK_KEYS = ("name", "segments")
+_BLOCK_KEYS = ("name", "segments", *as_built.KEYS)
 _SHAFT_KEYS = ("drum_heights", "diameter_bottom", "diameter_top", "n_sides", "phase_deg", "provenance")
 _CAPITAL_KEYS = ("echinus_height", "echinus_diameter_bottom", "echinus_diameter_top", "abacus_height",
                  "abacus_side", "n_sides", "provenance")
@@ -150,17 +150,16 @@ class Segment:
         except KeyError as exc:
             raise ParameterError(f"{where}: missing key {exc}") from None
         except (TypeError, ValueError) as exc:
-            if isinstance(exc, ParameterError):
-                raise ParameterError(f"{where}: {exc}") from None
             raise ParameterError(f"{where}: {exc}") from None
 
 
 @dataclass(frozen=True)
 class Block:
-    """One rigid body: segments stacked from the bottom up (at least one)."""
+    """One rigid body: segments stacked from the bottom up (at least one), as built (:mod:`pycolfrag.as_built`)."""
 
     segments: tuple
     name: str = ""
+    offset: tuple = (0.0, 0.0); rotation_deg: float = 0.0; bottom_annulus: tuple = (0.0, 0.0); missing_part: tuple = ()
 
     def __post_init__(self):
         segs = tuple(self.segments)
@@ -169,7 +168,7 @@ class Block:
         for s in segs:
             if not isinstance(s, Segment):
                 raise ParameterError(f"block {self.name!r}: segments must be Segment objects, got {type(s).__name__}")
-        object.__setattr__(self, "segments", segs)
+        object.__setattr__(self, "segments", segs); as_built.place(self)
 
     @property
     def height(self) -> float:
@@ -177,7 +176,7 @@ class Block:
 
     @property
     def volume(self) -> float:
-        return sum(s.volume for s in self.segments)
+        return sum(s.volume for s in self.segments) - (self.missing_part[0] if self.missing_part else 0.0)
 
     @property
     def centroid_height(self) -> float:
@@ -186,7 +185,7 @@ class Block:
         for s in self.segments:
             acc += s.volume * (z0 + s.centroid_height)
             z0 += s.height
-        return acc / self.volume
+        return (acc - (self.missing_part[0] * self.missing_part[3] if self.missing_part else 0.0)) / self.volume
 
     @property
     def bottom(self) -> Segment:
@@ -197,7 +196,7 @@ class Block:
         return self.segments[-1]
 
     def to_dict(self) -> dict:
-        return {"name": self.name, "segments": [s.to_dict() for s in self.segments]}
+        return {"name": self.name, "segments": [s.to_dict() for s in self.segments], **as_built.block_kw(self)}
 
 
 @dataclass(frozen=True)
@@ -325,6 +324,7 @@ class Column:
         self.connectors = connectors_on(self, connectors) if connectors else ()
         self.foundation_tilt_deg, self.foundation_tilt_azimuth_deg = foundation.check(
             self, foundation_tilt_deg, foundation_tilt_azimuth_deg)
+        as_built.check(self)
 
     def dowels(self) -> list[tuple]:
         """Every dowel as (joint, x, y, law): the connectors expanded, in their order."""
@@ -471,7 +471,7 @@ class Column:
                 if not segs:
                     raise ParameterError(f"blocks[{i}]: needs a non-empty 'segments' list")
                 blocks.append(Block(tuple(Segment.from_dict(s, f"blocks[{i}].segments[{j}]") for j, s in enumerate(segs)),
-                                    name=bd.get("name", f"block {i + 1}")))
+                                    name=bd.get("name", f"block {i + 1}"), **as_built.file_kw(bd)))
             return cls(blocks, density=density, joints=joints, name=name)
         if "shaft" not in d:
             raise ParameterError("column description needs 'shaft' (with optional 'capital') or 'blocks'")

@@ -87,6 +87,63 @@ static void test_bad_input(void)
     cf_solver_free(NULL);
 }
 
+/* The as-built set-up (cf_solver_setup_as_built): a placement of zeros is cf_solver_setup_joints's
+ * column (the same step); an offset joint carries the overlap of its faces (two squares of half-width
+ * 0.2 m, the upper one 0.05 m along x: a 0.35 x 0.4 m rectangle, x in [-0.15, 0.2], centroid at
+ * x = 0.025 m from the lower face's centre); faces apart, a non-finite value and a monolithic
+ * definition are refused by name. */
+static void test_as_built(void)
+{
+    cf_geometry_segment seg[2];
+    int nseg[2] = {1, 1}, i;
+    double kn[2] = {1e9, 1e9}, ks[2] = {1e9, 1e9}, mu[2] = {0.75, 0.75}, place[2 * CF_SOLVER_AS_BUILT] = {0}, dt0;
+    cf_solver_def d;
+    cf_solver *s = cf_solver_create();
+    for (i = 0; i < 2; i++) {
+        seg[i].height = 1.0; seg[i].r_bottom = seg[i].r_top = 0.2 * sqrt(2.0);
+        seg[i].n_sides = 4; seg[i].phase_rad = CF_PI / 4;
+    }
+    cf_solver_def_default(&d);
+    CF_CHECK(cf_solver_setup_joints(s, &d, 2, nseg, seg, 2700, kn, ks, mu) == CF_OK);
+    dt0 = cf_solver_dt(s);
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_OK);
+    CF_CHECK(cf_solver_dt(s) == dt0 && !s->jt[1].asb && !s->asb);
+    place[CF_SOLVER_AS_BUILT] = 0.05;
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_OK);
+    CF_CHECK(s->jt[1].asb && !s->jt[0].asb);
+    CF_CHECK_REL(s->jt[1].area, 0.35 * 0.4, 1e-12);
+    CF_CHECK_CLOSE(s->jt[1].ccen[0], 0.025, 1e-12);
+    CF_CHECK_CLOSE(s->jt[1].ccen[1], 0.0, 1e-12);
+    CF_CHECK(s->jt[1].cn == 4);
+    CF_CHECK(s->x0[3 * 2] == 0.05);
+    place[CF_SOLVER_AS_BUILT] = 0.5;
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "joint 1: its faces do not overlap") != NULL);
+    place[CF_SOLVER_AS_BUILT] = NAN;
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "block 1: its as-built offset must be finite") != NULL);
+    place[CF_SOLVER_AS_BUILT] = 0.05; d.monolithic = 1;
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "monolithic") != NULL);
+    d.monolithic = 0;
+    /* chipped: block 1's bottom face bears between the squares of half-widths 0.05 and 0.15 m (inner and
+     * outer circumradii 0.05 sqrt 2, 0.15 sqrt 2): area 0.3^2 - 0.1^2 = 0.08 m^2 */
+    place[CF_SOLVER_AS_BUILT] = 0.0; place[CF_SOLVER_AS_BUILT + 3] = 0.05 * sqrt(2.0); place[CF_SOLVER_AS_BUILT + 4] = 0.15 * sqrt(2.0);
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_OK);
+    CF_CHECK_REL(s->jt[1].area, 0.08, 1e-12);
+    CF_CHECK_REL(s->jt[1].chole, 1.0 / 3.0, 1e-12);
+    place[CF_SOLVER_AS_BUILT + 3] = 0.2 * sqrt(2.0);   /* inner beyond outer: no area */
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "joint 1: its chipped face bears on no area") != NULL);
+    place[CF_SOLVER_AS_BUILT + 3] = -0.1;
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "inner radius must be finite and >= 0") != NULL);
+    place[CF_SOLVER_AS_BUILT + 3] = 0.05; place[CF_SOLVER_AS_BUILT] = 0.01;   /* chipped and offset */
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "a chipped face is for a joint whose faces are aligned") != NULL);
+    cf_solver_free(s);
+}
+
 /* The registry of contact models: the entries in the order of the C callers' names
  * (CF_SOLVER_CONTACT_*), each with a description; NULL outside the table. */
 static void test_contact_registry(void)
@@ -363,6 +420,7 @@ int main(void)
     CF_RUN(test_dt_crit_default_column);
     CF_RUN(test_statics);
     CF_RUN(test_bad_input);
+    CF_RUN(test_as_built);
     CF_RUN(test_contact_registry);
     CF_RUN(test_determinism);
     CF_RUN(test_caller_check);
