@@ -160,7 +160,8 @@ def read_peer_table(path: Path) -> list[TableRow]:
             if len(cells) < len(names):
                 raise RecordFileError(f"{path}, line {line}: {len(cells)} fields, the header (line {header_line}) "
                                       f"has {len(names)}")
-            meta, files = {}, {}
+            meta: dict[str, object] = {}
+            files: dict[str, str] = {}
             for name, cell in zip(names, cells):
                 if not name:
                     continue
