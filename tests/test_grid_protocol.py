@@ -51,10 +51,13 @@ def test_the_protocol_names_what_the_two_kinds_share():
     # probes and the command line call), plus input_notes, which replaced a getattr chain on the suite,
     # and expected_cost, by which the scheduler sizes its chunks
     data, methods = _members(protocol.RunSpec)
+    # and what differs between the kinds, asked of the spec rather than read off its layout's name: its
+    # rows' fields, its probe and checks before the run, its analysis after it
     assert data == {"column", "solver_options", "periods_s", "damping", "max_record_s", "sample_function",
-                    "layout", "n_rows"}
+                    "layout", "n_rows", "fields", "after_run"}
     assert set(methods) == {"signature", "order", "context", "default_function", "file_attrs",
-                            "shortest_record_dt", "describe", "input_notes", "expected_cost"}
+                            "shortest_record_dt", "describe", "input_notes", "expected_cost", "probe",
+                            "check_inputs", "expected_work"}
 
 
 @pytest.mark.parametrize("cls", [grid.GridSpec, grid.RecordGridSpec, grid.EventBatchSpec])
@@ -103,9 +106,10 @@ def test_no_module_of_the_driver_imports_the_analysis():
     for name in driver:
         bad = {m for m in _imports(modules[name], modules) if m.startswith(("pycolfrag.analysis", "pycolfrag.cli.grid"))}
         assert not bad, f"{name} imports {sorted(bad)}"
-    # the dispatcher imports the package's version, its errors, and the thread limit and progress bars every
-    # command runs under: each a leaf that imports nothing of pycolfrag, so no command is loaded with them
-    leaves = {"pycolfrag.core.errors", "pycolfrag.core.threads", "pycolfrag.core.progress"}
+    # the dispatcher imports the package's version, its errors, the help style, and the thread limit and progress
+    # bars every command runs under: each a leaf that imports nothing of pycolfrag, so no command is loaded with them
+    leaves = {"pycolfrag.core.errors", "pycolfrag.core.threads", "pycolfrag.core.progress", "pycolfrag.core.help",
+              "pycolfrag.core.version"}
     assert not {m for m in _imports(modules["pycolfrag.cli.main"], modules) if m != "pycolfrag"} - leaves
     for leaf in leaves:
         assert not {m for m in _imports(modules[leaf], modules) if m != leaf}, leaf

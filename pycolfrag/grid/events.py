@@ -117,6 +117,25 @@ class EventBatchSpec(RunSettings):
     pulse_shape: str = DEFAULT_PULSE_SHAPE
 
     layout = "events"
+    #: what the grid command would run after the run (the algorithm that asked reads the rows itself)
+    after_run = "pycolfrag.cli.grid:synthetic_outputs"
+
+    @property
+    def fields(self) -> dict:
+        """The ``/samples`` fields of its rows (:data:`pycolfrag.layouts.events.KIND` with the shared ones)."""
+        return _results.fields_of(self.layout)
+
+    def probe(self) -> tuple:
+        """Nothing to probe, ``(None, None, None, [], None)``: the inputs are checked when the spec is made,
+        and the algorithm that made them checked its record options (:mod:`pycolfrag.rare.driver`)."""
+        return None, None, None, [], None
+
+    def check_inputs(self) -> None:
+        """Nothing: the inputs are checked when the spec is made."""
+
+    def expected_work(self, durations, timing, log) -> float:
+        """0: the asking algorithm sizes its batches by its own run budget."""
+        return 0.0
 
     def __post_init__(self):
         shape = pulse_shape_of(self.pulse_shape)
@@ -175,7 +194,7 @@ class EventBatchSpec(RunSettings):
         return EVENT_ROWS
 
     def file_attrs(self) -> dict:
-        return {"layout": "events", "purpose": json.dumps(self.purpose, sort_keys=True),
+        return {"layout": self.layout, "purpose": json.dumps(self.purpose, sort_keys=True),
                 "inputs_sha256": self._digest, "vp_scale": float(self.vp_scale),
                 "record_dt_s": float(self.record_dt_s), "pulse": self.pulse_shape, "tp_model": self.tp_model,
                 "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s)}

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from pycolfrag import results as _results
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.grid.chunks import synthetic_record_s
 from pycolfrag.grid.protocol import RowFunction
@@ -217,6 +218,28 @@ class GridSpec(RunSettings):
 
     #: results layout (:func:`pycolfrag.results.fields_of`): None = synthetic
     layout = None
+    #: what the grid command runs after the run (:data:`pycolfrag.grid.protocol.RunSpec.after_run`)
+    after_run = "pycolfrag.cli.grid:synthetic_outputs"
+
+    @property
+    def fields(self) -> dict:
+        """The ``/samples`` fields of its rows (:data:`pycolfrag.layouts.synthetic.KIND` with the shared ones)."""
+        return _results.fields_of(self.layout)
+
+    def probe(self) -> tuple:
+        """The weakest scenario's record (:func:`pycolfrag.grid.probes.probe_synthetic`)."""
+        from pycolfrag.grid import probes  # here: the probes import this module
+        return probes.probe_synthetic(self)
+
+    def check_inputs(self) -> None:
+        """Every scenario inside the ground-motion models' ranges (:func:`pycolfrag.grid.probes.check_models`)."""
+        from pycolfrag.grid import probes
+        probes.check_models(self)
+
+    def expected_work(self, durations, timing, log) -> float:
+        """Refuses rows of too many steps (:func:`pycolfrag.grid.probes.work_synthetic`)."""
+        from pycolfrag.grid import probes
+        return probes.work_synthetic(self, durations, timing, log)
 
     def context(self) -> "SampleContext":
         return SampleContext(self)
@@ -312,6 +335,26 @@ class RecordGridSpec:
     allow_outside: bool = False
 
     layout = "records"
+    #: what the grid command runs after the run: the record report (:data:`pycolfrag.grid.protocol.RunSpec.after_run`)
+    after_run = "pycolfrag.cli.grid:record_outputs"
+
+    @property
+    def fields(self) -> dict:
+        """The ``/samples`` fields of its rows (:data:`pycolfrag.layouts.records.KIND` with the shared ones)."""
+        return _results.fields_of(self.layout)
+
+    def probe(self) -> tuple:
+        """The first readable record at the smallest scale (:func:`pycolfrag.grid.probes.probe_suite`)."""
+        from pycolfrag.grid import probes  # here: the probes import this module
+        return probes.probe_suite(self)
+
+    def check_inputs(self) -> None:
+        """Nothing: a suite's records are the user's, and each unreadable one fails its own rows."""
+
+    def expected_work(self, durations, timing, log) -> float:
+        """Names each record whose rows take long, refuses none (:func:`pycolfrag.grid.probes.work_suite`)."""
+        from pycolfrag.grid import probes
+        return probes.work_suite(self, durations, timing, log)
 
     def __post_init__(self):
         object.__setattr__(self, "solver_options", resolve_solver_options(self.solver_options))
@@ -384,7 +427,7 @@ class RecordGridSpec:
         return RECORD_ROWS
 
     def file_attrs(self) -> dict:
-        return {"layout": "records", "records": str(self.records), "suite_source": self.suite.source,
+        return {"layout": self.layout, "records": str(self.records), "suite_source": self.suite.source,
                 "n_records": len(self.suite), "record_ids": json.dumps(self.suite.ids),
                 "components": json.dumps(list(self.components)), "scales": list(self.scales),
                 "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s)}
