@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL
 from pycolfrag.grid import EventBatchSpec
+from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL
 from pycolfrag.rare.plans import PulseMap, interleave, plan_inputs
 from pycolfrag.rare.proposal import PILOT_MIXTURE
 from pycolfrag.rare.strata import build_strata

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -86,8 +86,8 @@ def _g_integral(distance, pulse_model, r_bin, branch: bool) -> tuple[float, floa
     (12 points; f is smooth on a bin and p a logistic curve of r), g = p or 1 - p."""
     a, b, prob = r_bin
     if a == b:
-        p = float(np.asarray(pulse_model.mean_probability(np.array([a])))[0])
-        return prob * (p if branch else 1.0 - p), prob
+        p0 = float(np.asarray(pulse_model.mean_probability(np.array([a])))[0])
+        return prob * (p0 if branch else 1.0 - p0), prob
     x0, w0 = np.polynomial.legendre.leggauss(QUAD_POINTS)
     r = 0.5 * (b - a) * x0 + 0.5 * (a + b)
     w = 0.5 * (b - a) * w0 * np.asarray(distance.pdf(r), dtype=float)
@@ -100,8 +100,8 @@ def _g_integral(distance, pulse_model, r_bin, branch: bool) -> tuple[float, floa
 class _BinPlacer:
     """Mw and R at CDF fractions Phi(z) of the densities restricted to the cell's bins."""
 
-    magnitude: object
-    distance: object
+    magnitude: Any
+    distance: Any
     mw: tuple
     r_km: tuple
 
