@@ -133,7 +133,7 @@ def independent_cells(source, mw_step: float, mw_inner, r_inner) -> list:
 
 # ------------------------------------------------------------------ any source: its quadrature's nodes
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _NodePlacer:
     """One of the cell's quadrature nodes, drawn with probability proportional to its weight: by Phi(z_mw),
     or Phi(z_dist) when the cell's magnitudes are one value."""
