@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import abc
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import ClassVar
 
@@ -107,6 +107,11 @@ class SiteSource(abc.ABC):
     @abc.abstractmethod
     def describe(self) -> str:
         """One line for the outputs."""
+
+    def with_pulse(self, pulse) -> "SiteSource":
+        """The same source with another pulse-occurrence model (``--pulse-model``, ``--pulse-only`` of both
+        routes); a dataclass source's by :func:`dataclasses.replace`, another type overrides it."""
+        return replace(self, pulse=pulse)  # type: ignore[type-var]  # dataclass sources; others override it
 
     def cells(self, mw_step: float, mw_inner, r_inner) -> list:
         """Its events cut into cells (:class:`pycolfrag.site.cells.Cell`: a Mw bin x an R bin, the rates
