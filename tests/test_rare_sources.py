@@ -128,3 +128,52 @@ def test_the_rare_routes_plans_run_the_toys_events(toy_site):
         assert (x["pulse"] is not None) == bool(st[x["tags"]["stratum"]].pulse)
     spec = EventBatchSpec(inputs=inputs, purpose={"test": "toy source"})
     assert spec.n_rows == len(inputs)
+
+
+class PlainFault(site_file.SiteSource):   # a SiteSource that is not a dataclass
+    """The toy's events from a plain class: it says itself how it takes another pulse model."""
+
+    KEYS = ("r0_km", "k")
+
+    def __init__(self, name, rate, pulse, r0, k):
+        self.name, self.rate, self.pulse, self._toy = name, rate, pulse, CloserWhenLarger(
+            name, rate, pulse, models.GutenbergRichter(1.0, 5.5, 7.5), r0, k)
+
+    @classmethod
+    def from_table(cls, t, name, rate, pulse):
+        return cls(name, rate, pulse, t.number("r0_km"), t.number("k"))
+
+    def with_pulse(self, pulse):
+        return PlainFault(self.name, self.rate, pulse, self._toy.r0, self._toy.k)
+
+    def quadrature(self, mw_breaks=(), r_breaks=()):
+        return self._toy.with_pulse(self.pulse).quadrature(mw_breaks, r_breaks)
+
+    def sample(self, n, rng):
+        return self._toy.with_pulse(self.pulse).sample(n, rng)
+
+    def describe(self):
+        return "plain " + self._toy.describe()
+
+
+def test_both_routes_replace_the_pulse_model_through_the_interface(tmp_path):
+    """``--pulse-only`` of the rare route (``risk.simulate.site_of``) and of the grid route
+    (``risk.site_risk``'s reader) ask the source for itself with the other model: a source that is not a
+    dataclass takes it too, and its strata are then the pulse branch alone."""
+    from argparse import Namespace
+
+    from pycolfrag.risk import simulate
+    from pycolfrag.site.models import PulseOnly
+    site_file.source_type("plain-fault")(PlainFault)
+    try:
+        path = tmp_path / "plain.toml"
+        path.write_text('[pulse]\nprobability = 0.3\n[[sources]]\ntype = "plain-fault"\nname = "f"\nrate = 0.02\n'
+                        'r0_km = 18.0\nk = 6.0\n')
+        site = simulate.site_of(Namespace(site=str(path), pulse_model=None, pulse_only=True, outside=None))
+        assert isinstance(site.sources[0], PlainFault) and isinstance(site.sources[0].pulse, PulseOnly)
+        grid_site = risk._resolve_site(str(path), True, "{probability = 0.5}", None, ())
+        assert isinstance(grid_site.sources[0].pulse, PulseOnly)
+        st = build_strata(site, mw_step=0.25)
+        assert all(s.pulse for s in st.strata) and sum(s.rate for s in st.strata) == pytest.approx(NU, rel=1e-12)
+    finally:
+        del site_file.SOURCE_TYPES["plain-fault"]
