@@ -51,10 +51,13 @@ def test_the_protocol_names_what_the_two_kinds_share():
     # probes and the command line call), plus input_notes, which replaced a getattr chain on the suite,
     # and expected_cost, by which the scheduler sizes its chunks
     data, methods = _members(protocol.RunSpec)
+    # and what differs between the kinds, asked of the spec rather than read off its layout's name: its
+    # rows' fields, its probe and checks before the run, its analysis after it
     assert data == {"column", "solver_options", "periods_s", "damping", "max_record_s", "sample_function",
-                    "layout", "n_rows"}
+                    "layout", "n_rows", "fields", "after_run"}
     assert set(methods) == {"signature", "order", "context", "default_function", "file_attrs",
-                            "shortest_record_dt", "describe", "input_notes", "expected_cost"}
+                            "shortest_record_dt", "describe", "input_notes", "expected_cost", "probe",
+                            "check_inputs", "expected_work"}
 
 
 @pytest.mark.parametrize("cls", [grid.GridSpec, grid.RecordGridSpec, grid.EventBatchSpec])

@@ -19,7 +19,7 @@ from pycolfrag.core import progress
 # below, on rank 0 after its run: every rank of a grid imports this module, and the start-up of a
 # rank is what a many-rank run pays once per rank.
 
-__all__ = ["build_parser", "make_outputs", "main"]
+__all__ = ["build_parser", "make_outputs", "synthetic_outputs", "record_outputs", "main"]
 
 #: Exit code when the figures or the report failed (the results are complete).
 EXIT_OUTPUTS = grid.EXIT_OUTPUTS
@@ -43,27 +43,59 @@ def build_parser() -> argparse.ArgumentParser:
 
 def make_outputs(out: Path, figures_dir: Path, report_path: Path, log, synthetic=None, layout="read") -> bool:
     """Figures, then the report that links them, from the results file; a failure is reported, never raised.
-    A record-suite file gets :func:`pycolfrag.analysis.record_report.write_record_report` instead (stripes,
-    cloud, MSA with several scales, Fig. 10 against ``synthetic`` when given). ``layout``: the
-    file's layout when the caller knows it (None = synthetic, "records"); "read" reads it from
-    the file."""
-    from pycolfrag.analysis import (
-        figures,
-        record_report,
-        report,  # here: after the run, on rank 0 (top of the module)
-    )
+    What is made is the file's kind of grid's (its spec's ``after_run``: :func:`synthetic_outputs`, or
+    :func:`record_outputs` for a record suite). ``layout``: the file's layout when the caller knows it
+    (None = synthetic, "records"); "read" reads it from the file."""
     if layout == "read":
         layout = _layout_of(out)
-    if layout == "records":
-        name = "pycolfrag.analysis.record_report.write_record_report"
-        try:
-            record_report.write_record_report(str(out), str(figures_dir), report_path=str(report_path),
-                                              synthetic=synthetic)
-            log(f"{name} -> {report_path} and {figures_dir}")
-            return True
-        except Exception:
-            log(f"WARNING: {name} failed (the results in {out} are complete and safe):\n" + traceback.format_exc())
-            return False
+    try:
+        hook = grid.spec_kind(layout).after_run
+    except Exception:   # a layout no kind of grid writes: the synthetic outputs, as before the kinds declared theirs
+        hook = grid.GridSpec.after_run
+    return _after_run(hook)(out, figures_dir, report_path, log, synthetic=synthetic)
+
+
+def _after_run(name: str):
+    """The function a spec's ``after_run`` names (``module:function``), imported now."""
+    import importlib
+    module, _, fn = name.partition(":")
+    return getattr(importlib.import_module(module), fn)
+
+
+def record_outputs(out: Path, figures_dir, report_path, log, synthetic=None) -> bool:
+    """A record suite's analysis after its run (:attr:`pycolfrag.grid.RecordGridSpec.after_run`):
+    :func:`pycolfrag.analysis.record_report.write_record_report` (stripes, cloud, MSA with several scales,
+    Fig. 10 against ``synthetic``). Defaults: figures in ``<out folder>/<out name>_analysis``, the
+    report ``report.md`` there; ``synthetic`` results/grid.h5 when it exists."""
+    from pycolfrag.analysis import record_report  # here: after the run, on rank 0 (top of the module)
+    out = Path(out)
+    figures_dir = Path(figures_dir) if figures_dir else out.parent / f"{out.stem}_analysis"
+    report_path = Path(report_path) if report_path else figures_dir / "report.md"
+    if synthetic is None and Path("results/grid.h5").exists():
+        synthetic = "results/grid.h5"
+    name = "pycolfrag.analysis.record_report.write_record_report"
+    try:
+        record_report.write_record_report(str(out), str(figures_dir), report_path=str(report_path),
+                                          synthetic=synthetic)
+        log(f"{name} -> {report_path} and {figures_dir}")
+        return True
+    except Exception:
+        log(f"WARNING: {name} failed (the results in {out} are complete and safe):\n" + traceback.format_exc())
+        return False
+
+
+def synthetic_outputs(out: Path, figures_dir, report_path, log, synthetic=None) -> bool:
+    """A synthetic grid's analysis after its run (:attr:`pycolfrag.grid.GridSpec.after_run`): the paper's
+    figures (:func:`pycolfrag.analysis.figures.make_all`), then the report that links them
+    (:func:`pycolfrag.analysis.report.write_report`). Defaults: ``<out folder>/figures`` and
+    ``<out folder>/report.md``; ``synthetic`` is not used."""
+    from pycolfrag.analysis import (
+        figures,
+        report,  # here: after the run, on rank 0 (top of the module)
+    )
+    out = Path(out)
+    figures_dir = Path(figures_dir) if figures_dir else out.parent / "figures"
+    report_path = Path(report_path) if report_path else out.parent / "report.md"
 
     def draw():
         figures.make_all(str(out), str(figures_dir))
@@ -128,17 +160,7 @@ def main(argv=None) -> int:
         log(f"stopped by SIGTERM with {summary.rows_left} row(s) left (exit {grid.EXIT_DRAINED}): rerun the same "
             "command to compute them; figures and report come with the complete file")
         return grid.EXIT_DRAINED
-    if args.figures:
-        out = Path(args.out)
-        if spec.layout == "records":
-            figdir = Path(args.figures_dir) if args.figures_dir else out.parent / f"{out.stem}_analysis"
-            report_path = Path(args.report) if args.report else figdir / "report.md"
-        else:
-            figdir = Path(args.figures_dir) if args.figures_dir else out.parent / "figures"
-            report_path = Path(args.report) if args.report else out.parent / "report.md"
-        synthetic = args.synthetic
-        if synthetic is None and spec.layout == "records" and Path("results/grid.h5").exists():
-            synthetic = "results/grid.h5"
-        if not make_outputs(out, figdir, report_path, log, synthetic=synthetic, layout=spec.layout):
+    if args.figures:   # the kind's analysis (its spec's after_run), in the kind's default places unless given
+        if not _after_run(spec.after_run)(Path(args.out), args.figures_dir, args.report, log, synthetic=args.synthetic):
             return EXIT_OUTPUTS
     return code

@@ -105,3 +105,21 @@ __all__ = [
     "check_space", "check_models", "get_comm", "run_grid", "RunSummary", "EXIT_OK", "EXIT_ARGS", "EXIT_OUTPUTS",
     "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_DRAINED", "HelpFormatter", "build_parser", "spec_from_args", "run_command",
 ]
+
+#: The kinds of grid this package runs: a results file's ``layout`` attribute names one of them
+#: (:func:`spec_kind`), which says what is done with the file (its ``after_run``).
+SPEC_KINDS = (GridSpec, RecordGridSpec, EventBatchSpec)
+
+
+def spec_kind(layout):
+    """The spec class of :data:`SPEC_KINDS` whose files carry the root attribute ``layout`` (None, or its
+    name; ``"synthetic"`` and bytes read as the results registry reads them), or ParameterError."""
+    from pycolfrag import results as _results
+    name = _results.layout.kind_of(layout).name
+    for cls in SPEC_KINDS:
+        if cls.layout == name:
+            return cls
+    raise ParameterError(f"no kind of grid writes results layout {layout!r}")
+
+
+__all__ += ["SPEC_KINDS", "spec_kind"]

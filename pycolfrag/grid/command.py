@@ -20,7 +20,7 @@ from typing import Sequence
 from pycolfrag import results as _results
 from pycolfrag.core.errors import ParameterError, RecordFileError, ResultsFileError
 from pycolfrag.core.help import HelpFormatter
-from pycolfrag.grid.probes import check_models, check_solver_options, check_space, check_work, probe_rows
+from pycolfrag.grid.probes import check_solver_options, check_space, check_work, probe_rows
 from pycolfrag.grid.protocol import RunSpec
 from pycolfrag.grid.rows import _key, load_function
 from pycolfrag.grid.schedule import RANK0_WORKS_UP_TO, RunSummary, get_comm, run_grid
@@ -293,8 +293,7 @@ def _checked_spec(args, log) -> tuple[int, RunSpec | None]:
                                  f"{Path(args.out) / Path(_default_out(args)).name}")
         spec = spec_from_args(args)
         load_function(spec.sample_function, spec.default_function())  # a missing one: refused, not a traceback
-        if spec.layout is None:
-            check_models(spec)
+        spec.check_inputs()   # the kind's own refusals (a synthetic grid: the models' ranges)
         if spec.sample_function is None:
             solver = check_solver_options(model_from_dict(spec.column), spec.solver_options,
                                           spec.shortest_record_dt())

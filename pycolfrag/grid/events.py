@@ -4,7 +4,7 @@ Each row is one synthetic run whose inputs are given, not derived from a grid po
 distance, the seed of the record's high-frequency noise and, when the motion carries a pulse, the
 pulse's parameters (the shape's ``INPUTS``), plus *tags* -- the fields that name the row in the
 algorithm that asked for it (stage, stratum, index, the standard normals it was drawn from, its
-sampling weight: :data:`pycolfrag.results.EVENT_SAMPLE_FIELDS`). The row itself is the synthetic
+sampling weight: the rare route's declaration, :data:`pycolfrag.layouts.events.KIND`). The row itself is the synthetic
 grid's (:func:`pycolfrag.solver.sample.run_synthetic_samples`), so an event with the inputs of a grid row
 gives that row's record and response bit for bit.
 
@@ -31,13 +31,14 @@ from pycolfrag.grid.protocol import RowFunction
 from pycolfrag.grid.signing import build_identity, code_digest
 from pycolfrag.grid.spec import MAX_ROWS, RunSettings, resolve_solver_options
 from pycolfrag.ground_motion.registry import DEFAULT_PULSE_SHAPE, pulse_shape_of, tp_model_of
+from pycolfrag.layouts import events as _event_rows
 from pycolfrag.solver import sample as _sample
 from pycolfrag.structure.column import Column
 
 __all__ = ["EventBatchSpec", "EventContext", "run_event", "run_events", "EVENT_ROWS", "TAG_FIELDS",
            "inputs_digest"]
 
-_IDENTITY = tuple(_results.EVENT_SAMPLE_FIELDS)[:tuple(_results.EVENT_SAMPLE_FIELDS).index("mw")]
+_IDENTITY = tuple(_event_rows.KIND.identity)[:tuple(_event_rows.KIND.identity).index("mw")]
 #: The fields an input's ``tags`` may set: the event layout's fields before ``mw`` (its identity,
 #: the normals it was drawn from, its weights) but ``pulse`` and ``hf_seed``, which come from the input.
 TAG_FIELDS = tuple(f for f in _IDENTITY if f not in ("pulse", "hf_seed"))
@@ -117,6 +118,25 @@ class EventBatchSpec(RunSettings):
     pulse_shape: str = DEFAULT_PULSE_SHAPE
 
     layout = "events"
+    #: what the grid command would run after the run (the algorithm that asked reads the rows itself)
+    after_run = "pycolfrag.cli.grid:synthetic_outputs"
+
+    @property
+    def fields(self) -> dict:
+        """The ``/samples`` fields of its rows (:data:`pycolfrag.layouts.events.KIND` with the shared ones)."""
+        return _results.fields_of(self.layout)
+
+    def probe(self) -> tuple:
+        """Nothing to probe, ``(None, None, None, [], None)``: the inputs are checked when the spec is made,
+        and the algorithm that made them checked its record options (:mod:`pycolfrag.rare.driver`)."""
+        return None, None, None, [], None
+
+    def check_inputs(self) -> None:
+        """Nothing: the inputs are checked when the spec is made."""
+
+    def expected_work(self, durations, timing, log) -> float:
+        """0: the asking algorithm sizes its batches by its own run budget."""
+        return 0.0
 
     def __post_init__(self):
         shape = pulse_shape_of(self.pulse_shape)
@@ -175,7 +195,7 @@ class EventBatchSpec(RunSettings):
         return EVENT_ROWS
 
     def file_attrs(self) -> dict:
-        return {"layout": "events", "purpose": json.dumps(self.purpose, sort_keys=True),
+        return {"layout": self.layout, "purpose": json.dumps(self.purpose, sort_keys=True),
                 "inputs_sha256": self._digest, "vp_scale": float(self.vp_scale),
                 "record_dt_s": float(self.record_dt_s), "pulse": self.pulse_shape, "tp_model": self.tp_model,
                 "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s)}

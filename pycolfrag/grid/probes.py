@@ -20,15 +20,17 @@ import numpy as np
 from pycolfrag import ground_motion as _gm
 from pycolfrag import results as _results
 from pycolfrag.core.errors import ParameterError, SolverError
-from pycolfrag.grid.spec import DEFAULT_RECORD_DT_S, resolve_solver_options, solver_defaults
+from pycolfrag.grid.protocol import DEFAULT_RECORD_DT_S
 from pycolfrag.ground_motion import atkinson_silva_2000 as as00
 from pycolfrag.ground_motion import rupakhety_2011
 from pycolfrag.solver import run as _solver
 from pycolfrag.solver import sample as _sample
 from pycolfrag.solver import step_cause as _step_cause
+from pycolfrag.solver.options import resolve_solver_options, solver_defaults
 
 __all__ = ["MAX_CHECK_STEPS", "MAX_ROW_STEPS", "SAY_WORK_ABOVE_S", "check_solver_options", "probe_rows",
-           "check_work", "check_space", "check_models", "check_record_dt"]
+           "check_work", "check_space", "check_models", "check_record_dt", "probe_synthetic", "probe_suite",
+           "RowTiming", "work_synthetic", "work_suite"]
 
 #: Largest number of solver steps of the pre-run check (3 samples of zero record plus the solver's
 #: tail, ~4000 steps with the defaults): a dt_solver needing more is refused before it runs (2e7 is
@@ -131,13 +133,12 @@ def probe_rows(spec) -> list[tuple[str, float]]:
     (``--vp-scale``, ``--damping``, ``--periods``...), and its accelerations must be within what the
     solver accepts (:data:`pycolfrag.solver.run.MAX_ABS_ACC`). Returns (label, duration s) of the longest
     record of the run (the synthetic grid: the largest Mw at the largest R, sample 0)."""
-    probe = _probe_suite(spec) if spec.layout == "records" else _probe_synthetic(spec)
+    probe = spec.probe()   # the kind's own (:func:`probe_synthetic`, :func:`probe_suite`)
     if probe[0] is None:  # a suite of unreadable records only: each row fails on its own
         return probe[3]
-    acc, dt, what, durations = probe
+    acc, dt, what, durations, opt = probe
     peak = float(np.max(np.abs(acc))) if acc.size else 0.0
     if not np.isfinite(peak) or peak > _solver.MAX_ABS_ACC:
-        opt = "--vp-scale" if spec.layout is None else "--scale"
         raise ParameterError(f"{opt}: {what} reaches |a| = {peak:.3g} m/s^2, beyond the {_solver.MAX_ABS_ACC:g} "
                              "m/s^2 the solver accepts; every row would fail")
     try:  # the IMs' options are what is checked: the first 8192 samples say it (a 1e8-sample record would take minutes)
@@ -148,9 +149,10 @@ def probe_rows(spec) -> list[tuple[str, float]]:
     return durations
 
 
-def _probe_suite(spec):
-    """(acceleration, dt, label, durations) of a suite's probe: its first readable record at the smallest
-    scale, and every readable record's duration; (None, None, None, durations) when none is readable."""
+def probe_suite(spec):
+    """(acceleration, dt, label, durations, the option that scales it) of a suite's probe: its first readable
+    record at the smallest scale, and every readable record's duration; (None, None, None, durations, None)
+    when none is readable (:meth:`pycolfrag.grid.RecordGridSpec.probe`)."""
     durations = []
     for r in spec.suite:
         try:
@@ -159,9 +161,10 @@ def _probe_suite(spec):
             continue
     first = next((r for r in spec.suite if not hasattr(r, "error")), None)
     if first is None:
-        return None, None, None, durations
+        return None, None, None, durations, None
     f = min(spec.scales)
-    return f * first.component("h1"), float(first.dt), f"record {first.record_id} at scale {f:g}", durations
+    return (f * first.component("h1"), float(first.dt), f"record {first.record_id} at scale {f:g}", durations,
+            "--scale")
 
 
 def _synthetic_probe_record(spec, ctx, scenario):
@@ -182,9 +185,10 @@ def _synthetic_probe_record(spec, ctx, scenario):
     return a, d
 
 
-def _probe_synthetic(spec):
-    """(acceleration, dt, label, durations) of a synthetic grid's probe: the weakest scenario's record,
-    and the duration of the longest (the largest Mw at the largest R, cut by ``max_record_s``)."""
+def probe_synthetic(spec):
+    """(acceleration, dt, label, durations, the option that scales it) of a synthetic grid's probe: the
+    weakest scenario's record, and the duration of the longest (the largest Mw at the largest R, cut by
+    ``max_record_s``) (:meth:`pycolfrag.grid.GridSpec.probe`)."""
     ctx = spec.context()
     sc = spec.scenarios.index((min(spec.mw), max(spec.dist_km)))
     mw, dist = spec.scenarios[sc]
@@ -203,45 +207,67 @@ def _probe_synthetic(spec):
     long_s = n_long * spec.record_dt_s
     if spec.max_record_s is not None:
         long_s = min(long_s, spec.max_record_s)
-    return acc, dt, what, [(f"Mw {mw_l:g}, R {dist_l:g} km", long_s)]
+    return acc, dt, what, [(f"Mw {mw_l:g}, R {dist_l:g} km", long_s)], "--vp-scale"
+
+
+class RowTiming:
+    """What a row is expected to cost, from the pre-run check: the solver step ``dt`` (s), the measured
+    time per step ``step_s`` (s), the solver's tail (s) and what sets the automatic step (``cause``)."""
+
+    def __init__(self, tail_s: float, solver: dict):
+        self.tail, self.dt, self.step_s, self.cause = tail_s, solver["dt_s"], solver["step_s"], solver.get("cause")
+
+    def steps(self, duration: float) -> float:
+        """Solver steps of a row whose record lasts ``duration`` s (its tail included)."""
+        return (duration + self.tail) / self.dt
+
+    def row_s(self, duration: float) -> float:
+        """CPU seconds of such a row."""
+        return self.steps(duration) * self.step_s
+
+    @staticmethod
+    def hours(x: float) -> str:
+        return f"{x / 3600:.3g} h" if x >= 3600 else f"{x / 60:.3g} min"
 
 
 def check_work(spec, durations, solver: dict, log) -> None:
     """Say, before the run, how long it is expected to take when that is long (more than
-    :data:`SAY_WORK_ABOVE_S` of CPU time), and refuse a synthetic grid whose rows need more than
-    :data:`MAX_ROW_STEPS` solver steps each (the options are the cause). Rows of a record suite are
-    never refused for their length (the records are the user's); a record whose row is expected to
-    take long is named with its estimate. The estimate is the solver's steps (record duration plus
-    the solver's tail, divided by the step) times the time per step measured by the pre-run check."""
-    tail = spec.solver_options.tail_s
-    dt, step_s = solver["dt_s"], solver["step_s"]
-
-    def row_s(duration):
-        return (duration + tail) / dt * step_s
-
-    def hours(x):
-        return f"{x / 3600:.3g} h" if x >= 3600 else f"{x / 60:.3g} min"
-
-    if spec.layout == "records":
-        total = 0.0
-        for rid, dur in durations:
-            n = sum(1 for k, _, _ in spec.jobs if spec.suite[k].record_id == rid)
-            t = row_s(dur)
-            total += n * t
-            if t > SAY_WORK_ABOVE_S:
-                log(f"run_grid: record {rid} is {dur:.6g} s long: about {(dur + tail) / dt:.3g} solver steps, "
-                    f"{hours(t)} per row ({n} rows)")
-    else:
-        label, dur = durations[0]
-        steps = (dur + tail) / dt
-        if steps > MAX_ROW_STEPS:
-            raise ParameterError(f"a row of {label} ({dur:.3g} s of record + {tail:g} s of tail) needs {steps:.3g} "
-                                 f"solver steps of {dt:.3g} s (at most {MAX_ROW_STEPS:.0e}; about {hours(row_s(dur))} "
-                                 "per row): " + _step_advice(solver.get("cause")))
-        total = spec.n_rows * row_s(dur)
+    :data:`SAY_WORK_ABOVE_S` of CPU time), and refuse what the kind refuses (:meth:`RunSpec.expected_work`:
+    a synthetic grid whose rows need more than :data:`MAX_ROW_STEPS` solver steps each, the options being
+    the cause, :func:`work_synthetic`; a record suite's rows are never refused for their length, the records
+    being the user's, and a record whose row is expected to take long is named, :func:`work_suite`). The
+    estimate is the solver's steps (record duration plus the solver's tail, divided by the step) times the
+    time per step measured by the pre-run check."""
+    timing = RowTiming(spec.solver_options.tail_s, solver)
+    total = spec.expected_work(durations, timing, log)
     if total > SAY_WORK_ABOVE_S:
-        log(f"run_grid: expected work about {hours(total)} of CPU time ({spec.n_rows} rows; the longest records, "
-            f"{step_s * 1e6:.2g} us per solver step as measured now)")
+        log(f"run_grid: expected work about {timing.hours(total)} of CPU time ({spec.n_rows} rows; the longest "
+            f"records, {timing.step_s * 1e6:.2g} us per solver step as measured now)")
+
+
+def work_suite(spec, durations, timing: RowTiming, log) -> float:
+    """A record suite's expected CPU seconds; a line for each record whose rows take long."""
+    total = 0.0
+    for rid, dur in durations:
+        n = sum(1 for k, _, _ in spec.jobs if spec.suite[k].record_id == rid)
+        t = timing.row_s(dur)
+        total += n * t
+        if t > SAY_WORK_ABOVE_S:
+            log(f"run_grid: record {rid} is {dur:.6g} s long: about {timing.steps(dur):.3g} solver steps, "
+                f"{timing.hours(t)} per row ({n} rows)")
+    return total
+
+
+def work_synthetic(spec, durations, timing: RowTiming, log) -> float:
+    """A synthetic grid's expected CPU seconds (its longest row times its rows), or ParameterError when
+    that row needs more than :data:`MAX_ROW_STEPS` solver steps."""
+    label, dur = durations[0]
+    steps = timing.steps(dur)
+    if steps > MAX_ROW_STEPS:
+        raise ParameterError(f"a row of {label} ({dur:.3g} s of record + {timing.tail:g} s of tail) needs {steps:.3g} "
+                             f"solver steps of {timing.dt:.3g} s (at most {MAX_ROW_STEPS:.0e}; about "
+                             f"{timing.hours(timing.row_s(dur))} per row): " + _step_advice(timing.cause))
+    return spec.n_rows * timing.row_s(dur)
 
 
 def check_space(spec, out) -> None:

@@ -11,7 +11,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Callable, Protocol, Sequence, runtime_checkable
 
-__all__ = ["RunSpec", "RowContext", "RowFunction", "as_row_function"]
+__all__ = ["RunSpec", "RowContext", "RowFunction", "as_row_function", "DEFAULT_RECORD_DT_S"]
+
+#: The step of a synthetic record, s (a grid's `--record-dt`).
+DEFAULT_RECORD_DT_S = 0.005
 
 
 @runtime_checkable
@@ -60,7 +63,13 @@ class RunSpec(Protocol):
     :class:`pycolfrag.SolverOptions`), ``periods_s`` (spectral periods, s), ``damping`` (spectral
     damping ratio), ``max_record_s`` (records cut to this length, s, or None), ``sample_function``
     (``module:function`` replacing the default rows, or None), ``layout`` (the results layout:
-    None for the synthetic grid, ``"records"``, ``"events"``; :func:`pycolfrag.results.fields_of`) and ``n_rows``.
+    None for the synthetic grid, ``"records"``, ``"events"``; :func:`pycolfrag.results.fields_of`),
+    ``fields`` (its rows' ``/samples`` fields: the kind's declaration in :mod:`pycolfrag.layouts`),
+    ``after_run`` and ``n_rows``.
+
+    What differs between kinds is asked of the spec, never read off its layout's name: its fields, its
+    probe and checks before the run (:mod:`pycolfrag.grid.probes` calls :meth:`probe`,
+    :meth:`check_inputs`, :meth:`expected_work`), and what the command does after it (``after_run``).
     """
 
     column: dict
@@ -70,10 +79,32 @@ class RunSpec(Protocol):
     max_record_s: float | None
     sample_function: str | None
     layout: str | None
+    #: What the grid command runs after the run: ``"module:function"`` with the signature of
+    #: :func:`pycolfrag.cli.grid.synthetic_outputs` (the analysis sits above the driver, so the spec names
+    #: it and the command imports it when it runs).
+    after_run: str
 
     @property
     def n_rows(self) -> int:
         """Rows of the results file."""
+
+    @property
+    def fields(self) -> dict:
+        """The ``/samples`` fields of its rows (:func:`pycolfrag.results.fields_of` of its layout)."""
+
+    def probe(self) -> tuple:
+        """(acceleration, dt, label, durations, option) of a representative record made with the run's
+        options, checked before any file is made (:func:`pycolfrag.grid.probes.probe_rows`): ``durations``
+        the (label, s) of its longest records, ``option`` the one that scales the record (named when it is
+        too strong); ``(None, None, None, durations, None)`` when there is nothing to probe."""
+
+    def check_inputs(self) -> None:
+        """Refuse (ParameterError), before any file is made, inputs that would fail every row."""
+
+    def expected_work(self, durations, timing, log) -> float:
+        """The run's expected CPU seconds from its longest records' ``durations`` and the measured
+        ``timing`` (:class:`pycolfrag.grid.probes.RowTiming`); refuses (ParameterError) rows the kind
+        will not run, and says through ``log`` what the user should know."""
 
     def signature(self) -> dict:
         """What a resume must match (stored as ``grid_signature``): every input of the rows, and the code."""

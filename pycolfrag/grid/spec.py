@@ -14,15 +14,16 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from pycolfrag import results as _results
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.grid.chunks import synthetic_record_s
-from pycolfrag.grid.protocol import RowFunction
+from pycolfrag.grid.protocol import DEFAULT_RECORD_DT_S, RowFunction
 from pycolfrag.grid.rows import RECORD_ROWS, SYNTHETIC_ROWS, RecordContext, SampleContext
 from pycolfrag.grid.signing import build_identity, code_digest
 from pycolfrag.ground_motion.record_suites import load_records
 from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, NO_PULSE, PULSE_SHAPES, tp_model_of
 from pycolfrag.solver import sample as _sample
-from pycolfrag.solver.options import SolverOptions
+from pycolfrag.solver.options import resolve_solver_options, solver_defaults
 from pycolfrag.solver.sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S  # /spectra periods (s) and damping: a sample's
 
 __all__ = ["DEFAULT_MW", "DEFAULT_DIST_KM", "DEFAULT_SAMPLES", "DEFAULT_SEED", "DEFAULT_PERIODS_S",
@@ -33,7 +34,6 @@ DEFAULT_MW = (5.5, 6.0, 6.5, 7.0, 7.5)
 DEFAULT_DIST_KM = (5.0, 7.5, 10.0, 12.5, 15.0, 17.5, 20.0)
 DEFAULT_SAMPLES = 100
 DEFAULT_SEED = 20160601
-DEFAULT_RECORD_DT_S = 0.005
 #: Pulse choices of a synthetic grid: a pulse shape of the registry ("mp03" adds the Mavroeidis-Papageorgiou
 #: pulse, the paper's records), or "none": the high-frequency record alone with the same seeds (the no-pulse branch).
 PULSES = (*PULSE_SHAPES, NO_PULSE)
@@ -45,28 +45,6 @@ MAX_ROWS = 10**8
 #: Most samples per scenario: every rank computes a scenario's whole Latin hypercube before its first
 #: row of it, about 0.3 ms per sample (1e6 samples: 5 min; 1e7: about an hour of nothing visible).
 MAX_SAMPLES = 10**6
-
-
-def solver_defaults() -> dict:
-    """The solver options' defaults (:class:`pycolfrag.SolverOptions`, read from the C library)."""
-    return SolverOptions().to_dict()
-
-
-def resolve_solver_options(opts) -> "SolverOptions":
-    """The :class:`pycolfrag.SolverOptions` a grid runs with: ``opts`` (a SolverOptions, or a dict of
-    :func:`pycolfrag.simulate` keywords applied to the C library's defaults). Unknown names and
-    values the C library rejects raise :class:`ParameterError` naming them."""
-    if isinstance(opts, SolverOptions):
-        return opts
-    if opts is None:
-        return SolverOptions()
-    if not isinstance(opts, dict):
-        raise ParameterError(f"solver options must be a SolverOptions or a dict, got {type(opts).__name__}")
-    try:
-        return SolverOptions().replace(**opts)
-    except (ParameterError, TypeError) as exc:
-        raise ParameterError(f"solver options {opts}: {exc}") from None
-
 
 
 def _check_im_options(spec) -> None:
@@ -217,6 +195,28 @@ class GridSpec(RunSettings):
 
     #: results layout (:func:`pycolfrag.results.fields_of`): None = synthetic
     layout = None
+    #: what the grid command runs after the run (:data:`pycolfrag.grid.protocol.RunSpec.after_run`)
+    after_run = "pycolfrag.cli.grid:synthetic_outputs"
+
+    @property
+    def fields(self) -> dict:
+        """The ``/samples`` fields of its rows (:data:`pycolfrag.layouts.synthetic.KIND` with the shared ones)."""
+        return _results.fields_of(self.layout)
+
+    def probe(self) -> tuple:
+        """The weakest scenario's record (:func:`pycolfrag.grid.probes.probe_synthetic`)."""
+        from pycolfrag.grid import probes  # here: the probes import this module
+        return probes.probe_synthetic(self)
+
+    def check_inputs(self) -> None:
+        """Every scenario inside the ground-motion models' ranges (:func:`pycolfrag.grid.probes.check_models`)."""
+        from pycolfrag.grid import probes
+        probes.check_models(self)
+
+    def expected_work(self, durations, timing, log) -> float:
+        """Refuses rows of too many steps (:func:`pycolfrag.grid.probes.work_synthetic`)."""
+        from pycolfrag.grid import probes
+        return probes.work_synthetic(self, durations, timing, log)
 
     def context(self) -> "SampleContext":
         return SampleContext(self)
@@ -312,6 +312,26 @@ class RecordGridSpec:
     allow_outside: bool = False
 
     layout = "records"
+    #: what the grid command runs after the run: the record report (:data:`pycolfrag.grid.protocol.RunSpec.after_run`)
+    after_run = "pycolfrag.cli.grid:record_outputs"
+
+    @property
+    def fields(self) -> dict:
+        """The ``/samples`` fields of its rows (:data:`pycolfrag.layouts.records.KIND` with the shared ones)."""
+        return _results.fields_of(self.layout)
+
+    def probe(self) -> tuple:
+        """The first readable record at the smallest scale (:func:`pycolfrag.grid.probes.probe_suite`)."""
+        from pycolfrag.grid import probes  # here: the probes import this module
+        return probes.probe_suite(self)
+
+    def check_inputs(self) -> None:
+        """Nothing: a suite's records are the user's, and each unreadable one fails its own rows."""
+
+    def expected_work(self, durations, timing, log) -> float:
+        """Names each record whose rows take long, refuses none (:func:`pycolfrag.grid.probes.work_suite`)."""
+        from pycolfrag.grid import probes
+        return probes.work_suite(self, durations, timing, log)
 
     def __post_init__(self):
         object.__setattr__(self, "solver_options", resolve_solver_options(self.solver_options))
@@ -384,7 +404,7 @@ class RecordGridSpec:
         return RECORD_ROWS
 
     def file_attrs(self) -> dict:
-        return {"layout": "records", "records": str(self.records), "suite_source": self.suite.source,
+        return {"layout": self.layout, "records": str(self.records), "suite_source": self.suite.source,
                 "n_records": len(self.suite), "record_ids": json.dumps(self.suite.ids),
                 "components": json.dumps(list(self.components)), "scales": list(self.scales),
                 "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s)}

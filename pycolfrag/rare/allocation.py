@@ -79,6 +79,7 @@ class SteeringModel:
     def __init__(self, cols: dict, quantities):
         ok = np.asarray(cols["status"]) == 0
         pulse = np.asarray(cols["pulse"], dtype=bool)
+        read = {"collapsed"} | {q.edp for q in quantities if q.edp}   # what the levels read: any stored EDP
         self.beta = {}
         for branch in (True, False):
             sel = ok & (pulse == branch)
@@ -86,7 +87,7 @@ class SteeringModel:
                 continue
             z = np.column_stack([np.asarray(cols["z_vp"])[sel], np.asarray(cols["z_fp"])[sel]]) if branch else None
             X = _features(np.asarray(cols["mw"], dtype=float)[sel], np.asarray(cols["dist_km"], dtype=float)[sel], z)
-            sub = {k: np.asarray(v)[sel] for k, v in cols.items() if k in ("collapsed", "u_top", "u_d")}
+            sub = {k: np.asarray(v)[sel] for k, v in cols.items() if k in read}
             for q in quantities:
                 self.beta[branch, q.label] = _fit(X, exceedances(sub, q).astype(float))
 

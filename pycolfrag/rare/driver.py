@@ -33,7 +33,7 @@ from pycolfrag.core.errors import ParameterError, ResultsFileError
 from pycolfrag.rare import allocation as _alloc
 from pycolfrag.rare.estimate import DEFAULT_MAX_SHARE, DEFAULT_MIN_NEFF, UNRESOLVED, estimate, exceedances, row_weights
 from pycolfrag.rare.plans import PulseMap, interleave, plan_inputs
-from pycolfrag.rare.proposal import FAMILIES, PILOT_MIXTURE, Design, cross_entropy_means, production_mixture, score
+from pycolfrag.rare.proposal import PILOT_MIXTURE, Design, cross_entropy_means, families_of, production_mixture, score
 from pycolfrag.rare.strata import DEFAULT_MW_STEP, DEFAULT_R_EDGES_KM, build_strata
 
 __all__ = ["DEFAULT_SEED", "SiteSettings", "StopRule", "SiteRun", "site_fingerprint", "simulate_site", "batch_name",
@@ -186,7 +186,7 @@ def _ce_design(cols, strata, settings, requested) -> Design:
         return Design(PILOT_MIXTURE, production_mixture(settings.defensive, ()), ("no stratum with a pulse",))
     z = np.column_stack([sub["z_vp"][pulse], sub["z_fp"][pulse]])
     y = {q.label: exceedances(sub, q)[pulse] for q in requested}
-    scores = {f: score(sub, f)[pulse] for f in FAMILIES}
+    scores = {f: score(sub, f)[pulse] for f in families_of(requested)}
     means, notes = cross_entropy_means(z, contrib[pulse], y, scores, requested, min_hits=settings.ce_min_hits,
                                        quantile=settings.ce_quantile)
     return Design(PILOT_MIXTURE, production_mixture(settings.defensive, means), tuple(notes))

@@ -27,16 +27,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pycolfrag.core import names as _names
 from pycolfrag.core.errors import ParameterError
 
-__all__ = ["Mixture", "Design", "PILOT_MIXTURE", "production_mixture", "FAMILIES", "family_of", "score",
+__all__ = ["Mixture", "Design", "PILOT_MIXTURE", "production_mixture", "FAMILIES", "COLLAPSE_FAMILY", "family_of",
+           "families_of", "score",
            "cross_entropy_means", "MEAN_DECIMALS"]
 
 #: The shifts are rounded to 1e-6 before they are stored and used (a replay compares them as stored).
 MEAN_DECIMALS = 6
-#: Families of levels that share a shift: the EDP a level reads (collapse counts as the top displacement's
-#: extreme, and as every level's exceedance).
-FAMILIES = ("u_top", "u_d")
+#: Families of levels that share a shift: the EDP a level reads, any EDP a results file stores (the one EDP
+#: table, :data:`pycolfrag.core.names.EDPS`, in its order: a level on a new stored EDP is a family with no
+#: edit here). Collapse counts as the top displacement's extreme (:data:`COLLAPSE_FAMILY`), and as every
+#: level's exceedance.
+FAMILIES = tuple(_names.EDPS)
+#: The family of collapse: the top displacement's (a collapse is its extreme).
+COLLAPSE_FAMILY = "u_top"
 
 
 @dataclass(frozen=True)
@@ -110,8 +116,19 @@ def production_mixture(alpha0: float, means) -> Mixture:
 
 
 def family_of(q) -> str:
-    """The family of a level: its EDP (collapse: the top displacement's)."""
-    return q.edp or "u_top"
+    """The family of a level: its EDP (collapse: :data:`COLLAPSE_FAMILY`); ParameterError for an EDP that
+    results files do not store."""
+    fam = q.edp or COLLAPSE_FAMILY
+    if fam not in _names.EDPS:
+        raise ParameterError(f"level {q.label!r} reads {fam!r}, which is not an EDP of the results files "
+                             f"(pycolfrag.core.names.EDPS: {', '.join(_names.EDPS)})")
+    return fam
+
+
+def families_of(levels) -> tuple:
+    """The families of ``levels``, each once, in :data:`FAMILIES` order."""
+    mine = {family_of(q) for q in levels}
+    return tuple(f for f in FAMILIES if f in mine)
 
 
 def score(cols: dict, family: str) -> np.ndarray:
@@ -146,10 +163,8 @@ def cross_entropy_means(z, contrib, y, scores, levels, *, min_hits: int, quantil
     family with a requested level, and one line per family saying how its shift was found.
     """
     means, notes = [], []
-    for fam in FAMILIES:
+    for fam in families_of(levels):
         mine = [q for q in levels if family_of(q) == fam]
-        if not mine:
-            continue
         rated = sorted(mine, key=lambda q: (float(np.sum(contrib * y[q.label])), q.label))
         pick = next((q for q in rated if int(np.sum(y[q.label])) >= min_hits), None)
         if pick is not None:

@@ -13,19 +13,19 @@ limits of the ground-motion models (a stratum lies wholly inside or wholly outsi
 grid's range (5 and 20 km, the magnitudes 5.5-7.5 are bin edges), so that the part of lambda inside a
 grid's range is a sum over whole strata.
 
-Only sources whose magnitude and distance are independent (:class:`pycolfrag.site.sources.MagnitudeDistanceSource`,
-models that give bins: :mod:`pycolfrag.site.models`) can be stratified this way; another source type
-is refused by name.
+A site source gives its cells through the one interface of
+:class:`pycolfrag.site.sources.SiteSource` (``cells``, :mod:`pycolfrag.site.cells`): exact bins of
+independent magnitude and distance models, or any source's quadrature nodes grouped by the bins; this
+module assumes nothing else about a source (its ``name``, ``rate`` and ``pulse`` model).
 """
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from pycolfrag.core.errors import ParameterError
-from pycolfrag.site.models import QUAD_POINTS
+from pycolfrag.site.cells import phi
 
 __all__ = ["DEFAULT_MW_STEP", "DEFAULT_R_EDGES_KM", "ModelRange", "model_ranges", "Stratum", "OutsideShare",
            "Strata", "build_strata", "phi"]
@@ -36,12 +36,6 @@ DEFAULT_MW_STEP = 0.25
 DEFAULT_R_EDGES_KM = (2.0, 3.5, 5.0, 7.5, 10.0, 15.0, 20.0, 30.0, 45.0, 60.0, 100.0, 200.0)
 #: Tolerance of "on an edge", in Mw and km.
 _EDGE_TOL = 1e-9
-
-
-def phi(z: float) -> float:
-    """Standard normal CDF by the library's own function: the same bits on every CPU."""
-    from pycolfrag.core.ffi import lib  # loads C on first use: reading this module needs no C library
-    return float(lib.cf_math_norm_cdf(float(z)))
 
 
 @dataclass(frozen=True)
@@ -84,6 +78,8 @@ class Stratum:
     r_km: tuple
     rate: float
     mean_g: float
+    #: the source's cell it was cut from (:class:`pycolfrag.site.cells.Cell`): how its events are placed
+    cell: object = field(default=None, compare=False, repr=False)
 
     def as_dict(self) -> dict:
         return {"index": self.index, "source": self.source, "source_name": self.source_name,
@@ -131,49 +127,6 @@ class OutsideShare:
                 f"{self.r_above:.3g})")
 
 
-def _edges(lo: float, hi: float, inner) -> list:
-    """The bin edges of [lo, hi]: its ends and the ``inner`` values strictly inside."""
-    return [lo] + sorted({float(x) for x in inner if lo + _EDGE_TOL < x < hi - _EDGE_TOL}) + [hi]
-
-
-def _bins(model, inner) -> list:
-    """(lo, hi, probability) of each bin of a magnitude or distance model: its atoms, or the pieces of
-    its support between the ``inner`` edges."""
-    if getattr(model, "atoms", None) is not None:
-        return [(float(x), float(x), float(p)) for x, p in model.atoms if p > 0]
-    lo, hi = model.support
-    e = _edges(lo, hi, inner)
-    return [(a, b, model.probability_between(a, b)) for a, b in zip(e[:-1], e[1:])]
-
-
-def _g_integral(distance, pulse_model, r_bin, branch: bool) -> tuple[float, float]:
-    """(int_bin f(r) g(r) dr, int_bin f(r) dr) by the Gauss-Legendre rule of the site's quadrature
-    (12 points; f is smooth on a bin and p a logistic curve of r), g = p or 1 - p."""
-    a, b, prob = r_bin
-    if a == b:
-        p = float(np.asarray(pulse_model.mean_probability(np.array([a])))[0])
-        return prob * (p if branch else 1.0 - p), prob
-    x0, w0 = np.polynomial.legendre.leggauss(QUAD_POINTS)
-    r = 0.5 * (b - a) * x0 + 0.5 * (a + b)
-    w = 0.5 * (b - a) * w0 * np.asarray(distance.pdf(r), dtype=float)
-    p = np.asarray(pulse_model.mean_probability(r), dtype=float)
-    g = p if branch else 1.0 - p
-    return float(math.fsum(w * g)), float(math.fsum(w))
-
-
-def _check_source(k: int, s) -> None:
-    for part in ("magnitude", "distance"):
-        model = getattr(s, part, None)
-        if model is None or (getattr(model, "atoms", None) is None
-                             and not all(hasattr(model, a) for a in ("support", "probability_between",
-                                                                      "draw_between"))):
-            raise ParameterError(
-                f"source {s.name!r} ({type(s).__name__}, type {getattr(s, 'TYPE', '?')!r}): the event-based "
-                "simulation stratifies a source's magnitude and distance separately, and needs models that give "
-                "bins (pycolfrag.site.models: atoms, or support/probability_between/draw_between); this source "
-                f"has no such {part} model")
-
-
 @dataclass(frozen=True)
 class Strata:
     """The strata of a site (those of positive rate where the models apply), the part of each source
@@ -196,13 +149,9 @@ class Strata:
         return np.array([s.rate for s in self.strata])
 
     def place(self, h: int, z_mw: float, z_dist: float) -> tuple[float, float]:
-        """(Mw, R km) of an event of stratum ``h`` from two standard normals: Mw and R at CDF fractions
-        Phi(z) of the source's densities restricted to the bins."""
-        st = self.strata[h]
-        src = self.sources[st.source]
-        m = st.mw[0] if st.mw[0] == st.mw[1] else src.magnitude.draw_between(phi(z_mw), *st.mw)
-        r = st.r_km[0] if st.r_km[0] == st.r_km[1] else src.distance.draw_between(phi(z_dist), *st.r_km)
-        return m, r
+        """(Mw, R km) of an event of stratum ``h`` from two standard normals, as its source's cell places it
+        (independent models: Mw and R at CDF fractions Phi(z) of the densities restricted to the bins)."""
+        return self.strata[h].cell.place(z_mw, z_dist)
 
     def occurrence_weight(self, h: int, r_km):
         """g(R) / the bin's mean g: the pulse occurrence of an event of stratum ``h`` at distance R."""
@@ -232,27 +181,25 @@ def build_strata(site, mw_step: float = DEFAULT_MW_STEP, r_edges_km=DEFAULT_R_ED
     r_inner = list(r_edges_km) + [ranges[b].r_max_km for b in (False, True)]
     strata, outside, kept = [], [], 0.0
     for k, s in enumerate(site.sources):
-        _check_source(k, s)
-        lo_m, hi_m = (s.magnitude.support if s.magnitude.atoms is None else (0.0, 0.0))
-        mw_bins = _bins(s.magnitude, mw_inner + [mw_step * i for i in range(int(lo_m // mw_step), int(hi_m // mw_step) + 2)])
-        r_bins = _bins(s.distance, r_inner)
+        if not callable(getattr(s, "cells", None)):
+            raise ParameterError(f"source {getattr(s, 'name', k)!r} ({type(s).__name__}) is not a site source "
+                                 "(pycolfrag.site.sources.SiteSource): it gives no cells to stratify")
         lost = {"pulse": 0.0, "no_pulse": 0.0, "mw_below": 0.0, "mw_above": 0.0, "r_above": 0.0}
-        for mb in mw_bins:
-            for rb in r_bins:
-                for branch in (False, True):
-                    fg, f = _g_integral(s.distance, s.pulse, rb, branch)
-                    rate = s.rate * mb[2] * fg
-                    if rate <= 0.0:
-                        continue
-                    rg = ranges[branch]
-                    if rg.holds(mb[:2], rb[:2]):
-                        strata.append(Stratum(len(strata), k, s.name, branch, mb[:2], rb[:2], rate, fg / f))
-                        kept += rate
-                        continue
-                    share = rate / s.rate
-                    lost["pulse" if branch else "no_pulse"] += share
-                    lost["mw_below" if mb[1] <= rg.mw[0] + _EDGE_TOL else "mw_above" if mb[0] >= rg.mw[1] - _EDGE_TOL
-                         else "r_above"] += share
+        for cell in s.cells(mw_step, mw_inner, r_inner):
+            for branch in (False, True):
+                rate = cell.rate[branch]
+                if rate <= 0.0:
+                    continue
+                rg = ranges[branch]
+                if rg.holds(cell.mw, cell.r_km):
+                    strata.append(Stratum(len(strata), k, s.name, branch, cell.mw, cell.r_km, rate,
+                                          cell.mean_g[branch], cell))
+                    kept += rate
+                    continue
+                share = rate / s.rate
+                lost["pulse" if branch else "no_pulse"] += share
+                lost["mw_below" if cell.mw[1] <= rg.mw[0] + _EDGE_TOL else "mw_above" if cell.mw[0] >= rg.mw[1] - _EDGE_TOL
+                     else "r_above"] += share
         outside.append(OutsideShare(s.name, s.rate, **lost))
     _refuse_outside(site, outside, kept, ranges)
     return Strata(tuple(strata), tuple(outside), float(sum(s.rate for s in site.sources)), tuple(site.sources),

@@ -3,7 +3,8 @@
 Reading a file for analysis (``load`` -> ``Results``, ``read_results`` -> ``ResultsData``) is
 :mod:`pycolfrag.analysis.data`; this package is the writing side and what both sides share.
 
-* :mod:`~pycolfrag.results.layout` -- the fields, their dtypes, status codes, rows <-> columns, and what a
+* :mod:`~pycolfrag.results.layout` -- the registry of layouts (each kind of row declares its own fields in
+  :mod:`pycolfrag.layouts`), the fields every row shares, their dtypes, status codes, rows <-> columns, and what a
   finished row is (:func:`merged_columns`);
 * :mod:`~pycolfrag.results.journal` -- the journal sidecar that makes a run crash-safe;
 * :mod:`~pycolfrag.results.lock` -- one writer per file (:class:`RunLock`, :func:`lock_held`);
@@ -86,7 +87,9 @@ from pycolfrag.results.layout import (
     empty_columns,
     fields_of,
     h5open,
+    kind_of,
     merged_columns,
+    register_layout,
     row_bytes,
 )
 from pycolfrag.results.lock import ResultsLockedError, RunLock, lock_held, lock_path
@@ -96,7 +99,7 @@ __all__ = [
     "FORMAT_VERSION", "SAMPLE_FIELDS", "RECORD_SAMPLE_FIELDS", "EVENT_SAMPLE_FIELDS", "SPECTRA_FIELDS", "LAYOUTS", "LABEL_BYTES",
     "TIMING_FIELDS", "STATUS_PENDING", "STATUS_OK", "STATUS_RECORD_FAILED", "STATUS_IM_FAILED",
     "STATUS_SOLVER_FAILED", "STATUS_OTHER_FAILED", "MESSAGE_BYTES", "OPEN_TIMEOUT_S",
-    "fields_of", "row_bytes", "empty_columns", "merged_columns", "h5open",
+    "fields_of", "kind_of", "register_layout", "row_bytes", "empty_columns", "merged_columns", "h5open",
     "journal_path", "read_journal", "journal_mismatch", "signature_mismatch", "JournalHeaderError",
     "lock_path", "lock_held", "RunLock", "ResultsFileError", "ResultsLockedError", "ResultsDamagedError",
     "read_h5_bounded",

@@ -1,5 +1,11 @@
 """The layout of a results file: its fields and their dtypes, status codes, and rows <-> columns.
 
+The registry of layouts (:data:`LAYOUTS`, :func:`register_layout`, :func:`fields_of`): each kind of row
+declares its own fields as data (:mod:`pycolfrag.layouts`: the synthetic grid, a record suite, the rare
+route's events), and this module adds the fields every run shares (status, IMs, EDPs, the solver's
+report); it names no kind's fields, so it knows neither the grid's specs nor the rare algorithm, while
+every reader of a results file finds every layout here without importing the code that wrote it.
+
 What a finished row is (:func:`merged_columns`, :func:`false_done`) is said here once, for the writer's
 resume and for the reader (:mod:`pycolfrag.analysis.data`) alike. The layout is documented in
 ``docs/results_format.md`` and readable with h5py alone.
@@ -13,10 +19,9 @@ from typing import Mapping
 
 import numpy as np
 
+from pycolfrag import layouts as _layouts
 from pycolfrag.core import names as _names
 from pycolfrag.core.errors import ResultsFileError
-from pycolfrag.ground_motion import record as _gm_record
-from pycolfrag.ground_motion import registry as _gm_registry
 
 #: Version of the file layout (root attribute ``format_version``): 2 added ``/row_crc32``, each finished
 #: row's checksum, so that the rows of an interrupted file can be verified before a resume keeps them.
@@ -35,8 +40,8 @@ MESSAGE_BYTES = 256
 
 # name: (numpy dtype, fill value for rows not computed yet, unit/description)
 # The IM and EDP fields are not spelled here: they come from the one registry (pycolfrag.core.names),
-# "<description>, <unit>"; nor are the scenario and pulse fields of a synthetic row: they come from
-# the ground-motion models' declarations (pycolfrag.ground_motion.registry).
+# "<description>, <unit>"; nor are a kind's own fields (its identity and inputs): each kind of row
+# declares them as data (pycolfrag.layouts), and this module composes them with the fields every run shares.
 
 
 def _quantity_fields(table) -> dict:
@@ -46,10 +51,6 @@ def _quantity_fields(table) -> dict:
             desc = f"{q.description}, {q.unit}"
             out[name] = ("f8", math.nan, desc)
     return out
-
-
-def _declared_fields(parameters) -> dict:
-    return {p.row_field: ("f8", math.nan, p.field_description) for p in parameters if p.row_field}
 
 
 _STATUS_FIELDS = {
@@ -70,103 +71,64 @@ _RESPONSE_FIELDS = {
     "wall_s": ("f8", math.nan, "wall time of the whole sample (record, IMs, solver), s"),
 }
 
-#: ``/samples`` of a synthetic grid (the default layout; root attribute ``layout`` absent).
-SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
-    # identity of the run
-    "scenario": ("i4", -1, "scenario index in the grid (row-major over mw, then dist_km)"),
-    "sample": ("i4", -1, "sample index within the scenario (row of the scenario's LHS)"),
-    **_declared_fields(_gm_record.PARAMETERS),        # mw, dist_km
-    **_STATUS_FIELDS,
-    # sampled pulse parameters and record metadata (from Record.meta)
-    **_declared_fields(_gm_registry.PULSE_FIELDS),
-    "record_s": ("f8", math.nan, "record duration used (len(acc) * dt), s"),
-    # intensity measures of the record, then the response (EDPs): from pycolfrag.core.names
-    **_quantity_fields(_names.IMS),
-    **_quantity_fields(_names.EDPS),
-    **_RESPONSE_FIELDS,
-}
 
-#: Longest stored ``record_id``, ``event``, ``station``, ``mechanism`` (bytes of UTF-8; longer is cut).
-LABEL_BYTES = 96
-
-#: ``/samples`` of a record-suite grid (root attribute ``layout = "records"``,
-#: ``scripts/run_grid.py --records``): one row per record x component x scale
-#: (:func:`pycolfrag.solver.sample.record_jobs`).
-RECORD_SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
-    # identity of the run
-    "record": ("i4", -1, "index of the record in the suite (order of the suite table)"),
-    "record_id": (f"S{LABEL_BYTES}", b"", "record identifier (PEER: RSN; UTF-8)"),
-    "event": (f"S{LABEL_BYTES}", b"", "earthquake name (UTF-8)"),
-    "station": (f"S{LABEL_BYTES}", b"", "recording station (UTF-8)"),
-    "component": ("S8", b"", "component run: h1, h2 or both (H1 along x, H2 along y)"),
-    "scale": ("f8", math.nan, "amplitude factor applied to every component, -"),
-    "mw": ("f8", math.nan, "moment magnitude"),
-    "rrup_km": ("f8", math.nan, "closest distance to the rupture plane Rrup, km"),
-    "dist_km": ("f8", math.nan, "= rrup_km (the synthetic grid's distance definition), km"),
-    **_STATUS_FIELDS,
-    # further record metadata (NaN / empty when the source does not give it)
-    "rjb_km": ("f8", math.nan, "Joyner-Boore distance, km"),
-    "vs30_m_s": ("f8", math.nan, "Vs30 of the station, m/s"),
-    "tp_s": ("f8", math.nan, "pulse period given by the source (PEER), s"),
-    "year": ("f8", math.nan, "year of the earthquake"),
-    "mechanism": (f"S{LABEL_BYTES}", b"", "fault mechanism (UTF-8)"),
-    "rotation_deg": ("f8", math.nan, "rotation of the pair before the run, degrees (NaN: as recorded)"),
-    "dt_s": ("f8", math.nan, "time step of the record, s"),
-    "record_s": ("f8", math.nan, "record duration used (samples * dt), s"),
-    **_quantity_fields(_names.IMS),
-    **_quantity_fields(_names.EDPS),
-    **_RESPONSE_FIELDS,
-}
-
-#: ``/samples`` of a batch of events with explicit inputs (root attribute ``layout = "events"``,
-#: :class:`pycolfrag.grid.EventBatchSpec`): one row per event, each with the inputs it was given --
-#: what the stratified site simulation of :mod:`pycolfrag.rare` draws -- then the synthetic row's fields.
-EVENT_SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = {
-    # identity of the run in the algorithm that asked for it
-    "stage": ("i4", -1, "stage of the algorithm that asked for the run (site simulation: 0 the pilot, "
-                        "1, 2, ... the production batches)"),
-    "stratum": ("i4", -1, "stratum of the site's events (source x Mw bin x R bin x pulse occurrence)"),
-    "index": ("i4", -1, "index of the run within its stage and stratum"),
-    "source": ("i4", -1, "index of the site source (order of the site file)"),
-    "pulse": ("u1", 0, "1: the motion carries a velocity pulse; 0: the stochastic record alone"),
-    "component": ("i4", -1, "component of the pulse-parameter mixture that drew the run (0 the site's own "
-                            "density, c >= 1 a shifted one; -1 no pulse)"),
-    "hf_seed": ("u8", 0, "seed of the high-frequency noise of the record"),
-    # the standard normals the event was drawn from (Phi of each is a CDF fraction)
-    "z_mw": ("f8", math.nan, "standard normal whose Phi places Mw in its bin (NaN: one magnitude)"),
-    "z_dist": ("f8", math.nan, "standard normal whose Phi places R in its bin (NaN: one distance)"),
-    "z_vp": ("f8", math.nan, "standard normal quantile of the pulse amplitude Vp (NaN: no pulse)"),
-    "z_fp": ("f8", math.nan, "standard normal quantile of the pulse frequency fp (NaN: no pulse)"),
-    "z_nu": ("f8", math.nan, "standard normal whose Phi places the pulse phase nu (NaN: no pulse)"),
-    "z_gamma": ("f8", math.nan, "standard normal whose Phi places the pulse's gamma (NaN: no pulse)"),
-    # what the run stands for
-    "weight": ("f8", math.nan, "sampling weight under the proposal that drew the run: the site's density of "
-                               "its pulse normals over the proposal's, times its pulse-occurrence weight, -"),
-    "occurrence_weight": ("f8", math.nan, "pulse-occurrence weight: p(R) / the bin's mean p (pulse), (1 - p(R)) "
-                                          "/ (1 - mean p) (no pulse), -"),
-    "stratum_rate_per_yr": ("f8", math.nan, "annual rate of the run's stratum, 1/yr"),
-    **_declared_fields(_gm_record.PARAMETERS),        # mw, dist_km
-    **_STATUS_FIELDS,
-    **_declared_fields(_gm_registry.PULSE_FIELDS),
-    "record_s": ("f8", math.nan, "record duration used (len(acc) * dt), s"),
-    **_quantity_fields(_names.IMS),
-    **_quantity_fields(_names.EDPS),
-    **_RESPONSE_FIELDS,
-}
-
-#: Values of the root attribute ``layout``: None (absent) = synthetic grid.
-LAYOUTS = {None: SAMPLE_FIELDS, "synthetic": SAMPLE_FIELDS, "records": RECORD_SAMPLE_FIELDS,
-           "events": EVENT_SAMPLE_FIELDS}
+def row_fields(kind) -> dict[str, tuple[str, object, str]]:
+    """The ``/samples`` fields of a kind of row (:class:`pycolfrag.layouts.RowKind`), in file order: its
+    identity, the status, its inputs, the IMs of the record and the EDPs of the response (from
+    :mod:`pycolfrag.core.names`), the solver's report."""
+    return {**kind.identity, **_STATUS_FIELDS, **kind.inputs, **_quantity_fields(_names.IMS),
+            **_quantity_fields(_names.EDPS), **_RESPONSE_FIELDS}
 
 
-def fields_of(layout) -> dict:
-    """The ``/samples`` fields of a layout (``None``/``"synthetic"`` or ``"records"``)."""
+#: The registry of layouts: value of the root attribute ``layout`` (None: absent) -> its ``/samples``
+#: fields. Filled from the kinds of row the package declares (:data:`pycolfrag.layouts.KINDS`) and by
+#: :func:`register_layout`.
+LAYOUTS: dict = {}
+#: value of the root attribute ``layout`` -> its :class:`~pycolfrag.layouts.RowKind`.
+_KINDS: dict = {}
+
+
+def register_layout(kind) -> dict:
+    """Register a kind of row (:class:`pycolfrag.layouts.RowKind`) under each of its names; returns its
+    fields. A name taken by another kind raises ValueError (a file would be read as the wrong kind)."""
+    taken = [n for n in kind.names if n in _KINDS and _KINDS[n] != kind]
+    if taken:
+        raise ValueError(f"results layout {taken[0]!r} is registered already (by {_KINDS[taken[0]].owner})")
+    fields = row_fields(kind)
+    for n in kind.names:
+        LAYOUTS[n], _KINDS[n] = fields, kind
+    return fields
+
+
+for _kind in _layouts.KINDS:
+    register_layout(_kind)
+
+#: The registered layouts under the names this module gave them before the registry (kept for their callers):
+#: ``/samples`` of a synthetic grid (root attribute ``layout`` absent), of a record suite
+#: (``layout = "records"``) and of a batch of events (``layout = "events"``, the rare route's runs).
+SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = LAYOUTS[None]
+RECORD_SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = LAYOUTS["records"]
+EVENT_SAMPLE_FIELDS: dict[str, tuple[str, object, str]] = LAYOUTS["events"]
+#: Longest stored label of a record row (bytes of UTF-8): :data:`pycolfrag.layouts.records.LABEL_BYTES`.
+LABEL_BYTES = _layouts.records.LABEL_BYTES
+
+
+def kind_of(layout):
+    """The :class:`~pycolfrag.layouts.RowKind` of a value of the root attribute ``layout`` (None, a
+    registered name, or its bytes), or ResultsFileError naming the known ones."""
     if isinstance(layout, bytes):
         layout = layout.decode()
     try:
-        return LAYOUTS[layout]
+        return _KINDS[layout]
     except (KeyError, TypeError):
-        raise ResultsFileError(f"unknown results layout {layout!r} (known: synthetic, records, events)") from None
+        known = ", ".join(n for n in _KINDS if n is not None)
+        raise ResultsFileError(f"unknown results layout {layout!r} (known: {known})") from None
+
+
+def fields_of(layout) -> dict:
+    """The ``/samples`` fields of a layout (None/``"synthetic"``, ``"records"``, ``"events"``: any
+    registered value of the root attribute ``layout``)."""
+    return LAYOUTS[kind_of(layout).name]
 
 
 #: Fields whose values depend on the machine/ranks rather than the inputs.
@@ -278,27 +240,28 @@ def rows_of(samples: Mapping, spectra: Mapping, rows) -> list[dict]:
 _KNOWN_STATUS = (STATUS_OK, STATUS_RECORD_FAILED, STATUS_IM_FAILED, STATUS_SOLVER_FAILED, STATUS_OTHER_FAILED)
 
 
+def _unnamed(values) -> np.ndarray:
+    """Which values of a naming field name nothing: a negative index, a blank text."""
+    v = np.asarray(values)
+    if v.dtype.kind in "SUO":
+        return np.array([not (x.strip() if isinstance(x, (bytes, str)) else x) for x in v], dtype=bool)
+    return v < 0
+
+
 def false_done(samples: Mapping, layout) -> np.ndarray:
     """Rows whose ``status`` says done but which cannot be: an unknown status code, or no identity
-    (``scenario``/``record`` still -1, the value of a row never written -- every row the grid writes,
-    failed ones too, carries it). Damaged status bytes (e.g. zeroed by a crash of the file system)
-    would otherwise read as successful rows of NaN that are never recomputed."""
+    (the kind's naming fields, :attr:`pycolfrag.layouts.RowKind.named_by`, still -1 or blank, the value of
+    a row never written -- every row the grid writes, failed ones too, carries it). Damaged status bytes
+    (e.g. zeroed by a crash of the file system) would otherwise read as successful rows of NaN that are never recomputed."""
     status = np.asarray(samples["status"])
     done = status != STATUS_PENDING
     bad = done & ~np.isin(status, _KNOWN_STATUS)
-    if fields_of(layout) is RECORD_SAMPLE_FIELDS:
-        # a record row is named by its index or its id (files written by other code may give only the id)
-        if "record" in samples:
-            nameless = np.asarray(samples["record"]) < 0
-            if "record_id" in samples:
-                nameless &= np.array([not (x.strip() if isinstance(x, (bytes, str)) else x)
-                                      for x in samples["record_id"]], dtype=bool)
-            bad |= done & nameless
-    elif fields_of(layout) is EVENT_SAMPLE_FIELDS:
-        if "stage" in samples:  # an event row is named by its stage (and stratum, index) in its algorithm
-            bad |= done & (np.asarray(samples["stage"]) < 0)
-    elif "scenario" in samples:
-        bad |= done & (np.asarray(samples["scenario"]) < 0)
+    named_by = [f for f in kind_of(layout).named_by if f in samples]
+    if named_by and named_by[0] == kind_of(layout).named_by[0]:
+        nameless = _unnamed(samples[named_by[0]])
+        for f in named_by[1:]:
+            nameless &= _unnamed(samples[f])
+        bad |= done & nameless
     return bad
 
 

@@ -36,6 +36,7 @@ from pycolfrag.results.layout import (
     false_done,
     fields_of,
     h5open,
+    kind_of,
     merged_columns,
     put_row,
     rows_of,
@@ -450,8 +451,8 @@ class ResultsWriter:
         with h5open(self.path, "r") as f:
             g = f["samples"]
             self.status = g["status"][...]
-            ident = {k: g[k][...] for k in ("scenario", "record", "record_id") if k in g}
             layout = f.attrs.get("layout")
+            ident = {k: g[k][...] for k in kind_of(layout).named_by if k in g}   # what names a row of its kind
         bad = false_done({"status": self.status, **ident}, layout)
         self.false_done = int(bad.sum())
         self.status[bad] = STATUS_PENDING

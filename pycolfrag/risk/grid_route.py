@@ -138,9 +138,9 @@ def _resolve_site(site, pulse_only, pulse_model, outside, years):
         if isinstance(pulse_model, str):
             pulse_model = _inline_table(pulse_model)
         model = read_pulse_model(Table(pulse_model, "--pulse-model", "pulse"))
-        site = replace(site, sources=tuple(replace(s, pulse=model) for s in site.sources))
+        site = replace(site, sources=tuple(s.with_pulse(model) for s in site.sources))
     if pulse_only:
-        site = replace(site, sources=tuple(replace(s, pulse=PulseOnly()) for s in site.sources))
+        site = replace(site, sources=tuple(s.with_pulse(PulseOnly()) for s in site.sources))
     if outside is not None:
         if outside not in OUTSIDE_CHOICES:
             raise ParameterError(f"outside must be one of {', '.join(OUTSIDE_CHOICES)}, got {outside!r}")

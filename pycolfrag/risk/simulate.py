@@ -98,9 +98,9 @@ def site_of(args):
         except tomllib.TOMLDecodeError as exc:
             raise ParameterError(f"--pulse-model must be a TOML inline table, got {args.pulse_model!r} ({exc})") from None
         model = read_pulse_model(Table(table, "--pulse-model", "pulse"))
-        site = replace(site, sources=tuple(replace(s, pulse=model) for s in site.sources))
+        site = replace(site, sources=tuple(s.with_pulse(model) for s in site.sources))
     if getattr(args, "pulse_only", False):
-        site = replace(site, sources=tuple(replace(s, pulse=PulseOnly()) for s in site.sources))
+        site = replace(site, sources=tuple(s.with_pulse(PulseOnly()) for s in site.sources))
     if getattr(args, "outside", None):
         if args.outside not in OUTSIDE_CHOICES:
             raise ParameterError(f"--outside must be one of {OUTSIDE_CHOICES}, got {args.outside!r}")

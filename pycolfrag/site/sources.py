@@ -9,7 +9,10 @@ risk needs (:class:`SiteSource`):
   :mod:`pycolfrag.risk.site_risk` sums. The density is joint: a source whose distance depends on the
   magnitude (a fault whose larger ruptures come closer to the site) is one class like the others;
 * ``sample(n, rng)``: n random events, each carrying the annual rate it stands for -- what an
-  event-based simulation of the site draws.
+  event-based simulation of the site draws;
+* ``cells(mw_step, mw_inner, r_inner)``: the events cut into Mw x R cells, what the rare route's
+  stratified simulation draws from (:mod:`pycolfrag.site.cells`); every source has them from its
+  quadrature, so a new type serves both risk routes with its one class.
 
 Every event carries the probability that its motion has a velocity pulse, from the source's
 pulse-occurrence model (:mod:`pycolfrag.site.models`). The shipped source type is
@@ -23,7 +26,7 @@ from __future__ import annotations
 
 import abc
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import ClassVar
 
@@ -31,6 +34,7 @@ import numpy as np
 
 from pycolfrag.core import input_files
 from pycolfrag.core.errors import ParameterError
+from pycolfrag.site import cells as _cells
 from pycolfrag.site.models import DISTANCE_MODELS, MAGNITUDE_MODELS, PULSE_MODELS, Table
 
 __all__ = ["Events", "SiteSource", "SOURCE_TYPES", "source_type", "MagnitudeDistanceSource", "Site",
@@ -104,6 +108,19 @@ class SiteSource(abc.ABC):
     def describe(self) -> str:
         """One line for the outputs."""
 
+    def with_pulse(self, pulse) -> "SiteSource":
+        """The same source with another pulse-occurrence model (``--pulse-model``, ``--pulse-only`` of both
+        routes); a dataclass source's by :func:`dataclasses.replace`, another type overrides it."""
+        return replace(self, pulse=pulse)  # type: ignore[type-var]  # dataclass sources; others override it
+
+    def cells(self, mw_step: float, mw_inner, r_inner) -> list:
+        """Its events cut into cells (:class:`pycolfrag.site.cells.Cell`: a Mw bin x an R bin, the rates
+        with and without a pulse, how an event of the cell is placed), what the rare route stratifies:
+        magnitude edges at ``mw_inner`` and the multiples of ``mw_step``, distance edges at ``r_inner``.
+        Every source has them from its :meth:`quadrature` (:func:`pycolfrag.site.cells.quadrature_cells`);
+        a type may give exact ones instead."""
+        return _cells.quadrature_cells(self, mw_step, mw_inner, r_inner)
+
 
 #: Site source types: the ``type`` a ``[[sources]]`` table names -> the class.
 SOURCE_TYPES: dict = {}
@@ -159,6 +176,13 @@ class MagnitudeDistanceSource(SiteSource):
 
     def describe(self):
         return f"{self.magnitude.describe()}, {self.distance.describe()}, rate {self.rate:.4g} /yr"
+
+    def cells(self, mw_step, mw_inner, r_inner):
+        """Exact bins of the two independent models (:func:`pycolfrag.site.cells.independent_cells`) when
+        they give bins, else the quadrature's (:meth:`SiteSource.cells`)."""
+        if _cells.gives_bins(self):
+            return _cells.independent_cells(self, mw_step, mw_inner, r_inner)
+        return super().cells(mw_step, mw_inner, r_inner)
 
 
 @dataclass(frozen=True)

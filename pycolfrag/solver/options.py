@@ -30,7 +30,8 @@ from pycolfrag.core.errors import ParameterError
 from pycolfrag.core.ffi import ffi, lib
 from pycolfrag.core.validate import flag, real
 
-__all__ = ["SolverOptions", "Option", "OPTIONS", "CONTACT_OPTIONS", "CONTACT_DOCS", "docs_table"]
+__all__ = ["SolverOptions", "Option", "OPTIONS", "CONTACT_OPTIONS", "CONTACT_DOCS", "docs_table", "solver_defaults",
+           "resolve_solver_options"]
 
 #: contact models understood by the solver (names -> C codes), read from the C library's
 #: registry of contact models (csrc/solver_contact_model.c): a model added there is an option here
@@ -276,3 +277,24 @@ def docs_table() -> str:
         rows.append(f"| `{opt.name}` | {opt.unit} | {opt.accepted()} | {_default_text(opt)} | {models} | "
                     f"{opt.doc} |")
     return "\n".join(rows) + "\n"
+
+
+def solver_defaults() -> dict:
+    """The solver options' defaults (:class:`pycolfrag.SolverOptions`, read from the C library)."""
+    return SolverOptions().to_dict()
+
+
+def resolve_solver_options(opts) -> SolverOptions:
+    """The :class:`pycolfrag.SolverOptions` a grid runs with: ``opts`` (a SolverOptions, or a dict of
+    :func:`pycolfrag.simulate` keywords applied to the C library's defaults). Unknown names and
+    values the C library rejects raise :class:`ParameterError` naming them."""
+    if isinstance(opts, SolverOptions):
+        return opts
+    if opts is None:
+        return SolverOptions()
+    if not isinstance(opts, dict):
+        raise ParameterError(f"solver options must be a SolverOptions or a dict, got {type(opts).__name__}")
+    try:
+        return SolverOptions().replace(**opts)
+    except (ParameterError, TypeError) as exc:
+        raise ParameterError(f"solver options {opts}: {exc}") from None
