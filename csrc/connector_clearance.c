@@ -49,7 +49,7 @@ static double u_yield(const cf_solver_connector *d)
     return d->f_yield / d->k_shear + d->law[0];
 }
 
-const cf_connector_law cf_connector_clearance = {
+const cf_connector_law cf_connector_clearance_law = {
     "clearance",
     "a clearance, then linear (a wooden empolion and polos): F = -k (|u| - c)+, the seat crushing (c growing) "
     "at f_yield; breaks at u_ultimate, clearance included",

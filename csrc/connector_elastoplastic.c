@@ -32,7 +32,7 @@ static double u_yield(const cf_solver_connector *d)
     return d->f_yield / d->k_shear;
 }
 
-const cf_connector_law cf_connector_elastoplastic = {
+const cf_connector_law cf_connector_elastoplastic_law = {
     "elastoplastic",
     "elastic-perfectly plastic in the joint plane (a metal dowel): F = -k (u - p), |F| <= f_yield, the plastic "
     "offset p moving by radial return; breaks at u_ultimate",

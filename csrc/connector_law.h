@@ -70,13 +70,13 @@ typedef struct cf_connector_law {
     double (*u_yield)(const cf_solver_connector *d);
 } cf_connector_law;
 
-/* the registry (solver_connector_law.c): cf_connector_law_table[d->kind], kind checked at set-up */
-extern const cf_connector_law *const cf_connector_law_table[];
+/* the registry (solver_connector_law.c): cf_solver_connector_law_table[d->kind], kind checked at set-up */
+extern const cf_connector_law *const cf_solver_connector_law_table[];
 
 /* The state at rest: no force, no slack beyond the law's own. */
 static inline void cf_connector_rest(const cf_solver_connector *d, cf_connector_state *st)
 {
-    const cf_connector_law *law = cf_connector_law_table[d->kind];
+    const cf_connector_law *law = cf_solver_connector_law_table[d->kind];
     st->w[0] = st->w[1] = st->w[2] = 0.0;
     if (law->rest) law->rest(d, st);
     st->a = 0.0;
@@ -115,7 +115,7 @@ static inline int cf_connector_shear(const cf_solver_connector *d, cf_connector_
 {
     *fx = 0.0; *fy = 0.0; *v = 0.0;
     if (!(d->k_shear > 0.0)) return 0;
-    return cf_connector_law_table[d->kind]->shear(d, st, ux, uy, fx, fy, v);
+    return cf_solver_connector_law_table[d->kind]->shear(d, st, ux, uy, fx, fy, v);
 }
 
 /* The axial force at opening uz (tension only) and its stored energy; returns 1 on a slip step. */

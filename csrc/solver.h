@@ -224,7 +224,7 @@ int cf_solver_connector_law_n_values(int i);
 const cf_solver_option *cf_solver_connector_law_value(int i, int k);
 /* The shear displacement |u| at which a connector's law yields (or its seat starts to crush), m, from
  * the rest state; INFINITY without shear stiffness. NAN for a law out of the registry. */
-double cf_solver_connectors_u_yield(const cf_solver_connector *c);
+double cf_solver_connector_law_u_yield(const cf_solver_connector *c);
 
 /* Check one connector's law (not its place): CF_OK, or CF_EINVAL with the message in msg
  * (CF_MSG_LEN bytes) naming the bad value. */

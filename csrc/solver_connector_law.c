@@ -14,45 +14,45 @@
 /* The registry, one line per law: the name of its entry (defined in the law's own file), from which
  * the entries' declarations and the table below are written. */
 #define CF_CONNECTOR_LAWS(X)                                        \
-    X(cf_connector_elastoplastic)   /* connector_elastoplastic.c */ \
-    X(cf_connector_clearance)       /* connector_clearance.c */     \
+    X(cf_connector_elastoplastic_law)   /* connector_elastoplastic.c */ \
+    X(cf_connector_clearance_law)       /* connector_clearance.c */     \
     /* a new law: its line above this one */
 
 #define CF_DECLARE(entry) extern const cf_connector_law entry;
 #define CF_ADDRESS(entry) &entry,
 CF_CONNECTOR_LAWS(CF_DECLARE)
 
-const cf_connector_law *const cf_connector_law_table[] = {CF_CONNECTOR_LAWS(CF_ADDRESS)};
+const cf_connector_law *const cf_solver_connector_law_table[] = {CF_CONNECTOR_LAWS(CF_ADDRESS)};
 
 int cf_solver_connector_law_count(void)
 {
-    return (int)(sizeof cf_connector_law_table / sizeof cf_connector_law_table[0]);
+    return (int)(sizeof cf_solver_connector_law_table / sizeof cf_solver_connector_law_table[0]);
 }
 
 const char *cf_solver_connector_law_name(int i)
 {
-    return i >= 0 && i < cf_solver_connector_law_count() ? cf_connector_law_table[i]->name : NULL;
+    return i >= 0 && i < cf_solver_connector_law_count() ? cf_solver_connector_law_table[i]->name : NULL;
 }
 
 const char *cf_solver_connector_law_doc(int i)
 {
-    return i >= 0 && i < cf_solver_connector_law_count() ? cf_connector_law_table[i]->doc : NULL;
+    return i >= 0 && i < cf_solver_connector_law_count() ? cf_solver_connector_law_table[i]->doc : NULL;
 }
 
 int cf_solver_connector_law_n_values(int i)
 {
-    return i >= 0 && i < cf_solver_connector_law_count() ? cf_connector_law_table[i]->n_values : 0;
+    return i >= 0 && i < cf_solver_connector_law_count() ? cf_solver_connector_law_table[i]->n_values : 0;
 }
 
 const cf_solver_option *cf_solver_connector_law_value(int i, int k)
 {
     if (k < 0 || k >= cf_solver_connector_law_n_values(i)) return NULL;
-    return &cf_connector_law_table[i]->values[k];
+    return &cf_solver_connector_law_table[i]->values[k];
 }
 
-double cf_solver_connectors_u_yield(const cf_solver_connector *c)
+double cf_solver_connector_law_u_yield(const cf_solver_connector *c)
 {
     if (!c || c->kind < 0 || c->kind >= cf_solver_connector_law_count()) return NAN;
     if (!(c->k_shear > 0.0)) return INFINITY;
-    return cf_connector_law_table[c->kind]->u_yield(c);
+    return cf_solver_connector_law_table[c->kind]->u_yield(c);
 }

@@ -26,7 +26,7 @@ int cf_solver_connectors_check(const cf_solver_connector *c, char *msg)
     if (c->kind < 0 || c->kind >= cf_solver_connector_law_count())
         return cf_common_fail(msg, CF_EINVAL, "connector kind must be a law of the registry, 0 to %d, got %d",
                               cf_solver_connector_law_count() - 1, c->kind);
-    law = cf_connector_law_table[c->kind];
+    law = cf_solver_connector_law_table[c->kind];
     if (!(c->k_shear >= 0.0) || !isfinite(c->k_shear))
         return cf_common_fail(msg, CF_EINVAL, "connector k_shear must be finite and >= 0 N/m, got %g", c->k_shear);
     if (!(c->k_axial >= 0.0) || !isfinite(c->k_axial))

@@ -131,10 +131,10 @@ class DowelLaw:
     @property
     def u_yield(self) -> float:
         """Shear displacement at yield (elastoplastic) or at crushing (clearance included), m: the kind's
-        own (``cf_solver_connectors_u_yield``)."""
+        own (``cf_solver_connector_law_u_yield``)."""
         c = ffi.new("cf_solver_connector *")
         self.fill(c)
-        return float(lib.cf_solver_connectors_u_yield(c))
+        return float(lib.cf_solver_connector_law_u_yield(c))
 
     def drive(self, u) -> dict:
         """The law along a prescribed displacement history ``u`` ((n, 3) m: shear x, y and the
