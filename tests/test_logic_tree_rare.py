@@ -149,7 +149,7 @@ def test_site_branches_are_re_weighted_exactly_and_without_bias():
         {"choice": "pulse_model", "branches": [{"value": PULSE, "weight": 0.5},
                                                {"value": {"probability": 0.2}, "weight": 0.5}]}])
     checked = check_tree(tree, d, "small")
-    last = checked.ends[-1]          # fault x 1, b 0.8, Mmax 6.2, pulse probability 0.2
+    # the last end branch: the fault x 1, b 0.8, Mmax 6.2, pulse probability 0.2
     exact = exact_rates(checked.sites[-1], QUANTITIES)
     reps, rates = 12, []
     for i in range(reps):
