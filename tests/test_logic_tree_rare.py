@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import signal
 import subprocess
 import time
@@ -271,7 +272,8 @@ def test_sigterm_mid_branch_exits_75_and_the_resume_is_bitwise(ref):
 
 def test_a_changed_tree_is_refused_and_new_weights_are_re_weighted(ref):
     tmp, args, _ = ref
-    out = tmp / "ref"
+    out = tmp / "reweighted"
+    shutil.copytree(tmp / "ref", out)
     before = {x: x.read_bytes() for x in out.rglob("batch_*")}
     changed = tmp / "changed.toml"
     changed.write_text(TREE.replace("value = 2.0", "value = 3.0"))
@@ -297,3 +299,18 @@ def test_a_branch_the_models_refuse_is_named_before_any_run(tmp_path, capsys):
     assert code == 2
     assert "logic tree branch 'contact=" in capsys.readouterr().out
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.mpi
+def test_two_mpi_ranks_give_the_one_rank_files(ref):
+    """The other rank serves every run setting's batches (pycolfrag.rare.paired.serve_groups): the same rows bit for
+    bit and the same tree as one process."""
+    tmp, args, p1 = ref
+    p2 = _run(args + ["--simulate", str(tmp / "two")], ranks=2)
+    assert p2.returncode == p1.returncode, p2.stdout + p2.stderr
+    from pycolfrag.analysis.compare import compare_results
+    for g in ("runs_00", "runs_01"):
+        for n in sorted(x.name for x in (tmp / "ref" / g).glob("batch_*.h5")):
+            assert compare_results(tmp / "ref" / g / n, tmp / "two" / g / n).identical, (g, n)
+    assert json.loads((tmp / "two" / "logic_tree.json").read_text())["levels"] == \
+        json.loads((tmp / "ref" / "logic_tree.json").read_text())["levels"]
