@@ -314,3 +314,31 @@ def test_two_mpi_ranks_give_the_one_rank_files(ref):
             assert compare_results(tmp / "ref" / g / n, tmp / "two" / g / n).identical, (g, n)
     assert json.loads((tmp / "two" / "logic_tree.json").read_text())["levels"] == \
         json.loads((tmp / "ref" / "logic_tree.json").read_text())["levels"]
+
+
+def test_kill_9_mid_branch_then_resume_gives_the_uninterrupted_files(ref):
+    """SIGKILL in the second run setting's production batch: nothing of the tree's outputs is written; the same
+    command then finishes from the batches' journals, and every batch file and logic_tree.json equal the
+    uninterrupted run's."""
+    tmp, args, _ = ref
+    out = tmp / "killed"
+    proc = subprocess.Popen(_cmd(args + ["--simulate", str(out)]), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            env=_env(), cwd=ROOT, start_new_session=True)
+    journal = out / "runs_01" / "batch_001.h5.journal"
+    t0 = time.time()
+    while proc.poll() is None and time.time() - t0 < 120:
+        if journal.exists() and journal.read_text().count("\n") > 10:
+            break
+        time.sleep(0.02)
+    assert proc.poll() is None, "the run ended before it could be killed"
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert not (out / "logic_tree.json").exists()
+    again = _run(args + ["--simulate", str(out)])
+    assert again.returncode in (0, 6), again.stdout + again.stderr
+    from pycolfrag.analysis.compare import compare_results
+    for g in ("runs_00", "runs_01"):
+        for n in sorted(x.name for x in (tmp / "ref" / g).glob("batch_*.h5")):
+            assert compare_results(tmp / "ref" / g / n, out / g / n).identical, (g, n)
+    assert json.loads((out / "logic_tree.json").read_text())["levels"] == \
+        json.loads((tmp / "ref" / "logic_tree.json").read_text())["levels"]
