@@ -342,3 +342,24 @@ def test_kill_9_mid_branch_then_resume_gives_the_uninterrupted_files(ref):
             assert compare_results(tmp / "ref" / g / n, out / g / n).identical, (g, n)
     assert json.loads((out / "logic_tree.json").read_text())["levels"] == \
         json.loads((tmp / "ref" / "logic_tree.json").read_text())["levels"]
+
+
+def test_a_tree_of_one_run_setting_is_the_single_simulation_file_for_file(tmp_path):
+    """A tree of site choices only (one run setting): its folder runs_00 holds the batch files of `--simulate`
+    without the tree, row for row, and its rate_factor-1 branch has the single simulation's estimate exactly."""
+    tree = tmp_path / "site_only.toml"
+    tree.write_text('[[branch_sets]]\nchoice = "rate_factor"\nbranches = [{value = 0.5, weight = 0.3}, '
+                    '{value = 1.0, weight = 0.7}]\n')
+    args = BASE + ["--batch", "20", "--max-runs", "60"]
+    single = _run(args + ["--simulate", str(tmp_path / "single")])
+    one = _run(args + ["--simulate", str(tmp_path / "tree"), "--logic-tree", str(tree)])
+    assert single.returncode == one.returncode, one.stdout + one.stderr
+    from pycolfrag.analysis.compare import compare_results
+    names = sorted(x.name for x in (tmp_path / "single").glob("batch_*.h5"))
+    assert names == sorted(x.name for x in (tmp_path / "tree" / "runs_00").glob("batch_*.h5"))
+    for n in names:
+        assert compare_results(tmp_path / "single" / n, tmp_path / "tree" / "runs_00" / n).identical, n
+    ref = json.loads((tmp_path / "single" / "risk.json").read_text())["levels"]
+    ends = json.loads((tmp_path / "tree" / "logic_tree.json").read_text())["end_branches"]
+    assert all(ends[1]["levels"][lb]["rate"] == ref[lb]["rate"] for lb in ref)
+    assert all(ends[0]["levels"][lb]["rate"] == pytest.approx(0.5 * ref[lb]["rate"], rel=1e-12) for lb in ref)
