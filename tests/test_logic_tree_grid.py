@@ -150,7 +150,7 @@ def test_sampled_trees_compute_each_path_once(files, tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("tree_text, match", [
     ('[[branch_sets]]\nchoice = "vp_scale"\nbranches = [{value = 1.0, weight = 0.5}, {value = 2.0, weight = 0.5}]\n',
-     r"'vp_scale' \(vp_scale\) change the runs.*rare-event route.*not done yet"),
+     r"'vp_scale' \(vp_scale\) change the runs.*rare-event route.*--simulate OUTDIR --logic-tree"),
     ('[[branch_sets]]\nchoice = "rate_factor"\nbranches = [{value = 1.0, weight = 0.5}, {value = 2.0, weight = 0.6}]\n',
      "sum to 1.1"),
     ('[[branch_sets]]\nchoice = "b"\nbranches = [{value = 1.0, weight = 1.0}]\n',
@@ -167,10 +167,12 @@ def test_command_refuses_a_bad_tree_before_any_risk(files, tmp_path, capsys, tre
     assert not (tmp_path / "out").exists()
 
 
-def test_simulate_with_a_tree_is_refused_as_not_done(files, capsys):
-    site, tree, _ = files
-    assert risk.main([str(site), "--simulate", "x", "--logic-tree", str(tree)]) == 2
-    assert "not done yet" in capsys.readouterr().err
+def test_simulate_with_a_tree_and_grid_files_is_refused(files, tmp_path, capsys):
+    """The tree on the rare-event route (tests/test_logic_tree_rare.py) takes no grid files beside it."""
+    site, tree, h5 = files
+    assert risk.main([str(site), h5, "--simulate", str(tmp_path / "x"), "--logic-tree", str(tree)]) == 2
+    assert "takes no grid files" in capsys.readouterr().out
+    assert not (tmp_path / "x").exists()
 
 
 def test_pulse_model_override_and_a_pulse_model_set_are_refused_together(files, tmp_path):

@@ -266,7 +266,8 @@ def estimate(cols: dict, strata, design, quantities, *, confidence: float = 0.90
     groups = _groups(h_all, ok, order, strata, keep)
     ess = np.full(len(strata), np.nan)
     for g in groups:
-        ess[g.h] = math.fsum(w[g.rows]) ** 2 / math.fsum(w[g.rows] ** 2) / g.rows.size
+        w2 = math.fsum(w[g.rows] ** 2)     # 0: every weight 0 (a re-weighted logic-tree branch outside this stratum)
+        ess[g.h] = math.fsum(w[g.rows]) ** 2 / w2 / g.rows.size if w2 > 0 else math.nan
     levels, contributions = {}, {}
     for q in quantities:
         y = np.where(ok, exceedances(sub, q), False)      # a failed row's outcome is unknown: bounded, not counted

@@ -132,9 +132,8 @@ def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     if any(x == "--simulate" or x.startswith("--simulate=") for x in argv):
         if any(x == "--logic-tree" or x.startswith("--logic-tree=") for x in argv):
-            print("pycolfrag risk: error: --logic-tree with --simulate (a tree's branches on the rare-event route) "
-                  "is not done yet: give the tree with the grid route (docs/logic_tree.md)", file=sys.stderr)
-            return 2
+            from pycolfrag.risk.tree_rare_run import main as tree_main  # the tree on the rare-event route
+            return tree_main(argv)
         return _simulate_main(argv)
     ap = _parser()
     a = ap.parse_args(argv)

@@ -10,7 +10,7 @@ computed beside them and written as the risk command writes it (``risk.md``, ``r
 adds ``logic_tree.md`` and ``logic_tree.json`` (:mod:`pycolfrag.risk.tree_report`).
 
 A tree with a set that changes the runs (``vp_scale``, the contact model, ...) is refused: its branches need
-runs of their own, with common random numbers, on the rare-event route -- not done yet.
+runs of their own, with common random numbers, on the rare-event route (:mod:`pycolfrag.risk.tree_rare_run`).
 """
 from __future__ import annotations
 
@@ -57,7 +57,8 @@ def _refuse_run_sets(tree: LogicTree, pulse_model, pulse_only) -> None:
         raise ParameterError(
             f"logic tree {tree.origin}: branch sets {', '.join(runs)} change the runs, which the grid route cannot "
             "give (it re-weights one grid's runs). Model-choice branches need their own runs with common random "
-            "numbers on the rare-event route (--simulate): not done yet (docs/logic_tree.md). Site choices (rate, "
+            "numbers: run the tree on the rare-event route, `risk SITE --simulate OUTDIR --logic-tree TREE` "
+            "(docs/logic_tree.md). Site choices (rate, "
             "rate_factor, b, m_max, pulse_model) work here")
     pulse_sets = [s.name for s in tree.branch_sets if s.choice.name == "pulse_model"]
     if pulse_sets and (pulse_model is not None or pulse_only):

@@ -1,0 +1,192 @@
+"""Several run settings simulated on the same events (common random numbers): the site simulation of
+:mod:`pycolfrag.rare.driver` run in lockstep over *groups* -- one folder and one
+:class:`~pycolfrag.rare.evaluator.RecordSettings` each (another pulse amplitude, pulse-period relation, contact
+model, joints, connectors: the run-changing branches of a logic tree, docs/logic_tree.md).
+
+Every group's runs are the same events: a run's inputs are the function of (seed, stage, stratum, index) of
+:mod:`pycolfrag.rare.plans`, so with one seed, one site (its strata), one design and the same per-stratum
+counts in every batch, every group draws the same Mw, R, pulse occurrence, pulse normals (z_vp, z_fp, z_nu,
+z_gamma: mapped to the pulse's parameters by each group's own vp_scale and period relation) and record noise
+seed. What makes that so:
+
+* the pilot (``batch_000``) is the same plan in every group (it depends on the seed and the strata alone);
+* the production mixture's shifts come from the pilot of the *lead* group (the first one that has a successful
+  pilot run: the caller puts the tree's first alternatives first), stored in every group's ``batch_001`` plan;
+* every production batch's counts are one allocation for all groups: the minimax-CoV Neyman rule of
+  :mod:`pycolfrag.rare.allocation` over every (group, level) pair, each group's steering model predicting its
+  own levels (a level whose prediction equals the same level's in an earlier group -- groups whose runs came
+  out the same -- counts once, so one group, or any number of identical ones, is allocated exactly as the
+  single simulation is);
+* the simulation stops when every group's requested levels have converged (or are unresolved at the target
+  CoV), or when the budget -- ``max_runs`` per group -- is spent.
+
+A group whose every pilot run failed is *dead*: it gets no further runs (they would fail too), is said, and
+its estimate marks every level unresolved. Resume: every group's plans are on disk before their runs; a batch
+plan written in one group before an interruption fixes the counts of that stage in the others. SIGTERM stops
+as a single simulation does (:class:`~pycolfrag.rare.evaluator.BatchStopped`): one handler for every group.
+Under MPI the other ranks serve every group's batches (:func:`serve_groups`).
+"""
+from __future__ import annotations
+
+import signal
+from contextlib import contextmanager
+
+import numpy as np
+
+from pycolfrag import results as _results
+from pycolfrag.core.errors import StaleBuildError
+from pycolfrag.grid.serve import sigterm_handler as _sigterm_handler
+from pycolfrag.rare import allocation as _alloc
+from pycolfrag.rare.driver import SiteRun, _cat, _ce_design, _check_same_run, _Run, _stop_reason, batch_name, failures
+from pycolfrag.rare.evaluator import GridEvaluator
+from pycolfrag.rare.proposal import PILOT_MIXTURE, Design
+
+__all__ = ["GroupEvaluator", "serve_groups", "sigterm_stops_all", "simulate_paired", "joint_counts"]
+
+
+class GroupEvaluator(GridEvaluator):
+    """A :class:`GridEvaluator` of one group: its messages to the other ranks name the group."""
+
+    def __init__(self, group: int, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.group = int(group)
+
+    def _command(self, msg: dict):
+        return super()._command({**msg, "group": self.group})
+
+
+def serve_groups(evaluators) -> None:
+    """Ranks > 0: compute every batch rank 0 asks for, with the group's own settings, until it closes."""
+    comm = evaluators[0].comm
+    with _sigterm_handler(signal.SIG_IGN):
+        while True:
+            msg = comm.bcast(None, root=0)
+            if msg["op"] == "stop":
+                return
+            try:
+                evaluators[msg["group"]]._run(msg)
+            except StaleBuildError:
+                continue      # refused on every rank before any row; rank 0 says why, then stops us
+
+
+@contextmanager
+def sigterm_stops_all(evaluators):
+    """Rank 0: a SIGTERM between batches stops every group before its next batch (as
+    :meth:`GridEvaluator.sigterm_stops` does for one)."""
+    def note(signum, frame):
+        for ev in evaluators:
+            ev.stop_asked = True
+        note.pcf_sigterm_pending = True
+
+    note.pcf_sigterm_pending = False
+    with _sigterm_handler(note):
+        yield evaluators
+
+
+def joint_counts(parts_by_group, strata, design, settings, requested, stage: int, used: int, events,
+                 size: int) -> dict:
+    """The ``size`` runs of production batch ``stage`` per stratum, one allocation for every group (module
+    docstring); with one group the driver's allocation, bit for bit."""
+    W = strata.rates
+    var_cols: list = []
+    lam_cols: list = []
+    kept: list = []
+    for parts in parts_by_group:
+        model = _alloc.SteeringModel(_cat(parts), requested)
+        rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
+        mean, var = _alloc.predicted_moments(strata, design.production, model, requested, rng, events)
+        lam = W @ mean
+        for j in range(var.shape[1]):
+            col = np.append(var[:, j], lam[j])
+            if any(k == j and np.array_equal(col, c) for k, c in kept):
+                continue                  # the same level predicted alike by an earlier group
+            kept.append((j, col))
+            var_cols.append(var[:, j])
+            lam_cols.append(lam[j])
+    cols = _cat(parts_by_group[0])
+    finished = np.asarray(cols["status"]) != _results.STATUS_PENDING
+    done = np.bincount(np.asarray(cols["stratum"])[finished], minlength=len(strata))
+    n, _ = _alloc.minimax_allocation(W, np.column_stack(var_cols), np.array(lam_cols), done, used + size)
+    new = _alloc.batch_counts(n, done, size)
+    return {int(h): int(k) for h, k in enumerate(new) if k > 0}
+
+
+def _pilot_dead(cols) -> bool:
+    failed, done, _ = failures(cols)
+    return bool(done) and failed == done
+
+
+def _design(runs, live, settings):
+    """The production design: stored in a group's batch_001 plan, else the lead group's cross-entropy step."""
+    for g in live:
+        stored = runs[g].ev.stored(batch_name(1))
+        if stored is not None:
+            _check_same_run(batch_name(1), stored[0], runs[g].fp)
+            return Design.from_dict(stored[0]["design"])
+    lead = runs[live[0]]
+    return _ce_design(lead.parts[0], lead.strata, settings, lead.requested)
+
+
+def _stored_counts(runs, live, stage: int):
+    """The counts of batch ``stage`` when any group has planned it (an interrupted stage), else None."""
+    for g in live:
+        stored = runs[g].ev.stored(batch_name(stage))
+        if stored is not None:
+            _check_same_run(batch_name(stage), stored[0], runs[g].fp)
+            return {int(h): int(n) for h, n in stored[0]["counts"]}
+    return None
+
+
+def _joint_stop(ests, runs, live, stop) -> str:
+    reasons = [_stop_reason(ests[g], runs[g].requested, stop) for g in live]
+    if all(r == "target" for r in reasons):
+        return "target"
+    return "budget" if "budget" in reasons else "failures"
+
+
+def simulate_paired(site, settings, stop, evaluators, quantities, log=print, names=None) -> list:
+    """Run (or resume, or read) the simulation of ``site`` for every group (one evaluator each, its own folder
+    and record settings) on the same events; rank 0 only. Returns one :class:`SiteRun` per group (a dead
+    group's holds its pilot). ``names``: the groups' names in what is said (default: group 0, 1, ...)."""
+    names = list(names or [f"group {g}" for g in range(len(evaluators))])
+    runs = [_Run(site, settings, stop, ev, quantities, (lambda s, n=n: log(f"[{n}] {s}"))) for ev, n in
+            zip(evaluators, names)]
+    pilot = {h: settings.pilot_per_stratum for h in range(len(runs[0].strata))}
+    for r in runs:
+        r.run_batch(0, *r.planned(0, pilot, PILOT_MIXTURE))
+    live = [g for g, r in enumerate(runs) if not _pilot_dead(r.parts[0])]
+    for g in sorted(set(range(len(runs))) - set(live)):
+        failed, done, text = failures(runs[g].parts[0])
+        log(f"[{names[g]}] every one of the pilot's {done} runs failed, e.g. {text}: this run setting gets no more "
+            "runs; its levels are unresolved in every output")
+    stage, stopped = 1, "budget"
+    if live:
+        design = _design(runs, live, settings)
+        for r in runs:
+            r.design = design
+        for note in design.notes:
+            log(f"cross-entropy step ({names[live[0]]}'s pilot): {note}")
+    while live:
+        ests = {g: runs[g].estimate() for g in live}
+        for g in live:
+            runs[g].report(stage - 1, ests[g])
+        lead = runs[live[0]]
+        if lead.batches[-1]["limit"] < lead.batches[-1]["planned"]:
+            break                                      # the budget cut this batch
+        used = sum(b["runs"] for b in lead.batches)
+        counts = _stored_counts(runs, live, stage)
+        if counts is None:
+            stopped = _joint_stop(ests, runs, live, stop)
+            if stopped != "budget" or used >= stop.max_runs:
+                break
+            counts = joint_counts([runs[g].parts for g in live], lead.strata, lead.design, settings, lead.requested,
+                                  stage, used, lead.steering_events(), min(settings.batch, stop.max_runs - used))
+        for g in live:
+            runs[g].run_batch(stage, *runs[g].planned(stage, counts, runs[g].design.production))
+        stage += 1
+    out = []
+    for g, r in enumerate(runs):
+        est = r.estimate()
+        out.append(SiteRun(site, r.strata, r.design, settings, stop, r.quantities, r.requested, _cat(r.parts), est,
+                           stopped if g in live else "failures", r.batches, r.history, record=r.ev.record))
+    return out

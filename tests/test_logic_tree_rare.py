@@ -1,0 +1,365 @@
+"""A logic tree on the rare-event route (pycolfrag/rare/paired.py, pycolfrag/risk/tree_rare*.py; docs/logic_tree.md).
+
+Two kinds of test:
+
+* the surrogate column of tests/rare_surrogate.py (outcomes in closed form, no solver, no files): a run setting
+  is a :class:`Scaled` surrogate whose pulse motions are ``scale`` times stronger (u_top x scale), so that
+  branches differ as a pulse amplitude's do. Expected numbers are identities (a tree of identical branches is
+  the one-branch simulation bit for bit; a rate_factor branch is the factor times the estimate, to round-off)
+  or the surrogate's exact rates (scipy quadrature, independent of the strata and weights);
+* the command with real runs on the tiny site of tests/test_rare_site_plumbing.py (four strata, the two-drum
+  column, records cut to 8 s: about 10 ms a run): the event inputs stored per run identical between the run
+  settings' folders, SIGTERM (exit 75) and resume bitwise, a changed tree refused, a weights-only change
+  re-weighted without new runs.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.rare.driver import SiteSettings, StopRule, simulate_site
+from pycolfrag.rare.evaluator import RecordSettings
+from pycolfrag.rare.paired import simulate_paired
+from pycolfrag.risk import site_risk as risk
+from pycolfrag.risk import tree_rare_report
+from pycolfrag.risk import tree_stats as ts
+from pycolfrag.risk.logic_tree import tree_from_dict
+from pycolfrag.risk.site_risk import QUANTITIES
+from pycolfrag.risk.tree_apply import check_tree
+from pycolfrag.risk.tree_rare import check_reweighting, run_groups, tree_of_runs
+from pycolfrag.site.sources import site_from_dict
+from rare_surrogate import COLLAPSE_AT, SurrogateEvaluator, _pending, columns, exact_rates
+from test_rare_site_plumbing import BASE, _cmd, _env, _run
+
+ROOT = Path(__file__).resolve().parents[1]
+PULSE = {"model": "shahi_baker_2014", "mechanism": "non-strike-slip", "s_km": 5.0, "angle_deg": 30.0}
+SMALL = dict(mw_step=0.5, r_edges_km=(5.0, 10.0))
+
+
+def site_dict(b=1.0, m_max=6.5, pulse=None) -> dict:
+    """The two-source site of tests/test_rare_site.py (14 strata with SMALL's bins)."""
+    return {"name": "small", "outside": "refuse", "pulse": dict(pulse or PULSE), "sources": [
+        {"name": "fault", "rate": 0.002, "magnitude": {"type": "characteristic", "mw": 6.5},
+         "distance": {"type": "uniform", "min_km": 5.0, "max_km": 10.0}},
+        {"name": "background", "rate": 0.02, "magnitude": {"type": "gutenberg-richter", "b": b, "m_min": 5.5,
+                                                           "m_max": m_max},
+         "distance": {"type": "area", "min_km": 3.0, "max_km": 20.0}}]}
+
+
+class Scaled(SurrogateEvaluator):
+    """The surrogate with pulse motions ``scale`` times stronger (a run setting of its own)."""
+
+    def __init__(self, scale: float = 1.0, fail_at: float = math.inf):
+        super().__init__(fail_at)
+        self.scale = scale
+        self.record = RecordSettings(vp_scale=scale)
+
+    def evaluate(self, name, inputs, purpose, limit=None):
+        self.plans.setdefault(name, (purpose, list(inputs)))
+        cols = columns(self.plans[name][1])
+        pulse = cols["pulse"].astype(bool)
+        for k in ("u_top", "u_d"):
+            cols[k] = np.where(pulse, cols[k] * self.scale, cols[k])
+        fail = cols["u_top"] >= self.fail_at
+        cols["collapsed"] = ((cols["u_top"] >= COLLAPSE_AT) & ~fail).astype(np.uint8)
+        cols["status"] = np.where(fail, 3, 0).astype(np.int32)
+        for k in ("u_top", "u_d"):
+            cols[k] = np.where(fail, np.nan, cols[k])
+        return _pending(cols, len(inputs) if limit is None else limit)
+
+
+def _tree(sets) -> object:
+    return tree_from_dict({"branch_sets": sets}, "test tree")
+
+
+def _paired(tree, d, evaluators, settings, stop):
+    checked = check_tree(tree, d, "small")
+    groups = run_groups(checked, RecordSettings())
+    assert len(groups) == len(evaluators)
+    site = site_from_dict(d, "small")
+    runs = simulate_paired(site, settings, stop, evaluators, QUANTITIES, log=lambda s: None)
+    return tree_of_runs(tree, checked.ends, checked.sites, groups, runs, (50.0,)), runs
+
+
+SETTINGS = SiteSettings(seed=7, batch=200, **SMALL)
+STOP = StopRule(0.01, 670)
+
+
+def test_a_tree_of_identical_branches_gives_the_one_branch_estimate_exactly():
+    """Three run settings (friction 30, 35 and 40 degrees) that the surrogate computes alike: every batch is planned as
+    the single simulation's (the joint allocation counts a level predicted alike once), so each branch's estimate
+    and the tree's mean and quantiles are the single simulation's bit for bit."""
+    d = site_dict()
+    single = simulate_site(site_from_dict(d, "small"), SETTINGS, STOP, Scaled(), QUANTITIES, log=lambda s: None)
+    tree = _tree([{"choice": "joint_friction_deg", "branches": [{"value": 30.0, "weight": 0.3},
+                                                                 {"value": 35.0, "weight": 0.3},
+                                                                 {"value": 40.0, "weight": 0.4}]}])
+    tr, runs = _paired(tree, d, [Scaled(), Scaled(), Scaled()], SETTINGS, STOP)
+    for run in runs:
+        assert run.runs == single.runs == 670
+        assert [b["runs"] for b in run.batches] == [b["runs"] for b in single.batches]
+    for q in QUANTITIES:
+        one = single.estimate.levels[q.label]
+        assert all(e.levels[q.label].as_dict() == one.as_dict() for e in tr.estimates)
+        assert tr.stats[q.label]["mean"] == one.rate
+        assert all(v == one.rate for v in tr.stats[q.label]["quantiles"].values())
+
+
+def test_two_branches_that_differ_see_the_same_events():
+    """vp_scale 1 and 2 on the surrogate: every batch of both has the same plan purpose (counts, design) and the
+    same event inputs run for run (Mw, R, noise seed, every tag: stratum, index, z_vp, z_fp, z_nu, z_gamma, the
+    weights); only the pulse's parameters (its amplitude) differ. Their estimates differ, paired."""
+    tree = _tree([{"choice": "vp_scale", "branches": [{"value": 1.0, "weight": 0.5}, {"value": 2.0, "weight": 0.5}]}])
+    a, b = Scaled(1.0), Scaled(2.0)
+    tr, runs = _paired(tree, site_dict(), [a, b], SETTINGS, STOP)
+    assert sorted(a.plans) == sorted(b.plans) and len(a.plans) >= 3
+    for name in a.plans:
+        (pa, ia), (pb, ib) = a.plans[name], b.plans[name]
+        assert pa == pb
+        assert [{k: v for k, v in x.items() if k != "pulse"} for x in ia] == \
+               [{k: v for k, v in x.items() if k != "pulse"} for x in ib]
+        vp = [(x["pulse"]["Vp_cm_s"], y["pulse"]["Vp_cm_s"]) for x, y in zip(ia, ib) if x["pulse"]]
+        assert vp and all(y == pytest.approx(2 * x, rel=1e-12) for x, y in vp)
+    ra, rb = (r.estimate.levels["collapse"].rate for r in runs)
+    assert rb > 2 * ra
+    assert tr.stats["collapse"]["tornado"][0]["swing"] == pytest.approx(rb - ra, rel=1e-12)
+
+
+def test_site_branches_are_re_weighted_exactly_and_without_bias():
+    """A rate_factor branch is the factor times its run's estimate (to round-off: the same rows, their weights
+    scaled); branches of b, Mmax (lower) and the pulse-occurrence model re-weight the same rows by the event
+    density ratio: over 12 simulations their mean is within 3 standard errors of the surrogate's exact rates of
+    the branch's own site (scipy quadrature)."""
+    d = site_dict()
+    tree = _tree([
+        {"choice": "rate_factor", "sources": ["fault"], "branches": [{"value": 0.5, "weight": 0.5},
+                                                                    {"value": 1.0, "weight": 0.5}]},
+        {"choice": "b", "branches": [{"value": 1.0, "weight": 0.5}, {"value": 0.8, "weight": 0.5}]},
+        {"choice": "m_max", "branches": [{"value": 6.5, "weight": 0.5}, {"value": 6.2, "weight": 0.5}]},
+        {"choice": "pulse_model", "branches": [{"value": PULSE, "weight": 0.5},
+                                               {"value": {"probability": 0.2}, "weight": 0.5}]}])
+    checked = check_tree(tree, d, "small")
+    # the last end branch: the fault x 1, b 0.8, Mmax 6.2, pulse probability 0.2
+    exact = exact_rates(checked.sites[-1], QUANTITIES)
+    reps, rates = 12, []
+    for i in range(reps):
+        tr, runs = _paired(tree, d, [Scaled()], SiteSettings(seed=100 + i, batch=200, **SMALL), STOP)
+        rates.append([tr.estimates[-1].levels[q.label].rate for q in QUANTITIES])
+        assert tr.estimates[0].levels["collapse"].rate == pytest.approx(
+            runs[0].estimate.levels["collapse"].rate - 0.5 * _fault_part(tr, runs[0]), rel=1e-12)
+    rates_a = np.array(rates)
+    for j, q in enumerate(QUANTITIES):
+        sd = rates_a[:, j].std(ddof=1) / math.sqrt(reps)
+        assert abs(rates_a[:, j].mean() - exact[q.label]) <= 3 * sd, q.label
+
+
+def _fault_part(tr, run) -> float:
+    """The fault's share of collapse in ``run``: the estimate with the background's rows weighted 0."""
+    from pycolfrag.rare.estimate import estimate
+    keep = np.asarray(run.cols["source"]) == 0
+    cols = {**run.cols, "occurrence_weight": np.where(keep, run.cols["occurrence_weight"], 0.0)}
+    return estimate(cols, run.strata, run.design, run.quantities).levels["collapse"].rate
+
+
+def test_a_branch_beyond_the_simulated_site_is_refused_before_any_run():
+    site = site_from_dict(site_dict(), "small")
+    wider = site_from_dict(site_dict(m_max=6.8), "small")
+    with pytest.raises(ParameterError, match="'m_max=6.8'.*reach beyond the simulated site"):
+        check_reweighting(site, wider, "m_max=6.8", 0.5, (5.0, 10.0))
+
+
+def test_a_branch_whose_runs_fail_is_counted_and_marked():
+    """vp_scale 3 on a surrogate that fails its strongest motions (u_top >= 2): its failed runs are counted per end
+    branch, the tree's mean of every level is bounded by the failed runs as none and as exceeding, and logic_tree.md
+    says FAILED; a run setting whose every pilot run fails gets no more runs and the others go on."""
+    tree = _tree([{"choice": "vp_scale", "branches": [{"value": 1.0, "weight": 0.5}, {"value": 3.0, "weight": 0.5}]}])
+    tr, runs = _paired(tree, site_dict(), [Scaled(1.0), Scaled(3.0, fail_at=2.0)], SETTINGS, STOP)
+    assert tr.failed(0) == 0 and tr.failed(1) > 0
+    lo, hi = tr.stats["collapse"]["failed_bounds"]
+    assert lo < hi
+    md = tree_rare_report.markdown(tr)
+    assert "FAILED RUNS" in md and f"| **{tr.failed(1)}** |" in md
+    tr, runs = _paired(tree, site_dict(), [Scaled(1.0), Scaled(3.0, fail_at=1e-9)], SETTINGS, STOP)
+    assert runs[0].runs == 670 and runs[1].runs == 14 * SETTINGS.pilot_per_stratum
+    assert "every pilot run failed" in tree_rare_report.markdown(tr)
+
+
+# --------------------------------------------------------------------------- the command, real runs
+
+TREE = """[[branch_sets]]
+name = "amplitude"
+choice = "vp_scale"
+branches = [{value = 1.0, weight = 0.6, name = "eq6"}, {value = 2.0, weight = 0.4, name = "x2"}]
+
+[[branch_sets]]
+choice = "rate_factor"
+branches = [{value = 0.5, weight = 0.3}, {value = 1.0, weight = 0.7}]
+"""
+EVENT_COLUMNS = ("stage", "stratum", "index", "mw", "dist_km", "hf_seed", "z_vp", "z_fp", "z_nu", "z_gamma", "weight")
+
+
+def _columns(path: Path) -> dict:
+    with h5py.File(path, "r") as f:
+        return {k: f["samples"][k][()] for k in f["samples"]}
+
+
+@pytest.fixture(scope="module")
+def ref(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("tree_rare")
+    (tmp / "tree.toml").write_text(TREE)
+    args = BASE + ["--batch", "150", "--max-runs", "170", "--logic-tree", str(tmp / "tree.toml")]
+    p = _run(args + ["--simulate", str(tmp / "ref")])
+    assert p.returncode in (0, 6), p.stdout + p.stderr
+    return tmp, args, p
+
+
+def test_the_command_stores_the_same_events_in_every_run_settings_folder(ref):
+    tmp, _, p = ref
+    out = tmp / "ref"
+    names = sorted(x.name for x in (out / "runs_00").glob("batch_*.h5"))
+    assert names == sorted(x.name for x in (out / "runs_01").glob("batch_*.h5")) and len(names) == 2
+    for n in names:
+        a, b = _columns(out / "runs_00" / n), _columns(out / "runs_01" / n)
+        for k in EVENT_COLUMNS:
+            assert np.array_equal(a[k], b[k], equal_nan=True), (n, k)
+        pulse = a["pulse"].astype(bool)
+        assert np.allclose(b["vp_cm_s"][pulse], 2 * a["vp_cm_s"][pulse], rtol=1e-12)
+    tree = json.loads((out / "logic_tree.json").read_text())
+    assert [e["folder"] for e in tree["end_branches"]] == ["runs_00", "runs_00", "runs_01", "runs_01"]
+    assert set(tree["levels"]["collapse"]["quantiles"]) == {"0.05", "0.16", "0.5", "0.84", "0.95"}
+    assert (out / "runs_00" / "risk.json").exists() and "matters most for collapse" in p.stdout
+
+
+def test_sigterm_mid_branch_exits_75_and_the_resume_is_bitwise(ref):
+    """SIGTERM while the second run setting's production batch runs: exit 75; the same command then finishes, and
+    every batch file and logic_tree.json equal the uninterrupted run's."""
+    tmp, args, _ = ref
+    out = tmp / "stopped"
+    proc = subprocess.Popen(_cmd(args + ["--simulate", str(out)]), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, env={**_env(), "PYTHONPATH": str(ROOT) + os.pathsep + str(ROOT / "tests")},
+                            cwd=ROOT, start_new_session=True)
+    journal = out / "runs_01" / "batch_001.h5.journal"
+    t0 = time.time()
+    while proc.poll() is None and time.time() - t0 < 120:
+        if journal.exists() and journal.read_text().count("\n") > 10:
+            break
+        time.sleep(0.02)
+    assert proc.poll() is None, "the run ended before it could be stopped"
+    proc.send_signal(signal.SIGTERM)
+    text = proc.communicate(timeout=120)[0]
+    assert proc.returncode == 75, text
+    assert not (out / "logic_tree.json").exists()
+    again = _run(args + ["--simulate", str(out)])
+    assert again.returncode in (0, 6), again.stdout + again.stderr
+    from pycolfrag.analysis.compare import compare_results
+    for g in ("runs_00", "runs_01"):
+        for n in sorted(x.name for x in (tmp / "ref" / g).glob("batch_*.h5")):
+            assert compare_results(tmp / "ref" / g / n, out / g / n).identical, (g, n)
+    assert json.loads((out / "logic_tree.json").read_text())["levels"] == \
+        json.loads((tmp / "ref" / "logic_tree.json").read_text())["levels"]
+
+
+def test_a_changed_tree_is_refused_and_new_weights_are_re_weighted(ref):
+    tmp, args, _ = ref
+    out = tmp / "reweighted"
+    shutil.copytree(tmp / "ref", out)
+    before = {x: x.read_bytes() for x in out.rglob("batch_*")}
+    changed = tmp / "changed.toml"
+    changed.write_text(TREE.replace("value = 2.0", "value = 3.0"))
+    p = _run([a if a != str(tmp / "tree.toml") else str(changed) for a in args] + ["--simulate", str(out)])
+    assert p.returncode == 2 and "another logic tree" in p.stdout and "3.0" in p.stdout, p.stdout
+    weights = tmp / "weights.toml"
+    weights.write_text(TREE.replace("weight = 0.6", "weight = 0.5").replace("weight = 0.4", "weight = 0.5"))
+    p = _run([a if a != str(tmp / "tree.toml") else str(weights) for a in args] + ["--simulate", str(out)])
+    assert p.returncode in (0, 6) and "weights changed" in p.stdout and "no new runs" in p.stdout, p.stdout + p.stderr
+    assert {x: x.read_bytes() for x in out.rglob("batch_*")} == before
+    tree = json.loads((out / "logic_tree.json").read_text())
+    rates = [e["levels"]["collapse"]["rate"] for e in tree["end_branches"]]
+    w = [0.5 * 0.3, 0.5 * 0.7, 0.5 * 0.3, 0.5 * 0.7]
+    assert tree["levels"]["collapse"]["mean"] == pytest.approx(float(ts.weighted_mean(rates, w)), rel=1e-12)
+
+
+def test_a_branch_the_models_refuse_is_named_before_any_run(tmp_path, capsys):
+    tree = tmp_path / "bad.toml"
+    tree.write_text('[[branch_sets]]\nchoice = "contact"\nbranches = [{value = "vertex", weight = 0.5}, '
+                    '{value = {contact = "vertex", points_per_edge = 4}, weight = 0.5}]\n')
+    code = risk.main([str(ROOT / "tests" / "data" / "site_rare_tiny.toml"), "--simulate", str(tmp_path / "out"),
+                      "--logic-tree", str(tree), "--no-progress"])
+    assert code == 2
+    assert "logic tree branch 'contact=" in capsys.readouterr().out
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.mpi
+def test_two_mpi_ranks_give_the_one_rank_files(ref):
+    """The other rank serves every run setting's batches (pycolfrag.rare.paired.serve_groups): the same rows bit for
+    bit and the same tree as one process."""
+    tmp, args, p1 = ref
+    p2 = _run(args + ["--simulate", str(tmp / "two")], ranks=2)
+    assert p2.returncode == p1.returncode, p2.stdout + p2.stderr
+    from pycolfrag.analysis.compare import compare_results
+    for g in ("runs_00", "runs_01"):
+        for n in sorted(x.name for x in (tmp / "ref" / g).glob("batch_*.h5")):
+            assert compare_results(tmp / "ref" / g / n, tmp / "two" / g / n).identical, (g, n)
+    assert json.loads((tmp / "two" / "logic_tree.json").read_text())["levels"] == \
+        json.loads((tmp / "ref" / "logic_tree.json").read_text())["levels"]
+
+
+def test_kill_9_mid_branch_then_resume_gives_the_uninterrupted_files(ref):
+    """SIGKILL in the second run setting's production batch: nothing of the tree's outputs is written; the same
+    command then finishes from the batches' journals, and every batch file and logic_tree.json equal the
+    uninterrupted run's."""
+    tmp, args, _ = ref
+    out = tmp / "killed"
+    proc = subprocess.Popen(_cmd(args + ["--simulate", str(out)]), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            env=_env(), cwd=ROOT, start_new_session=True)
+    journal = out / "runs_01" / "batch_001.h5.journal"
+    t0 = time.time()
+    while proc.poll() is None and time.time() - t0 < 120:
+        if journal.exists() and journal.read_text().count("\n") > 10:
+            break
+        time.sleep(0.02)
+    assert proc.poll() is None, "the run ended before it could be killed"
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert not (out / "logic_tree.json").exists()
+    again = _run(args + ["--simulate", str(out)])
+    assert again.returncode in (0, 6), again.stdout + again.stderr
+    from pycolfrag.analysis.compare import compare_results
+    for g in ("runs_00", "runs_01"):
+        for n in sorted(x.name for x in (tmp / "ref" / g).glob("batch_*.h5")):
+            assert compare_results(tmp / "ref" / g / n, out / g / n).identical, (g, n)
+    assert json.loads((out / "logic_tree.json").read_text())["levels"] == \
+        json.loads((tmp / "ref" / "logic_tree.json").read_text())["levels"]
+
+
+def test_a_tree_of_one_run_setting_is_the_single_simulation_file_for_file(tmp_path):
+    """A tree of site choices only (one run setting): its folder runs_00 holds the batch files of `--simulate`
+    without the tree, row for row, and its rate_factor-1 branch has the single simulation's estimate exactly."""
+    tree = tmp_path / "site_only.toml"
+    tree.write_text('[[branch_sets]]\nchoice = "rate_factor"\nbranches = [{value = 0.5, weight = 0.3}, '
+                    '{value = 1.0, weight = 0.7}]\n')
+    args = BASE + ["--batch", "20", "--max-runs", "60"]
+    single = _run(args + ["--simulate", str(tmp_path / "single")])
+    one = _run(args + ["--simulate", str(tmp_path / "tree"), "--logic-tree", str(tree)])
+    assert single.returncode == one.returncode, one.stdout + one.stderr
+    from pycolfrag.analysis.compare import compare_results
+    names = sorted(x.name for x in (tmp_path / "single").glob("batch_*.h5"))
+    assert names == sorted(x.name for x in (tmp_path / "tree" / "runs_00").glob("batch_*.h5"))
+    for n in names:
+        assert compare_results(tmp_path / "single" / n, tmp_path / "tree" / "runs_00" / n).identical, n
+    ref = json.loads((tmp_path / "single" / "risk.json").read_text())["levels"]
+    ends = json.loads((tmp_path / "tree" / "logic_tree.json").read_text())["end_branches"]
+    assert all(ends[1]["levels"][lb]["rate"] == ref[lb]["rate"] for lb in ref)
+    assert all(ends[0]["levels"][lb]["rate"] == pytest.approx(0.5 * ref[lb]["rate"], rel=1e-12) for lb in ref)
