@@ -33,7 +33,7 @@ const char *cf_common_status_name(int status);
 const char *cf_common_version(void);
 
 /* SHA-256 (64 hex digits) of the sources this library was compiled from (csrc/ *.c, *.h, flags.mk,
- * pycolfrag/_build.py, pycolfrag/data/constants.json: pycolfrag/_source_digest.py), computed by
+ * pycolfrag/_build.py, pycolfrag/data/constants.json: pycolfrag/core/source_digest.py), computed by
  * the extension's build (the macro CF_SOURCE_DIGEST); "none" for a build without it (the C tests).
  * Results are signed by it: it names the binary that runs, not the sources on disk. */
 const char *cf_common_source_digest(void);

@@ -214,7 +214,7 @@ typedef struct {
                                                    * its initial clearance, m); 0 beyond them */
 } cf_solver_connector;
 
-/* The registry of connector laws, read by Python (pycolfrag/connector_laws.py) and the docs: how many,
+/* The registry of connector laws, read by Python (pycolfrag/structure/connector_laws.py) and the docs: how many,
  * each one's name and one-sentence doc, and its own values (name, range, default, unit, doc; the
  * range is checked by the law's own check, with its message). NULL / 0 out of range. */
 int cf_solver_connector_law_count(void);

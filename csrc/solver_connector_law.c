@@ -1,7 +1,7 @@
 /*
  * solver_connector_law.c -- the registry of connector laws (kinds of shear law): a connector's `kind`
  * is an index into this table, and the kind's check at set-up, the names, docs and values that Python
- * reads (pycolfrag/connector_laws.py) and the law's text at every step are taken from it. Each entry
+ * reads (pycolfrag/structure/connector_laws.py) and the law's text at every step are taken from it. Each entry
  * owns its values (declared as data), their checks, its state at rest, its shear force and its yield
  * displacement (cf_connector_law, connector_law.h). A new law is its own .c file defining its entry,
  * and one line in CF_CONNECTOR_LAWS here. The order is that of CF_SOLVER_CONNECTOR_* (solver.h).

@@ -1,7 +1,7 @@
 /*
  * solver_contact_model.c -- the registry of contact models: the definition's `contact`
  * field is an index into this table, and the range check of cf_solver_check_def, the
- * contact option's names in Python (pycolfrag/options.py) and their documentation are read
+ * contact option's names in Python (pycolfrag/solver/options.py) and their documentation are read
  * from it, as are each model's own options (solver_options.c). Each entry owns its options,
  * its state (create, reset, free), its stiffness for the stability limit and its step hook
  * (cf_solver_contact_model, solver_internal.h). A new model is its own .c file defining its

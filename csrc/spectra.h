@@ -13,7 +13,7 @@
  * samples of the cumulative (Husid) integral.
  *
  * Stateless functions: no object holds a message, so they return CF_EINVAL for a
- * bad argument and the Python layer (pycolfrag/intensity.py) names the value
+ * bad argument and the Python layer (pycolfrag/ground_motion/intensity.py) names the value
  * before calling. Nothing prints, exits or aborts.
  */
 #ifndef CF_SPECTRA_H

@@ -130,7 +130,7 @@ def test_degenerate_fits_are_refused_unless_asked_for_and_then_marked(tmp_path, 
     warned = [ln for ln in io.err.splitlines() if "warning:" in ln and "steps_per_interval > 1" not in ln]
     assert len(warned) == 2, warned                  # one per cause: separable, beta on its bound (and the
     # continuous export's steps_per_interval warning, test_the_wide_export_warns_of_openquakes_linear_levels)
-    assert warned[0].startswith("pycolfrag.analysis.openquake: warning: 3 limit-state fit(s): the exceeding runs")
+    assert warned[0].startswith("pycolfrag openquake: warning: 3 limit-state fit(s): the exceeding runs")
     [back] = oq.read_nrml(out).values()
     assert back.description.count("DEGENERATE fit of") == 3
     assert len(back.notes) == 3 and back.notes[0].startswith("DEGENERATE fit of damage_limitation (not an estimate): "

@@ -5,8 +5,10 @@
     pycolfrag --help                                          # the commands, one line each
 
 Each command is the ``main(argv)`` of the module that owns it, imported only when that command runs
-(:data:`COMMANDS`), so ``pycolfrag --help`` loads none of the analysis; the old commands
-(``scripts/run_grid.py``, ``python -m pycolfrag.risk.site_risk``, ...) stay and do the same. Every command
+(:data:`COMMANDS`), so ``pycolfrag --help`` loads none of the analysis; the other ways in
+(``scripts/run_grid.py``, ``python -m pycolfrag.risk.site_risk``, ...) do the same. The ``python -m`` entries
+of the modules that moved when the package was laid out by layer (2026-12-06: ``pycolfrag.analysis.risk``,
+``pycolfrag.analysis.openquake``, ...) moved with them (docs/architecture.md, "Where the modules went"). Every command
 lives in the package, so an installed wheel (no checkout, no ``scripts/``) has all of them; the scripts of
 a checkout are thin wrappers over :func:`main`. Every command runs here with one BLAS thread, or the user's
 ``OPENBLAS_NUM_THREADS``/``OMP_NUM_THREADS`` (:mod:`pycolfrag.core.threads`: numpy is loaded before any command,
@@ -103,7 +105,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="pycolfrag", formatter_class=_ListingFormatter,
         description="Seismic fragility of multidrum classical columns. Under MPI: "
                     "mpirun -n N python -m mpi4py -m pycolfrag grid ...",
-        epilog=f"commands:\n{listing}\n\nthe same as the older commands:\n{same}\n\n"
+        epilog=f"commands:\n{listing}\n\nthe same, by the script or module behind each:\n{same}\n\n"
                "'pycolfrag COMMAND --help' gives a command's options.")
     p.add_argument("--version", action="version", version=f"pycolfrag {__version__}")
     p.add_argument("command", choices=list(COMMANDS), metavar="COMMAND", help="the command to run (below)")

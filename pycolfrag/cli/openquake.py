@@ -141,10 +141,10 @@ def main(argv=None) -> int:
             _export(args) if args.cmd == "export" else _damage(args)
             code = 0
         except (PycolfragError, OSError) as exc:
-            print(f"pycolfrag.analysis.openquake: {exc}", file=sys.stderr)
+            print(f"pycolfrag openquake: {exc}", file=sys.stderr)
             code = 2
     for w in seen:
-        print(f"pycolfrag.analysis.openquake: warning: {w.message}", file=sys.stderr)
+        print(f"pycolfrag openquake: warning: {w.message}", file=sys.stderr)
     return code
 
 

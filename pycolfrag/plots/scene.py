@@ -30,7 +30,7 @@ __all__ = ["is_scene", "first_column", "rest_faces", "limits", "joint_labels", "
 
 
 def is_scene(model) -> bool:
-    """A structure of a kind other than the column's (structures.py), whose parts the plots draw."""
+    """A structure of a kind other than the column's (structure/kinds.py), whose parts the plots draw."""
     from pycolfrag.structure.kinds import BY_CLASS  # here: the structures only when a model is asked about
     kind = BY_CLASS[type(model)]
     return kind is not None and kind.name != "column"

@@ -18,9 +18,9 @@ A pulse-only answer is given only when it is asked for explicitly (``model = "pu
 ``--pulse-only``) and every output says so.
 
 The parts, one module each: the rate weights of the grid's scenarios and the interpolation
-(:mod:`.risk_weights`), the cells' estimates and draws (:mod:`.risk_cells`), the interval methods
-(:mod:`.risk_uncertainty`, a registry), the checks of Eq. (4) (:mod:`.risk_fit`), the checks of the
-files (:mod:`.risk_branches`), the report and files (:mod:`.risk_report`).
+(:mod:`.weights`), the cells' estimates and draws (:mod:`.cells`), the interval methods
+(:mod:`.uncertainty`, a registry), the checks of Eq. (4) (:mod:`.fit`), the checks of the
+files (:mod:`.branches`), the report and files (:mod:`.report`).
 
 The command line (``pycolfrag risk``) is :mod:`pycolfrag.risk.site_risk`, which also dispatches to the
 logic tree (:mod:`.tree_grid`) and the simulation; this module computes, so that both import it and not
@@ -331,7 +331,7 @@ def site_risk(site, pulse_results, no_pulse_results=None, *, pulse_only=False, e
 
 def _identity(branches) -> dict:
     """Per branch: its seed, its code identity, its successful runs and how many collapsed, and every code that
-    wrote its rows with the rows of each (:mod:`.codes`; more than one after ``--allow-code-change``)."""
+    wrote its rows with the rows of each (:mod:`pycolfrag.analysis.codes`; more than one after ``--allow-code-change``)."""
     return {b: {"seed": None if d.attrs.get("seed") is None else str(d.attrs.get("seed")),
                 "code": None if code_identity(d.attrs) is None else str(code_identity(d.attrs)[1]),
                 "runs": d.n, "collapses": int(np.sum(np.asarray(d["collapsed"], dtype=bool))),

@@ -3,7 +3,7 @@ its rates with their CoV and intervals, the diagnostics of its weights, the effi
 Monte Carlo, and -- when the grid's results are given -- the grid-convolution route beside it.
 
 Like with like: the grid's runs must be runs of the simulated model -- the same column or scene, solver options,
-records, pulse model and meaning of the seeds (:mod:`.risk_rare_like`; a two-drum simulation beside a Parthenon
+records, pulse model and meaning of the seeds (:mod:`.rare_like`; a two-drum simulation beside a Parthenon
 grid is refused, naming the column) --, and the grid route integrates the fragility surface over the grid's
 range only (with the site file's ``outside = "zero"``), so the event-based estimate is restricted to the strata
 inside the grid's range (whole strata: the grid's Mw and R limits are bin edges) for the comparison, and the two
@@ -113,7 +113,7 @@ def grid_route(args, site, settings, site_risk, record=None) -> dict:
     """The grid route beside the simulation (``{"zero": SiteRisk, "clamp": SiteRisk}``), computed from the
     parsed arguments before any run, so that grid files that cannot serve -- missing, incomplete, of other
     branches, runs of another model than the simulation's ``record`` settings (column, solver options,
-    records, pulse model, seeds' meaning: :func:`~.risk_rare_like.check_like_with_like`), or a range that
+    records, pulse model, seeds' meaning: :func:`~.rare_like.check_like_with_like`), or a range that
     cuts the strata of ``site`` and ``settings`` -- are refused before the simulation, not after it
     (ParameterError or the reader's error). ``site_risk``: :func:`pycolfrag.risk.site_risk.site_risk`."""
     if args.results is None:
@@ -142,7 +142,7 @@ def compare_with_grid(run, risk_zero, risk_clamp) -> GridComparison:
     """The comparison of a :class:`~pycolfrag.rare.driver.SiteRun` with the grid route's two site risks
     (:func:`pycolfrag.risk.site_risk.site_risk` with ``outside`` zero and clamp). The grid's Mw and R
     limits must be bin edges of the strata (else ParameterError saying which edges to add), and the grid's runs
-    runs of the simulated model (:func:`~.risk_rare_like.check_like_with_like`: column, solver options, records,
+    runs of the simulated model (:func:`~.rare_like.check_like_with_like`: column, solver options, records,
     pulse model, seeds' meaning; else ParameterError naming each difference)."""
     if getattr(run, "record", None) is not None:
         check_like_with_like(run.record, risk_zero.files)

@@ -96,7 +96,7 @@ def _parser():
 
 def _simulate_main(argv) -> int:
     """``--simulate OUTDIR``: the event-based simulation (:mod:`pycolfrag.rare`, on every rank), then on rank 0
-    the grid route beside it when its results are given, and the report (:mod:`.risk_rare`)."""
+    the grid route beside it when its results are given, and the report (:mod:`.rare_route`)."""
     from pycolfrag.risk import rare_route as risk_rare  # here: only this form of the command needs it
     from pycolfrag.risk.simulate import EXIT_ARGS, run_simulation
     ap = risk_rare.build_parser()
@@ -132,8 +132,8 @@ def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     if any(x == "--simulate" or x.startswith("--simulate=") for x in argv):
         if any(x == "--logic-tree" or x.startswith("--logic-tree=") for x in argv):
-            from pycolfrag.risk.tree_rare_run import main as tree_main  # the tree on the rare-event route
-            return tree_main(argv)
+            from pycolfrag.risk.tree_rare_run import run as run_tree_simulation  # the tree on the rare-event route
+            return run_tree_simulation(argv)
         return _simulate_main(argv)
     ap = _parser()
     a = ap.parse_args(argv)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import sys
 import tomllib
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -44,7 +45,7 @@ def site_dict_of(path) -> dict:
 
 def _tree_of(site_path, site_dict: dict, tree_path) -> LogicTree:
     """The tree of ``--logic-tree``: a file of its own, or the site file itself (its ``[logic_tree]``)."""
-    if str(tree_path) == str(site_path):
+    if Path(tree_path).resolve() == Path(site_path).resolve():   # ./site.toml is site.toml
         if "logic_tree" not in site_dict:
             raise ParameterError(f"--logic-tree {tree_path}: the site file has no [logic_tree] table")
         return tree_from_dict(site_dict["logic_tree"], str(tree_path))
@@ -132,8 +133,8 @@ def tree_risk(site, tree, pulse_results, no_pulse_results=None, **options) -> Tr
     checked = check_tree(lt, site_dict, str(site))
     pulse = as_data(pulse_results)
     no_pulse = None if no_pulse_results is None else as_data(no_pulse_results)
-    options = {**options, "curves": False}
-    base = site_risk(str(site), pulse, no_pulse, **options)
+    base = site_risk(str(site), pulse, no_pulse, **{**options, "curves": True})   # the single model, as the command writes it
+    options = {**options, "curves": False}     # the branches: their rates alone
     done: dict = {}
     for end, s in zip(checked.ends, checked.sites):
         if end.index not in done:

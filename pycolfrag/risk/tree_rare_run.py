@@ -107,7 +107,7 @@ def _simulate(a, p, comm, size, log, argv):
     return _exit_code(runs, [g.folder for g in p["groups"]], log), runs
 
 
-def main(argv) -> int:
+def run(argv) -> int:
     """The command on every rank; the exit code (module docstring)."""
     from pycolfrag.risk import rare_route, tree_rare_report
     from pycolfrag.risk.tree_rare import check_folder, tree_of_runs

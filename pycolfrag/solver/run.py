@@ -226,7 +226,7 @@ def _motion(acc_x, dt, acc_y, acc_z, what: str = "") -> tuple:
 
 
 def _model(col) -> structures.StructureKind:
-    """The kind of a structure (the registry's line of its class, read as data: structures.py)."""
+    """The kind of a structure (the registry's line of its class, read as data: structure/kinds.py)."""
     kind = structures.BY_CLASS[type(col)]
     if kind is None:
         raise ParameterError(f"col must be {structures.ACCEPTED}, got {type(col).__name__}")
@@ -265,7 +265,7 @@ def _setup(col, options, overrides, caller):
         d.foundation_tilt_rad = math.radians(col.foundation_tilt_deg)   # checked by Column (pycolfrag/structure/foundation.py)
         d.foundation_tilt_azimuth_rad = math.radians(col.foundation_tilt_azimuth_deg)
     if plain and as_built.any_as_built(col):   # a plain column as built (pycolfrag/structure/as_built.py)
-        as_built.setup(solver, d, col, monolithic, caller)
+        scene_run.setup_as_built(solver, d, col, monolithic, caller)
     else:
         scene_run.setup(solver, d, parts, caller)
     if options.dt_solver is not None:

@@ -16,9 +16,10 @@ import numpy as np
 
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.core.ffi import check, ffi, lib, ptr, segment_arrays
+from pycolfrag.structure import as_built
 from pycolfrag.structure.scene_parts import SceneParts
 
-__all__ = ["parts_of", "setup", "Outputs", "EDP_DEFAULTS"]
+__all__ = ["parts_of", "setup", "setup_as_built", "Outputs", "EDP_DEFAULTS"]
 
 #: The scene EDPs of a :class:`~pycolfrag.solver.run.Response` and their value where the scene has no
 #: such part (no dowels, no epistyles): NaN, the quantity does not exist.
@@ -131,3 +132,18 @@ class Outputs:
         return {"connector_energy": {"connector_stored": self.h_en[:n, 0].copy(),
                                      "connector_dissipated": self.h_en[:n, 1].copy()},
                 "dowels": self.h_dowel[:n].copy()}
+
+
+def setup_as_built(solver, d, col, monolithic: bool, caller: str) -> None:
+    """Set up the C solver for a plain column placed as built (``cf_solver_setup_as_built``: offsets, turns,
+    chipped faces, missing parts; :mod:`pycolfrag.structure.as_built`): the one set-up beside :func:`setup`,
+    which every other structure, an aligned plain column included, goes through."""
+    if monolithic:
+        as_built.refuse(col, caller, "are not for a monolithic run (one body)")
+    segs, nseg = segment_arrays(col.blocks)
+    props = [col.joint(i) for i in range(col.n_blocks)]
+    kn, ks, mu = (np.array([getattr(p, k) for p in props]) for k in ("kn", "ks", "mu"))
+    place = as_built.placement_array(col)
+    st = lib.cf_solver_setup_as_built(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks),
+                                      ptr(mu), ptr(place))
+    check(st, lib.cf_solver_message(solver), caller)

@@ -30,8 +30,7 @@ import math
 import numpy as np
 
 from pycolfrag.core.errors import ParameterError
-from pycolfrag.core.ffi import check as _check
-from pycolfrag.core.ffi import ffi, lib, ptr, segment_arrays
+from pycolfrag.core.ffi import ffi, lib, segment_arrays
 from pycolfrag.core.validate import real
 
 #: the column file's block keys this module reads
@@ -282,20 +281,7 @@ def refuse(col, caller: str, why: str) -> None:
 
 
 def any_as_built(col) -> bool:
-    """Whether a block of ``col`` is placed, chipped or missing a part: :func:`setup` is its set-up."""
+    """Whether a block of ``col`` is placed, chipped or missing a part (its set-up in C:
+    :func:`pycolfrag.solver.scene_setup.setup_as_built`)."""
     return any(b.offset != (0.0, 0.0) or b.rotation_deg or b.bottom_annulus != (0.0, 0.0) or b.missing_part
                for b in col.blocks)
-
-
-def setup(solver, d, col, monolithic: bool, caller: str) -> None:
-    """Set up the C solver for the plain column col placed as built (cf_solver_setup_as_built); every other
-    structure, an aligned plain column included, is set up by :func:`pycolfrag.solver.scene_setup.setup`."""
-    if monolithic:
-        refuse(col, caller, "are not for a monolithic run (one body)")
-    segs, nseg = segment_arrays(col.blocks)
-    props = [col.joint(i) for i in range(col.n_blocks)]
-    kn, ks, mu = (np.array([getattr(p, k) for p in props]) for k in ("kn", "ks", "mu"))
-    place = placement_array(col)
-    st = lib.cf_solver_setup_as_built(solver, d, col.n_blocks, nseg, segs, col.density, ptr(kn), ptr(ks),
-                                      ptr(mu), ptr(place))
-    _check(st, lib.cf_solver_message(solver), caller)

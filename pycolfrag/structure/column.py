@@ -155,7 +155,7 @@ class Segment:
 
 @dataclass(frozen=True)
 class Block:
-    """One rigid body: segments stacked from the bottom up (at least one), as built (:mod:`pycolfrag.as_built`)."""
+    """One rigid body: segments stacked from the bottom up (at least one), as built (:mod:`pycolfrag.structure.as_built`)."""
 
     segments: tuple
     name: str = ""
@@ -330,7 +330,7 @@ class Column:
         """Every dowel as (joint, x, y, law): the connectors expanded, in their order."""
         return [(j, x, y, c.law) for c in self.connectors for j in c.joint_list(self.n_blocks) for x, y in c.positions()]
 
-    def scene_parts(self) -> SceneParts:   # the Structure contract (structures.py): a one-column scene
+    def scene_parts(self) -> SceneParts:   # the Structure contract (structure/kinds.py): a one-column scene
         return SceneParts([(self, 0.0, 0.0)], dowels=self.dowels())
 
     def with_connectors(self, *connectors) -> "Column":

@@ -5,7 +5,7 @@
 the one text that hands them to C (``cf_solver_setup_scene``).
 
 Plain data without imports from the package: the structures (``column.py``, ``scene.py``) make it
-and the run (``scene_run.py``, ``solver.py``) reads it.
+and the run (``solver/scene_setup.py``, ``solver/run.py``) reads it.
 """
 from __future__ import annotations
 

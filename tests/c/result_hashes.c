@@ -219,7 +219,7 @@ static int batch(const config *c, int early_exit)
 
 /* 0: the default column with one titanium-like dowel at the centre of every joint (a one-column
  * scene); 1: two default columns 4 m apart with an epistyle 5.73 x 1.73 x 1.35 m bearing on both
- * abaci whole (the example portal of pycolfrag.scene.Colonnade.portal(2)) */
+ * abaci whole (the example portal of pycolfrag.structure.scene.Colonnade.portal(2)) */
 typedef struct {
     cf_geometry_segment seg[2 * (NB + 1)];
     int nseg[2 * NB];
