@@ -25,7 +25,7 @@ from pycolfrag.rare.paired import GroupEvaluator, serve_groups, sigterm_stops_al
 from pycolfrag.risk import simulate as _sim
 from pycolfrag.site.models import PulseOnly
 
-__all__ = ["prepare", "main"]
+__all__ = ["prepare", "run"]
 
 
 def _overridden(site, a):
