@@ -255,6 +255,12 @@ def _p(x) -> tuple[float, float]:
     return p, math.sqrt(p * (1.0 - p) / x.size)
 
 
+def _paired(d) -> tuple[float, float]:
+    """The mean of paired differences and its standard error."""
+    d = np.asarray(d, dtype=float)
+    return float(d.mean()), (float(d.std(ddof=1) / math.sqrt(d.size)) if d.size > 1 else math.nan)
+
+
 def summarize(run: dict) -> dict:
     """The numbers of a :func:`run_site_sequences` run (see the module's text); every probability as
     ``(p, standard error)``."""
@@ -271,6 +277,8 @@ def summarize(run: dict) -> dict:
             t = np.array([o.first_yr[w][i] for o in outs])
             row[w] = _p(np.isfinite(t))
             row[f"{w}_median_yr"] = float(np.median(t[np.isfinite(t)])) if np.isfinite(t).any() else math.nan
+        hit = {w: np.isfinite([o.first_yr[w][i] for o in outs]).astype(float) for w in ("accumulated", "intact")}
+        row["difference"] = _paired(hit["accumulated"] - hit["intact"])
         levels.append(row)
     n_events = np.array([len(o.events) for o in outs])
     restor = np.array([o.restorations for o in outs], dtype=float)
@@ -281,7 +289,7 @@ def summarize(run: dict) -> dict:
         "dropped_outside": int(sum(e.outside for o in outs for e in o.events)),
         "runs": int(sum(o.runs for o in outs)), "wall_s": run["wall_s"],
         "p_collapse": {w: _p(col[w]) for w in WAYS},
-        "collapse_difference": (float(diff.mean()), float(diff.std(ddof=1) / math.sqrt(n)) if n > 1 else math.nan),
+        "collapse_difference": _paired(diff),
         "u_d_end_quantiles": {q: float(np.quantile(u_end, q, method="inverted_cdf")) for q in (0.5, 0.9, 0.99)},
         "u_d_end_mean_standing": float(u_end[np.isfinite(u_end)].mean()) if np.isfinite(u_end).any() else math.nan,
         "tilt_end_quantiles_rad": {q: float(np.quantile(tilt_end, q, method="inverted_cdf"))
@@ -317,9 +325,9 @@ def format_summary(sm: dict, title: str = "") -> str:
              + f"; mean over standing columns {sm['u_d_end_mean_standing']:.4g}",
              "Residual tilt at the horizon, rad: "
              + ", ".join(f"q{int(q * 100)} {v:.3g}" for q, v in sm["tilt_end_quantiles_rad"].items()), "",
-             f"| level | P(exceeded within {sm['years']:g} yr): accumulated | intact | restored "
-             "| median years to the first (accumulated) |", "|---|---|---|---|---|"]
+             f"| level | P(exceeded within {sm['years']:g} yr): accumulated | intact | paired difference | restored "
+             "| median years to the first (accumulated) |", "|---|---|---|---|---|---|"]
     for row in sm["levels"]:
         lines.append(f"| {row['level']} ({row['name']}) | {_pct(row['accumulated'])} | {_pct(row['intact'])} | "
-                     f"{_pct(row['restored'])} | {row['accumulated_median_yr']:.1f} |")
+                     f"{_pct(row['difference'])} | {_pct(row['restored'])} | {row['accumulated_median_yr']:.1f} |")
     return "\n".join(lines)
