@@ -121,3 +121,18 @@ def test_a_state_of_another_model_is_refused():
     other = COL.with_joints(friction_deg=30.0)
     with pytest.raises(ParameterError, match="initial_state belongs to another"):
         run_sequence(other, [R1], initial_state=run_sequence(COL, [R1]).final_state)
+
+
+def test_a_restoration_of_an_as_built_column_returns_it_to_its_as_built_rest():
+    # the example as-built column (drums offset and turned): reassembled means back as built, not aligned
+    from pathlib import Path
+    built = pcf.Column.from_file(Path(__file__).resolve().parents[1] / "examples" / "column_as_built.json")
+    seq = run_sequence(built, [R1, R2], restoration=Restoration(u_d=1e-9))
+    assert seq.restorations == 2
+    alone = pcf.simulate(built, *R2)
+    assert seq.events[1].u_d == alone.u_d and seq.events[1].u_top == alone.u_top
+    # from a given initial state (here: after R1, settled) a restoration returns to that state
+    start = run_sequence(built, [R1]).final_state
+    again = run_sequence(built, [R2, R2], restoration=Restoration(u_d=1e-9), initial_state=start)
+    first = pcf.simulate(built, *R2, initial_state=start)
+    assert again.events[1].u_d == first.u_d and again.restorations == 2

@@ -144,8 +144,9 @@ class EventResult:
 @dataclass
 class SequenceResult:
     """A sequence's events (up to its collapse), its end state (None after a collapse), and the count of
-    restorations; ``accumulated_u_d`` and ``tilt_rad`` are those of the end state (0 when the last event
-    was followed by a restoration, NaN after a collapse)."""
+    restorations; ``accumulated_u_d`` and ``tilt_rad`` are those of the end state (NaN after a collapse;
+    when the last event was followed by a restoration: 0 from the as-built rest, and from a given
+    ``initial_state`` its tilt and NaN for its u_d, which is its run's, not kept)."""
 
     events: list
     final_state: State | None
