@@ -269,6 +269,7 @@ def summarize(run: dict) -> dict:
     col = {w: np.array([o.collapsed[w] for o in outs], dtype=float) for w in WAYS}
     diff = col["accumulated"] - col["intact"]
     u_end = np.array([math.inf if o.collapsed["accumulated"] else o.u_d_end["accumulated"] for o in outs])
+    u_end_r = np.array([math.inf if o.collapsed["restored"] else o.u_d_end["restored"] for o in outs])
     tilt_end = np.array([math.inf if o.collapsed["accumulated"] else o.tilt_end["accumulated"] for o in outs])
     levels = []
     for i, lv in enumerate(PERFORMANCE_LEVELS):
@@ -291,6 +292,7 @@ def summarize(run: dict) -> dict:
         "p_collapse": {w: _p(col[w]) for w in WAYS},
         "collapse_difference": _paired(diff),
         "u_d_end_quantiles": {q: float(np.quantile(u_end, q, method="inverted_cdf")) for q in (0.5, 0.9, 0.99)},
+        "u_d_end_quantiles_restored": {q: float(np.quantile(u_end_r, q, method="inverted_cdf")) for q in (0.5, 0.9, 0.99)},
         "u_d_end_mean_standing": float(u_end[np.isfinite(u_end)].mean()) if np.isfinite(u_end).any() else math.nan,
         "tilt_end_quantiles_rad": {q: float(np.quantile(tilt_end, q, method="inverted_cdf"))
                                    for q in (0.5, 0.9, 0.99)},
@@ -322,7 +324,8 @@ def format_summary(sm: dict, title: str = "") -> str:
              f"{_pct(sm['restorations_per_sequence'])}, P(at least one) {_pct(sm['p_restored'])}", "",
              "Accumulated u_d at the horizon (collapse counted as inf): "
              + ", ".join(f"q{int(q * 100)} {v:.4g}" for q, v in sm["u_d_end_quantiles"].items())
-             + f"; mean over standing columns {sm['u_d_end_mean_standing']:.4g}",
+             + f"; mean over standing columns {sm['u_d_end_mean_standing']:.4g}; with restoration: "
+             + ", ".join(f"q{int(q * 100)} {v:.4g}" for q, v in sm["u_d_end_quantiles_restored"].items()),
              "Residual tilt at the horizon, rad: "
              + ", ".join(f"q{int(q * 100)} {v:.3g}" for q, v in sm["tilt_end_quantiles_rad"].items()), "",
              f"| level | P(exceeded within {sm['years']:g} yr): accumulated | intact | paired difference | restored "
