@@ -136,3 +136,14 @@ def test_a_site_beyond_the_models_is_refused_unless_outside_is_zero():
         sq.run_site_sequences(site(outside="refuse", near_r=(5.0, 90.0)), COL, sq.SequenceSettings(n_sequences=1))
     with pytest.raises(ParameterError, match="settings must be a SequenceSettings"):
         sq.run_site_sequences(site(), COL, {"years": 50})
+
+
+def test_an_events_run_is_the_grids_synthetic_row_bitwise():
+    # the record of an event, with or without its pulse, is the grid's row's (run_synthetic_sample)
+    from pycolfrag.solver.sample import run_synthetic_sample
+    evs = [e for s in range(12) for e in sq.sequence_events(site(), 10.0, 2, s, PM, RANGES)]
+    picked = [next(e for e in evs if e.pulse is None), next(e for e in evs if e.pulse is not None)]
+    for e in picked:
+        row = run_synthetic_sample(COL, e.mw, e.r_km, e.hf_seed, e.pulse, with_pulse=e.pulse is not None)
+        res = pcf.simulate(COL, sq._motion(e, sq.SequenceSettings()))
+        assert (row["u_d"], row["u_top"], row["collapsed"]) == (res.u_d, res.u_top, int(res.collapsed))
