@@ -136,3 +136,22 @@ def test_a_restoration_of_an_as_built_column_returns_it_to_its_as_built_rest():
     again = run_sequence(built, [R2, R2], restoration=Restoration(u_d=1e-9), initial_state=start)
     first = pcf.simulate(built, *R2, initial_state=start)
     assert again.events[1].u_d == first.u_d and again.restorations == 2
+
+
+def test_the_peak_of_an_event_alone_and_the_sequences_peak():
+    # R2 (0.4 g) then R1 (0.3 g): the sequence's peak after R1 is R2's, R1's own peak is smaller. R1's own
+    # peak is checked against the continued run's history (the top's displacement from the rest, sampled
+    # every 0.01 s: at most the peak, and within 1 % of it at this sampling), and the sequence's final
+    # state is still the continuation chain's bit for bit
+    seq = run_sequence(COL, [R2, R1], settle=None)
+    r1 = pcf.simulate(COL, *R2)
+    r2 = pcf.simulate(COL, *R1, initial_state=r1.final_state)
+    r2h = pcf.simulate(COL, *R1, initial_state=r1.final_state, history=True)   # a history changes the state's counts
+    e1, e2 = seq.events
+    from pycolfrag.solver import sequence
+    assert r1.final_state.values[sequence._PEAK] == r1.max_top_disp   # where the state keeps the peak
+    assert e1.u_top_event == e1.u_top == r1.u_top
+    assert e2.u_top == r2.u_top == r1.u_top > e2.u_top_event
+    sampled = float(np.max(np.hypot(*r2h.history.top_disp.T))) / COL.base_diameter
+    assert sampled <= e2.u_top_event < sampled * 1.01
+    assert same(seq.final_state.values, r2.final_state.values)

@@ -18,6 +18,7 @@ hand (tests/test_sequence_runs.py).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -27,6 +28,7 @@ from pycolfrag.core.errors import ParameterError
 from pycolfrag.ground_motion.record import Record
 from pycolfrag.solver import run as _run  # through the module, as sample.py calls it
 from pycolfrag.solver.state import State
+from pycolfrag.structure.column import Column
 
 __all__ = ["Restoration", "NO_RESTORATION", "Settle", "EventResult", "SequenceResult", "run_sequence", "at_rest",
            "tilt_rad", "model_height"]
@@ -127,7 +129,10 @@ class EventResult:
     collapse; ``u_d_rest`` and ``tilt_rad`` the accumulated measures of the state the next event starts
     from (after the settling run; NaN after a collapse), ``at_rest`` whether that state is at rest,
     ``restored`` whether the policy then reassembled the structure. ``response`` is the event run's
-    :class:`~pycolfrag.solver.run.Response`, ``settled`` the settling run's (None without one)."""
+    :class:`~pycolfrag.solver.run.Response` (for a plain column continued from a state, its ``u_top`` is
+    the event's own), ``settled`` the settling run's (None without one). ``u_top_event``: the peak of the
+    event alone (the top's displacement from the as-built rest, over the base diameter), for a plain
+    column (and the first event from rest of any model); NaN otherwise."""
 
     index: int
     u_top: float
@@ -139,6 +144,7 @@ class EventResult:
     restored: bool
     response: object = field(repr=False, default=None)
     settled: object = field(repr=False, default=None)
+    u_top_event: float = math.nan
 
 
 @dataclass
@@ -158,6 +164,42 @@ class SequenceResult:
     @property
     def collapse_event(self) -> int | None:
         return self.events[-1].index if self.collapsed else None
+
+
+#: Where a state holds the monitor's running peak of the top's displacement (m) of a plain column: the
+#: header's 22 values, then the monitor's, of which it is the 11th (csrc/solver_state.c, ``mon[10]``).
+_PEAK = 22 + 10
+
+
+def _peak_kept(model) -> bool:
+    """Whether ``model``'s runs keep their top's peak at :data:`_PEAK` (a plain column: a scene and a column
+    with dowels keep it per column)."""
+    return isinstance(model, Column) and not model.connectors
+
+
+def _with_peak(state: State | None, peak: float | None) -> State | None:
+    """``state`` with its running peak set to ``peak`` (None: unchanged)."""
+    if state is None or peak is None:
+        return state
+    v = state.values.copy()
+    v[_PEAK] = peak
+    return dataclasses.replace(state, values=v)
+
+
+def _event_run(model, rec, state, options, overrides):
+    """An event's run, the peak u_top of the event alone (NaN where the model does not keep it apart) and
+    the sequence's peak u_top up to its end. For a plain column the run starts from ``state`` with its
+    running peak at 0, and its final state gets the larger of the two back: the same bits as the run from
+    ``state`` as it is (the monitor keeps the larger of its running value and each step's; nothing else
+    reads it)."""
+    if state is None or not _peak_kept(model):
+        res = _simulate(model, rec, state, options, overrides)
+        return res, (float(res.u_top) if state is None else math.nan), float(res.u_top)
+    before = float(state.values[_PEAK])
+    res = _simulate(model, rec, _with_peak(state, 0.0), options, overrides)
+    if res.final_state is not None:
+        res.final_state = _with_peak(res.final_state, max(before, float(res.final_state.values[_PEAK])))
+    return res, float(res.u_top), max(before / model.base_diameter, float(res.u_top))
 
 
 def _records(records) -> list:
@@ -218,7 +260,7 @@ def run_sequence(model, records, *, restoration: Restoration = NO_RESTORATION, s
     state, events, restored_count = initial_state, [], 0
     u_d_acc, tilt = math.nan, math.nan
     for k, rec in enumerate(recs):
-        res = _simulate(model, rec, state, options, overrides)
+        res, u_top_event, peak = _event_run(model, rec, state, options, overrides)
         last = res
         settled = None
         if not res.collapsed and settle is not None:
@@ -226,8 +268,8 @@ def run_sequence(model, records, *, restoration: Restoration = NO_RESTORATION, s
         collapsed = bool(last.collapsed)
         state, u_d_acc, tilt, still = _measures(last, height, settle.rest_speed if settle else Settle.rest_speed)
         restore = (not collapsed) and restoration.due(u_d_acc, tilt)
-        events.append(EventResult(k, float(last.u_top), float(res.u_d), collapsed, u_d_acc, tilt, still, restore,
-                                  res, settled))
+        events.append(EventResult(k, max(peak, float(last.u_top)), float(res.u_d), collapsed, u_d_acc, tilt, still,
+                                  restore, res, settled, u_top_event))
         if collapsed:
             break
         if restore:
