@@ -7,6 +7,7 @@
 #   make risk    site risk (annual rates, 50-year probabilities) of an example site (docs/risk.md)
 #   make risk-docs  the example's branches and the numbers of docs/risk.md (scripts/risk_example.py)
 #   make risk-rare  the example site by event-based simulation, beside the grid route (docs/rare_events.md)
+#   make risk-sequences  50-year sequences of mainshocks at the example site, with and without accumulated damage (docs/sequences.md)
 #   make restoration  the restoration study of docs/restoration.md (scripts/restoration_study.py)
 include csrc/flags.mk
 
@@ -21,7 +22,7 @@ GRID_ARGS ?=
 # Open MPI refuses root without these; set only for our own commands.
 MPIENV  := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 
-.PHONY: setup system build ctest ctest-bin ctest-asan pytest test lint grid analysis figures validation records risk risk-docs risk-rare restoration bench clean
+.PHONY: setup system build ctest ctest-bin ctest-asan pytest test lint grid analysis figures validation records risk risk-docs risk-rare risk-sequences restoration bench clean
 
 setup: system .venv/.installed build
 
@@ -191,6 +192,16 @@ risk-rare: risk
 	$(MPIENV) mpirun --allow-run-as-root -n $(NRANKS) $(PY) -m mpi4py -m pycolfrag risk $(SITE) $(RISK_DIR)/pulse.h5 \
 	  --no-pulse $(RISK_DIR)/nopulse.h5 --simulate $(RARE_DIR) --target-cov $(RARE_COV) --max-runs $(RARE_MAX_RUNS) \
 	  --no-progress
+
+# Sequences of mainshocks at the example site (docs/sequences.md, "Sequences at a site"): SEQ_N sequences of
+# SEQ_YEARS years by crude Monte Carlo, each run with accumulated damage, on the intact column and with a
+# restoration policy (reassemble when u_d > 0.005); about 0.2 s per sequence on one core. SEQ_ARGS=--quick: 50.
+SEQ_N     ?= 1000
+SEQ_YEARS ?= 50
+SEQ_ARGS  ?=
+risk-sequences: setup
+	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(PY) bench/sequences_site.py --site $(SITE) --n $(SEQ_N) \
+	  --years $(SEQ_YEARS) --json $(RISK_DIR)/sequences/summary.json $(SEQ_ARGS)
 
 # The restoration study (docs/restoration.md): the default column free, with titanium and with wooden
 # dowels, and in a two-column portal, on one reduced grid with and without pulses (a few CPU-minutes
