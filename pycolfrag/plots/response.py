@@ -39,6 +39,7 @@ from pycolfrag.core.validate import finite_float, integer, positive_float, real
 from pycolfrag.plots import scene as plots_scene
 from pycolfrag.plots.base import _axes, _history, _mark_collapse
 from pycolfrag.solver import run as _solver
+from pycolfrag.structure import as_built
 
 __all__ = [
     "U_TOP_LEVELS", "U_D_LEVELS", "plot_top_displacement", "plot_joint_openings", "plot_joint_slips",
@@ -283,18 +284,23 @@ def _rest_faces(col):
     out = []
     for z0, blk in zip(col.joint_heights, col.blocks):
         faces, z = [], z0
+        (dx, dy), turn = blk.offset, math.radians(blk.rotation_deg)   # as built (pycolfrag/structure/as_built.py)
         for s in blk.segments:
-            ang = s.phase_rad + 2.0 * math.pi * np.arange(s.n_sides) / s.n_sides
+            ang = s.phase_rad + turn + 2.0 * math.pi * np.arange(s.n_sides) / s.n_sides
             c, sn = np.cos(ang), np.sin(ang)
-            bot = np.column_stack([s.r_bottom * c, s.r_bottom * sn, np.full(s.n_sides, z)])
-            top = np.column_stack([s.r_top * c, s.r_top * sn, np.full(s.n_sides, z + s.height)])
+            bot = np.column_stack([dx + s.r_bottom * c, dy + s.r_bottom * sn, np.full(s.n_sides, z)])
+            top = np.column_stack([dx + s.r_top * c, dy + s.r_top * sn, np.full(s.n_sides, z + s.height)])
             faces.append(bot)
             faces.append(top)
             for k in range(s.n_sides):
                 k1 = (k + 1) % s.n_sides
                 faces.append(np.array([bot[k], bot[k1], top[k1], top[k]]))
             z += s.height
-        out.append((faces, np.array([0.0, 0.0, z0 + blk.centroid_height])))
+        com = np.array([dx, dy, z0 + blk.centroid_height])
+        if blk.missing_part:   # the centre of mass the solver's body has (C: solver_stack.c, in the column's axes)
+            _, (cx, cy, cz), _ = as_built.mass_props(blk, col.density)
+            com = np.array([dx + cx, dy + cy, z0 + cz])
+        out.append((faces, com))
     return out
 
 
