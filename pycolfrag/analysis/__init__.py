@@ -7,12 +7,11 @@
 * :mod:`~pycolfrag.analysis.figures`, :mod:`~pycolfrag.analysis.report`, :mod:`~pycolfrag.analysis.validation`
   -- the paper's figures, the markdown report, docs/validation.md;
 * :mod:`~pycolfrag.analysis.record_report`, :mod:`~pycolfrag.analysis.record_figures` -- record suites;
-* :mod:`~pycolfrag.risk.site_risk` (with its parts ``risk_weights``, ``risk_cells``, ``risk_uncertainty``,
-  ``risk_fit``, ``risk_branches``, ``risk_report``, ``risk_coverage``), :mod:`~pycolfrag.risk.figures`,
-  :mod:`~pycolfrag.analysis.openquake` -- site risk, OpenQuake hazard curves in and fragility models out;
+* :mod:`~pycolfrag.analysis.openquake` -- OpenQuake hazard curves in and fragility models out (site risk itself,
+  which reads these, is the layer above: :mod:`pycolfrag.risk`);
 * :mod:`~pycolfrag.analysis.compare` -- two results files, row by row.
 
-No module here imports the grid driver, and the statistics (``fragility``, ``summary``, ``data``) import
+No module here imports the grid driver, the rare-event estimator or the site risk, and the statistics (``fragility``, ``summary``, ``data``) import
 no C binding (tests/test_analysis_package.py). ``import pycolfrag`` loads ``fragility`` (the public
 ``pcf.fragility``) and nothing else of this package.
 """
