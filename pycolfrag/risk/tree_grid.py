@@ -170,7 +170,7 @@ def run_tree(a, prog: str) -> int:
                        outside=a.outside, years=a.years, n_draws=a.draws, rng=a.seed,
                        allow_incomplete=a.allow_incomplete)
         write_outputs(tr.base, a.outdir, figures=not a.no_figures)
-        paths = tree_report.write_tree_outputs(tr, a.outdir)
+        paths = tree_report.write_tree_outputs(tr, a.outdir, figures=not a.no_figures)
     except PycolfragError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
