@@ -148,3 +148,39 @@ def test_summary_says_when_the_runs_matter_more_than_any_choice():
     assert d["estimation_share"] == pytest.approx(4 / 5.0225, rel=1e-12)
     assert d["top_share"] == "pulse amplitude"
     assert "more runs narrow the answer" in "\n".join(summary_lines(tr))
+
+
+def test_rare_route_tree_figures_and_summary_from_its_statistics(tmp_path):
+    """The rare-event route's tree (the surrogate of tests/test_logic_tree_rare.py, vp_scale 1 and 2 on the same
+    events): the figures' JSON holds its statistics as computed, and the summary names the amplitude (the only
+    set) with the measurement that settles it."""
+    from test_logic_tree_rare import SETTINGS, STOP, Scaled, _paired, _tree, site_dict
+    tree = _tree([{"name": "pulse amplitude", "choice": "vp_scale",
+                   "branches": [{"value": 1.0, "weight": 0.6}, {"value": 2.0, "weight": 0.4}]}])
+    tr, _ = _paired(tree, site_dict(), [Scaled(1.0), Scaled(2.0)], SETTINGS, STOP)
+    paths = tree_figures.write_figures(tr, tmp_path)
+    data = json.loads((tmp_path / "logic_tree_figures.json").read_text())
+    assert set(paths) == {"tornado", "bands", "data"} and all((tmp_path / n).is_file() for n in tree_figures.FILES.values())
+    s = tr.stats["collapse"]
+    assert data["tornado"]["collapse"]["bars"][0]["swing"] == s["tornado"][0]["swing"] > 0
+    assert data["bands"]["collapse"]["0.84"] == s["quantiles"][0.84]
+    d = summary(tr)
+    assert d["top_share"] == "pulse amplitude" and d["mean"] == s["mean"]
+    from pycolfrag.risk import tree_rare_report
+    md = tree_rare_report.markdown(tr)
+    assert md.index("## Summary") < md.index("## Annual rates") and "near-fault pulse records" in md
+
+
+def test_rare_route_command_writes_the_tree_figures(tmp_path):
+    """The command with real runs (tests/test_rare_site_plumbing.py's tiny site, 40 runs per run setting) and
+    without --no-figures writes the tree's figures beside logic_tree.md."""
+    from test_rare_site_plumbing import BASE, _run
+    tree = tmp_path / "tree.toml"
+    tree.write_text('[[branch_sets]]\nchoice = "vp_scale"\nbranches = [{value = 1.0, weight = 0.6}, '
+                    '{value = 1.5, weight = 0.4}]\n')
+    args = [a for a in BASE if a != "--no-figures"] + ["--batch", "20", "--max-runs", "40"]
+    p = _run(args + ["--simulate", str(tmp_path / "out"), "--logic-tree", str(tree)])
+    assert p.returncode in (0, 6), p.stdout + p.stderr
+    for name in ("logic_tree.md", *tree_figures.FILES.values()):
+        assert (tmp_path / "out" / name).is_file(), name
+    assert (tmp_path / "out" / "logic_tree.md").read_text().index("## Summary") < 200
