@@ -98,6 +98,9 @@ def test_command_writes_the_figures_and_the_summary_on_top(files, tmp_path):
     md = (out / "logic_tree.md").read_text()
     assert md.index("## Summary") < md.index("## Annual rates over the tree")
     assert js["summary"]["mean"] == js["levels"]["collapse"]["mean"]
+    # every quantile's estimation error is stated (tree_quantile_error; its numbers: test_logic_tree_quantile_error)
+    assert all(js["levels"]["collapse"]["quantile_error"]["sd"][q] > 0 for q in ("0.05", "0.16", "0.5", "0.84", "0.95"))
+    assert "+- " in md.split("## Annual rates over the tree")[1].split("## Probability")[0]
     out2 = tmp_path / "out2"
     assert risk.main([str(site), h5, str(out2), "--no-pulse", nop, "--logic-tree", str(tree), "--draws", "50",
                       "--no-figures"]) == 0

@@ -86,8 +86,7 @@ def markdown(tr) -> str:
     head = _head(tr)
     body = (head[:2] + summary_lines(tr) + head[2:] + _level_table(tr) + _tr._prob_table(tr) + _failed_lines(tr) + _tr._split_lines(tr, "collapse")
             + _branch_table(tr) + _groups(tr))
-    body += ["Not done yet (docs/logic_tree.md): the estimation error of each quantile (the mean's is a bound); "
-             "sampling branches to meet a target of the "
+    body += ["Not done yet (docs/logic_tree.md): sampling branches to meet a target of the "
              "tree's mean at least cost (every run setting gets the same runs)."]
     return "\n".join(body) + "\n"
 
@@ -98,9 +97,11 @@ def _level_table(tr) -> list:
              "|---|---|" + "---|" * len(QUANTILES) + "---|"]
     for lb in tr.labels:
         s = tr.stats[lb]
-        lines.append(f"| {lb} | {_e(s['mean'])} | " + " | ".join(_e(s["quantiles"][q]) for q in QUANTILES)
+        lines.append(f"| {lb} | {_e(s['mean'])} | " + " | ".join(_tr._qe(s, q) for q in QUANTILES)
                      + f" | {_e(s['mean_sd_bound'])} |")
-    return lines + ["", "Quantiles by OpenQuake's weighted rule. The estimation sd of the mean is the bound at full "
+    return lines + ["", "Quantiles by OpenQuake's weighted rule, +- each one's estimation sd by resampling every branch's "
+                    "estimate from its sd (lognormal, the larger of independent and fully correlated draws: "
+                    "docs/logic_tree.md). The estimation sd of the mean is the bound at full "
                     "correlation (Sum w sd: the branches share their events); nan where a branch's level is refused "
                     "(no CoV).", ""]
 

@@ -23,6 +23,12 @@ def _q(q: float) -> str:
     return f"{100 * q:g} %"
 
 
+def _qe(s: dict, q: float) -> str:
+    """A quantile with its estimation sd (tree_quantile_error), when stated."""
+    sd = s.get("quantile_error", {}).get("sd", {}).get(q)
+    return _e(s["quantiles"][q]) + (f" +- {sd:.2g}" if sd is not None and sd == sd else "")
+
+
 def _head(tr) -> list:
     t = tr.tree
     how = (f"{len(tr.ends)} end branches drawn (samples = {t.samples}, seed {t.seed}; each of weight 1/{t.samples})"
@@ -47,9 +53,10 @@ def _level_table(tr) -> list:
     for label in tr.labels:
         s = tr.stats[label]
         lines.append(f"| {label} | {_e(tr.base.rate[label][0])} | {_e(s['mean'])} | "
-                     + " | ".join(_e(s["quantiles"][q]) for q in QUANTILES) + f" | {_e(s['mean_sd_bound'])} |")
+                     + " | ".join(_qe(s, q) for q in QUANTILES) + f" | {_e(s['mean_sd_bound'])} |")
     lines += ["", "Quantiles by OpenQuake's weighted rule (sorted values, accumulated weights, linear "
-              "interpolation). The estimation sd of the mean is the bound at full correlation (Sum w sd), the "
+              "interpolation); +- each quantile's estimation sd, by resampling every branch's estimate from its sd "
+              "(lognormal, the larger of independent and fully correlated draws: docs/logic_tree.md). The estimation sd of the mean is the bound at full correlation (Sum w sd), the "
               "branches sharing their runs; each branch's sd is read from its 90 % interval as (high - low) / "
               "3.29, an approximation of an asymmetric interval.", ""]
     return lines
@@ -108,8 +115,7 @@ def markdown(tr) -> str:
     body = head[:2] + summary_lines(tr) + head[2:] + _level_table(tr) + _prob_table(tr) + _split_lines(tr, "collapse")
     body += _branch_table(tr)
     body += ["Not done yet (docs/logic_tree.md): branches of the model choices (pulse amplitude and period, contact "
-             "model, joints, connectors) need the rare-event route with common random numbers; the estimation "
-             "error of each quantile."]
+             "model, joints, connectors) need the rare-event route with common random numbers."]
     return "\n".join(body) + "\n"
 
 
