@@ -27,6 +27,7 @@ from pycolfrag.core.errors import ParameterError, PycolfragError
 from pycolfrag.risk import tree_stats as ts
 from pycolfrag.risk.logic_tree import LogicTree, load_tree, tree_from_dict
 from pycolfrag.risk.tree_apply import check_tree
+from pycolfrag.risk.tree_quantile_error import quantile_errors
 
 __all__ = ["TreeRisk", "site_dict_of", "tree_risk", "level_stats", "run_tree"]
 
@@ -115,7 +116,8 @@ def level_stats(values, sds, weights, index, sets, names) -> dict:
             "split": {"epistemic": float(split.epistemic), "estimation": float(0.0 if split.estimation is None else split.estimation),
                       "per_set": {k: float(x) for k, x in split.per_set.items()},
                       "interaction": float(split.interaction)},
-            "tornado": ts.tornado(v, weights, index, sets, names)}
+            "tornado": ts.tornado(v, weights, index, sets, names),
+            "quantile_error": quantile_errors(v, s, weights)}
 
 
 def tree_risk(site, tree, pulse_results, no_pulse_results=None, **options) -> TreeRisk:
@@ -170,7 +172,7 @@ def run_tree(a, prog: str) -> int:
                        outside=a.outside, years=a.years, n_draws=a.draws, rng=a.seed,
                        allow_incomplete=a.allow_incomplete)
         write_outputs(tr.base, a.outdir, figures=not a.no_figures)
-        paths = tree_report.write_tree_outputs(tr, a.outdir)
+        paths = tree_report.write_tree_outputs(tr, a.outdir, figures=not a.no_figures)
     except PycolfragError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2

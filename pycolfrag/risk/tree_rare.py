@@ -42,6 +42,7 @@ from pycolfrag.rare.strata import build_strata
 from pycolfrag.risk import tree_stats as ts
 from pycolfrag.risk.logic_tree import RUNS, _canonical
 from pycolfrag.risk.tree_apply import ModelSettings
+from pycolfrag.risk.tree_quantile_error import quantile_errors
 
 __all__ = ["RunGroup", "run_groups", "FOLDER_FILE", "tree_form", "check_folder", "check_reweighting", "row_factors",
            "branch_estimate", "TreeRare", "tree_of_runs"]
@@ -258,7 +259,8 @@ def level_stats(values, sds, weights, index, sets, names) -> dict:
                       "estimation": math.nan if split.estimation is None else float(split.estimation),
                       "per_set": {k: float(x) for k, x in split.per_set.items()},
                       "interaction": float(split.interaction)},
-            "tornado": ts.tornado(v, weights, index, sets, names)}
+            "tornado": ts.tornado(v, weights, index, sets, names),
+            "quantile_error": quantile_errors(v, s, weights)}
 
 
 def tree_of_runs(tree, ends, sites, groups, runs, years, note: str = "") -> TreeRare:

@@ -13,8 +13,10 @@ from pathlib import Path
 from pycolfrag.core.errors import OutputError
 from pycolfrag.rare.driver import failures
 from pycolfrag.risk import tree_report as _tr
+from pycolfrag.risk.tree_figures import write_figures
 from pycolfrag.risk.tree_rare import runs_scope
 from pycolfrag.risk.tree_stats import QUANTILES
+from pycolfrag.risk.tree_summary import summary, summary_lines
 
 __all__ = ["markdown", "to_json", "write_tree_outputs", "print_tree_summary"]
 
@@ -81,10 +83,10 @@ def _groups(tr) -> list:
 
 
 def markdown(tr) -> str:
-    body = (_head(tr) + _level_table(tr) + _tr._prob_table(tr) + _failed_lines(tr) + _tr._split_lines(tr, "collapse")
+    head = _head(tr)
+    body = (head[:2] + summary_lines(tr) + head[2:] + _level_table(tr) + _tr._prob_table(tr) + _failed_lines(tr) + _tr._split_lines(tr, "collapse")
             + _branch_table(tr) + _groups(tr))
-    body += ["Not done yet (docs/logic_tree.md): the estimation error of each quantile (the mean's is a bound); "
-             "figures of the mean and fractile curves and the tornado; sampling branches to meet a target of the "
+    body += ["Not done yet (docs/logic_tree.md): sampling branches to meet a target of the "
              "tree's mean at least cost (every run setting gets the same runs)."]
     return "\n".join(body) + "\n"
 
@@ -95,16 +97,18 @@ def _level_table(tr) -> list:
              "|---|---|" + "---|" * len(QUANTILES) + "---|"]
     for lb in tr.labels:
         s = tr.stats[lb]
-        lines.append(f"| {lb} | {_e(s['mean'])} | " + " | ".join(_e(s["quantiles"][q]) for q in QUANTILES)
+        lines.append(f"| {lb} | {_e(s['mean'])} | " + " | ".join(_tr._qe(s, q) for q in QUANTILES)
                      + f" | {_e(s['mean_sd_bound'])} |")
-    return lines + ["", "Quantiles by OpenQuake's weighted rule. The estimation sd of the mean is the bound at full "
+    return lines + ["", "Quantiles by OpenQuake's weighted rule, +- each one's estimation sd by resampling every branch's "
+                    "estimate from its sd (lognormal, the larger of independent and fully correlated draws: "
+                    "docs/logic_tree.md). The estimation sd of the mean is the bound at full "
                     "correlation (Sum w sd: the branches share their events); nan where a branch's level is refused "
                     "(no CoV).", ""]
 
 
 def to_json(tr) -> dict:
     return {"route": "rare-event", "site": tr.runs[0].site.path, "tree": tr.tree.origin, "samples": tr.tree.samples,
-            "seed": tr.tree.seed, "weights_note": tr.note,
+            "seed": tr.tree.seed, "weights_note": tr.note, "summary": summary(tr),
             "branch_sets": [{"name": s.name, "choice": s.choice.name, "scope": s.scope, "sources": list(s.sources),
                              "branches": [{"name": b.name, "value": b.value, "weight": b.weight} for b in s.branches]}
                             for s in tr.tree.branch_sets],
@@ -120,7 +124,8 @@ def to_json(tr) -> dict:
 
 
 def write_tree_outputs(tr, outdir, figures: bool = False) -> dict:
-    """Each run group's risk.md and risk.json in its folder, then OUTDIR's logic_tree.md and logic_tree.json."""
+    """Each run group's risk.md and risk.json in its folder, then OUTDIR's logic_tree.md and logic_tree.json, and
+    with ``figures`` the tree's figures (:mod:`pycolfrag.risk.tree_figures`)."""
     from pycolfrag.risk import rare_route
     from pycolfrag.risk.report import _write_text  # the risk outputs' atomic write
     out = Path(outdir)
@@ -133,7 +138,8 @@ def write_tree_outputs(tr, outdir, figures: bool = False) -> dict:
         _write_text(js, json.dumps(to_json(tr), indent=1, default=_plain))
     except OSError as exc:
         raise OutputError(f"cannot write the logic tree's outputs into {out}: {exc.strerror or exc}") from None
-    return {"markdown": str(md), "json": str(js)}
+    figs = write_figures(tr, out) if figures else {}
+    return {"markdown": str(md), "json": str(js), **figs}
 
 
 def _plain(x):

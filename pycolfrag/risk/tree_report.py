@@ -8,7 +8,9 @@ import json
 from pathlib import Path
 
 from pycolfrag.core.errors import OutputError
+from pycolfrag.risk.tree_figures import write_figures
 from pycolfrag.risk.tree_stats import QUANTILES
+from pycolfrag.risk.tree_summary import summary, summary_lines
 
 __all__ = ["markdown", "to_json", "write_tree_outputs", "print_tree_summary"]
 
@@ -19,6 +21,12 @@ def _e(x: float) -> str:
 
 def _q(q: float) -> str:
     return f"{100 * q:g} %"
+
+
+def _qe(s: dict, q: float) -> str:
+    """A quantile with its estimation sd (tree_quantile_error), when stated."""
+    sd = s.get("quantile_error", {}).get("sd", {}).get(q)
+    return _e(s["quantiles"][q]) + (f" +- {sd:.2g}" if sd is not None and sd == sd else "")
 
 
 def _head(tr) -> list:
@@ -45,9 +53,10 @@ def _level_table(tr) -> list:
     for label in tr.labels:
         s = tr.stats[label]
         lines.append(f"| {label} | {_e(tr.base.rate[label][0])} | {_e(s['mean'])} | "
-                     + " | ".join(_e(s["quantiles"][q]) for q in QUANTILES) + f" | {_e(s['mean_sd_bound'])} |")
+                     + " | ".join(_qe(s, q) for q in QUANTILES) + f" | {_e(s['mean_sd_bound'])} |")
     lines += ["", "Quantiles by OpenQuake's weighted rule (sorted values, accumulated weights, linear "
-              "interpolation). The estimation sd of the mean is the bound at full correlation (Sum w sd), the "
+              "interpolation); +- each quantile's estimation sd, by resampling every branch's estimate from its sd "
+              "(lognormal, the larger of independent and fully correlated draws: docs/logic_tree.md). The estimation sd of the mean is the bound at full correlation (Sum w sd), the "
               "branches sharing their runs; each branch's sd is read from its 90 % interval as (high - low) / "
               "3.29, an approximation of an asymmetric interval.", ""]
     return lines
@@ -102,16 +111,17 @@ def _split_lines(tr, label: str) -> list:
 
 
 def markdown(tr) -> str:
-    body = _head(tr) + _level_table(tr) + _prob_table(tr) + _split_lines(tr, "collapse") + _branch_table(tr)
+    head = _head(tr)
+    body = head[:2] + summary_lines(tr) + head[2:] + _level_table(tr) + _prob_table(tr) + _split_lines(tr, "collapse")
+    body += _branch_table(tr)
     body += ["Not done yet (docs/logic_tree.md): branches of the model choices (pulse amplitude and period, contact "
-             "model, joints, connectors) need the rare-event route with common random numbers; the estimation "
-             "error of each quantile; figures of the mean and fractile curves."]
+             "model, joints, connectors) need the rare-event route with common random numbers."]
     return "\n".join(body) + "\n"
 
 
 def to_json(tr) -> dict:
     return {"site": tr.base.site.path, "tree": tr.tree.origin, "samples": tr.tree.samples, "seed": tr.tree.seed,
-            "incomplete": tr.incomplete, "site_only": True,
+            "incomplete": tr.incomplete, "site_only": True, "summary": summary(tr),
             "branch_sets": [{"name": s.name, "choice": s.choice.name, "scope": s.scope, "sources": list(s.sources),
                              "branches": [{"name": b.name, "value": b.value, "weight": b.weight} for b in s.branches]}
                             for s in tr.tree.branch_sets],
@@ -125,8 +135,9 @@ def to_json(tr) -> dict:
                                      for lb, s in v.items()} for t, v in tr.prob_stats.items()}}
 
 
-def write_tree_outputs(tr, outdir) -> dict:
-    """Write ``logic_tree.md`` and ``logic_tree.json`` into ``outdir`` (made by the risk outputs before)."""
+def write_tree_outputs(tr, outdir, figures: bool = False) -> dict:
+    """Write ``logic_tree.md`` and ``logic_tree.json`` into ``outdir`` (made by the risk outputs before), and with
+    ``figures`` the tree's figures (:mod:`pycolfrag.risk.tree_figures`)."""
     from pycolfrag.risk.report import _write_text  # the risk outputs' atomic write
     out = Path(outdir)
     md, js = out / "logic_tree.md", out / "logic_tree.json"
@@ -136,7 +147,8 @@ def write_tree_outputs(tr, outdir) -> dict:
         _write_text(js, json.dumps(to_json(tr), indent=1))
     except OSError as exc:
         raise OutputError(f"cannot write the logic tree's outputs into {out}: {exc.strerror or exc}") from None
-    return {"markdown": str(md), "json": str(js)}
+    figs = write_figures(tr, out) if figures else {}
+    return {"markdown": str(md), "json": str(js), **figs}
 
 
 def print_tree_summary(tr, years: float) -> None:
