@@ -47,3 +47,15 @@ def test_a_block_missing_a_part_is_drawn_about_its_moved_centre_of_mass():
     (_, com), = _rest_faces(col)
     assert abs(com[0] + 0.01) < 1e-9
     assert np.abs(com - _solver_rest(col)[0])[:2].max() < 1e-6
+
+
+def test_a_turned_block_missing_a_part_is_drawn_about_the_solvers_centre():
+    """The same block turned by 90 degrees about z: the missing part, given in the block's frame at +x,
+    sits at +y in the column's axes, so the centre of mass moves to y = -0.01 m (x = 0), where the solver's
+    body starts; drawn without the turn it would sit at x = -0.01 m."""
+    one = Column.single_block(0.4, 2.0)
+    col = Column((Block(one.blocks[0].segments, "block", rotation_deg=90.0, missing_part=(0.02, 0.15, 0.0, 1.0)),),
+                 joints=one.joints)
+    (_, com), = _rest_faces(col)
+    assert abs(com[1] + 0.01) < 1e-9 and abs(com[0]) < 1e-9, com
+    assert np.abs(com - _solver_rest(col)[0])[:2].max() < 1e-6

@@ -297,8 +297,8 @@ def _rest_faces(col):
                 faces.append(np.array([bot[k], bot[k1], top[k1], top[k]]))
             z += s.height
         com = np.array([dx, dy, z0 + blk.centroid_height])
-        if blk.missing_part:   # the centre of mass the solver's body has (C: solver_stack.c, in the column's axes)
-            _, (cx, cy, cz), _ = as_built.mass_props(blk, col.density)
+        if blk.missing_part:   # the centre of mass the solver's body has
+            cx, cy, cz = as_built.centre_of_mass(blk, col.density)
             com = np.array([dx + cx, dy + cy, z0 + cz])
         out.append((faces, com))
     return out

@@ -264,7 +264,7 @@ def _setup(col, options, overrides, caller):
     if plain:   # the solver's frame is the foundation's (docs/sequences.md)
         d.foundation_tilt_rad = math.radians(col.foundation_tilt_deg)   # checked by Column (pycolfrag/structure/foundation.py)
         d.foundation_tilt_azimuth_rad = math.radians(col.foundation_tilt_azimuth_deg)
-    if plain and as_built.any_as_built(col):   # a plain column as built (pycolfrag/structure/as_built.py)
+    if plain and as_built.placed(col):   # a plain column as built (pycolfrag/structure/as_built.py)
         scene_run.setup_as_built(solver, d, col, monolithic, caller)
     else:
         scene_run.setup(solver, d, parts, caller)

@@ -153,14 +153,21 @@ def _placed(b) -> bool:
     return b.offset != (0.0, 0.0) or b.rotation_deg != 0.0 or b.bottom_annulus != (0.0, 0.0) or bool(b.missing_part)
 
 
+def centre_of_mass(block, density: float) -> tuple[float, float, float]:
+    """A block missing a part: its centre of mass from its axis (x, y turned by its rotation into the column's
+    axes) and above its bottom face (z), m -- where the solver's body is (cf_solver_setup_as_built)."""
+    _, (cx, cy, cz), _ = mass_props(block, density)
+    a = math.radians(block.rotation_deg)
+    return cx * math.cos(a) - cy * math.sin(a), cx * math.sin(a) + cy * math.cos(a), cz
+
+
 def _own(block, density: float) -> list[float]:
-    """A block missing a part: mass, centre of mass (its x, y turned by its rotation into the column's axes),
-    inertia, as cf_solver_setup_as_built reads them; zeros for a whole block."""
+    """A block missing a part: mass, centre of mass (:func:`centre_of_mass`), inertia, as
+    cf_solver_setup_as_built reads them; zeros for a whole block."""
     if not block.missing_part:
         return [0.0] * 7
-    m, (cx, cy, cz), inertia = mass_props(block, density)
-    a = math.radians(block.rotation_deg)
-    return [m, cx * math.cos(a) - cy * math.sin(a), cx * math.sin(a) + cy * math.cos(a), cz, *inertia]
+    m, _, inertia = mass_props(block, density)
+    return [m, *centre_of_mass(block, density), *inertia]
 
 
 def placement_array(col) -> np.ndarray:
@@ -278,10 +285,3 @@ def refuse(col, caller: str, why: str) -> None:
     """ParameterError when col is placed as built and a run cannot honour it (why)."""
     if placed(col):
         raise ParameterError(f"{caller}: as-built offsets or rotations of blocks ({_offsets(col, 0)}) {why}")
-
-
-def any_as_built(col) -> bool:
-    """Whether a block of ``col`` is placed, chipped or missing a part (its set-up in C:
-    :func:`pycolfrag.solver.scene_setup.setup_as_built`)."""
-    return any(b.offset != (0.0, 0.0) or b.rotation_deg or b.bottom_annulus != (0.0, 0.0) or b.missing_part
-               for b in col.blocks)
