@@ -210,6 +210,26 @@ class EndBranch:
         return any(s.scope == RUNS for s in self.sets)
 
 
+class EndBranchArrays:
+    """What a tree's result (on either route) derives from its ``ends`` (EndBranch tuple) and ``tree``: the end
+    branches' weights, their branch indices per set, and the sets' names and sizes (the statistics' inputs)."""
+
+    ends: tuple
+    tree: "LogicTree"
+
+    @property
+    def weights(self) -> np.ndarray:
+        return np.array([e.weight for e in self.ends])
+
+    @property
+    def index(self) -> np.ndarray:
+        return np.array([e.index for e in self.ends], dtype=int).reshape(len(self.ends), -1)
+
+    @property
+    def sets(self) -> list:
+        return [(s.name, len(s.branches)) for s in self.tree.branch_sets]
+
+
 @dataclass(frozen=True)
 class LogicTree:
     """Branch sets, and how end branches are formed: all of them (``samples`` 0) or ``samples`` drawn."""

@@ -129,6 +129,15 @@ def settings_from_args(args):
     return site, settings, stop, record
 
 
+def abort_on_interrupt(exc, comm, size: int, log, what: str, folder) -> None:
+    """A run interrupted during its batches under MPI (``exc.pcf_during_run``) aborts every rank with its exit
+    code, said in the log (every finished run is on disk); the caller re-raises otherwise."""
+    if comm is not None and size > 1 and getattr(exc, "pcf_during_run", False):
+        code = exc.code if isinstance(exc, SystemExit) and isinstance(exc.code, int) else 128 + signal.SIGINT
+        log(f"{what}: interrupted (exit {code}); every finished run is in {folder}")
+        comm.Abort(code)
+
+
 def _failed(exc, comm, size: int, log) -> int:
     """The exit code of a failure on rank 0, said in one line; the other ranks, if they are inside a
     batch (the failure came in the middle of one), are ended."""
@@ -184,10 +193,7 @@ def run_simulation(args, quantities, argv=None, before=None):
         ev.close()
         return code, None
     except (SystemExit, KeyboardInterrupt) as exc:
-        if comm is not None and size > 1 and getattr(exc, "pcf_during_run", False):
-            code = exc.code if isinstance(exc, SystemExit) and isinstance(exc.code, int) else 128 + signal.SIGINT
-            log(f"risk --simulate: interrupted (exit {code}); every finished run is in {args.simulate}")
-            comm.Abort(code)
+        abort_on_interrupt(exc, comm, size, log, "risk --simulate", args.simulate)
         raise
     ev.close()
     return _exit_code(run, log), run

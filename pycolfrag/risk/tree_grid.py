@@ -25,7 +25,7 @@ import numpy as np
 from pycolfrag.core import input_files
 from pycolfrag.core.errors import ParameterError, PycolfragError
 from pycolfrag.risk import tree_stats as ts
-from pycolfrag.risk.logic_tree import LogicTree, load_tree, tree_from_dict
+from pycolfrag.risk.logic_tree import EndBranchArrays, LogicTree, load_tree, tree_from_dict
 from pycolfrag.risk.tree_apply import check_tree
 from pycolfrag.risk.tree_quantile_error import quantile_errors
 
@@ -69,7 +69,7 @@ def _refuse_run_sets(tree: LogicTree, pulse_model, pulse_only) -> None:
 
 
 @dataclass
-class TreeRisk:
+class TreeRisk(EndBranchArrays):
     """The risk of every end branch of a site-only tree, the single model's, and their statistics."""
 
     tree: LogicTree
@@ -80,18 +80,6 @@ class TreeRisk:
     years: tuple
     stats: dict = field(default_factory=dict)        # label -> level_stats(...)
     prob_stats: dict = field(default_factory=dict)   # years -> label -> {mean, quantiles}
-
-    @property
-    def weights(self) -> np.ndarray:
-        return np.array([e.weight for e in self.ends])
-
-    @property
-    def index(self) -> np.ndarray:
-        return np.array([e.index for e in self.ends], dtype=int).reshape(len(self.ends), -1)
-
-    @property
-    def sets(self) -> list:
-        return [(s.name, len(s.branches)) for s in self.tree.branch_sets]
 
     @property
     def incomplete(self) -> bool:

@@ -40,7 +40,7 @@ from pycolfrag.rare.driver import site_fingerprint
 from pycolfrag.rare.estimate import estimate
 from pycolfrag.rare.strata import build_strata
 from pycolfrag.risk import tree_stats as ts
-from pycolfrag.risk.logic_tree import RUNS, _canonical
+from pycolfrag.risk.logic_tree import RUNS, EndBranchArrays, _canonical
 from pycolfrag.risk.tree_apply import ModelSettings
 from pycolfrag.risk.tree_quantile_error import quantile_errors
 
@@ -214,7 +214,7 @@ def branch_estimate(run, branch_site):
 
 
 @dataclass
-class TreeRare:
+class TreeRare(EndBranchArrays):
     """Every end branch's estimate on the rare-event route and the tree's statistics."""
 
     tree: Any
@@ -228,18 +228,6 @@ class TreeRare:
     note: str = ""                   # the weights' change, when there was one
     stats: dict = field(default_factory=dict)
     prob_stats: dict = field(default_factory=dict)
-
-    @property
-    def weights(self) -> np.ndarray:
-        return np.array([e.weight for e in self.ends])
-
-    @property
-    def index(self) -> np.ndarray:
-        return np.array([e.index for e in self.ends], dtype=int).reshape(len(self.ends), -1)
-
-    @property
-    def sets(self) -> list:
-        return [(s.name, len(s.branches)) for s in self.tree.branch_sets]
 
     def failed(self, k: int) -> int:
         """Failed runs under end branch k (its group's)."""

@@ -12,7 +12,6 @@ every pilot run of one failed).
 """
 from __future__ import annotations
 
-import signal
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -98,10 +97,7 @@ def _simulate(a, p, comm, size, log, argv):
         evs[0].close()
         return code, None
     except (SystemExit, KeyboardInterrupt) as exc:
-        if comm is not None and size > 1 and getattr(exc, "pcf_during_run", False):
-            code = exc.code if isinstance(exc, SystemExit) and isinstance(exc.code, int) else 128 + signal.SIGINT
-            log(f"risk --simulate --logic-tree: interrupted (exit {code}); every finished run is in {a.simulate}")
-            comm.Abort(code)
+        _sim.abort_on_interrupt(exc, comm, size, log, "risk --simulate --logic-tree", a.simulate)
         raise
     evs[0].close()
     return _exit_code(runs, [g.folder for g in p["groups"]], log), runs
