@@ -42,7 +42,7 @@ OBSERVATIONS = {
         "pga_g": "0.30 (downtown, epicentral 15 km); >0.35 rock at 12 km from the fault",
     },
     "kos2017": {
-        "event": "Kos 21 Jul 2017, Mw 6.6",
+        "event": "Kos 21 Jul 2017, M 6.6 (NOA; USGS 6.7)",
         "structure": "columns of the ancient agora, Kos town (dimensions not reported)",
         "reported": "some columns toppled (how many of how many: not reported)",
         "pga_g": "~0.20 estimated in Kos town (ITSAK scenario map, not a record)",
