@@ -167,6 +167,26 @@ static void test_as_built(void)
     CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_OK);
     CF_CHECK_REL(s->jt[1].area, 0.03, 1e-12);
     CF_CHECK_REL(s->jt[1].ccen[0], (0.04 * 0.1 - 0.01 * 0.05) / 0.03, 1e-12);
+    /* the points' weights keep the region's area and centroid (each body's half), vertex and refined, with a
+     * hole and without, a sector of two pieces ([-60, 60) missing) */
+    place[CF_SOLVER_AS_BUILT + 12] = -CF_PI / 3; place[CF_SOLVER_AS_BUILT + 13] = CF_PI / 3;
+    for (i = 0; i < 2; i++) {
+        int mm, k;
+        place[CF_SOLVER_AS_BUILT + 3] = i ? 0.0 : 0.1 * sqrt(2.0);
+        CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_OK);
+        for (mm = 0; mm <= 3; mm += 3) {
+            cf_face_points fp;
+            double w = 0.0, wx = 0.0, wy = 0.0;
+            CF_CHECK(cf_solver_face_points_make(s, mm, &fp) == CF_OK);
+            for (k = fp.p0[1]; k < fp.p0[1] + fp.n0[1]; k++) {   /* the upper body's, about its face's centre */
+                w += fp.w[k]; wx += fp.w[k] * (fp.loc[3 * k] - s->jt[1].fu.c[0]); wy += fp.w[k] * (fp.loc[3 * k + 1] - s->jt[1].fu.c[1]);
+            }
+            CF_CHECK_REL(w, 0.5 * s->jt[1].area, 1e-12);
+            CF_CHECK_REL(wx / w, s->jt[1].ccen[0], 1e-12);
+            CF_CHECK_CLOSE(wy / w, 0.0, 1e-14);
+            cf_solver_face_points_free(&fp);
+        }
+    }
     place[CF_SOLVER_AS_BUILT + 3] = 0.0;
     place[CF_SOLVER_AS_BUILT + 12] = 1.0; place[CF_SOLVER_AS_BUILT + 13] = 1.0 + 2 * CF_PI;   /* the whole face */
     CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
