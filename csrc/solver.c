@@ -203,11 +203,12 @@ static int check_placement(cf_solver *s, int nblk, const double **place)
     int i, any = 0;
     if (!*place) return CF_OK;
     static const char *const what[CF_SOLVER_AS_BUILT] = {"offset", "offset", "rotation", "inner radius",
-        "outer radius", "mass", "centre of mass", "centre of mass", "centre of mass", "inertia", "inertia", "inertia"};
+        "outer radius", "mass", "centre of mass", "centre of mass", "centre of mass", "inertia", "inertia", "inertia",
+        "missing sector start", "missing sector end"};
     for (i = 0; i < CF_SOLVER_AS_BUILT * nblk; i++) {
         int k = i % CF_SOLVER_AS_BUILT, pos = k == 3 || k == 4 || k == 5;
         /* a block's own mass properties: inertias > 0 */
-        int given = k >= 9 && (*place)[i - k + 5] > 0.0;
+        int given = k >= 9 && k <= 11 && (*place)[i - k + 5] > 0.0;
         if (!isfinite((*place)[i]) || (pos && (*place)[i] < 0.0) || (given && !((*place)[i] > 0.0)))
             return cf_solver_fail(s, CF_EINVAL, "block %d: its as-built %s must be finite%s, got %g", i / CF_SOLVER_AS_BUILT,
                                   what[k], pos ? " and >= 0" : given ? " and > 0" : "", (*place)[i]);

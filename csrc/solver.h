@@ -155,8 +155,12 @@ int cf_solver_setup_joints(cf_solver *s, const cf_solver_def *def, int n_blocks,
  * monolithic definition. Then, for a block missing a part, its mass properties (mass 0: those of its
  * segments): mass (kg), centre of mass (x, y from its axis in the column's axes, z above its bottom
  * face, m) and principal moments of inertia about it along x, y, z (kg m^2, > 0; the body's axes stay
- * the column's). NULL, or every value 0: cf_solver_setup_joints bit for bit. */
-#define CF_SOLVER_AS_BUILT 12
+ * the column's). Then its bottom face's missing sector: the angles start and end (rad, from +x counter-clockwise
+ * seen from above, in the column's axes; 0, 0: none) of the wedge [start, end) about the face's centre it
+ * bears nowhere on (with an annulus, the annulus less the wedge; every contact model); refused (CF_EINVAL):
+ * a sector empty or the whole face (end - start a multiple of 2 pi), one on an offset or turned joint.
+ * NULL, or every value 0: cf_solver_setup_joints bit for bit. */
+#define CF_SOLVER_AS_BUILT 14
 int cf_solver_setup_as_built(cf_solver *s, const cf_solver_def *def, int n_blocks, const int *n_segments,
                              const cf_geometry_segment *segments, double density, const double *kn,
                              const double *ks, const double *mu, const double *placement);

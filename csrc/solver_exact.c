@@ -8,6 +8,7 @@
 #include <math.h>
 #include <stddef.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "cf_math.h"
 #include "contact.h"
@@ -90,6 +91,48 @@ static int exact_annulus(const cf_solver *s, const cf_joint *J, const double *cL
     return nv;
 }
 
+/* A chipped joint missing a sector (solver_as_built.c): the upper face bears on its convex pieces (each the
+ * face centre and the chain within an angle <= pi), less each scaled by chole about the face centre (the
+ * hole); the pressure being linear, the region's integrals are the sum of the pieces' (each clipped by the
+ * lower face, or on the ground unbounded). Returns the pieces' vertex count, 0 when nothing presses. */
+static int exact_sector(const cf_solver *s, const cf_joint *J, const double *cL, double p0, double px, double py,
+                        cf_contact_exact_result *r)
+{
+    const double *RL = s->R + 9 * J->bl, *RU = s->R + 9 * J->bu;
+    double q[2][2 * (CF_MAXS + 3)], F = 0.0, Fx = 0.0, Fy = 0.0, A = 0.0, Ax = 0.0, Ay = 0.0, E = 0.0;
+    cf_contact_exact_result a;
+    int i, k, e, nv = 0;
+    for (i = 0; i < 2 && J->csn[i] > 0; i++) {
+        int n = J->csn[i];
+        for (e = 0; e < (J->chole > 0.0 ? 2 : 1); e++) {   /* the piece, then its hole */
+            double f = e ? J->chole : 1.0, sg = e ? -1.0 : 1.0;
+            int m;
+            for (k = 0; k < n; k++) {
+                double loc[3], pw[3], X[3];
+                loc[0] = J->fu.c[0] + f * J->csp[i][2 * k]; loc[1] = J->fu.c[1] + f * J->csp[i][2 * k + 1];
+                loc[2] = J->fu.c[2];
+                mat_vec(RU, loc, pw);
+                pw[0] += s->x[3 * J->bu] - cL[0]; pw[1] += s->x[3 * J->bu + 1] - cL[1]; pw[2] += s->x[3 * J->bu + 2] - cL[2];
+                mat_tvec(RL, pw, X);
+                q[e][2 * k] = X[0]; q[e][2 * k + 1] = X[1];
+            }
+            m = J->bl == 0 ? cf_contact_exact(q[e], n, q[e], n, p0, px, py, J->kn, &a)
+                           : cf_contact_exact(J->fl.poly, J->fl.n, q[e], n, p0, px, py, J->kn, &a);
+            if (m == 0) continue;
+            if (!e) nv += m;
+            F += sg * a.force; Fx += sg * a.force * a.xc; Fy += sg * a.force * a.yc;
+            A += sg * a.area; Ax += sg * a.area * a.cx; Ay += sg * a.area * a.cy;
+            E += sg * a.energy;
+        }
+    }
+    memset(r, 0, sizeof *r);
+    if (nv == 0 || !(F > 0.0) || !(A > 0.0)) return 0;
+    r->force = F; r->xc = Fx / F; r->yc = Fy / F;
+    r->area = A; r->cx = Ax / A; r->cy = Ay / A;
+    r->energy = E;
+    return nv;
+}
+
 /* The compressed overlap of joint J's faces at this step (cf_contact_exact: force, centre of
  * pressure, area, energy into r), with the lower face's centre cL and normal nL (world); returns
  * the overlap polygon's vertex count, 0 when the faces do not press on each other. */
@@ -118,6 +161,7 @@ static int exact_overlap(const cf_solver *s, const cf_joint *J, double *cL, doub
      * beside or through the other one (tumbling blocks after a collapse) */
     for (k = 0; k < J->fu.n; k++)
         if (p0 + px * up[2 * k] + py * up[2 * k + 1] > 0.1 * J->fl.rc) return 0;
+    if (J->csec) return exact_sector(s, J, cL, p0, px, py, r);               /* chipped, missing a sector */
     if (J->cout > 0.0) return exact_annulus(s, J, cL, up, p0, px, py, r);   /* chipped */
     /* the ground is unbounded: the overlap is the upper face itself */
     if (bl == 0) return cf_contact_exact(up, J->fu.n, up, J->fu.n, p0, px, py, J->kn, r);
@@ -263,6 +307,32 @@ static void exact_stiffness_overlap(const cf_solver *s, const cf_joint *J, cf_sp
     }
 }
 
+/* The same over a chipped joint missing a sector: the band of each triangle of its open fan about the face
+ * centre between the scales chole and 1, as two triangles (upper face frame). */
+static void exact_stiffness_sector(const cf_solver *s, const cf_joint *J, cf_springs *K)
+{
+    int k, e, t;
+    double h = J->chole;
+    for (k = 0; k + 1 < J->cn; k++) {
+        const double *a = J->cpoly + 2 * k, *b = a + 2;
+        for (e = 0; e < (h > 0.0 ? 2 : 1); e++) {   /* (h a, a, b), then (h a, b, h b) */
+            double P[3][2], wq;
+            P[0][0] = h * a[0]; P[0][1] = h * a[1];
+            P[1][0] = e ? b[0] : a[0]; P[1][1] = e ? b[1] : a[1];
+            P[2][0] = e ? h * b[0] : b[0]; P[2][1] = e ? h * b[1] : b[1];
+            wq = 0.5 * ((P[1][0] - P[0][0]) * (P[2][1] - P[0][1]) - (P[1][1] - P[0][1]) * (P[2][0] - P[0][0])) / 3.0;
+            for (t = 0; t < 3; t++) {
+                int t1 = t + 1 == 3 ? 0 : t + 1;
+                double p[3];
+                p[0] = s->x0[3 * J->bu] + J->fu.c[0] + 0.5 * (P[t][0] + P[t1][0]);
+                p[1] = s->x0[3 * J->bu + 1] + J->fu.c[1] + 0.5 * (P[t][1] + P[t1][1]);
+                p[2] = s->x0[3 * J->bu + 2] + J->fu.c[2];
+                cf_springs_add_contact(K, J, p, wq);
+            }
+        }
+    }
+}
+
 /* For the stability limit: the face integral by the edge-midpoint rule on the fan
  * triangles (exact for the quadratic integrands of the stiffness). */
 static void exact_stiffness(const cf_solver *s, const void *state, const cf_joint *J, cf_springs *K)
@@ -271,6 +341,7 @@ static void exact_stiffness(const cf_solver *s, const void *state, const cf_join
     double wq = J->area / f->n / 3.0;
     int k, t;
     (void)state;
+    if (J->csec) { exact_stiffness_sector(s, J, K); return; }
     if (J->asb) { exact_stiffness_overlap(s, J, K); return; }
     for (k = 0; k < f->n; k++) {
         int k1 = (k + 1) % f->n;

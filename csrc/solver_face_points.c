@@ -123,6 +123,53 @@ static int annulus_points(const cf_joint *J, int m, int side, double wsum, doubl
     return np;
 }
 
+/* The points of a chipped joint missing a sector (csec): the open fan of its chain cpoly (cn vertices) about
+ * the face centre, each fan triangle's band between the scales chole and 1 a grid of M = max(m, 1) steps each
+ * way (ring i from the inner boundary out, place p along the chain), each quad split into two triangles whose
+ * thirds go to their corners (the lumping keeps the region's area and centroid); without a hole the innermost
+ * ring is the face centre, one point. m = 0: the centre (or the inner chain) and the chain's vertices. */
+static int count_sector_points(int n, int m, int hole)
+{
+    int M = m > 0 ? m : 1, along = (n - 1) * M + 1;
+    return hole ? (M + 1) * along : 1 + M * along;
+}
+
+static int sector_node(int along, int i, int p, int hole)
+{
+    if (hole) return i * along + p;
+    return i == 0 ? 0 : 1 + (i - 1) * along + p;
+}
+
+static int sector_points(const cf_joint *J, int m, double wsum, double ox, double oy, double z, double *loc, double *wt)
+{
+    int n = J->cn, M = m > 0 ? m : 1, along = (n - 1) * M + 1, hole = J->chole > 0.0, i, p, c;
+    int np = count_sector_points(n, m, hole);
+    double sc = wsum / J->area, h = J->chole;
+    for (c = 0; c < np; c++) wt[c] = 0.0;
+    for (i = 0; i <= M; i++)
+        for (p = 0; p < along; p++) {
+            int k = p / M < n - 1 ? p / M : n - 2;
+            double f = h + (1.0 - h) * i / M, u = (double)(p - k * M) / M;
+            const double *a = J->cpoly + 2 * k, *b = a + 2;
+            c = sector_node(along, i, p, hole);
+            loc[3 * c] = ox + f * (a[0] + u * (b[0] - a[0]));
+            loc[3 * c + 1] = oy + f * (a[1] + u * (b[1] - a[1]));
+            loc[3 * c + 2] = z;
+        }
+    for (i = 0; i < M; i++)   /* the weights, once every node is placed */
+        for (p = 0; p + 1 < along; p++) {
+            int q[4], e;
+            q[0] = sector_node(along, i, p, hole); q[1] = sector_node(along, i + 1, p, hole);
+            q[2] = sector_node(along, i + 1, p + 1, hole); q[3] = sector_node(along, i, p + 1, hole);
+            for (e = 0; e < 2; e++) {   /* triangles (0, 1, 2) and (0, 2, 3) */
+                const double *A = loc + 3 * q[0], *B = loc + 3 * q[1 + e], *D = loc + 3 * q[2 + e];
+                double tri = 0.5 * ((B[0] - A[0]) * (D[1] - A[1]) - (B[1] - A[1]) * (D[0] - A[0]));
+                wt[q[0]] += sc * tri / 3.0; wt[q[1 + e]] += sc * tri / 3.0; wt[q[2 + e]] += sc * tri / 3.0;
+            }
+        }
+    return np;
+}
+
 static int overlap_points(const cf_joint *J, int m, int side, double wsum, double *loc, double *wt)
 {
     int n = J->cn, k, i, t, c, np = count_face_points(n, m);
@@ -130,6 +177,7 @@ static int overlap_points(const cf_joint *J, int m, int side, double wsum, doubl
     double cx = J->ccen[0], cy = J->ccen[1], sc = wsum / J->area;
     /* the body frame of side's face: the lower face's frame shifted by -d0 on the upper body */
     double ox = own->c[0] - (side == 0 ? J->d0[0] : 0.0), oy = own->c[1] - (side == 0 ? J->d0[1] : 0.0);
+    if (J->csec) return sector_points(J, m, wsum, ox, oy, own->c[2], loc, wt);
     if (J->chole > 0.0) return annulus_points(J, m, side, wsum, ox, oy, own->c[2], loc, wt);
     for (c = 0; c < np; c++) wt[c] = 0.0;
     for (k = 0; k < n; k++) {
@@ -254,8 +302,9 @@ int cf_solver_face_points_make(cf_solver *s, int mm, cf_face_points *fp)
     size_t nja = (size_t)(nj > 0 ? nj : 1);
     memset(fp, 0, sizeof *fp);
     for (j = 0; j < nj; j++)
-        np += s->jt[j].asb ? (s->jt[j].bl == 0 ? 1 : 2) * (s->jt[j].chole > 0.0 ? count_annulus_points(s->jt[j].cn, mm)
-                                                                               : count_face_points(s->jt[j].cn, mm))
+        np += s->jt[j].asb ? (s->jt[j].bl == 0 ? 1 : 2) * (s->jt[j].csec ? count_sector_points(s->jt[j].cn, mm, s->jt[j].chole > 0.0)
+                                                           : s->jt[j].chole > 0.0 ? count_annulus_points(s->jt[j].cn, mm)
+                                                                                  : count_face_points(s->jt[j].cn, mm))
                            : count_face_points(s->jt[j].fu.n, mm) + (s->jt[j].bl == 0 ? 0 : count_face_points(s->jt[j].fl.n, mm));
     fp->side = (int *)calloc((size_t)(np > 0 ? np : 1), sizeof(int));
     fp->loc = (double *)calloc((size_t)(np > 0 ? np : 1) * 3, sizeof(double));

@@ -93,6 +93,14 @@ typedef struct {
     int asb, cn;
     double d0[2], ccen[2], cpolar, chole, cout;   /* cout: chipped, the outer radius / the upper face's */
     double cpoly[4 * CF_MAXS];
+    /* A chipped face missing a sector (csec 1, solver_as_built.c): the region above less the wedge of the
+     * missing angles about the face centre. cpoly is then the open chain of its outer boundary (cn vertices,
+     * from the wedge's end edge counter-clockwise round to its start edge), fanned from the face centre with
+     * no closing edge, each fan triangle's band between the scales chole and 1; csp its convex pieces (csn[i]
+     * vertices each, at most two: the face centre and the chain within an angle <= pi), the hole's the same
+     * scaled by chole; ccen, area and cpolar are the region's. */
+    int csec, csn[2];
+    double csp[2][2 * (CF_MAXS + 3)];
 } cf_joint;
 
 /* What the contacts of one step add to the energy ledger. */
@@ -285,8 +293,11 @@ int cf_solver_stack_build(struct cf_solver *s, int nblk, const int *nseg, const 
  * not overlap */
 int cf_solver_as_built_joint(struct cf_solver *s, cf_joint *J, double dx, double dy);
 /* joint J's contact region as the annulus of its upper face between circumradii inner and outer (its faces
- * aligned; outer within the lower face): CF_EINVAL naming the joint otherwise */
-int cf_solver_as_built_chipped(struct cf_solver *s, cf_joint *J, double inner, double outer);
+ * aligned; outer within the lower face), less the sector of the angles [s0, s1) (rad from +x, counter-clockwise;
+ * s0 = s1 = 0: none): CF_EINVAL naming the joint otherwise (a sector empty or the whole face) */
+int cf_solver_as_built_chipped(struct cf_solver *s, cf_joint *J, double inner, double outer, double s0, double s1);
+/* a chipped joint missing a sector: how far its region reaches along +x from the face centre, m */
+double cf_solver_as_built_reach(const cf_joint *J);
 /* the initial tilt of the definition applied to the built (untilted) column: a rigid rotation of
  * every moving body about the +x base edge (after the connectors have taken the untilted rest) */
 void cf_solver_stack_tilt(struct cf_solver *s);

@@ -186,11 +186,11 @@ static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometr
                 /* the faces' centres off the bodies' origins (a block missing a part) */
                 J->fu.c[0] = s->blk_bot[3 * j]; J->fu.c[1] = s->blk_bot[3 * j + 1];
                 if (j > 0) { J->fl.c[0] = s->blk_top[3 * (j - 1)]; J->fl.c[1] = s->blk_top[3 * (j - 1) + 1]; }
-                if (pu[3] != 0.0 || pu[4] != 0.0) {   /* its bottom face chipped to an annulus */
+                if (pu[3] != 0.0 || pu[4] != 0.0 || pu[12] != 0.0 || pu[13] != 0.0) {   /* chipped: an annulus, a sector */
                     if (turned)
                         st = cf_solver_fail(s, CF_EINVAL, "joint %d: a chipped face is for a joint whose faces are "
                                             "aligned (not offset or turned against each other)", j);
-                    else st = cf_solver_as_built_chipped(s, J, pu[3], pu[4] > 0.0 ? pu[4] : J->fu.rc);
+                    else st = cf_solver_as_built_chipped(s, J, pu[3], pu[4] > 0.0 ? pu[4] : J->fu.rc, pu[12], pu[13]);
                 } else if (turned) {
                     st = cf_solver_as_built_joint(s, J, dx, dy);
                 }
@@ -246,6 +246,7 @@ void cf_solver_stack_tilt(cf_solver *s)
         double zp = s->x0[3 * 1 + 2] + f->c[2];
         for (k = 1; k < f->n; k++) if (f->vx[k] > xp) xp = f->vx[k];
         if (s->asb && s->jt[0].cout > 0.0) xp *= s->jt[0].cout;   /* a chipped base face's annulus */
+        if (s->asb && s->jt[0].csec) xp = cf_solver_as_built_reach(&s->jt[0]);   /* ... missing a sector */
         if (s->asb) xp += s->x0[3 * 1] + f->c[0];   /* the base block's axis at its offset */
         for (i = 1; i < nbody; i++) {
             double dx = s->x0[3 * i] - xp, dz = s->x0[3 * i + 2] - zp;

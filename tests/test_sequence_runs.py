@@ -155,3 +155,33 @@ def test_the_peak_of_an_event_alone_and_the_sequences_peak():
     sampled = float(np.max(np.hypot(*r2h.history.top_disp.T))) / COL.base_diameter
     assert sampled <= e2.u_top_event < sampled * 1.01
     assert same(seq.final_state.values, r2.final_state.values)
+
+
+@pytest.mark.parametrize("kind", ["portal", "dowels"])
+def test_the_peak_of_an_event_alone_in_a_scene_and_a_dowelled_column(kind):
+    # A scene keeps a running peak per column besides the monitor's, and a dowelled column the monitor's: the
+    # event's own peak was NaN after the first event for both; now it is the event's run from the state with
+    # every peak at 0, checked as for the plain column (column 0's top sampled every 0.005 s: at most its peak,
+    # within 1 % of it; the scene's u_top_event the larger of its columns' own), and the final state is still the
+    # continuation chain's bit for bit. Where the scene keeps its columns' peaks is checked against the run's
+    # own max_top_disp (the largest of them).
+    from pycolfrag.solver import sequence
+    from pycolfrag.structure.connectors import Connectors
+    from pycolfrag.structure.scene import Colonnade
+    model = Colonnade.portal(2) if kind == "portal" else COL.with_connectors(Connectors.of("titanium", "all"))
+    seq = run_sequence(model, [R2, R1], settle=None, tail_s=0.3)
+    r1 = pcf.simulate(model, *R2, tail_s=0.3)
+    r2 = pcf.simulate(model, *R1, initial_state=r1.final_state, tail_s=0.3)
+    r2h = pcf.simulate(model, *R1, initial_state=r1.final_state, tail_s=0.3, history=True)
+    e1, e2 = seq.events
+    assert e1.u_top_event == e1.u_top == r1.u_top
+    assert e2.u_top == r2.u_top == max(r1.u_top, e2.u_top_event)   # the portal's second event rocks it further
+    diameter = 2.0 * model.scene_parts().columns[0][0].blocks[0].bottom.r_bottom
+    sampled = float(np.max(np.hypot(*r2h.history.top_disp.T))) / diameter   # column 0's (a scene's history)
+    own = e2.response.columns["u_top"] if kind == "portal" else [e2.u_top_event]
+    assert e2.u_top_event == max(own)
+    assert sampled <= own[0] < sampled * 1.01
+    assert same(seq.final_state.values, r2.final_state.values)
+    slots = sequence._peak_slots(r1.final_state)
+    assert len(slots) == (3 if kind == "portal" else 1)
+    assert max(r1.final_state.values[slots[1:]], default=r1.max_top_disp) == r1.max_top_disp

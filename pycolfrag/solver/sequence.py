@@ -28,7 +28,6 @@ from pycolfrag.core.errors import ParameterError
 from pycolfrag.ground_motion.record import Record
 from pycolfrag.solver import run as _run  # through the module, as sample.py calls it
 from pycolfrag.solver.state import State
-from pycolfrag.structure.column import Column
 
 __all__ = ["Restoration", "NO_RESTORATION", "Settle", "EventResult", "SequenceResult", "run_sequence", "at_rest",
            "tilt_rad", "model_height"]
@@ -131,8 +130,8 @@ class EventResult:
     ``restored`` whether the policy then reassembled the structure. ``response`` is the event run's
     :class:`~pycolfrag.solver.run.Response` (for a plain column continued from a state, its ``u_top`` is
     the event's own), ``settled`` the settling run's (None without one). ``u_top_event``: the peak of the
-    event alone (the top's displacement from the as-built rest, over the base diameter), for a plain
-    column (and the first event from rest of any model); NaN otherwise."""
+    event alone (the top's displacement from the as-built rest, over the base diameter; a scene's largest
+    over its columns)."""
 
     index: int
     u_top: float
@@ -166,40 +165,55 @@ class SequenceResult:
         return self.events[-1].index if self.collapsed else None
 
 
-#: Where a state holds the monitor's running peak of the top's displacement (m) of a plain column: the
-#: header's 22 values, then the monitor's, of which it is the 11th (csrc/solver_state.c, ``mon[10]``).
+#: Where a state holds the monitor's running peak of the top's displacement (m): the header's 22 values,
+#: then the monitor's, of which it is the 11th (csrc/solver_state.c, ``mon[10]``).
 _PEAK = 22 + 10
+#: csrc/solver_state.c's layout: CF_ST_HEAD + CF_ST_MON values, then CF_ST_BODY per body, the residual ring
+#: (the header's values 8 x 9), then a scene's running peak of each column's top (the header's value 6 of them).
+_BODIES, _BODY = 22 + 12, 22
 
 
-def _peak_kept(model) -> bool:
-    """Whether ``model``'s runs keep their top's peak at :data:`_PEAK` (a plain column: a scene and a column
-    with dowels keep it per column)."""
-    return isinstance(model, Column) and not model.connectors
+def _peak_slots(state: State) -> list[int]:
+    """Where ``state`` keeps running peaks of a top's displacement (m): the monitor's (:data:`_PEAK`), and in a
+    scene's state (columns with beams, several columns) each column's, from which its ``u_top`` is read."""
+    v = state.values
+    k = _BODIES + _BODY * int(v[2]) + int(v[8] * v[9])
+    return [_PEAK, *range(k, k + int(v[6]))]
 
 
-def _with_peak(state: State | None, peak: float | None) -> State | None:
-    """``state`` with its running peak set to ``peak`` (None: unchanged)."""
-    if state is None or peak is None:
+def _u_top(model, state: State, slots: list[int]) -> float:
+    """The ``u_top`` the peaks of ``state`` give: the top's over the base diameter, a scene's largest over its
+    column's (csrc/solver_monitor.c)."""
+    if len(slots) == 1:
+        return float(state.values[_PEAK]) / model.base_diameter
+    cols = model.scene_parts().columns
+    return max(float(state.values[k]) / (2.0 * col.blocks[0].bottom.r_bottom) for k, (col, _, _) in zip(slots[1:], cols))
+
+
+def _with_peaks(state: State | None, slots: list[int], peaks) -> State | None:
+    """``state`` with its running peaks at ``slots`` set to ``peaks``."""
+    if state is None:
         return state
     v = state.values.copy()
-    v[_PEAK] = peak
+    v[slots] = peaks
     return dataclasses.replace(state, values=v)
 
 
 def _event_run(model, rec, state, options, overrides):
-    """An event's run, the peak u_top of the event alone (NaN where the model does not keep it apart) and
-    the sequence's peak u_top up to its end. For a plain column the run starts from ``state`` with its
-    running peak at 0, and its final state gets the larger of the two back: the same bits as the run from
-    ``state`` as it is (the monitor keeps the larger of its running value and each step's; nothing else
-    reads it)."""
-    if state is None or not _peak_kept(model):
+    """An event's run, the peak u_top of the event alone and the sequence's peak u_top up to its end. From a
+    state the run starts with its running peaks at 0 (the monitor's, and a scene's per column), and its final
+    state gets the larger of the two back: the same bits as the run from ``state`` as it is (the monitor keeps
+    the larger of its running value and each step's; nothing else reads them)."""
+    if state is None:
         res = _simulate(model, rec, state, options, overrides)
-        return res, (float(res.u_top) if state is None else math.nan), float(res.u_top)
-    before = float(state.values[_PEAK])
-    res = _simulate(model, rec, _with_peak(state, 0.0), options, overrides)
+        return res, float(res.u_top), float(res.u_top)
+    slots = _peak_slots(state)
+    before = _u_top(model, state, slots)
+    res = _simulate(model, rec, _with_peaks(state, slots, 0.0), options, overrides)
     if res.final_state is not None:
-        res.final_state = _with_peak(res.final_state, max(before, float(res.final_state.values[_PEAK])))
-    return res, float(res.u_top), max(before / model.base_diameter, float(res.u_top))
+        res.final_state = _with_peaks(res.final_state, slots,
+                                      np.maximum(state.values[slots], res.final_state.values[slots]))
+    return res, float(res.u_top), max(before, float(res.u_top))
 
 
 def _records(records) -> list:

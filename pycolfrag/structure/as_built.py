@@ -8,7 +8,9 @@ above: its polygons' phases grow by it), at rest. The solver places the bodies t
 two faces are offset or turned against each other carries their overlap (``cf_solver_setup_as_built``,
 csrc/solver_as_built.c) in every contact model. A block's bottom face may be chipped to an annulus,
 ``bottom_annulus = (inner, outer)`` circumradii in m (outer 0: the face's own): the joint under it bears
-only there. A block may miss a part, ``missing_part = (volume, x, y, z)`` (m^3; its centroid in the
+only there, and may miss a sector, ``bottom_missing_sector = (start, end)`` (degrees from +x counter-clockwise
+seen from above, in the column's axes): the face (or its annulus) bears nowhere in the wedge of the angles
+[start, end) about its centre (:func:`bearing`). A block may miss a part, ``missing_part = (volume, x, y, z)`` (m^3; its centroid in the
 block's frame, m): its mass, centre of mass and inertia move (:func:`mass_props`).
 
 Refused when the column is made (ParameterError naming the value), for every joint j (under block j):
@@ -34,7 +36,7 @@ from pycolfrag.core.ffi import ffi, lib, segment_arrays
 from pycolfrag.core.validate import real
 
 #: the column file's block keys this module reads
-KEYS: tuple[str, ...] = ("offset", "rotation_deg", "bottom_annulus", "missing_part")
+KEYS: tuple[str, ...] = ("offset", "rotation_deg", "bottom_annulus", "missing_part", "bottom_missing_sector")
 
 
 def placement(offset, rotation_deg, where: str = "block") -> tuple[tuple[float, float], float]:
@@ -65,6 +67,22 @@ def annulus(value, r_face: float, where: str = "block") -> tuple[float, float]:
             raise ParameterError(f"{where}: bottom_annulus {value!r} has no area: its inner radius {inner:g} m must be "
                                  f"below its outer radius {outer or r_face:g} m (a reduced face with no area)")
     return inner, outer
+
+
+def sector(value, where: str = "block") -> tuple:
+    """A bottom face's missing sector as (start, end) in degrees (floats), or () for none; ParameterError: not
+    two finite numbers, or a range [start, end) that is empty or the whole face (end - start a multiple of 360)."""
+    if value is None or (hasattr(value, "__len__") and len(value) == 0):
+        return ()
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
+        raise ParameterError(f"{where}: bottom_missing_sector must be two angles (start, end) in degrees, got {value!r}")
+    a, b = (real(v, f"{where}: bottom_missing_sector (deg)") for v in value)
+    if not (math.isfinite(a) and math.isfinite(b)):
+        raise ParameterError(f"{where}: bottom_missing_sector angles must be finite, got {value!r}")
+    if (b - a) % 360.0 == 0.0:
+        raise ParameterError(f"{where}: bottom_missing_sector [{a:g}, {b:g}) deg is "
+                             f"{'empty' if a == b else 'the whole face'}: a reduced face with no area or no sector")
+    return a, b
 
 
 def missing(value, block, where: str = "block") -> tuple:
@@ -116,6 +134,7 @@ def place(block) -> None:
     object.__setattr__(block, "rotation_deg", rot)
     object.__setattr__(block, "bottom_annulus", annulus(block.bottom_annulus, block.bottom.r_bottom,
                                                         f"block {block.name!r}"))
+    object.__setattr__(block, "bottom_missing_sector", sector(block.bottom_missing_sector, f"block {block.name!r}"))
 
 
 def block_kw(block) -> dict:
@@ -127,6 +146,8 @@ def block_kw(block) -> dict:
         out["rotation_deg"] = block.rotation_deg
     if block.bottom_annulus != (0.0, 0.0):
         out["bottom_annulus"] = list(block.bottom_annulus)
+    if block.bottom_missing_sector:
+        out["bottom_missing_sector"] = list(block.bottom_missing_sector)
     if block.missing_part:
         out["missing_part"] = {"volume": block.missing_part[0], "centroid": list(block.missing_part[1:])}
     return out
@@ -150,7 +171,8 @@ def placed(col) -> bool:
 
 
 def _placed(b) -> bool:
-    return b.offset != (0.0, 0.0) or b.rotation_deg != 0.0 or b.bottom_annulus != (0.0, 0.0) or bool(b.missing_part)
+    return (b.offset != (0.0, 0.0) or b.rotation_deg != 0.0 or b.bottom_annulus != (0.0, 0.0) or bool(b.missing_part)
+            or bool(b.bottom_missing_sector))
 
 
 def centre_of_mass(block, density: float) -> tuple[float, float, float]:
@@ -172,8 +194,10 @@ def _own(block, density: float) -> list[float]:
 
 def placement_array(col) -> np.ndarray:
     """(n_blocks x CF_SOLVER_AS_BUILT) per block dx, dy (m), rotation (rad), its bottom face's annulus (inner,
-    outer radius, m): what cf_solver_setup_as_built reads."""
-    return np.array([[b.offset[0], b.offset[1], math.radians(b.rotation_deg), *b.bottom_annulus, *_own(b, col.density)]
+    outer radius, m), its own mass properties (:func:`_own`), its bottom face's missing sector (start, end, rad;
+    0, 0: none): what cf_solver_setup_as_built reads."""
+    return np.array([[b.offset[0], b.offset[1], math.radians(b.rotation_deg), *b.bottom_annulus, *_own(b, col.density),
+                      *(math.radians(a) for a in (b.bottom_missing_sector or (0.0, 0.0)))]
                      for b in col.blocks], dtype=np.float64)
 
 
@@ -221,9 +245,68 @@ def area(poly) -> float:
     return 0.5 * sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in zip(poly, poly[1:] + poly[:1]))
 
 
+def _ray_exit(poly, cx: float, cy: float, a: float) -> tuple[float, float]:
+    """Where the ray from (cx, cy) at angle a (rad) leaves the convex counter-clockwise polygon about it."""
+    d = (math.cos(a), math.sin(a))
+    for (x0, y0), (x1, y1) in zip(poly, poly[1:] + poly[:1]):
+        ca = d[0] * (y0 - cy) - d[1] * (x0 - cx)
+        cb = d[0] * (y1 - cy) - d[1] * (x1 - cx)
+        if ca <= 0.0 < cb:
+            u = ca / (ca - cb)
+            return x0 + u * (x1 - x0), y0 + u * (y1 - y0)
+    raise AssertionError("the centre lies inside its polygon")
+
+
+def _chain(poly, cx: float, cy: float, a0: float, w: float) -> list[tuple[float, float]]:
+    """The boundary of the polygon about (cx, cy) from angle a0 counter-clockwise over w (rad, in (0, 2 pi)):
+    where the ray at a0 leaves it, the vertices passed, where the ray at a0 + w leaves it."""
+    tol = 1e-12 * max(math.hypot(x - cx, y - cy) for x, y in poly)
+    rel = sorted(((math.atan2(y - cy, x - cx) - a0) % (2.0 * math.pi), (x, y)) for x, y in poly)
+    out = [_ray_exit(poly, cx, cy, a0)]
+    for r, p in rel + [(w, _ray_exit(poly, cx, cy, a0 + w))]:
+        if 0.0 < r <= w and math.dist(p, out[-1]) > tol:
+            out.append(p)
+    return out
+
+
+def bearing(col, i: int) -> list[tuple[float, float]]:
+    """Block i's chipped bottom face missing a sector: the outline of what bears at rest, counter-clockwise in
+    the column's axes (m): the outer boundary from the sector's end round to its start, then the hole's back
+    (an annulus) or the face's centre. [] for a face missing no sector."""
+    b = col.blocks[i]
+    if not b.bottom_missing_sector:
+        return []
+    start, end = (math.radians(a) for a in b.bottom_missing_sector)
+    w = 2.0 * math.pi - (end - start) % (2.0 * math.pi)
+    (cx, cy), outer = b.offset, face(col, i, False, True)
+    out = _chain(outer, cx, cy, end, w)
+    h = b.bottom_annulus[0] / (b.bottom_annulus[1] or b.bottom.r_bottom)
+    inner = [(cx + h * (x - cx), cy + h * (y - cy)) for x, y in reversed(out)] if h > 0.0 else [(cx, cy)]
+    return out + inner
+
+
+def _hull(points) -> list[tuple[float, float]]:
+    """The convex hull of the points, counter-clockwise (Andrew's monotone chain)."""
+    pts = sorted(set(points))
+
+    def half(seq):
+        out: list = []
+        for p in seq:
+            while len(out) >= 2 and ((out[-1][0] - out[-2][0]) * (p[1] - out[-2][1])
+                                     - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])) <= 0.0:
+                out.pop()
+            out.append(p)
+        return out
+    lower, upper = half(pts), half(reversed(pts))
+    return lower[:-1] + upper[:-1]
+
+
 def support(col, j: int) -> list[tuple[float, float]]:
     """The support polygon of joint j at rest (column axes): the overlap of its two faces (a chipped
-    face at its annulus's outer radius); on the ground, block j's own bottom face."""
+    face at its annulus's outer radius, or missing a sector the convex hull of what bears: :func:`bearing`); on
+    the ground, block j's own bottom face."""
+    if col.blocks[j].bottom_missing_sector:
+        return _hull(bearing(col, j))
     lower = face(col, j - 1, True) if j > 0 else None
     return face(col, j, False, True) if lower is None else overlap(lower, face(col, j, False, True))
 
@@ -233,6 +316,8 @@ def _offsets(col, j0: int) -> str:
     return ", ".join(f"blocks[{i}] offset = ({b.offset[0]:g}, {b.offset[1]:g}) m, rotation_deg = {b.rotation_deg:g}"
                      + (f", bottom_annulus = ({b.bottom_annulus[0]:g}, {b.bottom_annulus[1]:g}) m"
                         if b.bottom_annulus != (0.0, 0.0) else "")
+                     + (f", bottom_missing_sector = [{b.bottom_missing_sector[0]:g}, {b.bottom_missing_sector[1]:g}) deg"
+                        if b.bottom_missing_sector else "")
                      for i, b in enumerate(col.blocks) if i >= j0 and _placed(b))
 
 
@@ -268,11 +353,15 @@ def check(col) -> None:
 def _chipped(col, j: int) -> None:
     """A chipped joint j: its faces aligned, its annulus on the face below (ParameterError otherwise)."""
     b = col.blocks[j]
-    if b.bottom_annulus == (0.0, 0.0) or j == 0:
+    if b.bottom_missing_sector and not area(bearing(col, j)) > 1e-9 * area(face(col, j, False)):
+        raise ParameterError(f"joint {j}: what is left of the chipped face of blocks[{j}] (bottom_missing_sector = "
+                             f"{list(b.bottom_missing_sector)} deg, bottom_annulus = {list(b.bottom_annulus)} m) has no "
+                             "area: a reduced face with no area")
+    if (b.bottom_annulus == (0.0, 0.0) and not b.bottom_missing_sector) or j == 0:
         return
     a = col.blocks[j - 1]
     if a.offset != b.offset or a.rotation_deg != b.rotation_deg:
-        raise ParameterError(f"joint {j}: a chipped face (blocks[{j}] bottom_annulus) is for a joint whose faces are "
+        raise ParameterError(f"joint {j}: a chipped face (blocks[{j}] bottom_annulus or bottom_missing_sector) is for a joint whose faces are "
                              f"aligned, not offset or turned against each other ({_offsets(col, j - 1)})")
     lower = face(col, j - 1, True)
     if any(_margin(lower, x, y) < -1e-9 * b.bottom.r_bottom for x, y in face(col, j, False, True)):

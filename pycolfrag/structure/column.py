@@ -160,6 +160,7 @@ class Block:
     segments: tuple
     name: str = ""
     offset: tuple = (0.0, 0.0); rotation_deg: float = 0.0; bottom_annulus: tuple = (0.0, 0.0); missing_part: tuple = ()
+    bottom_missing_sector: tuple = ()
 
     def __post_init__(self):
         segs = tuple(self.segments)

@@ -141,6 +141,62 @@ static void test_as_built(void)
     place[CF_SOLVER_AS_BUILT + 3] = 0.05; place[CF_SOLVER_AS_BUILT] = 0.01;   /* chipped and offset */
     CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
     CF_CHECK(strstr(cf_solver_message(s), "a chipped face is for a joint whose faces are aligned") != NULL);
+    /* missing a sector, block 1's bottom face (the square of half-width b = 0.2 m): [-60, 60) deg leaves the
+     * square less the wedge, area b^2 (2 + 1/sqrt 3), centroid at x = -8 b / (9 (2 + 1/sqrt 3)) (by hand:
+     * the wedge's area b^2 (2 - 1/sqrt 3) and first moment 8 b^3 / 9); two convex pieces, the chain from
+     * (b/sqrt 3, b) round to (b/sqrt 3, -b) over the two far corners */
+    place[CF_SOLVER_AS_BUILT] = 0.0; place[CF_SOLVER_AS_BUILT + 3] = 0.0; place[CF_SOLVER_AS_BUILT + 4] = 0.0;
+    place[CF_SOLVER_AS_BUILT + 12] = -CF_PI / 3; place[CF_SOLVER_AS_BUILT + 13] = CF_PI / 3;
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_OK);
+    CF_CHECK(s->jt[1].csec && s->jt[1].cn == 4 && s->jt[1].csn[0] > 0 && s->jt[1].csn[1] > 0);
+    CF_CHECK_REL(s->jt[1].area, 0.04 * (2.0 + 1.0 / sqrt(3.0)), 1e-12);
+    CF_CHECK_REL(s->jt[1].ccen[0], -8.0 * 0.2 / (9.0 * (2.0 + 1.0 / sqrt(3.0))), 1e-12);
+    CF_CHECK_CLOSE(s->jt[1].ccen[1], 0.0, 1e-15);
+    CF_CHECK_REL(s->jt[1].cpoly[0], 0.2 / sqrt(3.0), 1e-12);
+    CF_CHECK_REL(s->jt[1].cpoly[1], 0.2, 1e-12);
+    /* [90, 360) missing: the first quadrant bears, one piece, area b^2, centroid (b/2, b/2), polar moment
+     * b^4 / 6; with the inner square of half-width b/2 gone too, 3/4 of it, centroid by the moments */
+    place[CF_SOLVER_AS_BUILT + 12] = CF_PI / 2; place[CF_SOLVER_AS_BUILT + 13] = 2 * CF_PI;
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_OK);
+    CF_CHECK(s->jt[1].csn[1] == 0);
+    CF_CHECK_REL(s->jt[1].area, 0.04, 1e-12);
+    CF_CHECK_REL(s->jt[1].ccen[0], 0.1, 1e-12);
+    CF_CHECK_REL(s->jt[1].ccen[1], 0.1, 1e-12);
+    CF_CHECK_REL(s->jt[1].cpolar, 0.2 * 0.2 * 0.2 * 0.2 / 6.0, 1e-12);
+    place[CF_SOLVER_AS_BUILT + 3] = 0.1 * sqrt(2.0);
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_OK);
+    CF_CHECK_REL(s->jt[1].area, 0.03, 1e-12);
+    CF_CHECK_REL(s->jt[1].ccen[0], (0.04 * 0.1 - 0.01 * 0.05) / 0.03, 1e-12);
+    /* the points' weights keep the region's area and centroid (each body's half), vertex and refined, with a
+     * hole and without, a sector of two pieces ([-60, 60) missing) */
+    place[CF_SOLVER_AS_BUILT + 12] = -CF_PI / 3; place[CF_SOLVER_AS_BUILT + 13] = CF_PI / 3;
+    for (i = 0; i < 2; i++) {
+        int mm, k;
+        place[CF_SOLVER_AS_BUILT + 3] = i ? 0.0 : 0.1 * sqrt(2.0);
+        CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_OK);
+        for (mm = 0; mm <= 3; mm += 3) {
+            cf_face_points fp;
+            double w = 0.0, wx = 0.0, wy = 0.0;
+            CF_CHECK(cf_solver_face_points_make(s, mm, &fp) == CF_OK);
+            for (k = fp.p0[1]; k < fp.p0[1] + fp.n0[1]; k++) {   /* the upper body's, about its face's centre */
+                w += fp.w[k]; wx += fp.w[k] * (fp.loc[3 * k] - s->jt[1].fu.c[0]); wy += fp.w[k] * (fp.loc[3 * k + 1] - s->jt[1].fu.c[1]);
+            }
+            CF_CHECK_REL(w, 0.5 * s->jt[1].area, 1e-12);
+            CF_CHECK_REL(wx / w, s->jt[1].ccen[0], 1e-12);
+            CF_CHECK_CLOSE(wy / w, 0.0, 1e-14);
+            cf_solver_face_points_free(&fp);
+        }
+    }
+    place[CF_SOLVER_AS_BUILT + 3] = 0.0;
+    place[CF_SOLVER_AS_BUILT + 12] = 1.0; place[CF_SOLVER_AS_BUILT + 13] = 1.0 + 2 * CF_PI;   /* the whole face */
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "missing sector [57.2958, 417.296) deg is empty or the whole face") != NULL);
+    place[CF_SOLVER_AS_BUILT + 13] = NAN;
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "block 1: its as-built missing sector end must be finite") != NULL);
+    place[CF_SOLVER_AS_BUILT + 13] = 2.0; place[CF_SOLVER_AS_BUILT] = 0.01;   /* missing a sector and offset */
+    CF_CHECK(cf_solver_setup_as_built(s, &d, 2, nseg, seg, 2700, kn, ks, mu, place) == CF_EINVAL);
+    CF_CHECK(strstr(cf_solver_message(s), "a chipped face is for a joint whose faces are aligned") != NULL);
     cf_solver_free(s);
 }
 
