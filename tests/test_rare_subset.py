@@ -111,6 +111,49 @@ def test_gamma_closed_forms():
     assert sus._gamma(np.zeros((10, 50))) == 0.0
 
 
+class _Lv:
+    def __init__(self, scores, eves, next_threshold):
+        self.scores, self.eves, self.next_threshold = np.asarray(scores, float), np.asarray(eves), next_threshold
+
+
+def test_genealogical_cov_by_hand():
+    """Three levels, indicators chosen (threshold 0.5 on 0/1 scores): level 0 runs [1, 1, 0, 0] (p = 1/2,
+    each run its own eve); level 1, chains (columns) from eves [0, 1]: [[1, 0], [1, 0]] (p = 1/2); level 2
+    from eves [0, 1]: the same. Each term is (indicator - p) / (N p) = +-1/4 per state, so eve 0 sums
+    1/4 + 2/4 + 2/4 = 5/4, eve 1 1/4 - 2/4 - 2/4 = -3/4, eves 2 and 3 -1/4: sum of squares
+    (25 + 9 + 1 + 1)/16 = 2.25. Au & Beck's sum: 1/4 at level 0, (1/4)(1 + gamma) with gamma = Ns - 1 = 1
+    (chains that never move) at levels 1 and 2: 1.25; their bound (1/2 + 2 sqrt(1/2))^2. Eve 0's family
+    succeeds on every level: the levels are positively correlated, the variance above the uncorrelated
+    sum. With level 2's successes in the other family (its chains from eves [1, 0]) they are negatively
+    correlated: eves 0 and 1 sum 1/4 + 2/4 - 2/4 = 1/4 each, so 4/16 = 0.25, below the sum."""
+    from pycolfrag.rare.subset_cov import correlated_bound_cov2, genealogy_cov2, uncorrelated_cov2
+    lv0 = _Lv([1, 1, 0, 0], np.arange(4), 0.5)
+    lv1 = _Lv([[1, 0], [1, 0]], [0, 1], 0.5)
+    assert genealogy_cov2([lv0, lv1, _Lv([[1, 0], [1, 0]], [0, 1], 0.5)]) == 2.25
+    assert genealogy_cov2([lv0, lv1, _Lv([[1, 0], [1, 0]], [1, 0], 0.5)]) == 0.25
+    assert genealogy_cov2([lv0]) == 0.25 == (1 - 0.5) / (4 * 0.5)              # level 0 alone: binomial
+    assert genealogy_cov2([lv0, lv1], thresholds=[0.5, 2.0]) == math.inf       # a fraction of 0
+    covs = [0.5, math.sqrt(0.5), math.sqrt(0.5)]
+    assert uncorrelated_cov2(covs) == pytest.approx(1.25, rel=1e-15)
+    assert correlated_bound_cov2(covs) == pytest.approx((0.5 + 2 * math.sqrt(0.5)) ** 2, rel=1e-15)
+
+
+def test_stated_cov_is_the_genealogical_one():
+    """The result states sqrt(exp(V) - 1), V the genealogical variance of ln P (its interval then
+    P exp(-/+ z sqrt(V))), keeps Au & Beck's sum as ``cov_uncorrelated``; the eves are the level-0 runs
+    the chains descend from (level 1's: the N p0 best runs of level 0)."""
+    from pycolfrag.rare.subset_cov import genealogy_cov2
+    prob = _linear(50, 3.0)
+    res = sus.subset_simulation(prob, prob.evaluate, seed=4, n=200)
+    v = genealogy_cov2(res.levels)
+    assert res.cov == pytest.approx(math.sqrt(math.expm1(v)), rel=1e-12)
+    assert res.interval[1] / res.probability == pytest.approx(math.exp(1.6448536269514722 * math.sqrt(v)), rel=1e-12)
+    assert res.cov_uncorrelated == pytest.approx(math.sqrt(sum(lv.cov ** 2 for lv in res.levels)), rel=1e-15)
+    top = np.argsort(-res.levels[0].scores, kind="stable")[:20]
+    assert list(res.levels[1].eves) == list(top)
+    assert all(set(lv.eves) <= set(top) for lv in res.levels[1:])
+
+
 def test_lognormal_interval():
     """p exp(-/+ 1.6449 sqrt(ln(1 + CoV^2))): for p = 1e-3, CoV 0.3, s = 0.293560, exp(1.64485 s) =
     1.62071, so [6.1701e-4, 1.62071e-3] (hand-evaluated); the 95 % interval uses z = 1.95996."""
