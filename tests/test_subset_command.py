@@ -37,7 +37,7 @@ def _pycolfrag(*args, timeout=120):
 
 def _without_run(doc: dict) -> dict:
     """The file less what differs between runs of the same estimate: command line, ranks, wall time."""
-    return {k: v for k, v in doc.items() if k not in ("command", "ranks", "wall_s")}
+    return {k: v for k, v in doc.items() if k not in ("command", "ranks", "runs_by_rank", "wall_s")}
 
 
 def test_help_in_the_house_style(capsys):
@@ -133,7 +133,7 @@ def test_mpi_evaluator_cuts_gathers_in_order_and_reports_a_failed_rank():
     comm.other = lambda part: [{"u_top": b["i"]} for b in part]
     ev = MPIEvaluator(comm, worker=lambda part: [{"u_top": b["i"]} for b in part])
     assert ev([{"i": i} for i in range(5)]) == [{"u_top": i} for i in range(5)]
-    assert comm.parts == [[{"i": 0}, {"i": 1}, {"i": 2}], [{"i": 3}, {"i": 4}]]
+    assert comm.parts == [[{"i": 0}, {"i": 1}, {"i": 2}], [{"i": 3}, {"i": 4}]] and ev.runs_by_rank == [3, 2]
     comm.other = lambda part: cmd_error()
     with pytest.raises(sus.RareEventError, match="rank 1 failed on its part of batch 2: ValueError: boom"):
         ev([{"i": i} for i in range(4)])
@@ -150,7 +150,7 @@ def cmd_error():
 @pytest.mark.mpi
 def test_mpirun_one_and_two_ranks_give_the_same_file_bit_for_bit(tmp_path):
     """``mpirun -n 1`` and ``-n 2`` ``python -m mpi4py -m pycolfrag subset``, N = 50: the same estimate, levels and
-    rows; the two-rank run says it ran on two ranks."""
+    rows; the two ranks shared the runs (rank 1 computed its part of every batch)."""
     if shutil.which("mpirun") is None:
         pytest.skip("mpirun not installed (make system)")
     docs, rows = {}, {}
@@ -160,7 +160,9 @@ def test_mpirun_one_and_two_ranks_give_the_same_file_bit_for_bit(tmp_path):
              "-m", "pycolfrag", "subset", *TINY, "--n", "50", "--seed", "3", "--out", str(out), "--rows", str(rw)]
         _ok(subprocess.run(c, capture_output=True, text=True, env=_env(), cwd=ROOT))
         docs[n], rows[n] = json.loads(out.read_text()), rw.read_text()
-    assert docs[1]["ranks"] == 1 and docs[2]["ranks"] == 2
+    assert docs[1]["runs_by_rank"] == [docs[1]["runs"]]
+    assert len(docs[2]["runs_by_rank"]) == 2 and sum(docs[2]["runs_by_rank"]) == docs[2]["runs"]
+    assert min(docs[2]["runs_by_rank"]) >= docs[2]["runs"] // 2 - 5     # a contiguous half of every batch
     assert _without_run(docs[1]) == _without_run(docs[2])
     assert rows[1] == rows[2] and len(rows[1].splitlines()) == docs[1]["runs"] > 50
     assert math.isfinite(docs[1]["probability"]) and docs[1]["probability"] > 0

@@ -136,8 +136,9 @@ def _plain(x):
     return x
 
 
-def result_document(res: sus.SubsetResult, levels, problem, command: str, ranks: int, wall_s: float) -> dict:
-    """The output file's content: the estimate at every level asked, the algorithm's levels, the settings."""
+def result_document(res: sus.SubsetResult, levels, problem, command: str, runs_by_rank: list, wall_s: float) -> dict:
+    """The output file's content: the estimate at every level asked, the algorithm's levels, the settings,
+    and the runs each rank computed."""
     at = []
     for t in levels:
         p, cov = (res.probability, res.cov) if t == levels[-1] else res.at(t)
@@ -152,7 +153,8 @@ def result_document(res: sus.SubsetResult, levels, problem, command: str, ranks:
                    "probability": res.probability, "cov": res.cov, "cov_uncorrelated": res.cov_uncorrelated,
                    "cov_bound": res.cov_bound, "interval": list(res.interval), "confidence": res.confidence,
                    "runs": res.runs, "failed": res.failed, "converged": res.converged, "subset_levels": algo,
-                   "settings": settings, "summary": res.summary(), "ranks": ranks, "wall_s": round(wall_s, 3)})
+                   "settings": settings, "summary": res.summary(), "ranks": len(runs_by_rank),
+                   "runs_by_rank": list(runs_by_rank), "wall_s": round(wall_s, 3)})
 
 
 def _write(path: Path, text: str) -> None:
@@ -181,7 +183,8 @@ def _run_root(args, prob, levels, ev, ranks: int, argv) -> int:
     try:
         if args.rows is not None:
             _write(Path(args.rows), "".join(json.dumps(_row(r)) + "\n" for r in res.rows))
-        doc = result_document(res, levels, prob, command, ranks, time.time() - t0)
+        by_rank = ev.runs_by_rank if isinstance(ev, MPIEvaluator) else [res.runs]
+        doc = result_document(res, levels, prob, command, by_rank, time.time() - t0)
         _write(Path(args.out), json.dumps(doc, indent=1) + "\n")
     except OSError as exc:
         print(f"pycolfrag subset: cannot write {args.out}: {exc}", file=sys.stderr)

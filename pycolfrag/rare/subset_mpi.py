@@ -49,6 +49,7 @@ class MPIEvaluator:
         self.rank = comm.Get_rank() if comm is not None else 0
         self.size = comm.Get_size() if comm is not None else 1
         self.batches = 0
+        self.runs_by_rank = [0] * self.size      # rank 0: the runs each rank computed
 
     @property
     def is_root(self) -> bool:
@@ -58,8 +59,11 @@ class MPIEvaluator:
         """Rank 0: the rows of ``batch``, in order."""
         self.batches += 1
         if self.size == 1:
+            self.runs_by_rank[0] += len(batch)
             return self.worker(list(batch))
         parts = [[batch[i] for i in p] for p in np.array_split(np.arange(len(batch)), self.size)]
+        for rank, part in enumerate(parts):
+            self.runs_by_rank[rank] += len(part)
         mine = self.comm.scatter(parts, root=0)
         done = self.comm.gather(_compute(self.worker, mine), root=0)
         rows = []
