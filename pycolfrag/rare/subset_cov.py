@@ -52,7 +52,7 @@ def genealogy_cov2(levels: Sequence, thresholds: Sequence[float] | None = None) 
     ``next_threshold`` (``SubsetResult.at``: the last one lower). ``inf`` when a fraction is 0."""
     ths = [lv.next_threshold for lv in levels] if thresholds is None else list(thresholds)
     n0 = int(np.asarray(levels[0].scores).size)
-    z = [[] for _ in range(n0)]                       # each eve's terms, summed by fsum at the end
+    z: list[list[float]] = [[] for _ in range(n0)]      # each eve's terms, summed by fsum at the end
     for lv, b in zip(levels, ths):
         ind, p = _indicators(lv.scores, b)
         if p <= 0.0:
