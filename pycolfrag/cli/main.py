@@ -79,6 +79,9 @@ COMMANDS = {c.name: c for c in (
     Command("risk", "pycolfrag.risk.site_risk:main",
             "annual rates and T-year probabilities of the damage levels at a site (docs/risk.md)",
             "python -m pycolfrag.risk.site_risk"),
+    Command("subset", "pycolfrag.cli.subset:main",
+            "subset simulation of P(EDP >= level) in one scenario, the record-to-record tail; MPI "
+            "(docs/rare_events.md)", "python -m pycolfrag.cli.subset"),
     Command("openquake", "pycolfrag.cli.openquake:main",
             "OpenQuake interchange: export fragility as NRML, classical damage from hazard curves",
             "python -m pycolfrag.cli.openquake"),

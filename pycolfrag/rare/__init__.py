@@ -22,6 +22,8 @@ The stratified event-based site estimator (``pycolfrag risk SITE.toml --simulate
 The record-to-record tail within a scenario:
 
 * :mod:`~pycolfrag.rare.subset` -- subset simulation of a rare response within one scenario, in the
-  space of the standard normals a record is made from; it runs through the same ``evaluate(batch) -> rows``
-  interface (serial, processes, or the grid's scheduler through :mod:`~pycolfrag.rare.evaluator`).
+  space of the standard normals a record is made from; it runs through an ``evaluate(batch) -> rows``
+  interface (serial, processes, or MPI ranks: :mod:`~pycolfrag.rare.subset_mpi`); its stated CoV with the
+  correlation between levels: :mod:`~pycolfrag.rare.subset_cov`; its command line:
+  :mod:`pycolfrag.cli.subset` (``pycolfrag subset``).
 """

@@ -1,6 +1,7 @@
 """Running batches of runs with explicit inputs through the grid's scheduler: the interface an algorithm
 above the grid -- the stratified site simulation here -- asks for its runs through (subset simulation
-does not yet: its runs take the record's noise as explicit normals, which the event rows do not carry).
+does not: its runs take the record's noise as explicit normals, which the event rows do not carry; it
+shares its batches over MPI ranks through :mod:`pycolfrag.rare.subset_mpi`).
 
     ev = GridEvaluator(outdir, record_settings, comm)
     if not ev.is_root:

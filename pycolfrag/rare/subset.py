@@ -22,10 +22,14 @@ All chains take a step together: one step is one batch of N p0 independent runs 
 an MPI run share). The last level, where the (N p0)-th score reaches the threshold, gives
 ``P(F | F_m)`` as its fraction of scores >= threshold.
 
-Its precision (Au & Beck 2001, Eqs. 27-29): ``delta_j^2 = (1 - p_j) / (N p_j) (1 + gamma_j)``,
-gamma_j from the correlation of the indicators along the chains (0 at level 0, independent runs),
-and the stated CoV ``delta = sqrt(sum_j delta_j^2)`` (the levels' estimates treated as uncorrelated, as
-Au & Beck do). Interval: log-normal with that CoV, ``P exp(-/+ z sqrt(ln(1 + delta^2)))`` (z = 1.645
+Its precision: each level's CoV as Au & Beck (2001, Eqs. 27-29) give it, ``delta_j^2 = (1 - p_j) / (N p_j)
+(1 + gamma_j)``, gamma_j from the correlation of the indicators along the chains (0 at level 0,
+independent runs); the stated CoV of the estimate adds the correlation between the levels (a level's
+chains start from the level below's states): the genealogical estimate of :mod:`pycolfrag.rare.subset_cov`,
+``sum over level-0 runs e of Z_e^2``, each run's descendants' residuals on every level summed (Chan &
+Lai 2013; Lee & Whiteley 2018). Au & Beck's sum ``sum_j delta_j^2`` (levels uncorrelated: 0.85-0.98
+of the observed spread) is kept as ``cov_uncorrelated``, their upper bound ``(sum_j delta_j)^2`` as
+``cov_bound``. Interval: log-normal with that CoV, ``P exp(-/+ z sqrt(ln(1 + delta^2)))`` (z = 1.645
 for 90 %): never below 0, and skewed like the product of fractions it describes.
 
 Determinism. Every run is a pure function of (seed, level, chain, step): level 0's run i draws its
@@ -51,6 +55,7 @@ from pycolfrag.core.ffi import ffi, lib, ptr
 from pycolfrag.core.validate import integer
 from pycolfrag.damage import exceedance_score
 from pycolfrag.ground_motion import normals_layout, registry, stochastic, synthesize
+from pycolfrag.rare.subset_cov import correlated_bound_cov2, genealogy_cov2, uncorrelated_cov2
 from pycolfrag.solver import sample
 from pycolfrag.solver.options import SolverOptions
 from pycolfrag.structure.column import Column
@@ -242,7 +247,8 @@ class Level:
     threshold -inf), and what they estimate: the fraction ``p_next`` of scores >= ``next_threshold``
     (the next intermediate threshold, or the problem's at the last level), its chain-correlation factor
     ``gamma`` and CoV (Au & Beck 2001, Eqs. 27-29). ``acceptance``: the chains' mean acceptance (NaN at
-    level 0); ``scale``: the aCS scale lambda after the level; ``scores`` (steps x chains at j >= 1)."""
+    level 0); ``scale``: the aCS scale lambda after the level; ``scores`` (steps x chains at j >= 1);
+    ``eves``: the level-0 run each of its chains descends from (level 0: ``arange(N)``, each run its own)."""
 
     index: int
     threshold: float
@@ -254,14 +260,17 @@ class Level:
     scale: float
     runs: int
     scores: np.ndarray = field(repr=False)
+    eves: np.ndarray = field(repr=False)
 
 
 @dataclass(frozen=True)
 class SubsetResult:
     """A subset-simulation estimate of ``P(g >= threshold)`` in one scenario.
 
-    probability, cov : the estimate and its stated CoV; interval : its log-normal interval at
-    ``confidence``; levels : the :class:`Level` s; runs : runs made (N + (m - 1) N (1 - p0)); failed :
+    probability, cov : the estimate and its stated CoV (the levels' correlation included:
+    :func:`pycolfrag.rare.subset_cov.genealogy_cov2`); interval : its log-normal interval at ``confidence``;
+    cov_uncorrelated, cov_bound : Au & Beck's (2001) sum over the levels (taken as uncorrelated) and their
+    upper bound (taken as fully correlated), for comparison; levels : the :class:`Level` s; runs : runs made (N + (m - 1) N (1 - p0)); failed :
     runs whose row failed (scored -inf); converged : False when MAX_LEVELS ran out before a level's
     (N p0)-th score reached the threshold (the estimate is then that of the last level's fraction,
     possibly 0); rows : every run's row (level, chain, step, score, EDPs, ...) in the order run;
@@ -278,21 +287,22 @@ class SubsetResult:
     converged: bool
     rows: list = field(repr=False)
     settings: dict = field(repr=False)
+    cov_uncorrelated: float = math.nan
+    cov_bound: float = math.nan
 
     def at(self, threshold: float) -> tuple[float, float]:
         """(P(g >= threshold), its CoV) for a lower level of the same EDP, from the same runs: the last
         level whose condition threshold <= ``threshold`` times the fraction of its scores above it (the
-        CoV adds that fraction's to the levels' before it). ParameterError above the problem's level."""
+        CoV: the genealogical estimate over those levels, the last one's fraction taken at ``threshold``).
+        ParameterError above the problem's level."""
         top = self.levels[-1].next_threshold
         if not threshold <= top:
             raise ParameterError(f"threshold {threshold!r} is above the level the runs reached ({top!r})")
         j = max(i for i, lv in enumerate(self.levels) if lv.threshold <= threshold)
         p_before = math.prod(lv.p_next for lv in self.levels[:j])
-        cov2 = math.fsum(lv.cov ** 2 for lv in self.levels[:j])
-        lv = self.levels[j]
-        frac, gamma = _fraction(lv.scores, threshold, j > 0)
-        cov2 += _cov2(frac, lv.scores.size, gamma)
-        return p_before * frac, math.sqrt(cov2)
+        frac = _fraction(self.levels[j].scores, threshold, False)[0]
+        below = [lv.next_threshold for lv in self.levels[:j]]
+        return p_before * frac, _stated_cov(genealogy_cov2(self.levels[:j + 1], below + [threshold]))
 
     def crude_runs(self) -> float:
         """Runs crude Monte Carlo needs for the same CoV: (1 - p) / (p CoV^2)."""
@@ -349,6 +359,13 @@ def _fraction(scores: np.ndarray, threshold: float, chained: bool) -> tuple[floa
     ind = (scores >= threshold).astype(np.float64)
     frac = math.fsum(ind.ravel()) / ind.size
     return frac, (_gamma(ind) if chained else 0.0)
+
+
+def _stated_cov(var_log: float) -> float:
+    """The CoV of P from the variance of ln P (:func:`~pycolfrag.rare.subset_cov.genealogy_cov2`) of a
+    log-normal estimate, ``sqrt(exp(var) - 1)`` (the library's exp): :func:`lognormal_interval` then spreads
+    ``exp(-/+ z sqrt(var))`` about P."""
+    return math.sqrt(lib.cf_math_exp(var_log) - 1.0) if math.isfinite(var_log) else math.inf
 
 
 def _cov2(p: float, n: int, gamma: float) -> float:
@@ -409,11 +426,11 @@ def _chains(problem, evaluate, seed, level, seeds_x, seeds_g, threshold, scale, 
     return xs.reshape(ns * nc, d), gs, accepted / (nc * (ns - 1)), scale
 
 
-def _level(index, threshold, scores, next_threshold, acceptance, scale, runs, chained) -> Level:
+def _level(index, threshold, scores, next_threshold, acceptance, scale, runs, chained, eves) -> Level:
     p, gamma = _fraction(scores, next_threshold, chained)
     return Level(index=index, threshold=threshold, next_threshold=next_threshold, p_next=p, gamma=gamma,
                  cov=math.sqrt(_cov2(p, scores.size, gamma)), acceptance=acceptance, scale=scale, runs=runs,
-                 scores=scores)
+                 scores=scores, eves=eves)
 
 
 def subset_simulation(problem, evaluate: Callable[[list], list] = run_batch, *, seed: int, n: int = N_PER_LEVEL,
@@ -444,6 +461,7 @@ def subset_simulation(problem, evaluate: Callable[[list], list] = run_batch, *, 
     g, rows0 = _evaluate(problem, evaluate, xs, [(0, i, 0) for i in range(n)])
     rows.extend(rows0)
     levels, threshold, scale, acceptance, chained = [], -math.inf, ACS_INITIAL_SCALE, math.nan, False
+    eves = np.arange(n)                      # the level-0 run each chain (level 0: each run) descends from
     for j in range(max_levels):
         flat = g.ravel()
         order = np.argsort(-flat, kind="stable")            # largest first, ties by run order
@@ -456,16 +474,19 @@ def subset_simulation(problem, evaluate: Callable[[list], list] = run_batch, *, 
                 f"subset simulation stopped rising at level {j}: its {nc}-th largest score is {b!r} "
                 f"(condition {threshold!r}; {int(np.sum(flat == -math.inf))} of {flat.size} runs failed, "
                 f"chain acceptance {acceptance:.3f})")
-        levels.append(_level(j, threshold, g, nxt, acceptance, scale, flat.size if j == 0 else nc * (ns - 1), chained))
+        levels.append(_level(j, threshold, g, nxt, acceptance, scale, flat.size if j == 0 else nc * (ns - 1), chained,
+                             eves))
         if progress is not None:
             progress(levels[-1])
         if last:
             break
         seeds = order[:nc]
+        eves = eves[seeds] if j == 0 else eves[seeds % nc]   # state k * nc + c of a level is chain c's
         xs, g, acceptance, scale = _chains(problem, evaluate, seed, j + 1, xs[seeds], flat[seeds], b, scale, ns, rows)
         threshold, chained = b, True
     p = math.prod(lv.p_next for lv in levels)
-    cov = math.sqrt(math.fsum(lv.cov ** 2 for lv in levels))
+    cov = _stated_cov(genealogy_cov2(levels))
+    covs = [lv.cov for lv in levels]
     for r in rows:
         r["score"] = problem.score(r)
     return SubsetResult(probability=p, cov=cov, interval=lognormal_interval(p, cov, confidence),
@@ -473,7 +494,8 @@ def subset_simulation(problem, evaluate: Callable[[list], list] = run_batch, *, 
                         failed=sum(r["score"] == -math.inf for r in rows), converged=reached, rows=rows,
                         settings={"seed": int(seed), "n": n, "p0": float(p0), "chains": nc, "states": ns,
                                   "sampler": "aCS", "max_levels": int(max_levels),
-                                  "problem": problem.describe() if hasattr(problem, "describe") else None})
+                                  "problem": problem.describe() if hasattr(problem, "describe") else None},
+                        cov_uncorrelated=math.sqrt(uncorrelated_cov2(covs)), cov_bound=math.sqrt(correlated_bound_cov2(covs)))
 
 
 def crude_monte_carlo(problem, evaluate: Callable[[list], list] = run_batch, *, seed: int, n: int,
