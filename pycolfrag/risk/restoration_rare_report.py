@@ -19,7 +19,7 @@ __all__ = ["BEGIN", "END", "FIGURE", "TITLE", "markdown", "to_json", "figure", "
 BEGIN, END = "<!-- restoration-rare:begin -->", "<!-- restoration-rare:end -->"
 FIGURE = "restoration_rare.png"
 #: The figure's title: what the numbers are -- the model's rate at the example site -- not the monument's risk.
-TITLE = "The model's annual rate at the example site, per restoration alternative (rare-event route, the same events)"
+TITLE = "The model's annual rate at the site, per restoration alternative (rare-event route, the same events)"
 
 
 def _e(x: float) -> str:
@@ -81,8 +81,8 @@ def markdown(result, years=(50.0,)) -> str:
     L += ["", f"![restoration, the same events](figures/{FIGURE})", "",
           "*Per level (rows): left, each alternative's annual rate with its 90 % interval on a linear axis from 0 "
           "(a refused level: a dotted bar up to its upper bound); right, each alternative's paired difference from "
-          f"{keys[0]} with its own 90 % interval, about 0. The model's rate at the example site, not the monument's "
-          "risk.*"]
+          f"{keys[0]} with its own 90 % interval, about 0 (a cross: few differing runs; a dotted bar: no run differs, "
+          "the bound on the difference). The model's rate at this site, not the monument's risk.*"]
     return "\n".join(L)
 
 
@@ -110,6 +110,7 @@ def _rates_panel(ax, runs, keys, lb):
             ax.plot([e.low, e.high], [y, y], "-", color=f"C{j}", lw=2)
             ax.plot([e.rate], [y], "o", color=f"C{j}")
     ax.set_xlim(left=0)
+    ax.set_ylim(-0.5, len(runs) - 0.5)
     ax.set_yticks(range(len(runs)), keys[::-1], fontsize=8)
 
 
@@ -117,6 +118,10 @@ def _diffs_panel(ax, diffs, keys, lb):
     for j, k in enumerate(keys[1:], start=1):
         d = diffs[k][lb]
         y = len(keys) - 1 - j
+        if d.status == "no differing run":           # D = 0 on every run: only |D| <= bound is known
+            ax.plot([-d.bound, d.bound], [y, y], ":", color=f"C{j}")
+            ax.plot([0.0], [y], "|", color=f"C{j}", ms=10)
+            continue
         ax.plot([d.low, d.high], [y, y], "-", color=f"C{j}", lw=2)
         ax.plot([d.difference], [y], "o" if d.status in ("differs", "not distinguished") else "x", color=f"C{j}")
     ax.axvline(0.0, color="k", lw=0.8)
@@ -143,8 +148,8 @@ def figure(result):
     axes[0, 1].set_title(f"paired difference from {keys[0]} (1/yr), 90 % interval", fontsize=9)
     axes[-1, 0].set_xlabel("1/yr")
     axes[-1, 1].set_xlabel("1/yr")
-    fig.suptitle(f"{TITLE}\n{runs[0].site.name}: {runs[0].runs} runs per alternative; the model's rate, not the "
-                 "monument's real risk", fontsize=10)
+    fig.suptitle(f"{TITLE}\nsite: {runs[0].site.name}; {runs[0].runs} runs per alternative; the model's rate, not "
+                 "the monument's real risk", fontsize=10)
     return fig
 
 
