@@ -216,7 +216,8 @@ restoration: setup
 # at the example site, at most RESTORATION_RUNS runs each (batches of 535 after the 430-run pilot), then every
 # alternative's rate and its paired difference from the free column, the page's block and restoration_rare.png.
 # The budget ends it before the target CoV (exit 6, the outputs written and marked): accepted here. About 25 CPU-
-# minutes at 965 runs (the portal half of it); rerunning resumes, and with the runs done rewrites the outputs.
+# minutes at 965 runs each (free 2, wood 6, titanium 7.5, the portal 9.5); rerunning resumes, and with the runs
+# done rewrites the outputs.
 RESTORATION_DIR  ?= results/restoration/rare
 RESTORATION_RUNS ?= 965
 RESTORATION_ALTS := --alternative free=examples/column_parthenon.toml \

@@ -28,7 +28,7 @@ def _e(x: float) -> str:
 
 def _rate_cell(e) -> str:
     if not math.isfinite(e.cov) or e.status == "refused":
-        return f"<= {_e(e.bound)} (refused: {e.n_eff:.1f} effective exceedances)"
+        return f"{_e(e.rate)} refused ({e.n_eff:.1f} effective exceedances; <= {_e(e.bound)})"
     mark = "" if e.status == "converged" else f" {e.status.upper()}"
     return f"{_e(e.rate)} [{_e(e.low)}, {_e(e.high)}] ({e.cov:.2f}){mark}"
 
@@ -52,7 +52,7 @@ def _head(result) -> list:
             "The model's annual rate of each level at this site (the paper's model choices, one site file), with its "
             "90 % interval -- not the monument's real risk: the model choices' own spread is the logic tree's "
             "([logic_tree.md](logic_tree.md)). CoV in parentheses; a level resting on too few effective exceedances "
-            "is refused and only its upper bound stated.", ""]
+            "is refused: its rate is no estimate to act on, no interval is stated, only the estimator's upper bound.", ""]
 
 
 def markdown(result, years=(50.0,)) -> str:
@@ -80,7 +80,7 @@ def markdown(result, years=(50.0,)) -> str:
               + " -- a failed run is not a non-exceedance (restoration.json bounds every difference)."]
     L += ["", f"![restoration, the same events](figures/{FIGURE})", "",
           "*Per level (rows): left, each alternative's annual rate with its 90 % interval on a linear axis from 0 "
-          "(a refused level: a dotted bar up to its upper bound); right, each alternative's paired difference from "
+          "(a refused level: a hollow point at its rate, no interval); right, each alternative's paired difference from "
           f"{keys[0]} with its own 90 % interval, about 0 (a cross: few differing runs; a dotted bar: no run differs, "
           "the bound on the difference). The model's rate at this site, not the monument's risk.*"]
     return "\n".join(L)
@@ -100,16 +100,20 @@ def to_json(result, years=(50.0,)) -> dict:
 
 
 def _rates_panel(ax, runs, keys, lb):
+    right = 0.0
     for j, r in enumerate(runs):
         e = r.estimate.levels[lb]
         y = len(runs) - 1 - j
-        if e.status == "refused" or not math.isfinite(e.cov):
-            ax.plot([0, e.bound], [y, y], ":", color=f"C{j}")
-            ax.plot([e.bound], [y], "<", color=f"C{j}", mfc="none")
+        if e.status == "refused" or not math.isfinite(e.cov):    # no interval: a hollow point at its rate, said
+            ax.plot([e.rate], [y], "o", color=f"C{j}", mfc="none")
+            ax.annotate(f"refused ({e.n_eff:.1f} eff. exceedances)", (e.rate, y), xytext=(6, 0),
+                        textcoords="offset points", va="center", fontsize=7, color=f"C{j}")
+            right = max(right, e.rate)
         else:
             ax.plot([e.low, e.high], [y, y], "-", color=f"C{j}", lw=2)
             ax.plot([e.rate], [y], "o", color=f"C{j}")
-    ax.set_xlim(left=0)
+            right = max(right, e.high)
+    ax.set_xlim(0, 1.35 * right if right > 0 else 1.0)
     ax.set_ylim(-0.5, len(runs) - 0.5)
     ax.set_yticks(range(len(runs)), keys[::-1], fontsize=8)
 
