@@ -5,17 +5,17 @@ pulses, their fragility and their risk at the example site, side by side with in
     python scripts/restoration_study.py grids results/restoration     # the grids (resumable), a few CPU-minutes each
     python scripts/restoration_study.py write results/restoration     # risk, fits, figures; prints the docs block
     python scripts/restoration_study.py write results/restoration --docs docs/restoration.md   # replaces the block
-    python scripts/restoration_study.py figure docs/restoration.md   # the risk figure from the block's numbers
 
 Every number of the block between ``<!-- restoration:begin -->`` and ``<!-- restoration:end -->`` of
-docs/restoration.md comes from the files this writes; none is typed by hand. The figures go to
-docs/figures/restoration_*.png.
+docs/restoration.md comes from the files this writes; none is typed by hand. The fragility figure goes to
+docs/figures/restoration_fragility.png. The grid route's rates are tabled, not drawn: its intervals overlap; the
+alternatives' rates and their paired differences, each with its own interval, are the rare-event route's on the
+same events (``make restoration-rare``: pycolfrag/risk/restoration_rare.py, docs/restoration.md's second block).
 """
 from __future__ import annotations
 
 import argparse
 import json
-import re
 import subprocess
 import sys
 import warnings
@@ -136,67 +136,12 @@ def _fig_fragility(fits: dict, path: Path) -> None:
     fig.savefig(path, dpi=110)
 
 
+#: Where the rates' comparison is: the grid route's intervals above overlap (they are not drawn).
+RISK_NOTE = ("The grid route's rates above, each alternative on its own with intervals that overlap, are not drawn: "
+             "the alternatives' rates and their paired differences on the same events, each with its own interval, are "
+             "the next block's (`make restoration-rare`).")
 FRAGILITY_CAPTION = ("*Lognormal fragility on PGV (cm/s) of each level, per variant, with its 90 % bootstrap band "
                      "(both branches' runs pooled).*")
-RISK_CAPTION = ("*Annual rate of exceeding each level (1/yr, log axis) per variant at the example site, grid route, "
-                "one site model: points are the rates, bars their 90 % intervals (Fay-Feuer gamma); a rate of 0 is a "
-                "triangle at the axis' foot. An illustration of the site format, not the monument's risk.*")
-#: The risk figure's title: what the numbers are (one site model, the grid route), not the monument's risk.
-RISK_TITLE = "Annual rate per variant at the example site (grid route, one model)"
-
-
-def fig_risk(risks: dict):
-    """The annual rate of each level per variant as points with their 90 % interval bars on a log axis
-    (no bars from an arbitrary floor: a bar's length on a log axis means nothing); a rate of 0 is drawn
-    as a downward triangle at the axis' foot, its interval's upper end as the bar's top. ``risks``: per
-    variant, ``{"rate_per_year": {level: [rate, low, high]}}`` (risk.json's layout). Returns the Figure."""
-    from matplotlib.figure import Figure
-    fig = Figure(figsize=(11, 4.8), layout="constrained")
-    ax = fig.add_subplot(1, 1, 1)
-    r = {v: np.array([risks[v]["rate_per_year"][k] for k in LEVELS], dtype=float) for v in VARIANTS if v in risks}
-    pos = np.concatenate([a[a > 0] for a in r.values()])
-    foot = 10 ** np.floor(np.log10(pos.min())) if pos.size else 1e-8
-    x = np.arange(len(LEVELS))
-    w = 0.8 / len(VARIANTS)
-    for j, v in enumerate(r):
-        a = r[v]
-        xj = x + (j - (len(VARIANTS) - 1) / 2) * w
-        ax.vlines(xj, np.where(a[:, 1] > 0, a[:, 1], foot), a[:, 2], color=f"C{j}", lw=1.5)
-        ok = a[:, 0] > 0
-        ax.plot(xj[ok], a[ok, 0], "o", color=f"C{j}", label=VARIANTS[v][0])
-        ax.plot(xj[~ok], np.full((~ok).sum(), foot), "v", color=f"C{j}", mfc="none")
-    ax.set_xticks(x, LEVELS, fontsize=8)
-    ax.set_yscale("log")
-    ax.set_ylim(bottom=foot)
-    ax.set_ylabel("annual rate of exceedance (1/yr)")
-    ax.set_title(f"{RISK_TITLE}\npoints: rate; bars: 90 % interval (Fay-Feuer gamma); an illustration of the "
-                 "site format, not a hazard study of the Acropolis", fontsize=9)
-    ax.grid(alpha=0.3, axis="y", which="both")
-    ax.legend(fontsize=8)
-    return fig
-
-
-def _fig_risk(risks: dict, path: Path) -> None:
-    fig_risk(risks).savefig(path, dpi=110)
-
-
-def risks_from_docs(text: str) -> dict:
-    """The rates of the docs block's risk table (what :func:`write` printed, 3 significant digits), in
-    risk.json's layout: {variant: {"rate_per_year": {level: [rate, low, high]}}}."""
-    block = text[text.index(BEGIN):text.index(END)]
-    table = block[block.index("**Risk at the example site**"):].split("\n\n")[1]
-    out: dict = {v: {"rate_per_year": {}} for v in VARIANTS}
-    for row in table.splitlines()[2:]:
-        cells = [c.strip() for c in row.strip().strip("|").split("|")]
-        for v, cell in zip(VARIANTS, cells[1:]):
-            out[v]["rate_per_year"][cells[0]] = [float(t) for t in re.findall(r"[0-9.]+e[-+][0-9]+|\b0\b",
-                                                                               cell.split(";")[0])]
-    bad = [(v, k) for v in VARIANTS for k in LEVELS if len(out[v]["rate_per_year"].get(k, ())) != 3]
-    if bad:
-        raise ValueError(f"the docs block's risk table lacks rate [low, high] for {bad[:3]}")
-    return out
-
-
 def write(folder: Path, figures: Path) -> str:
     """Fits, risks and figures of the four variants; returns the docs block (Markdown)."""
     runs = {v: _runs(folder, v) for v in VARIANTS}
@@ -206,7 +151,6 @@ def write(folder: Path, figures: Path) -> str:
     risks = {v: _risk(folder, v) for v in VARIANTS}
     figures.mkdir(parents=True, exist_ok=True)
     _fig_fragility(fits, figures / "restoration_fragility.png")
-    _fig_risk(risks, figures / "restoration_risk.png")
     names = [VARIANTS[v][0] for v in VARIANTS]
     n = {v: runs[v]["mw"].size for v in VARIANTS}
     L = [f"Grid: Mw 5.5, 6, 6.5, 7, 7.5 x R 5, 10, 15, 20 km x 30 samples, with and without pulses (paired "
@@ -255,25 +199,19 @@ def write(folder: Path, figures: Path) -> str:
             else f"{int(((r['collapse_block'] >= r['first_beam']) & r['collapsed'].astype(bool)).sum())}"}
     for label, fn in rows.items():
         L.append(f"| {label} | " + " | ".join(fn(runs[v]) for v in VARIANTS) + " |")
-    L += ["", "![fragility](figures/restoration_fragility.png)", "", FRAGILITY_CAPTION, "",
-          "![risk](figures/restoration_risk.png)", "", RISK_CAPTION]
+    L += ["", "![fragility](figures/restoration_fragility.png)", "", FRAGILITY_CAPTION, "", RISK_NOTE]
     return "\n".join(L)
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("what", choices=("grids", "write", "figure"))
-    p.add_argument("folder", type=Path, help="the study's folder (grids, write), or the docs page (figure)")
+    p.add_argument("what", choices=("grids", "write"))
+    p.add_argument("folder", type=Path, help="the study's folder")
     p.add_argument("--docs", type=Path, default=None, help="replace the block of this page (docs/restoration.md)")
     p.add_argument("--figures", type=Path, default=ROOT / "docs" / "figures")
     a = p.parse_args(argv)
     if a.what == "grids":
         grids(a.folder)
-        return 0
-    if a.what == "figure":   # the study's results folder is not kept in the repository: the docs block's numbers
-        a.figures.mkdir(parents=True, exist_ok=True)
-        _fig_risk(risks_from_docs(a.folder.read_text(encoding="utf-8")), a.figures / "restoration_risk.png")
-        print(f"wrote {a.figures / 'restoration_risk.png'}")
         return 0
     block = write(a.folder, a.figures)
     if a.docs is None:

@@ -34,6 +34,7 @@ from pycolfrag.ground_motion.registry import DEFAULT_PULSE_SHAPE, pulse_shape_of
 from pycolfrag.layouts import events as _event_rows
 from pycolfrag.solver import sample as _sample
 from pycolfrag.structure.column import Column
+from pycolfrag.structure.kinds import model_from_dict
 
 __all__ = ["EventBatchSpec", "EventContext", "run_event", "run_events", "EVENT_ROWS", "TAG_FIELDS",
            "inputs_digest"]
@@ -214,14 +215,15 @@ class EventBatchSpec(RunSettings):
 
 
 class EventContext:
-    """What a rank needs to compute any row of a batch of events: the spec and the column."""
+    """What a rank needs to compute any row of a batch of events: the spec and the structure (a column, or a
+    scene such as a portal: the grid's rows read it the same way)."""
 
     spec: object     # the EventBatchSpec
     column: Column
 
     def __init__(self, spec):
         self.spec = spec
-        self.column = Column.from_dict(spec.column) if spec.column else Column.parthenon()
+        self.column = model_from_dict(spec.column)   # a column, or a colonnade (the restoration's portal)
 
     def locate(self, row: int) -> tuple:
         """(row, Mw, R km, with a pulse) of a row."""

@@ -1,0 +1,171 @@
+"""The paired difference of two run settings simulated on the same events (common random numbers,
+:func:`pycolfrag.rare.paired.simulate_paired`): per level, lambda_B - lambda_A with its own standard error and
+interval (docs/restoration.md, "On the same events"; docs/logic_tree.md, "On the rare-event route").
+
+Both settings ran the same rows -- the same (stage, stratum, index), Mw, R, noise seed and pulse normals, hence
+the same weights w_i (:func:`check_same_events` refuses two sets of rows that are not, naming the first row and
+field that differ). With v_i = w_i y_i of each setting (a failed run's imputed as the estimator imputes it,
+w_i times its stratum's weighted exceedance share among the setting's successful rows) and d_i = v_Bi - v_Ai::
+
+    D = sum_h W_h (1/n_h) sum_i d_i              V_D = sum_h W_h^2 s_h^2(d) / n_ok_h
+
+s_h^2 over the rows that succeeded in both (an imputed value is no observation), n_ok_h their number.
+D is lambda_B - lambda_A of the stratified estimator of :mod:`pycolfrag.rare.estimate` (the same rows, the
+same weights: equal to round-off when no run failed). The interval is D +- z sqrt(V_D) (normal: a difference
+may have either sign). Beside it: V_A + V_B, the variance two independent simulations of the same runs
+would give the difference, and their ratio (V_A + V_B) / V_D -- how many times the runs pairing saves for
+the same precision of the difference --; the runs whose outcome differs between the two settings, Kong's
+effective number of them (n_eff = (sum |c|)^2 / sum c^2 over their contributions c_i = W_h d_i / n_h); and
+an upper bound on |D| (every stratum's largest weight times the Jeffreys 95 % upper limit of its share of
+differing runs), the only number stated when no run differs. A difference resting on fewer than
+``min_neff`` effective differing runs is marked ``few differing runs``: its interval is stated but, as a
+level's with as few exceedances, not to be trusted. Failed runs bound D: every failed run of B as none and
+of A as an exceedance (the low end), and the other way round.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from pycolfrag import results as _results
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.rare.estimate import DEFAULT_MIN_NEFF, exceedances, row_weights
+
+__all__ = ["EVENT_FIELDS", "PairedDifference", "check_same_events", "paired_differences"]
+
+#: The fields of a row that make its event: identical in both settings, row for row.
+EVENT_FIELDS = ("stage", "stratum", "index", "source", "mw", "dist_km", "hf_seed", "pulse", "z_mw", "z_dist", "z_vp",
+                "z_fp", "z_nu", "z_gamma", "occurrence_weight", "weight")
+
+
+@dataclass
+class PairedDifference:
+    """One level's lambda_B - lambda_A on the same events (module docstring)."""
+
+    label: str
+    difference: float
+    sd: float
+    low: float
+    high: float
+    confidence: float
+    status: str                  # "differs", "not distinguished", "few differing runs", "no differing run"
+    bound: float                 # upper bound on |difference|
+    pairs: int                   # rows finished in both
+    differing: int               # rows whose outcome differs
+    n_eff: float                 # effective number of differing rows
+    var_independent: float       # V_A + V_B
+    pairing_gain: float          # (V_A + V_B) / V_D
+    failed: int = 0              # rows failed in either setting
+    failed_low: float = math.nan
+    failed_high: float = math.nan
+
+    def as_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+def _order(cols) -> np.ndarray:
+    return np.lexsort((np.asarray(cols["index"]), np.asarray(cols["stage"]), np.asarray(cols["stratum"])))
+
+
+def check_same_events(cols_a: dict, cols_b: dict, names=("A", "B")) -> tuple:
+    """(order of A's rows, order of B's rows) that pair them; ParameterError naming the first row and field
+    that differ when the two sets of finished rows are not the same events."""
+    done_a = np.asarray(cols_a["status"]) != _results.STATUS_PENDING
+    done_b = np.asarray(cols_b["status"]) != _results.STATUS_PENDING
+    a = {k: np.asarray(v)[done_a] for k, v in cols_a.items()}
+    b = {k: np.asarray(v)[done_b] for k, v in cols_b.items()}
+    if a["status"].size != b["status"].size:
+        raise ParameterError(f"{names[0]} has {a['status'].size} finished runs and {names[1]} "
+                             f"{b['status'].size}: not the same events (simulate both with simulate_paired)")
+    ia, ib = _order(a), _order(b)
+    for f in EVENT_FIELDS:
+        if f not in a and f not in b:
+            continue
+        if f not in a or f not in b:
+            raise ParameterError(f"field {f!r} is in the rows of {names[0] if f in a else names[1]} only")
+        x, y = np.asarray(a[f])[ia], np.asarray(b[f])[ib]
+        same = (x == y) | (np.isnan(x) & np.isnan(y)) if x.dtype.kind == "f" else x == y
+        if not np.all(same):
+            k = int(np.flatnonzero(~same)[0])
+            raise ParameterError(
+                f"run (stage {int(a['stage'][ia][k])}, stratum {int(a['stratum'][ia][k])}, index "
+                f"{int(a['index'][ia][k])}): {f} is {x[k]!r} in {names[0]} and {y[k]!r} in {names[1]}: not the same "
+                "events, so no paired difference (simulate both with one seed and site: simulate_paired)")
+    return np.flatnonzero(done_a)[ia], np.flatnonzero(done_b)[ib]
+
+
+def _jeffreys_upper(k: int, n: int) -> float:
+    return 1.0 if k >= n else float(stats.beta.ppf(0.95, k + 0.5, n - k + 0.5))
+
+
+def _imputed(v, w, ok, h, nh):
+    """v with each failed row's value its weight times the stratum's weighted share among successful rows."""
+    out = v.copy()
+    for s in np.unique(h[~ok]):
+        sel = h == s
+        w_ok = math.fsum(w[sel & ok])
+        share = math.fsum(v[sel & ok]) / w_ok if w_ok > 0 else 0.0
+        out[sel & ~ok] = w[sel & ~ok] * share
+    return out
+
+
+def _strat_var(x, h, W) -> float:
+    total = 0.0
+    for s in np.unique(h):
+        xs = x[h == s]
+        total += W[s] ** 2 * float(np.var(xs, ddof=1)) / xs.size if xs.size >= 2 else math.inf
+    return total
+
+
+def _level(q, a, b, w, h, ok_a, ok_b, W, confidence, min_neff) -> PairedDifference:
+    ya = np.where(ok_a, exceedances(a, q), False).astype(float)
+    yb = np.where(ok_b, exceedances(b, q), False).astype(float)
+    nh = np.bincount(h, minlength=W.size).astype(float)
+    scale = W[h] / nh[h]                                    # W_h / n_h of every row
+    va, vb = _imputed(w * ya, w, ok_a, h, nh), _imputed(w * yb, w, ok_b, h, nh)
+    c = scale * (vb - va)
+    both = ok_a & ok_b
+    diff = math.fsum(c)
+    var = _strat_var((vb - va)[both], h[both], W)
+    var_ind = _strat_var((w * ya)[ok_a], h[ok_a], W) + _strat_var((w * yb)[ok_b], h[ok_b], W)
+    sd = math.sqrt(var)
+    z = float(stats.norm.ppf(0.5 + confidence / 2))
+    differ = both & (ya != yb)
+    cd = np.abs(c[differ])
+    n_eff = math.fsum(cd) ** 2 / math.fsum(cd * cd) if cd.size else 0.0
+    bound = math.fsum(W[s] * float(np.max(w[h == s])) * _jeffreys_upper(int(np.sum(differ[h == s])),
+                                                                          int(np.sum(h == s))) for s in np.unique(h))
+    if not differ.any():
+        status = "no differing run"
+    elif n_eff < min_neff:
+        status = "few differing runs"
+    else:
+        status = "differs" if abs(diff) > z * sd else "not distinguished"
+    failed = int(np.sum(~(ok_a & ok_b)))
+    lo = hi = math.nan
+    if failed:
+        lo = math.fsum(scale * (w * np.where(ok_b, yb, 0.0) - w * np.where(ok_a, ya, 1.0)))
+        hi = math.fsum(scale * (w * np.where(ok_b, yb, 1.0) - w * np.where(ok_a, ya, 0.0)))
+    return PairedDifference(q.label, diff, sd, diff - z * sd, diff + z * sd, confidence, status, bound, int(both.sum()),
+                            int(differ.sum()), n_eff, var_ind, var_ind / var if var > 0 else math.inf, failed, lo, hi)
+
+
+def paired_differences(run_a, run_b, quantities=None, *, confidence: float = 0.90,
+                       min_neff: float = DEFAULT_MIN_NEFF, names=("A", "B")) -> dict:
+    """label -> :class:`PairedDifference` of lambda_B - lambda_A for every level of ``quantities`` (default:
+    ``run_a.quantities``), from two :class:`~pycolfrag.rare.driver.SiteRun` of the same events."""
+    if not 0.0 < confidence < 1.0:
+        raise ParameterError(f"the confidence must be in (0, 1), got {confidence!r}")
+    ia, ib = check_same_events(run_a.cols, run_b.cols, names)
+    a = {k: np.asarray(v)[ia] for k, v in run_a.cols.items()}
+    b = {k: np.asarray(v)[ib] for k, v in run_b.cols.items()}
+    w, _ = row_weights(a, run_a.strata, run_a.design)
+    h = np.asarray(a["stratum"], dtype=int)
+    ok_a = np.asarray(a["status"]) == _results.STATUS_OK
+    ok_b = np.asarray(b["status"]) == _results.STATUS_OK
+    W = np.asarray(run_a.strata.rates, dtype=float)
+    return {q.label: _level(q, a, b, w, h, ok_a, ok_b, W, confidence, min_neff)
+            for q in (quantities or run_a.quantities)}
