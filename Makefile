@@ -7,6 +7,7 @@
 #   make risk    site risk (annual rates, 50-year probabilities) of an example site (docs/risk.md)
 #   make risk-docs  the example's branches and the numbers of docs/risk.md (scripts/risk_example.py)
 #   make risk-rare  the example site by event-based simulation, beside the grid route (docs/rare_events.md)
+#   make risk-tree  the example site's default logic tree (model uncertainty: mean and fractiles, docs/logic_tree.md)
 #   make risk-sequences  50-year sequences of mainshocks at the example site, with and without accumulated damage (docs/sequences.md)
 #   make restoration  the restoration study of docs/restoration.md (scripts/restoration_study.py)
 include csrc/flags.mk
@@ -22,7 +23,7 @@ GRID_ARGS ?=
 # Open MPI refuses root without these; set only for our own commands.
 MPIENV  := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 
-.PHONY: setup system build ctest ctest-bin ctest-asan pytest test lint grid analysis figures validation records risk risk-docs risk-rare risk-sequences restoration bench clean
+.PHONY: setup system build ctest ctest-bin ctest-asan pytest test lint grid analysis figures validation records risk risk-docs risk-rare risk-tree risk-sequences restoration bench clean
 
 setup: system .venv/.installed build
 
@@ -192,6 +193,25 @@ risk-rare: risk
 	$(MPIENV) mpirun --allow-run-as-root -n $(NRANKS) $(PY) -m mpi4py -m pycolfrag risk $(SITE) $(RISK_DIR)/pulse.h5 \
 	  --no-pulse $(RISK_DIR)/nopulse.h5 --simulate $(RARE_DIR) --target-cov $(RARE_COV) --max-runs $(RARE_MAX_RUNS) \
 	  --no-progress
+
+# The example site's default logic tree (examples/logic_tree_default.toml, docs/logic_tree.md "Default tree"):
+# pulse amplitude x contact model x pulse occurrence, 8 end branches on 4 run settings, every run setting on
+# the same events (common random numbers) by the rare-event route on NRANKS MPI ranks until each one's
+# collapse rate has a CoV of at most TREE_COV (then the tree's mean, a weighted mean of the branches, has
+# at most that CoV too), or TREE_MAX_RUNS runs per run setting. Needs no grid. Writes TREE_DIR/logic_tree.md
+# (mean, 16-84 % band, tornado, the committee's summary) and one folder per run setting; rerunning the same
+# command resumes (and, when finished, rewrites the report). TREE_ARGS=... for more `risk --simulate` options.
+TREE          ?= examples/logic_tree_default.toml
+TREE_DIR      ?= $(RISK_DIR)/tree
+TREE_COV      ?= 0.2
+TREE_LEVELS   ?= collapse
+TREE_MAX_RUNS ?= 20000
+TREE_ARGS     ?=
+risk-tree: setup
+	mkdir -p $(RISK_DIR)
+	$(MPIENV) mpirun --allow-run-as-root -n $(NRANKS) $(PY) -m mpi4py -m pycolfrag risk $(SITE) --logic-tree $(TREE) \
+	  --simulate $(TREE_DIR) --target-cov $(TREE_COV) --levels $(TREE_LEVELS) --max-runs $(TREE_MAX_RUNS) \
+	  --no-progress $(TREE_ARGS)
 
 # Sequences of mainshocks at the example site (docs/sequences.md, "Sequences at a site"): SEQ_N sequences of
 # SEQ_YEARS years by crude Monte Carlo, each run with accumulated damage, on the intact column and with a

@@ -23,7 +23,7 @@ BRM = "bray_rodriguez_marek_2004"
 
 def test_bray_rodriguez_marek_is_its_formula_and_about_1_8_times_eq6_at_mw7_5km():
     """ln PGV = 4.58 + 0.34 Mw - 0.58 ln(R^2 + 49) worked here with Python's math (the module uses the library's
-    exp/log: 1e-13 relative); issue 33 quotes "about 1.8x" Eq. (6)'s Vp at Mw 7, 5 km: 86.8 / 48.9 = 1.775."""
+    exp/log: 1e-13 relative); against Eq. (6) at Mw 7, 5 km it is 86.8 / 48.9 = 1.775x, the "about 1.8x" that motivated it."""
     hand = math.exp(4.58 + 0.34 * 7.0 - 0.58 * math.log(25.0 + 49.0))
     assert brm.mean_vp_cm_s(7.0, 5.0) == pytest.approx(hand, rel=1e-13)
     eq6 = 10.0 ** (-5.17 + 1.98 * 7 - 0.14 * 49 - 0.10 * math.log10(25.562))      # Eq. (6), Mw capped at 7

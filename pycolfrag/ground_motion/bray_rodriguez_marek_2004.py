@@ -9,7 +9,7 @@ rupture, natural logarithm, PGV in cm/s, R in km (their PGV regression table)::
 
     ln(PGV) = a + b Mw + c ln(R^2 + d^2),     a = 4.58, b = 0.34, c = -0.58, d = 7 km
 
-Against Eq. (6): at Mw 7, R 5 km, 86.8 cm/s against 48.9 cm/s (1.78x; issue 33 quotes "about 1.8x");
+Against Eq. (6): at Mw 7, R 5 km, 86.8 cm/s against 48.9 cm/s (1.78x);
 at Mw 5.5, R 10 km 34.7 against 19.3 cm/s (1.80x); at Mw 7.5, R 5 km 103 against 48.9 (2.1x: no magnitude
 saturation here, Eq. (6) caps Mw at 7.0).
 
