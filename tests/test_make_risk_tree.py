@@ -32,7 +32,7 @@ def test_make_risk_tree_runs_the_default_tree_on_the_rare_route_to_cov_0_2_of_co
     ap.add_argument("--logic-tree", required=True)
     a = ap.parse_args(args)
     assert (a.simulate, a.target_cov, a.levels, a.max_runs, a.progress) == (str(tmp_path / "tree"), 0.2, ["collapse"],
-                                                                             20000, False)
+                                                                             4000, False)
     a.site, a.logic_tree = str(ROOT / a.site), str(ROOT / a.logic_tree)
     p = prepare(a)                                      # the checks before any run, the probes included
     assert len(p["ends"]) == 8 and len(p["groups"]) == 4
