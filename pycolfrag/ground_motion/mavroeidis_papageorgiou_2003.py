@@ -218,6 +218,12 @@ def _distribution(log10_vp_mean, log10_fp_mean, log10_fp_sd):
     return d
 
 
+def _mean_vp(tp_model, Mw, dist_km, vp_scale):
+    """The median Vp, cm/s: Eq. (6) (:mod:`.rupakhety_2011`), or the pulse-amplitude relation a
+    ``tp_model`` of :class:`~pycolfrag.ground_motion.registry.PulseRelations` carries (``VP_MODEL``)."""
+    return getattr(tp_model, "VP_MODEL", _r11).mean_vp_cm_s(Mw, dist_km, vp_scale)
+
+
 def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11, amplitude=True):
     """Latin-hypercube sample of ``n`` pulses for the scenario (Mw, dist_km km).
 
@@ -260,7 +266,7 @@ def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11, amplitu
     """
     model = tp_model
     c = _c()
-    log_vp = c.lib.cf_math_log10(_r11.mean_vp_cm_s(Mw, dist_km, vp_scale))
+    log_vp = c.lib.cf_math_log10(_mean_vp(tp_model, Mw, dist_km, vp_scale))
     log_fp = model.log10_fp_mean(Mw)
     n_ = integer(n, "n", 1)
     u = np.ascontiguousarray(latin_hypercube(4, n_, _int_seed(seed)), dtype=np.float64)
@@ -311,7 +317,7 @@ def parameters_from_normals(Mw, dist_km, z, vp_scale=1.0, tp_model=_r11) -> dict
         raise ParameterError(f"pulse normals has {z.size} values; the pulse takes {len(NORMALS)} "
                              f"({', '.join(NORMALS)})")
     lib = _c().lib
-    log_vp = lib.cf_math_log10(_r11.mean_vp_cm_s(Mw, dist_km, vp_scale))
+    log_vp = lib.cf_math_log10(_mean_vp(tp_model, Mw, dist_km, vp_scale))
     log_fp = tp_model.log10_fp_mean(Mw)
     z_vp, z_fp, z_nu, z_gamma = (float(x) for x in z)
     vp = lib.cf_math_pow(10.0, log_vp + _r11.SIGMA_LOG10_VP * z_vp)

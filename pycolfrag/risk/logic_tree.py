@@ -141,6 +141,7 @@ CHOICES: dict = dict([
     _c("m_max", SITE, "a Gutenberg-Richter source's largest magnitude", lambda v, w: _number(v, w), "m_max", True),
     _c("pulse_model", SITE, "the pulse-occurrence model (a site file's [pulse] table)", _table, "pulse", True),
     _c("vp_scale", RUNS, "the factor on the pulse amplitude of Eq. (6)", lambda v, w: _number(v, w)),
+    _c("vp_model", RUNS, "the pulse-amplitude relation (Eq. (6) or another: docs/ground_motion.md)", _text),
     _c("tp_model", RUNS, "the pulse-period relation", _text),
     _c("contact", RUNS, "the contact model (and the perimeter model's points_per_edge)", _contact),
     _c("joint_kn", RUNS, "the joints' normal stiffness, Pa/m", lambda v, w: _number(v, w)),

@@ -111,6 +111,7 @@ class ModelSettings:
 
     vp_scale: float = 1.0
     tp_model: str = ""
+    vp_model: str = ""
     solver_options: dict = field(default_factory=dict)
     column: dict | None = None
 
@@ -126,6 +127,8 @@ def _set_model_value(m: ModelSettings, name: str, value) -> ModelSettings:
         return replace(m, vp_scale=value)
     if name == "tp_model":
         return replace(m, tp_model=value)
+    if name == "vp_model":
+        return replace(m, vp_model=value)
     if name == "contact":
         opts = {k: v for k, v in m.solver_options.items() if k not in ("contact", "points_per_edge")}
         return replace(m, solver_options={**opts, **({"contact": value} if isinstance(value, str) else value)})
@@ -164,11 +167,12 @@ def check_model(m: ModelSettings, *, probe: bool = False, record_dt_s: float | N
     few solver steps). Returns (Column, SolverOptions)."""
     from pycolfrag.grid.spec import DEFAULT_RECORD_DT_S, resolve_solver_options
     from pycolfrag.ground_motion import rupakhety_2011
-    from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, tp_model_of
+    from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, pulse_relations_name, tp_model_of
     from pycolfrag.solver.options import OPTIONS
     from pycolfrag.structure.column import Column
     rupakhety_2011.PARAMETERS[2].check(m.vp_scale, "vp_scale", error=ParameterError)
     tp_model_of(m.tp_model or DEFAULT_TP_MODEL)
+    pulse_relations_name(m.tp_model, m.vp_model)   # ParameterError naming an unknown vp_model
     opts = resolve_solver_options(dict(m.solver_options))
     for k in m.solver_options:
         models = OPTIONS[k].models if k in OPTIONS else ()

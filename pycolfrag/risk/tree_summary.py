@@ -17,6 +17,9 @@ MEASUREMENTS = {
     "vp_scale": ("the pulse amplitude (the scale of Eq. (6)'s Vp)",
                  "near-fault pulse records at the site's magnitudes and distances (their PGV and Vp), or a "
                  "site-specific study of the pulse amplitude"),
+    "vp_model": ("the pulse-amplitude relation (Eq. (6) or another published one)",
+                 "near-fault pulse records at the site's magnitudes and distances (their PGV and Vp), or a "
+                 "site-specific study of the pulse amplitude"),
     "tp_model": ("the pulse-period relation", "the periods of pulses recorded near faults like the site's"),
     "pulse_model": ("the pulse-occurrence model",
                     "the share of pulse-like motions in records near faults of the site's mechanism and geometry"),
