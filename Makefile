@@ -248,7 +248,7 @@ RESTORATION_ALTS := --alternative free=examples/column_parthenon.toml \
   --alternative titanium=examples/column_parthenon_titanium.toml \
   --alternative wood=examples/column_parthenon_wood.toml --alternative portal=examples/portal_2.toml
 restoration-rare: setup
-	$(MPIENV) mpirun --allow-run-as-root -n $(NRANKS) $(PY) -m mpi4py -m pycolfrag.risk.restoration_rare $(SITE) \
+	$(MPIENV) mpirun --allow-run-as-root -n $(NRANKS) $(PY) -m mpi4py -m pycolfrag restoration $(SITE) \
 	  $(RESTORATION_ALTS) --simulate $(RESTORATION_DIR) --max-runs $(RESTORATION_RUNS) --batch 535 --no-progress \
 	  --docs docs/restoration.md || [ $$? -eq 6 ]
 

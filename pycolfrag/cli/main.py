@@ -82,6 +82,9 @@ COMMANDS = {c.name: c for c in (
     Command("subset", "pycolfrag.cli.subset:main",
             "subset simulation of P(EDP >= level) in one scenario, the record-to-record tail; MPI "
             "(docs/rare_events.md)", "python -m pycolfrag.cli.subset"),
+    Command("restoration", "pycolfrag.risk.restoration_rare:main",
+            "restoration alternatives (dowels, a portal) on the same events by the rare-event route: each one's "
+            "rates and paired differences (docs/restoration.md)", "python -m pycolfrag.risk.restoration_rare"),
     Command("openquake", "pycolfrag.cli.openquake:main",
             "OpenQuake interchange: export fragility as NRML, classical damage from hazard curves",
             "python -m pycolfrag.cli.openquake"),

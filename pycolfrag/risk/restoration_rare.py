@@ -32,6 +32,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from pycolfrag.core.errors import ParameterError, PycolfragError, ResultsFileError
+from pycolfrag.core.help import HelpFormatter
 from pycolfrag.grid import get_comm
 from pycolfrag.grid.probes import check_solver_options
 from pycolfrag.rare.estimate import WeightError
@@ -157,8 +158,8 @@ def compare(alternatives, runs, confidence: float = 0.90) -> dict:
                             for a, r in zip(alternatives[1:], runs[1:])}}
 
 
-def build_parser(prog: str = "python -m pycolfrag.risk.restoration_rare") -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
+def build_parser(prog: str = "pycolfrag restoration") -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog=prog, formatter_class=HelpFormatter, description=__doc__.split("\n\n")[0])
     ap.add_argument("site", help="site file (TOML)")
     ap.add_argument("--alternative", action="append", default=[], metavar="KEY=FILE",
                     help="a restoration alternative: a column or scene file (repeat; the first is the reference)")
