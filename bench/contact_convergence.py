@@ -26,8 +26,8 @@ first impact the response is not chaotic (SPEC section 8), so the top displaceme
 0.4 s of a 0.25 g, 2 Hz sine is compared with the exact interface's at one common explicit step
 (0.25 ms, a quarter of the smallest stability limit), with the observed order in points per edge.
 
-    nice -n 10 .venv/bin/python bench/contact_convergence.py            # default (~9 CPU-minutes alone)
-    nice -n 10 .venv/bin/python bench/contact_convergence.py --quick    # smoke run (~1 CPU-minute)
+    nice -n 10 .venv/bin/python bench/contact_convergence.py            # default (~8 CPU-minutes)
+    nice -n 10 .venv/bin/python bench/contact_convergence.py --quick    # smoke run (~15 CPU-seconds)
 
 Writes bench/results/contact_convergence/contact_convergence.json (unless --no-write).
 """
