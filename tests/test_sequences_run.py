@@ -184,3 +184,64 @@ def test_two_mpi_ranks_give_the_one_rank_sequences(site_file, reference, tmp_pat
     assert p.returncode == 0, p.stdout + p.stderr
     assert _journal(tmp_path / "two") == reference
     assert json.loads((tmp_path / "two" / "summary.json").read_text())["n_sequences"] == 6
+
+
+# --------------------------------------------------------------------------- --rare: the strongest event's rows
+
+RARE = ["--rare", "--target", "u_d > 0.005", "--target-cov", "0.01", "--pilot", "2", "--batch", "12",
+        "--max-rows", "40"]
+
+
+def _rows(out: Path) -> list:
+    """The rows of a rare journal in order, without their wall times."""
+    lines = (out / "rows.jsonl").read_text().splitlines()[1:]
+    return [json.dumps({k: v for k, v in d.items() if k != "seconds"}) for d in map(json.loads, lines)]
+
+
+@pytest.fixture(scope="module")
+def rare_reference(site_file):
+    """The rare estimator run in this process with the command's settings (rows without their wall times)."""
+    from pycolfrag.risk import sequences_rare as rare
+    st = sq.SequenceSettings(years=10.0, n_sequences=1000, seed=3, restoration=Restoration(u_d=0.005),
+                             max_record_s=4.0)
+    rs = rare.RareSequenceSettings(sequences=st, target="u_d > 0.005", target_cov=0.01, pilot=2, batch=12,
+                                   max_rows=40)
+    run = rare.simulate_sequences(load_site(site_file), Column.from_file(COLUMN), rs)
+    return [json.dumps({k: v for k, v in r.items() if k != "seconds"}) for r in run["rows"]], run["estimate"]
+
+
+def test_rare_rows_are_the_in_process_estimators(site_file, rare_reference, tmp_path):
+    out = tmp_path / "rare"
+    p = _run([str(site_file), str(out)] + ARGS + RARE)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert _rows(out) == rare_reference[0]
+    est = json.loads((out / "rare_summary.json").read_text())["estimate"]
+    assert est["accumulated"]["u_d > 0.005"]["p"] == rare_reference[1]["accumulated"]["u_d > 0.005"]["p"]
+    assert "importance sampling on the strongest event" in (out / "rare_summary.md").read_text()
+
+
+def test_rare_sigterm_then_resume_gives_the_uninterrupted_rows(site_file, rare_reference, tmp_path):
+    out = tmp_path / "stopped"
+    proc = subprocess.Popen(_cmd([str(site_file), str(out)] + ARGS + RARE), stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, env=_env(), cwd=ROOT)
+    t0 = time.time()
+    while proc.poll() is None and time.time() - t0 < 120:
+        j = out / "rows.jsonl"
+        if j.exists() and j.read_text().count("\n") >= 9:
+            break
+        time.sleep(0.01)
+    assert proc.poll() is None, "the run ended before it could be stopped"
+    proc.send_signal(signal.SIGTERM)
+    text = proc.communicate(timeout=120)[0]
+    assert proc.returncode == 75, text
+    assert not (out / "rare_summary.json").exists()
+    p = _run([str(site_file), str(out)] + ARGS + RARE)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert _rows(out) == rare_reference[0]
+
+
+@pytest.mark.mpi
+def test_rare_two_mpi_ranks_give_the_one_rank_rows(site_file, rare_reference, tmp_path):
+    p = _run([str(site_file), str(tmp_path / "two")] + ARGS + RARE, ranks=2)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert _rows(tmp_path / "two") == rare_reference[0]

@@ -102,11 +102,11 @@ def _differences(a: dict, b: dict, where: str = "") -> list:
     return out
 
 
-def read_journal(path: Path, ident: dict, log) -> dict:
-    """The finished sequences of a journal (index -> (outcome, seconds)); an absent journal has none.
-    Refused (:class:`ParameterError`) when its identity is not ``ident``; a torn last line is cut off."""
+def read_lines(path: Path, ident: dict, log) -> list:
+    """The entries of a journal after its identity line (dicts); an absent journal has none. Refused
+    (:class:`ParameterError`) when its identity is not ``ident``; a torn last line is cut off."""
     if not path.exists():
-        return {}
+        return []
     raw = path.read_bytes()
     lines = raw.split(b"\n")
     if lines and lines[-1] == b"":
@@ -117,7 +117,7 @@ def read_journal(path: Path, ident: dict, log) -> dict:
             f.truncate(len(raw) - len(lines[-1]))
         lines.pop()
     if not lines:
-        return {}
+        return []
     try:
         head = json.loads(lines[0])
         found = head["identity"]
@@ -127,17 +127,28 @@ def read_journal(path: Path, ident: dict, log) -> dict:
     if diff:
         raise ParameterError(f"{path} holds the sequences of another run ({'; '.join(diff[:4])}"
                              f"{'; ...' if len(diff) > 4 else ''}): give another folder")
-    done = {}
+    out = []
     for i, line in enumerate(lines[1:], start=2):
         try:
-            o, sec = outcome_from_dict(json.loads(line))
-        except (ValueError, KeyError, TypeError) as exc:
+            out.append(json.loads(line))
+        except ValueError as exc:
+            raise ParameterError(f"{path}, line {i}: damaged ({exc}): give another folder") from None
+    return out
+
+
+def read_journal(path: Path, ident: dict, log) -> dict:
+    """The finished sequences of a journal (index -> (outcome, seconds)); see :func:`read_lines`."""
+    done = {}
+    for i, d in enumerate(read_lines(path, ident, log), start=2):
+        try:
+            o, sec = outcome_from_dict(d)
+        except (KeyError, TypeError) as exc:
             raise ParameterError(f"{path}, line {i}: damaged ({exc}): give another folder") from None
         done[o.sequence] = (o, sec)
     return done
 
 
-class _Journal:
+class Journal:
     """Rank 0's journal: one line per sequence, flushed and synced before the next is taken."""
 
     def __init__(self, path: Path, ident: dict, fresh: bool):
@@ -152,6 +163,12 @@ class _Journal:
 
     def add(self, o: SequenceOutcome, seconds: float) -> None:
         self._write(outcome_to_dict(o, seconds))
+
+    def add_rows(self, rows: list) -> None:
+        """Rows of the rare sequences, one line each, synced once."""
+        self.f.write("".join(json.dumps(r) + "\n" for r in rows))
+        self.f.flush()
+        os.fsync(self.f.fileno())
 
     def close(self) -> None:
         self.f.close()
@@ -207,7 +224,7 @@ def run_folder(site_path, model, st: SequenceSettings, folder, comm=None, log=pr
             lock = RunLock.acquire(folder / JOURNAL, log=log)
             done = read_journal(folder / JOURNAL, ident, log)
             path = folder / JOURNAL
-            journal = _Journal(path, ident, fresh=not path.exists() or path.stat().st_size == 0)
+            journal = Journal(path, ident, fresh=not path.exists() or path.stat().st_size == 0)
         except ResultsLockedError as exc:
             error = (EXIT_LOCKED, str(exc))
         except (PycolfragError, ResultsFileError) as exc:
@@ -310,6 +327,14 @@ def parser() -> argparse.ArgumentParser:
                    help="the restored way's policy: reassemble when the accumulated u_d exceeds this")
     p.add_argument("--restore-tilt", type=float, default=math.inf, help="... or the residual tilt exceeds this, rad")
     p.add_argument("--max-record-s", type=float, default=None, help="cut the records (tests and quick looks only)")
+    rare = p.add_argument_group("importance sampling on the strongest event (--rare; docs/sequences.md, \"Rare sequences\")")
+    rare.add_argument("--rare", action="store_true",
+                      help="rows of the rare-event strata instead of crude sequences (--n is not used)")
+    rare.add_argument("--target", default="collapse", help="the quantity whose CoV stops the run (accumulated way)")
+    rare.add_argument("--target-cov", type=float, default=0.2, help="stop when the target's CoV reaches this")
+    rare.add_argument("--pilot", type=int, default=10, help="rows per stratum before the allocation")
+    rare.add_argument("--batch", type=int, default=400, help="rows per batch after the pilot")
+    rare.add_argument("--max-rows", type=int, default=20000, help="the row budget")
     p.add_argument("--mpi", choices=("auto", "yes", "no"), default="auto", help="use MPI (auto: under a launcher)")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True, help="a line per 10 %% done")
     return p
@@ -332,6 +357,9 @@ def main(argv=None) -> int:
         log(f"sequences: {exc}")
         return EXIT_ARGS
 
+    if args.rare:
+        return _main_rare(args, model, st, comm, log)
+
     def progress(done, total):
         if args.progress and (done == total or done % max(1, total // 10) == 0):
             print(f"  {done}/{total} sequences", file=sys.stderr, flush=True)
@@ -344,6 +372,29 @@ def main(argv=None) -> int:
     out = Path(args.out)
     (out / "summary.json").write_text(json.dumps(sm, indent=1, default=str))
     (out / "summary.md").write_text(text + "\n")
+    log(text)
+    return EXIT_OK
+
+
+def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
+    from pycolfrag.risk import sequences_rare as rare  # the rare route's modules, for --rare only
+    from pycolfrag.risk.sequences_rare_run import run_rare_folder
+    try:
+        rs = rare.RareSequenceSettings(sequences=st, target=args.target, target_cov=args.target_cov,
+                                       pilot=args.pilot, batch=args.batch, max_rows=args.max_rows)
+    except PycolfragError as exc:
+        log(f"sequences: {exc}")
+        return EXIT_ARGS
+    code, run = run_rare_folder(args.site, model, rs, args.out, comm, log)
+    if run is None:
+        return code
+    text = rare.format_estimate(run, f"{Path(args.site).stem}: {getattr(model, 'name', type(model).__name__)}, "
+                                     f"importance sampling on the strongest event")
+    out = Path(args.out)
+    (out / "rare_summary.json").write_text(json.dumps(
+        {"estimate": run["estimate"], "rows": len(run["rows"]), "runs": run["runs"], "seconds": run["seconds"],
+         "strata": len(run["strata"]), "settings": rare.settings_dict(rs)}, indent=1))
+    (out / "rare_summary.md").write_text(text + "\n")
     log(text)
     return EXIT_OK
 
