@@ -19,7 +19,9 @@ the expectation over Phi, the process itself, independent of x. The integral ove
 its strata h with rates W_h (1/yr), x drawn from the stratum's proposal with weight w(x) = the density
 ratio of the natural law to the proposal (occurrence weight times the pulse normals' ratio:
 :func:`pycolfrag.rare.plans.event_input`, the same inputs as the rare route's run (stage 0, h, j)), and
-its time uniform on [0, T]. So a row (h, j) draws x, its time, and one natural sequence Phi (its own
+its time uniform on [0, T] (the pilot's rows under the rare route's pilot proposal, the later rows under a
+production proposal shifted towards strong pulses: ``DEFAULT_SHIFT``; each row's weight is that of its own
+proposal, so the estimate is unbiased for any). So a row (h, j) draws x, its time, and one natural sequence Phi (its own
 streams), and contributes y = T W_h w(x) 1{x strongest} 1_A; P(A) = sum_h E_h[y], estimated by the strata's
 means, its variance by the strata's sample variances (a stratum with no row in A: a Jeffreys floor,
 below). A row whose x is not the strongest contributes 0 and costs no run: that sequence is counted
@@ -55,7 +57,7 @@ from pycolfrag.core.errors import ParameterError
 from pycolfrag.damage import PERFORMANCE_LEVELS
 from pycolfrag.ground_motion.rupakhety_2011 import mean_vp_cm_s
 from pycolfrag.rare.plans import PulseMap, event_input
-from pycolfrag.rare.proposal import PILOT_MIXTURE, Mixture
+from pycolfrag.rare.proposal import PILOT_MIXTURE, Mixture, production_mixture
 from pycolfrag.rare.strata import build_strata
 from pycolfrag.risk.sequences import WAYS, SequenceSettings, SiteEvent, run_one, sequence_events
 
@@ -64,8 +66,13 @@ __all__ = ["STREAM_RARE_SEQUENCES", "NO_PULSE_OFFSET", "strength", "RareSequence
 
 #: Stream identifier of a row's own draws (its time, its natural sequence); the crude sequences' is 4.
 STREAM_RARE_SEQUENCES = 5
-#: The run stage of the rows' strongest events in the rare route's streams (its pilot's).
-STAGE = 0
+#: The run stages of the rows' strongest events in the rare route's streams: the pilot's and the batches'.
+PILOT_STAGE, PRODUCTION_STAGE = 0, 1
+#: The production proposal's shift of (z_vp, z_fp) by default: the cross-entropy shift the rare route's rows
+#: give at the example site (about (+2.5, -1.0) from all of them; issue 33), with the rare route's defensive
+#: share alpha_0 = 0.3 of the natural law. A proposal: it sets the variance, never the estimate.
+DEFAULT_SHIFT = (2.5, -1.0)
+DEFENSIVE = 0.3
 #: A motion without a pulse ranks as a pulse of exp(-NO_PULSE_OFFSET) times Eq. (6)'s median Vp.
 NO_PULSE_OFFSET = 1.0
 #: The quantities of a row, per way: collapse, then each level of Tables III/IV.
@@ -89,7 +96,8 @@ class RareSequenceSettings:
     pilot: int = 10
     batch: int = 400
     max_rows: int = 20000
-    mixture: Mixture = PILOT_MIXTURE
+    pilot_mixture: Mixture = PILOT_MIXTURE
+    mixture: Mixture = production_mixture(DEFENSIVE, (DEFAULT_SHIFT,))
 
     def __post_init__(self):
         if not isinstance(self.sequences, SequenceSettings):
@@ -102,8 +110,9 @@ class RareSequenceSettings:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise ParameterError(f"{name} must be an integer >= 1, got {v!r}")
-        if not isinstance(self.mixture, Mixture):
-            raise ParameterError(f"mixture must be a Mixture, got {type(self.mixture).__name__}")
+        for name in ("pilot_mixture", "mixture"):
+            if not isinstance(getattr(self, name), Mixture):
+                raise ParameterError(f"{name} must be a Mixture, got {type(getattr(self, name)).__name__}")
 
 
 def _row_rng(seed: int, h: int, j: int) -> np.random.Generator:
@@ -111,12 +120,15 @@ def _row_rng(seed: int, h: int, j: int) -> np.random.Generator:
 
 
 def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse_map: PulseMap) -> dict:
-    """Row (h, j): its strongest event x (the rare route's run (0, h, j)), x's time, its natural sequence,
-    and -- when x is the strongest -- the sequence run the three ways. Returns the row as a dict (its hits
-    per way and quantity, its weight, runs and seconds)."""
+    """Row (h, j): its strongest event x (the rare route's run (stage, h, j): stage 0 and the pilot's proposal
+    for the first ``rs.pilot`` rows of a stratum, stage 1 and the production proposal after them), x's time,
+    its natural sequence, and -- when x is the strongest -- the sequence run the three ways. Returns the row
+    as a dict (its hits per way and quantity, its weight, runs and seconds)."""
     t0 = time.perf_counter()
     st = rs.sequences
-    x = event_input(strata, st.seed, STAGE, h, j, rs.mixture, pulse_map)
+    pilot = j < rs.pilot
+    x = event_input(strata, st.seed, PILOT_STAGE if pilot else PRODUCTION_STAGE, h, j,
+                    rs.pilot_mixture if pilot else rs.mixture, pulse_map)
     t_x = float(_row_rng(st.seed, h, j).uniform(0.0, st.years))
     phi = sequence_events(site, st.years, st.seed, j, pulse_map, strata.ranges, key=(STREAM_RARE_SEQUENCES, h, j))
     s_x = strength(x["mw"], x["dist_km"], x["pulse"])
@@ -221,7 +233,8 @@ def simulate_sequences(site, model, rs: RareSequenceSettings, evaluate=None, don
 def settings_dict(rs: RareSequenceSettings) -> dict:
     """The rare settings as plain data (a journal's identity)."""
     return {"target": rs.target, "target_cov": rs.target_cov, "pilot": rs.pilot, "batch": rs.batch,
-            "max_rows": rs.max_rows, "mixture": rs.mixture.as_dict(), "stream": STREAM_RARE_SEQUENCES,
+            "max_rows": rs.max_rows, "pilot_mixture": rs.pilot_mixture.as_dict(), "mixture": rs.mixture.as_dict(),
+            "stream": STREAM_RARE_SEQUENCES,
             "no_pulse_offset": NO_PULSE_OFFSET}
 
 

@@ -335,6 +335,8 @@ def parser() -> argparse.ArgumentParser:
     rare.add_argument("--pilot", type=int, default=10, help="rows per stratum before the allocation")
     rare.add_argument("--batch", type=int, default=400, help="rows per batch after the pilot")
     rare.add_argument("--max-rows", type=int, default=20000, help="the row budget")
+    rare.add_argument("--shift", type=float, nargs=2, default=None, metavar=("Z_VP", "Z_FP"),
+                      help="the production proposal's shift of the pulse normals (default: +2.5 -1.0)")
     p.add_argument("--mpi", choices=("auto", "yes", "no"), default="auto", help="use MPI (auto: under a launcher)")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True, help="a line per 10 %% done")
     return p
@@ -380,8 +382,10 @@ def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
     from pycolfrag.risk import sequences_rare as rare  # the rare route's modules, for --rare only
     from pycolfrag.risk.sequences_rare_run import run_rare_folder
     try:
+        shift = rare.DEFAULT_SHIFT if args.shift is None else tuple(args.shift)
         rs = rare.RareSequenceSettings(sequences=st, target=args.target, target_cov=args.target_cov,
-                                       pilot=args.pilot, batch=args.batch, max_rows=args.max_rows)
+                                       pilot=args.pilot, batch=args.batch, max_rows=args.max_rows,
+                                       mixture=rare.production_mixture(rare.DEFENSIVE, (shift,)))
     except PycolfragError as exc:
         log(f"sequences: {exc}")
         return EXIT_ARGS
