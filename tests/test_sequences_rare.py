@@ -99,9 +99,10 @@ def test_a_row_whose_event_is_not_the_strongest_costs_no_run(surrogate):
     assert all(r["runs"] == r["events"] for r in run["rows"] if r["strongest"])
 
 
-def test_a_stratum_without_a_hit_keeps_a_variance(surrogate):
-    """The Jeffreys floor: with no hit in 10 rows of weight w, the stratum's variance of the mean is at least
-    (T W w_bar)^2 p (1 - p) / n with p = 0.5 / 11."""
+def test_a_stratum_without_a_hit_keeps_its_jeffreys_floor(surrogate):
+    """The Jeffreys floor: with no hit in 10 rows of weight 1, the stratum's sample variance is 0 and its
+    stated variance of the mean (T W w_bar)^2 p (1 - p) / n with p = 0.5 / 11; a stratum without a row adds
+    (T W)^2 / 4 (p = 1/2, n taken as 1)."""
     site = _site()
     rows = [{"h": 0, "j": j, "weight": 1.0, "strongest": True, "runs": 1, "seconds": 0.0,
              "hits": {w: [False] * len(R.QUANTITIES) for w in sq.WAYS}} for j in range(10)]
@@ -109,8 +110,9 @@ def test_a_stratum_without_a_hit_keeps_a_variance(surrogate):
     strata = build_strata(site)
     est = R.estimate(rows, strata, YEARS)["accumulated"]["collapse"]
     p = 0.5 / 11
-    assert est["p"] == 0.0
-    assert est["se"] ** 2 >= (YEARS * strata[0].rate) ** 2 * p * (1 - p) / 10 * (1 - 1e-12)
+    assert est["p"] == 0.0 and est["se_sample"] == 0.0
+    others = sum((YEARS * strata[h].rate) ** 2 * 0.25 for h in range(1, len(strata)))
+    assert est["se"] ** 2 == pytest.approx((YEARS * strata[0].rate) ** 2 * p * (1 - p) / 10 + others, rel=1e-12)
 
 
 @pytest.mark.parametrize("kw, named", [({"target": "nope"}, "target"), ({"target_cov": 0.0}, "target_cov"),

@@ -34,11 +34,14 @@ Each row is run the three ways of the crude sequences (accumulated, intact, rest
 :func:`pycolfrag.risk.sequences.run_one`, the same calls), so the paired differences come with it.
 
 **Allocation.** A pilot of ``pilot`` rows per stratum, then batches spread over the strata by Neyman's
-rule on the target quantity (the accumulated way's collapse by default): n_h proportional to
-W_h s_h, with s_h floored by a stratum's Jeffreys bound when it has no hit yet (p_J = 0.5 / (n_h + 1),
-s_h >= mean weight * sqrt(p_J (1 - p_J))), until the target's CoV (with the same floor) reaches
-``target_cov`` or ``max_rows`` rows are used. The floor keeps a stratum without a hit from being taken
-as certain, in the stated CoV and in the allocation alike.
+rule on the target quantity (the accumulated way's collapse by default): n_h proportional to W_h s_h, with
+s_h floored by a stratum's Jeffreys bound while it has no hit (p_J = 0.5 / (n_h + 1): s_h^2 >= (T W_h
+w_bar)^2 p_J (1 - p_J)), until the target's CoV (with the same floor) reaches ``target_cov`` or ``max_rows``
+rows are used. The floor keeps a stratum without a hit from being taken as certain, in the stated CoV and
+in the allocation alike; the CoV from the sample variances alone is stated beside (``cov_sample``), with
+how much of the estimate rests on strata of fewer than 20 rows. No model of the strata's demand narrows the
+floor yet (the rare route's steering and demand models do, for single events): at a site whose rare level
+lies in a few strata the bare floor spreads the rows as crude sampling would (docs/sequences.md).
 
 Runs are spread over MPI ranks (each batch's rows dealt by index, the rows then shared by every rank:
 every rank takes the same decisions), and every finished row is a line of ``OUT/rows.jsonl`` (rank 0's),
@@ -145,22 +148,25 @@ def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse
     return row
 
 
-def _stratum_stats(rows_h: list, way: str, q: int, years: float, rate: float) -> tuple[float, float, int, int]:
-    """A stratum's mean of y and its variance of the mean (floored), its rows and hits."""
+def _stratum_stats(rows_h: list, way: str, q: int, years: float, rate: float) -> tuple:
+    """A stratum's mean of y, its sample variance of the mean, that variance with the Jeffreys floor of a
+    stratum without a hit, its rows and its hits."""
     n = len(rows_h)
     y = np.array([years * rate * r["weight"] * (r["strongest"] and r["hits"][way][q]) for r in rows_h], dtype=float)
     hits = int(np.count_nonzero(y))
     mean = float(y.mean()) if n else 0.0
-    var = float(y.var(ddof=1)) if n > 1 else 0.0
+    var = float(y.var(ddof=1)) / n if n > 1 else 0.0
     p_j = 0.5 / (n + 1)
     w_bar = float(np.mean([r["weight"] for r in rows_h])) if n else 1.0
-    floor = (years * rate * w_bar) ** 2 * p_j * (1.0 - p_j)
-    return mean, max(var, floor) / max(n, 1), n, hits
+    floor = (years * rate * w_bar) ** 2 * p_j * (1.0 - p_j) / max(n, 1) if hits == 0 else 0.0
+    return mean, var, max(var, floor), n, hits
 
 
 def estimate(rows: list, strata, years: float) -> dict:
-    """P(within T) of every way and quantity, with its standard error (floored), and how much of it rests on
-    strata with fewer than 20 rows."""
+    """P(within T) of every way and quantity: ``p``, its standard error and CoV with the Jeffreys floor of the
+    strata without a hit (``se``, ``cov``: what those strata could still hold, with no model of them), the
+    same from the strata's sample variances alone (``se_sample``, ``cov_sample``), the hits, and how much of
+    ``p`` rests on strata of fewer than 20 rows."""
     by_h: dict = {h: [] for h in range(len(strata))}
     for r in rows:
         by_h[r["h"]].append(r)
@@ -168,22 +174,23 @@ def estimate(rows: list, strata, years: float) -> dict:
     for w in WAYS:
         out[w] = {}
         for q, name in enumerate(QUANTITIES):
-            stats = [_stratum_stats(by_h[h], w, q, years, strata[h].rate) for h in range(len(strata))]
-            p = float(sum(s[0] for s in stats))
-            var = float(sum(s[1] for s in stats))
-            few = float(sum(s[0] for s in stats if s[2] < 20))
-            out[w][name] = {"p": p, "se": math.sqrt(var), "cov": math.sqrt(var) / p if p > 0 else math.inf,
-                            "hits": int(sum(s[3] for s in stats)), "p_on_few_rows": few}
+            st = [_stratum_stats(by_h[h], w, q, years, strata[h].rate) for h in range(len(strata))]
+            p = float(sum(x[0] for x in st))
+            se_sample, se = math.sqrt(sum(x[1] for x in st)), math.sqrt(sum(x[2] for x in st))
+            out[w][name] = {"p": p, "se": se, "cov": se / p if p > 0 else math.inf, "se_sample": se_sample,
+                            "cov_sample": se_sample / p if p > 0 else math.inf, "hits": int(sum(x[4] for x in st)),
+                            "p_on_few_rows": float(sum(x[0] for x in st if x[3] < 20))}
     return out
 
 
 def allocate(rows: list, strata, rs: RareSequenceSettings, n: int) -> dict:
-    """``n`` new rows over the strata by Neyman's rule on the target (floored standard deviations)."""
+    """``n`` new rows over the strata by Neyman's rule on the target's standard deviations, floored (a stratum
+    without a hit keeps drawing rows in proportion to what it could still hold)."""
     q = QUANTITIES.index(rs.target)
     by_h: dict = {h: [] for h in range(len(strata))}
     for r in rows:
         by_h[r["h"]].append(r)
-    a = np.array([math.sqrt(_stratum_stats(by_h[h], "accumulated", q, rs.sequences.years, strata[h].rate)[1]
+    a = np.array([math.sqrt(_stratum_stats(by_h[h], "accumulated", q, rs.sequences.years, strata[h].rate)[2]
                             * max(len(by_h[h]), 1)) for h in range(len(strata))])
     if a.sum() <= 0:
         a = np.ones(len(strata))
@@ -250,9 +257,10 @@ def format_estimate(run: dict, title: str = "") -> str:
              f"its sequence), {run['runs']} event runs, {run['seconds']:.1f} s of runs; horizon {st.years:g} years, "
              f"seed {st.seed}, restoration {st.restoration.describe()}.", "",
              f"| quantity | P(within {st.years:g} yr): accumulated [CoV] | intact [CoV] | restored [CoV] | "
-             "hits (accumulated) | P on strata of < 20 rows |", "|---|---|---|---|---|---|"]
+             "hits (accumulated) | CoV of the sample variances alone | P on strata of < 20 rows |",
+             "|---|---|---|---|---|---|---|"]
     for q in QUANTITIES:
         cells = [f"{est[w][q]['p']:.4g} [{est[w][q]['cov']:.2f}]" for w in WAYS]
         a = est["accumulated"][q]
-        lines.append(f"| {q} | {' | '.join(cells)} | {a['hits']} | {a['p_on_few_rows']:.3g} |")
+        lines.append(f"| {q} | {' | '.join(cells)} | {a['hits']} | {a['cov_sample']:.3g} | {a['p_on_few_rows']:.3g} |")
     return "\n".join(lines)
