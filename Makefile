@@ -220,13 +220,14 @@ risk-tree: setup
 
 # Sequences of mainshocks at the example site (docs/sequences.md, "Sequences at a site"): SEQ_N sequences of
 # SEQ_YEARS years by crude Monte Carlo, each run with accumulated damage, on the intact column and with a
-# restoration policy (reassemble when u_d > 0.005); about 0.2 s per sequence on one core. SEQ_ARGS=--quick: 50.
+# restoration policy (reassemble when u_d > 0.005); about 0.2 s per sequence on one core, on NRANKS ranks;
+# rerunning resumes (a larger SEQ_N adds sequences). Outputs in $(RISK_DIR)/sequences/summary.md and .json.
 SEQ_N     ?= 1000
 SEQ_YEARS ?= 50
 SEQ_ARGS  ?=
 risk-sequences: setup
-	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(PY) bench/sequences_site.py --site $(SITE) --n $(SEQ_N) \
-	  --years $(SEQ_YEARS) --json $(RISK_DIR)/sequences/summary.json $(SEQ_ARGS)
+	$(MPIENV) mpirun --allow-run-as-root -n $(NRANKS) $(PY) -m mpi4py -m pycolfrag sequences $(SITE) \
+	  $(RISK_DIR)/sequences --n $(SEQ_N) --years $(SEQ_YEARS) --no-progress $(SEQ_ARGS)
 
 # The restoration study (docs/restoration.md): the default column free, with titanium and with wooden
 # dowels, and in a two-column portal, on one reduced grid with and without pulses (a few CPU-minutes

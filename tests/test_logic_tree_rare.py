@@ -241,11 +241,9 @@ def test_the_command_stores_the_same_events_in_every_run_settings_folder(ref):
     assert (out / "runs_00" / "risk.json").exists() and "matters most for collapse" in p.stdout
 
 
-def test_sigterm_mid_branch_exits_75_and_the_resume_is_bitwise(ref):
-    """SIGTERM while the second run setting's production batch runs: exit 75; the same command then finishes, and
-    every batch file and logic_tree.json equal the uninterrupted run's."""
-    tmp, args, _ = ref
-    out = tmp / "stopped"
+def _started_mid_branch(args, out):
+    """The tree's command started into ``out``, returned once the second run setting's production batch has
+    journalled more than 10 runs (the tree's outputs not yet written)."""
     proc = subprocess.Popen(_cmd(args + ["--simulate", str(out)]), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             text=True, env={**_env(), "PYTHONPATH": str(ROOT) + os.pathsep + str(ROOT / "tests")},
                             cwd=ROOT, start_new_session=True)
@@ -256,9 +254,12 @@ def test_sigterm_mid_branch_exits_75_and_the_resume_is_bitwise(ref):
             break
         time.sleep(0.02)
     assert proc.poll() is None, "the run ended before it could be stopped"
-    proc.send_signal(signal.SIGTERM)
-    text = proc.communicate(timeout=120)[0]
-    assert proc.returncode == 75, text
+    return proc
+
+
+def _resumed_equals_the_reference(tmp, args, out):
+    """The same command rerun on ``out`` finishes, and every batch file and logic_tree.json's levels equal the
+    uninterrupted run's (``tmp / "ref"``)."""
     assert not (out / "logic_tree.json").exists()
     again = _run(args + ["--simulate", str(out)])
     assert again.returncode in (0, 6), again.stdout + again.stderr
@@ -268,6 +269,18 @@ def test_sigterm_mid_branch_exits_75_and_the_resume_is_bitwise(ref):
             assert compare_results(tmp / "ref" / g / n, out / g / n).identical, (g, n)
     assert json.loads((out / "logic_tree.json").read_text())["levels"] == \
         json.loads((tmp / "ref" / "logic_tree.json").read_text())["levels"]
+
+
+def test_sigterm_mid_branch_exits_75_and_the_resume_is_bitwise(ref):
+    """SIGTERM while the second run setting's production batch runs: exit 75; the same command then finishes, and
+    every batch file and logic_tree.json equal the uninterrupted run's."""
+    tmp, args, _ = ref
+    out = tmp / "stopped"
+    proc = _started_mid_branch(args, out)
+    proc.send_signal(signal.SIGTERM)
+    text = proc.communicate(timeout=120)[0]
+    assert proc.returncode == 75, text
+    _resumed_equals_the_reference(tmp, args, out)
 
 
 def test_a_changed_tree_is_refused_and_new_weights_are_re_weighted(ref):
@@ -322,26 +335,10 @@ def test_kill_9_mid_branch_then_resume_gives_the_uninterrupted_files(ref):
     uninterrupted run's."""
     tmp, args, _ = ref
     out = tmp / "killed"
-    proc = subprocess.Popen(_cmd(args + ["--simulate", str(out)]), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            env=_env(), cwd=ROOT, start_new_session=True)
-    journal = out / "runs_01" / "batch_001.h5.journal"
-    t0 = time.time()
-    while proc.poll() is None and time.time() - t0 < 120:
-        if journal.exists() and journal.read_text().count("\n") > 10:
-            break
-        time.sleep(0.02)
-    assert proc.poll() is None, "the run ended before it could be killed"
+    proc = _started_mid_branch(args, out)
     os.killpg(proc.pid, signal.SIGKILL)
-    proc.wait()
-    assert not (out / "logic_tree.json").exists()
-    again = _run(args + ["--simulate", str(out)])
-    assert again.returncode in (0, 6), again.stdout + again.stderr
-    from pycolfrag.analysis.compare import compare_results
-    for g in ("runs_00", "runs_01"):
-        for n in sorted(x.name for x in (tmp / "ref" / g).glob("batch_*.h5")):
-            assert compare_results(tmp / "ref" / g / n, out / g / n).identical, (g, n)
-    assert json.loads((out / "logic_tree.json").read_text())["levels"] == \
-        json.loads((tmp / "ref" / "logic_tree.json").read_text())["levels"]
+    proc.communicate(timeout=120)
+    _resumed_equals_the_reference(tmp, args, out)
 
 
 def test_a_tree_of_one_run_setting_is_the_single_simulation_file_for_file(tmp_path):

@@ -3,7 +3,7 @@
 ``quadrature`` by default: :mod:`pycolfrag.site.cells`), assuming neither independent magnitude and
 distance models nor anything else of the shipped type.
 
-The toy type is registered from this test (no package file names it): G-R magnitudes and a distance
+The toy type (tests/toy_sources.py) is registered from this test (no package file names it): G-R magnitudes and a distance
 that falls with the magnitude, R = r0 - k (Mw - 5.5), so Mw and R are not independent. References:
 scipy.integrate.quad of the closed-form G-R density times p(R(m)) (the pulse-occurrence model's own
 curve), and the toy's own relation R(m) for the placed events.
@@ -11,12 +11,12 @@ curve), and the toy's own relation R(m) for the placed events.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import pytest
 from scipy import integrate
 
+import toy_sources
 from pycolfrag.grid import EventBatchSpec
 from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL
 from pycolfrag.rare.plans import PulseMap, interleave, plan_inputs
@@ -30,48 +30,11 @@ PULSE = {"model": "shahi_baker_2014", "mechanism": "non-strike-slip", "s_km": 5.
 NU, R0, K = 0.02, 18.0, 6.0
 
 
-@dataclass(frozen=True)
-class CloserWhenLarger(site_file.SiteSource):
-    """Test source: G-R magnitudes 5.5-7.5 (b = 1), R = r0 - k (m - 5.5): larger ruptures come closer."""
-
-    name: str
-    rate: float
-    pulse: object
-    gr: object
-    r0: float
-    k: float
-    KEYS = ("r0_km", "k")
-
-    @classmethod
-    def from_table(cls, t, name, rate, pulse):
-        return cls(name, rate, pulse, models.GutenbergRichter(1.0, 5.5, 7.5), t.number("r0_km"), t.number("k"))
-
-    def r_of(self, m):
-        return self.r0 - self.k * (np.asarray(m) - self.gr.m_min)
-
-    def quadrature(self, mw_breaks=(), r_breaks=()):
-        m, w = self.gr.points(mw_breaks)
-        r = self.r_of(m)
-        return site_file.Events(m, r, self.rate * w, self.pulse.mean_probability(r))
-
-    def sample(self, n, rng):
-        m = self.gr.sample(n, rng)
-        r = self.r_of(m)
-        p, geometry = self.pulse.draw(r, rng)
-        return site_file.Events(m, r, np.full(n, self.rate / n), p, geometry)
-
-    def describe(self):
-        return f"toy: R = {self.r0:g} - {self.k:g} (Mw - 5.5) km"
-
-
 @pytest.fixture
 def toy_site():
-    site_file.source_type("closer-when-larger")(CloserWhenLarger)
-    try:
+    with toy_sources.registered() as toy:
         yield site_file.site_from_dict({"pulse": PULSE, "sources": [
-            {"type": "closer-when-larger", "name": "fault", "rate": NU, "r0_km": R0, "k": K}]}, "toy.toml")
-    finally:
-        del site_file.SOURCE_TYPES["closer-when-larger"]
+            {"type": toy, "name": "fault", "rate": NU, "r0_km": R0, "k": K}]}, "toy.toml")
 
 
 def _reference(site, f, branch: bool) -> float:
@@ -136,7 +99,7 @@ class PlainFault(site_file.SiteSource):   # a SiteSource that is not a dataclass
     KEYS = ("r0_km", "k")
 
     def __init__(self, name, rate, pulse, r0, k):
-        self.name, self.rate, self.pulse, self._toy = name, rate, pulse, CloserWhenLarger(
+        self.name, self.rate, self.pulse, self._toy = name, rate, pulse, toy_sources.NearerWhenLarger(
             name, rate, pulse, models.GutenbergRichter(1.0, 5.5, 7.5), r0, k)
 
     @classmethod

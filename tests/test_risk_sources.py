@@ -6,12 +6,12 @@ densities; tolerances are stated where they are not exact.
 """
 import math
 import os
-from dataclasses import dataclass
 
 import numpy as np
 import pytest
 from scipy import integrate
 
+import toy_sources
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.ground_motion import shahi_baker_2014 as sb14
 from pycolfrag.ground_motion import shahi_baker_earlier as sbe
@@ -29,46 +29,10 @@ def _site(sources, pulse=None, **kw):
 
 # --------------------------------------------------------------------------- a source whose R depends on Mw
 
-@dataclass(frozen=True)
-class NearerWhenLarger(site_file.SiteSource):
-    """Test source: G-R magnitudes, R = r0 - k (m - m_min): larger ruptures come closer to the site."""
-
-    name: str
-    rate: float
-    pulse: object
-    gr: object
-    r0: float
-    k: float
-
-    @classmethod
-    def from_table(cls, t, name, rate, pulse):
-        return cls(name, rate, pulse, models.GutenbergRichter(1.0, 5.5, 7.5), t.number("r0_km"), t.number("k"))
-
-    def r_of(self, m):
-        return self.r0 - self.k * (np.asarray(m) - self.gr.m_min)
-
-    def quadrature(self, mw_breaks=(), r_breaks=()):
-        m, w = self.gr.points(mw_breaks)
-        r = self.r_of(m)
-        return site_file.Events(m, r, self.rate * w, self.pulse.mean_probability(r))
-
-    def sample(self, n, rng):
-        m = self.gr.sample(n, rng)
-        r = self.r_of(m)
-        p, geometry = self.pulse.draw(r, rng)
-        return site_file.Events(m, r, np.full(n, self.rate / n), p, geometry)
-
-    def describe(self):
-        return f"toy: R = {self.r0:g} - {self.k:g} (Mw - 5.5) km"
-
-    KEYS = ("r0_km", "k")
-
-
 @pytest.fixture
 def toy_type():
-    site_file.source_type("nearer-when-larger")(NearerWhenLarger)
-    yield "nearer-when-larger"
-    del site_file.SOURCE_TYPES["nearer-when-larger"]
+    with toy_sources.registered() as toy:
+        yield toy
 
 
 def test_a_source_whose_distance_depends_on_magnitude_is_one_class(toy_type):

@@ -85,6 +85,9 @@ COMMANDS = {c.name: c for c in (
     Command("restoration", "pycolfrag.risk.restoration_rare:main",
             "restoration alternatives (dowels, a portal) on the same events by the rare-event route: each one's "
             "rates and paired differences (docs/restoration.md)", "python -m pycolfrag.risk.restoration_rare"),
+    Command("sequences", "pycolfrag.risk.sequences_run:main",
+            "earthquake sequences at a site over T years, with and without accumulated damage (docs/sequences.md)",
+            "python -m pycolfrag.risk.sequences_run"),
     Command("openquake", "pycolfrag.cli.openquake:main",
             "OpenQuake interchange: export fragility as NRML, classical damage from hazard curves",
             "python -m pycolfrag.cli.openquake"),

@@ -106,21 +106,23 @@ class SiteEvent:
 
 
 def _rng(seed: int, *key) -> np.random.Generator:
-    return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(STREAM_SEQUENCES, *key)))
+    return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=key))
 
 
-def sequence_events(site, years: float, seed: int, s: int, pulse_map: PulseMap, ranges: dict) -> list:
+def sequence_events(site, years: float, seed: int, s: int, pulse_map: PulseMap, ranges: dict, key=None) -> list:
     """The events of sequence ``s`` (see the module's text), in time order. ``ranges``: the models' ranges
-    by branch (:func:`pycolfrag.rare.strata.model_ranges`)."""
+    by branch (:func:`pycolfrag.rare.strata.model_ranges`). ``key``: the streams' spawn key before the
+    (0,) of the count and times and the (1, k) of event k (default ``(STREAM_SEQUENCES, s)``)."""
+    key = (STREAM_SEQUENCES, s) if key is None else tuple(key)
     rates = np.array([src.rate for src in site.sources], dtype=float)
     total = float(rates.sum())
-    head = _rng(seed, s, 0)
+    head = _rng(seed, *key, 0)
     n = int(head.poisson(total * years))
     times = np.sort(head.uniform(0.0, years, n))
     cum = np.cumsum(rates) / total
     out = []
     for k in range(n):
-        rng = _rng(seed, s, 1, k)
+        rng = _rng(seed, *key, 1, k)
         j = min(int(np.searchsorted(cum, rng.uniform(), side="right")), len(rates) - 1)
         ev = site.sources[j].sample(1, rng)
         mw, r = float(ev.mw[0]), float(ev.r_km[0])

@@ -302,31 +302,36 @@ class FixedDistance:
         return f"R = {self.r_km:g} km"
 
 
-@_register(DISTANCE_MODELS, "uniform")
 @dataclass(frozen=True)
-class UniformDistance:
-    """R uniform on [min_km, max_km]."""
+class _RangeDistance:
+    """A continuous density of R on [min_km, max_km] (a subclass gives ``pdf``, ``sample``,
+    ``probability_between`` and ``draw_between``): its reading, quadrature nodes and support."""
 
     min_km: float
     max_km: float
     TYPE: ClassVar[str]
     from_table = classmethod(_range_table)
+    atoms = None  # a continuous density: bins are drawn by draw_between
+
+    def points(self, breaks=()):
+        return quadrature(self.pdf, self.min_km, self.max_km, breaks)
+
+    @property
+    def support(self):
+        return (self.min_km, self.max_km)
+
+
+@_register(DISTANCE_MODELS, "uniform")
+@dataclass(frozen=True)
+class UniformDistance(_RangeDistance):
+    """R uniform on [min_km, max_km]."""
 
     def pdf(self, r):
         r = np.asarray(r, dtype=float)
         return np.where((r >= self.min_km) & (r <= self.max_km), 1.0 / (self.max_km - self.min_km), 0.0)
 
-    def points(self, breaks=()):
-        return quadrature(self.pdf, self.min_km, self.max_km, breaks)
-
     def sample(self, n, rng):
         return self.min_km + (self.max_km - self.min_km) * rng.random(n)
-
-    atoms = None  # a continuous density: bins are drawn by draw_between
-
-    @property
-    def support(self):
-        return (self.min_km, self.max_km)
 
     def probability_between(self, lo, hi) -> float:
         """P(lo <= R <= hi) = (b - a) / (max - min) on [a, b] = [lo, hi] cut to the support."""
@@ -344,30 +349,16 @@ class UniformDistance:
 
 @_register(DISTANCE_MODELS, "area")
 @dataclass(frozen=True)
-class AreaDistance:
+class AreaDistance(_RangeDistance):
     """Epicentres spread evenly over an annulus around the site: f(r) = 2 r / (max^2 - min^2)."""
-
-    min_km: float
-    max_km: float
-    TYPE: ClassVar[str]
-    from_table = classmethod(_range_table)
 
     def pdf(self, r):
         r = np.asarray(r, dtype=float)
         inside = (r >= self.min_km) & (r <= self.max_km)
         return np.where(inside, 2.0 * r / (self.max_km ** 2 - self.min_km ** 2), 0.0)
 
-    def points(self, breaks=()):
-        return quadrature(self.pdf, self.min_km, self.max_km, breaks)
-
     def sample(self, n, rng):
         return np.sqrt(self.min_km ** 2 + (self.max_km ** 2 - self.min_km ** 2) * rng.random(n))
-
-    atoms = None  # a continuous density: bins are drawn by draw_between
-
-    @property
-    def support(self):
-        return (self.min_km, self.max_km)
 
     def probability_between(self, lo, hi) -> float:
         """P(lo <= R <= hi) = (b^2 - a^2) / (max^2 - min^2) on [a, b] = [lo, hi] cut to the support."""

@@ -1,0 +1,407 @@
+"""Sequences at a site as a command: ``pycolfrag sequences SITE.toml OUTDIR`` (docs/sequences.md, "Running it").
+
+The sequences of :mod:`pycolfrag.risk.sequences` are independent of one another (each draws from its own
+streams), so they spread over MPI ranks by their index (rank ``r`` of ``N`` runs sequences ``s`` with
+``s % N == r``) and a run's result cannot depend on the number of ranks. Every finished sequence is a
+line of ``OUTDIR/sequences.jsonl`` (the journal), written by rank 0 alone (the other ranks send theirs
+to it) and flushed to disk at once, so a run stopped at any moment -- SIGTERM, ``kill -9``, a lost
+node -- loses at most the sequences being run; the same command then runs only what the journal lacks.
+
+The journal's first line is its **identity**: the site file's bytes (SHA-256), the structure's table,
+every setting but the number of sequences (years, seed, restoration, settling, records, solver options),
+the package version and the C library's source digest. A journal of another identity is refused (exit
+2, naming what differs), so a resumed run never keeps a sequence another run computed; a larger ``--n``
+resumes and adds sequences (sequence ``s`` is the same whatever the count), a smaller one reads the
+first ``n``. A torn last line (a write cut by ``kill -9``) is dropped and said; any other damage is
+refused. Two runs on one folder at once: the second is refused (the grid's run lock, exit 5).
+
+Exit codes: 0 (every sequence done: ``summary.json``, ``summary.md`` written), 2 (bad arguments, a
+journal of another run), 4 (an operating-system error), 5 (the folder is locked by a running run),
+75 (stopped by SIGTERM after the running sequences finished: rerun the same command).
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import signal
+import sys
+import time
+from pathlib import Path
+
+from pycolfrag.core.errors import ParameterError, PycolfragError, ResultsFileError
+from pycolfrag.core.help import HelpFormatter
+from pycolfrag.core.version import __version__
+from pycolfrag.grid import get_comm
+from pycolfrag.grid.serve import EXIT_DRAINED
+from pycolfrag.grid.signing import library_digest
+from pycolfrag.rare.plans import PulseMap
+from pycolfrag.rare.strata import build_strata
+from pycolfrag.results.lock import ResultsLockedError, RunLock
+from pycolfrag.risk.sequences import (
+    DEFAULT_SEED,
+    SequenceOutcome,
+    SequenceSettings,
+    SiteEvent,
+    format_summary,
+    run_one,
+    sequence_events,
+    summarize,
+)
+from pycolfrag.site.sources import load_site
+from pycolfrag.solver.sequence import Restoration
+from pycolfrag.structure.column import Column
+from pycolfrag.structure.kinds import scene_from_file
+
+__all__ = ["JOURNAL", "EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_DRAINED", "identity",
+           "outcome_to_dict", "outcome_from_dict", "read_journal", "run_folder", "main"]
+
+#: The journal's name in the output folder.
+JOURNAL = "sequences.jsonl"
+EXIT_OK, EXIT_ARGS, EXIT_OS_ERROR, EXIT_LOCKED = 0, 2, 4, 5
+_TAG_DONE, _TAG_OUTCOME = 11, 12
+
+
+def identity(site_path, model, st: SequenceSettings) -> dict:
+    """What a journal's sequences are of (see the module's text); ``n_sequences`` is not part of it."""
+    settings = {f.name: getattr(st, f.name) for f in dataclasses.fields(st) if f.name != "n_sequences"}
+    settings["restoration"] = dataclasses.asdict(st.restoration)
+    settings["settle"] = dataclasses.asdict(st.settle)
+    return json.loads(json.dumps({
+        "site_sha256": hashlib.sha256(Path(site_path).read_bytes()).hexdigest(), "structure": model.to_dict(),
+        "settings": settings, "version": __version__, "library_digest": library_digest()}, default=float))
+
+
+def outcome_to_dict(o: SequenceOutcome, seconds: float) -> dict:
+    """A sequence's line of the journal (``seconds``: its wall time)."""
+    d = dataclasses.asdict(o)
+    d["seconds"] = seconds
+    return d
+
+
+def outcome_from_dict(d: dict) -> tuple[SequenceOutcome, float]:
+    """The inverse of :func:`outcome_to_dict` (JSON keeps every float's bits, NaN and inf included)."""
+    d = dict(d)
+    seconds = float(d.pop("seconds"))
+    d["events"] = [SiteEvent(**e) for e in d["events"]]
+    return SequenceOutcome(**d), seconds
+
+
+def _differences(a: dict, b: dict, where: str = "") -> list:
+    keys = sorted(set(a) | set(b))
+    out = []
+    for k in keys:
+        x, y = a.get(k), b.get(k)
+        if isinstance(x, dict) and isinstance(y, dict):
+            out += _differences(x, y, f"{where}{k}.")
+        elif x != y and not (isinstance(x, float) and isinstance(y, float) and math.isnan(x) and math.isnan(y)):
+            out.append(f"{where}{k}: {x!r} in the journal, {y!r} now")
+    return out
+
+
+def read_lines(path: Path, ident: dict, log) -> list:
+    """The entries of a journal after its identity line (dicts); an absent journal has none. Refused
+    (:class:`ParameterError`) when its identity is not ``ident``; a torn last line is cut off."""
+    if not path.exists():
+        return []
+    raw = path.read_bytes()
+    lines = raw.split(b"\n")
+    if lines and lines[-1] == b"":
+        lines.pop()
+    elif lines:   # no newline after the last line: a write cut short
+        log(f"sequences: {path}: its last line was cut short (a run stopped while writing it); dropped")
+        with open(path, "r+b") as f:
+            f.truncate(len(raw) - len(lines[-1]))
+        lines.pop()
+    if not lines:
+        return []
+    try:
+        head = json.loads(lines[0])
+        found = head["identity"]
+    except (ValueError, KeyError, TypeError):
+        raise ParameterError(f"{path} is not a sequences journal: give another folder") from None
+    diff = _differences(found, ident)
+    if diff:
+        raise ParameterError(f"{path} holds the sequences of another run ({'; '.join(diff[:4])}"
+                             f"{'; ...' if len(diff) > 4 else ''}): give another folder")
+    out = []
+    for i, line in enumerate(lines[1:], start=2):
+        try:
+            out.append(json.loads(line))
+        except ValueError as exc:
+            raise ParameterError(f"{path}, line {i}: damaged ({exc}): give another folder") from None
+    return out
+
+
+def read_journal(path: Path, ident: dict, log) -> dict:
+    """The finished sequences of a journal (index -> (outcome, seconds)); see :func:`read_lines`."""
+    done = {}
+    for i, d in enumerate(read_lines(path, ident, log), start=2):
+        try:
+            o, sec = outcome_from_dict(d)
+        except (KeyError, TypeError) as exc:
+            raise ParameterError(f"{path}, line {i}: damaged ({exc}): give another folder") from None
+        done[o.sequence] = (o, sec)
+    return done
+
+
+class Journal:
+    """Rank 0's journal: one line per sequence, flushed and synced before the next is taken."""
+
+    def __init__(self, path: Path, ident: dict, fresh: bool):
+        self.f = open(path, "a", encoding="utf-8")
+        if fresh:
+            self._write({"pycolfrag_sequences": 1, "identity": ident})
+
+    def _write(self, d: dict) -> None:
+        self.f.write(json.dumps(d) + "\n")
+        self.f.flush()
+        os.fsync(self.f.fileno())
+
+    def add(self, o: SequenceOutcome, seconds: float) -> None:
+        self._write(outcome_to_dict(o, seconds))
+
+    def add_rows(self, rows: list) -> None:
+        """Rows of the rare sequences, one line each, synced once."""
+        self.f.write("".join(json.dumps(r) + "\n" for r in rows))
+        self.f.flush()
+        os.fsync(self.f.fileno())
+
+    def close(self) -> None:
+        self.f.close()
+
+
+class _Stop:
+    """SIGTERM asks for a stop after the running sequence (the handler only sets a flag)."""
+
+    def __init__(self):
+        self.asked = False
+        self._old = signal.signal(signal.SIGTERM, self._handle)
+
+    def _handle(self, signum, frame):
+        self.asked = True
+
+    def restore(self) -> None:
+        signal.signal(signal.SIGTERM, self._old)
+
+
+def _work(site, model, st: SequenceSettings, todo: list, stop: _Stop, deliver) -> None:
+    """Run the sequences ``todo`` in order, handing each to ``deliver(outcome, seconds)``, until done or a
+    stop is asked."""
+    strata = build_strata(site)   # the site simulation's check: refuses sources outside the models but 'zero'
+    pulse_map = PulseMap(st.pulse_shape, st.vp_scale, st.tp_model)
+    for s in todo:
+        if stop.asked:
+            return
+        t0 = time.perf_counter()
+        evs = sequence_events(site, st.years, st.seed, s, pulse_map, strata.ranges)
+        try:
+            o = run_one(model, s, evs, st)
+        except Exception as exc:
+            exc.add_note(f"in sequence {s} (seed {st.seed}) of {len(evs)} event(s)")
+            raise
+        deliver(o, time.perf_counter() - t0)
+
+
+def run_folder(site_path, model, st: SequenceSettings, folder, comm=None, log=print, progress=None):
+    """Run (or resume) ``st.n_sequences`` sequences of the site file ``site_path`` on ``model`` into
+    ``folder`` on every rank of ``comm`` (None: this process). Returns ``(exit code, run)``: ``run`` (the
+    dict :func:`pycolfrag.risk.sequences.summarize` reads; its ``wall_s`` the sum of the sequences' own
+    times) on rank 0 when every sequence is done, else None."""
+    rank, size = (comm.Get_rank(), comm.Get_size()) if comm is not None else (0, 1)
+    folder = Path(folder)
+    site = load_site(site_path)
+    ident = identity(site_path, model, st)
+    lock = journal = None
+    done: dict = {}
+    error = None
+    if rank == 0:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            lock = RunLock.acquire(folder / JOURNAL, log=log)
+            done = read_journal(folder / JOURNAL, ident, log)
+            path = folder / JOURNAL
+            journal = Journal(path, ident, fresh=not path.exists() or path.stat().st_size == 0)
+        except ResultsLockedError as exc:
+            error = (EXIT_LOCKED, str(exc))
+        except (PycolfragError, ResultsFileError) as exc:
+            error = (EXIT_ARGS, str(exc))
+        except OSError as exc:
+            error = (EXIT_OS_ERROR, str(exc))
+    if comm is not None:
+        error, finished = comm.bcast((error, sorted(done)), root=0)
+    else:
+        finished = sorted(done)
+    if error is not None:
+        if rank == 0:
+            log(f"sequences: {error[1]}")
+            if lock is not None:
+                lock.release()
+        return error[0], None
+    have = set(finished)
+    todo = [s for s in range(st.n_sequences) if s not in have and s % size == rank]
+    n_done = len([s for s in finished if s < st.n_sequences])
+    stop = _Stop()
+    try:
+        if rank == 0:
+            n_done = _run_rank0(site, model, st, todo, stop, journal, done, comm, size, n_done, progress)
+        else:
+            def send(o, sec):
+                comm.send((o, sec), dest=0, tag=_TAG_OUTCOME)
+            _work(site, model, st, todo, stop, send)
+            comm.send(None, dest=0, tag=_TAG_DONE)
+    finally:
+        stop.restore()
+        if journal is not None:
+            journal.close()
+    stopped = comm.allreduce(stop.asked, op=_lor()) if comm is not None else stop.asked
+    if lock is None:   # the other ranks
+        return (EXIT_DRAINED if stopped else EXIT_OK), None
+    lock.release()
+    if n_done < st.n_sequences:
+        log(f"sequences: stopped after {n_done} of {st.n_sequences} sequences; every finished one is in "
+            f"{folder / JOURNAL}: rerun the same command to run the rest (exit {EXIT_DRAINED})")
+        return EXIT_DRAINED, None
+    outs = [done[s] for s in range(st.n_sequences)]
+    return EXIT_OK, {"settings": st, "outcomes": [o for o, _ in outs], "wall_s": float(sum(sec for _, sec in outs)),
+                     "total_rate": float(sum(src.rate for src in site.sources)),
+                     "outside_share": {o.source: o.outside for o in build_strata(site).outside}}
+
+
+def _lor():
+    from mpi4py import MPI  # only under MPI (a comm was given)
+    return MPI.LOR
+
+
+def _run_rank0(site, model, st, todo, stop, journal, done, comm, size, n_done, progress) -> int:
+    """Rank 0's part: its own sequences, and the other ranks' as they come (written as they arrive); returns
+    how many of the first ``st.n_sequences`` are done."""
+    count, waiting = [n_done], [size - 1]
+
+    def keep(o, sec):
+        journal.add(o, sec)
+        done[o.sequence] = (o, sec)
+        count[0] += 1
+        if progress is not None:
+            progress(count[0], st.n_sequences)
+
+    def receive() -> None:
+        status = _status()
+        msg = comm.recv(source=-1, tag=-1, status=status)
+        if status.Get_tag() == _TAG_DONE:
+            waiting[0] -= 1
+        else:
+            keep(*msg)
+
+    def own(o, sec):
+        keep(o, sec)
+        while comm is not None and comm.iprobe(source=-1, tag=_TAG_OUTCOME):
+            receive()
+    _work(site, model, st, todo, stop, own)
+    while waiting[0] > 0:
+        receive()
+    return count[0]
+
+
+def _status():
+    from mpi4py import MPI
+    return MPI.Status()
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="pycolfrag sequences", formatter_class=HelpFormatter,
+                                description=__doc__.split("\n\n")[0] + " Under MPI: mpirun -n N python -m mpi4py -m "
+                                "pycolfrag sequences ...; rerunning the same command resumes.")
+    p.add_argument("site", help="site file (TOML, docs/risk.md)")
+    p.add_argument("out", help="output folder: the journal sequences.jsonl, then summary.json and summary.md")
+    what = p.add_mutually_exclusive_group()
+    what.add_argument("--column", default=None, help="column file (default: the Parthenon column)")
+    what.add_argument("--scene", default=None, help="scene file (a colonnade, a portal: docs/scene_format.md)")
+    p.add_argument("--years", type=float, default=50.0, help="the horizon, years")
+    p.add_argument("--n", type=int, default=1000, help="sequences")
+    p.add_argument("--seed", type=int, default=DEFAULT_SEED, help="root seed")
+    p.add_argument("--restore-u-d", type=float, default=0.005,
+                   help="the restored way's policy: reassemble when the accumulated u_d exceeds this")
+    p.add_argument("--restore-tilt", type=float, default=math.inf, help="... or the residual tilt exceeds this, rad")
+    p.add_argument("--max-record-s", type=float, default=None, help="cut the records (tests and quick looks only)")
+    rare = p.add_argument_group("importance sampling on the strongest event (--rare; docs/sequences.md, \"Rare sequences\")")
+    rare.add_argument("--rare", action="store_true",
+                      help="rows of the rare-event strata instead of crude sequences (--n is not used)")
+    rare.add_argument("--target", default="collapse", help="the quantity whose CoV stops the run (accumulated way)")
+    rare.add_argument("--target-cov", type=float, default=0.2, help="stop when the target's CoV reaches this")
+    rare.add_argument("--pilot", type=int, default=10, help="rows per stratum before the allocation")
+    rare.add_argument("--batch", type=int, default=400, help="rows per batch after the pilot")
+    rare.add_argument("--max-rows", type=int, default=20000, help="the row budget")
+    rare.add_argument("--shift", type=float, nargs=2, default=None, metavar=("Z_VP", "Z_FP"),
+                      help="the production proposal's shift of the pulse normals (default: +2.5 -1.0)")
+    p.add_argument("--mpi", choices=("auto", "yes", "no"), default="auto", help="use MPI (auto: under a launcher)")
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True, help="a line per 10 %% done")
+    return p
+
+
+def main(argv=None) -> int:
+    args = parser().parse_args(argv)
+    comm = get_comm(args.mpi)
+    rank = comm.Get_rank() if comm is not None else 0
+    log = (lambda s: print(s, flush=True)) if rank == 0 else (lambda s: None)
+    try:
+        model = (scene_from_file(args.scene) if args.scene else
+                 Column.from_file(args.column) if args.column else Column.parthenon())
+        st = SequenceSettings(years=args.years, n_sequences=args.n, seed=args.seed,
+                              restoration=Restoration(u_d=args.restore_u_d, tilt_rad=args.restore_tilt),
+                              max_record_s=args.max_record_s)
+        if not Path(args.site).is_file():
+            raise ParameterError(f"site file {args.site} does not exist")
+    except (PycolfragError, OSError) as exc:
+        log(f"sequences: {exc}")
+        return EXIT_ARGS
+
+    if args.rare:
+        return _main_rare(args, model, st, comm, log)
+
+    def progress(done, total):
+        if args.progress and (done == total or done % max(1, total // 10) == 0):
+            print(f"  {done}/{total} sequences", file=sys.stderr, flush=True)
+    code, run = run_folder(args.site, model, st, args.out, comm, log, progress)
+    if run is None:
+        return code
+    sm = summarize(run)
+    text = format_summary(sm, f"{Path(args.site).stem}: {getattr(model, 'name', type(model).__name__)}, "
+                              f"{st.n_sequences} sequences of {st.years:g} years")
+    out = Path(args.out)
+    (out / "summary.json").write_text(json.dumps(sm, indent=1, default=str))
+    (out / "summary.md").write_text(text + "\n")
+    log(text)
+    return EXIT_OK
+
+
+def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
+    from pycolfrag.risk import sequences_rare as rare  # the rare route's modules, for --rare only
+    from pycolfrag.risk.sequences_rare_run import run_rare_folder
+    try:
+        shift = rare.DEFAULT_SHIFT if args.shift is None else tuple(args.shift)
+        rs = rare.RareSequenceSettings(sequences=st, target=args.target, target_cov=args.target_cov,
+                                       pilot=args.pilot, batch=args.batch, max_rows=args.max_rows,
+                                       mixture=rare.production_mixture(rare.DEFENSIVE, (shift,)))
+    except PycolfragError as exc:
+        log(f"sequences: {exc}")
+        return EXIT_ARGS
+    code, run = run_rare_folder(args.site, model, rs, args.out, comm, log)
+    if run is None:
+        return code
+    text = rare.format_estimate(run, f"{Path(args.site).stem}: {getattr(model, 'name', type(model).__name__)}, "
+                                     f"importance sampling on the strongest event")
+    out = Path(args.out)
+    (out / "rare_summary.json").write_text(json.dumps(
+        {"estimate": run["estimate"], "rows": len(run["rows"]), "runs": run["runs"], "seconds": run["seconds"],
+         "strata": len(run["strata"]), "settings": rare.settings_dict(rs)}, indent=1))
+    (out / "rare_summary.md").write_text(text + "\n")
+    log(text)
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,247 @@
+"""Sequences at a site as a command (pycolfrag/risk/sequences_run.py; docs/sequences.md, "Running it"): the
+journal holds exactly the sequences :func:`pycolfrag.risk.sequences.run_site_sequences` computes in one
+process (the reference: the same function call for call, so equality is exact, NaN included), a stopped
+run resumes to the same sequences (SIGTERM: exit 75; a torn last line dropped), a larger ``--n`` adds
+sequences, a journal of other settings or another site is refused by name, a held folder is refused
+(exit 5), and two MPI ranks give the one-rank sequences."""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from pycolfrag.results.lock import RunLock
+from pycolfrag.risk import sequences as sq
+from pycolfrag.risk import sequences_run as sr
+from pycolfrag.site.sources import load_site
+from pycolfrag.solver.sequence import Restoration
+from pycolfrag.structure.column import Column
+
+ROOT = Path(__file__).resolve().parents[1]
+COLUMN = ROOT / "bench" / "data" / "column_two_drums.toml"   # the rare route's cheap verification column
+SITE = """name = "sequences test"
+outside = "zero"
+[pulse]
+probability = 0.5
+[[sources]]
+name = "near"
+rate = 0.2
+magnitude = {type = "characteristic", mw = 6.5}
+distance = {type = "uniform", min_km = 5.0, max_km = 10.0}
+[[sources]]
+name = "far"
+rate = 0.1
+magnitude = {type = "characteristic", mw = 5.5}
+distance = {type = "uniform", min_km = 20.0, max_km = 40.0}
+"""
+# short records keep the runs cheap (changes the numbers, not the bookkeeping under test)
+ARGS = ["--column", str(COLUMN), "--years", "10", "--seed", "3", "--max-record-s", "4", "--no-progress"]
+
+
+def _env():
+    env = {k: v for k, v in os.environ.items()
+           if not (k.startswith("PMIX_") or k.startswith("OMPI_")) or k.startswith("OMPI_ALLOW_RUN_AS_ROOT")}
+    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMP_NUM_THREADS="1",
+               OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(ROOT))
+    return env
+
+
+def _cmd(args, ranks=1):
+    if ranks == 1:
+        return [sys.executable, "-m", "pycolfrag", "sequences"] + args
+    return ["timeout", "-k", "10", "240", "mpirun", "--allow-run-as-root", "-n", str(ranks), sys.executable, "-m",
+            "mpi4py", "-m", "pycolfrag", "sequences"] + args
+
+
+def _run(args, ranks=1):
+    if ranks > 1 and shutil.which("mpirun") is None:
+        pytest.skip("mpirun not installed (make system)")
+    return subprocess.run(_cmd(args, ranks), capture_output=True, text=True, env=_env(), cwd=ROOT, timeout=300)
+
+
+def _journal(out: Path) -> dict:
+    """The journal's sequences by index, as their JSON lines without the wall time."""
+    lines = (out / sr.JOURNAL).read_text().splitlines()[1:]
+    return {d["sequence"]: json.dumps({k: v for k, v in d.items() if k != "seconds"})
+            for d in map(json.loads, lines)}
+
+
+@pytest.fixture(scope="module")
+def site_file(tmp_path_factory):
+    p = tmp_path_factory.mktemp("seq") / "site.toml"
+    p.write_text(SITE)
+    return p
+
+
+@pytest.fixture(scope="module")
+def reference(site_file):
+    """Six sequences run in this process by run_site_sequences, as journal lines."""
+    st = sq.SequenceSettings(years=10.0, n_sequences=6, seed=3, restoration=Restoration(u_d=0.005), max_record_s=4.0)
+    run = sq.run_site_sequences(load_site(site_file), Column.from_file(COLUMN), st)
+    return {o.sequence: json.dumps({k: v for k, v in sr.outcome_to_dict(o, 0.0).items() if k != "seconds"})
+            for o in run["outcomes"]}
+
+
+def test_the_journal_is_the_in_process_run_and_a_larger_n_adds_sequences(site_file, reference, tmp_path):
+    out = tmp_path / "out"
+    p = _run([str(site_file), str(out), "--n", "3"] + ARGS)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert _journal(out) == {s: reference[s] for s in range(3)}
+    p = _run([str(site_file), str(out), "--n", "6"] + ARGS)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert _journal(out) == reference
+    sm = json.loads((out / "summary.json").read_text())
+    assert sm["n_sequences"] == 6 and "P(collapse within 10 yr)" in (out / "summary.md").read_text()
+
+
+def test_a_torn_last_line_is_dropped_and_rerun(site_file, reference, tmp_path):
+    out = tmp_path / "out"
+    assert _run([str(site_file), str(out), "--n", "6"] + ARGS).returncode == 0
+    text = (out / sr.JOURNAL).read_text()
+    last = text.rstrip("\n").rpartition("\n")[2]
+    (out / sr.JOURNAL).write_text(text[:len(text) - len(last) - 1] + last[:len(last) // 2])   # cut mid-line
+    p = _run([str(site_file), str(out), "--n", "6"] + ARGS)
+    assert p.returncode == 0 and "cut short" in p.stdout, p.stdout + p.stderr
+    assert _journal(out) == reference
+
+
+@pytest.mark.parametrize("change, named", [(["--seed", "4"], "seed"), (["--years", "11"], "years"),
+                                           (["--restore-u-d", "0.01"], "u_d")])
+def test_a_journal_of_other_settings_is_refused_by_name(site_file, tmp_path, change, named):
+    out = tmp_path / "out"
+    assert _run([str(site_file), str(out), "--n", "1"] + ARGS).returncode == 0
+    before = (out / sr.JOURNAL).read_bytes()
+    args = list(ARGS)
+    i = args.index(change[0]) if change[0] in args else None
+    args = args[:i] + args[i + 2:] + change if i is not None else args + change
+    p = _run([str(site_file), str(out), "--n", "2"] + args)
+    assert p.returncode == 2 and "another run" in p.stdout and named in p.stdout, p.stdout + p.stderr
+    assert (out / sr.JOURNAL).read_bytes() == before
+
+
+def test_a_journal_of_another_site_file_is_refused(site_file, tmp_path):
+    out = tmp_path / "out"
+    assert _run([str(site_file), str(out), "--n", "1"] + ARGS).returncode == 0
+    other = tmp_path / "other.toml"
+    other.write_text(SITE.replace("rate = 0.2", "rate = 0.3"))
+    p = _run([str(other), str(out), "--n", "1"] + ARGS)
+    assert p.returncode == 2 and "site_sha256" in p.stdout, p.stdout + p.stderr
+
+
+def test_a_folder_held_by_a_running_run_is_refused(site_file, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    lock = RunLock.acquire(out / sr.JOURNAL, log=lambda s: None)
+    try:
+        p = _run([str(site_file), str(out), "--n", "1"] + ARGS)
+    finally:
+        lock.release()
+    assert p.returncode == 5 and "another run" in p.stdout, p.stdout + p.stderr
+
+
+def test_bad_arguments_are_refused_by_name(site_file, tmp_path):
+    p = _run([str(site_file), str(tmp_path / "o"), "--n", "0"] + ARGS)
+    assert p.returncode == 2 and "n_sequences" in p.stdout and "0" in p.stdout
+    p = _run([str(tmp_path / "absent.toml"), str(tmp_path / "o")] + ARGS)
+    assert p.returncode == 2 and "absent.toml" in p.stdout
+
+
+def test_sigterm_stops_after_the_running_sequence_and_the_rerun_completes(site_file, tmp_path):
+    """SIGTERM once two sequences are in the journal: exit 75 with every finished sequence kept; the rerun
+    gives the journal of an uninterrupted run."""
+    out, whole = tmp_path / "stopped", tmp_path / "whole"
+    args = ["--n", "30"] + ARGS
+    proc = subprocess.Popen(_cmd([str(site_file), str(out)] + args), stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, env=_env(), cwd=ROOT)
+    t0 = time.time()
+    while proc.poll() is None and time.time() - t0 < 120:
+        j = out / sr.JOURNAL
+        if j.exists() and j.read_text().count("\n") >= 3:
+            break
+        time.sleep(0.01)
+    assert proc.poll() is None, "the run ended before it could be stopped"
+    proc.send_signal(signal.SIGTERM)
+    text = proc.communicate(timeout=120)[0]
+    assert proc.returncode == 75 and "rerun the same command" in text, text
+    assert not (out / "summary.json").exists()
+    kept = _journal(out)
+    assert 2 <= len(kept) < 30
+    assert _run([str(site_file), str(out)] + args).returncode == 0
+    assert _run([str(site_file), str(whole)] + args).returncode == 0
+    assert _journal(out) == _journal(whole)
+
+
+@pytest.mark.mpi
+def test_two_mpi_ranks_give_the_one_rank_sequences(site_file, reference, tmp_path):
+    p = _run([str(site_file), str(tmp_path / "two"), "--n", "6"] + ARGS, ranks=2)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert _journal(tmp_path / "two") == reference
+    assert json.loads((tmp_path / "two" / "summary.json").read_text())["n_sequences"] == 6
+
+
+# --------------------------------------------------------------------------- --rare: the strongest event's rows
+
+RARE = ["--rare", "--target", "u_d > 0.005", "--target-cov", "0.01", "--pilot", "2", "--batch", "12",
+        "--max-rows", "40"]
+
+
+def _rows(out: Path) -> list:
+    """The rows of a rare journal in order, without their wall times."""
+    lines = (out / "rows.jsonl").read_text().splitlines()[1:]
+    return [json.dumps({k: v for k, v in d.items() if k != "seconds"}) for d in map(json.loads, lines)]
+
+
+@pytest.fixture(scope="module")
+def rare_reference(site_file):
+    """The rare estimator run in this process with the command's settings (rows without their wall times)."""
+    from pycolfrag.risk import sequences_rare as rare
+    st = sq.SequenceSettings(years=10.0, n_sequences=1000, seed=3, restoration=Restoration(u_d=0.005),
+                             max_record_s=4.0)
+    rs = rare.RareSequenceSettings(sequences=st, target="u_d > 0.005", target_cov=0.01, pilot=2, batch=12,
+                                   max_rows=40)
+    run = rare.simulate_sequences(load_site(site_file), Column.from_file(COLUMN), rs)
+    return [json.dumps({k: v for k, v in r.items() if k != "seconds"}) for r in run["rows"]], run["estimate"]
+
+
+def test_rare_rows_are_the_in_process_estimators(site_file, rare_reference, tmp_path):
+    out = tmp_path / "rare"
+    p = _run([str(site_file), str(out)] + ARGS + RARE)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert _rows(out) == rare_reference[0]
+    est = json.loads((out / "rare_summary.json").read_text())["estimate"]
+    assert est["accumulated"]["u_d > 0.005"]["p"] == rare_reference[1]["accumulated"]["u_d > 0.005"]["p"]
+    assert "importance sampling on the strongest event" in (out / "rare_summary.md").read_text()
+
+
+def test_rare_sigterm_then_resume_gives_the_uninterrupted_rows(site_file, rare_reference, tmp_path):
+    out = tmp_path / "stopped"
+    proc = subprocess.Popen(_cmd([str(site_file), str(out)] + ARGS + RARE), stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, env=_env(), cwd=ROOT)
+    t0 = time.time()
+    while proc.poll() is None and time.time() - t0 < 120:
+        j = out / "rows.jsonl"
+        if j.exists() and j.read_text().count("\n") >= 9:
+            break
+        time.sleep(0.01)
+    assert proc.poll() is None, "the run ended before it could be stopped"
+    proc.send_signal(signal.SIGTERM)
+    text = proc.communicate(timeout=120)[0]
+    assert proc.returncode == 75, text
+    assert not (out / "rare_summary.json").exists()
+    p = _run([str(site_file), str(out)] + ARGS + RARE)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert _rows(out) == rare_reference[0]
+
+
+@pytest.mark.mpi
+def test_rare_two_mpi_ranks_give_the_one_rank_rows(site_file, rare_reference, tmp_path):
+    p = _run([str(site_file), str(tmp_path / "two")] + ARGS + RARE, ranks=2)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert _rows(tmp_path / "two") == rare_reference[0]
