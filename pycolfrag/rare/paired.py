@@ -91,10 +91,12 @@ def joint_counts(parts_by_group, strata, design, settings, requested, stage: int
     var_cols: list = []
     lam_cols: list = []
     kept: list = []
+    means: list = []
     for parts in parts_by_group:
         model = _alloc.SteeringModel(_cat(parts), requested)
         rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
         mean, var = _alloc.predicted_moments(strata, design.production, model, requested, rng, events)
+        means.append(mean)
         lam = W @ mean
         for j in range(var.shape[1]):
             col = np.append(var[:, j], lam[j])
@@ -106,7 +108,8 @@ def joint_counts(parts_by_group, strata, design, settings, requested, stage: int
     cols = _cat(parts_by_group[0])
     finished = np.asarray(cols["status"]) != _results.STATUS_PENDING
     done = np.bincount(np.asarray(cols["stratum"])[finished], minlength=len(strata))
-    n, _ = _alloc.minimax_allocation(W, np.column_stack(var_cols), np.array(lam_cols), done, used + size)
+    n, _ = _alloc.minimax_allocation(W, np.column_stack(var_cols), np.array(lam_cols),
+                                     _alloc.run_floor(W, np.column_stack(means), done), used + size)
     new = _alloc.batch_counts(n, done, size)
     return {int(h): int(k) for h, k in enumerate(new) if k > 0}
 
@@ -151,7 +154,7 @@ def simulate_paired(site, settings, stop, evaluators, quantities, log=print, nam
     names = list(names or [f"group {g}" for g in range(len(evaluators))])
     runs = [_Run(site, settings, stop, ev, quantities, (lambda s, n=n: log(f"[{n}] {s}"))) for ev, n in
             zip(evaluators, names)]
-    pilot = {h: settings.pilot_per_stratum for h in range(len(runs[0].strata))}
+    pilot = {h: runs[0].pilot_per_stratum for h in range(len(runs[0].strata))}
     for r in runs:
         r.run_batch(0, *r.planned(0, pilot, PILOT_MIXTURE))
     live = [g for g, r in enumerate(runs) if not _pilot_dead(r.parts[0])]
