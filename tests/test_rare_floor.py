@@ -150,3 +150,51 @@ def test_the_no_pulse_strata_are_not_starved_and_their_misses_are_counted():
     assert len(big) == 6 and all(run.estimate.n_by_stratum[h] >= FEW_RUNS for h in big)
     e = run.estimate.levels["u_d > 0.005"]
     assert e.floored_strata >= 1 and e.floor_variance_share > 0.0 and run.floor is not None
+
+
+# --------------------------------------------------------------------------- the cross-entropy steps
+
+
+def test_a_thin_elite_is_widened_to_the_min_hits_highest_runs():
+    """30 rows, no level exceeded: the weighted 0.9 quantile of the score holds 3 rows; the elite is widened to the
+    20 highest, whose mean z is computed here by sorting (not by the module's code)."""
+    from pycolfrag.rare import proposal
+    rng = np.random.default_rng(3)
+    z = rng.standard_normal((30, 2))
+    y = {q.label: np.zeros(30, bool) for q in QUANTITIES}
+    scores = {f: z[:, 0] for f in proposal.FAMILIES}
+    means, notes = proposal.cross_entropy_means(z, np.ones(30), y, scores, [QUANTITIES[0]], min_hits=20, quantile=0.9)
+    top = np.argsort(z[:, 0])[::-1][:20]
+    assert means[0] == pytest.approx(tuple(z[top].mean(axis=0)), abs=1e-6) and "20 runs" in notes[0]
+    # no level exceeded by 20 rows: thin (the driver takes a second step); a level exceeded by 20: not thin
+    assert proposal.thin_families(z, np.ones(30), y, scores, [QUANTITIES[0]], min_hits=20, quantile=0.9) == ("u_top",)
+    y[QUANTITIES[0].label] = z[:, 0] >= np.sort(z[:, 0])[::-1][19]
+    assert proposal.thin_families(z, np.ones(30), y, scores, [QUANTITIES[0]], min_hits=20, quantile=0.9) == ()
+
+
+def test_a_second_cross_entropy_step_places_the_later_batches_and_replays():
+    """At the one-source node with an elite asked of 500 runs (always thin), the batches from stage 2 on are drawn
+    from the second step's mixture (placed on every row after batch 1, stored in the plans); their rows are weighted
+    under it (phi_2 / q of that mixture, written out here); a second simulation reading the stored plans gives the
+    same estimate, bit for bit."""
+    from pycolfrag.rare.estimate import row_weights
+    settings = SiteSettings(seed=2, batch=40, ce_min_hits=500)
+    ev = SurrogateEvaluator()
+    with redirect_stdout(io.StringIO()):
+        run = simulate_site(_one_node(), settings, StopRule(0.01, 180), ev, QUANTITIES, log=lambda s: None)
+    d = run.design
+    assert d.second is not None and d.second != d.production and "second step" in " ".join(d.notes)
+    assert ev.plans["batch_002"][0]["design"]["second"] == d.second.as_dict()
+    assert "second" not in ev.plans["batch_001"][0]["design"]
+    w, _ = row_weights(run.cols, run.strata, d)
+    later = (np.asarray(run.cols["stage"]) >= 2) & (np.asarray(run.cols["pulse"]) == 1)
+    z = np.column_stack([run.cols["z_vp"][later], run.cols["z_fp"][later]])
+    m = d.second
+    q_over_phi = m.alphas[0] + sum(a * np.exp(z @ np.asarray(mu) - 0.5 * np.dot(mu, mu))
+                                   for a, mu in zip(m.alphas[1:], m.means))
+    assert np.allclose(w[later], np.asarray(run.cols["occurrence_weight"])[later] / q_over_phi, rtol=1e-12)
+    with redirect_stdout(io.StringIO()):
+        again = simulate_site(_one_node(), settings, StopRule(0.01, 180), ev, QUANTITIES, log=lambda s: None)
+    assert again.design == d
+    assert {k: v.as_dict() for k, v in again.estimate.levels.items()} == \
+        {k: v.as_dict() for k, v in run.estimate.levels.items()}

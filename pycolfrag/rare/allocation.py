@@ -204,7 +204,7 @@ def variance_floor(cols: dict, strata, design, quantities, rng, events) -> np.nd
     of the steering model's and the demand model's probabilities, at most the Jeffreys pseudo-count's
     (:func:`pycolfrag.rare.estimate.jeffreys_floor`)."""
     model = _Least(SteeringModel(cols, quantities), DemandModel(cols, quantities), quantities)
-    mixture = design.production if design.production is not None else design.pilot
+    mixture = design.latest if design.latest is not None else design.pilot
     _, var = predicted_moments(strata, mixture, model, quantities, rng, events)
     jf = jeffreys_floor(cols, strata, design, quantities)
     return np.where(jf > 0, np.minimum(var, jf), 0.0)

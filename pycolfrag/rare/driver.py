@@ -6,7 +6,9 @@
    the pulse quantiles drawn from :data:`~pycolfrag.rare.proposal.PILOT_MIXTURE`.
 2. *Cross-entropy step*: the production mixture's shifts from the pilot's rows
    (:func:`~pycolfrag.rare.proposal.cross_entropy_means`); stored in the plan of ``batch_001`` (and of
-   every later batch) before its first run.
+   every later batch) before its first run. Where no level of a family was exceeded by ``ce_min_hits`` pilot runs
+   (:func:`~pycolfrag.rare.proposal.thin_families`), a *second step* on every row after ``batch_001`` places
+   the proposal of ``batch_002`` on (stored in their plans, read back on resume).
 3. *Batches* (stages 1, 2, ...): ``batch`` runs each, allocated by the minimax-CoV Neyman rule of
    :mod:`~pycolfrag.rare.allocation`, until every requested level reaches the target CoV with at least
    ``min_neff`` effective exceedances and no run carrying more than ``max_share`` of it, or the run
@@ -33,6 +35,7 @@ import numpy as np
 from pycolfrag import results as _results
 from pycolfrag.core.errors import ParameterError, ResultsFileError
 from pycolfrag.rare import allocation as _alloc
+from pycolfrag.rare import proposal as _proposal
 from pycolfrag.rare.estimate import DEFAULT_MAX_SHARE, DEFAULT_MIN_NEFF, UNRESOLVED, estimate, exceedances, row_weights
 from pycolfrag.rare.plans import PulseMap, interleave, plan_inputs
 from pycolfrag.rare.proposal import PILOT_MIXTURE, Design, cross_entropy_means, families_of, production_mixture, score
@@ -191,9 +194,9 @@ def _cat(parts: list) -> dict:
     return {k: np.concatenate([np.asarray(p[k]) for p in parts]) for k in parts[0]}
 
 
-def _ce_design(cols, strata, settings, requested) -> Design:
-    """The production mixture from the pilot's rows (every stratum's weights under the pilot's proposal)."""
-    design = Design(PILOT_MIXTURE)
+def _ce_inputs(cols, strata, design, requested):
+    """(z, contrib, y, scores) of the successful pulse rows of ``cols`` for the cross-entropy program, each row
+    weighted under its own stage's mixture of ``design``; None without a pulse row."""
     ok = np.asarray(cols["status"]) == 0
     sub = {k: np.asarray(v)[ok] for k, v in cols.items()}
     w, _ = row_weights(sub, strata, design)
@@ -202,13 +205,38 @@ def _ce_design(cols, strata, settings, requested) -> Design:
     contrib = strata.rates[h] * w / np.maximum(n_h[h], 1)
     pulse = np.asarray(sub["pulse"], dtype=bool)
     if not pulse.any():
-        return Design(PILOT_MIXTURE, production_mixture(settings.defensive, ()), ("no stratum with a pulse",))
+        return None
     z = np.column_stack([sub["z_vp"][pulse], sub["z_fp"][pulse]])
     y = {q.label: exceedances(sub, q)[pulse] for q in requested}
     scores = {f: score(sub, f)[pulse] for f in families_of(requested)}
-    means, notes = cross_entropy_means(z, contrib[pulse], y, scores, requested, min_hits=settings.ce_min_hits,
-                                       quantile=settings.ce_quantile)
+    return z, contrib[pulse], y, scores
+
+
+def _ce_design(cols, strata, settings, requested) -> Design:
+    """The production mixture from the pilot's rows (every stratum's weights under the pilot's proposal)."""
+    got = _ce_inputs(cols, strata, Design(PILOT_MIXTURE), requested)
+    if got is None:
+        return Design(PILOT_MIXTURE, production_mixture(settings.defensive, ()), ("no stratum with a pulse",))
+    means, notes = cross_entropy_means(*got, requested, min_hits=settings.ce_min_hits, quantile=settings.ce_quantile)
     return Design(PILOT_MIXTURE, production_mixture(settings.defensive, means), tuple(notes))
+
+
+def _thin(cols, strata, settings, requested) -> tuple:
+    """The families whose first step's elite (from the pilot ``cols``) held fewer than ``ce_min_hits`` runs."""
+    got = _ce_inputs(cols, strata, Design(PILOT_MIXTURE), requested)
+    return () if got is None else _proposal.thin_families(*got, requested, min_hits=settings.ce_min_hits,
+                                                             quantile=settings.ce_quantile)
+
+
+def _second_design(cols, strata, design: Design, settings, requested, thin) -> Design:
+    """The second cross-entropy step: the same program on every row so far (the pilot's and the first
+    production batch's, each under its own stage's mixture), the proposal of the batches from stage 2 on."""
+    means, notes = cross_entropy_means(*_ce_inputs(cols, strata, design, requested), requested,
+                                       min_hits=settings.ce_min_hits, quantile=settings.ce_quantile)
+    why = (f"second step (the first step's elite was thin: no level exceeded by {settings.ce_min_hits} pilot runs, for "
+           f"{', '.join(thin)}), ")
+    return Design(design.pilot, design.production, design.notes + tuple(why + n for n in notes),
+                  production_mixture(settings.defensive, means))
 
 
 def failures(cols) -> tuple[int, int, str]:
@@ -251,7 +279,7 @@ def _allocate(cols, strata, design, settings, requested, stage: int, used: int, 
     """The ``size`` runs of production batch ``stage`` per stratum (minimax-CoV Neyman, model-steered)."""
     model = _alloc.SteeringModel(cols, requested)
     rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
-    mean, var = _alloc.predicted_moments(strata, design.production, model, requested, rng, events)
+    mean, var = _alloc.predicted_moments(strata, design.latest, model, requested, rng, events)
     W = strata.rates
     finished = np.asarray(cols["status"]) != _results.STATUS_PENDING
     done = np.bincount(np.asarray(cols["stratum"])[finished], minlength=len(strata))
@@ -371,6 +399,7 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
         run.design = _ce_design(run.parts[0], run.strata, settings, run.requested)
     for note in run.design.notes:
         log(f"cross-entropy step: {note}")
+    thin = _thin(run.parts[0], run.strata, settings, run.requested)
     stage, stopped = 1, "budget"
     while True:
         est = run.estimate()
@@ -384,11 +413,16 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
                 break
             if used >= stop.max_runs:
                 break
+            if stage == 2 and thin:
+                run.design = _second_design(_cat(run.parts), run.strata, run.design, settings, run.requested, thin)
+                for note in run.design.notes[len(run.design.notes) // 2:]:
+                    log(f"cross-entropy step: {note}")
             counts = _allocate(_cat(run.parts), run.strata, run.design, settings, run.requested, stage, used,
                                run.steering_events(), min(settings.batch, stop.max_runs - used))
         else:
             counts = {}
-        run.run_batch(stage, *run.planned(stage, counts, run.design.production))
+            run.design = Design.from_dict(evaluator.stored(batch_name(stage))[0]["design"])
+        run.run_batch(stage, *run.planned(stage, counts, run.design.latest))
         stage += 1
     return SiteRun(site, run.strata, run.design, settings, stop, run.quantities, run.requested, _cat(run.parts), est,
                    stopped, run.batches, run.history, record=evaluator.record, floor=run.last_floor)
