@@ -275,11 +275,16 @@ def _check_pilot(cols) -> None:
                              "folder's batch_000.h5")
 
 
-def _allocate(cols, strata, design, settings, requested, stage: int, used: int, events, size: int) -> dict:
-    """The ``size`` runs of production batch ``stage`` per stratum (minimax-CoV Neyman, model-steered)."""
+def _allocate(cols, strata, design, settings, requested, stage: int, used: int, events, size: int,
+              floor=None) -> dict:
+    """The ``size`` runs of production batch ``stage`` per stratum (minimax-CoV Neyman, model-steered; each
+    predicted variance at least the estimate's ``floor`` of the requested levels, so that the allocation sees
+    the variance the estimate states)."""
     model = _alloc.SteeringModel(cols, requested)
     rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
     mean, var = _alloc.predicted_moments(strata, design.latest, model, requested, rng, events)
+    if floor is not None:
+        var = np.maximum(var, floor)
     W = strata.rates
     finished = np.asarray(cols["status"]) != _results.STATUS_PENDING
     done = np.bincount(np.asarray(cols["stratum"])[finished], minlength=len(strata))
@@ -417,8 +422,10 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
                 run.design = _second_design(_cat(run.parts), run.strata, run.design, settings, run.requested, thin)
                 for note in run.design.notes[len(run.design.notes) // 2:]:
                     log(f"cross-entropy step: {note}")
+            idx = [run.quantities.index(q) for q in run.requested]
             counts = _allocate(_cat(run.parts), run.strata, run.design, settings, run.requested, stage, used,
-                               run.steering_events(), min(settings.batch, stop.max_runs - used))
+                               run.steering_events(), min(settings.batch, stop.max_runs - used),
+                               None if run.last_floor is None else run.last_floor[:, idx])
         else:
             counts = {}
             run.design = Design.from_dict(evaluator.stored(batch_name(stage))[0]["design"])
