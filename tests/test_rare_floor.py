@@ -106,12 +106,13 @@ def test_the_floor_shrinks_as_the_missing_runs_grow_and_leaves_strata_with_excee
 
 
 def test_a_stratum_predicted_to_matter_keeps_a_floor_of_runs():
-    W = np.array([1.0, 9.0, 100.0])
-    mean = np.array([[0.5], [0.01], [1e-6]])            # shares of the rate 0.847, 0.153, 1.7e-4
-    floor = allocation.run_floor(W, mean, np.array([30, 5, 5]))
-    assert floor.tolist() == [30, FEW_RUNS, 5]
+    W = np.array([1.0, 9.0, 100.0, 0.5])
+    mean = np.array([[0.5], [0.01], [1e-6], [1e-6]])    # shares of the level's rate 0.847, 0.153, 1.7e-4, 8e-7
+    floor = allocation.run_floor(W, mean, np.array([30, 5, 5, 5]))
+    # A has more already; B matters to the level; C is 91 % of the event rate; D (0.45 %) is neither
+    assert floor.tolist() == [30, FEW_RUNS, FEW_RUNS, 5]
     # with the floors, minimax gives B its 20 runs although the model predicts it no variance
-    var = np.array([[0.25], [0.0], [0.0]])
+    var = np.array([[0.25], [0.0], [0.0], [0.0]])
     n, _ = allocation.minimax_allocation(W, var, W @ mean, floor, 100.0)
     assert n[1] == FEW_RUNS
 
@@ -201,7 +202,7 @@ def test_a_second_cross_entropy_step_places_the_later_batches_and_replays():
 
 
 def test_the_allocation_sees_the_variance_floor():
-    """After the small site's pilot (70 runs), a batch of 200 allocated with the estimate's variance floor of
+    """After the small site's pilot (70 runs), a batch of 1000 allocated with the estimate's variance floor of
     stratum 6 (the largest no-pulse stratum, 44 % of the event rate; every level's floor there set to 0.05, a
     p of about 0.05) gives it more runs than without: the allocation follows the variance the estimate states."""
     from pycolfrag.rare import driver
@@ -210,10 +211,10 @@ def test_the_allocation_sees_the_variance_floor():
                             SurrogateEvaluator(), QUANTITIES, log=lambda s: None)
     assert run.runs == 70
     events = allocation.steering_events(run.strata, np.random.default_rng(1))
-    args = (run.cols, run.strata, run.design, run.settings, run.requested, 1, 70, events, 200)
+    args = (run.cols, run.strata, run.design, run.settings, run.requested, 1, 70, events, 1000)
     plain = driver._allocate(*args)
     floor = np.zeros((len(run.strata), len(run.requested)))
     floor[6] = 0.05
     floored = driver._allocate(*args, floor=floor)
-    assert sum(floored.values()) == sum(plain.values()) == 200
+    assert sum(floored.values()) == sum(plain.values()) == 1000
     assert floored.get(6, 0) > plain.get(6, 0) + 20, (plain.get(6, 0), floored.get(6, 0))

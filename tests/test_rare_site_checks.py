@@ -168,23 +168,24 @@ def test_a_batch_is_never_larger_than_the_budget_left():
 # --------------------------------------------------------------------------- real runs, the command line
 
 def test_failed_runs_are_counted_marked_and_refused_in_every_output(tmp_path):
-    """--vp-scale 60: 8 of 60 runs of the strongest pulses fail. Exit 7, every requested level unresolved,
+    """--vp-scale 60: 7 of 60 runs of the strongest pulses fail (8 before the second cross-entropy step, which this
+    pilot's thin elite takes after batch 1: a measured count). Exit 7, every requested level unresolved or refused,
     the failures in the printed table, risk.md and risk.json (before: 'converged' or refused, exit 0 or 6,
     the failures a count in one header line)."""
     out = tmp_path / "vp60"
     p = _run(BASE + ["--batch", "20", "--max-runs", "60", "--vp-scale", "60", "--simulate", str(out)])
     assert p.returncode == 7, p.stdout + p.stderr
-    assert "batch 2 done, 60 runs, 8 FAILED" in p.stdout and "failed runs as none - as exceeding" in p.stdout
-    assert "8 of 60 runs failed (most common: 'ParameterError: acc_x[" in p.stdout and "unresolved" in p.stdout
+    assert "batch 2 done, 60 runs, 7 FAILED" in p.stdout and "failed runs as none - as exceeding" in p.stdout
+    assert "7 of 60 runs failed (most common: 'ParameterError: acc_x[" in p.stdout and "unresolved" in p.stdout
     js = json.loads((out / "risk.json").read_text())
-    assert js["failed_runs"] == 8 and sum(js["failed_runs_by_stratum"]) == 8
+    assert js["failed_runs"] == 7 and sum(js["failed_runs_by_stratum"]) == 7
     assert js["failed_runs_by_stratum"][0] == js["failed_runs_by_stratum"][2] == 0   # the no-pulse strata never fail
     for label, e in js["levels"].items():
-        assert e["failed"] == 8, label                    # between the bounds, to round-off (sums in other orders)
+        assert e["failed"] == 7, label                    # between the bounds, to round-off (sums in other orders)
         assert e["failed_low"] * (1 - 1e-12) <= e["rate"] <= e["failed_high"] * (1 + 1e-12), label
         assert e["status"] != "converged", label
     md = (out / "risk.md").read_text()
-    assert "**8 of 60 runs failed**" in md and "| UNRESOLVED |" in md and "| stratum | source |" in md
+    assert "**7 of 60 runs failed**" in md and "| UNRESOLVED |" in md and "| stratum | source |" in md
 
 
 def test_a_record_step_the_generator_cannot_make_is_refused_before_any_run_with_the_grids_text(tmp_path, capsys):

@@ -15,7 +15,7 @@ The estimate's variance floor comes from here too (:func:`variance_floor`): a st
 exceeds a level is given the predicted Var[w y] of the smaller of the steering model's probability and a
 demand model's (:class:`DemandModel`, ln EDP linear in the same features), at most the Jeffreys pseudo-count's
 (:func:`pycolfrag.rare.estimate.jeffreys_floor`), so that the stopping rule sees it; and a stratum the
-model predicts to carry at least :data:`MATTER_SHARE` of a requested level's rate keeps at least
+model predicts to carry at least :data:`MATTER_SHARE` of a requested level's rate, or that share of the site's event rate, keeps at least
 :data:`~pycolfrag.rare.estimate.FEW_RUNS` runs (:func:`run_floor`). Before them, the example site's
 no-pulse strata (86 % of its event rate) kept the pilot's 5 runs each while the rarest level drew the
 batches (docs/rare_events.md).
@@ -47,8 +47,8 @@ STEERING_DRAWS = 500
 STREAM_STEER = 4
 #: The spawn key's second word of the variance floor's draws (the batches' are their stage, >= 1).
 STREAM_FLOOR = 0
-#: A stratum the steering model predicts to carry at least this share of a requested level's rate keeps at
-#: least FEW_RUNS runs.
+#: A stratum the steering model predicts to carry at least this share of a requested level's rate, or with this
+#: share of the site's event rate, keeps at least FEW_RUNS runs.
 MATTER_SHARE = 0.01
 
 
@@ -213,10 +213,11 @@ def variance_floor(cols: dict, strata, design, quantities, rng, events) -> np.nd
 def run_floor(W: np.ndarray, mean: np.ndarray, done: np.ndarray, min_runs: int = FEW_RUNS,
               share: float = MATTER_SHARE) -> np.ndarray:
     """The fewest runs each stratum keeps: those it has, and ``min_runs`` where the predicted means ``mean``
-    (H, L) put at least ``share`` of some level's rate sum_h W_h mean_hl in it."""
+    (H, L) put at least ``share`` of some level's rate sum_h W_h mean_hl in it, or where its rate W_h is at least
+    ``share`` of the site's (a model fitted on few exceedances can miss where a frequent level lies)."""
     part = W[:, None] * mean
     lam = part.sum(axis=0)
-    matters = np.any(part >= share * np.where(lam > 0, lam, np.inf), axis=1)
+    matters = np.any(part >= share * np.where(lam > 0, lam, np.inf), axis=1) | (W >= share * W.sum())
     return np.where(matters, np.maximum(done, min_runs), done)
 
 

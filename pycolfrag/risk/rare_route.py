@@ -325,8 +325,9 @@ def report(run, cmp: GridComparison | None = None, figures: dict | None = None) 
               "carrying more than the largest share allowed; only an upper bound is stated (failed runs counted as "
               "exceeding). Unresolved: failed runs could move the level by more than its CoV. Crude runs for this "
               "CoV: N = (1 - p) / (p CoV^2), p = lambda / (the site's event rate); efficiency = that over the runs "
-              "used. A stratum none of whose runs exceeds a level adds to its variance the Jeffreys floor (half an "
-              "exceedance in n + 1 runs), not 0 (docs/rare_events.md)." + _at_target(run)]
+              "used. A stratum none of whose runs exceeds a level adds to its variance a floor, not 0: the variance the "
+              "steering and demand models predict there, at most the Jeffreys pseudo-count's (half an exceedance in "
+              "n + 1 runs; docs/rare_events.md)." + _at_target(run)]
     if cmp is not None:
         L += _comparison_table(cmp, run)
     L += _failures(run) + _deaggregation(run) + _history(run)
