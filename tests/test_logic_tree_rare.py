@@ -191,7 +191,7 @@ def test_a_branch_whose_runs_fail_is_counted_and_marked():
     md = tree_rare_report.markdown(tr)
     assert "FAILED RUNS" in md and f"| **{tr.failed(1)}** |" in md
     tr, runs = _paired(tree, site_dict(), [Scaled(1.0), Scaled(3.0, fail_at=1e-9)], SETTINGS, STOP)
-    assert runs[0].runs == 670 and runs[1].runs == 14 * SETTINGS.pilot_per_stratum
+    assert runs[0].runs == 670 and runs[1].runs == 14 * SETTINGS.pilot_for(14)
     assert "every pilot run failed" in tree_rare_report.markdown(tr)
 
 

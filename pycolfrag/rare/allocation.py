@@ -11,6 +11,15 @@ level weights c_l moved towards the level whose predicted CoV is worst until the
 differences, scaled to its size and rounded by largest remainder (ties by stratum index): integers,
 the same on every machine that computes the same model.
 
+The estimate's variance floor comes from here too (:func:`variance_floor`): a stratum none of whose runs
+exceeds a level is given the predicted Var[w y] of the smaller of the steering model's probability and a
+demand model's (:class:`DemandModel`, ln EDP linear in the same features), at most the Jeffreys pseudo-count's
+(:func:`pycolfrag.rare.estimate.jeffreys_floor`), so that the stopping rule sees it; and a stratum the
+model predicts to carry at least :data:`MATTER_SHARE` of a requested level's rate, or that share of the site's event rate, keeps at least
+:data:`~pycolfrag.rare.estimate.FEW_RUNS` runs (:func:`run_floor`). Before them, the example site's
+no-pulse strata (86 % of its event rate) kept the pilot's 5 runs each while the rarest level drew the
+batches (docs/rare_events.md).
+
 The model steers and nothing more: the estimate (:mod:`pycolfrag.rare.estimate`) is design-based and
 unbiased whatever the model gets wrong; a poor model only costs runs. The plan it gives is stored
 before the batch runs and a resume reads it back, never recomputes it (the fit is not guaranteed to be
@@ -21,11 +30,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import stats
 
-from pycolfrag.rare.estimate import exceedances
+from pycolfrag.rare.estimate import FEW_RUNS, exceedances, jeffreys_floor
+from pycolfrag.rare.proposal import COLLAPSE_FAMILY
 
-__all__ = ["RIDGE", "STEERING_DRAWS", "STREAM_STEER", "SteeringModel", "steering_events", "predicted_moments", "minimax_allocation",
-           "batch_counts"]
+__all__ = ["RIDGE", "STEERING_DRAWS", "STREAM_STEER", "MATTER_SHARE", "SteeringModel", "steering_events",
+           "predicted_moments", "DemandModel", "variance_floor", "run_floor", "STREAM_FLOOR", "minimax_allocation", "batch_counts"]
 
 #: Ridge penalty of the steering model's coefficients (not the intercept): keeps a level with 0-3
 #: exceedances finite.
@@ -34,6 +45,11 @@ RIDGE = 1.0
 STEERING_DRAWS = 500
 #: Stream identifier of the steering draws (only steer: never a run's input).
 STREAM_STEER = 4
+#: The spawn key's second word of the variance floor's draws (the batches' are their stage, >= 1).
+STREAM_FLOOR = 0
+#: A stratum the steering model predicts to carry at least this share of a requested level's rate, or with this
+#: share of the site's event rate, keeps at least FEW_RUNS runs.
+MATTER_SHARE = 0.01
 
 
 def _features(mw, r_km, z=None) -> np.ndarray:
@@ -131,6 +147,78 @@ def predicted_moments(strata, mixture, model: SteeringModel, quantities, rng, ev
             mean[h, j] = float(np.mean(w * p))
             var[h, j] = max(float(np.mean(w * w * p)) - mean[h, j] ** 2, 0.0)
     return mean, var
+
+
+class DemandModel:
+    """P(EDP >= t | event) per branch and EDP from a linear regression of ln EDP on the steering model's
+    features over the successful, standing rows with EDP > 0 (the cloud's probabilistic seismic demand model,
+    ln EDP normal about a linear function: Cornell et al. 2002): Phi((mu(x) - ln t) / s), s the residuals'
+    standard deviation. It reads the continuous EDP, which tells how far a stratum's runs fell short of a
+    level; 0 of n exceedances alone cannot. Collapse is read as the top displacement reaching the largest
+    one a standing run reached (a collapse passes through it). No model where fewer than 10 rows fit."""
+
+    def __init__(self, cols: dict, quantities):
+        ok = (np.asarray(cols["status"]) == 0) & ~np.asarray(cols["collapsed"], dtype=bool)
+        pulse = np.asarray(cols["pulse"], dtype=bool)
+        top = np.asarray(cols[COLLAPSE_FAMILY], dtype=float)[ok]
+        top = top[np.isfinite(top)]
+        self.collapse_at = float(np.max(top)) if top.size and np.max(top) > 0 else None
+        self.fit = {}
+        for branch in (True, False):
+            for edp in {q.edp or COLLAPSE_FAMILY for q in quantities}:
+                v = np.asarray(cols[edp], dtype=float)
+                sel = ok & (pulse == branch) & (v > 0) & np.isfinite(v)
+                z = np.column_stack([np.asarray(cols["z_vp"])[sel], np.asarray(cols["z_fp"])[sel]]) if branch else None
+                X = _features(np.asarray(cols["mw"], dtype=float)[sel], np.asarray(cols["dist_km"], dtype=float)[sel], z)
+                if X.shape[0] < max(10, X.shape[1] + 2):
+                    continue
+                b = np.linalg.lstsq(X, np.log(v[sel]), rcond=None)[0]
+                r = np.log(v[sel]) - X @ b
+                self.fit[branch, edp] = (b, max(float(np.sqrt(r @ r / (r.size - X.shape[1]))), 1e-3))
+
+    def prob(self, branch: bool, q, mw, r_km, z=None):
+        """P(q.edp >= q.threshold) at the events, or None where there is no model."""
+        f = self.fit.get((branch, q.edp or COLLAPSE_FAMILY))
+        t = q.threshold if q.edp else self.collapse_at
+        if f is None or t is None or not 0 < t < math.inf:
+            return None
+        b, s = f
+        return stats.norm.sf((math.log(t) - _features(mw, r_km, z if branch else None) @ b) / s)
+
+
+class _Least:
+    """The smaller of the steering model's and the demand model's probabilities."""
+
+    def __init__(self, steer: SteeringModel, demand: DemandModel, quantities):
+        self.steer, self.demand, self.q = steer, demand, {q.label: q for q in quantities}
+
+    def prob(self, branch, label, mw, r_km, z=None):
+        p = self.steer.prob(branch, label, mw, r_km, z)
+        d = self.demand.prob(branch, self.q[label], mw, r_km, z)
+        return p if d is None else np.minimum(p, d)
+
+
+def variance_floor(cols: dict, strata, design, quantities, rng, events) -> np.ndarray:
+    """(H, L): the estimate's per-run variance of a stratum none of whose runs exceeds a level (0 where one
+    does): the predicted Var[w y] under the latest proposal (the production one once placed) of the smaller
+    of the steering model's and the demand model's probabilities, at most the Jeffreys pseudo-count's
+    (:func:`pycolfrag.rare.estimate.jeffreys_floor`)."""
+    model = _Least(SteeringModel(cols, quantities), DemandModel(cols, quantities), quantities)
+    mixture = design.latest if design.latest is not None else design.pilot
+    _, var = predicted_moments(strata, mixture, model, quantities, rng, events)
+    jf = jeffreys_floor(cols, strata, design, quantities)
+    return np.where(jf > 0, np.minimum(var, jf), 0.0)
+
+
+def run_floor(W: np.ndarray, mean: np.ndarray, done: np.ndarray, min_runs: int = FEW_RUNS,
+              share: float = MATTER_SHARE) -> np.ndarray:
+    """The fewest runs each stratum keeps: those it has, and ``min_runs`` where the predicted means ``mean``
+    (H, L) put at least ``share`` of some level's rate sum_h W_h mean_hl in it, or where its rate W_h is at least
+    ``share`` of the site's (a model fitted on few exceedances can miss where a frequent level lies)."""
+    part = W[:, None] * mean
+    lam = part.sum(axis=0)
+    matters = np.any(part >= share * np.where(lam > 0, lam, np.inf), axis=1) | (W >= share * W.sum())
+    return np.where(matters, np.maximum(done, min_runs), done)
 
 
 def _waterfill(a: np.ndarray, floor: np.ndarray, total: float) -> np.ndarray:

@@ -1,10 +1,14 @@
 """The stratified event-based simulation of a site: pilot, one cross-entropy step, batches, stopping rule.
 
-1. *Pilot* (stage 0, ``batch_000``): ``pilot_per_stratum`` runs in every stratum, the pulse quantiles
-   drawn from :data:`~pycolfrag.rare.proposal.PILOT_MIXTURE`.
+1. *Pilot* (stage 0, ``batch_000``): ``pilot_per_stratum`` runs in every stratum (by default sized per
+   site, :meth:`SiteSettings.pilot_for`: 5, or more where the site has few strata, so that the pilot
+   holds at least :data:`PILOT_MIN_RUNS` runs and the cross-entropy step more than one run's normals),
+   the pulse quantiles drawn from :data:`~pycolfrag.rare.proposal.PILOT_MIXTURE`.
 2. *Cross-entropy step*: the production mixture's shifts from the pilot's rows
    (:func:`~pycolfrag.rare.proposal.cross_entropy_means`); stored in the plan of ``batch_001`` (and of
-   every later batch) before its first run.
+   every later batch) before its first run. Where no level of a family was exceeded by ``ce_min_hits`` pilot runs
+   (:func:`~pycolfrag.rare.proposal.thin_families`), a *second step* on every row after ``batch_001`` places
+   the proposal of ``batch_002`` on (stored in their plans, read back on resume).
 3. *Batches* (stages 1, 2, ...): ``batch`` runs each, allocated by the minimax-CoV Neyman rule of
    :mod:`~pycolfrag.rare.allocation`, until every requested level reaches the target CoV with at least
    ``min_neff`` effective exceedances and no run carrying more than ``max_share`` of it, or the run
@@ -31,6 +35,7 @@ import numpy as np
 from pycolfrag import results as _results
 from pycolfrag.core.errors import ParameterError, ResultsFileError
 from pycolfrag.rare import allocation as _alloc
+from pycolfrag.rare import proposal as _proposal
 from pycolfrag.rare.estimate import DEFAULT_MAX_SHARE, DEFAULT_MIN_NEFF, UNRESOLVED, estimate, exceedances, row_weights
 from pycolfrag.rare.plans import PulseMap, interleave, plan_inputs
 from pycolfrag.rare.proposal import PILOT_MIXTURE, Design, cross_entropy_means, families_of, production_mixture, score
@@ -42,9 +47,14 @@ __all__ = ["DEFAULT_SEED", "SiteSettings", "StopRule", "SiteRun", "site_fingerpr
 #: The root seed when none is given (the grid's).
 DEFAULT_SEED = 20160601
 #: What a batch's purpose names the algorithm (a change of what the plans mean changes it): v2 sizes the
-#: last batch by the runs left in the budget (v1 planned whole batches), so the same command and seed plan
-#: other runs, and a v1 folder is not resumed.
-ALGORITHM = "stratified site simulation, defensive mixture, one cross-entropy step; v2"
+#: last batch by the runs left in the budget (v1 planned whole batches); v3 sizes the pilot per site, floors
+#: the allocation's variances and runs (strata with no exceedance, strata that matter) and may take a second
+#: cross-entropy step: the same command and seed plan other runs, and an older folder is not resumed.
+ALGORITHM = "stratified site simulation, defensive mixture, cross-entropy steps; v3"
+#: The fewest runs a pilot sized per site holds (5 per stratum where that is more).
+PILOT_MIN_RUNS = 60
+#: Runs per stratum of a pilot sized per site, where the strata are many.
+PILOT_PER_STRATUM = 5
 
 
 def batch_name(stage: int) -> str:
@@ -55,7 +65,8 @@ def batch_name(stage: int) -> str:
 class SiteSettings:
     """The settings that fix which runs a site simulation makes (signed: a resume must match them).
 
-    seed -- root seed; pilot_per_stratum -- runs per stratum in the pilot (>= 2: a variance needs two);
+    seed -- root seed; pilot_per_stratum -- runs per stratum in the pilot (>= 2: a variance needs two; None:
+    sized per site, :meth:`pilot_for`);
     batch -- runs per production batch; defensive -- alpha_0, the nominal share of the production
     mixture (in [0.1, 1]: the weights' bound is 1 / alpha_0); mw_step, r_edges_km -- the strata's bins;
     ce_min_hits, ce_quantile -- the cross-entropy step's elite set; levels -- the labels of the levels the
@@ -63,7 +74,7 @@ class SiteSettings:
     """
 
     seed: int = DEFAULT_SEED
-    pilot_per_stratum: int = 5
+    pilot_per_stratum: int | None = None
     batch: int = 2000
     defensive: float = 0.3
     mw_step: float = DEFAULT_MW_STEP
@@ -75,6 +86,8 @@ class SiteSettings:
     def __post_init__(self):
         for name, lo in (("seed", 0), ("pilot_per_stratum", 2), ("batch", 1), ("ce_min_hits", 1)):
             v = getattr(self, name)
+            if v is None and name == "pilot_per_stratum":
+                continue
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
                 raise ParameterError(f"{name} must be an integer >= {lo}, got {v!r}")
         if not (isinstance(self.defensive, (int, float)) and 0.1 <= self.defensive <= 1.0):
@@ -92,6 +105,14 @@ class SiteSettings:
 
     def as_dict(self) -> dict:
         return {f.name: (list(v) if isinstance(v, tuple) else v) for f in fields(self) for v in [getattr(self, f.name)]}
+
+    def pilot_for(self, n_strata: int) -> int:
+        """The pilot's runs per stratum at a site of ``n_strata`` strata: ``pilot_per_stratum`` when given,
+        else :data:`PILOT_PER_STRATUM`, or ceil(:data:`PILOT_MIN_RUNS` / n_strata) where that is more (a site of
+        few strata: at 2 strata 5 runs each left the cross-entropy shift one run's normals)."""
+        if self.pilot_per_stratum is not None:
+            return int(self.pilot_per_stratum)
+        return max(PILOT_PER_STRATUM, -(-PILOT_MIN_RUNS // max(int(n_strata), 1)))
 
 
 @dataclass(frozen=True)
@@ -130,6 +151,7 @@ class SiteRun:
     batches: list = field(default_factory=list)
     history: list = field(default_factory=list)
     record: object = None            # the evaluator's RecordSettings: what every run was computed with
+    floor: object = None             # the estimate's variance floor (H, L) (estimate.py), for estimates of parts
 
     @property
     def runs(self) -> int:
@@ -172,9 +194,9 @@ def _cat(parts: list) -> dict:
     return {k: np.concatenate([np.asarray(p[k]) for p in parts]) for k in parts[0]}
 
 
-def _ce_design(cols, strata, settings, requested) -> Design:
-    """The production mixture from the pilot's rows (every stratum's weights under the pilot's proposal)."""
-    design = Design(PILOT_MIXTURE)
+def _ce_inputs(cols, strata, design, requested):
+    """(z, contrib, y, scores) of the successful pulse rows of ``cols`` for the cross-entropy program, each row
+    weighted under its own stage's mixture of ``design``; None without a pulse row."""
     ok = np.asarray(cols["status"]) == 0
     sub = {k: np.asarray(v)[ok] for k, v in cols.items()}
     w, _ = row_weights(sub, strata, design)
@@ -183,13 +205,38 @@ def _ce_design(cols, strata, settings, requested) -> Design:
     contrib = strata.rates[h] * w / np.maximum(n_h[h], 1)
     pulse = np.asarray(sub["pulse"], dtype=bool)
     if not pulse.any():
-        return Design(PILOT_MIXTURE, production_mixture(settings.defensive, ()), ("no stratum with a pulse",))
+        return None
     z = np.column_stack([sub["z_vp"][pulse], sub["z_fp"][pulse]])
     y = {q.label: exceedances(sub, q)[pulse] for q in requested}
     scores = {f: score(sub, f)[pulse] for f in families_of(requested)}
-    means, notes = cross_entropy_means(z, contrib[pulse], y, scores, requested, min_hits=settings.ce_min_hits,
-                                       quantile=settings.ce_quantile)
+    return z, contrib[pulse], y, scores
+
+
+def _ce_design(cols, strata, settings, requested) -> Design:
+    """The production mixture from the pilot's rows (every stratum's weights under the pilot's proposal)."""
+    got = _ce_inputs(cols, strata, Design(PILOT_MIXTURE), requested)
+    if got is None:
+        return Design(PILOT_MIXTURE, production_mixture(settings.defensive, ()), ("no stratum with a pulse",))
+    means, notes = cross_entropy_means(*got, requested, min_hits=settings.ce_min_hits, quantile=settings.ce_quantile)
     return Design(PILOT_MIXTURE, production_mixture(settings.defensive, means), tuple(notes))
+
+
+def _thin(cols, strata, settings, requested) -> tuple:
+    """The families whose first step's elite (from the pilot ``cols``) held fewer than ``ce_min_hits`` runs."""
+    got = _ce_inputs(cols, strata, Design(PILOT_MIXTURE), requested)
+    return () if got is None else _proposal.thin_families(*got, requested, min_hits=settings.ce_min_hits,
+                                                             quantile=settings.ce_quantile)
+
+
+def _second_design(cols, strata, design: Design, settings, requested, thin) -> Design:
+    """The second cross-entropy step: the same program on every row so far (the pilot's and the first
+    production batch's, each under its own stage's mixture), the proposal of the batches from stage 2 on."""
+    means, notes = cross_entropy_means(*_ce_inputs(cols, strata, design, requested), requested,
+                                       min_hits=settings.ce_min_hits, quantile=settings.ce_quantile)
+    why = (f"second step (the first step's elite was thin: no level exceeded by {settings.ce_min_hits} pilot runs, for "
+           f"{', '.join(thin)}), ")
+    return Design(design.pilot, design.production, design.notes + tuple(why + n for n in notes),
+                  production_mixture(settings.defensive, means))
 
 
 def failures(cols) -> tuple[int, int, str]:
@@ -228,15 +275,20 @@ def _check_pilot(cols) -> None:
                              "folder's batch_000.h5")
 
 
-def _allocate(cols, strata, design, settings, requested, stage: int, used: int, events, size: int) -> dict:
-    """The ``size`` runs of production batch ``stage`` per stratum (minimax-CoV Neyman, model-steered)."""
+def _allocate(cols, strata, design, settings, requested, stage: int, used: int, events, size: int,
+              floor=None) -> dict:
+    """The ``size`` runs of production batch ``stage`` per stratum (minimax-CoV Neyman, model-steered; each
+    predicted variance at least the estimate's ``floor`` of the requested levels, so that the allocation sees
+    the variance the estimate states)."""
     model = _alloc.SteeringModel(cols, requested)
     rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
-    mean, var = _alloc.predicted_moments(strata, design.production, model, requested, rng, events)
+    mean, var = _alloc.predicted_moments(strata, design.latest, model, requested, rng, events)
+    if floor is not None:
+        var = np.maximum(var, floor)
     W = strata.rates
     finished = np.asarray(cols["status"]) != _results.STATUS_PENDING
     done = np.bincount(np.asarray(cols["stratum"])[finished], minlength=len(strata))
-    n, _ = _alloc.minimax_allocation(W, var, W @ mean, done, used + size)
+    n, _ = _alloc.minimax_allocation(W, var, W @ mean, _alloc.run_floor(W, mean, done), used + size)
     new = _alloc.batch_counts(n, done, size)
     return {int(h): int(k) for h, k in enumerate(new) if k > 0}
 
@@ -267,9 +319,10 @@ class _Run:
             raise ParameterError(f"unknown level(s) {unknown}; known: {sorted(labels)}")
         self.requested = tuple(q for q in self.quantities if not settings.levels or q.label in settings.levels)
         self.strata = build_strata(site, settings.mw_step, settings.r_edges_km)
-        pilot = settings.pilot_per_stratum * len(self.strata)
+        self.pilot_per_stratum = settings.pilot_for(len(self.strata))
+        pilot = self.pilot_per_stratum * len(self.strata)
         if stop.max_runs < pilot:
-            raise ParameterError(f"--max-runs {stop.max_runs} is below one pilot: {pilot} runs ({settings.pilot_per_stratum} "
+            raise ParameterError(f"--max-runs {stop.max_runs} is below one pilot: {pilot} runs ({self.pilot_per_stratum} "
                                  f"in each of the site's {len(self.strata)} strata)")
         rec = evaluator.record
         self.pulse_map = PulseMap(rec.pulse_shape, rec.vp_scale, rec.tp_model)
@@ -277,6 +330,7 @@ class _Run:
         self.parts, self.batches, self.history = [], [], []
         self.design = Design(PILOT_MIXTURE)
         self._events = None
+        self.last_floor = None
 
     def planned(self, stage: int, counts: dict, mixture):
         """(inputs, purpose) of batch ``stage``: the stored plan, or a new one from ``counts``."""
@@ -311,9 +365,18 @@ class _Run:
             self._events = _alloc.steering_events(self.strata, rng)
         return self._events
 
+    def floor(self, cols):
+        """The estimate's variance floor of the strata none of whose runs exceed a level (the steering model's)."""
+        rng = np.random.default_rng(np.random.SeedSequence(self.settings.seed,
+                                                           spawn_key=(_alloc.STREAM_STEER, _alloc.STREAM_FLOOR)))
+        return _alloc.variance_floor(cols, self.strata, self.design, self.quantities, rng, self.steering_events())
+
     def estimate(self):
-        return estimate(_cat(self.parts), self.strata, self.design, self.quantities, confidence=self.stop.confidence,
-                        min_neff=self.stop.min_neff, max_share=self.stop.max_share, target_cov=self.stop.target_cov)
+        cols = _cat(self.parts)
+        self.last_floor = self.floor(cols)
+        return estimate(cols, self.strata, self.design, self.quantities, confidence=self.stop.confidence,
+                        min_neff=self.stop.min_neff, max_share=self.stop.max_share, target_cov=self.stop.target_cov,
+                        floor=self.last_floor)
 
     def report(self, stage: int, est) -> None:
         runs = sum(b["runs"] for b in self.batches)
@@ -330,7 +393,7 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
     ``quantities``: the levels (``label``, ``edp``, ``threshold``; collapse with ``edp`` None), e.g.
     :data:`pycolfrag.risk.site_risk.QUANTITIES`."""
     run = _Run(site, settings, stop, evaluator, quantities, log)
-    pilot = {h: settings.pilot_per_stratum for h in range(len(run.strata))}
+    pilot = {h: run.pilot_per_stratum for h in range(len(run.strata))}
     run.run_batch(0, *run.planned(0, pilot, PILOT_MIXTURE))
     _check_pilot(run.parts[0])
     stored = evaluator.stored(batch_name(1))
@@ -341,6 +404,7 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
         run.design = _ce_design(run.parts[0], run.strata, settings, run.requested)
     for note in run.design.notes:
         log(f"cross-entropy step: {note}")
+    thin = _thin(run.parts[0], run.strata, settings, run.requested)
     stage, stopped = 1, "budget"
     while True:
         est = run.estimate()
@@ -354,11 +418,18 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
                 break
             if used >= stop.max_runs:
                 break
+            if stage == 2 and thin:
+                run.design = _second_design(_cat(run.parts), run.strata, run.design, settings, run.requested, thin)
+                for note in run.design.notes[len(run.design.notes) // 2:]:
+                    log(f"cross-entropy step: {note}")
+            idx = [run.quantities.index(q) for q in run.requested]
             counts = _allocate(_cat(run.parts), run.strata, run.design, settings, run.requested, stage, used,
-                               run.steering_events(), min(settings.batch, stop.max_runs - used))
+                               run.steering_events(), min(settings.batch, stop.max_runs - used),
+                               None if run.last_floor is None else run.last_floor[:, idx])
         else:
             counts = {}
-        run.run_batch(stage, *run.planned(stage, counts, run.design.production))
+            run.design = Design.from_dict(evaluator.stored(batch_name(stage))[0]["design"])
+        run.run_batch(stage, *run.planned(stage, counts, run.design.latest))
         stage += 1
     return SiteRun(site, run.strata, run.design, settings, stop, run.quantities, run.requested, _cat(run.parts), est,
-                   stopped, run.batches, run.history, record=evaluator.record)
+                   stopped, run.batches, run.history, record=evaluator.record, floor=run.last_floor)

@@ -31,6 +31,23 @@ between the two bounds. A level with failed runs whose spread lambda_hi - lambda
 CoV_l x lambda_l (its own statistical error) is *unresolved* (:data:`UNRESOLVED`): the failed runs could
 move it further than its CoV says, so it is not converged, whatever its CoV; more runs do not help, as
 the spread shrinks no faster than the rate. Without failed runs every number is the one above, bit for bit.
+
+A stratum whose n_h successful runs all miss a level has s_hl^2 = 0: it would add nothing to V_l, as if
+0 of n_h proved the level impossible there (at the example site the no-pulse strata, 86 % of the event
+rate, kept 5 runs each and the frequent levels' stated CoV was half the crude one). Given ``floor`` (the
+driver's, :func:`pycolfrag.rare.allocation.variance_floor`), such a stratum's s_hl^2 is that per-run
+variance instead: the steering model's predicted Var[w y] of the stratum, at most the Jeffreys pseudo-count's
+
+    m2_h p0 - p0^2,   p0 = 0.5 / (n_h + 1),   m2_h = (1 / n_h) sum_i w_i^2         (:func:`jeffreys_floor`)
+
+p0 the posterior mean of Beta(0.5, n_h + 0.5), Jeffreys' prior after 0 of n_h (Brown, Cai & DasGupta 2001),
+and m2 p0 - p0^2 the variance of w y with E[w] = 1 (every stratum's weights have mean 1). The pseudo-count
+alone would be honest without a model and far too wide for the rare levels (0 of 256 runs of a large
+no-pulse stratum leaves collapse's CoV at 4 where 0.5 is observed: the surrogate of the tests); the model,
+fitted on every stratum's rows, says where a level is out of reach. Strata with exceedances keep their
+sample variance, bit for bit. Every level says how much of its rate rests on strata of fewer than
+:data:`FEW_RUNS` runs (``few_runs_rate_share``), what share of its variance is the floor's
+(``floor_variance_share``), and the estimate the share of the site's event rate in such strata.
 """
 from __future__ import annotations
 
@@ -45,7 +62,7 @@ from pycolfrag import results as _results
 from pycolfrag.core.errors import PycolfragError
 
 __all__ = ["WeightError", "LevelEstimate", "Estimate", "exceedances", "row_weights", "estimate", "DEFAULT_MIN_NEFF",
-           "DEFAULT_MAX_SHARE", "UNRESOLVED", "efficiency"]
+           "DEFAULT_MAX_SHARE", "UNRESOLVED", "efficiency", "FEW_RUNS", "jeffreys_floor", "jeffreys_p0"]
 
 #: Fewest effective exceedances a level's estimate may rest on (the stopping rule's floor too).
 DEFAULT_MIN_NEFF = 10.0
@@ -53,6 +70,22 @@ DEFAULT_MIN_NEFF = 10.0
 DEFAULT_MAX_SHARE = 0.25
 #: The status of a level whose failed runs could move it by more than its CoV (module docstring).
 UNRESOLVED = "unresolved"
+#: A stratum with fewer finished runs than this rests on *few* runs: the rate on such strata is said in every
+#: output, and the allocation gives a stratum the steering model predicts to matter at least this many.
+FEW_RUNS = 20
+
+
+def jeffreys_p0(n) -> np.ndarray:
+    """The posterior mean of an exceedance probability after 0 exceedances in ``n`` runs under Jeffreys'
+    prior Beta(1/2, 1/2): 0.5 / (n + 1)."""
+    return 0.5 / (np.asarray(n, dtype=float) + 1.0)
+
+
+def _floor_of(m2, n):
+    """The Jeffreys pseudo-count's per-run variance of w y in a stratum of ``n`` runs none of which exceeds
+    (module docstring): m2 p0 - p0^2, m2 the mean square weight."""
+    p0 = jeffreys_p0(n)
+    return np.maximum(np.asarray(m2, dtype=float) * p0 - p0 * p0, 0.0)
 
 
 class WeightError(PycolfragError, ArithmeticError):
@@ -111,6 +144,9 @@ class LevelEstimate:
     failed: int = 0        # failed runs in the level's strata
     failed_low: float = math.nan    # the rate with every failed run counted as no exceedance
     failed_high: float = math.nan   # ... and as an exceedance
+    few_runs_rate_share: float = 0.0    # share of the rate from strata with fewer than FEW_RUNS runs
+    floor_variance_share: float = 0.0   # share of the variance from the floor of strata none of whose runs exceed
+    floored_strata: int = 0             # strata none of whose runs exceed the level (floored when a floor is given)
 
     @property
     def failed_spread(self) -> float:
@@ -134,9 +170,13 @@ class Estimate:
     contributions: dict = field(default_factory=dict)   # label -> W_h mu_hl per stratum
     confidence: float = 0.90
     failed_by_stratum: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    few_runs_strata: int = 0            # strata kept with fewer than FEW_RUNS finished runs
+    few_runs_event_share: float = 0.0   # their share of the kept strata's event rate
 
     def as_dict(self) -> dict:
         return {"levels": {k: v.as_dict() for k, v in self.levels.items()}, "n_runs": self.n_runs,
+                "few_runs": FEW_RUNS, "few_runs_strata": self.few_runs_strata,
+                "few_runs_event_share": self.few_runs_event_share,
                 "n_failed": self.n_failed, "confidence": self.confidence,
                 "runs_by_stratum": self.n_by_stratum.tolist(), "failed_runs_by_stratum": self.failed_by_stratum.tolist(),
                 "kong_ess_relative_min": float(np.nanmin(self.ess_relative)) if self.ess_relative.size else None}
@@ -184,9 +224,11 @@ def _stratum_values(g, w, y) -> tuple[np.ndarray, float, float]:
     return v, s_ok, math.fsum(w[g.rows][g.failed])
 
 
-def _level(q, W, groups, w, y, confidence, limits):
-    """One level from the rows grouped by stratum: (LevelEstimate, per-stratum W_h mu_h)."""
+def _level(q, W, groups, w, y, confidence, limits, floor=None):
+    """One level from the rows grouped by stratum: (LevelEstimate, per-stratum W_h mu_h); ``floor``: the
+    per-run variance of every stratum none of whose runs exceeds (None: 0)."""
     lam_terms, var_terms, contrib, bound_terms, lo_terms, fail_terms = [], [], [], [], [], []
+    floor_terms, few_terms = [], []
     per = np.zeros(W.size)
     for g in groups:
         v, s_ok, w_failed = _stratum_values(g, w, y)
@@ -198,11 +240,16 @@ def _level(q, W, groups, w, y, confidence, limits):
         # would shrink the CoV by about n_ok / n (0.086 for 0.107 at 20 % failed); with no failure, the same bits
         real = v[~g.failed]
         n_ok = real.size
-        if n_ok >= 2:
+        if n_ok >= 2 and np.any(y[g.rows][~g.failed]):
             mu_ok = math.fsum(real) / n_ok
             var_terms.append(W[g.h] ** 2 * (math.fsum((real - mu_ok) ** 2) / (n_ok - 1)) / n_ok)
+        elif n_ok >= 2:     # every run misses: the floor, not 0 (module docstring)
+            var_terms.append(0.0 if floor is None else W[g.h] ** 2 * float(floor[g.h]) / n_ok)
+            floor_terms.append(var_terms[-1])
         else:
             var_terms.append(math.inf)
+        if n < FEW_RUNS:
+            few_terms.append(per[g.h])
         contrib.append(W[g.h] * real[real > 0] / n)
         lo_terms.append(W[g.h] * (s_ok / n))                # as per[h] when no run failed: the same bits
         fail_terms.append(W[g.h] * (w_failed / n))
@@ -222,8 +269,10 @@ def _level(q, W, groups, w, y, confidence, limits):
     f_lo = math.fsum(lo_terms)
     f_hi = f_lo + math.fsum(fail_terms)
     status, reason = _status(lam, cov, n_eff, share, hits, bound, f_hi - f_lo, failed, limits)
+    few = math.fsum(few_terms) / lam if lam > 0 else 0.0
+    floor = math.fsum(floor_terms) / var if var > 0 and math.isfinite(var) else 0.0
     return LevelEstimate(q.label, lam, cov, low, high, n_eff, share, hits, status, bound, reason, failed, f_lo,
-                         f_hi), per
+                         f_hi, few, floor, len(floor_terms)), per
 
 
 def _groups(h_all, ok, order, strata, keep) -> list:
@@ -243,14 +292,17 @@ def _groups(h_all, ok, order, strata, keep) -> list:
 
 
 def estimate(cols: dict, strata, design, quantities, *, confidence: float = 0.90, min_neff: float = DEFAULT_MIN_NEFF,
-             max_share: float = DEFAULT_MAX_SHARE, target_cov: float | None = None, keep=None) -> Estimate:
+             max_share: float = DEFAULT_MAX_SHARE, target_cov: float | None = None, keep=None,
+             floor=None) -> Estimate:
     """The estimate of every level of ``quantities`` from the rows ``cols`` (columns of the event layout).
 
     ``keep``: a boolean mask over the strata (e.g. those inside a grid's range): only they enter (the
     rate of that part of the site). Rows not computed yet are ignored; failed rows are counted, left out
     of a stratum's mean (its successful rows stand for it) and bound every level (module docstring:
     a level they could move beyond its CoV is unresolved). Every stratum kept must hold at least two
-    finished rows.
+    finished rows. ``floor``: (H, L) per-run variances of the strata none of whose runs exceed a level, in
+    the order of ``quantities`` (module docstring; :func:`pycolfrag.rare.allocation.variance_floor`); None:
+    such a stratum adds nothing to the variance.
     """
     status = np.asarray(cols["status"])
     done = status != _results.STATUS_PENDING
@@ -269,12 +321,35 @@ def estimate(cols: dict, strata, design, quantities, *, confidence: float = 0.90
         w2 = math.fsum(w[g.rows] ** 2)     # 0: every weight 0 (a re-weighted logic-tree branch outside this stratum)
         ess[g.h] = math.fsum(w[g.rows]) ** 2 / w2 / g.rows.size if w2 > 0 else math.nan
     levels, contributions = {}, {}
-    for q in quantities:
+    for j, q in enumerate(quantities):
         y = np.where(ok, exceedances(sub, q), False)      # a failed row's outcome is unknown: bounded, not counted
         levels[q.label], contributions[q.label] = _level(q, W, groups, w, y, confidence,
-                                                         (min_neff, max_share, target_cov))
+                                                         (min_neff, max_share, target_cov),
+                                                         None if floor is None else np.asarray(floor)[:, j])
+    few = [g.h for g in groups if g.rows.size < FEW_RUNS]
+    kept_rate = math.fsum(W[g.h] for g in groups)
     return Estimate(levels, int(np.sum(done)), int(np.sum(~ok)), n_by, ess, checks, contributions, confidence,
-                    failed_by)
+                    failed_by, len(few), math.fsum(W[few]) / kept_rate if kept_rate > 0 else 0.0)
+
+
+def jeffreys_floor(cols: dict, strata, design, quantities) -> np.ndarray:
+    """(H, L): the Jeffreys pseudo-count's per-run variance of w y of every stratum and level none of whose
+    successful runs exceeds it, m2 p0 - p0^2 (module docstring), 0 where one does (a stratum without rows:
+    that of 0 runs with m2 = 1, 1/4)."""
+    status = np.asarray(cols["status"])
+    ok = status == _results.STATUS_OK
+    sub = {k: np.asarray(v)[ok] for k, v in cols.items()}
+    H = len(strata)
+    h = np.asarray(sub["stratum"], dtype=int)
+    w, _ = row_weights(sub, strata, design) if ok.any() else (np.zeros(0), {})
+    n = np.bincount(h, minlength=H).astype(float)
+    m2 = np.where(n > 0, np.bincount(h, weights=w * w, minlength=H) / np.maximum(n, 1.0), 1.0)
+    base = _floor_of(m2, n)
+    out = np.zeros((H, len(quantities)))
+    for j, q in enumerate(quantities):
+        hits = np.bincount(h, weights=exceedances(sub, q).astype(float), minlength=H)
+        out[:, j] = np.where(hits > 0, 0.0, base)
+    return out
 
 
 def efficiency(level: LevelEstimate, total_rate: float, runs: int) -> dict:

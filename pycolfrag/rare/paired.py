@@ -37,6 +37,7 @@ from pycolfrag import results as _results
 from pycolfrag.core.errors import StaleBuildError
 from pycolfrag.grid.serve import sigterm_handler as _sigterm_handler
 from pycolfrag.rare import allocation as _alloc
+from pycolfrag.rare import driver as _driver
 from pycolfrag.rare.driver import SiteRun, _cat, _ce_design, _check_same_run, _Run, _stop_reason, batch_name, failures
 from pycolfrag.rare.evaluator import GridEvaluator
 from pycolfrag.rare.proposal import PILOT_MIXTURE, Design
@@ -84,17 +85,22 @@ def sigterm_stops_all(evaluators):
 
 
 def joint_counts(parts_by_group, strata, design, settings, requested, stage: int, used: int, events,
-                 size: int) -> dict:
+                 size: int, floors=None) -> dict:
     """The ``size`` runs of production batch ``stage`` per stratum, one allocation for every group (module
-    docstring); with one group the driver's allocation, bit for bit."""
+    docstring); with one group the driver's allocation, bit for bit. ``floors``: each group's variance floor of
+    the requested levels (the estimate's; None: none)."""
     W = strata.rates
     var_cols: list = []
     lam_cols: list = []
     kept: list = []
-    for parts in parts_by_group:
+    means: list = []
+    for g, parts in enumerate(parts_by_group):
         model = _alloc.SteeringModel(_cat(parts), requested)
         rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
-        mean, var = _alloc.predicted_moments(strata, design.production, model, requested, rng, events)
+        mean, var = _alloc.predicted_moments(strata, design.latest, model, requested, rng, events)
+        if floors is not None and floors[g] is not None:
+            var = np.maximum(var, floors[g])
+        means.append(mean)
         lam = W @ mean
         for j in range(var.shape[1]):
             col = np.append(var[:, j], lam[j])
@@ -106,7 +112,8 @@ def joint_counts(parts_by_group, strata, design, settings, requested, stage: int
     cols = _cat(parts_by_group[0])
     finished = np.asarray(cols["status"]) != _results.STATUS_PENDING
     done = np.bincount(np.asarray(cols["stratum"])[finished], minlength=len(strata))
-    n, _ = _alloc.minimax_allocation(W, np.column_stack(var_cols), np.array(lam_cols), done, used + size)
+    n, _ = _alloc.minimax_allocation(W, np.column_stack(var_cols), np.array(lam_cols),
+                                     _alloc.run_floor(W, np.column_stack(means), done), used + size)
     new = _alloc.batch_counts(n, done, size)
     return {int(h): int(k) for h, k in enumerate(new) if k > 0}
 
@@ -125,6 +132,17 @@ def _design(runs, live, settings):
             return Design.from_dict(stored[0]["design"])
     lead = runs[live[0]]
     return _ce_design(lead.parts[0], lead.strata, settings, lead.requested)
+
+
+def _stored_design(runs, live, stage: int) -> None:
+    """Every group's design read back from the first stored plan of batch ``stage`` (a second step's, on resume)."""
+    for g in live:
+        stored = runs[g].ev.stored(batch_name(stage))
+        if stored is not None and stored[0].get("design"):
+            design = Design.from_dict(stored[0]["design"])
+            for r in runs:
+                r.design = design
+            return
 
 
 def _stored_counts(runs, live, stage: int):
@@ -151,7 +169,7 @@ def simulate_paired(site, settings, stop, evaluators, quantities, log=print, nam
     names = list(names or [f"group {g}" for g in range(len(evaluators))])
     runs = [_Run(site, settings, stop, ev, quantities, (lambda s, n=n: log(f"[{n}] {s}"))) for ev, n in
             zip(evaluators, names)]
-    pilot = {h: settings.pilot_per_stratum for h in range(len(runs[0].strata))}
+    pilot = {h: runs[0].pilot_per_stratum for h in range(len(runs[0].strata))}
     for r in runs:
         r.run_batch(0, *r.planned(0, pilot, PILOT_MIXTURE))
     live = [g for g, r in enumerate(runs) if not _pilot_dead(r.parts[0])]
@@ -166,6 +184,7 @@ def simulate_paired(site, settings, stop, evaluators, quantities, log=print, nam
             r.design = design
         for note in design.notes:
             log(f"cross-entropy step ({names[live[0]]}'s pilot): {note}")
+        thin = _driver._thin(runs[live[0]].parts[0], runs[live[0]].strata, settings, runs[live[0]].requested)
     while live:
         ests = {g: runs[g].estimate() for g in live}
         for g in live:
@@ -179,14 +198,23 @@ def simulate_paired(site, settings, stop, evaluators, quantities, log=print, nam
             stopped = _joint_stop(ests, runs, live, stop)
             if stopped != "budget" or used >= stop.max_runs:
                 break
+            if stage == 2 and thin:       # the driver's second cross-entropy step, on the lead group's rows
+                design = _driver._second_design(_cat(lead.parts), lead.strata, lead.design, settings, lead.requested, thin)
+                for r in runs:
+                    r.design = design
+            idx = [lead.quantities.index(q) for q in lead.requested]
             counts = joint_counts([runs[g].parts for g in live], lead.strata, lead.design, settings, lead.requested,
-                                  stage, used, lead.steering_events(), min(settings.batch, stop.max_runs - used))
+                                  stage, used, lead.steering_events(), min(settings.batch, stop.max_runs - used),
+                                  [None if runs[g].last_floor is None else runs[g].last_floor[:, idx] for g in live])
+        else:
+            _stored_design(runs, live, stage)
         for g in live:
-            runs[g].run_batch(stage, *runs[g].planned(stage, counts, runs[g].design.production))
+            runs[g].run_batch(stage, *runs[g].planned(stage, counts, runs[g].design.latest))
         stage += 1
     out = []
     for g, r in enumerate(runs):
         est = r.estimate()
         out.append(SiteRun(site, r.strata, r.design, settings, stop, r.quantities, r.requested, _cat(r.parts), est,
-                           stopped if g in live else "failures", r.batches, r.history, record=r.ev.record))
+                           stopped if g in live else "failures", r.batches, r.history, record=r.ev.record,
+                           floor=r.last_floor))
     return out

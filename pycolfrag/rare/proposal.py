@@ -13,12 +13,15 @@ components (Veach & Guibas 1995; Owen & Zhou 2000). The pilot's rows keep the pi
 them with the production rows under one mixture of both would re-weight the rows that placed the
 production mixture by the mixture they placed (a bias, measured in docs/rare_events.md).
 
-The shifts mu_c come from one cross-entropy step (Rubinstein 1999; de Boer et al. 2005) on the pilot:
+The shifts mu_c come from a cross-entropy step (Rubinstein 1999; de Boer et al. 2005) on the pilot:
 for the Gaussian-mean family its program has the closed form mu = sum_i c_i z_i / sum_i c_i over the
 pilot rows of an *elite* set, c_i a row's contribution to the rate (W_h w_i / n_h). One shift per
 family of levels (the top displacement's levels with collapse; the dislocation's), the elite set being
 the rarest level of the family that the pilot exceeded often enough, else the rows above the weighted
-quantile of the family's continuous EDP.
+quantile of the family's continuous EDP (at least the ``min_hits`` highest: an elite of one run made the shift
+that run's normals). Where no level of a family was exceeded by ``min_hits`` runs (:func:`thin_families`), the driver takes a *second step* after the first production batch: the same
+program on every row so far, each weighted under its own stage's mixture, places the proposal of the
+batches from stage 2 on (:attr:`Design.second`).
 """
 from __future__ import annotations
 
@@ -32,7 +35,7 @@ from pycolfrag.core.errors import ParameterError
 
 __all__ = ["Mixture", "Design", "PILOT_MIXTURE", "production_mixture", "FAMILIES", "COLLAPSE_FAMILY", "family_of",
            "families_of", "score",
-           "cross_entropy_means", "MEAN_DECIMALS"]
+           "cross_entropy_means", "thin_families", "MEAN_DECIMALS"]
 
 #: The shifts are rounded to 1e-6 before they are stored and used (a replay compares them as stored).
 MEAN_DECIMALS = 6
@@ -144,18 +147,54 @@ def _weighted_quantile(x, c, q: float) -> float:
     return float(x[order][min(int(np.searchsorted(cum, q * cum[-1])), x.size - 1)])
 
 
+def _elite(fam, z, contrib, y, scores, levels, min_hits: int, quantile: float):
+    """(the elite rows of family ``fam``, the line saying how they were chosen, whether a level made it): the
+    rows exceeding the rarest
+    level of the family that at least ``min_hits`` rows exceed; else those at or above the family's weighted
+    ``quantile`` of its EDP, widened to the ``min_hits`` highest scores where that holds fewer rows (an elite
+    of one run would make the shift that run's normals)."""
+    mine = [q for q in levels if family_of(q) == fam]
+    rated = sorted(mine, key=lambda q: (float(np.sum(contrib * y[q.label])), q.label))
+    pick = next((q for q in rated if int(np.sum(y[q.label])) >= min_hits), None)
+    if pick is not None:
+        elite = np.asarray(y[pick.label], dtype=bool)
+        return elite, f"{pick.label} ({int(elite.sum())} runs exceed it)", True
+    ok = np.isfinite(scores[fam]) | (scores[fam] == np.inf)
+    sc = np.where(ok, scores[fam], -np.inf)
+    cut = _weighted_quantile(sc, contrib, quantile)
+    if int(np.sum(ok & (sc >= cut))) < min_hits and np.any(ok):
+        cut = min(cut, float(np.sort(sc[ok])[::-1][min(min_hits, int(np.sum(ok))) - 1]))
+    elite = ok & (sc >= cut)
+    what = "collapse" if cut == np.inf else f"{fam} >= {cut:.4g}"
+    return elite, (f"{what}, the family's weighted {quantile:g} quantile or its {min_hits} highest runs "
+                   f"({int(elite.sum())} runs; no level of the family has {min_hits} exceeding runs)"), False
+
+
+def thin_families(z, contrib, y, scores, levels, *, min_hits: int, quantile: float) -> tuple:
+    """The families of ``levels`` whose elite set (:func:`cross_entropy_means`) is thin: no level of the family
+    exceeded by ``min_hits`` rows (the shift aims at a quantile of the EDP, not at the levels), or fewer than
+    ``min_hits`` rows with weight in it. The driver takes a second step for them."""
+    out = []
+    for fam in families_of(levels):
+        elite, _, level = _elite(fam, z, contrib, y, scores, levels, min_hits, quantile)
+        if not level or int(np.sum(elite & (contrib > 0))) < min_hits:
+            out.append(fam)
+    return tuple(out)
+
+
 def cross_entropy_means(z, contrib, y, scores, levels, *, min_hits: int, quantile: float):
     """One cross-entropy step: a shift per family of the requested levels.
 
     Parameters
     ----------
-    z : (n, 2) -- pulse quantiles of the pilot's rows with a pulse
+    z : (n, 2) -- pulse quantiles of the rows with a pulse
     contrib : (n,) -- each row's contribution to the rate per unit outcome, W_h w_i / n_h
     y : dict label -> (n,) bool -- exceedances of each level
     scores : dict family -> (n,) -- the family's continuous EDP (+inf for collapse)
     levels : sequence of RiskQuantity-like (label, edp) -- the requested levels
     min_hits, quantile -- elite set: the rarest level of the family with at least ``min_hits``
-        exceeding rows, else the rows at or above the family's weighted ``quantile`` of its EDP
+        exceeding rows, else the rows at or above the family's weighted ``quantile`` of its EDP (at least
+        the ``min_hits`` highest, :func:`_elite`)
 
     Returns
     -------
@@ -164,19 +203,7 @@ def cross_entropy_means(z, contrib, y, scores, levels, *, min_hits: int, quantil
     """
     means, notes = [], []
     for fam in families_of(levels):
-        mine = [q for q in levels if family_of(q) == fam]
-        rated = sorted(mine, key=lambda q: (float(np.sum(contrib * y[q.label])), q.label))
-        pick = next((q for q in rated if int(np.sum(y[q.label])) >= min_hits), None)
-        if pick is not None:
-            elite = np.asarray(y[pick.label], dtype=bool)
-            why = f"{pick.label} ({int(elite.sum())} pilot runs exceed it)"
-        else:
-            ok = np.isfinite(scores[fam]) | (scores[fam] == np.inf)
-            cut = _weighted_quantile(np.where(ok, scores[fam], -np.inf), contrib, quantile)
-            elite = ok & (scores[fam] >= cut)
-            what = "collapse" if cut == np.inf else f"{fam} >= {cut:.4g}"
-            why = (f"{what}, the family's weighted {quantile:g} quantile (no level of the family has "
-                   f"{min_hits} exceeding pilot runs)")
+        elite, why, _ = _elite(fam, z, contrib, y, scores, levels, min_hits, quantile)
         c = contrib * elite
         if not np.any(c > 0):
             mu = PILOT_MIXTURE.means[0]
@@ -191,30 +218,40 @@ def cross_entropy_means(z, contrib, y, scores, levels, *, min_hits: int, quantil
 
 @dataclass(frozen=True)
 class Design:
-    """The proposals of a site simulation: the pilot's (stage 0) and the production batches' (every later
-    stage; None until the cross-entropy step has placed it), with the lines saying how."""
+    """The proposals of a site simulation: the pilot's (stage 0), the production batches' (stage 1, and every
+    later stage without a second step; None until the cross-entropy step has placed it), the second step's
+    (stages 2 on, when the first step's elite was thin), with the lines saying how."""
 
     pilot: Mixture = PILOT_MIXTURE
     production: Mixture | None = None
     notes: tuple = ()
+    second: Mixture | None = None
 
-    @staticmethod
-    def proposal_of(stage: int) -> int:
-        """0: the pilot's proposal; 1: the production batches'."""
-        return 0 if int(stage) == 0 else 1
+    def proposal_of(self, stage: int) -> int:
+        """0: the pilot's proposal; 1: the production batches'; 2: the second step's (stages 2 on)."""
+        return 0 if int(stage) == 0 else 2 if (self.second is not None and int(stage) >= 2) else 1
+
+    @property
+    def latest(self) -> Mixture | None:
+        """The proposal of the batches still to come: the second step's, else the production one."""
+        return self.second if self.second is not None else self.production
 
     def mixture(self, k: int) -> Mixture:
-        m = self.pilot if k == 0 else self.production
+        m = self.pilot if k == 0 else self.production if k == 1 else self.second
         if m is None:
             raise ParameterError("the production proposal is not placed yet (no cross-entropy step)")
         return m
 
     def as_dict(self) -> dict:
-        return {"pilot": self.pilot.as_dict(),
-                "production": None if self.production is None else self.production.as_dict(),
-                "notes": list(self.notes)}
+        d = {"pilot": self.pilot.as_dict(),
+             "production": None if self.production is None else self.production.as_dict(),
+             "notes": list(self.notes)}
+        if self.second is not None:
+            d["second"] = self.second.as_dict()
+        return d
 
     @classmethod
     def from_dict(cls, d) -> "Design":
         return cls(Mixture.from_dict(d["pilot"]),
-                   None if d.get("production") is None else Mixture.from_dict(d["production"]), tuple(d.get("notes", ())))
+                   None if d.get("production") is None else Mixture.from_dict(d["production"]), tuple(d.get("notes", ())),
+                   None if d.get("second") is None else Mixture.from_dict(d["second"]))

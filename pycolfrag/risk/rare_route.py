@@ -27,7 +27,7 @@ import numpy as np
 from pycolfrag.analysis.completeness import MARK, IncompleteResultsError
 from pycolfrag.core.errors import OutputError, ParameterError
 from pycolfrag.rare.driver import failures
-from pycolfrag.rare.estimate import UNRESOLVED, efficiency, estimate
+from pycolfrag.rare.estimate import FEW_RUNS, UNRESOLVED, efficiency, estimate
 from pycolfrag.rare.strata import build_strata
 from pycolfrag.risk import simulate as _rare_command
 from pycolfrag.risk.rare_like import check_like_with_like
@@ -151,7 +151,7 @@ def compare_with_grid(run, risk_zero, risk_clamp) -> GridComparison:
     keep = [st.inside(*box) for st in run.strata.strata]
     s = run.stop
     in_grid = estimate(run.cols, run.strata, run.design, run.quantities, confidence=s.confidence, min_neff=s.min_neff,
-                       max_share=s.max_share, target_cov=None, keep=keep)
+                       max_share=s.max_share, target_cov=None, keep=keep, floor=getattr(run, "floor", None))
     zero = {q.label: tuple(risk_zero.rate[q.label]) for q in run.quantities}
     clamp = {q.label: tuple(risk_clamp.rate[q.label]) for q in run.quantities}
     agree = {q.label: _agree(in_grid.levels[q.label], zero[q.label]) for q in run.quantities}
@@ -182,8 +182,9 @@ def _failed_cell(e) -> str:
 def _levels_table(run) -> list:
     est, pct = run.estimate, f"{100 * run.stop.confidence:g} %"
     L = [f"| level | lambda (1/yr) [{pct}] | CoV | P in {PRINTED_YEARS:g} yr [{pct}] | n_eff | largest run | failed "
-         "runs: lambda as none - as exceeding | status | crude runs for this CoV | efficiency |",
-         "|---|---|---:|---|---:|---:|---|---|---:|---:|"]
+         f"runs: lambda as none - as exceeding | status | crude runs for this CoV | efficiency | rate on strata of < "
+         f"{FEW_RUNS} runs | variance from strata without exceedance |",
+         "|---|---|---:|---|---:|---:|---|---|---:|---:|---:|---:|"]
     for q in run.quantities:
         e = est.levels[q.label]
         eff = efficiency(e, run.strata.total_rate, run.runs)
@@ -194,7 +195,8 @@ def _levels_table(run) -> list:
         mark = "" if q in run.requested else " (not requested)"
         status = e.status.upper() if e.status == UNRESOLVED else e.status
         L.append(f"| {q.label} | {_rate_cell(e)} | {cov} | {p} | {e.n_eff:.1f} | {100 * min(e.max_share, 1):.1f} % | "
-                 f"{_failed_cell(e)} | {status}{mark} | {crude} | {gain} |")
+                 f"{_failed_cell(e)} | {status}{mark} | {crude} | {gain} | {100 * e.few_runs_rate_share:.1f} % | "
+                 f"{100 * e.floor_variance_share:.1f} % ({e.floored_strata} strata) |")
     return L
 
 
@@ -248,7 +250,7 @@ def _header(run) -> list:
          f"- stopping rule: CoV <= {run.stop.target_cov:g}, n_eff >= {run.stop.min_neff:g}, no run above "
          f"{100 * run.stop.max_share:.0f} % of a level's rate; levels served: "
          + ", ".join(q.label for q in run.requested),
-         f"- seed {st.seed}; pilot {st.pilot_per_stratum} runs per stratum; batches of {st.batch}; defensive share "
+         f"- seed {st.seed}; pilot {st.pilot_for(len(run.strata))} runs per stratum; batches of {st.batch}; defensive share "
          f"alpha_0 = {st.defensive:g} (weights of the pulse quantiles <= {1 / st.defensive:.3g})",
          f"- pilot proposal: {d.pilot.as_dict()}; production proposal: "
          f"{None if d.production is None else d.production.as_dict()}"]
@@ -258,6 +260,9 @@ def _header(run) -> list:
         if o.outside > 0:
             L.append(f"- where the models do not apply, left out (outside = 'zero'): {o.text()}")
     ess = run.estimate.ess_relative
+    L.append(f"- strata of fewer than {FEW_RUNS} runs: {run.estimate.few_runs_strata} of {len(run.strata)}, "
+             f"{100 * run.estimate.few_runs_event_share:.1f} % of the event rate (each level's share of its rate on them, "
+             "and the share of its variance from the floor of strata none of whose runs exceed it, are in the table)")
     L.append(f"- weights: Kong's relative effective sample size of a stratum's weights >= "
              f"{float(np.nanmin(ess)):.3f}; largest pulse factor / its bound: "
              + (f"{max(run.estimate.max_ratio.values()):.3f}" if run.estimate.max_ratio else "-"))
@@ -320,7 +325,9 @@ def report(run, cmp: GridComparison | None = None, figures: dict | None = None) 
               "carrying more than the largest share allowed; only an upper bound is stated (failed runs counted as "
               "exceeding). Unresolved: failed runs could move the level by more than its CoV. Crude runs for this "
               "CoV: N = (1 - p) / (p CoV^2), p = lambda / (the site's event rate); efficiency = that over the runs "
-              "used." + _at_target(run)]
+              "used. A stratum none of whose runs exceeds a level adds to its variance a floor, not 0: the variance the "
+              "steering and demand models predict there, at most the Jeffreys pseudo-count's (half an exceedance in "
+              "n + 1 runs; docs/rare_events.md)." + _at_target(run)]
     if cmp is not None:
         L += _comparison_table(cmp, run)
     L += _failures(run) + _deaggregation(run) + _history(run)
@@ -342,7 +349,9 @@ def to_json(run, cmp: GridComparison | None = None) -> dict:
             "failure_most_common": failures(run.cols)[2] or None, "stopped": run.stopped,
             "settings": run.settings.as_dict(), "stop_rule": dict(run.stop.__dict__), "design": run.design.as_dict(),
             "batches": run.batches, "history": run.history, "levels": levels, "strata": run.strata.as_dict(),
-            "runs_by_stratum": run.estimate.n_by_stratum.tolist(),
+            "runs_by_stratum": run.estimate.n_by_stratum.tolist(), "pilot_per_stratum": run.settings.pilot_for(len(run.strata)),
+            "few_runs": {"below": FEW_RUNS, "strata": run.estimate.few_runs_strata,
+                         "event_rate_share": run.estimate.few_runs_event_share},
             "kong_ess_relative": [None if not np.isfinite(x) else float(x) for x in run.estimate.ess_relative],
             "contributions": {k: v.tolist() for k, v in run.estimate.contributions.items()},
             "grid_route": None if cmp is None else cmp.as_dict()}

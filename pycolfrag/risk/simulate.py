@@ -53,7 +53,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     s.add_argument("--max-runs", type=int, default=20000, help="run budget (the pilot at least)")
     s.add_argument("--seed", type=int, default=DEFAULT_SEED, help="root seed of every run's stream")
     s.add_argument("--batch", type=int, default=2000, help="runs per production batch")
-    s.add_argument("--pilot", type=int, default=5, help="pilot runs per stratum")
+    s.add_argument("--pilot", type=int, default=None,
+                   help="pilot runs per stratum (default: sized per site, 5 or more where the strata are few)")
     s.add_argument("--defensive", type=float, default=0.3,
                    help="alpha_0, the nominal share of the pulse quantiles' mixture (weights are at most 1/alpha_0)")
     s.add_argument("--levels", nargs="+", default=[], metavar="LABEL",
