@@ -15,7 +15,9 @@
  * bodies, the chunk lane functions of solver_points.c for the joints (their lanes are
  * now the runs of one joint), CF_LAW_TRIAL / CF_LAW_TERMS of contact_law.h for a point
  * that stays in sticking contact, cf_point_law_at on the lane's own state for any
- * other point, and cf_solver_run_pre / _post / _finish for the control of each run.
+ * other point, cf_solver_connectors_step on each lane's view for a column's connectors (after
+ * the contacts, as cf_solver_step_contacts), and cf_solver_run_pre / _post / _finish for the
+ * control of each run.
  * Sums stay per lane, in the single run's order (a lane adds exact +0.0 where the
  * single run adds nothing: a sum that starts at +0.0 never becomes -0.0, so this
  * leaves it unchanged).
@@ -54,7 +56,8 @@ typedef struct {
     cf_run r[CF_BW];
     cf_solver view[CF_BW];
     int job[CF_BW];                 /* -1: idle */
-    double *lane_mem[CF_BW];        /* the views' x, R, q, jfn */
+    double *lane_mem[CF_BW];        /* the views' x, R, q, jfn, F, T */
+    cf_connectors *conn[CF_BW];     /* each lane's connectors (its view's; NULL: the column has none) */
 } CF_BN(batch);
 
 /* The cached edge normals of point k in lane l, from its hint h: (ec, es) of edges h, h + 1, h - 1 */
@@ -124,6 +127,7 @@ static void CF_BN(lane_fill)(const cf_solver *s, CF_BN(batch) *B, int l, int *ne
         st = cf_solver_run_check(v, &B->r[l], jb->acc_x, jb->acc_y, jb->acc_z, jb->n, jb->dt_rec);
         if (!st) {
             CF_BN(lane_view)(s, B, l, 1, 0);
+            if (v->conn) cf_solver_connectors_reset(v->conn);
             st = cf_solver_run_begin(v, &B->r[l]);
         }
         if (st) {
@@ -313,6 +317,23 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
     }
 }
 
+/* 2b. the connectors of every running lane after its contacts, as cf_solver_step_contacts: the single
+ * run's code (cf_solver_connectors_step) on the lane's view -- its positions and rotations, its contact
+ * sums F, T (bitwise the single run's at this point), its own connectors -- and the sums back into the
+ * lane, so that every lane adds the connectors' forces in the single run's order. */
+static void CF_BN(connectors)(const cf_solver *s, CF_BN(batch) *B, cf_step_energy *e)
+{
+    int l, i, n3 = 3 * s->nbody;
+    for (l = 0; l < CF_BW; l++) {
+        cf_solver *v = &B->view[l];
+        if (B->job[l] < 0) continue;
+        CF_BN(lane_view)(s, B, l, 1, 0);
+        for (i = 0; i < n3; i++) { v->F[i] = B->b.F[i][l]; v->T[i] = B->b.T[i][l]; }
+        cf_solver_connectors_step(v, v->conn, &e[l]);
+        for (i = 0; i < n3; i++) { B->b.F[i][l] = v->F[i]; B->b.T[i][l] = v->T[i]; }
+    }
+}
+
 static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk *C, cf_chunk_before_fn before,
                             cf_chunk_after_fn after, VD *e_vs, VD *e_dslip, VD *e_dswitch, int need)
 {
@@ -342,18 +363,21 @@ static size_t CF_BN(layout)(CF_BN(batch) *B, unsigned char *base, int nb, int nj
     return off;
 }
 
-/* A lane's view's own arrays in base (when given: x, R, q, jfn); returns their count of doubles. */
+/* A lane's view's own arrays in base (when given: x, R, q, jfn, F, T); returns their count of doubles. */
 static size_t CF_BN(view_layout)(cf_solver *v, double *base, int nb, int nj)
 {
-    if (base) { v->x = base; v->R = v->x + 3 * nb; v->q = v->R + 9 * nb; v->jfn = v->q + 4 * nb; }
-    return (size_t)16 * nb + (size_t)nj;
+    if (base) {
+        v->x = base; v->R = v->x + 3 * nb; v->q = v->R + 9 * nb; v->jfn = v->q + 4 * nb;
+        v->F = v->jfn + nj; v->T = v->F + 3 * nb;
+    }
+    return (size_t)22 * nb + (size_t)nj;
 }
 
 /* Frees what CF_BN(open) allocated (any of it may be NULL). */
 static void CF_BN(close)(CF_BN(batch) *B, cf_joint_chunk *C, unsigned char *raw, int *order)
 {
     int l;
-    if (B) for (l = 0; l < CF_BW; l++) free(B->lane_mem[l]);
+    if (B) for (l = 0; l < CF_BW; l++) { free(B->lane_mem[l]); cf_solver_connectors_free(B->conn[l]); }
     free(B); free(C); free(raw); free(order);
 }
 
@@ -373,6 +397,10 @@ static int CF_BN(open)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs
         for (l = 0; l < CF_BW; l++) {
             B->lane_mem[l] = (double *)calloc(nview, sizeof(double));
             nomem |= !B->lane_mem[l];
+            if (s->conn) {
+                B->conn[l] = cf_solver_connectors_clone(s->conn);
+                nomem |= !B->conn[l];
+            }
         }
     if (!B || !C || !raw || !order || nomem) {
         CF_BN(close)(B, C, raw, order);
@@ -389,6 +417,7 @@ static int CF_BN(open)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs
         cf_solver *v = &B->view[l];
         *v = *s;
         CF_BN(view_layout)(v, B->lane_mem[l], nb, nj);
+        v->conn = B->conn[l];
         B->job[l] = -1;
         CF_BN(lane_reset)(s, B, l);
     }
@@ -467,6 +496,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
         }
         CF_BN(phase_rotations)(s, &B->b);
         CF_BN(contacts)(s, B, C, before, after, &e_vs, &e_dslip, &e_dswitch, need);
+        if (s->conn) CF_BN(connectors)(s, B, e);
         CF_BN(phase_velocities)(s, &B->b, ag, damp, &Wl, &Dd, &ke, &vg);
         for (l = 0; l < CF_BW; l++) {
             cf_run *r = &B->r[l];

@@ -151,6 +151,35 @@ int cf_solver_connectors_create(cf_solver *s, int n, const cf_solver_connector *
     return st;
 }
 
+/* A copy of c (its definitions, ends and rest offsets, and its state as it is): the connectors of one
+ * lane of a batch (solver_batch_lanes.h), whose runs step each lane's own. NULL when out of memory. */
+cf_connectors *cf_solver_connectors_clone(const cf_connectors *c)
+{
+    cf_connectors *k = (cf_connectors *)calloc(1, sizeof *k);
+    size_t n = (size_t)c->n;
+    if (k) {
+        *k = *c;
+        k->d = (cf_solver_connector *)malloc(sizeof *k->d * n);
+        k->al = (double *)malloc(3 * n * sizeof(double));
+        k->au = (double *)malloc(3 * n * sizeof(double));
+        k->rest = (double *)malloc(3 * n * sizeof(double));
+        k->st = (cf_connector_state *)malloc(sizeof *k->st * n);
+        k->peak = (double *)malloc(3 * n * sizeof(double));
+        k->t_break = (double *)malloc(n * sizeof(double));
+        k->diss = (double *)malloc(n * sizeof(double));
+    }
+    if (!k || !k->d || !k->al || !k->au || !k->rest || !k->st || !k->peak || !k->t_break || !k->diss) {
+        cf_solver_connectors_free(k);
+        return NULL;
+    }
+    memcpy(k->d, c->d, sizeof *k->d * n);
+    memcpy(k->al, c->al, 3 * n * sizeof(double)); memcpy(k->au, c->au, 3 * n * sizeof(double));
+    memcpy(k->rest, c->rest, 3 * n * sizeof(double)); memcpy(k->st, c->st, sizeof *k->st * n);
+    memcpy(k->peak, c->peak, 3 * n * sizeof(double)); memcpy(k->t_break, c->t_break, n * sizeof(double));
+    memcpy(k->diss, c->diss, n * sizeof(double));
+    return k;
+}
+
 /* The state at the start of a run: every connector unstrained and whole. */
 void cf_solver_connectors_reset(cf_connectors *c)
 {

@@ -325,6 +325,8 @@ class _Job:
             h = self.h
             cj.h_t = ptr(h["t"]); cj.h_top = ptr(h["top"]); cj.h_pos = ptr(h["pos"]); cj.h_quat = ptr(h["quat"])
             cj.h_open = ptr(h["open"]); cj.h_slip = ptr(h["slip"]); cj.h_energy = ptr(h["en"]); cj.h_normal = ptr(h["fn"])
+        if self.out is not None:   # a dowelled column's outputs (its scene's)
+            self.out.fill(cj)
 
     def set_history(self, solver, caller) -> None:
         """Point the solver itself at this job's history buffers and outputs (a single run)."""
@@ -483,8 +485,8 @@ def _batch_entry(i: int, rec) -> tuple:
 
 
 def _run_one_by_one(solver, options, jobs: list, out: list) -> None:
-    """The jobs of a scene (connectors, several columns: no lane text), one run after the other, each
-    with its own outputs; each one's Response (or exception) into ``out``."""
+    """The jobs of a scene of several columns (no lane text), one run after the other, each with its own
+    outputs; each one's Response (or exception) into ``out``."""
     for i, job in jobs:
         r = ffi.new("cf_solver_result *")
         job.set_history(solver, "simulate_batch")
@@ -576,7 +578,7 @@ def simulate_batch(col, records, history=False, options=None, *, width=None, err
             jobs.append((i, _Job(solver, col, options, _batch_entry(i, rec), history, "simulate_batch", parts)))
         except Exception as exc:   # a bad record is that run's error, as simulate would raise it
             out[i] = exc
-    if jobs and parts is not None:
+    if jobs and parts is not None and widest == 1:   # a dowelled column runs in lanes, each with its outputs
         _run_one_by_one(solver, options, jobs, out)
     elif jobs:
         _run_batch(solver, options, width, jobs, out)
