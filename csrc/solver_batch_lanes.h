@@ -15,9 +15,9 @@
  * bodies, the chunk lane functions of solver_points.c for the joints (their lanes are
  * now the runs of one joint), CF_LAW_TRIAL / CF_LAW_TERMS of contact_law.h for a point
  * that stays in sticking contact, cf_point_law_at on the lane's own state for any
- * other point, cf_solver_connectors_step on each lane's view for a column's connectors (after
- * the contacts, as cf_solver_step_contacts), and cf_solver_run_pre / _post / _finish for the
- * control of each run.
+ * other point, the connectors' step of solver_connectors.c (after the contacts, as
+ * cf_solver_step_contacts: its geometry on lane vectors, cf_solver_connector_law_step per lane),
+ * and cf_solver_run_pre / _post / _finish for the control of each run.
  * Sums stay per lane, in the single run's order (a lane adds exact +0.0 where the
  * single run adds nothing: a sum that starts at +0.0 never becomes -0.0, so this
  * leaves it unchanged).
@@ -56,7 +56,7 @@ typedef struct {
     cf_run r[CF_BW];
     cf_solver view[CF_BW];
     int job[CF_BW];                 /* -1: idle */
-    double *lane_mem[CF_BW];        /* the views' x, R, q, jfn, F, T */
+    double *lane_mem[CF_BW];        /* the views' x, R, q, jfn */
     cf_connectors *conn[CF_BW];     /* each lane's connectors (its view's; NULL: the column has none) */
 } CF_BN(batch);
 
@@ -317,21 +317,65 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
     }
 }
 
-/* 2b. the connectors of every running lane after its contacts, as cf_solver_step_contacts: the single
- * run's code (cf_solver_connectors_step) on the lane's view -- its positions and rotations, its contact
- * sums F, T (bitwise the single run's at this point), its own connectors -- and the sums back into the
- * lane, so that every lane adds the connectors' forces in the single run's order. */
+/* 2b. the connectors after the contacts, as cf_solver_step_contacts, connector by connector: the
+ * displacement of its ends and its force on the bodies on lane vectors with the operations of
+ * cf_solver_connectors_step (solver_math_internal.h's helpers: every lane the single run's bits), its
+ * law per running lane by the single run's text (cf_solver_connector_law_step on the lane's own
+ * connectors); a lane whose connector carries nothing adds nothing (a select, as the single run skips
+ * it). The connectors' fixed data (definitions, ends, rest offsets) are every lane's: s's. */
 static void CF_BN(connectors)(const cf_solver *s, CF_BN(batch) *B, cf_step_energy *e)
 {
-    int l, i, n3 = 3 * s->nbody;
-    for (l = 0; l < CF_BW; l++) {
-        cf_solver *v = &B->view[l];
-        if (B->job[l] < 0) continue;
-        CF_BN(lane_view)(s, B, l, 1, 0);
-        for (i = 0; i < n3; i++) { v->F[i] = B->b.F[i][l]; v->T[i] = B->b.T[i][l]; }
-        cf_solver_connectors_step(v, v->conn, &e[l]);
-        for (i = 0; i < n3; i++) { B->b.F[i][l] = v->F[i]; B->b.T[i][l] = v->T[i]; }
+    const cf_connectors *c0 = s->conn;
+    CF_BN(state) *b = &B->b;
+    const VD zero = {0};
+    double t[CF_BW];
+    int i, k, l;
+    for (l = 0; l < CF_BW; l++) t[l] = B->job[l] >= 0 ? (double)B->conn[l]->steps * s->dt : 0.0;
+    for (i = 0; i < c0->n; i++) {
+        const cf_joint *J = &s->jt[c0->d[i].joint];
+        int bl = J->bl, bu = J->bu, any = 0;
+        VD pu[3], pl[3], w[3], d[3], f[3], F[3], r[3], q[3];
+        VM on = (VM)zero;
+        /* relative(): the upper end relative to the lower one, in the lower face's frame */
+        CF_MAT_VEC(VD, b->R + 9 * bu, c0->au + 3 * i, pu);
+        CF_MAT_VEC(VD, b->R + 9 * bl, c0->al + 3 * i, pl);
+        for (k = 0; k < 3; k++) {
+            pu[k] = pu[k] + b->x[3 * bu + k];
+            pl[k] = pl[k] + b->x[3 * bl + k];
+            w[k] = pu[k] - pl[k];
+        }
+        CF_MAT_TVEC(VD, b->R + 9 * bl, w, d);
+        for (k = 0; k < 3; k++) { d[k] = d[k] - c0->rest[3 * i + k]; f[k] = zero; }
+        for (l = 0; l < CF_BW; l++) {
+            double u[3];
+            if (B->job[l] < 0) continue;
+            u[0] = d[0][l]; u[1] = d[1][l]; u[2] = d[2][l];
+            if (cf_solver_connector_law_step(B->conn[l], i, u, t[l], &e[l])) {
+                const double *fl = B->conn[l]->st[i].f;
+                f[0][l] = fl[0]; f[1][l] = fl[1]; f[2][l] = fl[2];
+                on[l] = -1;
+                any = 1;
+            }
+        }
+        if (!any) continue;
+        CF_MAT_VEC(VD, b->R + 9 * bl, f, F);
+        for (k = 0; k < 3; k++) r[k] = pu[k] - b->x[3 * bu + k];
+        CF_V3_CROSS(VD, r, F, q);
+        for (k = 0; k < 3; k++) {
+            b->F[3 * bu + k] = CF_BW_SEL(on, b->F[3 * bu + k] + F[k], b->F[3 * bu + k]);
+            b->T[3 * bu + k] = CF_BW_SEL(on, b->T[3 * bu + k] + q[k], b->T[3 * bu + k]);
+        }
+        if (bl != 0) {
+            for (k = 0; k < 3; k++) r[k] = pu[k] - b->x[3 * bl + k];
+            CF_V3_CROSS(VD, r, F, q);
+            for (k = 0; k < 3; k++) {
+                b->F[3 * bl + k] = CF_BW_SEL(on, b->F[3 * bl + k] - F[k], b->F[3 * bl + k]);
+                b->T[3 * bl + k] = CF_BW_SEL(on, b->T[3 * bl + k] - q[k], b->T[3 * bl + k]);
+            }
+        }
     }
+    for (l = 0; l < CF_BW; l++)
+        if (B->job[l] >= 0) B->conn[l]->steps++;
 }
 
 static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk *C, cf_chunk_before_fn before,
@@ -363,14 +407,11 @@ static size_t CF_BN(layout)(CF_BN(batch) *B, unsigned char *base, int nb, int nj
     return off;
 }
 
-/* A lane's view's own arrays in base (when given: x, R, q, jfn, F, T); returns their count of doubles. */
+/* A lane's view's own arrays in base (when given: x, R, q, jfn); returns their count of doubles. */
 static size_t CF_BN(view_layout)(cf_solver *v, double *base, int nb, int nj)
 {
-    if (base) {
-        v->x = base; v->R = v->x + 3 * nb; v->q = v->R + 9 * nb; v->jfn = v->q + 4 * nb;
-        v->F = v->jfn + nj; v->T = v->F + 3 * nb;
-    }
-    return (size_t)22 * nb + (size_t)nj;
+    if (base) { v->x = base; v->R = v->x + 3 * nb; v->q = v->R + 9 * nb; v->jfn = v->q + 4 * nb; }
+    return (size_t)16 * nb + (size_t)nj;
 }
 
 /* Frees what CF_BN(open) allocated (any of it may be NULL). */
