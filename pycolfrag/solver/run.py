@@ -452,8 +452,9 @@ def simulate(col, acc_x, dt=None, acc_y=None, acc_z=None, history=False, options
 
 def batch_width(col=None, options=None, n_runs=None, **overrides) -> int:
     """How many runs :func:`simulate_batch` integrates side by side on this CPU for a column and
-    options: the most it can (``n_runs`` None): 8 (AVX-512), 4 (AVX2), 2 (SSE2) or 1 (the
-    exact-interface contact model, whose runs go one after the other); or the width it takes by
+    options: the most it can (``n_runs`` None): 8 (AVX-512), 4 (AVX2), 2 (SSE2) or 1 (the exact-interface
+    contact model, a scene of several columns: their runs go one after the other; a dowelled column runs
+    in lanes); or the width it takes by
     default for ``n_runs`` records (8 from 5 runs on, 4 from 3 on, else 1: the widths that are
     faster than one run after the other, docs/performance.md)."""
     col = Column.parthenon() if col is None else col
