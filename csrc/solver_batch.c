@@ -98,9 +98,9 @@ static int *batch_order(int n_jobs, const cf_solver_batch_job *jobs)
 /* The widest lane count this CPU and build run for the column of s. */
 static int widest(const cf_solver *s)
 {
-    /* scenes of several columns (or beams) have no lane text: their runs go one after the other; a
-     * column's connectors run in lanes (each lane's stepped by the single run's code, CF_BN(connectors)) */
-    return s->model->batch_lanes && !s->scene ? s->lanes : 1;   /* chosen from CPUID at set-up */
+    /* a column's connectors and a scene of several columns run in lanes as a column does: the
+     * connectors by CF_BN(connectors), a scene's monitor on a lane's view of every body */
+    return s->model->batch_lanes ? s->lanes : 1;   /* chosen from CPUID at set-up */
 }
 
 int cf_solver_batch_max_width(const cf_solver *s)

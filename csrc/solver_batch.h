@@ -44,9 +44,9 @@ typedef struct {
 } cf_solver_batch_out;
 
 /* The widest batch the set-up solver s runs on this CPU and build: 8 (AVX-512), 4 (AVX2),
- * 2 (SSE2), or 1 (one run after the other: the exact-interface contact model, a scene of
- * several columns or beams, or a build without SIMD); 0 before set-up. A column with connectors
- * runs in lanes: each lane's connectors are stepped by the single run's code on that lane. */
+ * 2 (SSE2), or 1 (one run after the other: the exact-interface contact model, or a build
+ * without SIMD); 0 before set-up. A column with connectors and a scene of several columns and
+ * beams run in lanes as a column does (solver_batch_lanes.h). */
 int cf_solver_batch_max_width(const cf_solver *s);
 /* The width cf_solver_batch_run takes for n_jobs jobs when asked for 0: the widest that is
  * faster than one run after the other for that many jobs (8 from 5 jobs on, 4 from 3 on,

@@ -7,7 +7,8 @@
  *
  * The runs side by side are those of a points model (batch_lanes of its registry entry): the
  * points' fixed data are read from its state (cf_points, solver_points_internal.h), each lane
- * keeps the points' per-run state of its own here.
+ * keeps the points' per-run state of its own here. A column, a column with connectors or a scene
+ * of several columns and beams (whose monitor reads every body: a lane's view has them all).
  *
  * Layout: every quantity of a run is a vector of CF_BW doubles, lane l the run in lane
  * l, indexed as the single run indexes its double (body i's x at x[3 i + c], point k's
@@ -545,7 +546,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
             if (B->job[l] < 0) continue;
             r->m.W = Wl[l]; r->m.Ddamp = Dd[l];
             e[l].vs = e_vs[l]; e[l].dslip = e_dslip[l]; e[l].dswitch = e_dswitch[l];
-            CF_BN(lane_view)(s, B, l, cf_solver_run_reads_all(r), r->hist_now);
+            CF_BN(lane_view)(s, B, l, s->scene || cf_solver_run_reads_all(r), r->hist_now);
             end[l] = cf_solver_run_post(&B->view[l], r, &e[l], ke[l], vg[l]);
         }
         CF_BN(phase_positions)(s, &B->b);
