@@ -58,7 +58,7 @@ def batches(n: int, repeat: int) -> None:
     """The grid's case: CPU us per run-step of each structure's batch, in lanes and one run at a time."""
     recs = grid_records(n)
     models = cases()
-    widths = {name: (None, 1) if "portal" not in name else (None,) for name in models}   # a portal: no lanes
+    widths = {name: (None, 1) for name in models}
     best = {(name, w): np.inf for name in models for w in widths[name]}
     steps: dict = {}
     used: dict = {}
