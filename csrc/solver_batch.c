@@ -26,6 +26,8 @@ static void batch_job_history(cf_solver *v, const cf_solver_batch_job *jb)
     v->h_cap = jb->history_capacity > 0 ? jb->history_capacity : 0;
     v->h_t = jb->h_t; v->h_top = jb->h_top; v->h_pos = jb->h_pos; v->h_quat = jb->h_quat;
     v->h_open = jb->h_open; v->h_slip = jb->h_slip; v->h_en = jb->h_energy; v->h_fn = jb->h_normal;
+    v->out_col = jb->out_columns; v->out_beam = jb->out_beams; v->out_conn = jb->out_connectors;
+    v->h_conn_en = jb->h_conn_energy; v->h_conn = jb->h_conn;
 }
 
 /* Jobs order[from..n_jobs-1] (from..n_jobs-1 without an order) not run because the caller's
@@ -96,8 +98,9 @@ static int *batch_order(int n_jobs, const cf_solver_batch_job *jobs)
 /* The widest lane count this CPU and build run for the column of s. */
 static int widest(const cf_solver *s)
 {
-    /* connectors and scenes of several columns have no lane text: their runs go one after the other */
-    return s->model->batch_lanes && !s->conn && !s->scene ? s->lanes : 1;   /* chosen from CPUID at set-up */
+    /* a column's connectors and a scene of several columns run in lanes as a column does: the
+     * connectors by CF_BN(connectors), a scene's monitor on a lane's view of every body */
+    return s->model->batch_lanes ? s->lanes : 1;   /* chosen from CPUID at set-up */
 }
 
 int cf_solver_batch_max_width(const cf_solver *s)
@@ -125,9 +128,10 @@ static int one_by_one(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
 {
     int j;
     long cap = s->h_cap;
-    double *h[8];
+    double *h[13];
     h[0] = s->h_t; h[1] = s->h_top; h[2] = s->h_pos; h[3] = s->h_quat; h[4] = s->h_open; h[5] = s->h_slip;
-    h[6] = s->h_en; h[7] = s->h_fn;
+    h[6] = s->h_en; h[7] = s->h_fn; h[8] = s->out_col; h[9] = s->out_beam; h[10] = s->out_conn;
+    h[11] = s->h_conn_en; h[12] = s->h_conn;
     for (j = 0; j < n_jobs; j++) {
         const cf_solver_batch_job *jb = &jobs[j];
         batch_job_history(s, jb);
@@ -141,7 +145,8 @@ static int one_by_one(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
         }
     }
     s->h_cap = cap; s->h_t = h[0]; s->h_top = h[1]; s->h_pos = h[2]; s->h_quat = h[3]; s->h_open = h[4];
-    s->h_slip = h[5]; s->h_en = h[6]; s->h_fn = h[7];
+    s->h_slip = h[5]; s->h_en = h[6]; s->h_fn = h[7]; s->out_col = h[8]; s->out_beam = h[9]; s->out_conn = h[10];
+    s->h_conn_en = h[11]; s->h_conn = h[12];
     s->msg[0] = 0;
     return CF_OK;
 }

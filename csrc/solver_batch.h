@@ -29,6 +29,11 @@ typedef struct {
      * any buffer may be NULL) */
     long history_capacity;
     double *h_t, *h_top, *h_pos, *h_quat, *h_open, *h_slip, *h_energy, *h_normal;
+    /* a scene's outputs as cf_solver_set_outputs (columns, beams, connectors) and its connectors'
+     * histories as cf_solver_set_history_connectors (energy, connectors): this job's own (NULL:
+     * none; the solver's own settings are not used by a batch) */
+    double *out_columns, *out_beams, *out_connectors;
+    double *h_conn_energy, *h_conn;
 } cf_solver_batch_job;
 
 /* What cf_solver_run returned for the job, its message, its result. */
@@ -40,7 +45,8 @@ typedef struct {
 
 /* The widest batch the set-up solver s runs on this CPU and build: 8 (AVX-512), 4 (AVX2),
  * 2 (SSE2), or 1 (one run after the other: the exact-interface contact model, or a build
- * without SIMD); 0 before set-up. */
+ * without SIMD); 0 before set-up. A column with connectors and a scene of several columns and
+ * beams run in lanes as a column does (solver_batch_lanes.h). */
 int cf_solver_batch_max_width(const cf_solver *s);
 /* The width cf_solver_batch_run takes for n_jobs jobs when asked for 0: the widest that is
  * faster than one run after the other for that many jobs (8 from 5 jobs on, 4 from 3 on,

@@ -7,7 +7,8 @@
  *
  * The runs side by side are those of a points model (batch_lanes of its registry entry): the
  * points' fixed data are read from its state (cf_points, solver_points_internal.h), each lane
- * keeps the points' per-run state of its own here.
+ * keeps the points' per-run state of its own here. A column, a column with connectors or a scene
+ * of several columns and beams (whose monitor reads every body: a lane's view has them all).
  *
  * Layout: every quantity of a run is a vector of CF_BW doubles, lane l the run in lane
  * l, indexed as the single run indexes its double (body i's x at x[3 i + c], point k's
@@ -15,7 +16,9 @@
  * bodies, the chunk lane functions of solver_points.c for the joints (their lanes are
  * now the runs of one joint), CF_LAW_TRIAL / CF_LAW_TERMS of contact_law.h for a point
  * that stays in sticking contact, cf_point_law_at on the lane's own state for any
- * other point, and cf_solver_run_pre / _post / _finish for the control of each run.
+ * other point, the connectors' step of solver_connectors.c (after the contacts, as
+ * cf_solver_step_contacts: its geometry on lane vectors, cf_solver_connector_law_step per lane),
+ * and cf_solver_run_pre / _post / _finish for the control of each run.
  * Sums stay per lane, in the single run's order (a lane adds exact +0.0 where the
  * single run adds nothing: a sum that starts at +0.0 never becomes -0.0, so this
  * leaves it unchanged).
@@ -55,6 +58,7 @@ typedef struct {
     cf_solver view[CF_BW];
     int job[CF_BW];                 /* -1: idle */
     double *lane_mem[CF_BW];        /* the views' x, R, q, jfn */
+    cf_connectors *conn[CF_BW];     /* each lane's connectors (its view's; NULL: the column has none) */
 } CF_BN(batch);
 
 /* The cached edge normals of point k in lane l, from its hint h: (ec, es) of edges h, h + 1, h - 1 */
@@ -124,6 +128,7 @@ static void CF_BN(lane_fill)(const cf_solver *s, CF_BN(batch) *B, int l, int *ne
         st = cf_solver_run_check(v, &B->r[l], jb->acc_x, jb->acc_y, jb->acc_z, jb->n, jb->dt_rec);
         if (!st) {
             CF_BN(lane_view)(s, B, l, 1, 0);
+            if (v->conn) cf_solver_connectors_reset(v->conn);
             st = cf_solver_run_begin(v, &B->r[l]);
         }
         if (st) {
@@ -313,6 +318,67 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
     }
 }
 
+/* 2b. the connectors after the contacts, as cf_solver_step_contacts, connector by connector: the
+ * displacement of its ends and its force on the bodies on lane vectors with the operations of
+ * cf_solver_connectors_step (solver_math_internal.h's helpers: every lane the single run's bits), its
+ * law per running lane by the single run's text (cf_solver_connector_law_step on the lane's own
+ * connectors); a lane whose connector carries nothing adds nothing (a select, as the single run skips
+ * it). The connectors' fixed data (definitions, ends, rest offsets) are every lane's: s's. */
+static void CF_BN(connectors)(const cf_solver *s, CF_BN(batch) *B, cf_step_energy *e)
+{
+    const cf_connectors *c0 = s->conn;
+    CF_BN(state) *b = &B->b;
+    const VD zero = {0};
+    double t[CF_BW];
+    int i, k, l;
+    for (l = 0; l < CF_BW; l++) t[l] = B->job[l] >= 0 ? (double)B->conn[l]->steps * s->dt : 0.0;
+    for (i = 0; i < c0->n; i++) {
+        const cf_joint *J = &s->jt[c0->d[i].joint];
+        int bl = J->bl, bu = J->bu, any = 0;
+        VD pu[3], pl[3], w[3], d[3], f[3], F[3], r[3], q[3];
+        VM on = (VM)zero;
+        /* relative(): the upper end relative to the lower one, in the lower face's frame */
+        CF_MAT_VEC(VD, b->R + 9 * bu, c0->au + 3 * i, pu);
+        CF_MAT_VEC(VD, b->R + 9 * bl, c0->al + 3 * i, pl);
+        for (k = 0; k < 3; k++) {
+            pu[k] = pu[k] + b->x[3 * bu + k];
+            pl[k] = pl[k] + b->x[3 * bl + k];
+            w[k] = pu[k] - pl[k];
+        }
+        CF_MAT_TVEC(VD, b->R + 9 * bl, w, d);
+        for (k = 0; k < 3; k++) { d[k] = d[k] - c0->rest[3 * i + k]; f[k] = zero; }
+        for (l = 0; l < CF_BW; l++) {
+            double u[3];
+            if (B->job[l] < 0) continue;
+            u[0] = d[0][l]; u[1] = d[1][l]; u[2] = d[2][l];
+            if (cf_solver_connector_law_step(B->conn[l], i, u, t[l], &e[l])) {
+                const double *fl = B->conn[l]->st[i].f;
+                f[0][l] = fl[0]; f[1][l] = fl[1]; f[2][l] = fl[2];
+                on[l] = -1;
+                any = 1;
+            }
+        }
+        if (!any) continue;
+        CF_MAT_VEC(VD, b->R + 9 * bl, f, F);
+        for (k = 0; k < 3; k++) r[k] = pu[k] - b->x[3 * bu + k];
+        CF_V3_CROSS(VD, r, F, q);
+        for (k = 0; k < 3; k++) {
+            b->F[3 * bu + k] = CF_BW_SEL(on, b->F[3 * bu + k] + F[k], b->F[3 * bu + k]);
+            b->T[3 * bu + k] = CF_BW_SEL(on, b->T[3 * bu + k] + q[k], b->T[3 * bu + k]);
+        }
+        if (bl != 0) {
+            for (k = 0; k < 3; k++) r[k] = pu[k] - b->x[3 * bl + k];
+            CF_V3_CROSS(VD, r, F, q);
+            for (k = 0; k < 3; k++) {
+                b->F[3 * bl + k] = CF_BW_SEL(on, b->F[3 * bl + k] - F[k], b->F[3 * bl + k]);
+                b->T[3 * bl + k] = CF_BW_SEL(on, b->T[3 * bl + k] - q[k], b->T[3 * bl + k]);
+            }
+        }
+    }
+    for (l = 0; l < CF_BW; l++)
+        if (B->job[l] >= 0) B->conn[l]->steps++;
+}
+
 static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk *C, cf_chunk_before_fn before,
                             cf_chunk_after_fn after, VD *e_vs, VD *e_dslip, VD *e_dswitch, int need)
 {
@@ -353,7 +419,7 @@ static size_t CF_BN(view_layout)(cf_solver *v, double *base, int nb, int nj)
 static void CF_BN(close)(CF_BN(batch) *B, cf_joint_chunk *C, unsigned char *raw, int *order)
 {
     int l;
-    if (B) for (l = 0; l < CF_BW; l++) free(B->lane_mem[l]);
+    if (B) for (l = 0; l < CF_BW; l++) { free(B->lane_mem[l]); cf_solver_connectors_free(B->conn[l]); }
     free(B); free(C); free(raw); free(order);
 }
 
@@ -373,6 +439,10 @@ static int CF_BN(open)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs
         for (l = 0; l < CF_BW; l++) {
             B->lane_mem[l] = (double *)calloc(nview, sizeof(double));
             nomem |= !B->lane_mem[l];
+            if (s->conn) {
+                B->conn[l] = cf_solver_connectors_clone(s->conn);
+                nomem |= !B->conn[l];
+            }
         }
     if (!B || !C || !raw || !order || nomem) {
         CF_BN(close)(B, C, raw, order);
@@ -389,6 +459,7 @@ static int CF_BN(open)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs
         cf_solver *v = &B->view[l];
         *v = *s;
         CF_BN(view_layout)(v, B->lane_mem[l], nb, nj);
+        v->conn = B->conn[l];
         B->job[l] = -1;
         CF_BN(lane_reset)(s, B, l);
     }
@@ -467,6 +538,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
         }
         CF_BN(phase_rotations)(s, &B->b);
         CF_BN(contacts)(s, B, C, before, after, &e_vs, &e_dslip, &e_dswitch, need);
+        if (s->conn) CF_BN(connectors)(s, B, e);
         CF_BN(phase_velocities)(s, &B->b, ag, damp, &Wl, &Dd, &ke, &vg);
         for (l = 0; l < CF_BW; l++) {
             cf_run *r = &B->r[l];
@@ -474,7 +546,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
             if (B->job[l] < 0) continue;
             r->m.W = Wl[l]; r->m.Ddamp = Dd[l];
             e[l].vs = e_vs[l]; e[l].dslip = e_dslip[l]; e[l].dswitch = e_dswitch[l];
-            CF_BN(lane_view)(s, B, l, cf_solver_run_reads_all(r), r->hist_now);
+            CF_BN(lane_view)(s, B, l, s->scene || cf_solver_run_reads_all(r), r->hist_now);
             end[l] = cf_solver_run_post(&B->view[l], r, &e[l], ke[l], vg[l]);
         }
         CF_BN(phase_positions)(s, &B->b);

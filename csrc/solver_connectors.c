@@ -151,6 +151,35 @@ int cf_solver_connectors_create(cf_solver *s, int n, const cf_solver_connector *
     return st;
 }
 
+/* A copy of c (its definitions, ends and rest offsets, and its state as it is): the connectors of one
+ * lane of a batch (solver_batch_lanes.h), whose runs step each lane's own. NULL when out of memory. */
+cf_connectors *cf_solver_connectors_clone(const cf_connectors *c)
+{
+    cf_connectors *k = (cf_connectors *)calloc(1, sizeof *k);
+    size_t n = (size_t)c->n;
+    if (k) {
+        *k = *c;
+        k->d = (cf_solver_connector *)malloc(sizeof *k->d * n);
+        k->al = (double *)malloc(3 * n * sizeof(double));
+        k->au = (double *)malloc(3 * n * sizeof(double));
+        k->rest = (double *)malloc(3 * n * sizeof(double));
+        k->st = (cf_connector_state *)malloc(sizeof *k->st * n);
+        k->peak = (double *)malloc(3 * n * sizeof(double));
+        k->t_break = (double *)malloc(n * sizeof(double));
+        k->diss = (double *)malloc(n * sizeof(double));
+    }
+    if (!k || !k->d || !k->al || !k->au || !k->rest || !k->st || !k->peak || !k->t_break || !k->diss) {
+        cf_solver_connectors_free(k);
+        return NULL;
+    }
+    memcpy(k->d, c->d, sizeof *k->d * n);
+    memcpy(k->al, c->al, 3 * n * sizeof(double)); memcpy(k->au, c->au, 3 * n * sizeof(double));
+    memcpy(k->rest, c->rest, 3 * n * sizeof(double)); memcpy(k->st, c->st, sizeof *k->st * n);
+    memcpy(k->peak, c->peak, 3 * n * sizeof(double)); memcpy(k->t_break, c->t_break, n * sizeof(double));
+    memcpy(k->diss, c->diss, n * sizeof(double));
+    return k;
+}
+
 /* The state at the start of a run: every connector unstrained and whole. */
 void cf_solver_connectors_reset(cf_connectors *c)
 {
@@ -182,6 +211,32 @@ void cf_solver_connectors_springs(const cf_solver *s, const cf_connectors *c, in
     if (c->d[i].k_axial > 0.0) cf_springs_add(K, p, ez, c->d[i].k_axial);
 }
 
+/* Connector i's law at this step's displacement u (m, from the rest state; t the step's time, s): its
+ * force and stored energy (c->st[i]), the step's dissipation into e->dconn and its own, its break time,
+ * its peaks, its stored energy into e->vc (when e->need). Returns 1 when its force is not zero (it
+ * acts on the bodies), 0 when it is. The one text of a connector's step for a run (below) and for
+ * each lane of a batch (solver_batch_lanes.h, which computes u and applies the force on lane vectors
+ * with the operations of this file). */
+int cf_solver_connector_law_step(cf_connectors *c, int i, const double *u, double t, cf_step_energy *e)
+{
+    cf_connector_state *st = &c->st[i];
+    int was_broken = st->broken;
+    double fs, us, dd;
+    dd = cf_connector_update(&c->d[i], st, u);
+    e->dconn += dd;
+    c->diss[i] += dd;
+    if (st->broken && !was_broken) c->t_break[i] = t;
+    fs = sqrt(st->f[0] * st->f[0] + st->f[1] * st->f[1]);
+    us = sqrt(u[0] * u[0] + u[1] * u[1]);
+    if (fs > c->peak[3 * i]) c->peak[3 * i] = fs;
+    /* the dowel's slip, frozen at the break: a broken dowel no longer spans the joint, whose
+     * slide after it is the joint's (history joint_slip), not the dowel's */
+    if (!was_broken && us > c->peak[3 * i + 1]) c->peak[3 * i + 1] = us;
+    if (-st->f[2] > c->peak[3 * i + 2]) c->peak[3 * i + 2] = -st->f[2];
+    if (e->need) e->vc += st->v;
+    return !(st->f[0] == 0.0 && st->f[1] == 0.0 && st->f[2] == 0.0);
+}
+
 /* The forces of every connector at this step's positions (s->x, s->R) into s->F, s->T (the force on
  * the upper block at its upper end, the opposite on the lower block at that same point); the energy stored (when
  * e->need) into e->vc and the energy dissipated over the step into e->dconn. */
@@ -191,25 +246,12 @@ void cf_solver_connectors_step(cf_solver *s, cf_connectors *c, cf_step_energy *e
     double t = (double)c->steps * s->dt;
     for (i = 0; i < c->n; i++) {
         const cf_joint *J = &s->jt[c->d[i].joint];
-        cf_connector_state *st = &c->st[i];
-        int bl = J->bl, bu = J->bu, was_broken = st->broken;
-        double d[3], u[3], pu[3], pl[3], F[3], r[3], q[3], fs, us, dd;
+        int bl = J->bl, bu = J->bu;
+        double d[3], u[3], pu[3], pl[3], F[3], r[3], q[3];
         relative(s, c, i, s->x, s->R, d, pu, pl);
         for (k = 0; k < 3; k++) u[k] = d[k] - c->rest[3 * i + k];
-        dd = cf_connector_update(&c->d[i], st, u);
-        e->dconn += dd;
-        c->diss[i] += dd;
-        if (st->broken && !was_broken) c->t_break[i] = t;
-        fs = sqrt(st->f[0] * st->f[0] + st->f[1] * st->f[1]);
-        us = sqrt(u[0] * u[0] + u[1] * u[1]);
-        if (fs > c->peak[3 * i]) c->peak[3 * i] = fs;
-        /* the dowel's slip, frozen at the break: a broken dowel no longer spans the joint, whose
-         * slide after it is the joint's (history joint_slip), not the dowel's */
-        if (!was_broken && us > c->peak[3 * i + 1]) c->peak[3 * i + 1] = us;
-        if (-st->f[2] > c->peak[3 * i + 2]) c->peak[3 * i + 2] = -st->f[2];
-        if (e->need) e->vc += st->v;
-        if (st->f[0] == 0.0 && st->f[1] == 0.0 && st->f[2] == 0.0) continue;
-        mat_vec(s->R + 9 * bl, st->f, F);
+        if (!cf_solver_connector_law_step(c, i, u, t, e)) continue;
+        mat_vec(s->R + 9 * bl, c->st[i].f, F);
         for (k = 0; k < 3; k++) r[k] = pu[k] - s->x[3 * bu + k];
         v3_cross(r, F, q);
         for (k = 0; k < 3; k++) { s->F[3 * bu + k] += F[k]; s->T[3 * bu + k] += q[k]; }

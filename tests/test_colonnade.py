@@ -150,15 +150,40 @@ def test_ledger_of_a_portal_converges_with_the_step():
     assert errs[2] < errs[1] < errs[0]
 
 
-def test_batch_of_a_portal_is_its_single_runs():
-    p = Colonnade.portal(2)
-    t = np.arange(0.0, 2.0, 0.005)
-    recs = [(a * G * np.sin(2 * np.pi * 2 * t), 0.005) for a in (0.2, 0.3)]
-    assert pcf.solver.run.batch_width(p) == 1
-    for (acc, dt), b in zip(recs, pcf.simulate_batch(p, recs)):
-        s = pcf.simulate(p, acc, dt)
-        assert (s.u_top, s.u_d, s.n_steps, s.epistyle_slip_mm) == (b.u_top, b.u_d, b.n_steps, b.epistyle_slip_mm)
-        np.testing.assert_array_equal(s.columns["u_top"], b.columns["u_top"])
+def _same(a, b, what):
+    """Two Responses of a scene bitwise equal (NaN == NaN): EDPs, residuals, every column's and
+    epistyle's outputs, histories."""
+    for key in ("u_top", "u_d", "n_steps", "t_end", "collapsed", "collapse_block", "collapse_time", "collapse_reason",
+                "collapse_part", "energy_error", "energy_scale", "max_top_disp", "message", "epistyle_slip_mm",
+                "epistyle_unseat"):
+        np.testing.assert_array_equal(getattr(a, key), getattr(b, key), err_msg=f"{what}: {key}")
+    np.testing.assert_array_equal(a.residual_dislocation, b.residual_dislocation, err_msg=f"{what}: residuals")
+    for part in ("columns", "epistyles"):
+        for key in getattr(a, part):
+            np.testing.assert_array_equal(getattr(a, part)[key], getattr(b, part)[key], err_msg=f"{what}: {part} {key}")
+    for key in ("t", "top_disp", "block_pos", "block_quat", "joint_opening", "joint_slip", "joint_normal_force"):
+        np.testing.assert_array_equal(getattr(a.history, key), getattr(b.history, key), err_msg=f"{what}: {key}")
+    for key in a.history.energy:
+        np.testing.assert_array_equal(a.history.energy[key], b.history.energy[key], err_msg=f"{what}: {key}")
+
+
+@pytest.mark.parametrize("n", [2, 4])
+def test_batch_of_a_portal_is_its_single_runs(n):
+    """A scene of several columns with epistyles runs in SIMD lanes as a column does (each lane's monitor
+    reads every body of its run: csrc/solver_batch_lanes.h), and every run of a batch at every width is
+    bitwise its single run (tolerance zero: the lanes do the single run's operations in its order),
+    its columns' and epistyles' outputs and histories included; records of different lengths (lanes
+    refilled), one strong enough to rock the portal hard."""
+    p = Colonnade.portal(n)
+    recs = [(a * G * np.sin(2 * np.pi * 2 * np.arange(0.0, d, 0.005)), 0.005)
+            for a, d in ((0.2, 1.5), (0.45, 1.2), (0.3, 0.5), (0.25, 1.0), (0.35, 0.8))]
+    widest = pcf.solver.run.batch_width(p, tail_s=0.5)
+    assert widest == pcf.solver.run.batch_width(pcf.Column.parthenon(), tail_s=0.5)
+    singles = [pcf.simulate(p, acc, dt, history=True, tail_s=0.5) for acc, dt in recs]
+    assert max(s.epistyle_slip_mm for s in singles) > 0.0
+    for width in (w for w in (1, 2, 4, 8) if w <= widest):
+        for i, (s, b) in enumerate(zip(singles, pcf.simulate_batch(p, recs, history=True, width=width, tail_s=0.5))):
+            _same(s, b, f"portal {n} width {width} run {i}")
 
 
 # ---- files and bad input ------------------------------------------------------------------------

@@ -3,6 +3,7 @@ through prescribed displacement histories by the C text the solver runs), the ba
 the column file, the bits of a column whose dowels carry nothing, the monolithic limit of stiff
 unbreakable dowels, and the energy ledger of dowelled runs."""
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -264,16 +265,42 @@ def test_ledger_converges_with_the_step_on_a_hard_case():
     assert errs[2] < 0.5 * errs[0]
 
 
-def test_batch_of_a_dowelled_column_is_its_single_runs():
-    col = pcf.Column.parthenon().with_connectors(Connectors.of("wood", "all"))
-    recs = [_burst(a, 2.0, 2.0) for a in (0.2, 0.3, 0.25)]
-    assert pcf.solver.run.batch_width(col) == 1
-    batch = pcf.simulate_batch(col, recs, history=True)
-    for (acc, dt), b in zip(recs, batch):
-        s = pcf.simulate(col, acc, dt, history=True)
-        assert (s.u_top, s.u_d, s.n_steps, s.dowel_slip_mm) == (b.u_top, b.u_d, b.n_steps, b.dowel_slip_mm)
-        np.testing.assert_array_equal(s.dowels["peak_shear"], b.dowels["peak_shear"])
-        np.testing.assert_array_equal(s.history.dowels, b.history.dowels)
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def _same(a, b, what):
+    """Two Responses bitwise equal (NaN == NaN): EDPs, residuals, dowel outputs, histories (the dowels' too)."""
+    for key in ("u_top", "u_d", "n_steps", "t_end", "collapsed", "collapse_time", "energy_error", "energy_scale",
+                "max_top_disp", "message", "dowel_shear_kn", "dowel_slip_mm", "dowels_yielded", "dowels_broken"):
+        np.testing.assert_array_equal(getattr(a, key), getattr(b, key), err_msg=f"{what}: {key}")
+    np.testing.assert_array_equal(a.residual_dislocation, b.residual_dislocation, err_msg=f"{what}: residuals")
+    for key in a.dowels:
+        np.testing.assert_array_equal(a.dowels[key], b.dowels[key], err_msg=f"{what}: dowels {key}")
+    for key in ("t", "top_disp", "block_pos", "block_quat", "joint_opening", "joint_slip", "joint_normal_force",
+                "dowels"):
+        np.testing.assert_array_equal(getattr(a.history, key), getattr(b.history, key), err_msg=f"{what}: {key}")
+    assert a.history.energy.keys() == b.history.energy.keys()
+    for key in a.history.energy:
+        np.testing.assert_array_equal(a.history.energy[key], b.history.energy[key], err_msg=f"{what}: {key}")
+
+
+@pytest.mark.parametrize("name", ["column_parthenon_titanium.toml", "column_parthenon_wood.toml"])
+def test_batch_of_a_dowelled_column_is_its_single_runs(name):
+    """A dowelled column (the examples: titanium, the elastoplastic law; wood, the clearance law) runs in
+    lanes as wide as the free column's, each lane's dowels stepped by the single run's code after its
+    contacts (csrc/solver_batch_lanes.h); every run of a batch at every width is bitwise its single
+    run (tolerance zero: the lanes do the single run's operations in its order), its dowels' outputs
+    and histories included. Records of different lengths: lanes are refilled, their dowels reset."""
+    col = pcf.Column.from_file(EXAMPLES / name)
+    recs = [_burst(a, 2.0, d) for a, d in ((0.3, 1.2), (0.45, 0.8), (0.2, 0.4), (0.4, 1.0), (0.35, 0.6))]
+    widest = pcf.solver.run.batch_width(col, tail_s=0.5)
+    assert widest == pcf.solver.run.batch_width(pcf.Column.parthenon(), tail_s=0.5)
+    singles = [pcf.simulate(col, acc, dt, history=True, tail_s=0.5) for acc, dt in recs]
+    assert max(s.dowel_shear_kn for s in singles) > 0.0   # the dowels carry force: the equality is not vacuous
+    for width in (w for w in (1, 2, 4, 8) if w <= widest):
+        batch = pcf.simulate_batch(col, recs, history=True, width=width, tail_s=0.5)
+        for i, (s, b) in enumerate(zip(singles, batch)):
+            _same(s, b, f"{name} width {width} run {i}")
 
 
 def test_monolithic_keeps_the_base_dowels_only():

@@ -325,6 +325,8 @@ class _Job:
             h = self.h
             cj.h_t = ptr(h["t"]); cj.h_top = ptr(h["top"]); cj.h_pos = ptr(h["pos"]); cj.h_quat = ptr(h["quat"])
             cj.h_open = ptr(h["open"]); cj.h_slip = ptr(h["slip"]); cj.h_energy = ptr(h["en"]); cj.h_normal = ptr(h["fn"])
+        if self.out is not None:   # a dowelled column's outputs (its scene's)
+            self.out.fill(cj)
 
     def set_history(self, solver, caller) -> None:
         """Point the solver itself at this job's history buffers and outputs (a single run)."""
@@ -450,8 +452,9 @@ def simulate(col, acc_x, dt=None, acc_y=None, acc_z=None, history=False, options
 
 def batch_width(col=None, options=None, n_runs=None, **overrides) -> int:
     """How many runs :func:`simulate_batch` integrates side by side on this CPU for a column and
-    options: the most it can (``n_runs`` None): 8 (AVX-512), 4 (AVX2), 2 (SSE2) or 1 (the
-    exact-interface contact model, whose runs go one after the other); or the width it takes by
+    options: the most it can (``n_runs`` None): 8 (AVX-512), 4 (AVX2), 2 (SSE2) or 1 (the exact-interface
+    contact model, whose runs go one after the other; dowelled columns and colonnades run in lanes as a
+    column does); or the width it takes by
     default for ``n_runs`` records (8 from 5 runs on, 4 from 3 on, else 1: the widths that are
     faster than one run after the other, docs/performance.md)."""
     col = Column.parthenon() if col is None else col
@@ -483,8 +486,8 @@ def _batch_entry(i: int, rec) -> tuple:
 
 
 def _run_one_by_one(solver, options, jobs: list, out: list) -> None:
-    """The jobs of a scene (connectors, several columns: no lane text), one run after the other, each
-    with its own outputs; each one's Response (or exception) into ``out``."""
+    """The jobs of a structure with parts that has no lanes (the exact interface, a build without SIMD),
+    one run after the other, each with its own outputs; each one's Response (or exception) into ``out``."""
     for i, job in jobs:
         r = ffi.new("cf_solver_result *")
         job.set_history(solver, "simulate_batch")
@@ -576,7 +579,7 @@ def simulate_batch(col, records, history=False, options=None, *, width=None, err
             jobs.append((i, _Job(solver, col, options, _batch_entry(i, rec), history, "simulate_batch", parts)))
         except Exception as exc:   # a bad record is that run's error, as simulate would raise it
             out[i] = exc
-    if jobs and parts is not None:
+    if jobs and parts is not None and widest == 1:   # dowels and colonnades run in lanes, each with its outputs
         _run_one_by_one(solver, options, jobs, out)
     elif jobs:
         _run_batch(solver, options, width, jobs, out)

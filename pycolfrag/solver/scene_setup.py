@@ -95,6 +95,12 @@ class Outputs:
         if self.h_en is not None:
             lib.cf_solver_set_history_connectors(solver, ptr(self.h_en), ptr(self.h_dowel))
 
+    def fill(self, cj) -> None:
+        """Point a cf_solver_batch_job at these buffers (a run in a batch's lane)."""
+        cj.out_columns = ptr(self.col); cj.out_beams = ptr(self.beam); cj.out_connectors = ptr(self.conn)
+        if self.h_en is not None:
+            cj.h_conn_energy = ptr(self.h_en); cj.h_conn = ptr(self.h_dowel)
+
     def report(self, r) -> dict:
         """The Response's scene attributes after the run whose result is r: ``columns``,
         ``epistyles``, ``dowels`` (dicts of arrays, None where the scene has no such part), the scene

@@ -14,7 +14,9 @@
  * a collapse and stiff joints (kn = ks = 1e10). After them (their lines unchanged): the
  * default column with a titanium dowel in every joint, and a two-column portal of it with an
  * epistyle (cf_solver_setup_scene: their own outputs and connector histories hashed too), each
- * alone and as a batch (one run after the other: no lane text) that must equal its runs alone.
+ * alone and as batches of every width the build and CPU run (the dowelled column in lanes, the
+ * portal one run after the other), whose every job, outputs and connector histories included,
+ * must equal its run alone.
  */
 #include <math.h>
 #include <stdio.h>
@@ -318,6 +320,8 @@ static int scene_job_make(const cf_solver *s, double f, int n, scene_job *jb, cf
     out[2] = p; p += (size_t)CF_SOLVER_COLUMN_OUT * nc;     /* outputs */
     out[3] = p; p += (size_t)CF_SOLVER_BEAM_OUT * (nb + 1);
     out[4] = p;
+    bj->h_conn_energy = out[0]; bj->h_conn = out[1];
+    bj->out_columns = out[2]; bj->out_beams = out[3]; bj->out_connectors = out[4];
     return 0;
 }
 
@@ -352,8 +356,10 @@ static unsigned long long scene_hash(const scene_job *jb, const cf_solver_batch_
     return hash_bytes(h, jb->buf, (with_outputs ? jb->nbuf : n_without) * sizeof(double));
 }
 
-/* A scene alone (one line), then a batch of 4 runs of it through cf_solver_batch_run, every one
- * bitwise its run alone in what a batch job carries (result, residual dislocations, histories). */
+/* A scene alone (one line), then batches of 4 runs of it through cf_solver_batch_run at every width
+ * the build and CPU run for it, every job bitwise its run alone in all it carries (result, residual
+ * dislocations, histories, the scene's outputs and connector histories). The line's hash is that of
+ * the runs alone without their outputs (as it was when the batch did not carry them). */
 static int scene_case(int which)
 {
     static const double amp[4] = {1.0, 0.6, 1.6, 0.3};
@@ -362,11 +368,11 @@ static int scene_case(int which)
     cf_solver_batch_job bj[4];
     cf_solver_batch_out o[4], a;
     double *out[4][5];
-    unsigned long long ref[4], all = 1469598103934665603ULL;
+    unsigned long long ref[4], full[4], all = 1469598103934665603ULL;
     size_t n_job[4];
     scene_def p;
     cf_solver *s = scene_setup(which, &p);
-    int i, bad = 0, w;
+    int i, bad = 0, w, widths[4] = {1, 2, 4, 8};
     if (!s || !jb) { free(jb); cf_solver_free(s); return 1; }
     for (i = 0; i < 4; i++) {
         if (scene_job_make(s, amp[i], len[i], &jb[i], &bj[i], out[i])) { bad = 1; break; }
@@ -380,18 +386,24 @@ static int scene_case(int which)
                    SCENE_NAMES[which], a.status, a.result.n_steps, a.result.u_top, a.result.u_d, a.result.energy_error,
                    a.result.collapsed, a.result.collapse_block, scene_hash(&jb[i], &a, 1, n_job[i]));
         ref[i] = scene_hash(&jb[i], &a, 0, n_job[i]);
+        full[i] = scene_hash(&jb[i], &a, 1, n_job[i]);
         all = hash_bytes(all, &ref[i], sizeof ref[i]);
     }
-    w = cf_solver_batch_max_width(s);
-    for (i = 0; i < 4 && !bad; i++) memset(jb[i].buf, 0, n_job[i] * sizeof(double));
-    memset(o, 0, sizeof o);
-    if (!bad && cf_solver_batch_run(s, 0, 4, bj, o)) { printf("%s: batch failed: %s\n", SCENE_NAMES[which], cf_solver_message(s)); bad = 1; }
-    for (i = 0; i < 4 && !bad; i++)
-        if (scene_hash(&jb[i], &o[i], 0, n_job[i]) != ref[i]) {
-            printf("MISMATCH %s: job %d, batch width %d\n", SCENE_NAMES[which], i, w);
+    for (w = 0; w < 4 && !bad; w++) {
+        if (widths[w] > cf_solver_batch_max_width(s)) continue;
+        for (i = 0; i < 4; i++) memset(jb[i].buf, 0, jb[i].nbuf * sizeof(double));
+        memset(o, 0, sizeof o);
+        if (cf_solver_batch_run(s, widths[w], 4, bj, o)) {
+            printf("%s: batch failed: %s\n", SCENE_NAMES[which], cf_solver_message(s));
             bad = 1;
         }
-    printf("%-14s batch of 4 (width %d) | hash %016llx\n", SCENE_NAMES[which], w, all);
+        for (i = 0; i < 4 && !bad; i++)
+            if (scene_hash(&jb[i], &o[i], 1, n_job[i]) != full[i]) {
+                printf("MISMATCH %s: job %d, batch width %d\n", SCENE_NAMES[which], i, widths[w]);
+                bad = 1;
+            }
+    }
+    printf("%-14s batch of 4 (every width) | hash %016llx\n", SCENE_NAMES[which], all);
     for (i = 0; i < 4; i++) free(jb[i].buf);
     free(jb);
     cf_solver_free(s);

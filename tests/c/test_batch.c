@@ -155,6 +155,224 @@ static void test_stop_takes_longest_first(void)
     cf_solver_free(s);
 }
 
+/* The column of column() with three connectors, one per law and both parts of the common law: an
+ * elastoplastic dowel off the base joint's centre (its force has a moment about the drums' centres)
+ * with an axial part, a clearance dowel in joint 1, an elastoplastic one in joint 2 that breaks. */
+static cf_solver *dowelled(int early_exit)
+{
+    cf_geometry_segment seg[NB];
+    int nseg[NB], i;
+    double kn[NB], ks[NB], mu[NB];
+    cf_solver_scene_column col;
+    cf_solver_connector c[3];
+    cf_solver_scene sc;
+    cf_solver_def def;
+    cf_solver *s = cf_solver_create();
+    for (i = 0; i < NB; i++) {
+        seg[i].height = 1.0; seg[i].r_bottom = 0.5; seg[i].r_top = 0.5; seg[i].phase_rad = 0.0;
+        seg[i].n_sides = 8; nseg[i] = 1; kn[i] = 1e9; ks[i] = 1e9; mu[i] = 0.7;
+    }
+    memset(c, 0, sizeof c);
+    for (i = 0; i < 3; i++) {
+        c[i].joint = i; c[i].k_shear = 1e7; c[i].f_yield = 4e3; c[i].u_ultimate = 0.03;
+        c[i].n_yield = INFINITY; c[i].d_ultimate = INFINITY;
+    }
+    c[0].kind = CF_SOLVER_CONNECTOR_ELASTOPLASTIC; c[0].x = 0.2; c[0].y = -0.1; c[0].k_axial = 5e6;
+    c[0].n_yield = 2e3; c[0].d_ultimate = 0.05;
+    c[1].kind = CF_SOLVER_CONNECTOR_CLEARANCE; c[1].law[0] = 0.0005;
+    c[2].kind = CF_SOLVER_CONNECTOR_ELASTOPLASTIC; c[2].u_ultimate = 0.002;
+    memset(&col, 0, sizeof col);
+    col.n_blocks = NB;
+    memset(&sc, 0, sizeof sc);
+    sc.n_columns = 1; sc.columns = &col; sc.n_segments = nseg; sc.segments = seg; sc.density = 2500.0;
+    sc.kn = kn; sc.ks = ks; sc.mu = mu; sc.n_connectors = 3; sc.connectors = c;
+    cf_solver_def_default(&def);
+    def.early_exit = early_exit; def.tail_s = 0.5;
+    if (!s || cf_solver_setup_scene(s, &def, &sc)) { cf_solver_free(s); return NULL; }
+    return s;
+}
+
+/* What a dowelled job writes besides its result: residual dislocations, its connectors' outputs,
+ * the energy history and the connectors' histories (stored and dissipated energy, and per connector
+ * |u|, |F| and the axial force) */
+enum { DW_CAP = 64, DW_OUT = NB + 3 * CF_SOLVER_CONNECTOR_OUT + DW_CAP * (1 + CF_SOLVER_N_ENERGY + 2 + 9) };
+
+static void dowelled_job(cf_solver_batch_job *jb, double *acc, int n, double *o)
+{
+    memset(jb, 0, sizeof *jb);
+    jb->acc_x = acc; jb->n = n; jb->dt_rec = 0.01;
+    jb->residual_dislocation = o;
+    jb->out_connectors = o + NB;
+    jb->history_capacity = DW_CAP;
+    jb->h_t = o + NB + 3 * CF_SOLVER_CONNECTOR_OUT;
+    jb->h_energy = jb->h_t + DW_CAP;
+    jb->h_conn_energy = jb->h_energy + DW_CAP * CF_SOLVER_N_ENERGY;
+    jb->h_conn = jb->h_conn_energy + 2 * DW_CAP;
+}
+
+/* A column with connectors runs in lanes (the widest of the CPU and build), and every run of every
+ * width -- lanes refilled, connectors reset for each run -- is bitwise its single run in everything
+ * it writes: the connectors' forces enter each lane's sums where the single run adds them (after the
+ * contacts), so a lane whose connectors were skipped, stepped twice, stepped before the contacts or
+ * not reset would differ. The connectors act (they yield and one breaks): the equality is not that
+ * of connectors that carry nothing. */
+static void test_dowelled_runs(void)
+{
+    static const double amp[NJ] = {0.6, 0.2, 0.9, 0.4, 0.7, 0.3};
+    static const int len[NJ] = {NREC, 120, NREC, 200, 60, NREC};
+    static double acc[NJ][NREC], o[NJ][DW_OUT], ref_o[NJ][DW_OUT];
+    cf_solver_batch_job jobs[NJ];
+    cf_solver_batch_out out[NJ], ref[NJ];
+    cf_solver *s = dowelled(0);
+    int i, w, yielded = 0, broken = 0;
+    CF_CHECK(s != NULL);
+    if (!s) return;
+    {   /* in lanes as wide as the free column's */
+        cf_solver *free_col = column(CF_SOLVER_CONTACT_VERTEX, 0);
+        CF_CHECK(free_col && cf_solver_batch_max_width(s) == cf_solver_batch_max_width(free_col));
+        cf_solver_free(free_col);
+    }
+    for (i = 0; i < NJ; i++) {
+        cf_solver *one = dowelled(0);
+        cf_solver_batch_job r;
+        burst(amp[i], acc[i]);
+        dowelled_job(&jobs[i], acc[i], len[i], o[i]);
+        dowelled_job(&r, acc[i], len[i], ref_o[i]);
+        memset(&ref[i], 0, sizeof ref[i]);
+        CF_CHECK(one != NULL);
+        if (!one) continue;
+        cf_solver_set_history(one, DW_CAP, r.h_t, NULL, NULL, NULL, NULL, NULL, r.h_energy);
+        cf_solver_set_history_connectors(one, r.h_conn_energy, r.h_conn);
+        cf_solver_set_outputs(one, NULL, NULL, r.out_connectors);
+        ref[i].status = cf_solver_run(one, acc[i], NULL, NULL, len[i], 0.01, r.residual_dislocation, &ref[i].result);
+        strcpy(ref[i].message, cf_solver_message(one));
+        yielded += ref_o[i][NB + 3] > 0.5 || ref_o[i][NB + CF_SOLVER_CONNECTOR_OUT + 3] > 0.5;
+        broken += ref_o[i][NB + 2 * CF_SOLVER_CONNECTOR_OUT + 4] > 0.5;
+        cf_solver_free(one);
+    }
+    CF_CHECK(ref[0].status == CF_OK && yielded > 0 && broken > 0);
+    for (w = 1; w <= cf_solver_batch_max_width(s); w *= 2) {
+        memset(out, 0xff, sizeof out);
+        memset(o, 0, sizeof o);
+        CF_CHECK(cf_solver_batch_run(s, w, NJ, jobs, out) == CF_OK);
+        for (i = 0; i < NJ; i++) {
+            CF_CHECK(out[i].status == ref[i].status);
+            CF_CHECK(strcmp(out[i].message, ref[i].message) == 0);
+            CF_CHECK(memcmp(&out[i].result, &ref[i].result, sizeof ref[i].result) == 0);
+            CF_CHECK(memcmp(o[i], ref_o[i], sizeof o[i]) == 0);
+        }
+    }
+    cf_solver_free(s);
+}
+
+/* Two columns of column()'s drums 3 m apart with a beam 4 x 1 x 0.8 m on both capitals: a scene of
+ * several columns and a beam */
+static cf_solver *portal(void)
+{
+    cf_geometry_segment seg[2 * NB];
+    int nseg[2 * NB], i;
+    double kn[2 * NB], ks[2 * NB], mu[2 * NB];
+    cf_solver_scene_column col[2];
+    cf_solver_scene_beam beam;
+    cf_solver_scene_bearing bear[2];
+    cf_solver_scene sc;
+    cf_solver_def def;
+    cf_solver *s = cf_solver_create();
+    for (i = 0; i < 2 * NB; i++) {
+        seg[i].height = 1.0; seg[i].r_bottom = 0.5; seg[i].r_top = 0.5; seg[i].phase_rad = 0.0;
+        seg[i].n_sides = 8; nseg[i] = 1; kn[i] = 1e9; ks[i] = 1e9; mu[i] = 0.7;
+    }
+    memset(col, 0, sizeof col); memset(&beam, 0, sizeof beam); memset(bear, 0, sizeof bear); memset(&sc, 0, sizeof sc);
+    beam.length = 4.0; beam.width = 1.0; beam.height = 0.8; beam.density = 2500.0;
+    for (i = 0; i < 2; i++) {
+        col[i].x = i == 0 ? -1.5 : 1.5; col[i].n_blocks = NB;
+        bear[i].beam = 0; bear[i].column = i; bear[i].x = col[i].x; bear[i].side = 0.6;
+        bear[i].kn = 1e9; bear[i].ks = 1e9; bear[i].mu = 0.7;
+    }
+    sc.n_columns = 2; sc.columns = col; sc.n_segments = nseg; sc.segments = seg; sc.density = 2500.0;
+    sc.kn = kn; sc.ks = ks; sc.mu = mu; sc.n_beams = 1; sc.beams = &beam; sc.n_bearings = 2; sc.bearings = bear;
+    cf_solver_def_default(&def);
+    def.early_exit = 0; def.tail_s = 0.5;
+    if (!s || cf_solver_setup_scene(s, &def, &sc)) { cf_solver_free(s); return NULL; }
+    return s;
+}
+
+/* What a portal's job writes besides its result: residual dislocations, its columns' and beam's
+ * outputs, the histories of every block and joint */
+enum { PT_CAP = 48, PT_NBLK = 2 * NB + 1, PT_NJ = 2 * NB + 2,
+       PT_OUT = PT_NJ + 2 * CF_SOLVER_COLUMN_OUT + CF_SOLVER_BEAM_OUT
+                + PT_CAP * (1 + 2 + 7 * PT_NBLK + 4 * PT_NJ + CF_SOLVER_N_ENERGY) };
+
+static void portal_job(cf_solver_batch_job *jb, double *acc, int n, double *o)
+{
+    memset(jb, 0, sizeof *jb);
+    jb->acc_x = acc; jb->n = n; jb->dt_rec = 0.01;
+    jb->residual_dislocation = o; o += PT_NJ;
+    jb->out_columns = o; o += 2 * CF_SOLVER_COLUMN_OUT;
+    jb->out_beams = o; o += CF_SOLVER_BEAM_OUT;
+    jb->history_capacity = PT_CAP;
+    jb->h_t = o; o += PT_CAP;
+    jb->h_top = o; o += 2 * PT_CAP;
+    jb->h_pos = o; o += 3 * PT_CAP * PT_NBLK;
+    jb->h_quat = o; o += 4 * PT_CAP * PT_NBLK;
+    jb->h_open = o; o += PT_CAP * PT_NJ;
+    jb->h_slip = o; o += 2 * PT_CAP * PT_NJ;
+    jb->h_normal = o; o += PT_CAP * PT_NJ;
+    jb->h_energy = o;
+}
+
+/* A scene of several columns and a beam runs in lanes too (each lane's monitor on a view of every
+ * body), every run of every width bitwise its single run in all it writes: a lane whose monitor read
+ * only one column's top would differ in the other column's and the beam's outputs. */
+static void test_portal_runs(void)
+{
+    static const double amp[NJ] = {0.6, 0.2, 0.9, 0.4, 0.7, 0.3};
+    static const int len[NJ] = {NREC, 120, NREC, 200, 60, NREC};
+    static double acc[NJ][NREC], o[NJ][PT_OUT], ref_o[NJ][PT_OUT];
+    cf_solver_batch_job jobs[NJ];
+    cf_solver_batch_out out[NJ], ref[NJ];
+    cf_solver *s = portal();
+    int i, w, nc, nb, nd, nblk, nj;
+    CF_CHECK(s != NULL);
+    if (!s) return;
+    cf_solver_counts(s, &nc, &nb, &nd, &nblk, &nj);
+    CF_CHECK(nc == 2 && nb == 1 && nblk == PT_NBLK && nj == PT_NJ);
+    {   /* in lanes as wide as a column's */
+        cf_solver *free_col = column(CF_SOLVER_CONTACT_VERTEX, 0);
+        CF_CHECK(free_col && cf_solver_batch_max_width(s) == cf_solver_batch_max_width(free_col));
+        cf_solver_free(free_col);
+    }
+    for (i = 0; i < NJ; i++) {
+        cf_solver *one = portal();
+        cf_solver_batch_job r;
+        burst(amp[i], acc[i]);
+        portal_job(&jobs[i], acc[i], len[i], o[i]);
+        portal_job(&r, acc[i], len[i], ref_o[i]);
+        memset(&ref[i], 0, sizeof ref[i]);
+        CF_CHECK(one != NULL);
+        if (!one) continue;
+        cf_solver_set_history(one, PT_CAP, r.h_t, r.h_top, r.h_pos, r.h_quat, r.h_open, r.h_slip, r.h_energy);
+        cf_solver_set_history_normal(one, r.h_normal);
+        cf_solver_set_outputs(one, r.out_columns, r.out_beams, NULL);
+        ref[i].status = cf_solver_run(one, acc[i], NULL, NULL, len[i], 0.01, r.residual_dislocation, &ref[i].result);
+        strcpy(ref[i].message, cf_solver_message(one));
+        cf_solver_free(one);
+    }
+    CF_CHECK(ref[0].status == CF_OK && ref_o[0][PT_NJ + 2 * CF_SOLVER_COLUMN_OUT] > 0.0);   /* the beam slid */
+    for (w = 1; w <= cf_solver_batch_max_width(s); w *= 2) {
+        memset(out, 0xff, sizeof out);
+        memset(o, 0, sizeof o);
+        CF_CHECK(cf_solver_batch_run(s, w, NJ, jobs, out) == CF_OK);
+        for (i = 0; i < NJ; i++) {
+            CF_CHECK(out[i].status == ref[i].status);
+            CF_CHECK(strcmp(out[i].message, ref[i].message) == 0);
+            CF_CHECK(memcmp(&out[i].result, &ref[i].result, sizeof ref[i].result) == 0);
+            CF_CHECK(memcmp(o[i], ref_o[i], sizeof o[i]) == 0);
+        }
+    }
+    cf_solver_free(s);
+}
+
 static void test_vertex_runs(void) { check_equal(CF_SOLVER_CONTACT_VERTEX, 1); }
 static void test_vertex_full_runs(void) { check_equal(CF_SOLVER_CONTACT_VERTEX, 0); }
 static void test_exact_runs(void) { check_equal(CF_SOLVER_CONTACT_EXACT, 1); }
@@ -165,6 +383,8 @@ int main(void)
     CF_RUN(test_vertex_runs);
     CF_RUN(test_vertex_full_runs);
     CF_RUN(test_exact_runs);
+    CF_RUN(test_dowelled_runs);
+    CF_RUN(test_portal_runs);
     CF_RUN(test_stop_takes_longest_first);
     return CF_TEST_SUMMARY("batch");
 }
