@@ -49,6 +49,7 @@ from multiprocessing import Pool
 import numpy as np
 
 import pycolfrag as pcf
+from pycolfrag.grid.schedule import cpu_model
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
@@ -64,16 +65,7 @@ DET_DT = 2.5e-4          # the deterministic window's common step (s): about 0.2
 DET_T_PRE = 0.40         # s: the first impact of the 0.25 g, 2 Hz sine comes after ~0.45 s
 
 
-def cpu_name() -> str:
-    """The CPU's model name (/proc/cpuinfo), else platform's."""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
+cpu_name = cpu_model   # the grid's own (a timing names its CPU)
 
 
 def ensembles(n_pert: int, n_rec: int, n_strong: int) -> dict:

@@ -17,7 +17,7 @@
  * now the runs of one joint), CF_LAW_TRIAL / CF_LAW_TERMS of contact_law.h for a point
  * that stays in sticking contact, cf_point_law_at on the lane's own state for any
  * other point, the connectors' step of solver_connectors.c (after the contacts, as
- * cf_solver_step_contacts: its geometry on lane vectors, cf_solver_connector_law_step per lane),
+ * cf_solver_step_contacts: its geometry on lane vectors, cf_solver_connectors_law_step per lane),
  * and cf_solver_run_pre / _post / _finish for the control of each run.
  * Sums stay per lane, in the single run's order (a lane adds exact +0.0 where the
  * single run adds nothing: a sum that starts at +0.0 never becomes -0.0, so this
@@ -321,7 +321,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
 /* 2b. the connectors after the contacts, as cf_solver_step_contacts, connector by connector: the
  * displacement of its ends and its force on the bodies on lane vectors with the operations of
  * cf_solver_connectors_step (solver_math_internal.h's helpers: every lane the single run's bits), its
- * law per running lane by the single run's text (cf_solver_connector_law_step on the lane's own
+ * law per running lane by the single run's text (cf_solver_connectors_law_step on the lane's own
  * connectors); a lane whose connector carries nothing adds nothing (a select, as the single run skips
  * it). The connectors' fixed data (definitions, ends, rest offsets) are every lane's: s's. */
 static void CF_BN(connectors)(const cf_solver *s, CF_BN(batch) *B, cf_step_energy *e)
@@ -351,7 +351,7 @@ static void CF_BN(connectors)(const cf_solver *s, CF_BN(batch) *B, cf_step_energ
             double u[3];
             if (B->job[l] < 0) continue;
             u[0] = d[0][l]; u[1] = d[1][l]; u[2] = d[2][l];
-            if (cf_solver_connector_law_step(B->conn[l], i, u, t[l], &e[l])) {
+            if (cf_solver_connectors_law_step(B->conn[l], i, u, t[l], &e[l])) {
                 const double *fl = B->conn[l]->st[i].f;
                 f[0][l] = fl[0]; f[1][l] = fl[1]; f[2][l] = fl[2];
                 on[l] = -1;
@@ -488,10 +488,10 @@ static void CF_BN(stop)(CF_BN(batch) *B, const cf_solver_batch_job *jobs, cf_sol
  * each refilled at the next multiple of CF_LEDGER_STEPS after its run ends. */
 static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs, cf_solver_batch_out *out)
 {
-    CF_BN(batch) *B;
-    cf_joint_chunk *C;
-    unsigned char *raw;
-    int *order;
+    CF_BN(batch) *B = NULL;   /* set by open (GCC cannot see it through the inlined call) */
+    cf_joint_chunk *C = NULL;
+    unsigned char *raw = NULL;
+    int *order = NULL;
     cf_chunk_before_fn before;
     cf_chunk_after_fn after;
     int l, next = 0, active;

@@ -217,7 +217,7 @@ void cf_solver_connectors_springs(const cf_solver *s, const cf_connectors *c, in
  * acts on the bodies), 0 when it is. The one text of a connector's step for a run (below) and for
  * each lane of a batch (solver_batch_lanes.h, which computes u and applies the force on lane vectors
  * with the operations of this file). */
-int cf_solver_connector_law_step(cf_connectors *c, int i, const double *u, double t, cf_step_energy *e)
+int cf_solver_connectors_law_step(cf_connectors *c, int i, const double *u, double t, cf_step_energy *e)
 {
     cf_connector_state *st = &c->st[i];
     int was_broken = st->broken;
@@ -250,7 +250,7 @@ void cf_solver_connectors_step(cf_solver *s, cf_connectors *c, cf_step_energy *e
         double d[3], u[3], pu[3], pl[3], F[3], r[3], q[3];
         relative(s, c, i, s->x, s->R, d, pu, pl);
         for (k = 0; k < 3; k++) u[k] = d[k] - c->rest[3 * i + k];
-        if (!cf_solver_connector_law_step(c, i, u, t, e)) continue;
+        if (!cf_solver_connectors_law_step(c, i, u, t, e)) continue;
         mat_vec(s->R + 9 * bl, c->st[i].f, F);
         for (k = 0; k < 3; k++) r[k] = pu[k] - s->x[3 * bu + k];
         v3_cross(r, F, q);

@@ -334,7 +334,7 @@ void cf_solver_connectors_free(cf_connectors *c);
 cf_connectors *cf_solver_connectors_clone(const cf_connectors *c);
 void cf_solver_connectors_springs(const struct cf_solver *s, const cf_connectors *c, int i, cf_springs *K);
 void cf_solver_connectors_step(struct cf_solver *s, cf_connectors *c, cf_step_energy *e);
-int cf_solver_connector_law_step(cf_connectors *c, int i, const double *u, double t, cf_step_energy *e);
+int cf_solver_connectors_law_step(cf_connectors *c, int i, const double *u, double t, cf_step_energy *e);
 void cf_solver_connectors_report(const cf_connectors *c, double *out);
 void cf_solver_connectors_sample(const cf_connectors *c, double *out);
 

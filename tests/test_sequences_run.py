@@ -66,6 +66,20 @@ def _run(args, ranks=1):
     return subprocess.run(_cmd(args, ranks), capture_output=True, text=True, env=_env(), cwd=ROOT, timeout=300)
 
 
+def _stopped(args, journal: Path, lines: int):
+    """The command started, sent SIGTERM once ``journal`` has ``lines`` lines: (the process, its output)."""
+    proc = subprocess.Popen(_cmd(args), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=_env(),
+                            cwd=ROOT)
+    t0 = time.time()
+    while proc.poll() is None and time.time() - t0 < 120:
+        if journal.exists() and journal.read_text().count("\n") >= lines:
+            break
+        time.sleep(0.01)
+    assert proc.poll() is None, "the run ended before it could be stopped"
+    proc.send_signal(signal.SIGTERM)
+    return proc, proc.communicate(timeout=120)[0]
+
+
 def _journal(out: Path) -> dict:
     """The journal's sequences by index, as their JSON lines without the wall time."""
     lines = (out / sr.JOURNAL).read_text().splitlines()[1:]
@@ -158,17 +172,7 @@ def test_sigterm_stops_after_the_running_sequence_and_the_rerun_completes(site_f
     gives the journal of an uninterrupted run."""
     out, whole = tmp_path / "stopped", tmp_path / "whole"
     args = ["--n", "30"] + ARGS
-    proc = subprocess.Popen(_cmd([str(site_file), str(out)] + args), stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, env=_env(), cwd=ROOT)
-    t0 = time.time()
-    while proc.poll() is None and time.time() - t0 < 120:
-        j = out / sr.JOURNAL
-        if j.exists() and j.read_text().count("\n") >= 3:
-            break
-        time.sleep(0.01)
-    assert proc.poll() is None, "the run ended before it could be stopped"
-    proc.send_signal(signal.SIGTERM)
-    text = proc.communicate(timeout=120)[0]
+    proc, text = _stopped([str(site_file), str(out)] + args, out / sr.JOURNAL, 3)
     assert proc.returncode == 75 and "rerun the same command" in text, text
     assert not (out / "summary.json").exists()
     kept = _journal(out)
@@ -222,17 +226,7 @@ def test_rare_rows_are_the_in_process_estimators(site_file, rare_reference, tmp_
 
 def test_rare_sigterm_then_resume_gives_the_uninterrupted_rows(site_file, rare_reference, tmp_path):
     out = tmp_path / "stopped"
-    proc = subprocess.Popen(_cmd([str(site_file), str(out)] + ARGS + RARE), stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, env=_env(), cwd=ROOT)
-    t0 = time.time()
-    while proc.poll() is None and time.time() - t0 < 120:
-        j = out / "rows.jsonl"
-        if j.exists() and j.read_text().count("\n") >= 9:
-            break
-        time.sleep(0.01)
-    assert proc.poll() is None, "the run ended before it could be stopped"
-    proc.send_signal(signal.SIGTERM)
-    text = proc.communicate(timeout=120)[0]
+    proc, text = _stopped([str(site_file), str(out)] + ARGS + RARE, out / "rows.jsonl", 9)
     assert proc.returncode == 75, text
     assert not (out / "rare_summary.json").exists()
     p = _run([str(site_file), str(out)] + ARGS + RARE)

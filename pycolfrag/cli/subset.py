@@ -28,6 +28,7 @@ from pycolfrag.core.version import __version__
 from pycolfrag.ground_motion import registry
 from pycolfrag.rare import subset as sus
 from pycolfrag.rare.subset_mpi import MPIEvaluator
+from pycolfrag.risk.simulate import solver_options_of
 from pycolfrag.structure.column import Column
 
 __all__ = ["build_parser", "main", "KIND", "EXIT_OK", "EXIT_ARGS", "EXIT_STOPPED", "EXIT_OS_ERROR"]
@@ -89,18 +90,6 @@ def _level(text: str) -> float:
     return v
 
 
-def _solver_options(items) -> dict:
-    opts: dict = {}
-    for kv in items or ():
-        k, sep, v = kv.partition("=")
-        if not sep or not k.strip():
-            raise ParameterError(f"--solver expects KEY=VALUE, got {kv!r}")
-        try:
-            opts[k.strip().replace("-", "_")] = json.loads(v.strip())
-        except ValueError:
-            opts[k.strip().replace("-", "_")] = v.strip()
-    return opts
-
 
 def problem_from_args(args) -> tuple[sus.SubsetProblem, list[float]]:
     """The problem (its threshold the highest level) and the levels, lowest first; ParameterError naming
@@ -118,7 +107,7 @@ def problem_from_args(args) -> tuple[sus.SubsetProblem, list[float]]:
         raise ParameterError(f"--processes must be >= 1, got {args.processes}")
     col = Column.from_file(args.column) if args.column else Column.parthenon()
     prob = sus.SubsetProblem(col, args.mw, args.dist, edp=args.edp, threshold=levels[-1], shape=args.pulse,
-                             dt_s=args.record_dt, vp_scale=args.vp_scale, solver_options=_solver_options(args.solver))
+                             dt_s=args.record_dt, vp_scale=args.vp_scale, solver_options=solver_options_of(args.solver))
     sus._settings(args.n, args.p0, args.max_levels, args.seed, args.confidence)   # refused here, before any run
     if args.vp_scale <= 0 or not math.isfinite(args.vp_scale):
         raise ParameterError(f"--vp-scale must be > 0, got {args.vp_scale}")

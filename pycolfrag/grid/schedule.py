@@ -185,11 +185,12 @@ def _timeline_attrs(started: str, epoch: float, size: int, lanes: int, run, work
     launcher = ("srun" if "SLURM_STEP_ID" in os.environ else "mpirun" if "OMPI_COMM_WORLD_SIZE" in os.environ
                 else "mpiexec" if "PMI_SIZE" in os.environ or "PMIX_RANK" in os.environ else "")
     return {"started": started, "epoch_unix": epoch, "n_ranks": size, "hosts": [socket.gethostname()] * size,
-            "cpu": _cpu_model(), "mpi": mpi, "launcher": launcher, "lanes": lanes, "chunk_max": run.chunk_max,
+            "cpu": cpu_model(), "mpi": mpi, "launcher": launcher, "lanes": lanes, "chunk_max": run.chunk_max,
             "rank0_works": bool(works), "flush_s": run.flush_s}
 
 
-def _cpu_model() -> str:
+def cpu_model() -> str:
+    """The CPU's model name (/proc/cpuinfo), else platform's: what a timing was measured on."""
     try:
         with open("/proc/cpuinfo") as fh:
             for line in fh:

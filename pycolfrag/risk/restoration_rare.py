@@ -35,9 +35,7 @@ from pycolfrag.core.errors import ParameterError, PycolfragError, ResultsFileErr
 from pycolfrag.core.help import HelpFormatter
 from pycolfrag.grid import get_comm
 from pycolfrag.grid.probes import check_solver_options
-from pycolfrag.rare.estimate import WeightError
-from pycolfrag.rare.evaluator import BatchStopped
-from pycolfrag.rare.paired import GroupEvaluator, serve_groups, sigterm_stops_all, simulate_paired
+from pycolfrag.rare.paired import GroupEvaluator, serve_groups
 from pycolfrag.risk import simulate as _sim
 from pycolfrag.risk.paired_difference import paired_differences
 
@@ -195,23 +193,10 @@ def _simulate(a, p, comm, size, log, command):
         serve_groups(evs)
         return _sim.EXIT_OK, None
     names = [alt.key for alt in p["alternatives"]]
-    try:
-        with sigterm_stops_all(evs):
-            from pycolfrag.risk.grid_route import QUANTITIES
-            runs = simulate_paired(p["site"], p["settings"], p["stop"], evs, QUANTITIES, log=log, names=names)
-    except BatchStopped as exc:
-        log(f"restoration: {exc}; every finished run is in {a.simulate}: rerun the same command to compute the rest "
-            f"(exit {_sim.EXIT_DRAINED})")
-        evs[0].close()
-        return _sim.EXIT_DRAINED, None
-    except (ResultsFileError, ParameterError, WeightError, OSError) as exc:
-        code = _sim._failed(exc, comm, size, log)
-        evs[0].close()
+    from pycolfrag.risk.grid_route import QUANTITIES
+    code, runs = _sim.run_paired(p, evs, QUANTITIES, comm, size, log, "restoration", a.simulate, names)
+    if code is not None:
         return code, None
-    except (SystemExit, KeyboardInterrupt) as exc:
-        _sim.abort_on_interrupt(exc, comm, size, log, "restoration", a.simulate)
-        raise
-    evs[0].close()
     codes = [_sim._exit_code(r, lambda s, n=n: log(f"[{n}] {s}")) for r, n in zip(runs, names)]
     code = next((c for c in (_sim.EXIT_UNRESOLVED, _sim.EXIT_NOT_CONVERGED) if c in codes), _sim.EXIT_OK)
     return code, runs

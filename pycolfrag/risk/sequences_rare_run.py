@@ -14,13 +14,11 @@ from __future__ import annotations
 import signal
 from pathlib import Path
 
-from pycolfrag.core.errors import PycolfragError, ResultsFileError
 from pycolfrag.grid.serve import EXIT_DRAINED
 from pycolfrag.rare.plans import PulseMap
 from pycolfrag.rare.strata import build_strata
-from pycolfrag.results.lock import ResultsLockedError, RunLock
 from pycolfrag.risk import sequences_rare as rare
-from pycolfrag.risk.sequences_run import EXIT_ARGS, EXIT_LOCKED, EXIT_OK, EXIT_OS_ERROR, Journal, identity, read_lines
+from pycolfrag.risk.sequences_journal import EXIT_OK, identity, open_journal
 from pycolfrag.site.sources import load_site
 
 __all__ = ["ROWS", "CHUNK_PER_RANK", "run_rare_folder"]
@@ -48,28 +46,15 @@ def run_rare_folder(site_path, model, rs: rare.RareSequenceSettings, folder, com
     folder = Path(folder)
     site = load_site(site_path)
     ident = {**identity(site_path, model, rs.sequences), "rare": rare.settings_dict(rs)}
-    lock = journal = None
+    lock = journal = error = None
     entries: list = []
-    error = None
     if rank == 0:
-        path = folder / ROWS
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-            lock = RunLock.acquire(path, log=log)
-            entries = read_lines(path, ident, log)
-            journal = Journal(path, ident, fresh=not path.exists() or path.stat().st_size == 0)
-        except ResultsLockedError as exc:
-            error = (EXIT_LOCKED, str(exc))
-        except (PycolfragError, ResultsFileError) as exc:
-            error = (EXIT_ARGS, str(exc))
-        except OSError as exc:
-            error = (EXIT_OS_ERROR, str(exc))
+        lock, entries, journal, error = open_journal(folder / ROWS, ident, log)
+        entries = entries or []
     if comm is not None:
         error, entries = comm.bcast((error, entries), root=0)
     if error is not None:
         log(f"sequences: {error[1]}")
-        if lock is not None:
-            lock.release()
         return error[0], None
     done = entries
     strata = build_strata(site)

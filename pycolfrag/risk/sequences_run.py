@@ -23,24 +23,19 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import hashlib
 import json
 import math
-import os
 import signal
 import sys
 import time
 from pathlib import Path
 
-from pycolfrag.core.errors import ParameterError, PycolfragError, ResultsFileError
+from pycolfrag.core.errors import ParameterError, PycolfragError
 from pycolfrag.core.help import HelpFormatter
-from pycolfrag.core.version import __version__
 from pycolfrag.grid import get_comm
 from pycolfrag.grid.serve import EXIT_DRAINED
-from pycolfrag.grid.signing import library_digest
 from pycolfrag.rare.plans import PulseMap
 from pycolfrag.rare.strata import build_strata
-from pycolfrag.results.lock import ResultsLockedError, RunLock
 from pycolfrag.risk.sequences import (
     DEFAULT_SEED,
     SequenceOutcome,
@@ -50,6 +45,15 @@ from pycolfrag.risk.sequences import (
     run_one,
     sequence_events,
     summarize,
+)
+from pycolfrag.risk.sequences_journal import (
+    EXIT_ARGS,
+    EXIT_LOCKED,
+    EXIT_OK,
+    EXIT_OS_ERROR,
+    identity,
+    open_journal,
+    read_lines,
 )
 from pycolfrag.site.sources import load_site
 from pycolfrag.solver.sequence import Restoration
@@ -61,18 +65,7 @@ __all__ = ["JOURNAL", "EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "E
 
 #: The journal's name in the output folder.
 JOURNAL = "sequences.jsonl"
-EXIT_OK, EXIT_ARGS, EXIT_OS_ERROR, EXIT_LOCKED = 0, 2, 4, 5
 _TAG_DONE, _TAG_OUTCOME = 11, 12
-
-
-def identity(site_path, model, st: SequenceSettings) -> dict:
-    """What a journal's sequences are of (see the module's text); ``n_sequences`` is not part of it."""
-    settings = {f.name: getattr(st, f.name) for f in dataclasses.fields(st) if f.name != "n_sequences"}
-    settings["restoration"] = dataclasses.asdict(st.restoration)
-    settings["settle"] = dataclasses.asdict(st.settle)
-    return json.loads(json.dumps({
-        "site_sha256": hashlib.sha256(Path(site_path).read_bytes()).hexdigest(), "structure": model.to_dict(),
-        "settings": settings, "version": __version__, "library_digest": library_digest()}, default=float))
 
 
 def outcome_to_dict(o: SequenceOutcome, seconds: float) -> dict:
@@ -90,52 +83,6 @@ def outcome_from_dict(d: dict) -> tuple[SequenceOutcome, float]:
     return SequenceOutcome(**d), seconds
 
 
-def _differences(a: dict, b: dict, where: str = "") -> list:
-    keys = sorted(set(a) | set(b))
-    out = []
-    for k in keys:
-        x, y = a.get(k), b.get(k)
-        if isinstance(x, dict) and isinstance(y, dict):
-            out += _differences(x, y, f"{where}{k}.")
-        elif x != y and not (isinstance(x, float) and isinstance(y, float) and math.isnan(x) and math.isnan(y)):
-            out.append(f"{where}{k}: {x!r} in the journal, {y!r} now")
-    return out
-
-
-def read_lines(path: Path, ident: dict, log) -> list:
-    """The entries of a journal after its identity line (dicts); an absent journal has none. Refused
-    (:class:`ParameterError`) when its identity is not ``ident``; a torn last line is cut off."""
-    if not path.exists():
-        return []
-    raw = path.read_bytes()
-    lines = raw.split(b"\n")
-    if lines and lines[-1] == b"":
-        lines.pop()
-    elif lines:   # no newline after the last line: a write cut short
-        log(f"sequences: {path}: its last line was cut short (a run stopped while writing it); dropped")
-        with open(path, "r+b") as f:
-            f.truncate(len(raw) - len(lines[-1]))
-        lines.pop()
-    if not lines:
-        return []
-    try:
-        head = json.loads(lines[0])
-        found = head["identity"]
-    except (ValueError, KeyError, TypeError):
-        raise ParameterError(f"{path} is not a sequences journal: give another folder") from None
-    diff = _differences(found, ident)
-    if diff:
-        raise ParameterError(f"{path} holds the sequences of another run ({'; '.join(diff[:4])}"
-                             f"{'; ...' if len(diff) > 4 else ''}): give another folder")
-    out = []
-    for i, line in enumerate(lines[1:], start=2):
-        try:
-            out.append(json.loads(line))
-        except ValueError as exc:
-            raise ParameterError(f"{path}, line {i}: damaged ({exc}): give another folder") from None
-    return out
-
-
 def read_journal(path: Path, ident: dict, log) -> dict:
     """The finished sequences of a journal (index -> (outcome, seconds)); see :func:`read_lines`."""
     done = {}
@@ -146,32 +93,6 @@ def read_journal(path: Path, ident: dict, log) -> dict:
             raise ParameterError(f"{path}, line {i}: damaged ({exc}): give another folder") from None
         done[o.sequence] = (o, sec)
     return done
-
-
-class Journal:
-    """Rank 0's journal: one line per sequence, flushed and synced before the next is taken."""
-
-    def __init__(self, path: Path, ident: dict, fresh: bool):
-        self.f = open(path, "a", encoding="utf-8")
-        if fresh:
-            self._write({"pycolfrag_sequences": 1, "identity": ident})
-
-    def _write(self, d: dict) -> None:
-        self.f.write(json.dumps(d) + "\n")
-        self.f.flush()
-        os.fsync(self.f.fileno())
-
-    def add(self, o: SequenceOutcome, seconds: float) -> None:
-        self._write(outcome_to_dict(o, seconds))
-
-    def add_rows(self, rows: list) -> None:
-        """Rows of the rare sequences, one line each, synced once."""
-        self.f.write("".join(json.dumps(r) + "\n" for r in rows))
-        self.f.flush()
-        os.fsync(self.f.fileno())
-
-    def close(self) -> None:
-        self.f.close()
 
 
 class _Stop:
@@ -215,31 +136,17 @@ def run_folder(site_path, model, st: SequenceSettings, folder, comm=None, log=pr
     folder = Path(folder)
     site = load_site(site_path)
     ident = identity(site_path, model, st)
-    lock = journal = None
+    lock = journal = error = None
     done: dict = {}
-    error = None
     if rank == 0:
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-            lock = RunLock.acquire(folder / JOURNAL, log=log)
-            done = read_journal(folder / JOURNAL, ident, log)
-            path = folder / JOURNAL
-            journal = Journal(path, ident, fresh=not path.exists() or path.stat().st_size == 0)
-        except ResultsLockedError as exc:
-            error = (EXIT_LOCKED, str(exc))
-        except (PycolfragError, ResultsFileError) as exc:
-            error = (EXIT_ARGS, str(exc))
-        except OSError as exc:
-            error = (EXIT_OS_ERROR, str(exc))
+        lock, done, journal, error = open_journal(folder / JOURNAL, ident, log, read=read_journal)
+        done = done or {}
     if comm is not None:
         error, finished = comm.bcast((error, sorted(done)), root=0)
     else:
         finished = sorted(done)
     if error is not None:
-        if rank == 0:
-            log(f"sequences: {error[1]}")
-            if lock is not None:
-                lock.release()
+        log(f"sequences: {error[1]}")
         return error[0], None
     have = set(finished)
     todo = [s for s in range(st.n_sequences) if s not in have and s % size == rank]
@@ -282,7 +189,7 @@ def _run_rank0(site, model, st, todo, stop, journal, done, comm, size, n_done, p
     count, waiting = [n_done], [size - 1]
 
     def keep(o, sec):
-        journal.add(o, sec)
+        journal.add(outcome_to_dict(o, sec))
         done[o.sequence] = (o, sec)
         count[0] += 1
         if progress is not None:

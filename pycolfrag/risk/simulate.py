@@ -25,6 +25,7 @@ from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
 from pycolfrag.rare.driver import DEFAULT_SEED, SiteSettings, StopRule, failures, simulate_site
 from pycolfrag.rare.estimate import UNRESOLVED, WeightError
 from pycolfrag.rare.evaluator import BatchStopped, GridEvaluator, RecordSettings
+from pycolfrag.rare.paired import sigterm_stops_all, simulate_paired
 from pycolfrag.rare.strata import DEFAULT_MW_STEP, DEFAULT_R_EDGES_KM
 from pycolfrag.results import lock as _lock
 from pycolfrag.site.models import PulseOnly, Table
@@ -32,7 +33,7 @@ from pycolfrag.site.sources import OUTSIDE_CHOICES, load_site, read_pulse_model
 from pycolfrag.structure.column import Column
 
 __all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_NOT_CONVERGED", "EXIT_UNRESOLVED",
-           "EXIT_DRAINED", "add_arguments", "settings_from_args", "run_simulation"]
+           "EXIT_DRAINED", "add_arguments", "settings_from_args", "run_simulation", "run_paired", "solver_options_of"]
 
 #: Exit codes: those of the grid (0 ok, 2 bad arguments or a folder of another simulation, 4 an
 #: operating-system error, 5 a batch file written by another run, 75 stopped by SIGTERM: the batch
@@ -76,9 +77,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     s.add_argument("--chunk-max", type=int, default=32, help="largest chunk of runs handed to a rank")
 
 
-def _solver_options(items) -> dict:
-    opts = {}
-    for kv in items:
+def solver_options_of(items) -> dict:
+    """``--solver KEY=VALUE`` items as simulate keywords (a value read as JSON where it parses, else the text)."""
+    opts: dict = {}
+    for kv in items or ():
         k, sep, v = kv.partition("=")
         if not sep or not k.strip():
             raise ParameterError(f"--solver expects KEY=VALUE, got {kv!r}")
@@ -119,7 +121,7 @@ def settings_from_args(args):
                             mw_step=args.mw_step, r_edges_km=tuple(args.r_edges), levels=tuple(args.levels))
     stop = StopRule(target_cov=args.target_cov, max_runs=args.max_runs)
     col = Column.from_file(args.column) if args.column else Column.parthenon()
-    record = RecordSettings(column=col.to_dict(), solver_options=_solver_options(args.solver), vp_scale=args.vp_scale,
+    record = RecordSettings(column=col.to_dict(), solver_options=solver_options_of(args.solver), vp_scale=args.vp_scale,
                             record_dt_s=args.record_dt, max_record_s=args.max_record_s, tp_model=args.tp_model)
     if args.chunk_max < 1:
         raise ParameterError(f"--chunk-max must be >= 1, got {args.chunk_max}")
@@ -198,6 +200,30 @@ def run_simulation(args, quantities, argv=None, before=None):
         raise
     ev.close()
     return _exit_code(run, log), run
+
+
+def run_paired(p: dict, evs, quantities, comm, size: int, log, what: str, folder, names):
+    """The paired simulation of several run settings on rank 0 (``p``: its ``site``, ``settings``, ``stop``;
+    ``evs`` the settings' evaluators), with the signals and failures every run has: ``(None, runs)``, or
+    ``(exit code, None)`` when SIGTERM drained a batch (75), a run failed (:func:`_failed`), or an interrupt
+    aborts every rank (:func:`abort_on_interrupt`, re-raised)."""
+    try:
+        with sigterm_stops_all(evs):
+            runs = simulate_paired(p["site"], p["settings"], p["stop"], evs, quantities, log=log, names=names)
+    except BatchStopped as exc:
+        log(f"{what}: {exc}; every finished run is in {folder}, no estimate or report is made from a part of a batch: "
+            f"rerun the same command to compute the rest (exit {EXIT_DRAINED})")
+        evs[0].close()
+        return EXIT_DRAINED, None
+    except (ResultsFileError, ParameterError, WeightError, OSError) as exc:
+        code = _failed(exc, comm, size, log)
+        evs[0].close()
+        return code, None
+    except (SystemExit, KeyboardInterrupt) as exc:
+        abort_on_interrupt(exc, comm, size, log, what, folder)
+        raise
+    evs[0].close()
+    return None, runs
 
 
 def _on_rank0(check, comm, *args) -> None:

@@ -16,11 +16,9 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from pycolfrag.core.errors import ParameterError, PycolfragError, ResultsFileError
+from pycolfrag.core.errors import ParameterError, PycolfragError
 from pycolfrag.grid import get_comm
-from pycolfrag.rare.estimate import WeightError
-from pycolfrag.rare.evaluator import BatchStopped
-from pycolfrag.rare.paired import GroupEvaluator, serve_groups, sigterm_stops_all, simulate_paired
+from pycolfrag.rare.paired import GroupEvaluator, serve_groups
 from pycolfrag.risk import simulate as _sim
 from pycolfrag.site.models import PulseOnly
 
@@ -56,7 +54,7 @@ def prepare(a) -> dict:
         raise ParameterError("--pulse-model with --logic-tree: give the pulse model in the site file, or as the tree's "
                              "pulse_model set")
     base = ModelSettings(vp_scale=record.vp_scale, tp_model=record.tp_model,
-                         solver_options=_sim._solver_options(a.solver), column=record.column)
+                         solver_options=_sim.solver_options_of(a.solver), column=record.column)
     checked = check_tree(tree, site_dict, str(a.site), base, probe=True, record_dt_s=record.record_dt_s)
     sites = [_overridden(s, a) for s in checked.sites]
     for end, s in zip(checked.ends, sites):
@@ -83,23 +81,10 @@ def _simulate(a, p, comm, size, log, argv):
     if not evs[0].is_root:
         serve_groups(evs)
         return _sim.EXIT_OK, None
-    try:
-        with sigterm_stops_all(evs):
-            runs = simulate_paired(p["site"], p["settings"], p["stop"], evs, QUANTITIES, log=log,
-                                   names=[g.folder for g in p["groups"]])
-    except BatchStopped as exc:
-        log(f"risk --simulate --logic-tree: {exc}; every finished run is in {a.simulate}, no estimate or report is made "
-            f"from a part of a batch: rerun the same command to compute the rest (exit {_sim.EXIT_DRAINED})")
-        evs[0].close()
-        return _sim.EXIT_DRAINED, None
-    except (ResultsFileError, ParameterError, WeightError, OSError) as exc:
-        code = _sim._failed(exc, comm, size, log)
-        evs[0].close()
+    code, runs = _sim.run_paired(p, evs, QUANTITIES, comm, size, log, "risk --simulate --logic-tree", a.simulate,
+                                 [g.folder for g in p["groups"]])
+    if code is not None:
         return code, None
-    except (SystemExit, KeyboardInterrupt) as exc:
-        _sim.abort_on_interrupt(exc, comm, size, log, "risk --simulate --logic-tree", a.simulate)
-        raise
-    evs[0].close()
     return _exit_code(runs, [g.folder for g in p["groups"]], log), runs
 
 
