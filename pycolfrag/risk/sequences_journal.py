@@ -11,6 +11,7 @@ import hashlib
 import json
 import math
 import os
+import sys
 from pathlib import Path
 
 from pycolfrag.core.errors import ParameterError, PycolfragError, ResultsFileError
@@ -18,7 +19,8 @@ from pycolfrag.core.version import __version__
 from pycolfrag.grid.signing import library_digest
 from pycolfrag.results.lock import ResultsLockedError, RunLock
 
-__all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "identity", "read_lines", "Journal", "open_journal"]
+__all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "identity", "read_lines", "Journal", "open_journal",
+           "abort_others"]
 
 EXIT_OK, EXIT_ARGS, EXIT_OS_ERROR, EXIT_LOCKED = 0, 2, 4, 5
 
@@ -125,3 +127,15 @@ def open_journal(path: Path, ident: dict, log, read=None):
     if lock is not None:
         lock.release()
     return None, None, None, error
+
+
+def abort_others(exc, comm, log) -> None:
+    """A rank's failure ends every rank (the others would wait for it in a receive or a collective): said on
+    stderr, then ``Abort`` (exit 4; the journal keeps every finished line). No-op in one process."""
+    if comm is None or comm.Get_size() == 1 or isinstance(exc, SystemExit):
+        return
+    import traceback
+    print(f"sequences: rank {comm.Get_rank()} failed ({type(exc).__name__}: {exc}); every finished sequence is "
+          "in the journal", file=sys.stderr, flush=True)
+    traceback.print_exc()
+    comm.Abort(EXIT_OS_ERROR)

@@ -9,8 +9,9 @@ strata, on its one strongest event.
 **The estimator.** Let the site's mainshocks over [0, T] be a Poisson process Phi of intensity measure
 Lambda(dx) = T lambda(dm) dt / T over marks x (time, source, Mw, R, pulse occurrence, the pulse's normals,
 the record's noise), A an outcome of the sequence (a collapse within T, a level exceeded), and s(x) a
-deterministic score of an event. Exactly one event of a sequence is its strongest (s is continuous: ties
-have probability zero), so 1_A(Phi) = sum over x in Phi of 1{x strongest in Phi} 1_A(Phi), and the
+deterministic score of an event. Exactly one event of a sequence is its strongest, events ranked by
+(s, time) (the score ties where the marks are discrete -- a characteristic magnitude at a fixed distance
+without a pulse -- and the times, uniform, break those ties with probability one), so 1_A(Phi) = sum over x in Phi of 1{x strongest in Phi} 1_A(Phi), and the
 Mecke (Campbell-Little-Mecke) formula of Poisson processes gives
 
     P(A) = integral of E[ 1{x strongest in Phi + x} 1_A(Phi + x) ] Lambda(dx),
@@ -109,10 +110,10 @@ class RareSequenceSettings:
             raise ParameterError(f"target must be one of {', '.join(QUANTITIES)}, got {self.target!r}")
         if not (isinstance(self.target_cov, (int, float)) and 0 < self.target_cov < 1):
             raise ParameterError(f"target_cov must be in (0, 1), got {self.target_cov!r}")
-        for name in ("pilot", "batch", "max_rows"):
+        for name, least in (("pilot", 2), ("batch", 1), ("max_rows", 1)):   # a variance needs two rows
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise ParameterError(f"{name} must be an integer >= 1, got {v!r}")
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < least:
+                raise ParameterError(f"{name} must be an integer >= {least}, got {v!r}")
         for name in ("pilot_mixture", "mixture"):
             if not isinstance(getattr(self, name), Mixture):
                 raise ParameterError(f"{name} must be a Mixture, got {type(getattr(self, name)).__name__}")
@@ -134,8 +135,8 @@ def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse
                     rs.pilot_mixture if pilot else rs.mixture, pulse_map)
     t_x = float(_row_rng(st.seed, h, j).uniform(0.0, st.years))
     phi = sequence_events(site, st.years, st.seed, j, pulse_map, strata.ranges, key=(STREAM_RARE_SEQUENCES, h, j))
-    s_x = strength(x["mw"], x["dist_km"], x["pulse"])
-    strongest = not any(not e.outside and strength(e.mw, e.r_km, e.pulse) >= s_x for e in phi)
+    rank_x = (strength(x["mw"], x["dist_km"], x["pulse"]), t_x)   # ties of the score broken by the time
+    strongest = not any(not e.outside and (strength(e.mw, e.r_km, e.pulse), e.time_yr) >= rank_x for e in phi)
     row = {"h": h, "j": j, "weight": float(x["tags"]["weight"]), "strongest": strongest, "events": len(phi) + 1,
            "runs": 0, "restorations": 0, "hits": {w: [False] * len(QUANTITIES) for w in WAYS}}
     if strongest:

@@ -14,11 +14,12 @@ from __future__ import annotations
 import signal
 from pathlib import Path
 
+from pycolfrag.core.errors import PycolfragError
 from pycolfrag.grid.serve import EXIT_DRAINED
 from pycolfrag.rare.plans import PulseMap
 from pycolfrag.rare.strata import build_strata
 from pycolfrag.risk import sequences_rare as rare
-from pycolfrag.risk.sequences_journal import EXIT_OK, identity, open_journal
+from pycolfrag.risk.sequences_journal import EXIT_ARGS, EXIT_OK, abort_others, identity, open_journal
 from pycolfrag.site.sources import load_site
 
 __all__ = ["ROWS", "CHUNK_PER_RANK", "run_rare_folder"]
@@ -57,7 +58,15 @@ def run_rare_folder(site_path, model, rs: rare.RareSequenceSettings, folder, com
         log(f"sequences: {error[1]}")
         return error[0], None
     done = entries
-    strata = build_strata(site)
+    try:
+        strata = build_strata(site)   # the site simulation's check, every rank alike
+    except PycolfragError as exc:
+        log(f"sequences: {exc}")
+        if journal is not None:
+            journal.close()
+        if lock is not None:
+            lock.release()
+        return EXIT_ARGS, None
     pulse_map = PulseMap(rs.sequences.pulse_shape, rs.sequences.vp_scale, rs.sequences.tp_model)
     asked = [False]
     old = signal.signal(signal.SIGTERM, lambda signum, frame: asked.__setitem__(0, True))
@@ -70,17 +79,24 @@ def run_rare_folder(site_path, model, rs: rare.RareSequenceSettings, folder, com
             if stop:
                 raise _Stopped()
             chunk = todo[c:c + step]
-            mine = [rare.run_row(site, strata, model, rs, h, j, pulse_map) for k, (h, j) in enumerate(chunk)
-                    if k % size == rank]
-            parts = comm.allgather(mine) if comm is not None else [mine]
-            rows = [parts[k % size][k // size] for k in range(len(chunk))]
-            if journal is not None:
-                journal.add_rows(rows)
+            try:   # a failure on one rank (a run, the journal) ends every rank: the others would wait for it
+                mine = [rare.run_row(site, strata, model, rs, h, j, pulse_map) for k, (h, j) in enumerate(chunk)
+                        if k % size == rank]
+                parts = comm.allgather(mine) if comm is not None else [mine]
+                rows = [parts[k % size][k // size] for k in range(len(chunk))]
+                if journal is not None:
+                    journal.add_rows(rows)
+            except BaseException as exc:
+                abort_others(exc, comm, log)
+                raise
             out += rows
         return out
 
     try:
         run = rare.simulate_sequences(site, model, rs, evaluate=evaluate, done=done, log=log)
+    except PycolfragError as exc:   # a refusal every rank meets alike (the site's strata): exit 2
+        log(f"sequences: {exc}")
+        return EXIT_ARGS, None
     except _Stopped:
         log(f"sequences: stopped; every finished row is in {folder / ROWS}: rerun the same command to run the "
             f"rest (exit {EXIT_DRAINED})")

@@ -51,6 +51,7 @@ from pycolfrag.risk.sequences_journal import (
     EXIT_LOCKED,
     EXIT_OK,
     EXIT_OS_ERROR,
+    abort_others,
     identity,
     open_journal,
     read_lines,
@@ -65,7 +66,7 @@ __all__ = ["JOURNAL", "EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "E
 
 #: The journal's name in the output folder.
 JOURNAL = "sequences.jsonl"
-_TAG_DONE, _TAG_OUTCOME = 11, 12
+_TAG_DONE, _TAG_OUTCOME, _TAG_STOP = 11, 12, 13
 
 
 def outcome_to_dict(o: SequenceOutcome, seconds: float) -> dict:
@@ -158,17 +159,24 @@ def run_folder(site_path, model, st: SequenceSettings, folder, comm=None, log=pr
         else:
             def send(o, sec):
                 comm.send((o, sec), dest=0, tag=_TAG_OUTCOME)
+                if comm.iprobe(source=0, tag=_TAG_STOP):   # rank 0 was stopped: stop here too
+                    stop.asked = True
             _work(site, model, st, todo, stop, send)
             comm.send(None, dest=0, tag=_TAG_DONE)
+    except BaseException as exc:
+        abort_others(exc, comm, log)
+        raise
     finally:
         stop.restore()
         if journal is not None:
             journal.close()
-    stopped = comm.allreduce(stop.asked, op=_lor()) if comm is not None else stop.asked
-    if lock is None:   # the other ranks
-        return (EXIT_DRAINED if stopped else EXIT_OK), None
+    if lock is None:   # the other ranks: rank 0's exit code
+        return comm.bcast(None, root=0), None
     lock.release()
-    if n_done < st.n_sequences:
+    code = EXIT_DRAINED if n_done < st.n_sequences else EXIT_OK
+    if comm is not None:
+        comm.bcast(code, root=0)
+    if code == EXIT_DRAINED:
         log(f"sequences: stopped after {n_done} of {st.n_sequences} sequences; every finished one is in "
             f"{folder / JOURNAL}: rerun the same command to run the rest (exit {EXIT_DRAINED})")
         return EXIT_DRAINED, None
@@ -176,11 +184,6 @@ def run_folder(site_path, model, st: SequenceSettings, folder, comm=None, log=pr
     return EXIT_OK, {"settings": st, "outcomes": [o for o, _ in outs], "wall_s": float(sum(sec for _, sec in outs)),
                      "total_rate": float(sum(src.rate for src in site.sources)),
                      "outside_share": {o.source: o.outside for o in build_strata(site).outside}}
-
-
-def _lor():
-    from mpi4py import MPI  # only under MPI (a comm was given)
-    return MPI.LOR
 
 
 def _run_rank0(site, model, st, todo, stop, journal, done, comm, size, n_done, progress) -> int:
@@ -197,7 +200,7 @@ def _run_rank0(site, model, st, todo, stop, journal, done, comm, size, n_done, p
 
     def receive() -> None:
         status = _status()
-        msg = comm.recv(source=-1, tag=-1, status=status)
+        msg = comm.recv(source=_mpi().ANY_SOURCE, tag=_mpi().ANY_TAG, status=status)
         if status.Get_tag() == _TAG_DONE:
             waiting[0] -= 1
         else:
@@ -205,17 +208,24 @@ def _run_rank0(site, model, st, todo, stop, journal, done, comm, size, n_done, p
 
     def own(o, sec):
         keep(o, sec)
-        while comm is not None and comm.iprobe(source=-1, tag=_TAG_OUTCOME):
+        while comm is not None and comm.iprobe(source=_mpi().ANY_SOURCE, tag=_TAG_OUTCOME):
             receive()
     _work(site, model, st, todo, stop, own)
+    if stop.asked and comm is not None:   # a stop seen here alone: the others stop after their running sequence
+        for r in range(1, size):
+            comm.send(None, dest=r, tag=_TAG_STOP)
     while waiting[0] > 0:
         receive()
     return count[0]
 
 
+def _mpi():
+    from mpi4py import MPI  # only under MPI (a comm was given)
+    return MPI
+
+
 def _status():
-    from mpi4py import MPI
-    return MPI.Status()
+    return _mpi().Status()
 
 
 def parser() -> argparse.ArgumentParser:
@@ -307,6 +317,11 @@ def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
          "strata": len(run["strata"]), "settings": rare.settings_dict(rs)}, indent=1))
     (out / "rare_summary.md").write_text(text + "\n")
     log(text)
+    reached = run["estimate"]["accumulated"][rs.target]["cov"]
+    if reached > rs.target_cov:   # the row budget ran out first: said, and exit 6 as the rare route's
+        log(f"sequences: the row budget ({rs.max_rows}) was spent before {rs.target}'s CoV reached "
+            f"{rs.target_cov:g} (it is {reached:.3g}); rerun with a larger --max-rows to go on (exit 6)")
+        return 6
     return EXIT_OK
 
 
