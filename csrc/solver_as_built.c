@@ -101,7 +101,9 @@ static int sector(cf_solver *s, cf_joint *J, double s0, double s1)
         p[0] = p[1] = 0.0;
         J->csn[i] = 1 + chain(&J->fu, J->cout, s1 + (w > CF_PI ? 0.5 * w * i : 0.0), w > CF_PI ? 0.5 * w : w, p + 2);
         cf_contact_polygon_moments(p, J->csn[i], m);
-        for (k = 0; k < 6; k++) M[k] += m[k] * (1.0 - pow(h, k == 0 ? 2.0 : k < 3 ? 3.0 : 4.0));
+        for (k = 0; k < 6; k++) M[k] += m[k] * (1.0 - (k == 0 ? h * h : k < 3 ? h * h * h : (h * h) * (h * h)));
+        /* the hole's share: area ~ h^2, first moments ~ h^3, second ~ h^4 (products, not libm's pow:
+         * the same bits on every CPU, docs/reproducibility.md) */
     }
     if (!(M[0] > 1e-12 * J->fu.area))
         return cf_solver_fail(s, CF_EINVAL, "joint %d: its chipped face less its missing sector bears on no area",
