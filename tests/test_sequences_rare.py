@@ -103,8 +103,8 @@ def test_a_row_whose_event_is_not_the_strongest_costs_no_run(surrogate):
 
 def test_a_stratum_without_a_hit_keeps_its_jeffreys_floor(surrogate):
     """The Jeffreys floor: with no hit in 10 rows of weight 1, the stratum's sample variance is 0 and its
-    stated variance of the mean (T W w_bar)^2 p (1 - p) / n with p = 0.5 / 11; a stratum without a row adds
-    (T W)^2 / 4 (p = 1/2, n taken as 1)."""
+    stated variance of the mean (T W)^2 (m2 p - p^2) / n with m2 = 1 and p = 0.5 / 11 (rare.estimate's law); a
+    stratum without a row adds (T W)^2 / 4 (p = 1/2, n taken as 1)."""
     site = _site()
     rows = [{"h": 0, "j": j, "weight": 1.0, "strongest": True, "runs": 1, "seconds": 0.0,
              "hits": {w: [False] * len(R.QUANTITIES) for w in sq.WAYS}} for j in range(10)]

@@ -62,7 +62,8 @@ from pycolfrag import results as _results
 from pycolfrag.core.errors import PycolfragError
 
 __all__ = ["WeightError", "LevelEstimate", "Estimate", "exceedances", "row_weights", "estimate", "DEFAULT_MIN_NEFF",
-           "DEFAULT_MAX_SHARE", "UNRESOLVED", "efficiency", "FEW_RUNS", "jeffreys_floor", "jeffreys_p0"]
+           "DEFAULT_MAX_SHARE", "UNRESOLVED", "efficiency", "FEW_RUNS", "jeffreys_floor", "jeffreys_p0",
+           "jeffreys_run_variance", "jeffreys_upper"]
 
 #: Fewest effective exceedances a level's estimate may rest on (the stopping rule's floor too).
 DEFAULT_MIN_NEFF = 10.0
@@ -81,7 +82,7 @@ def jeffreys_p0(n) -> np.ndarray:
     return 0.5 / (np.asarray(n, dtype=float) + 1.0)
 
 
-def _floor_of(m2, n):
+def jeffreys_run_variance(m2, n):
     """The Jeffreys pseudo-count's per-run variance of w y in a stratum of ``n`` runs none of which exceeds
     (module docstring): m2 p0 - p0^2, m2 the mean square weight."""
     p0 = jeffreys_p0(n)
@@ -182,7 +183,8 @@ class Estimate:
                 "kong_ess_relative_min": float(np.nanmin(self.ess_relative)) if self.ess_relative.size else None}
 
 
-def _jeffreys_upper(k: int, n: int, level: float = 0.95) -> float:
+def jeffreys_upper(k: int, n: int, level: float = 0.95) -> float:
+    """Jeffreys' upper ``level`` limit of a proportion after k of n (1 when k = n)."""
     return 1.0 if k >= n else float(stats.beta.ppf(level, k + 0.5, n - k + 0.5))
 
 
@@ -254,7 +256,7 @@ def _level(q, W, groups, w, y, confidence, limits, floor=None):
         lo_terms.append(W[g.h] * (s_ok / n))                # as per[h] when no run failed: the same bits
         fail_terms.append(W[g.h] * (w_failed / n))
         k = int(np.sum(y[g.rows])) + int(np.sum(g.failed))   # failed runs counted as exceeding
-        bound_terms.append(W[g.h] * float(np.max(w[g.rows])) * _jeffreys_upper(k, n))
+        bound_terms.append(W[g.h] * float(np.max(w[g.rows])) * jeffreys_upper(k, n))
     lam, var = math.fsum(lam_terms), math.fsum(var_terms)
     c = np.concatenate(contrib) if contrib else np.zeros(0)
     hits = int(sum(int(np.sum(y[g.rows])) for g in groups))
@@ -344,7 +346,7 @@ def jeffreys_floor(cols: dict, strata, design, quantities) -> np.ndarray:
     w, _ = row_weights(sub, strata, design) if ok.any() else (np.zeros(0), {})
     n = np.bincount(h, minlength=H).astype(float)
     m2 = np.where(n > 0, np.bincount(h, weights=w * w, minlength=H) / np.maximum(n, 1.0), 1.0)
-    base = _floor_of(m2, n)
+    base = jeffreys_run_variance(m2, n)
     out = np.zeros((H, len(quantities)))
     for j, q in enumerate(quantities):
         hits = np.bincount(h, weights=exceedances(sub, q).astype(float), minlength=H)

@@ -32,7 +32,7 @@ from scipy import stats
 
 from pycolfrag import results as _results
 from pycolfrag.core.errors import ParameterError
-from pycolfrag.rare.estimate import DEFAULT_MIN_NEFF, exceedances, row_weights
+from pycolfrag.rare.estimate import DEFAULT_MIN_NEFF, exceedances, jeffreys_upper, row_weights
 
 __all__ = ["EVENT_FIELDS", "PairedDifference", "check_same_events", "paired_differences"]
 
@@ -97,10 +97,6 @@ def check_same_events(cols_a: dict, cols_b: dict, names=("A", "B")) -> tuple:
     return np.flatnonzero(done_a)[ia], np.flatnonzero(done_b)[ib]
 
 
-def _jeffreys_upper(k: int, n: int) -> float:
-    return 1.0 if k >= n else float(stats.beta.ppf(0.95, k + 0.5, n - k + 0.5))
-
-
 def _imputed(v, w, ok, h, nh):
     """v with each failed row's value its weight times the stratum's weighted share among successful rows."""
     out = v.copy()
@@ -136,7 +132,7 @@ def _level(q, a, b, w, h, ok_a, ok_b, W, confidence, min_neff) -> PairedDifferen
     differ = both & (ya != yb)
     cd = np.abs(c[differ])
     n_eff = math.fsum(cd) ** 2 / math.fsum(cd * cd) if cd.size else 0.0
-    bound = math.fsum(W[s] * float(np.max(w[h == s])) * _jeffreys_upper(int(np.sum(differ[h == s])),
+    bound = math.fsum(W[s] * float(np.max(w[h == s])) * jeffreys_upper(int(np.sum(differ[h == s])),
                                                                           int(np.sum(h == s))) for s in np.unique(h))
     if not differ.any():
         status = "no differing run"

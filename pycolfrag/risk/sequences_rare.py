@@ -11,7 +11,8 @@ Lambda(dx) = T lambda(dm) dt / T over marks x (time, source, Mw, R, pulse occurr
 the record's noise), A an outcome of the sequence (a collapse within T, a level exceeded), and s(x) a
 deterministic score of an event. Exactly one event of a sequence is its strongest, events ranked by
 (s, time) (the score ties where the marks are discrete -- a characteristic magnitude at a fixed distance
-without a pulse -- and the times, uniform, break those ties with probability one), so 1_A(Phi) = sum over x in Phi of 1{x strongest in Phi} 1_A(Phi), and the
+without a pulse -- and the times, uniform, break those ties with probability one), so
+1_A(Phi) = sum over x in Phi of 1{x strongest in Phi} 1_A(Phi), and the
 Mecke (Campbell-Little-Mecke) formula of Poisson processes gives
 
     P(A) = integral of E[ 1{x strongest in Phi + x} 1_A(Phi + x) ] Lambda(dx),
@@ -36,8 +37,9 @@ Each row is run the three ways of the crude sequences (accumulated, intact, rest
 
 **Allocation.** A pilot of ``pilot`` rows per stratum, then batches spread over the strata by Neyman's
 rule on the target quantity (the accumulated way's collapse by default): n_h proportional to W_h s_h, with
-s_h floored by a stratum's Jeffreys bound while it has no hit (p_J = 0.5 / (n_h + 1): s_h^2 >= (T W_h
-w_bar)^2 p_J (1 - p_J)), until the target's CoV (with the same floor) reaches ``target_cov`` or ``max_rows``
+s_h floored by a stratum's Jeffreys bound while it has no hit (the rare route's law,
+:func:`pycolfrag.rare.estimate.jeffreys_run_variance`: s_h^2 >= (T W_h)^2 (m2 p_J - p_J^2), p_J = 0.5 / (n_h + 1),
+m2 the mean square weight), until the target's CoV (with the same floor) reaches ``target_cov`` or ``max_rows``
 rows are used. The floor keeps a stratum without a hit from being taken as certain, in the stated CoV and
 in the allocation alike; the CoV from the sample variances alone is stated beside (``cov_sample``), with
 how much of the estimate rests on strata of fewer than 20 rows. No model of the strata's demand narrows the
@@ -60,6 +62,7 @@ import numpy as np
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.damage import PERFORMANCE_LEVELS
 from pycolfrag.ground_motion.rupakhety_2011 import mean_vp_cm_s
+from pycolfrag.rare.estimate import jeffreys_run_variance
 from pycolfrag.rare.plans import PulseMap, event_input
 from pycolfrag.rare.proposal import PILOT_MIXTURE, Mixture, production_mixture
 from pycolfrag.rare.strata import build_strata
@@ -157,9 +160,8 @@ def _stratum_stats(rows_h: list, way: str, q: int, years: float, rate: float) ->
     hits = int(np.count_nonzero(y))
     mean = float(y.mean()) if n else 0.0
     var = float(y.var(ddof=1)) / n if n > 1 else 0.0
-    p_j = 0.5 / (n + 1)
-    w_bar = float(np.mean([r["weight"] for r in rows_h])) if n else 1.0
-    floor = (years * rate * w_bar) ** 2 * p_j * (1.0 - p_j) / max(n, 1) if hits == 0 else 0.0
+    m2 = float(np.mean([r["weight"] ** 2 for r in rows_h])) if n else 1.0
+    floor = (years * rate) ** 2 * float(jeffreys_run_variance(m2, n)) / max(n, 1) if hits == 0 else 0.0
     return mean, var, max(var, floor), n, hits
 
 
