@@ -7,7 +7,6 @@ sequences, a journal of other settings or another site is refused by name, a hel
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import signal
 import subprocess
@@ -23,6 +22,7 @@ from pycolfrag.risk import sequences_run as sr
 from pycolfrag.site.sources import load_site
 from pycolfrag.solver.sequence import Restoration
 from pycolfrag.structure.column import Column
+from test_rare_site_plumbing import _env as plumbing_env
 
 ROOT = Path(__file__).resolve().parents[1]
 COLUMN = ROOT / "bench" / "data" / "column_two_drums.toml"   # the rare route's cheap verification column
@@ -46,11 +46,8 @@ ARGS = ["--column", str(COLUMN), "--years", "10", "--seed", "3", "--max-record-s
 
 
 def _env():
-    env = {k: v for k, v in os.environ.items()
-           if not (k.startswith("PMIX_") or k.startswith("OMPI_")) or k.startswith("OMPI_ALLOW_RUN_AS_ROOT")}
-    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMP_NUM_THREADS="1",
-               OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(ROOT))
-    return env
+    """The rare route's tests' environment for mpirun as root (test_rare_site_plumbing), with this checkout."""
+    return {**plumbing_env(), "PYTHONPATH": str(ROOT)}
 
 
 def _cmd(args, ranks=1):

@@ -216,6 +216,23 @@ static void dowelled_job(cf_solver_batch_job *jb, double *acc, int n, double *o)
  * contacts), so a lane whose connectors were skipped, stepped twice, stepped before the contacts or
  * not reset would differ. The connectors act (they yield and one breaks): the equality is not that
  * of connectors that carry nothing. */
+/* Every width's batch of the NJ jobs against their single runs ``ref`` (status, message, result) and the
+ * jobs' outputs ``o`` against ``ref_o``, bit for bit (arrays, so that sizeof gives their sizes). */
+#define CHECK_EVERY_WIDTH(s, jobs, out, o, ref, ref_o) do {                                              \
+        int w_, i_;                                                                                      \
+        for (w_ = 1; w_ <= cf_solver_batch_max_width(s); w_ *= 2) {                                      \
+            memset(out, 0xff, sizeof out);                                                               \
+            memset(o, 0, sizeof o);                                                                      \
+            CF_CHECK(cf_solver_batch_run(s, w_, NJ, jobs, out) == CF_OK);                                \
+            for (i_ = 0; i_ < NJ; i_++) {                                                                \
+                CF_CHECK(out[i_].status == ref[i_].status);                                              \
+                CF_CHECK(strcmp(out[i_].message, ref[i_].message) == 0);                                 \
+                CF_CHECK(memcmp(&out[i_].result, &ref[i_].result, sizeof ref[i_].result) == 0);          \
+                CF_CHECK(memcmp(o[i_], ref_o[i_], sizeof o[i_]) == 0);                                   \
+            }                                                                                            \
+        }                                                                                                \
+    } while (0)
+
 static void test_dowelled_runs(void)
 {
     static const double amp[NJ] = {0.6, 0.2, 0.9, 0.4, 0.7, 0.3};
@@ -224,7 +241,7 @@ static void test_dowelled_runs(void)
     cf_solver_batch_job jobs[NJ];
     cf_solver_batch_out out[NJ], ref[NJ];
     cf_solver *s = dowelled(0);
-    int i, w, yielded = 0, broken = 0;
+    int i, yielded = 0, broken = 0;
     CF_CHECK(s != NULL);
     if (!s) return;
     {   /* in lanes as wide as the free column's */
@@ -251,17 +268,7 @@ static void test_dowelled_runs(void)
         cf_solver_free(one);
     }
     CF_CHECK(ref[0].status == CF_OK && yielded > 0 && broken > 0);
-    for (w = 1; w <= cf_solver_batch_max_width(s); w *= 2) {
-        memset(out, 0xff, sizeof out);
-        memset(o, 0, sizeof o);
-        CF_CHECK(cf_solver_batch_run(s, w, NJ, jobs, out) == CF_OK);
-        for (i = 0; i < NJ; i++) {
-            CF_CHECK(out[i].status == ref[i].status);
-            CF_CHECK(strcmp(out[i].message, ref[i].message) == 0);
-            CF_CHECK(memcmp(&out[i].result, &ref[i].result, sizeof ref[i].result) == 0);
-            CF_CHECK(memcmp(o[i], ref_o[i], sizeof o[i]) == 0);
-        }
-    }
+    CHECK_EVERY_WIDTH(s, jobs, out, o, ref, ref_o);
     cf_solver_free(s);
 }
 
@@ -332,7 +339,7 @@ static void test_portal_runs(void)
     cf_solver_batch_job jobs[NJ];
     cf_solver_batch_out out[NJ], ref[NJ];
     cf_solver *s = portal();
-    int i, w, nc, nb, nd, nblk, nj;
+    int i, nc, nb, nd, nblk, nj;
     CF_CHECK(s != NULL);
     if (!s) return;
     cf_solver_counts(s, &nc, &nb, &nd, &nblk, &nj);
@@ -359,17 +366,7 @@ static void test_portal_runs(void)
         cf_solver_free(one);
     }
     CF_CHECK(ref[0].status == CF_OK && ref_o[0][PT_NJ + 2 * CF_SOLVER_COLUMN_OUT] > 0.0);   /* the beam slid */
-    for (w = 1; w <= cf_solver_batch_max_width(s); w *= 2) {
-        memset(out, 0xff, sizeof out);
-        memset(o, 0, sizeof o);
-        CF_CHECK(cf_solver_batch_run(s, w, NJ, jobs, out) == CF_OK);
-        for (i = 0; i < NJ; i++) {
-            CF_CHECK(out[i].status == ref[i].status);
-            CF_CHECK(strcmp(out[i].message, ref[i].message) == 0);
-            CF_CHECK(memcmp(&out[i].result, &ref[i].result, sizeof ref[i].result) == 0);
-            CF_CHECK(memcmp(o[i], ref_o[i], sizeof o[i]) == 0);
-        }
-    }
+    CHECK_EVERY_WIDTH(s, jobs, out, o, ref, ref_o);
     cf_solver_free(s);
 }
 
