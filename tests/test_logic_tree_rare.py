@@ -41,6 +41,7 @@ from pycolfrag.risk.tree_rare import check_reweighting, run_groups, tree_of_runs
 from pycolfrag.site.sources import site_from_dict
 from rare_surrogate import COLLAPSE_AT, SurrogateEvaluator, _pending, columns, exact_rates
 from test_rare_site_plumbing import BASE, _cmd, _env, _run
+from test_report_json import strict_loads
 
 ROOT = Path(__file__).resolve().parents[1]
 PULSE = {"model": "shahi_baker_2014", "mechanism": "non-strike-slip", "s_km": 5.0, "angle_deg": 30.0}
@@ -235,7 +236,7 @@ def test_the_command_stores_the_same_events_in_every_run_settings_folder(ref):
             assert np.array_equal(a[k], b[k], equal_nan=True), (n, k)
         pulse = a["pulse"].astype(bool)
         assert np.allclose(b["vp_cm_s"][pulse], 2 * a["vp_cm_s"][pulse], rtol=1e-12)
-    tree = json.loads((out / "logic_tree.json").read_text())
+    tree = strict_loads((out / "logic_tree.json").read_text())      # strict JSON: no NaN or Infinity
     assert [e["folder"] for e in tree["end_branches"]] == ["runs_00", "runs_00", "runs_01", "runs_01"]
     assert set(tree["levels"]["collapse"]["quantiles"]) == {"0.05", "0.16", "0.5", "0.84", "0.95"}
     assert (out / "runs_00" / "risk.json").exists() and "matters most for collapse" in p.stdout
@@ -297,7 +298,7 @@ def test_a_changed_tree_is_refused_and_new_weights_are_re_weighted(ref):
     p = _run([a if a != str(tmp / "tree.toml") else str(weights) for a in args] + ["--simulate", str(out)])
     assert p.returncode in (0, 6) and "weights changed" in p.stdout and "no new runs" in p.stdout, p.stdout + p.stderr
     assert {x: x.read_bytes() for x in out.rglob("batch_*")} == before
-    tree = json.loads((out / "logic_tree.json").read_text())
+    tree = strict_loads((out / "logic_tree.json").read_text())      # strict JSON: no NaN or Infinity
     rates = [e["levels"]["collapse"]["rate"] for e in tree["end_branches"]]
     w = [0.5 * 0.3, 0.5 * 0.7, 0.5 * 0.3, 0.5 * 0.7]
     assert tree["levels"]["collapse"]["mean"] == pytest.approx(float(ts.weighted_mean(rates, w)), rel=1e-12)

@@ -31,6 +31,7 @@ from pycolfrag.risk.site_risk import QUANTITIES
 from pycolfrag.site.sources import site_from_dict
 from pycolfrag.structure.column import Column
 from test_logic_tree_rare import SETTINGS, SMALL, STOP, Scaled, site_dict
+from test_report_json import strict_loads
 
 ROOT = Path(__file__).resolve().parents[1]
 EX = ROOT / "examples"
@@ -140,7 +141,7 @@ def test_the_alternatives_see_the_same_events(folder):
                 np.testing.assert_array_equal(rows["free"][x], rows["titanium"][x], err_msg=f"{h5} {x}")
         assert np.all(np.isnan(rows["free"]["epistyle_slip_mm"]))
         assert np.all(np.isfinite(rows["portal"]["epistyle_slip_mm"]))
-    js = json.loads((folder / "restoration.json").read_text())
+    js = strict_loads((folder / "restoration.json").read_text())      # no NaN or Infinity: strict JSON
     assert [a["key"] for a in js["alternatives"]] == keys and js["reference"] == "free"
     assert sorted(js["differences"]) == ["portal", "titanium"]
     assert all(a["runs"] == 12 for a in js["alternatives"])

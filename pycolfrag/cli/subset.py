@@ -22,6 +22,7 @@ import sys
 import time
 from pathlib import Path
 
+from pycolfrag.core import report_json
 from pycolfrag.core.errors import ParameterError, RareEventError
 from pycolfrag.core.help import HelpFormatter
 from pycolfrag.core.version import __version__
@@ -174,7 +175,7 @@ def _run_root(args, prob, levels, ev, ranks: int, argv) -> int:
             _write(Path(args.rows), "".join(json.dumps(_row(r)) + "\n" for r in res.rows))
         by_rank = ev.runs_by_rank if isinstance(ev, MPIEvaluator) else [res.runs]
         doc = result_document(res, levels, prob, command, by_rank, time.time() - t0)
-        _write(Path(args.out), json.dumps(doc, indent=1) + "\n")
+        _write(Path(args.out), report_json.dumps(doc, indent=1) + "\n")
     except OSError as exc:
         print(f"pycolfrag subset: cannot write {args.out}: {exc}", file=sys.stderr)
         return EXIT_OS_ERROR

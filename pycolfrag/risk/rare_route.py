@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from pycolfrag.analysis.completeness import MARK, IncompleteResultsError
+from pycolfrag.core import report_json
 from pycolfrag.core.errors import OutputError, ParameterError
 from pycolfrag.rare.driver import failures
 from pycolfrag.rare.estimate import FEW_RUNS, UNRESOLVED, efficiency, estimate
@@ -369,7 +370,7 @@ def write_outputs(run, outdir, cmp: GridComparison | None = None, *, figures: bo
                 paths[stem] = str(path)
         md, js = outdir / "risk.md", outdir / "risk.json"
         _write_text(md, report(run, cmp, figs))
-        _write_text(js, json.dumps(to_json(run, cmp), indent=1, default=float))
+        _write_text(js, report_json.dumps(to_json(run, cmp), indent=1, default=float))
     except OSError as exc:
         raise OutputError(f"cannot write the risk outputs into {outdir}: {exc.strerror or exc}") from None
     paths.update(markdown=str(md), json=str(js))

@@ -3,7 +3,6 @@ and the command's summary lines -- each carrying every mark of the computation (
 incomplete files, Eq. (4) fits that failed or are degenerate, unpaired cells)."""
 from __future__ import annotations
 
-import json
 import os
 import tempfile
 from dataclasses import dataclass, field
@@ -12,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from pycolfrag.analysis.codes import summarize
+from pycolfrag.core import report_json
 from pycolfrag.core.errors import OutputError, ParameterError
 from pycolfrag.risk import figures as risk_figures
 from pycolfrag.risk.fit import EQ4_FIT_ALPHA, Degeneracy
@@ -297,7 +297,7 @@ def write_outputs(risk: SiteRisk, outdir, *, figures=True) -> dict:
                 paths[stem] = str(path)
         md, js = outdir / "risk.md", outdir / "risk.json"
         _write_text(md, "# pycolfrag site risk\n\n" + report_section(risk, figs))
-        _write_text(js, json.dumps(risk.to_json(), indent=1))
+        _write_text(js, report_json.dumps(risk.to_json(), indent=1))
     except OSError as exc:
         raise OutputError(f"cannot write the risk outputs into {outdir}: {exc.strerror or exc}") from None
     paths.update(markdown=str(md), json=str(js))

@@ -6,10 +6,10 @@ linear axis from 0 and the differences about 0, each with its interval; no log f
 the block of docs/restoration.md between :data:`BEGIN` and :data:`END`."""
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
+from pycolfrag.core import report_json
 from pycolfrag.core.errors import OutputError
 from pycolfrag.rare.driver import failures
 from pycolfrag.risk.report import _write_text
@@ -172,7 +172,7 @@ def write_outputs(result, outdir, years=(50.0,), *, figures=True, docs=None, doc
     md = markdown(result, years)
     paths = {"markdown": out / "restoration.md", "json": out / "restoration.json"}
     _write_text(paths["markdown"], "# Restoration alternatives on the same events\n\n" + md + "\n")
-    _write_text(paths["json"], json.dumps(to_json(result, years), indent=1, default=float) + "\n")
+    _write_text(paths["json"], report_json.dumps(to_json(result, years), indent=1, default=float) + "\n")
     if figures or docs is not None:
         fig = figure(result)
         fig.savefig(out / FIGURE, dpi=110)

@@ -23,13 +23,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import math
 import signal
 import sys
 import time
 from pathlib import Path
 
+from pycolfrag.core import report_json
 from pycolfrag.core.errors import ParameterError, PycolfragError
 from pycolfrag.core.help import HelpFormatter
 from pycolfrag.grid import get_comm
@@ -289,7 +289,7 @@ def main(argv=None) -> int:
     text = format_summary(sm, f"{Path(args.site).stem}: {getattr(model, 'name', type(model).__name__)}, "
                               f"{st.n_sequences} sequences of {st.years:g} years")
     out = Path(args.out)
-    (out / "summary.json").write_text(json.dumps(sm, indent=1, default=str))
+    (out / "summary.json").write_text(report_json.dumps(sm, indent=1, default=str))
     (out / "summary.md").write_text(text + "\n")
     log(text)
     return EXIT_OK
@@ -312,7 +312,7 @@ def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
     text = rare.format_estimate(run, f"{Path(args.site).stem}: {getattr(model, 'name', type(model).__name__)}, "
                                      f"importance sampling on the strongest event")
     out = Path(args.out)
-    (out / "rare_summary.json").write_text(json.dumps(
+    (out / "rare_summary.json").write_text(report_json.dumps(
         {"estimate": run["estimate"], "rows": len(run["rows"]), "runs": run["runs"], "seconds": run["seconds"],
          "strata": len(run["strata"]), "settings": rare.settings_dict(rs)}, indent=1))
     (out / "rare_summary.md").write_text(text + "\n")

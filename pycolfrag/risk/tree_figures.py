@@ -16,10 +16,10 @@ Takes the tree's result of either route (``TreeRisk`` or ``TreeRare``: ``labels`
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
+from pycolfrag.core import report_json
 from pycolfrag.core.errors import OutputError
 
 __all__ = ["FILES", "figure_data", "fig_tornado", "fig_bands", "write_figures"]
@@ -115,7 +115,7 @@ def write_figures(tr, outdir) -> dict:
     data = figure_data(tr)
     paths = {k: out / name for k, name in FILES.items()}
     try:
-        _write_text(paths["data"], json.dumps(data, indent=1))
+        _write_text(paths["data"], report_json.dumps(data, indent=1))
         fig_tornado(data).savefig(paths["tornado"], dpi=110)
         fig_bands(data).savefig(paths["bands"], dpi=110)
     except OSError as exc:

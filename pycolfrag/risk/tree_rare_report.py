@@ -6,10 +6,10 @@ table with each estimate's CoV, status and failed runs; the run groups), each ru
 grid route's tree report are reused (:mod:`pycolfrag.risk.tree_report`)."""
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
+from pycolfrag.core import report_json
 from pycolfrag.core.errors import OutputError
 from pycolfrag.rare.driver import failures
 from pycolfrag.risk import tree_report as _tr
@@ -135,7 +135,7 @@ def write_tree_outputs(tr, outdir, figures: bool = False) -> dict:
     md, js = out / "logic_tree.md", out / "logic_tree.json"
     try:
         _write_text(md, markdown(tr))
-        _write_text(js, json.dumps(to_json(tr), indent=1, default=_plain))
+        _write_text(js, report_json.dumps(to_json(tr), indent=1, default=_plain))
     except OSError as exc:
         raise OutputError(f"cannot write the logic tree's outputs into {out}: {exc.strerror or exc}") from None
     figs = write_figures(tr, out) if figures else {}

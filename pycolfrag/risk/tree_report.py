@@ -4,9 +4,9 @@ variance split and the tornado of collapse, what matters most), ``logic_tree.jso
 command's summary. Written through a temporary file renamed into place, as risk.md is."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
+from pycolfrag.core import report_json
 from pycolfrag.core.errors import OutputError
 from pycolfrag.risk.tree_figures import write_figures
 from pycolfrag.risk.tree_stats import QUANTILES
@@ -144,7 +144,7 @@ def write_tree_outputs(tr, outdir, figures: bool = False) -> dict:
     try:
         out.mkdir(parents=True, exist_ok=True)
         _write_text(md, markdown(tr))
-        _write_text(js, json.dumps(to_json(tr), indent=1))
+        _write_text(js, report_json.dumps(to_json(tr), indent=1))
     except OSError as exc:
         raise OutputError(f"cannot write the logic tree's outputs into {out}: {exc.strerror or exc}") from None
     figs = write_figures(tr, out) if figures else {}
