@@ -236,3 +236,23 @@ def test_rare_two_mpi_ranks_give_the_one_rank_rows(site_file, rare_reference, tm
     p = _run([str(site_file), str(tmp_path / "two")] + ARGS + RARE, ranks=2)
     assert p.returncode == 6, p.stdout + p.stderr
     assert _rows(tmp_path / "two") == rare_reference[0]
+
+
+def test_the_journal_identity_holds_the_code(monkeypatch):
+    """The identity carries the grid's code digest (Python sources, C library, solver options): a change of a
+    Python source alone changes it, so a journal begun by other code is refused like one of other settings
+    (before, only the version and the C library's digest were held: an edited Python model resumed)."""
+    from pycolfrag.grid import signing
+    from pycolfrag.risk.sequences import SequenceSettings
+    from pycolfrag.risk.sequences_journal import identity
+    from pycolfrag.solver.options import SolverOptions
+    from pycolfrag.structure.column import Column
+    site = ROOT / "examples" / "site_athens.toml"
+    st = SequenceSettings(years=10.0)
+    before = identity(site, Column.parthenon(), st)
+    assert before["code_digest"] == signing.code_digest(SolverOptions())     # st's solver options: the defaults
+    files = signing.code_files()
+    monkeypatch.setattr(signing, "_CODE", {})
+    monkeypatch.setattr(signing, "code_files", lambda: files + [("extra.py", site)])
+    after = identity(site, Column.parthenon(), st)
+    assert after["code_digest"] != before["code_digest"] and after["settings"] == before["settings"]

@@ -16,8 +16,9 @@ from pathlib import Path
 
 from pycolfrag.core.errors import ParameterError, PycolfragError, ResultsFileError
 from pycolfrag.core.version import __version__
-from pycolfrag.grid.signing import library_digest
+from pycolfrag.grid.signing import code_digest
 from pycolfrag.results.lock import ResultsLockedError, RunLock
+from pycolfrag.solver.options import SolverOptions
 
 __all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "identity", "read_lines", "Journal", "open_journal",
            "abort_others"]
@@ -26,13 +27,16 @@ EXIT_OK, EXIT_ARGS, EXIT_OS_ERROR, EXIT_LOCKED = 0, 2, 4, 5
 
 
 def identity(site_path, model, st) -> dict:
-    """What a journal's sequences are of (see the module's text); ``n_sequences`` is not part of it."""
+    """What a journal's sequences are of (see the module's text); ``n_sequences`` is not part of it. The code
+    is the grid's code digest (the package's Python sources, the loaded C library and the solver options:
+    :func:`pycolfrag.grid.signing.code_digest`), so a journal is resumed only by the code that began it."""
     settings = {f.name: getattr(st, f.name) for f in dataclasses.fields(st) if f.name != "n_sequences"}
     settings["restoration"] = dataclasses.asdict(st.restoration)
     settings["settle"] = dataclasses.asdict(st.settle)
     return json.loads(json.dumps({
         "site_sha256": hashlib.sha256(Path(site_path).read_bytes()).hexdigest(), "structure": model.to_dict(),
-        "settings": settings, "version": __version__, "library_digest": library_digest()}, default=float))
+        "settings": settings, "version": __version__,
+        "code_digest": code_digest(SolverOptions(**st.solver_options))}, default=float))
 
 
 def _differences(a: dict, b: dict, where: str = "") -> list:
