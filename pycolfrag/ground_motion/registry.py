@@ -65,7 +65,7 @@ KINDS = {
     "record": "the keys of a synthetic record's meta (scenario and seeds)",
     "pulse": "a velocity-pulse shape (synthesize(shape=...), --pulse): its parameters are the pulse fields of a sample row",
     "pulse_period": "a pulse-period relation: log10_fp_mean(Mw), SIGMA_LOG10_FP (--tp-model)",
-    "pulse_amplitude": "a pulse-amplitude relation in place of Eq. (6): mean_vp_cm_s(Mw, R, vp_scale) (a tree's vp_model)",
+    "pulse_amplitude": "a pulse-amplitude relation in place of Eq. (6): mean_vp_cm_s(Mw, R, vp_scale) (--vp-model)",
     "pulse_occurrence": "the probability that a near-fault motion carries a pulse (site risk)",
 }
 for _m in MODELS.values():
