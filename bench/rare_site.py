@@ -145,7 +145,7 @@ def run_crude(comm, site_path, column_path, n: int, seed: int, name: str, batch:
     if not ev.is_root:
         ev.serve()
         return None
-    pm = PulseMap(rec.pulse_shape, rec.vp_scale, rec.tp_model)
+    pm = PulseMap(rec.pulse_shape, rec.vp_scale, rec.tp_model, rec.vp_model)
     parts = []
     for b in range(math.ceil(n / batch)):
         ids = range(b * batch, min(n, (b + 1) * batch))

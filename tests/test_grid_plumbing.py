@@ -25,9 +25,10 @@ def fake_physics(monkeypatch):
     calls = {"lhs": [], "synth": []}
 
     def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model="rupakhety_2011", shape="mp03",
-                                amplitude=True):
+                                amplitude=True, vp_model=""):
         calls["lhs"].append((Mw, dist_km, n, seed, vp_scale))
         calls.setdefault("tp_model", []).append(tp_model)
+        calls.setdefault("vp_model", []).append(vp_model)
         rng = np.random.default_rng(seed)
         return {"Vp_cm_s": 30 + 10 * rng.random(n), "fp_hz": 0.5 + rng.random(n), "nu_rad": rng.random(n),
                 "gamma": 2 + rng.random(n), "t0_s": 5 + rng.random(n)}
@@ -123,7 +124,10 @@ def test_no_pulse_row_is_the_stochastic_record_of_the_same_seed(fake_physics):
     assert out["record_s"] == pytest.approx(1501 * 0.005) and out["u_top"] == pytest.approx(0.01 * 1501 * 0.005)
     baker = grid.GridSpec(mw=(6.0,), dist_km=(10.0,), samples=2, seed=3, tp_model="baker_2007")
     grid.run_sample(grid.SampleContext(baker), 0)
-    assert fake_physics["tp_model"] == ["baker_2007"]
+    assert fake_physics["tp_model"] == ["baker_2007"] and fake_physics["vp_model"] == [""]
+    brm = grid.GridSpec(mw=(6.0,), dist_km=(10.0,), samples=2, seed=3, vp_model="bray_rodriguez_marek_2004")
+    grid.run_sample(grid.SampleContext(brm), 0)      # the pulse-amplitude relation reaches the rows' pulses
+    assert fake_physics["vp_model"] == ["", "bray_rodriguez_marek_2004"]
 
 
 @pytest.mark.parametrize("kw, words", [
@@ -131,6 +135,8 @@ def test_no_pulse_row_is_the_stochastic_record_of_the_same_seed(fake_physics):
     ({"tp_model": "somerville"}, "'somerville'"),
     ({"pulse": "none", "tp_model": "baker_2007"}, "'baker_2007'"),
     ({"pulse": "none", "vp_scale": 2.0}, "2.0"),
+    ({"vp_model": "somerville"}, "unknown pulse-amplitude model 'somerville'"),
+    ({"pulse": "none", "vp_model": "bray_rodriguez_marek_2004"}, "'bray_rodriguez_marek_2004'"),
 ])
 def test_pulse_options_are_checked(kw, words):
     with pytest.raises(pcf.ParameterError, match=words):
@@ -148,6 +154,14 @@ def test_pulse_choices_enter_signature_and_attributes():
     assert (d.file_attrs()["pulse"], d.file_attrs()["tp_model"]) == ("mp03", "rupakhety_2011")
     assert (n.file_attrs()["pulse"], n.file_attrs()["tp_model"]) == ("none", "")
     assert "no pulse" in n.describe() and "baker_2007" in b.describe()
+    # vp_model: Eq. (6), however named, is the default's signature and attributes (no key); another relation is
+    # a key of its own beside tp_model, in the signature and the attributes
+    e6, v = (grid.GridSpec(**base, vp_model=x) for x in ("rupakhety_2011", "bray_rodriguez_marek_2004"))
+    assert e6.vp_model == "" and e6.signature() == d.signature() and e6.file_attrs() == d.file_attrs()
+    assert "vp_model" not in d.signature() and "vp_model" not in d.file_attrs()
+    assert (v.signature()["vp_model"], v.file_attrs()["vp_model"], v.signature().get("tp_model")) == (
+        "bray_rodriguez_marek_2004", "bray_rodriguez_marek_2004", None)
+    assert "bray_rodriguez_marek_2004" in v.describe()
 
 
 def test_streams_do_not_depend_on_order_or_process(fake_physics):

@@ -97,6 +97,8 @@ def test_every_difference_is_named(files):
     assert "amplitude scale (--vp-scale) 2 in the simulation, 1 in the grid" in d
     [d] = differences(_record(tp_model="baker_2007"), both)
     assert "pulse-period relation 'baker_2007' in the simulation, 'rupakhety_2011' in the grid" in d
+    [d] = differences(_record(vp_model="bray_rodriguez_marek_2004"), both)
+    assert "pulse-amplitude relation 'bray_rodriguez_marek_2004' in the simulation, 'rupakhety_2011' in the grid" in d
     d = differences(_record(solver_options={"dt_factor": 0.5}), both)
     assert len(d) == 2 and all("solver options: dt_factor 0.5 in the simulation, 0.8 in the grid" in x for x in d)
     d = differences(_record(record_dt_s=0.01), both)

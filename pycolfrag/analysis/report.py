@@ -78,7 +78,8 @@ def _meta_lines(d):
            + (f" (by status code: {', '.join(f'{k}: {v}' for k, v in sorted(d.failures.items()))})"
               if d.failures else "")]
     several = code_lines(a, d.n_total)        # a file resumed with other code: version etc. are the first's
-    for key in ("version", "git_revision", "seed", "n_ranks", "created", "vp_scale", "pulse", "tp_model", "contact"):
+    for key in ("version", "git_revision", "seed", "n_ranks", "created", "vp_scale", "pulse", "tp_model", "vp_model",
+                "contact"):
         if key in a and str(a[key]) != "":
             first = " (the first code's)" if several and key in ("version", "git_revision") else ""
             out.append(f"- {key}: `{a[key]}`{first}")

@@ -37,7 +37,7 @@ from pycolfrag.grid.spec import (
     RecordGridSpec,
 )
 from pycolfrag.grid.timeline import Recorder
-from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
+from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, DEFAULT_VP_MODEL, TP_MODELS, VP_MODELS
 from pycolfrag.solver import sample as _sample
 from pycolfrag.structure.column import Column
 from pycolfrag.structure.kinds import model_from_dict, scene_from_file
@@ -104,6 +104,9 @@ def build_parser(prog: str = "pycolfrag grid") -> argparse.ArgumentParser:
                         f"stochastic record alone, same seeds, rows pair with the pulse grid (default: {DEFAULT_PULSE})")
     g.add_argument("--tp-model", default=None, choices=sorted(TP_MODELS),
                    help=f"pulse-period relation of the sampled pulses (default: {DEFAULT_TP_MODEL}, the paper's Eq. 7)")
+    g.add_argument("--vp-model", default=None, choices=sorted(VP_MODELS),
+                   help=f"pulse-amplitude relation of the sampled pulses' median Vp (default: {DEFAULT_VP_MODEL}, "
+                        "the paper's Eq. (6))")
     r = p.add_argument_group("record suite (docs/records.md)")
     r.add_argument("--records", default=None, metavar="SOURCE",
                    help="run a suite of natural records instead of the synthetic grid: a PEER NGA-West2 download "
@@ -180,7 +183,7 @@ def spec_from_args(args) -> RunSpec:
         opts[k.strip().replace("-", "_")] = _solver_value(v.strip())
     synthetic_only = {"--mw": args.mw, "--dist": args.dist, "--samples": args.samples, "--seed": args.seed,
                       "--vp-scale": args.vp_scale, "--record-dt": args.record_dt, "--pulse": args.pulse,
-                      "--tp-model": args.tp_model}
+                      "--tp-model": args.tp_model, "--vp-model": args.vp_model}
     if args.records is not None:
         given = [k for k, v in synthetic_only.items() if v is not None]
         if given:
@@ -204,7 +207,8 @@ def spec_from_args(args) -> RunSpec:
                     periods_s=_parse_values(args.periods, "--periods"), damping=args.damping,
                     record_dt_s=DEFAULT_RECORD_DT_S if args.record_dt is None else args.record_dt,
                     max_record_s=args.max_record_s, sample_function=args.sample_function,
-                    pulse=args.pulse or DEFAULT_PULSE, tp_model=args.tp_model or DEFAULT_TP_MODEL)
+                    pulse=args.pulse or DEFAULT_PULSE, tp_model=args.tp_model or DEFAULT_TP_MODEL,
+                    vp_model=args.vp_model or "")
 
 
 def _default_out(args) -> str:

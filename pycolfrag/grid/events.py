@@ -108,9 +108,10 @@ class EventBatchSpec(RunSettings):
     column, solver_options, vp_scale, periods_s, damping, record_dt_s, max_record_s, sample_function :
         as :class:`~pycolfrag.grid.GridSpec` (``vp_scale`` is recorded: the pulse rows carry scaled
         amplitudes already).
-    pulse_shape, tp_model : str
-        The pulse shape of the rows with a pulse, and the pulse-period relation their parameters were
-        drawn with (recorded).
+    pulse_shape, tp_model, vp_model : str
+        The pulse shape of the rows with a pulse, and the pulse-period and pulse-amplitude relations their
+        parameters were drawn with (recorded; ``vp_model`` empty: Eq. (6), and then absent from the
+        signature and the file's attributes, as in every file written before it existed).
     """
 
     inputs: tuple = ()
@@ -171,6 +172,7 @@ class EventBatchSpec(RunSettings):
             "periods_s": [float(p) for p in self.periods_s], "damping": float(self.damping),
             "record_dt_s": float(self.record_dt_s), "max_record_s": self.max_record_s,
             "sample_function": self.sample_function, "pulse_shape": self.pulse_shape, "tp_model": self.tp_model,
+            **({"vp_model": self.vp_model} if self.vp_model else {}),
             "rows": "the inputs as given, row i = input i (hf_seed, pulse parameters); v1",
         }
 
@@ -199,7 +201,8 @@ class EventBatchSpec(RunSettings):
         return {"layout": self.layout, "purpose": json.dumps(self.purpose, sort_keys=True),
                 "inputs_sha256": self._digest, "vp_scale": float(self.vp_scale),
                 "record_dt_s": float(self.record_dt_s), "pulse": self.pulse_shape, "tp_model": self.tp_model,
-                "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s)}
+                "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s),
+                **({"vp_model": self.vp_model} if self.vp_model else {})}
 
     def shortest_record_dt(self) -> float:
         return float(self.record_dt_s)

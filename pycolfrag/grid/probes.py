@@ -175,7 +175,8 @@ def _synthetic_probe_record(spec, ctx, scenario):
     with_pulse = spec.pulse != _gm.registry.NO_PULSE
     if with_pulse:
         table = _gm.sample_pulse_parameters(m, r, min(spec.samples, 8), ctx.lhs_seed(scenario),
-                                            vp_scale=spec.vp_scale, tp_model=spec.tp_model, shape=spec.pulse)
+                                            vp_scale=spec.vp_scale, tp_model=spec.tp_model, shape=spec.pulse,
+                                            vp_model=spec.vp_model)
         p = {k: (np.asarray(v)[0] if np.ndim(v) else v).item() for k, v in table.items()}
     out, a, d = _sample._synthetic_record(m, r, ctx.hf_seed(scenario, 0), p, spec.record_dt_s, spec.vp_scale,
                                           None, with_pulse,

@@ -87,7 +87,7 @@ class SampleContext:
             mw, dist = self.spec.scenarios[scenario]
             table = _gm.sample_pulse_parameters(mw, dist, self.spec.samples, self.lhs_seed(scenario),
                                                 vp_scale=self.spec.vp_scale, tp_model=self.spec.tp_model,
-                                                shape=self.spec.pulse, amplitude=False)
+                                                shape=self.spec.pulse, amplitude=False, vp_model=self.spec.vp_model)
             self._lhs[scenario] = {k: np.asarray(v) for k, v in table.items()}
             while len(self._lhs) > _LHS_CACHE:
                 self._lhs.popitem(last=False)

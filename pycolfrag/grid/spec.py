@@ -21,7 +21,7 @@ from pycolfrag.grid.protocol import DEFAULT_RECORD_DT_S, RowFunction
 from pycolfrag.grid.rows import RECORD_ROWS, SYNTHETIC_ROWS, RecordContext, SampleContext
 from pycolfrag.grid.signing import build_identity, code_digest
 from pycolfrag.ground_motion.record_suites import load_records
-from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, NO_PULSE, PULSE_SHAPES, tp_model_of
+from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, NO_PULSE, PULSE_SHAPES, tp_model_of, vp_model_key
 from pycolfrag.solver import sample as _sample
 from pycolfrag.solver.options import resolve_solver_options, solver_defaults
 from pycolfrag.solver.sample import DEFAULT_DAMPING, DEFAULT_PERIODS_S  # /spectra periods (s) and damping: a sample's
@@ -76,6 +76,7 @@ class RunSettings:
     max_record_s: float | None = None
     sample_function: str | None = None
     tp_model: str = DEFAULT_TP_MODEL
+    vp_model: str = ""
 
     def run_settings(self) -> dict:
         """These settings by name (keywords of any of the classes that share them)."""
@@ -83,7 +84,9 @@ class RunSettings:
 
     def _check_run_settings(self) -> None:
         """ParameterError naming the first bad setting: vp_scale and record_dt_s finite and > 0, then the
-        IM and record-length options (:func:`_check_im_options`)."""
+        IM and record-length options (:func:`_check_im_options`); ``vp_model`` a known pulse-amplitude relation,
+        kept as its one form (:func:`~pycolfrag.ground_motion.registry.vp_model_key`: empty for Eq. (6))."""
+        object.__setattr__(self, "vp_model", vp_model_key(self.vp_model))
         for name in ("vp_scale", "record_dt_s"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
@@ -125,6 +128,10 @@ class GridSpec(RunSettings):
     tp_model : str
         Pulse-period relation of the sampled pulses
         (:data:`pycolfrag.ground_motion.registry.TP_MODELS`).
+    vp_model : str
+        Pulse-amplitude relation of the sampled pulses' median Vp
+        (:data:`pycolfrag.ground_motion.registry.VP_MODELS`); empty (the default, and the form
+        ``"rupakhety_2011"`` is kept as): the paper's Eq. (6).
     """
 
     mw: tuple = DEFAULT_MW
@@ -229,7 +236,8 @@ class GridSpec(RunSettings):
         return {"seed": int(self.seed), "mw": list(self.mw), "dist_km": list(self.dist_km),
                 "samples": int(self.samples), "vp_scale": float(self.vp_scale), "record_dt_s": float(self.record_dt_s),
                 "max_record_s": -1.0 if self.max_record_s is None else float(self.max_record_s),
-                "pulse": self.pulse, "tp_model": self.tp_model if self.pulse != "none" else ""}
+                "pulse": self.pulse, "tp_model": self.tp_model if self.pulse != "none" else "",
+                **({"vp_model": self.vp_model} if self.vp_model else {})}
 
     def shortest_record_dt(self) -> float:
         """The records' time step, s (the solver step must not be longer)."""
@@ -237,7 +245,8 @@ class GridSpec(RunSettings):
 
     def describe(self) -> str:
         branch = ("" if not _pulse_signature(self) else
-                  " (no pulse)" if self.pulse == "none" else f" (pulse period: {self.tp_model})")
+                  " (no pulse)" if self.pulse == "none" else
+                  f" (pulse period: {self.tp_model}" + (f", pulse amplitude: {self.vp_model})" if self.vp_model else ")"))
         return f"{len(self.mw)} Mw x {len(self.dist_km)} R x {self.samples} samples = {self.n_rows} runs{branch}"
 
     def input_notes(self) -> list:
@@ -246,14 +255,17 @@ class GridSpec(RunSettings):
 
 
 def _check_pulse_options(spec) -> None:
-    """``pulse`` one of :data:`PULSES`, ``tp_model`` a known relation; a no-pulse grid takes neither a
-    pulse-period model nor a pulse amplitude scale (they would change nothing and be recorded as if)."""
+    """``pulse`` one of :data:`PULSES`, ``tp_model`` and ``vp_model`` known relations; a no-pulse grid takes
+    no pulse-period model, pulse-amplitude model or pulse amplitude scale (they would change nothing and be
+    recorded as if)."""
     if spec.pulse not in PULSES:
         raise ParameterError(f"pulse must be one of {PULSES}, got {spec.pulse!r}")
     tp_model_of(spec.tp_model)
-    if spec.pulse == "none" and (spec.tp_model != DEFAULT_TP_MODEL or spec.vp_scale != 1.0):
-        raise ParameterError(f"a grid without pulse (pulse 'none') takes no pulse-period model or pulse scale, "
-                             f"got tp_model {spec.tp_model!r}, vp_scale {spec.vp_scale!r}")
+    object.__setattr__(spec, "vp_model", vp_model_key(spec.vp_model))
+    if spec.pulse == "none" and (spec.tp_model != DEFAULT_TP_MODEL or spec.vp_scale != 1.0 or spec.vp_model):
+        raise ParameterError(f"a grid without pulse (pulse 'none') takes no pulse-period model, pulse-amplitude "
+                             f"model or pulse scale, got tp_model {spec.tp_model!r}, vp_model {spec.vp_model!r}, "
+                             f"vp_scale {spec.vp_scale!r}")
 
 
 def _pulse_signature(spec) -> dict:
@@ -265,6 +277,8 @@ def _pulse_signature(spec) -> dict:
         out["pulse"] = spec.pulse
     if spec.tp_model != DEFAULT_TP_MODEL:
         out["tp_model"] = spec.tp_model
+    if spec.vp_model:
+        out["vp_model"] = spec.vp_model
     return out
 
 

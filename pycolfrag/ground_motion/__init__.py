@@ -47,17 +47,18 @@ __all__ = ["Record", "stochastic", "synthesize", "sample_pulse_parameters", "Nor
            "pulse_shape", "registry", "combine", "plots", "PULSE_STREAM"]
 
 def sample_pulse_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=registry.DEFAULT_TP_MODEL,
-                            shape=registry.DEFAULT_PULSE_SHAPE, amplitude=True):
+                            shape=registry.DEFAULT_PULSE_SHAPE, amplitude=True, vp_model=""):
     """A sample of ``n`` pulses of the shape named ``shape`` (a key of :data:`registry.PULSE_SHAPES`;
     default the paper's, whose Latin hypercube :func:`mavroeidis_papageorgiou_2003.sample_parameters`
     describes with the returned keys) for the scenario (Mw, dist_km km), the pulse period from the
-    relation named ``tp_model`` (a key of :data:`registry.TP_MODELS`): the names looked up here, the
+    relation named ``tp_model`` (a key of :data:`registry.TP_MODELS`), the median Vp from the pulse-amplitude
+    relation named ``vp_model`` (a key of :data:`registry.VP_MODELS`; empty: Eq. (6)): the names looked up here, the
     sampling in the shape's module, so a model need not import the registry that lists it.
     ``amplitude=False`` leaves out derived values that cost a search per sample (mp03: ``A_cm_s``);
     the rest keep their bits (a grid's rows need only the shape's ``INPUTS``)."""
     model = registry.pulse_shape_of(shape)
     return model.sample_parameters(Mw, dist_km, n, seed, vp_scale, registry.tp_model_of(tp_model),
-                                   amplitude=amplitude)
+                                   amplitude=amplitude, vp_model=registry.vp_model_of(vp_model))
 
 
 #: Second word of the SeedSequence that seeds the pulse draw of ``synthesize(pulse=None)``:

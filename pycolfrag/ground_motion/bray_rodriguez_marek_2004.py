@@ -19,10 +19,14 @@ in the Eq. (6) branch (common random numbers: the two branches differ by the med
 of a record is not the Vp of its extracted pulse: the relation stands for the alternative view that the
 pulse amplitude of forward-directivity motions is as large as their PGV.
 
-Provenance: the coefficients are those this relation is usually quoted with (the rock-and-soil set);
-they could not be checked against the paper's text from this project's machines (no public copy was
-reachable), the same caveat as :mod:`~pycolfrag.ground_motion.baker_2007`'s; check them against the paper
-before a decision rests on this branch (docs/ground_motion.md says the same).
+Provenance: the coefficients are those this relation is usually quoted with (the rock-and-soil set, no
+site term); they are NOT verified against the paper's text: no copy of the paper, nor a secondary source
+quoting its PGV table (or its pulse-period relation), was found from this project's machines (searched again
+for issue 33: the paper's title, "Bray and Rodriguez-Marek", "Rodriguez-Marek 2004", the equation's terms
+and coefficients, in public repositories, documentation, issue threads and stored web pages, GMPE compendia
+among them), the same caveat as :mod:`~pycolfrag.ground_motion.baker_2007`'s. Check them -- and whether the
+paper's regression carries a site (soil) term -- against the paper before a decision rests on this branch
+(docs/ground_motion.md says the same).
 """
 from __future__ import annotations
 

@@ -218,13 +218,7 @@ def _distribution(log10_vp_mean, log10_fp_mean, log10_fp_sd):
     return d
 
 
-def _mean_vp(tp_model, Mw, dist_km, vp_scale):
-    """The median Vp, cm/s: Eq. (6) (:mod:`.rupakhety_2011`), or the pulse-amplitude relation a
-    ``tp_model`` of :class:`~pycolfrag.ground_motion.registry.PulseRelations` carries (``VP_MODEL``)."""
-    return getattr(tp_model, "VP_MODEL", _r11).mean_vp_cm_s(Mw, dist_km, vp_scale)
-
-
-def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11, amplitude=True):
+def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11, amplitude=True, vp_model=_r11):
     """Latin-hypercube sample of ``n`` pulses for the scenario (Mw, dist_km km).
 
     One LHS of the unit 4-cube (:func:`~pycolfrag.ground_motion.sampling.latin_hypercube`, the numbers of
@@ -234,7 +228,8 @@ def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11, amplitu
     every CPU; scipy's ``norm.ppf``/``truncnorm.ppf`` and numpy's ``power`` depend on the
     CPU's SIMD features in their last bits):
 
-    * column 0: log10 Vp ~ N(log10 of the Eq. (6) mean times ``vp_scale``, 0.16);
+    * column 0: log10 Vp ~ N(log10 of the Eq. (6) mean -- or of another pulse-amplitude relation's
+      (``vp_model``) -- times ``vp_scale``, 0.16);
     * column 1: log10 fp ~ N(log10 of the Eq. (7) mean, 0.18), or the mean and scatter of another
       pulse-period relation (``tp_model``, one of :data:`pycolfrag.ground_motion.registry.TP_MODELS`)
       on the same uniform column;
@@ -258,6 +253,9 @@ def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11, amplitu
     amplitude : bool, default True
         False: leave out ``A_cm_s`` (a peak search per sample, 90 % of the time of a 1000-sample draw);
         the other keys keep their bits, and a record made from a row finds its own A (the grid's rows).
+    vp_model : module, a pulse-amplitude relation (``mean_vp_cm_s(Mw, dist_km, vp_scale)``; default the
+        paper's Eq. (6), :mod:`~pycolfrag.ground_motion.rupakhety_2011`; one of
+        :data:`pycolfrag.ground_motion.registry.VP_MODELS`): the median of Vp (the scatter stays Eq. (6)'s)
 
     Returns
     -------
@@ -266,7 +264,7 @@ def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11, amplitu
     """
     model = tp_model
     c = _c()
-    log_vp = c.lib.cf_math_log10(_mean_vp(tp_model, Mw, dist_km, vp_scale))
+    log_vp = c.lib.cf_math_log10(vp_model.mean_vp_cm_s(Mw, dist_km, vp_scale))
     log_fp = model.log10_fp_mean(Mw)
     n_ = integer(n, "n", 1)
     u = np.ascontiguousarray(latin_hypercube(4, n_, _int_seed(seed)), dtype=np.float64)
@@ -281,13 +279,14 @@ def sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=_r11, amplitu
     return out
 
 
-def parameters_from_normals(Mw, dist_km, z, vp_scale=1.0, tp_model=_r11) -> dict:
+def parameters_from_normals(Mw, dist_km, z, vp_scale=1.0, tp_model=_r11, vp_model=_r11) -> dict:
     """The pulse inputs (:data:`INPUTS`) of the scenario from four standard normals ``z`` (the quantiles
     named by :data:`NORMALS`): the distributions of :func:`sample_parameters` by inverse CDF at
     ``Phi(z)``, so that independent N(0, 1) normals give pulses of exactly those distributions and a
     pulse is a pure function of its normals (what subset simulation and importance sampling move in).
 
-    * log10 Vp = log10 of the Eq. (6) mean times ``vp_scale`` + 0.16 z_vp (z_vp > 0: a stronger pulse);
+    * log10 Vp = log10 of the Eq. (6) (or ``vp_model``) mean times ``vp_scale`` + 0.16 z_vp (z_vp > 0: a
+      stronger pulse);
     * log10 fp = the ``tp_model`` mean + its sd times z_fp (z_fp > 0: a higher fp, a *shorter* Tp);
     * nu = -pi/2 + pi Phi(z_nu);
     * gamma = 1.8 + 0.4 t, t the inverse CDF of the standard normal left-truncated at a = (1 - 1.8)/0.4
@@ -307,6 +306,7 @@ def parameters_from_normals(Mw, dist_km, z, vp_scale=1.0, tp_model=_r11) -> dict
     z : array_like of 4 finite floats
     vp_scale : float (> 0), multiplies the Eq. (6) mean
     tp_model : module, a pulse-period relation (default the paper's Eq. 7)
+    vp_model : module, a pulse-amplitude relation (default the paper's Eq. (6)), as in :func:`sample_parameters`
 
     Returns
     -------
@@ -317,7 +317,7 @@ def parameters_from_normals(Mw, dist_km, z, vp_scale=1.0, tp_model=_r11) -> dict
         raise ParameterError(f"pulse normals has {z.size} values; the pulse takes {len(NORMALS)} "
                              f"({', '.join(NORMALS)})")
     lib = _c().lib
-    log_vp = lib.cf_math_log10(_mean_vp(tp_model, Mw, dist_km, vp_scale))
+    log_vp = lib.cf_math_log10(vp_model.mean_vp_cm_s(Mw, dist_km, vp_scale))
     log_fp = tp_model.log10_fp_mean(Mw)
     z_vp, z_fp, z_nu, z_gamma = (float(x) for x in z)
     vp = lib.cf_math_pow(10.0, log_vp + _r11.SIGMA_LOG10_VP * z_vp)

@@ -18,12 +18,13 @@ at its top:
 
 and offers three functions:
 
-* ``sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=..., amplitude=True)`` -> dict of
-  ``n`` rows (meta key -> 1-D array, the ``INPUTS`` among them): the pulses of a scenario (``tp_model``
-  is a pulse-period relation of :data:`~pycolfrag.ground_motion.registry.TP_MODELS`, as a module;
+* ``sample_parameters(Mw, dist_km, n, seed, vp_scale=1.0, tp_model=..., amplitude=True, vp_model=...)`` ->
+  dict of ``n`` rows (meta key -> 1-D array, the ``INPUTS`` among them): the pulses of a scenario (``tp_model``
+  is a pulse-period relation of :data:`~pycolfrag.ground_motion.registry.TP_MODELS`, ``vp_model`` a
+  pulse-amplitude relation of :data:`~pycolfrag.ground_motion.registry.VP_MODELS`, as modules;
   ``amplitude=False``: without derived values that cost a search per sample, the others bitwise the
   same -- a grid asks only for what its rows read, the ``INPUTS``);
-* ``parameters_from_normals(Mw, dist_km, z, vp_scale=1.0, tp_model=...)`` -> dict (meta key -> float)
+* ``parameters_from_normals(Mw, dist_km, z, vp_scale=1.0, tp_model=..., vp_model=...)`` -> dict (meta key -> float)
   of the ``INPUTS``: one pulse of the scenario from ``len(NORMALS)`` standard normals, by inverse CDFs,
   so that N(0, I) normals give the distributions ``sample_parameters`` samples;
 * ``prepare(*inputs)`` -> :class:`PreparedPulse`: one pulse from the values of ``INPUTS`` (in their
@@ -74,9 +75,10 @@ class PulseShape(Protocol):
     INPUTS: tuple
     NORMALS: tuple
 
-    def sample_parameters(self, Mw, dist_km, n, seed, vp_scale=1.0, tp_model=None, amplitude=True) -> dict: ...
+    def sample_parameters(self, Mw, dist_km, n, seed, vp_scale=1.0, tp_model=None, amplitude=True,
+                          vp_model=None) -> dict: ...
 
-    def parameters_from_normals(self, Mw, dist_km, z, vp_scale=1.0, tp_model=None) -> dict: ...
+    def parameters_from_normals(self, Mw, dist_km, z, vp_scale=1.0, tp_model=None, vp_model=None) -> dict: ...
 
     def prepare(self, *inputs) -> PreparedPulse: ...
 

@@ -14,6 +14,9 @@ Every module listed in :data:`MODELS` declares, as data at its top, ``NAME``, ``
   field leaves it NaN in its rows);
 * :data:`TP_MODELS` -- the pulse-period relations (kind ``"pulse_period"``), the choices of
   ``run_grid.py --tp-model`` and of ``sample_pulse_parameters(tp_model=...)``;
+* :data:`VP_MODELS` -- the pulse-amplitude relations (Eq. (6) and those of kind ``"pulse_amplitude"``), the
+  choices of a run's ``vp_model`` (``--vp-model``, ``sample_pulse_parameters(vp_model=...)``, a logic tree's
+  ``vp_model`` set), a setting of its own beside ``tp_model``: empty is Eq. (6) (:func:`vp_model_key`);
 * the parameter tables of docs/ground_motion.md (:func:`docs_section`; a test keeps them equal;
   ``python -c "from pycolfrag.ground_motion import registry; print(registry.docs_section())"`` prints them).
 
@@ -38,8 +41,8 @@ from pycolfrag.ground_motion import (
 )
 
 __all__ = ["MODELS", "KINDS", "PULSE_SHAPES", "DEFAULT_PULSE_SHAPE", "NO_PULSE", "pulse_shape_of", "PULSE_FIELDS",
-           "TP_MODELS", "DEFAULT_TP_MODEL", "tp_model_of", "VP_MODELS", "DEFAULT_VP_MODEL", "vp_model_of",
-           "PulseRelations", "pulse_relations_name", "markdown_table", "docs_section"]
+           "TP_MODELS", "DEFAULT_TP_MODEL", "tp_model_of", "VP_MODELS", "DEFAULT_VP_MODEL", "vp_model_key",
+           "vp_model_of", "markdown_table", "docs_section"]
 
 _LISTED = (
     record,
@@ -62,7 +65,7 @@ KINDS = {
     "record": "the keys of a synthetic record's meta (scenario and seeds)",
     "pulse": "a velocity-pulse shape (synthesize(shape=...), --pulse): its parameters are the pulse fields of a sample row",
     "pulse_period": "a pulse-period relation: log10_fp_mean(Mw), SIGMA_LOG10_FP (--tp-model)",
-    "pulse_amplitude": "a pulse-amplitude relation in place of Eq. (6): mean_vp_cm_s(Mw, R, vp_scale) (a tree's vp_model)",
+    "pulse_amplitude": "a pulse-amplitude relation in place of Eq. (6): mean_vp_cm_s(Mw, R, vp_scale) (--vp-model)",
     "pulse_occurrence": "the probability that a near-fault motion carries a pulse (site risk)",
 }
 for _m in MODELS.values():
@@ -133,56 +136,33 @@ DEFAULT_TP_MODEL = rupakhety_2011.NAME
 #: Eq. (6) (:mod:`.rupakhety_2011`) and the relations of kind ``"pulse_amplitude"``.
 VP_MODELS = {rupakhety_2011.NAME: rupakhety_2011,
              **{name: m for name, m in MODELS.items() if m.KIND == "pulse_amplitude"}}
-#: The paper's Eq. (6).
+#: The paper's Eq. (6): a run's ``vp_model`` left empty (the one way a run's settings say it, so that every
+#: folder made before the setting existed keeps its identity).
 DEFAULT_VP_MODEL = rupakhety_2011.NAME
-#: Joins a pulse-period relation's name and a pulse-amplitude relation's in a record setting's ``tp_model``.
-_JOIN = "+"
+
+
+def vp_model_key(name) -> str:
+    """The ``vp_model`` a run's settings carry for the pulse-amplitude relation ``name``: ``""`` for Eq. (6)
+    (``""``, None or :data:`DEFAULT_VP_MODEL`), else the relation's name; ParameterError naming an unknown one."""
+    if name is None or name == "" or name == DEFAULT_VP_MODEL:
+        return ""
+    if not isinstance(name, str) or name not in VP_MODELS:
+        raise ParameterError(f"unknown pulse-amplitude model {name!r} (vp_model; known: {', '.join(VP_MODELS)}; "
+                             f"empty: Eq. (6), {DEFAULT_VP_MODEL})")
+    return name
 
 
 def vp_model_of(name):
-    """The module of a pulse-amplitude relation of :data:`VP_MODELS`, or ParameterError naming ``name``."""
-    try:
-        return VP_MODELS[name]
-    except (KeyError, TypeError):
-        raise ParameterError(f"unknown pulse-amplitude model {name!r} (known: {', '.join(VP_MODELS)})") from None
-
-
-class PulseRelations:
-    """A pulse-period relation with another pulse-amplitude relation than Eq. (6): the period's
-    ``log10_fp_mean`` and ``SIGMA_LOG10_FP``, and ``VP_MODEL`` (the amplitude's module), which the pulse
-    shapes read in place of Eq. (6) (``getattr(tp_model, "VP_MODEL", rupakhety_2011)``)."""
-
-    def __init__(self, period, amplitude):
-        self.NAME = f"{period.NAME}{_JOIN}{amplitude.NAME}"
-        self.KIND = "pulse_period"
-        self.SIGMA_LOG10_FP = period.SIGMA_LOG10_FP
-        self.log10_fp_mean = period.log10_fp_mean
-        self.VP_MODEL = amplitude
-
-
-def pulse_relations_name(tp_model: str, vp_model: str = "") -> str:
-    """The name a run's record settings carry as ``tp_model`` for a pulse-period relation and a pulse-amplitude
-    relation: the period's name alone for Eq. (6) (``vp_model`` empty or :data:`DEFAULT_VP_MODEL`: every
-    existing folder's name), else ``"<tp_model>+<vp_model>"``, which :func:`tp_model_of` reads back."""
-    tp, vp = tp_model or DEFAULT_TP_MODEL, vp_model or DEFAULT_VP_MODEL
-    if tp not in TP_MODELS:
-        raise ParameterError(f"unknown pulse-period model {tp!r} (known: {', '.join(TP_MODELS)})")
-    vp_model_of(vp)
-    return tp if vp == DEFAULT_VP_MODEL else f"{tp}{_JOIN}{vp}"
+    """The module of the pulse-amplitude relation ``name`` (``""`` or None: Eq. (6)), or ParameterError naming it."""
+    return VP_MODELS[vp_model_key(name) or DEFAULT_VP_MODEL]
 
 
 def tp_model_of(name):
-    """The module of a pulse-period relation of :data:`TP_MODELS`, or, for ``"<period>+<amplitude>"``
-    (:func:`pulse_relations_name`), a :class:`PulseRelations` of the two; ParameterError naming ``name``."""
-    if isinstance(name, str) and _JOIN in name:
-        period, _, amplitude = name.partition(_JOIN)
-        if amplitude != DEFAULT_VP_MODEL and period in TP_MODELS and amplitude in VP_MODELS:
-            return PulseRelations(TP_MODELS[period], VP_MODELS[amplitude])
+    """The module of a pulse-period relation of :data:`TP_MODELS`, or ParameterError naming ``name``."""
     try:
         return TP_MODELS[name]
     except (KeyError, TypeError):
-        raise ParameterError(f"unknown pulse-period model {name!r} (known: {', '.join(TP_MODELS)}, or "
-                             f"'<period>{_JOIN}<amplitude>' with an amplitude of {', '.join(VP_MODELS)})") from None
+        raise ParameterError(f"unknown pulse-period model {name!r} (known: {', '.join(TP_MODELS)})") from None
 
 
 def markdown_table(module) -> str:

@@ -325,7 +325,7 @@ class _Run:
             raise ParameterError(f"--max-runs {stop.max_runs} is below one pilot: {pilot} runs ({self.pilot_per_stratum} "
                                  f"in each of the site's {len(self.strata)} strata)")
         rec = evaluator.record
-        self.pulse_map = PulseMap(rec.pulse_shape, rec.vp_scale, rec.tp_model)
+        self.pulse_map = PulseMap(rec.pulse_shape, rec.vp_scale, rec.tp_model, rec.vp_model)
         self.fp = _fingerprint(site, settings, self.quantities)
         self.parts, self.batches, self.history = [], [], []
         self.design = Design(PILOT_MIXTURE)

@@ -47,7 +47,7 @@ from pycolfrag.grid import EventBatchSpec, run_grid
 from pycolfrag.grid.serve import sigterm_handler as _sigterm_handler
 from pycolfrag.grid.signing import CODE_KEYS
 from pycolfrag.grid.spec import RunSettings, resolve_solver_options
-from pycolfrag.ground_motion.registry import DEFAULT_PULSE_SHAPE
+from pycolfrag.ground_motion.registry import DEFAULT_PULSE_SHAPE, vp_model_key
 
 __all__ = ["RecordSettings", "PLAN_KIND", "plan_path", "write_plan", "read_plan", "read_columns", "GridEvaluator",
            "BatchStopped"]
@@ -59,12 +59,14 @@ PLAN_KIND = "pycolfrag-event-plan"
 @dataclass(frozen=True)
 class RecordSettings(RunSettings):
     """How every run of a batch is computed besides its inputs: column, solver, records, IMs
-    (:class:`~pycolfrag.grid.spec.RunSettings`), and the pulse shape of the rows with a pulse."""
+    (:class:`~pycolfrag.grid.spec.RunSettings`: ``tp_model`` and ``vp_model`` the pulse-period and pulse-amplitude
+    relations of :class:`~pycolfrag.rare.plans.PulseMap`), and the pulse shape of the rows with a pulse."""
 
     pulse_shape: str = DEFAULT_PULSE_SHAPE
 
     def __post_init__(self):
         object.__setattr__(self, "solver_options", resolve_solver_options(self.solver_options))
+        object.__setattr__(self, "vp_model", vp_model_key(self.vp_model))   # refused by name before any run
 
     def spec(self, inputs, purpose, limit=None) -> EventBatchSpec:
         return EventBatchSpec(inputs=tuple(inputs), purpose=purpose, limit=limit, pulse_shape=self.pulse_shape,

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pycolfrag.ground_motion.registry import pulse_shape_of, tp_model_of
+from pycolfrag.ground_motion.registry import pulse_shape_of, tp_model_of, vp_model_of
 from pycolfrag.rare.strata import phi
 
 __all__ = ["STREAM_SITE", "N_NORMALS", "event_streams", "event_normals", "interleave", "PulseMap", "event_input",
@@ -57,15 +57,17 @@ def interleave(new: dict, start: dict) -> list[tuple[int, int]]:
 
 
 class PulseMap:
-    """The pulse shape's inputs from its standard normals (vp_scale and the pulse-period relation as
-    the run's record settings say): ``parameters_from_normals`` of the pulse-shape interface."""
+    """The pulse shape's inputs from its standard normals (vp_scale, the pulse-period relation and the
+    pulse-amplitude relation as the run's record settings say; ``vp_model`` empty: Eq. (6)):
+    ``parameters_from_normals`` of the pulse-shape interface."""
 
-    def __init__(self, shape: str, vp_scale: float, tp_model: str):
+    def __init__(self, shape: str, vp_scale: float, tp_model: str, vp_model: str = ""):
         self.module = pulse_shape_of(shape)
         self.vp_scale, self.tp_model = float(vp_scale), tp_model_of(tp_model)
+        self.vp_model = vp_model_of(vp_model)
 
     def __call__(self, mw: float, r_km: float, z4) -> dict:
-        row = self.module.parameters_from_normals(mw, r_km, z4, self.vp_scale, self.tp_model)
+        row = self.module.parameters_from_normals(mw, r_km, z4, self.vp_scale, self.tp_model, self.vp_model)
         return {p.meta_key: float(row[p.meta_key]) for p in self.module.INPUTS}
 
 

@@ -18,7 +18,7 @@ import json
 
 from pycolfrag import results as _results
 from pycolfrag.core.errors import ParameterError
-from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL
+from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, DEFAULT_VP_MODEL
 from pycolfrag.risk.branches import declared_pulse, signature
 
 __all__ = ["differences", "check_like_with_like", "grid_streams"]
@@ -103,6 +103,10 @@ def _pulse(record, branch: str, sig: dict, attrs: dict) -> list:
     tp = sig.get("tp_model", DEFAULT_TP_MODEL)
     if tp != record.tp_model:
         out.append(f"pulse model: pulse-period relation {record.tp_model!r} in the simulation, {tp!r} in the grid")
+    vpm = sig.get("vp_model", "")
+    if vpm != record.vp_model:
+        out.append(f"pulse model: pulse-amplitude relation {record.vp_model or DEFAULT_VP_MODEL!r} in the simulation, "
+                   f"{vpm or DEFAULT_VP_MODEL!r} in the grid")
     vp = sig.get("vp_scale", attrs.get("vp_scale"))
     if vp is not None and float(vp) != float(record.vp_scale):
         out.append(f"pulse model: amplitude scale (--vp-scale) {float(record.vp_scale):g} in the simulation, "

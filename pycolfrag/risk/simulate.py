@@ -21,7 +21,7 @@ from pycolfrag.grid import get_comm
 from pycolfrag.grid.probes import check_record_dt, check_solver_options
 from pycolfrag.grid.serve import EXIT_DRAINED
 from pycolfrag.grid.spec import DEFAULT_RECORD_DT_S
-from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, TP_MODELS
+from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, DEFAULT_VP_MODEL, TP_MODELS, VP_MODELS
 from pycolfrag.rare.driver import DEFAULT_SEED, SiteSettings, StopRule, failures, simulate_site
 from pycolfrag.rare.estimate import UNRESOLVED, WeightError
 from pycolfrag.rare.evaluator import BatchStopped, GridEvaluator, RecordSettings
@@ -70,6 +70,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="cut every record to this many seconds (tests and quick looks: changes the results)")
     s.add_argument("--vp-scale", type=float, default=1.0, help="scale of the pulse amplitude's mean")
     s.add_argument("--tp-model", default=DEFAULT_TP_MODEL, choices=sorted(TP_MODELS), help="pulse-period relation")
+    s.add_argument("--vp-model", default="", choices=sorted(VP_MODELS),
+                   help=f"pulse-amplitude relation of the median Vp (default: {DEFAULT_VP_MODEL}, the paper's Eq. (6))")
     s.add_argument("--mpi", choices=("auto", "yes", "no"), default="auto", help="use MPI (auto: under mpirun)")
     s.add_argument("--allow-code-change", action="store_true",
                    help="resume a folder whose batches were computed by other code (each batch file records its code)")
@@ -122,7 +124,8 @@ def settings_from_args(args):
     stop = StopRule(target_cov=args.target_cov, max_runs=args.max_runs)
     col = Column.from_file(args.column) if args.column else Column.parthenon()
     record = RecordSettings(column=col.to_dict(), solver_options=solver_options_of(args.solver), vp_scale=args.vp_scale,
-                            record_dt_s=args.record_dt, max_record_s=args.max_record_s, tp_model=args.tp_model)
+                            record_dt_s=args.record_dt, max_record_s=args.max_record_s, tp_model=args.tp_model,
+                            vp_model=args.vp_model)
     if args.chunk_max < 1:
         raise ParameterError(f"--chunk-max must be >= 1, got {args.chunk_max}")
     check_record_dt(record.record_dt_s)            # the grid's check: every record would fail

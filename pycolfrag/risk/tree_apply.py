@@ -105,7 +105,8 @@ def site_of(site_dict: dict, end: EndBranch, origin: str = ""):
 
 @dataclass(frozen=True)
 class ModelSettings:
-    """What a run-changing branch changes: the pulse amplitude's factor and period relation, solver options
+    """What a run-changing branch changes: the pulse amplitude's factor and relation (``vp_model``, empty:
+    Eq. (6)) and the period relation, solver options
     (the contact model), the column (a column file's dict: joints, connectors). The defaults are the
     paper's model (``column`` None: :meth:`pycolfrag.Column.parthenon`)."""
 
@@ -167,12 +168,12 @@ def check_model(m: ModelSettings, *, probe: bool = False, record_dt_s: float | N
     few solver steps). Returns (Column, SolverOptions)."""
     from pycolfrag.grid.spec import DEFAULT_RECORD_DT_S, resolve_solver_options
     from pycolfrag.ground_motion import rupakhety_2011
-    from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, pulse_relations_name, tp_model_of
+    from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, tp_model_of, vp_model_key
     from pycolfrag.solver.options import OPTIONS
     from pycolfrag.structure.column import Column
     rupakhety_2011.PARAMETERS[2].check(m.vp_scale, "vp_scale", error=ParameterError)
     tp_model_of(m.tp_model or DEFAULT_TP_MODEL)
-    pulse_relations_name(m.tp_model, m.vp_model)   # ParameterError naming an unknown vp_model
+    vp_model_key(m.vp_model)   # ParameterError naming an unknown vp_model
     opts = resolve_solver_options(dict(m.solver_options))
     for k in m.solver_options:
         models = OPTIONS[k].models if k in OPTIONS else ()

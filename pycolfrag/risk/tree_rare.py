@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from pycolfrag.core.errors import ParameterError, ResultsFileError
-from pycolfrag.ground_motion.registry import pulse_relations_name
+from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, vp_model_key
 from pycolfrag.rare.driver import site_fingerprint
 from pycolfrag.rare.estimate import estimate
 from pycolfrag.rare.strata import build_strata
@@ -75,7 +75,7 @@ def run_groups(checked, record) -> list:
     for g, (key, ends) in enumerate(order.items()):
         m = checked.models[ends[0]]
         rec = replace(record, column=m.column_dict(), solver_options=dict(m.solver_options), vp_scale=m.vp_scale,
-                      tp_model=pulse_relations_name(m.tp_model, m.vp_model))
+                      tp_model=m.tp_model or DEFAULT_TP_MODEL, vp_model=vp_model_key(m.vp_model))
         name = ", ".join(f"{s}={_short(v)}" for s, v in key) or "the site file's model"
         groups.append(RunGroup(f"runs_{g:02d}", name, tuple(ends), m, rec))
     return groups
@@ -99,7 +99,9 @@ def _weights(tree) -> dict:
 
 def _group_record(g: RunGroup) -> dict:
     m = g.model
-    return {"folder": g.folder, "name": g.name, "vp_scale": m.vp_scale, "tp_model": pulse_relations_name(m.tp_model, m.vp_model),
+    vp = vp_model_key(m.vp_model)      # Eq. (6): no key, as in every folder begun before vp_model was a setting
+    return {"folder": g.folder, "name": g.name, "vp_scale": m.vp_scale, "tp_model": m.tp_model or DEFAULT_TP_MODEL,
+            **({"vp_model": vp} if vp else {}),
             "solver_options": json.loads(json.dumps(m.solver_options, sort_keys=True, default=str)),
             "column": json.loads(json.dumps(m.column_dict(), sort_keys=True, default=str))}
 

@@ -53,7 +53,7 @@ def prepare(a) -> dict:
     if a.pulse_model is not None:
         raise ParameterError("--pulse-model with --logic-tree: give the pulse model in the site file, or as the tree's "
                              "pulse_model set")
-    base = ModelSettings(vp_scale=record.vp_scale, tp_model=record.tp_model,
+    base = ModelSettings(vp_scale=record.vp_scale, tp_model=record.tp_model, vp_model=record.vp_model,
                          solver_options=_sim.solver_options_of(a.solver), column=record.column)
     checked = check_tree(tree, site_dict, str(a.site), base, probe=True, record_dt_s=record.record_dt_s)
     sites = [_overridden(s, a) for s in checked.sites]
