@@ -120,8 +120,8 @@ def test_fema_ensemble_reads_the_50_pairs_as_pairs():
         r = ours[lab]
         n = ax.size
         assert ay.size == n and dt == pytest.approx(r.dt, rel=1e-12)
-        assert ax == pytest.approx(f * r.h1[:n], rel=1e-12, abs=1e-12), lab
-        assert ay == pytest.approx(f * r.h2[:n], rel=1e-12, abs=1e-12), lab
+        np.testing.assert_allclose(ax, f * r.h1[:n], rtol=1e-12, atol=1e-12, err_msg=lab)
+        np.testing.assert_allclose(ay, f * r.h2[:n], rtol=1e-12, atol=1e-12, err_msg=lab)
         assert not np.array_equal(ax, ay), lab
 
 
