@@ -50,7 +50,7 @@ def derive_seed(seed: int, *key: int) -> int:
 
 class SampleContext:
     """What a rank needs to compute any row: the spec, the column, cached LHS tables, and what every row
-    shares prepared once (:class:`pycolfrag.solver.sample.SyntheticRows`: the column's C set-up, each
+    shares prepared once (:class:`pycolfrag.solver.sample.PreparedRows`: the column's C set-up, each
     scenario's synthesis), so that a row in steady state does only its own work."""
 
     spec: object     # the GridSpec
@@ -63,7 +63,7 @@ class SampleContext:
         self._inputs: OrderedDict = OrderedDict()
         self._scenarios = list(spec.scenarios)
         with_pulse = spec.pulse != _gm.registry.NO_PULSE
-        self.synthetic = _sample.SyntheticRows(
+        self.prepared = _sample.PreparedRows(
             self.column, record_dt_s=spec.record_dt_s, vp_scale=spec.vp_scale, periods_s=spec.periods_s,
             damping=spec.damping, solver_options=spec.solver_options, max_record_s=spec.max_record_s,
             with_pulse=with_pulse, pulse_shape=spec.pulse if with_pulse else _gm.registry.DEFAULT_PULSE_SHAPE)
@@ -107,7 +107,7 @@ class SampleContext:
         once, together (:meth:`~pycolfrag.ground_motion.synthesis.ScenarioSynthesis.checked`); raises
         what refuses the row's. None where the scenario itself is refused (its rows fail with that)."""
         if scenario not in self._inputs:
-            synth = self.synthetic.scenario(*self._scenarios[scenario])
+            synth = self.prepared.scenario(*self._scenarios[scenario])
             rows = [self.pulse(scenario, k) for k in range(self.spec.samples)]
             self._inputs[scenario] = [None] * len(rows) if isinstance(synth, Exception) else \
                 [_checked_inputs(synth, row) for row in rows]
@@ -151,7 +151,7 @@ def run_samples(ctx: SampleContext, rows) -> list[dict]:
             out.update(mw=mw, dist_km=dist, status=_results.STATUS_RECORD_FAILED,
                        message=f"{type(exc).__name__}: {exc}", wall_s=time.perf_counter() - t0)
         outs.append(out)
-    done = ctx.synthetic.rows(samples, checked=True)   # run_synthetic_samples, with what rows share kept
+    done = ctx.prepared.synthetic(samples, checked=True)   # run_synthetic_samples, with what rows share kept
     for out, d, t in zip(owner, done, t_seed):
         out.update(d)
         out["wall_s"] += t
@@ -167,7 +167,8 @@ SYNTHETIC_ROWS = RowFunction(run_sample, run_samples)
 # ---------------------------------------------------------------------------------------
 
 class RecordContext:
-    """What a rank needs to compute any row of a record-suite grid: the spec, the column, the suite."""
+    """What a rank needs to compute any row of a record-suite grid: the spec, the column, the suite, and
+    what every row shares prepared once (:class:`pycolfrag.solver.sample.PreparedRows`)."""
 
     spec: object     # the RecordGridSpec
     column: object   # a Column, or a Colonnade (--scene)
@@ -175,10 +176,13 @@ class RecordContext:
     def __init__(self, spec):
         self.spec = spec
         self.column = model_from_dict(spec.column)   # a column, or a colonnade (--scene)
+        self.prepared = _sample.PreparedRows(self.column, periods_s=spec.periods_s, damping=spec.damping,
+                                             solver_options=spec.solver_options, max_record_s=spec.max_record_s)
+        self._jobs = spec.jobs
 
     def locate(self, row: int) -> tuple[int, str, float]:
         """(record index, component, scale) of a row."""
-        return self.spec.jobs[int(row)]
+        return self._jobs[int(row)]
 
     def identity(self, row: int) -> dict:
         k, c, f = self.locate(row)
@@ -196,9 +200,7 @@ def run_record_rows(ctx: RecordContext, rows) -> list[dict]:
     (:func:`pycolfrag.solver.sample.run_record_samples`): the same rows, faster."""
     spec = ctx.spec
     where = [ctx.locate(row) for row in rows]
-    done = _sample.run_record_samples([(spec.suite[k], c, f) for k, c, f in where], column=ctx.column,
-                                      periods_s=spec.periods_s, damping=spec.damping,
-                                      solver_options=spec.solver_options, max_record_s=spec.max_record_s)
+    done = ctx.prepared.records([(spec.suite[k], c, f) for k, c, f in where])   # run_record_samples's rows
     return [{"row": int(row), "record": k, **d} for row, (k, _, _), d in zip(rows, where, done)]
 
 

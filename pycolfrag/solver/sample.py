@@ -14,11 +14,10 @@ shared :func:`response_row`, and never raise for a failing sample: ``status`` (t
 :mod:`pycolfrag.results`) and ``message`` say which phase failed.
 
 The motion of every run is a :class:`~pycolfrag.ground_motion.Record` (:meth:`Record.motion
-<pycolfrag.ground_motion.Record.motion>` of a suite member, or a synthetic record), checked once when
-it was made; the periods and damping are checked once per call (:class:`~pycolfrag.ground_motion.intensity.SpectralOptions`)
-and the solver options once (:class:`~pycolfrag.solver.options.SolverOptions`), so the IMs
-(:func:`pycolfrag.ground_motion.intensity.record_measures`) and the runs (:func:`pycolfrag.solver.run.simulate_batch`)
-take them as they are.
+<pycolfrag.ground_motion.Record.motion>` of a suite member, or a synthetic record), checked once when it was
+made; the periods and damping (:class:`~pycolfrag.ground_motion.intensity.SpectralOptions`) and the solver
+options (:class:`~pycolfrag.solver.options.SolverOptions`) once per call, or once per grid (:class:`PreparedRows`,
+with the column's C set-up and each scenario's synthesis), so the IMs and the runs take them as they are.
 """
 from __future__ import annotations
 
@@ -47,7 +46,7 @@ from pycolfrag.solver.run import EnergyWarning, StepWarning
 from pycolfrag.structure.column import Column
 
 __all__ = ["DEFAULT_PERIODS_S", "DEFAULT_DAMPING", "COMPONENTS", "STATUS", "record_identity", "ims_row", "response_row",
-           "run_synthetic_sample", "run_synthetic_samples", "SyntheticRows", "run_record_sample", "run_record_samples", "response_rows", "record_jobs", "run_suite", "rows_to_table"]
+           "run_synthetic_sample", "run_synthetic_samples", "PreparedRows", "run_record_sample", "run_record_samples", "response_rows", "record_jobs", "run_suite", "rows_to_table"]
 
 #: Spectral periods of a row (``/spectra``), s -- the grid's default.
 DEFAULT_PERIODS_S = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0)
@@ -55,8 +54,6 @@ DEFAULT_PERIODS_S = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0)
 DEFAULT_DAMPING = 0.05
 #: Runs of :func:`run_suite` integrated together (side by side in SIMD lanes, lanes refilled).
 _SUITE_BATCH = 64
-#: Prepared scenarios a :class:`SyntheticRows` keeps (a rank's chunks come from few scenarios at a time).
-_SCENARIOS = 8
 
 
 #: Status codes of a row by phase (0 ok; see :mod:`pycolfrag.results`).
@@ -351,8 +348,7 @@ def _synthetic_row(synth, mw, dist_km, hf_seed, pulse, max_record_s, checked=Fal
         if synth.model is not None:
             out.update({p.row_field: _meta(rec.meta, p.meta_key) for p in PULSE_FIELDS})
     except Exception as exc:
-        out["status"] = STATUS["record"]
-        out["message"] = f"{type(exc).__name__}: {exc}"
+        out.update(status=STATUS["record"], message=f"{type(exc).__name__}: {exc}")
         return out, None
     return out, motion
 
@@ -369,21 +365,22 @@ def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_re
 def run_synthetic_samples(column, samples, *, record_dt_s=0.005, vp_scale=1.0, periods_s=DEFAULT_PERIODS_S,
                           damping=DEFAULT_DAMPING, solver_options=None, max_record_s=None,
                           with_pulse=True, pulse_shape=DEFAULT_PULSE_SHAPE) -> list[dict]:
-    """Many synthetic samples of one column, their runs side by side in SIMD lanes (:class:`SyntheticRows`):
-    each row bitwise the :func:`run_synthetic_sample` of its sample, but faster. ``samples``: (mw, dist_km,
-    hf_seed, pulse) of each; the other arguments as there. ``wall_s`` of a row: its record and IMs, and of
-    the batch's solver time the share of its steps."""
-    return SyntheticRows(column, record_dt_s=record_dt_s, vp_scale=vp_scale, periods_s=periods_s, damping=damping,
-                         solver_options=solver_options, max_record_s=max_record_s, with_pulse=with_pulse,
-                         pulse_shape=pulse_shape).rows(samples)
+    """Many synthetic samples of one column, their runs side by side in SIMD lanes (:class:`PreparedRows`): each
+    row bitwise the :func:`run_synthetic_sample` of its sample, but faster. ``samples``: (mw, dist_km, hf_seed,
+    pulse) of each; the rest as there. ``wall_s``: its record and IMs, and its steps' share of the solver time."""
+    return PreparedRows(column, record_dt_s=record_dt_s, vp_scale=vp_scale, periods_s=periods_s, damping=damping,
+                        solver_options=solver_options, max_record_s=max_record_s, with_pulse=with_pulse,
+                        pulse_shape=pulse_shape).synthetic(samples)
 
 
-class SyntheticRows:
-    """:func:`run_synthetic_samples` with what its rows share prepared once and kept: the checked periods
-    and damping, the solver options, the column's C set-up (:class:`~pycolfrag.solver.prepared_batch.PreparedBatch`,
-    on the first batch) and each scenario's synthesis (:mod:`pycolfrag.ground_motion.synthesis`, the
-    last few). The grid keeps one per rank, so that a row in steady state does only its own work; the
-    rows are bitwise those of ``run_synthetic_samples`` (same arguments)."""
+class PreparedRows:
+    """What the rows of one column share, prepared once and kept: the checked periods and damping, the
+    solver options, the column's C set-up (:class:`~pycolfrag.solver.prepared_batch.PreparedBatch`, on the
+    first batch) and each scenario's synthesis (:mod:`pycolfrag.ground_motion.synthesis`, the last few).
+    The grid keeps one per rank, so that a row in steady state does only its own work; :meth:`synthetic`
+    and :meth:`records` give bitwise the rows of ``run_synthetic_samples`` and ``run_record_samples``."""
+
+    SCENARIOS = 8   # prepared scenarios kept (a rank's chunks come from few scenarios at a time)
 
     def __init__(self, column, *, record_dt_s=0.005, vp_scale=1.0, periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_DAMPING,
                  solver_options=None, max_record_s=None, with_pulse=True, pulse_shape=DEFAULT_PULSE_SHAPE):
@@ -398,7 +395,7 @@ class SyntheticRows:
         synth = self._scenarios.get((mw, dist_km))
         if synth is None:
             synth = self._scenarios[(mw, dist_km)] = _scenario(mw, dist_km, *self._record)
-            while len(self._scenarios) > _SCENARIOS:
+            while len(self._scenarios) > self.SCENARIOS:
                 self._scenarios.popitem(last=False)
         return synth
 
@@ -409,20 +406,25 @@ class SyntheticRows:
             self._batch = False if isinstance(ready, Exception) or steps else ready
         return self._batch or None
 
-    def rows(self, samples, checked=False) -> list[dict]:
-        """The rows of ``samples``, (mw, dist_km, hf_seed, pulse) each; ``checked``: the seed and pulse
+    def synthetic(self, samples, checked=False) -> list[dict]:
+        """Rows of synthetic ``samples``, (mw, dist_km, hf_seed, pulse) each; ``checked``: the seed and pulse
         of each as :meth:`~pycolfrag.ground_motion.synthesis.ScenarioSynthesis.checked` gives them."""
         def prepare(mw, dist_km, hf_seed, pulse):
             synth = self.scenario(mw, dist_km)
             return (*_synthetic_row(synth, mw, dist_km, hf_seed, pulse, self.max_record_s, checked), None)
         return _batch_rows(self.column, samples, prepare, self.spectral, self.options, self.batch)
 
+    def records(self, samples, vertical=False, rotation_deg=None) -> list[dict]:
+        """Rows of natural-record ``samples``, (record, component, scale) each (:func:`run_record_samples`)."""
+        def prepare(record, component, scale):
+            return _record_run(record, component, scale, vertical, rotation_deg, self.spectral, self.max_record_s)
+        return _batch_rows(self.column, samples, prepare, self.spectral, self.options, self.batch)
+
 
 def _batch_rows(column, samples, prepare, spectral, options, batch=None) -> list[dict]:
-    """Rows of many samples: ``prepare(*sample)`` gives each its row so far, its run's motion (None
-    when it failed before the run) and precomputed IMs (or None), then :func:`response_rows` runs them
-    together; ``wall_s`` of a row: its own preparation and IMs, and the share of its steps of the
-    batch's solver time."""
+    """Rows of many samples: ``prepare(*sample)`` gives each its row so far, its run's motion (None when it
+    failed before the run) and precomputed IMs (or None), then :func:`response_rows` runs them together;
+    ``wall_s`` of a row: its own preparation and IMs, and the share of its steps of the batch's solver time."""
     rows, runs, owner, times = [], [], [], []
     for i, smp in enumerate(samples):
         t0 = time.perf_counter()
@@ -532,11 +534,8 @@ def run_record_samples(samples, *, column, vertical=False, rotation_deg=None, pe
     :func:`run_record_sample` of its sample, but faster. ``samples``: (record, component, scale) of
     each; the other arguments as :func:`run_record_sample`. ``wall_s`` as in
     :func:`run_synthetic_samples`."""
-    spectral = _spectral(periods_s, damping)
-
-    def prepare(record, component, scale):
-        return _record_run(record, component, scale, vertical, rotation_deg, spectral, max_record_s)
-    return _batch_rows(column, samples, prepare, spectral, _options(solver_options))
+    return PreparedRows(column, periods_s=periods_s, damping=damping, solver_options=solver_options,
+                        max_record_s=max_record_s).records(samples, vertical, rotation_deg)
 
 
 def rows_to_table(rows) -> dict:
