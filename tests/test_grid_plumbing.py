@@ -68,9 +68,6 @@ def fake_physics(monkeypatch):
         def __init__(self, Mw, dist_km, dt=0.005, vp_scale=1.0, shape="mp03"):
             self.Mw, self.dist_km, self.dt, self.vp_scale, self.model = Mw, dist_km, dt, vp_scale, shape
 
-        def checked(self, seed, pulse):
-            return seed, (None if self.model is None else dict(pulse)), "argument"
-
         def record(self, seed, inputs, *, components=True, source="argument"):
             if self.model is None:
                 return stochastic(self.Mw, self.dist_km, seed, self.dt)
@@ -87,6 +84,7 @@ def fake_physics(monkeypatch):
     monkeypatch.setattr(pcf.ground_motion, "synthesize", synthesize, raising=False)
     monkeypatch.setattr(pcf.ground_motion, "stochastic", stochastic, raising=False)
     monkeypatch.setattr(pcf.ground_motion.synthesis, "prepare", Scenario)
+    monkeypatch.setattr(pcf.ground_motion, "_checked_row", lambda synth, seed, pulse: (seed, dict(pulse), "argument"))
     monkeypatch.setattr(pcf.solver.prepared_batch, "PreparedBatch", PreparedBatch)
     monkeypatch.setattr(pcf.intensity, "measures", measures, raising=False)
     monkeypatch.setattr(pcf.intensity, "record_measures", record_measures, raising=False)

@@ -183,9 +183,10 @@ def test_a_record_row_calls_downwards_only(tmp_path):
     assert "pycolfrag.ground_motion.record_tables" not in stations, stations
 
 
-#: Most pycolfrag files (modules) a grid row enters in steady state, the driver's own included (issue 36;
-#: docs/architecture.md, "A row of the synthetic grid"): 10 for a synthetic row and 9 for a record row
-#: when this was written (2026-12-06), against 20 and 12 before what rows share was prepared once.
+#: Most pycolfrag files (modules) a grid row enters in steady state, the driver's own included (the
+#: package's target; docs/architecture.md, "A row of the synthetic grid"): a row does only its own work,
+#: what every row shares being prepared once. 10 for a synthetic row and 9 for a record row when this was
+#: written (2026-12-06), against 20 and 12 before.
 MAX_ROW_FILES = 10
 
 

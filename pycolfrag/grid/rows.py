@@ -104,7 +104,7 @@ class SampleContext:
 
     def pulse_inputs(self, scenario: int, sample: int):
         """Row ``sample``'s pulse as its record takes it (the shape's inputs), the scenario's rows checked
-        once, together (:meth:`~pycolfrag.ground_motion.synthesis.ScenarioSynthesis.checked`); raises
+        once, together (``pycolfrag.ground_motion._checked_row``); raises
         what refuses the row's. None where the scenario itself is refused (its rows fail with that)."""
         if scenario not in self._inputs:
             synth = self.prepared.scenario(*self._scenarios[scenario])
@@ -122,7 +122,7 @@ class SampleContext:
 def _checked_inputs(synth, pulse):
     """The inputs of a pulse row as the scenario's record takes them, or the exception refusing them."""
     try:
-        return synth.checked(0, pulse)[1]   # the row's seed is the grid's own (derive_seed: 32 bits)
+        return _gm._checked_row(synth, 0, pulse)[1]   # the row's seed is the grid's own (derive_seed: 32 bits)
     except Exception as exc:
         return exc
 

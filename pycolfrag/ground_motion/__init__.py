@@ -173,6 +173,19 @@ def _pulse_row(Mw, dist_km, seed, vp_scale, pulse, shape):
     return tuple(p.check(pulse[p.meta_key], f"pulse[{p.meta_key!r}]", error=ParameterError) for p in inputs)
 
 
+def _checked_row(synth, seed, pulse) -> tuple:
+    """(seed, pulse inputs, where they come from) of a record of the prepared scenario ``synth``
+    (:mod:`pycolfrag.ground_motion.synthesis`) as its ``record`` takes them, checked as :func:`synthesize`
+    checks them (its messages): ``seed`` an integer in [0, 2**64), ``pulse`` a dict with the shape's
+    ``INPUTS`` in their ranges, or None for synthesize's draw from the seed (without a pulse: no inputs)."""
+    from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C: the package must import without it
+    seed = as00._check_seed(_seed(seed))
+    if synth.model is None:
+        return seed, None, "none"
+    inputs = _pulse_row(synth.Mw, synth.dist_km, seed, synth.vp_scale, pulse, synth.model)
+    return seed, inputs, "seed" if pulse is None else "argument"
+
+
 def _pulse_and_noise(Mw, dist_km, dt, vp_scale, pulse, model, normals):
     """(the pulse row or None, where it comes from, the white-noise normals or None): a row given, a
     seeded draw (``pulse`` None, no normals), or the pulse and noise parts of ``normals``."""

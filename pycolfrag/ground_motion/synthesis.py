@@ -8,7 +8,7 @@ FFT length for this Mw, R and dt), the generator's info for the records' ``meta`
 the FFT plans of the combination. Per record (:meth:`ScenarioSynthesis.record`): the white noise of the
 seed through the prepared generator, the pulse of the row's inputs (the shape's ``prepare``), then
 :func:`near_fault` (the paper's steps 2-6, one text with ``synthesize``'s). Values are checked where
-they enter (:meth:`ScenarioSynthesis.checked`: the seed and a pulse row) and taken as they are after.
+they enter (``pycolfrag.ground_motion._checked_row``: the seed and a pulse row) and taken as they are after.
 
 ``prepare(Mw, R, dt, vp_scale, shape).record(seed, inputs)`` is bitwise ``synthesize(Mw, R, seed, dt,
 vp_scale, pulse=row, shape=shape)`` (``shape=None``: ``stochastic(Mw, R, seed, dt)``).
@@ -115,18 +115,6 @@ class ScenarioSynthesis:
         self._generator_meta = _generator_meta(self.info)
         self._plans: dict = {}
 
-    def checked(self, seed, pulse) -> tuple:
-        """(seed, pulse inputs, where they come from) as :meth:`record` takes them, checked as
-        :func:`~pycolfrag.ground_motion.synthesize` checks them (its messages): ``seed`` an integer in
-        [0, 2**64), ``pulse`` a dict with the shape's ``INPUTS`` in their ranges, or None for
-        synthesize's draw from the seed (inputs None and "none" without a pulse)."""
-        from pycolfrag.ground_motion import _pulse_row, _seed  # the package's own checks (one text)
-        seed = as00._check_seed(_seed(seed))
-        if self.model is None:
-            return seed, None, "none"
-        inputs = _pulse_row(self.Mw, self.dist_km, seed, self.vp_scale, pulse, self.model)
-        return seed, inputs, "seed" if pulse is None else "argument"
-
     def _noise_record(self, seed) -> np.ndarray:
         """The high-frequency record of ``seed`` (:meth:`atkinson_silva_2000._Generator.run`'s C call on
         the prepared generator)."""
@@ -137,7 +125,7 @@ class ScenarioSynthesis:
         return acc
 
     def record(self, seed, inputs, *, components=True, source="argument") -> Record:
-        """The record of a checked ``seed`` and pulse ``inputs`` (:meth:`checked`), bitwise
+        """The record of a checked ``seed`` and pulse ``inputs`` (``ground_motion._checked_row``), bitwise
         ``synthesize`` 's (``stochastic`` 's without a pulse). ``components=False`` leaves out the
         ``hf``, ``pulse`` and ``hf_modified`` parts (a grid row runs ``acc`` alone)."""
         hf = self._noise_record(seed)

@@ -33,7 +33,7 @@ from pycolfrag import results as _r
 from pycolfrag.core import names
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.core.validate import positive_float
-from pycolfrag.ground_motion import intensity
+from pycolfrag.ground_motion import _checked_row, intensity
 from pycolfrag.ground_motion import record_suites as _records
 from pycolfrag.ground_motion import synthesis as _synthesis
 from pycolfrag.ground_motion.intensity import SpectralOptions
@@ -335,12 +335,12 @@ def _scenario(mw, dist_km, record_dt_s, vp_scale, with_pulse, pulse_shape):
 
 def _synthetic_row(synth, mw, dist_km, hf_seed, pulse, max_record_s, checked=False):
     """:func:`_synthetic_motion` of a prepared scenario ``synth`` (or its exception); ``checked``: the seed
-    and ``pulse`` (the inputs) as ``synth.checked`` gives them (the grid's, checked once per scenario)."""
+    and ``pulse`` (the inputs) as ``ground_motion._checked_row`` gives them (the grid's: once per scenario)."""
     out = {"mw": float(mw), "dist_km": float(dist_km), "status": STATUS["ok"], "message": ""}
     try:
         if isinstance(synth, Exception):
             raise synth
-        seed, inputs, source = (hf_seed, pulse, "argument") if checked else synth.checked(hf_seed, pulse)
+        seed, inputs, source = (hf_seed, pulse, "argument") if checked else _checked_row(synth, hf_seed, pulse)
         rec = synth.record(seed, inputs, components=False, source=source)
         cut = None if max_record_s is None else int(round(max_record_s / rec.dt)) + 1
         motion = Record._checked(rec.acc[:cut], rec.dt, rec.meta)   # rec.motion("h1", max_samples=cut)
@@ -355,8 +355,7 @@ def _synthetic_row(synth, mw, dist_km, hf_seed, pulse, max_record_s, checked=Fal
 
 def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse=True,
                       pulse_shape=DEFAULT_PULSE_SHAPE):
-    """:func:`_synthetic_motion` as arrays: (row, acc, dt), acc and dt None when the record failed
-    (the grid's pre-run probe makes a row's record this way)."""
+    """:func:`_synthetic_motion` as arrays (row, acc, dt), None when the record failed (the grid's probe's)."""
     out, motion = _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse,
                                     pulse_shape)
     return (out, None, None) if motion is None else (out, motion.acc, motion.dt)
@@ -408,7 +407,7 @@ class PreparedRows:
 
     def synthetic(self, samples, checked=False) -> list[dict]:
         """Rows of synthetic ``samples``, (mw, dist_km, hf_seed, pulse) each; ``checked``: the seed and pulse
-        of each as :meth:`~pycolfrag.ground_motion.synthesis.ScenarioSynthesis.checked` gives them."""
+        of each as ``pycolfrag.ground_motion._checked_row`` gives them."""
         def prepare(mw, dist_km, hf_seed, pulse):
             synth = self.scenario(mw, dist_km)
             return (*_synthetic_row(synth, mw, dist_km, hf_seed, pulse, self.max_record_s, checked), None)
