@@ -107,7 +107,7 @@ class ScenarioSynthesis:
     gives it).
     """
 
-    def __init__(self, Mw, dist_km, dt, vp_scale, model):
+    def __init__(self, Mw, dist_km, dt, vp_scale, model) -> None:
         self.Mw, self.dist_km, self.dt, self.vp_scale, self.model = Mw, dist_km, dt, vp_scale, model
         gen = self._generator = as00._generator(Mw, dist_km, as00._check_dt(dt))
         self.info = as00._info(gen, dt)

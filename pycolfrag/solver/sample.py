@@ -382,7 +382,7 @@ class PreparedRows:
     SCENARIOS = 8   # prepared scenarios kept (a rank's chunks come from few scenarios at a time)
 
     def __init__(self, column, *, record_dt_s=0.005, vp_scale=1.0, periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_DAMPING,
-                 solver_options=None, max_record_s=None, with_pulse=True, pulse_shape=DEFAULT_PULSE_SHAPE):
+                 solver_options=None, max_record_s=None, with_pulse=True, pulse_shape=DEFAULT_PULSE_SHAPE) -> None:
         self.column, self.max_record_s = column, max_record_s
         self.spectral, self.options = _spectral(periods_s, damping), _options(solver_options)
         self._record = (record_dt_s, vp_scale, with_pulse, pulse_shape)
