@@ -22,6 +22,7 @@ class PreparedBatch:
 
     Made as ``simulate_batch(col, ..., options=options)`` sets it up, with its checks, messages and
     warnings (a StepWarning of an explicit ``dt_solver`` above the stability limit is given here, once).
+    One batch at a time (a grid's rank runs its chunks one after the other): its runs share the C solver.
     """
 
     def __init__(self, col, options: SolverOptions):
