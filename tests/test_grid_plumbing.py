@@ -65,9 +65,28 @@ def fake_physics(monkeypatch):
                                collapse_block=4 if big else -1, collapse_time=2.5 if big else None,
                                n_steps=len(acc_x) * 10, t_end=len(acc_x) * dt, energy_error=1e-6, options=opts)
 
+    class Scenario:   # the grid's rows make their records through a scenario prepared once (ground_motion.synthesis)
+        def __init__(self, Mw, dist_km, dt=0.005, vp_scale=1.0, shape="mp03"):
+            self.Mw, self.dist_km, self.dt, self.vp_scale, self.model = Mw, dist_km, dt, vp_scale, shape
+
+        def record(self, seed, inputs, *, components=True, source="argument"):
+            if self.model is None:
+                return stochastic(self.Mw, self.dist_km, seed, self.dt)
+            return synthesize(self.Mw, self.dist_km, seed, self.dt, self.vp_scale, inputs, self.model)
+
+    class PreparedBatch:   # the grid's chunks run on the column set up once
+        def __init__(self, col, options):
+            self.col, self.options = col, options
+
+        def run(self, records):
+            return pcf.solver.run.simulate_batch(self.col, records, options=self.options, errors="return")
+
     monkeypatch.setattr(pcf.ground_motion, "sample_pulse_parameters", sample_pulse_parameters, raising=False)
     monkeypatch.setattr(pcf.ground_motion, "synthesize", synthesize, raising=False)
     monkeypatch.setattr(pcf.ground_motion, "stochastic", stochastic, raising=False)
+    monkeypatch.setattr(pcf.ground_motion.synthesis, "prepare", Scenario)
+    monkeypatch.setattr(pcf.ground_motion, "_checked_row", lambda synth, seed, pulse: (seed, dict(pulse), "argument"))
+    monkeypatch.setattr(pcf.solver.prepared_batch, "PreparedBatch", PreparedBatch)
     monkeypatch.setattr(pcf.intensity, "measures", measures, raising=False)
     monkeypatch.setattr(pcf.intensity, "record_measures", record_measures, raising=False)
     def simulate_batch(col, records, history=False, options=None, *, width=None, errors="raise", **opts):

@@ -183,6 +183,56 @@ def test_a_record_row_calls_downwards_only(tmp_path):
     assert "pycolfrag.ground_motion.record_tables" not in stations, stations
 
 
+#: Most pycolfrag files (modules) a grid row enters in steady state, the driver's own included (the
+#: package's target; docs/architecture.md, "A row of the synthetic grid"): a row does only its own work,
+#: what every row shares being prepared once. 10 for a synthetic row and 9 for a record row when this was
+#: written (2026-12-06), against 20 and 12 before.
+MAX_ROW_FILES = 10
+
+
+def _steady_walk(rows_of, ctx, first, then):
+    """The walk of the rows ``then`` of a grid's chunk after the chunk ``first`` (which prepares what
+    every row shares: the scenario's LHS and synthesis, the column's C set-up), as a rank runs them."""
+    rows_of(ctx, first)
+    out: list = []
+    order, edges = _walk(lambda: out.extend(rows_of(ctx, then)))
+    return order, edges, out
+
+
+def _check_files(order, what):
+    assert len(order) <= MAX_ROW_FILES, \
+        f"{what}: a row in steady state enters {len(order)} files (at most {MAX_ROW_FILES}), in order: {order}"
+
+
+def test_a_synthetic_row_in_steady_state_enters_at_most_10_files():
+    """A chunk of the synthetic grid after the scenario's first (grid.rows.run_samples, 2 s of record):
+    the row's seeds, its record from the scenario's prepared synthesis, its IMs, its run on the column
+    set up once; at most MAX_ROW_FILES files, calling downwards only."""
+    from pycolfrag import Column
+    from pycolfrag.grid import rows as grid_rows
+    from pycolfrag.grid.spec import GridSpec
+    spec = GridSpec(mw=(6.5,), dist_km=(20.0,), samples=4, seed=7, max_record_s=2.0,
+                    column=Column.parthenon().to_dict())
+    order, edges, out = _steady_walk(grid_rows.run_samples, grid_rows.SampleContext(spec), [0, 1], [2, 3])
+    assert [r["status"] for r in out] == [0, 0], out
+    _check_walk(order, edges, "synthetic row in steady state")
+    _check_files(order, "synthetic row")
+
+
+def test_a_record_row_in_steady_state_enters_at_most_10_files(tmp_path):
+    """A chunk of a record-suite grid after its first (grid.rows.run_record_rows): a component alone and
+    the pair, scaled, on the column set up once; at most MAX_ROW_FILES files, calling downwards only."""
+    from pycolfrag import Column
+    from pycolfrag.grid import rows as grid_rows
+    from pycolfrag.grid.spec import RecordGridSpec
+    spec = RecordGridSpec(records=str(rs.write_suite(tmp_path)), components=("h1", "both"), scales=(0.5, 1.0),
+                          max_record_s=2.0, column=Column.parthenon().to_dict())
+    order, edges, out = _steady_walk(grid_rows.run_record_rows, grid_rows.RecordContext(spec), [0, 1], [2, 3])
+    assert [r["status"] for r in out] == [0, 0], out
+    _check_walk(order, edges, "record row in steady state")
+    _check_files(order, "record row")
+
+
 def test_the_walk_check_sees_a_climb():
     """Code that the profiler attributes to intensity.py (the kernels) calling the sample module is
     reported as a climb: the checks above can fail."""

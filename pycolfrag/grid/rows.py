@@ -49,7 +49,9 @@ def derive_seed(seed: int, *key: int) -> int:
 # ---------------------------------------------------------------------------------------
 
 class SampleContext:
-    """What a rank needs to compute any row: the spec, the column, cached LHS tables."""
+    """What a rank needs to compute any row: the spec, the column, cached LHS tables, and what every row
+    shares prepared once (:class:`pycolfrag.solver.sample.PreparedRows`: the column's C set-up, each
+    scenario's synthesis), so that a row in steady state does only its own work."""
 
     spec: object     # the GridSpec
     column: object   # a Column, or a Colonnade (--scene)
@@ -58,11 +60,18 @@ class SampleContext:
         self.spec = spec
         self.column = model_from_dict(spec.column)   # a column, or a colonnade (--scene)
         self._lhs: OrderedDict = OrderedDict()
+        self._inputs: OrderedDict = OrderedDict()
+        self._scenarios = list(spec.scenarios)
+        with_pulse = spec.pulse != _gm.registry.NO_PULSE
+        self.prepared = _sample.PreparedRows(
+            self.column, record_dt_s=spec.record_dt_s, vp_scale=spec.vp_scale, periods_s=spec.periods_s,
+            damping=spec.damping, solver_options=spec.solver_options, max_record_s=spec.max_record_s,
+            with_pulse=with_pulse, pulse_shape=spec.pulse if with_pulse else _gm.registry.DEFAULT_PULSE_SHAPE)
 
     def locate(self, row: int) -> tuple[int, int, float, float]:
         """(scenario, sample, Mw, R km) of a row."""
         sc, k = divmod(int(row), self.spec.samples)
-        mw, dist = self.spec.scenarios[sc]
+        mw, dist = self._scenarios[sc]
         return sc, k, mw, dist
 
     def identity(self, row: int) -> dict:
@@ -71,11 +80,11 @@ class SampleContext:
         return {"scenario": sc, "sample": k, "mw": mw, "dist_km": dist}
 
     def lhs_seed(self, scenario: int) -> int:
-        mw, dist = self.spec.scenarios[scenario]
+        mw, dist = self._scenarios[scenario]
         return derive_seed(self.spec.seed, _STREAM_LHS, _key(mw), _key(dist))
 
     def hf_seed(self, scenario: int, sample: int) -> int:
-        mw, dist = self.spec.scenarios[scenario]
+        mw, dist = self._scenarios[scenario]
         return derive_seed(self.spec.seed, _STREAM_HF, _key(mw), _key(dist), int(sample))
 
     def pulse(self, scenario: int, sample: int) -> dict:
@@ -84,7 +93,7 @@ class SampleContext:
         search with the same bits, and a rank then searches only for its own rows, not for every sample of
         each scenario it touches (90 % of a 1000-sample draw)."""
         if scenario not in self._lhs:
-            mw, dist = self.spec.scenarios[scenario]
+            mw, dist = self._scenarios[scenario]
             table = _gm.sample_pulse_parameters(mw, dist, self.spec.samples, self.lhs_seed(scenario),
                                                 vp_scale=self.spec.vp_scale, tp_model=self.spec.tp_model,
                                                 shape=self.spec.pulse, amplitude=False, vp_model=self.spec.vp_model)
@@ -92,6 +101,30 @@ class SampleContext:
             while len(self._lhs) > _LHS_CACHE:
                 self._lhs.popitem(last=False)
         return {k: (v[sample].item() if v.ndim else v.item()) for k, v in self._lhs[scenario].items()}
+
+    def pulse_inputs(self, scenario: int, sample: int):
+        """Row ``sample``'s pulse as its record takes it (the shape's inputs), the scenario's rows checked
+        once, together (``pycolfrag.ground_motion._checked_row``); raises
+        what refuses the row's. None where the scenario itself is refused (its rows fail with that)."""
+        if scenario not in self._inputs:
+            synth = self.prepared.scenario(*self._scenarios[scenario])
+            rows = [self.pulse(scenario, k) for k in range(self.spec.samples)]
+            self._inputs[scenario] = [None] * len(rows) if isinstance(synth, Exception) else \
+                [_checked_inputs(synth, row) for row in rows]
+            while len(self._inputs) > _LHS_CACHE:
+                self._inputs.popitem(last=False)
+        got = self._inputs[scenario][sample]
+        if isinstance(got, Exception):
+            raise got
+        return got
+
+
+def _checked_inputs(synth, pulse):
+    """The inputs of a pulse row as the scenario's record takes them, or the exception refusing them."""
+    try:
+        return _gm._checked_row(synth, 0, pulse)[1]   # the row's seed is the grid's own (derive_seed: 32 bits)
+    except Exception as exc:
+        return exc
 
 
 def run_sample(ctx: SampleContext, row: int) -> dict:
@@ -105,25 +138,20 @@ def run_samples(ctx: SampleContext, rows) -> list[dict]:
     """:func:`run_sample` of many rows, their runs side by side in SIMD lanes
     (:func:`pycolfrag.solver.sample.run_synthetic_samples`): the same rows, faster."""
     outs, samples, owner, t_seed = [], [], [], []
-    spec = ctx.spec
-    with_pulse = spec.pulse != _gm.registry.NO_PULSE
-    shape = spec.pulse if with_pulse else _gm.registry.DEFAULT_PULSE_SHAPE   # unused without a pulse
+    with_pulse = ctx.spec.pulse != _gm.registry.NO_PULSE
     for row in rows:
         sc, k, mw, dist = ctx.locate(row)
         out = {"row": int(row), "scenario": sc, "sample": k}
         t0 = time.perf_counter()
         try:
-            samples.append((mw, dist, ctx.hf_seed(sc, k), ctx.pulse(sc, k) if with_pulse else None))
+            samples.append((mw, dist, ctx.hf_seed(sc, k), ctx.pulse_inputs(sc, k) if with_pulse else None))
             owner.append(out)
             t_seed.append(time.perf_counter() - t0)  # the scenario's LHS is drawn at its first row
         except Exception as exc:  # the pulse parameters are part of the record: a record failure
             out.update(mw=mw, dist_km=dist, status=_results.STATUS_RECORD_FAILED,
                        message=f"{type(exc).__name__}: {exc}", wall_s=time.perf_counter() - t0)
         outs.append(out)
-    done = _sample.run_synthetic_samples(
-        ctx.column, samples, record_dt_s=spec.record_dt_s, vp_scale=spec.vp_scale, periods_s=spec.periods_s,
-        damping=spec.damping, solver_options=spec.solver_options, max_record_s=spec.max_record_s,
-        with_pulse=with_pulse, pulse_shape=shape)
+    done = ctx.prepared.synthetic(samples, checked=True)   # run_synthetic_samples, with what rows share kept
     for out, d, t in zip(owner, done, t_seed):
         out.update(d)
         out["wall_s"] += t
@@ -139,7 +167,8 @@ SYNTHETIC_ROWS = RowFunction(run_sample, run_samples)
 # ---------------------------------------------------------------------------------------
 
 class RecordContext:
-    """What a rank needs to compute any row of a record-suite grid: the spec, the column, the suite."""
+    """What a rank needs to compute any row of a record-suite grid: the spec, the column, the suite, and
+    what every row shares prepared once (:class:`pycolfrag.solver.sample.PreparedRows`)."""
 
     spec: object     # the RecordGridSpec
     column: object   # a Column, or a Colonnade (--scene)
@@ -147,10 +176,13 @@ class RecordContext:
     def __init__(self, spec):
         self.spec = spec
         self.column = model_from_dict(spec.column)   # a column, or a colonnade (--scene)
+        self.prepared = _sample.PreparedRows(self.column, periods_s=spec.periods_s, damping=spec.damping,
+                                             solver_options=spec.solver_options, max_record_s=spec.max_record_s)
+        self._jobs = spec.jobs
 
     def locate(self, row: int) -> tuple[int, str, float]:
         """(record index, component, scale) of a row."""
-        return self.spec.jobs[int(row)]
+        return self._jobs[int(row)]
 
     def identity(self, row: int) -> dict:
         k, c, f = self.locate(row)
@@ -168,9 +200,7 @@ def run_record_rows(ctx: RecordContext, rows) -> list[dict]:
     (:func:`pycolfrag.solver.sample.run_record_samples`): the same rows, faster."""
     spec = ctx.spec
     where = [ctx.locate(row) for row in rows]
-    done = _sample.run_record_samples([(spec.suite[k], c, f) for k, c, f in where], column=ctx.column,
-                                      periods_s=spec.periods_s, damping=spec.damping,
-                                      solver_options=spec.solver_options, max_record_s=spec.max_record_s)
+    done = ctx.prepared.records([(spec.suite[k], c, f) for k, c, f in where])   # run_record_samples's rows
     return [{"row": int(row), "record": k, **d} for row, (k, _, _), d in zip(rows, where, done)]
 
 

@@ -22,7 +22,6 @@ Modules, one per published model (docs/ground_motion.md):
 """
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
@@ -105,6 +104,7 @@ def stochastic(Mw, dist_km, seed=None, dt=0.005, normals=None) -> Record:
     ``hf_window_start_s``, ``hf_nfft``).
     """
     from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C: the package must import without it
+    from pycolfrag.ground_motion.synthesis import _generator_meta, _keyed  # as00 (above)
     dt = positive_float(dt, "dt")
     seed = None if seed is None else _seed(seed)
     acc, info = as00.simulate(Mw, dist_km, seed, dt=dt, normals=normals)
@@ -157,19 +157,6 @@ def _split_normals(normals, model, pulse, n_noise):
     return (None if pulse is not None else z[:n_pulse]), z[n_pulse:]
 
 
-def _keyed(parameters, values) -> dict:
-    """``{meta key: value}`` of declared parameters, in their order."""
-    return {p.meta_key: v for p, v in zip(parameters, values, strict=True)}
-
-
-def _generator_meta(info):
-    out = {"generator": info.get("generator", "atkinson_silva_2000")}
-    for k, v in info.items():
-        if k != "generator":
-            out[f"hf_{k}"] = v
-    return out
-
-
 def _pulse_row(Mw, dist_km, seed, vp_scale, pulse, shape):
     """The pulse inputs (the declared ``INPUTS`` of the shape's module: Vp_cm_s, fp_hz, nu_rad, gamma of
     the paper's) from the given row, or one draw seeded from ``seed``."""
@@ -187,6 +174,19 @@ def _pulse_row(Mw, dist_km, seed, vp_scale, pulse, shape):
     return tuple(p.check(pulse[p.meta_key], f"pulse[{p.meta_key!r}]", error=ParameterError) for p in inputs)
 
 
+def _checked_row(synth, seed, pulse) -> tuple:
+    """(seed, pulse inputs, where they come from) of a record of the prepared scenario ``synth``
+    (:mod:`pycolfrag.ground_motion.synthesis`) as its ``record`` takes them, checked as :func:`synthesize`
+    checks them (its messages): ``seed`` an integer in [0, 2**64), ``pulse`` a dict with the shape's
+    ``INPUTS`` in their ranges, or None for synthesize's draw from the seed (without a pulse: no inputs)."""
+    from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C: the package must import without it
+    seed = as00._check_seed(_seed(seed))
+    if synth.model is None:
+        return seed, None, "none"
+    inputs = _pulse_row(synth.Mw, synth.dist_km, seed, synth.vp_scale, pulse, synth.model)
+    return seed, inputs, "seed" if pulse is None else "argument"
+
+
 def _pulse_and_noise(Mw, dist_km, dt, vp_scale, pulse, model, normals):
     """(the pulse row or None, where it comes from, the white-noise normals or None): a row given, a
     seeded draw (``pulse`` None, no normals), or the pulse and noise parts of ``normals``."""
@@ -197,19 +197,6 @@ def _pulse_and_noise(Mw, dist_km, dt, vp_scale, pulse, model, normals):
     if z_pulse is None:
         return pulse, "argument", noise
     return model.parameters_from_normals(Mw, dist_km, z_pulse, vp_scale), "normals", noise
-
-
-def _place(prepared, hf, dt, t_peak):
-    """The pulse's epoch t0 that puts its velocity peak at t_peak (s), the HF record padded with whole
-    samples of zeros where the pulse's support reaches past it, and the times counted from the first
-    sample: (hf, t0, t_peak, n_pre, n_post)."""
-    t0 = t_peak - prepared.peak_offset_s
-    n_pre = max(0, int(math.ceil((prepared.before_s - t0) / dt - 1e-9)))
-    t_last = (hf.size - 1) * dt
-    n_post = max(0, int(math.ceil((t0 + prepared.after_s - t_last) / dt - 1e-9)))
-    if n_pre or n_post:
-        hf = np.concatenate([np.zeros(n_pre), hf, np.zeros(n_post)])
-    return hf, t0 + n_pre * dt, t_peak + n_pre * dt, n_pre, n_post
 
 
 def synthesize(Mw, dist_km, seed=None, dt=0.005, vp_scale=1.0, pulse=None, match_polarity=True,
@@ -262,8 +249,7 @@ def synthesize(Mw, dist_km, seed=None, dt=0.005, vp_scale=1.0, pulse=None, match
         time axis. Same arguments give the same record, bit for bit, in any process.
     """
     from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C: the package must import without it
-    from pycolfrag.ground_motion.combine import combine  # loads C: the package must import without it
-    from pycolfrag.ground_motion.intensity import integrate  # loads C: the package must import without it
+    from pycolfrag.ground_motion import synthesis  # loads C: the package must import without it
     model = registry.pulse_shape_of(shape)
     Mw_f, dist_f = _scenario(Mw, dist_km)
     dt = positive_float(dt, "dt")
@@ -273,22 +259,6 @@ def synthesize(Mw, dist_km, seed=None, dt=0.005, vp_scale=1.0, pulse=None, match
     vp_scale_f = float(vp_scale)
     pulse, source, noise = _pulse_and_noise(Mw_f, dist_f, dt, vp_scale_f, pulse, model, normals)
     prepared = model.prepare(*_pulse_row(Mw_f, dist_f, seed, vp_scale_f, pulse, model))
-
     hf, info = as00.simulate(Mw_f, dist_f, seed, dt=dt, normals=noise)             # step 1
-    vel_hf = integrate(hf, dt)[0]
-    k_peak = int(np.argmax(np.abs(vel_hf)))
-    t_peak = k_peak * dt
-    polarity = 1.0                                                                  # step 2
-    if match_polarity and prepared.peak_sign * vel_hf[k_peak] < 0:
-        polarity = -1.0
-        hf = -hf
-    hf, t0, t_peak, n_pre, n_post = _place(prepared, hf, dt, t_peak)
-    pulse_acc = prepared.acceleration(np.arange(hf.size) * dt, t0)                 # m/s^2
-    acc = combine(hf, pulse_acc)                                                    # steps 3-6
-    meta = {**_keyed(record.PARAMETERS, (Mw_f, dist_f, seed, dt)), "kind": "near-fault", "vp_scale": vp_scale_f,
-            **_keyed(model.PARAMETERS, prepared.meta(t0, pulse_acc)), "pulse_shape": model.SHAPE,
-            "t_peak_s": t_peak, "pad_before_s": n_pre * dt, "pad_after_s": n_post * dt,
-            "hf_polarity": int(polarity), "pulse_seeded_from": source}
-    meta.update(_generator_meta(info))
-    return Record(acc, dt, meta=meta,
-                  components={"hf": hf, "pulse": pulse_acc, "hf_modified": acc - pulse_acc})
+    return synthesis.near_fault(Mw_f, dist_f, seed, dt, vp_scale_f, model, prepared, hf,    # steps 2-6
+                                synthesis._generator_meta(info), match_polarity=match_polarity, source=source)

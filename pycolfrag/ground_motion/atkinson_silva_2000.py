@@ -266,8 +266,13 @@ def simulate(Mw, dist_km, seed=None, dt=0.005, normals=None):
     gen = _generator(mw, d, step)
     noise = _noise_source(seed, normals, gen.info["n_window"])
     acc = gen.run(noise) if normals is None else gen.run_normals(noise)
+    return acc, _info(gen, step)
+
+
+def _info(gen: _Generator, step: float) -> dict:
+    """The ``info`` of :func:`simulate` (the same for every record of a generator)."""
     i = gen.info
-    info = {
+    return {
         "duration_s": i["duration_s"],
         "window_s": i["window_s"],
         "window_start_s": i["window_start_s"],
@@ -285,4 +290,3 @@ def simulate(Mw, dist_km, seed=None, dt=0.005, normals=None):
         "tail_s": gen.def_["tail_s"],
         "generator": GENERATOR,
     }
-    return acc, info

@@ -90,7 +90,12 @@ def integrate(acc, dt):
 
     Returns ``(vel, disp)``, arrays of the record's length.
     """
-    a, d = _record(acc, dt)
+    return _integrated(*_record(acc, dt))
+
+
+def _integrated(a, d):
+    """:func:`integrate` of checked arguments (``a`` a finite C-contiguous float64 1-D array, ``d`` > 0
+    s): a synthetic record's own arrays (:mod:`pycolfrag.ground_motion.synthesis`) are not checked again."""
     vel = np.empty_like(a)
     disp = np.empty_like(a)
     check(lib.cf_spectra_integrate(ptr(a), a.size, d, ptr(vel), ptr(disp)), what="integrate")

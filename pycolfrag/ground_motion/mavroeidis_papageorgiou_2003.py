@@ -81,13 +81,24 @@ def _float(value, name, positive=False):
 
 
 def _params(A, fp, nu, gamma, t0):
+    return _c_params(_float(A, "A"), _float(fp, "fp", positive=True), _float(nu, "nu"),
+                     _float(gamma, "gamma", positive=True), _float(t0, "t0"))
+
+
+def _c_params(A, fp, nu, gamma, t0):
+    """The ``cf_pulse_params`` of checked values (floats; fp and gamma > 0)."""
     p = _c().ffi.new("cf_pulse_params *")
-    p.amplitude = _float(A, "A")
-    p.fp = _float(fp, "fp", positive=True)
-    p.nu = _float(nu, "nu")
-    p.gamma = _float(gamma, "gamma", positive=True)
-    p.t0 = _float(t0, "t0")
+    p.amplitude, p.fp, p.nu, p.gamma, p.t0 = A, fp, nu, gamma, t0
     return p
+
+
+def _evaluate(p, tt):
+    """(vel, acc, disp) of the pulse ``p`` (:func:`_c_params`) at the times ``tt`` (a C-contiguous
+    float64 1-D array, s)."""
+    vel, acc, disp = np.empty_like(tt), np.empty_like(tt), np.empty_like(tt)
+    c = _c()
+    c.check(c.lib.cf_pulse_eval(p, c.ptr(tt), tt.size, c.ptr(vel), c.ptr(acc), c.ptr(disp)), what="pulse")
+    return vel, acc, disp
 
 
 def pulse(t, A, fp, nu, gamma, t0=0.0):
@@ -107,10 +118,7 @@ def pulse(t, A, fp, nu, gamma, t0=0.0):
     (vel, acc, disp) : arrays shaped like ``t``
     """
     p = _params(A, fp, nu, gamma, t0)
-    tt = np.ravel(float_array(t, "t", ndim=None, allow_empty=True))
-    vel, acc, disp = np.empty_like(tt), np.empty_like(tt), np.empty_like(tt)
-    c = _c()
-    c.check(c.lib.cf_pulse_eval(p, c.ptr(tt), tt.size, c.ptr(vel), c.ptr(acc), c.ptr(disp)), what="pulse")
+    vel, acc, disp = _evaluate(p, np.ravel(float_array(t, "t", ndim=None, allow_empty=True)))
     shape = np.shape(t)
     return vel.reshape(shape), acc.reshape(shape), disp.reshape(shape)
 
@@ -201,7 +209,8 @@ def prepare(Vp_cm_s, fp_hz, nu_rad, gamma) -> PreparedPulse:
     half = gamma / (2.0 * fp)
     return PreparedPulse(
         peak_offset_s=u_peak / fp, peak_sign=math.copysign(1.0, g_peak), before_s=half, after_s=half,
-        acceleration=lambda t, t0: acceleration(t, A / 100.0, fp, nu, gamma, t0),   # m/s^2, closed form
+        acceleration=lambda t, t0: _evaluate(_c_params(A / 100.0, fp, nu, gamma, t0), t)[1],   # m/s^2, closed form
+        # (t: the record's times, a float64 array; the inputs were checked where they entered: INPUTS)
         meta=lambda t0, acc: (vp, fp, nu, gamma, t0, 1.0 / fp, A, float(np.abs(acc).max()) / G))
 
 

@@ -294,8 +294,8 @@ class _Job:
             long_run = step_cause.run_steps_warning(col, run_steps, step, ax.size * dt + options.tail_s, caller)
             if long_run:                           # before the run takes hours (a row never comes here)
                 warnings.warn(long_run, StepWarning, stacklevel=3)
-        nb = col.n_blocks if parts is None else parts.n_blocks
-        nj = col.n_blocks if parts is None else parts.n_joints
+        nb = len(col.blocks) if parts is None else parts.n_blocks   # parts None: a plain Column, a joint per block
+        nj = nb if parts is None else parts.n_joints
         self.cap = 0
         self.h = None
         if history:
@@ -348,7 +348,7 @@ class _Job:
                                  ptr(self.resid), r)
 
     def response(self, r, message, options) -> Response:
-        """The Response of a finished run (its cf_solver_result r)."""
+        """The Response of a finished run (its cf_solver_result r; options: a SolverOptions, or its to_dict())."""
         hist = None
         extra = self.out.report(r) if self.out is not None else {}
         if self.history:
@@ -378,9 +378,9 @@ class _Job:
             collapse_reason=reason,
             n_steps=int(r.n_steps), t_end=float(r.t_end), dt=float(r.dt), dt_crit=float(r.dt_crit),
             energy_error=float(r.energy_error), energy_scale=float(r.energy_scale),
-            energy_warning=bool(r.energy_warning), residual_dislocation=self.resid, options=options.to_dict(),
-            history=hist, message=message, at_rest_exit=bool(r.at_rest_exit), max_top_disp=float(r.max_top_disp),
-            collapse_part=part, **extra)
+            energy_warning=bool(r.energy_warning), residual_dislocation=self.resid, history=hist, message=message,
+            options=dict(options) if isinstance(options, dict) else options.to_dict(), collapse_part=part,
+            at_rest_exit=bool(r.at_rest_exit), max_top_disp=float(r.max_top_disp), **extra)
 
 
 def simulate(col, acc_x, dt=None, acc_y=None, acc_z=None, history=False, options=None, initial_state=None,

@@ -14,38 +14,39 @@ shared :func:`response_row`, and never raise for a failing sample: ``status`` (t
 :mod:`pycolfrag.results`) and ``message`` say which phase failed.
 
 The motion of every run is a :class:`~pycolfrag.ground_motion.Record` (:meth:`Record.motion
-<pycolfrag.ground_motion.Record.motion>` of a suite member, or a synthetic record), checked once when
-it was made; the periods and damping are checked once per call (:class:`~pycolfrag.ground_motion.intensity.SpectralOptions`)
-and the solver options once (:class:`~pycolfrag.solver.options.SolverOptions`), so the IMs
-(:func:`pycolfrag.ground_motion.intensity.record_measures`) and the runs (:func:`pycolfrag.solver.run.simulate_batch`)
-take them as they are.
+<pycolfrag.ground_motion.Record.motion>` of a suite member, or a synthetic record), checked once when it was
+made; the periods and damping (:class:`~pycolfrag.ground_motion.intensity.SpectralOptions`) and the solver
+options (:class:`~pycolfrag.solver.options.SolverOptions`) once per call, or once per grid (:class:`PreparedRows`,
+with the column's C set-up and each scenario's synthesis), so the IMs and the runs take them as they are.
 """
 from __future__ import annotations
 
 import math
 import time
 import warnings
+from collections import OrderedDict
 from typing import Any
 
 import numpy as np
 
-from pycolfrag import ground_motion
 from pycolfrag import results as _r
 from pycolfrag.core import names
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.core.validate import positive_float
-from pycolfrag.ground_motion import intensity
+from pycolfrag.ground_motion import _checked_row, intensity
 from pycolfrag.ground_motion import record_suites as _records
+from pycolfrag.ground_motion import synthesis as _synthesis
 from pycolfrag.ground_motion.intensity import SpectralOptions
 from pycolfrag.ground_motion.record import COMPONENTS, Record
 from pycolfrag.ground_motion.registry import DEFAULT_PULSE_SHAPE, PULSE_FIELDS
+from pycolfrag.solver import prepared_batch as _prepared  # through the module, as run (below)
 from pycolfrag.solver import run as _solver  # called through the module, so a test's fake of simulate takes effect
 from pycolfrag.solver.options import SolverOptions
 from pycolfrag.solver.run import EnergyWarning, StepWarning
 from pycolfrag.structure.column import Column
 
 __all__ = ["DEFAULT_PERIODS_S", "DEFAULT_DAMPING", "COMPONENTS", "STATUS", "record_identity", "ims_row", "response_row",
-           "run_synthetic_sample", "run_synthetic_samples", "run_record_sample", "run_record_samples", "response_rows", "record_jobs", "run_suite", "rows_to_table"]
+           "run_synthetic_sample", "run_synthetic_samples", "PreparedRows", "run_record_sample", "run_record_samples", "response_rows", "record_jobs", "run_suite", "rows_to_table"]
 
 #: Spectral periods of a row (``/spectra``), s -- the grid's default.
 DEFAULT_PERIODS_S = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0)
@@ -228,15 +229,18 @@ def _response_row(column, motion: Record, ims, spectral, options, out: dict) -> 
     return out
 
 
-def _simulate_many(column, motions: list, options) -> list:
+def _simulate_many(column, motions: list, options, batch=None) -> list:
     """The runs (Records) on one column: (Response or exception, step-warning texts) each, the
     Response bitwise what :func:`_simulate` gives, through :func:`pycolfrag.solver.run.simulate_batch`
     (runs in SIMD lanes). Where the batch cannot start (options the set-up refuses) or warns about
     the step (an explicit dt_solver above the stability limit or a record's dt: rare, the grid
-    refuses both), every run alone, so that each row gets the message and the warnings of its own run."""
+    refuses both), every run alone, so that each row gets the message and the warnings of its own run.
+    ``batch``: a callable giving the column's PreparedBatch (or None), run instead of simulate_batch."""
     if len(motions) < 2 or isinstance(options, Exception):
         return [_simulate(column, m, options) for m in motions]
-    res, steps = _caught(lambda: _solver.simulate_batch(column, motions, errors="return", options=options))
+    ready = None if batch is None else batch()
+    res, steps = _caught(lambda: _solver.simulate_batch(column, motions, errors="return", options=options)
+                         if ready is None else ready.run(motions))
     if isinstance(res, Exception) or steps:
         return [_simulate(column, m, options) for m in motions]
     return [(x, []) for x in res]
@@ -255,7 +259,7 @@ def response_rows(column, rows, *, periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_
     _response_rows(column, rows, _spectral(periods_s, damping), _options(solver_options), times)
 
 
-def _response_rows(column, rows: list, spectral, options, times) -> None:
+def _response_rows(column, rows: list, spectral, options, times, batch=None) -> None:
     """:func:`response_rows` of resolved periods, damping and options (:func:`_spectral`, :func:`_options`)."""
     t_ims, todo = [], []
     for out, motion, ims in rows:
@@ -264,7 +268,7 @@ def _response_rows(column, rows: list, spectral, options, times) -> None:
             todo.append((out, motion))
         t_ims.append(time.perf_counter() - t0)
     t0 = time.perf_counter()
-    res = _simulate_many(column, [m for _, m in todo], options)
+    res = _simulate_many(column, [m for _, m in todo], options, batch)
     t_run = time.perf_counter() - t0
     for (out, _), (x, warned) in zip(todo, res):
         _response_phase(out, x, warned)
@@ -317,29 +321,41 @@ def _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_re
                       pulse_shape=DEFAULT_PULSE_SHAPE):
     """The record of a synthetic sample and its row so far: (row, the run's motion, a Record); the
     motion is None (and the row says why) when the record failed."""
+    return _synthetic_row(_scenario(mw, dist_km, record_dt_s, vp_scale, with_pulse, pulse_shape), mw, dist_km,
+                          hf_seed, pulse, max_record_s)
+
+
+def _scenario(mw, dist_km, record_dt_s, vp_scale, with_pulse, pulse_shape):
+    """The scenario's :func:`pycolfrag.ground_motion.synthesis.prepare`, or the exception refusing it."""
+    try:
+        return _synthesis.prepare(mw, dist_km, record_dt_s, vp_scale, pulse_shape if with_pulse else None)
+    except Exception as exc:
+        return exc
+
+
+def _synthetic_row(synth, mw, dist_km, hf_seed, pulse, max_record_s, checked=False):
+    """:func:`_synthetic_motion` of a prepared scenario ``synth`` (or its exception); ``checked``: the seed
+    and ``pulse`` (the inputs) as ``ground_motion._checked_row`` gives them (the grid's: once per scenario)."""
     out = {"mw": float(mw), "dist_km": float(dist_km), "status": STATUS["ok"], "message": ""}
     try:
-        if with_pulse:
-            rec = ground_motion.synthesize(mw, dist_km, hf_seed, dt=record_dt_s, vp_scale=vp_scale, pulse=pulse,
-                                           shape=pulse_shape)
-        else:
-            rec = ground_motion.stochastic(mw, dist_km, hf_seed, dt=record_dt_s)
+        if isinstance(synth, Exception):
+            raise synth
+        seed, inputs, source = (hf_seed, pulse, "argument") if checked else _checked_row(synth, hf_seed, pulse)
+        rec = synth.record(seed, inputs, components=False, source=source)
         cut = None if max_record_s is None else int(round(max_record_s / rec.dt)) + 1
-        motion = rec.motion("h1", max_samples=cut)
+        motion = Record._checked(rec.acc[:cut], rec.dt, rec.meta)   # rec.motion("h1", max_samples=cut)
         out["record_s"] = motion.n * motion.dt
-        if with_pulse:
+        if synth.model is not None:
             out.update({p.row_field: _meta(rec.meta, p.meta_key) for p in PULSE_FIELDS})
     except Exception as exc:
-        out["status"] = STATUS["record"]
-        out["message"] = f"{type(exc).__name__}: {exc}"
+        out.update(status=STATUS["record"], message=f"{type(exc).__name__}: {exc}")
         return out, None
     return out, motion
 
 
 def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse=True,
                       pulse_shape=DEFAULT_PULSE_SHAPE):
-    """:func:`_synthetic_motion` as arrays: (row, acc, dt), acc and dt None when the record failed
-    (the grid's pre-run probe makes a row's record this way)."""
+    """:func:`_synthetic_motion` as arrays (row, acc, dt), None when the record failed (the grid's probe's)."""
     out, motion = _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s, with_pulse,
                                     pulse_shape)
     return (out, None, None) if motion is None else (out, motion.acc, motion.dt)
@@ -348,23 +364,66 @@ def _synthetic_record(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_re
 def run_synthetic_samples(column, samples, *, record_dt_s=0.005, vp_scale=1.0, periods_s=DEFAULT_PERIODS_S,
                           damping=DEFAULT_DAMPING, solver_options=None, max_record_s=None,
                           with_pulse=True, pulse_shape=DEFAULT_PULSE_SHAPE) -> list[dict]:
-    """Many synthetic samples of one column, their runs side by side in SIMD lanes
-    (:func:`pycolfrag.solver.run.simulate_batch`): each row bitwise the :func:`run_synthetic_sample` of
-    its sample, but faster. ``samples``: (mw, dist_km, hf_seed, pulse) of each; the other arguments
-    as :func:`run_synthetic_sample`. ``wall_s`` of a row: its record and IMs, and of the batch's
-    solver time the share of its steps."""
-    def prepare(mw, dist_km, hf_seed, pulse):
-        out, motion = _synthetic_motion(mw, dist_km, hf_seed, pulse, record_dt_s, vp_scale, max_record_s,
-                                        with_pulse, pulse_shape)
-        return out, motion, None
-    return _batch_rows(column, samples, prepare, _spectral(periods_s, damping), _options(solver_options))
+    """Many synthetic samples of one column, their runs side by side in SIMD lanes (:class:`PreparedRows`): each
+    row bitwise the :func:`run_synthetic_sample` of its sample, but faster. ``samples``: (mw, dist_km, hf_seed,
+    pulse) of each; the rest as there. ``wall_s``: its record and IMs, and its steps' share of the solver time."""
+    return PreparedRows(column, record_dt_s=record_dt_s, vp_scale=vp_scale, periods_s=periods_s, damping=damping,
+                        solver_options=solver_options, max_record_s=max_record_s, with_pulse=with_pulse,
+                        pulse_shape=pulse_shape).synthetic(samples)
 
 
-def _batch_rows(column, samples, prepare, spectral, options) -> list[dict]:
-    """Rows of many samples: ``prepare(*sample)`` gives each its row so far, its run's motion (None
-    when it failed before the run) and precomputed IMs (or None), then :func:`response_rows` runs them
-    together; ``wall_s`` of a row: its own preparation and IMs, and the share of its steps of the
-    batch's solver time."""
+class PreparedRows:
+    """What the rows of one column share, prepared once and kept: the checked periods and damping, the
+    solver options, the column's C set-up (:class:`~pycolfrag.solver.prepared_batch.PreparedBatch`, on the
+    first batch) and each scenario's synthesis (:mod:`pycolfrag.ground_motion.synthesis`, the last few).
+    The grid keeps one per rank, so that a row in steady state does only its own work; :meth:`synthetic`
+    and :meth:`records` give bitwise the rows of ``run_synthetic_samples`` and ``run_record_samples``."""
+
+    SCENARIOS = 8   # prepared scenarios kept (a rank's chunks come from few scenarios at a time)
+
+    def __init__(self, column, *, record_dt_s=0.005, vp_scale=1.0, periods_s=DEFAULT_PERIODS_S, damping=DEFAULT_DAMPING,
+                 solver_options=None, max_record_s=None, with_pulse=True, pulse_shape=DEFAULT_PULSE_SHAPE) -> None:
+        self.column, self.max_record_s = column, max_record_s
+        self.spectral, self.options = _spectral(periods_s, damping), _options(solver_options)
+        self._record = (record_dt_s, vp_scale, with_pulse, pulse_shape)
+        self._scenarios: OrderedDict = OrderedDict()
+        self._batch: Any = None
+
+    def scenario(self, mw, dist_km):
+        """The scenario's prepared synthesis, or the exception refusing it (made once, then kept)."""
+        synth = self._scenarios.get((mw, dist_km))
+        if synth is None:
+            synth = self._scenarios[(mw, dist_km)] = _scenario(mw, dist_km, *self._record)
+            while len(self._scenarios) > self.SCENARIOS:
+                self._scenarios.popitem(last=False)
+        return synth
+
+    def batch(self):
+        """The column's PreparedBatch; None: each batch through simulate_batch (its set-up refused or warned)."""
+        if self._batch is None:
+            ready, steps = _caught(lambda: _prepared.PreparedBatch(self.column, self.options))
+            self._batch = False if isinstance(ready, Exception) or steps else ready
+        return self._batch or None
+
+    def synthetic(self, samples, checked=False) -> list[dict]:
+        """Rows of synthetic ``samples``, (mw, dist_km, hf_seed, pulse) each; ``checked``: the seed and pulse
+        of each as ``pycolfrag.ground_motion._checked_row`` gives them."""
+        def prepare(mw, dist_km, hf_seed, pulse):
+            synth = self.scenario(mw, dist_km)
+            return (*_synthetic_row(synth, mw, dist_km, hf_seed, pulse, self.max_record_s, checked), None)
+        return _batch_rows(self.column, samples, prepare, self.spectral, self.options, self.batch)
+
+    def records(self, samples, vertical=False, rotation_deg=None) -> list[dict]:
+        """Rows of natural-record ``samples``, (record, component, scale) each (:func:`run_record_samples`)."""
+        def prepare(record, component, scale):
+            return _record_run(record, component, scale, vertical, rotation_deg, self.spectral, self.max_record_s)
+        return _batch_rows(self.column, samples, prepare, self.spectral, self.options, self.batch)
+
+
+def _batch_rows(column, samples, prepare, spectral, options, batch=None) -> list[dict]:
+    """Rows of many samples: ``prepare(*sample)`` gives each its row so far, its run's motion (None when it
+    failed before the run) and precomputed IMs (or None), then :func:`response_rows` runs them together;
+    ``wall_s`` of a row: its own preparation and IMs, and the share of its steps of the batch's solver time."""
     rows, runs, owner, times = [], [], [], []
     for i, smp in enumerate(samples):
         t0 = time.perf_counter()
@@ -375,7 +434,7 @@ def _batch_rows(column, samples, prepare, spectral, options) -> list[dict]:
             runs.append((out, motion, ims))
             owner.append(i)
     run_times = [0.0] * len(runs)
-    _response_rows(column, runs, spectral, options, run_times)
+    _response_rows(column, runs, spectral, options, run_times, batch)
     for i, t in zip(owner, run_times):
         times[i] += t
     for out, t in zip(rows, times):
@@ -474,11 +533,8 @@ def run_record_samples(samples, *, column, vertical=False, rotation_deg=None, pe
     :func:`run_record_sample` of its sample, but faster. ``samples``: (record, component, scale) of
     each; the other arguments as :func:`run_record_sample`. ``wall_s`` as in
     :func:`run_synthetic_samples`."""
-    spectral = _spectral(periods_s, damping)
-
-    def prepare(record, component, scale):
-        return _record_run(record, component, scale, vertical, rotation_deg, spectral, max_record_s)
-    return _batch_rows(column, samples, prepare, spectral, _options(solver_options))
+    return PreparedRows(column, periods_s=periods_s, damping=damping, solver_options=solver_options,
+                        max_record_s=max_record_s).records(samples, vertical, rotation_deg)
 
 
 def rows_to_table(rows) -> dict:
