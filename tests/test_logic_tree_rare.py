@@ -29,6 +29,7 @@ import pytest
 
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.rare.driver import SiteSettings, StopRule, simulate_site
+from pycolfrag.rare.estimate import estimate
 from pycolfrag.rare.evaluator import RecordSettings
 from pycolfrag.rare.paired import simulate_paired
 from pycolfrag.risk import site_risk as risk
@@ -115,6 +116,31 @@ def test_a_tree_of_identical_branches_gives_the_one_branch_estimate_exactly():
         assert all(e.levels[q.label].as_dict() == one.as_dict() for e in tr.estimates)
         assert tr.stats[q.label]["mean"] == one.rate
         assert all(v == one.rate for v in tr.stats[q.label]["quantiles"].values())
+    # ... and that estimate is the one with the variance floor (strata none of whose runs exceed add their floor)
+    assert any(e.levels[q.label].floored_strata > 0 and e.levels[q.label].floor_variance_share > 0
+               for e in tr.estimates for q in QUANTITIES)
+    floored = estimate(single.cols, single.strata, single.design, QUANTITIES, floor=single.floor)
+    assert all(tr.estimates[0].levels[q.label].cov == floored.levels[q.label].cov for q in QUANTITIES)
+
+
+def test_a_re_weighted_branch_keeps_the_floor_and_the_control_variates():
+    """A rate_factor 0.5 on every source re-weights every row by 0.5: the branch is half the run's estimate with the
+    same CoV, bit for bit in what the floor and the control variates give -- each stratum's floor scaled by 0.25
+    (rare.estimate's m2 p0 - p0^2 with weights halved, tree_rare.branch_floor), the regression's b and residuals by
+    0.5. Without the floor a stratum none of whose runs exceeds added no variance to the branch: its CoV fell below
+    the run's."""
+    d = site_dict()
+    tree = _tree([{"choice": "rate_factor", "branches": [{"value": 1.0, "weight": 0.5}, {"value": 0.5, "weight": 0.5}]}])
+    tr, runs = _paired(tree, d, [Scaled()], SETTINGS, STOP)
+    run, half = runs[0].estimate, tr.estimates[1]
+    floored = 0
+    for q in QUANTITIES:
+        a, b = run.levels[q.label], half.levels[q.label]
+        assert b.rate == pytest.approx(0.5 * a.rate, rel=1e-12) and b.cov == pytest.approx(a.cov, rel=1e-9), q.label
+        assert b.floored_strata == a.floored_strata
+        assert b.floor_variance_share == pytest.approx(a.floor_variance_share, rel=1e-9, abs=1e-15)
+        floored += b.floored_strata > 0 and b.floor_variance_share > 0
+    assert floored >= 1
 
 
 def test_two_branches_that_differ_see_the_same_events():

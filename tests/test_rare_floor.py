@@ -77,7 +77,7 @@ def test_a_stratum_whose_runs_all_miss_adds_the_jeffreys_floor_to_the_variance()
     # A by hand: mean 0.2, sample variance (4 x 0.8^2 + 16 x 0.2^2) / 19
     var_a = 1.0 ** 2 * ((4 * 0.8 ** 2 + 16 * 0.2 ** 2) / 19) / 20
     p0 = 0.5 / 6                                       # Jeffreys' posterior mean after 0 of 5
-    m2 = sum(x * x for x in occ_b) / 5
+    m2 = max(1.0, sum(x * x for x in occ_b) / 5)          # 0.968 in the sample; at least 1 = E[w]^2 (Jensen)
     var_b = 9.0 ** 2 * (m2 * p0 - p0 * p0) / 5
     assert e.rate == pytest.approx(0.2, rel=1e-14)
     assert e.cov == pytest.approx(math.sqrt(var_a + var_b) / 0.2, rel=1e-12)
@@ -103,6 +103,13 @@ def test_the_floor_shrinks_as_the_missing_runs_grow_and_leaves_strata_with_excee
     # the allocation's floor is the same per-run variance, 0 where a run exceeds
     f = jeffreys_floor(_cols(y_a, 5), _Strata(), Design(), [_Q()])
     assert f[0, 0] == 0.0 and f[1, 0] == pytest.approx(0.5 / 6 - (0.5 / 6) ** 2, rel=1e-14)
+
+
+def test_the_floor_of_a_stratum_of_small_sample_weights_is_not_zero():
+    """B's weights 0.01 (mean square 1e-4, below p0 = 1/12): m2 p0 - p0^2 would be negative, clipped to 0 -- no
+    floor, the flaw the floor mends. Weights of mean 1 have E[w^2] >= 1 (Jensen): the floor takes m2 = 1."""
+    f = jeffreys_floor(_cols([1, 0] * 10, 5, [0.01] * 5), _Strata(), Design(), [_Q()])
+    assert f[1, 0] == pytest.approx(0.5 / 6 - (0.5 / 6) ** 2, rel=1e-14)
 
 
 def test_a_stratum_predicted_to_matter_keeps_a_floor_of_runs():

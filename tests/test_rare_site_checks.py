@@ -43,9 +43,32 @@ def _simulate(stop, ev, seed=5, batch=200):
                              log=lambda s: None)
 
 
+def _exceeds(cols, q, i) -> bool:
+    return bool(cols["collapsed"][i] or (q.edp is not None and cols[q.edp][i] >= q.threshold))
+
+
+def _regression_by_hand(cols, q, rows, mean_all):
+    """(b, b (ubar - 1)) of the control variate over a stratum's rows (rare/estimate.py's rule: at least 20
+    successful runs, 5 of them exceeding, weights not all equal, a mean not made negative), by plain loops; None
+    where the plain mean stands."""
+    ok = [i for i in rows if cols["status"][i] == 0]
+    u = [float(cols["weight"][i]) for i in ok]
+    v = [x * _exceeds(cols, q, i) for x, i in zip(u, ok)]
+    if len(ok) < 20 or sum(_exceeds(cols, q, i) for i in ok) < 5:
+        return None
+    ub, vb = sum(u) / len(u), sum(v) / len(v)
+    suu = sum((x - ub) ** 2 for x in u)
+    if suu <= 1e-12 * len(u):
+        return None
+    b = sum((y - vb) * (x - ub) for x, y in zip(u, v)) / suu
+    shift = b * (sum(float(cols["weight"][i]) for i in rows) / len(rows) - 1.0)
+    return None if mean_all - shift < 0 else (b, shift)
+
+
 def _by_hand(cols, strata, q):
     """(lambda with every failed run as no exceedance, as an exceedance, and as its weight times its stratum's
-    weighted exceedance share among the successful runs -- the estimate) by plain loops over the rows."""
+    weighted exceedance share among the successful runs -- the estimate) by plain loops over the rows, each
+    stratum's mean less the control variate's b (ubar - 1) where its rule takes it."""
     lo = hi = mid = 0.0
     for h, st in enumerate(strata.strata):
         rows = [i for i in range(len(cols["status"])) if cols["stratum"][i] == h and cols["status"][i] != -1]
@@ -57,11 +80,14 @@ def _by_hand(cols, strata, q):
                 failed_w += w
                 continue
             ok_w += w
-            if cols["collapsed"][i] or (q.edp is not None and cols[q.edp][i] >= q.threshold):
+            if _exceeds(cols, q, i):
                 ok_wy += w
-        lo += st.rate * ok_wy / n
-        hi += st.rate * (ok_wy + failed_w) / n
-        mid += st.rate * (ok_wy + failed_w * (ok_wy / ok_w if ok_w > 0 else 0.0)) / n
+        m = (ok_wy + failed_w * (ok_wy / ok_w if ok_w > 0 else 0.0)) / n
+        cv = _regression_by_hand(cols, q, rows, m)
+        shift = 0.0 if cv is None else cv[1]
+        lo += st.rate * (ok_wy / n - shift)
+        hi += st.rate * ((ok_wy + failed_w) / n - shift)
+        mid += st.rate * (m - shift)
     return lo, hi, mid
 
 
@@ -94,16 +120,25 @@ def test_failed_runs_bound_every_level_between_what_they_could_have_been():
 
 def _cov_by_hand(cols, strata, q, rate, floor):
     """The CoV of a level from the successful runs alone, by plain loops: sum over strata of rate_h^2 times the
-    sample variance of w_i y_i over the stratum's successful runs, over their number (a failed run is no
-    observation of the spread); where none of them exceeds, the simulation's variance floor of the stratum
-    (``floor``, rare/estimate.py) instead of the sample variance 0."""
+    sample variance of w_i y_i over the stratum's successful runs (the control variate's residual variance where
+    its rule takes it), over their number (a failed run is no observation of the spread); where none of them
+    exceeds, the simulation's variance floor of the stratum (``floor``, rare/estimate.py) instead of 0."""
     var = 0.0
     for h, st in enumerate(strata.strata):
-        vals = [float(cols["weight"][i]) * float(bool(cols["collapsed"][i] or (q.edp is not None
-                                                                                  and cols[q.edp][i] >= q.threshold)))
-                for i in range(len(cols["status"])) if cols["stratum"][i] == h and cols["status"][i] == 0]
+        ok = [i for i in range(len(cols["status"])) if cols["stratum"][i] == h and cols["status"][i] == 0]
+        u = [float(cols["weight"][i]) for i in ok]
+        vals = [x * float(_exceeds(cols, q, i)) for x, i in zip(u, ok)]
         m = sum(vals) / len(vals)
         s2 = sum((x - m) ** 2 for x in vals) / (len(vals) - 1) if any(vals) else float(floor[h])
+        rows = [i for i in range(len(cols["status"])) if cols["stratum"][i] == h and cols["status"][i] != -1]
+        vs = {i: float(cols["weight"][i]) * float(_exceeds(cols, q, i)) for i in ok}
+        failed = [i for i in rows if cols["status"][i] != 0]
+        share = sum(vs.values()) / sum(u) if sum(u) > 0 else 0.0
+        mean_all = (sum(vs.values()) + sum(float(cols["weight"][i]) * share for i in failed)) / len(rows)
+        cv = _regression_by_hand(cols, q, rows, mean_all)
+        if cv is not None:      # the regression's residuals over n - 2 (rare/estimate.py)
+            ub = sum(u) / len(u)
+            s2 = sum((y - m - cv[0] * (x - ub)) ** 2 for x, y in zip(u, vals)) / (len(vals) - 2)
         var += st.rate ** 2 * s2 / len(vals)
     return var ** 0.5 / rate
 

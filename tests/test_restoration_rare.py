@@ -84,6 +84,33 @@ def test_a_paired_difference_on_a_surrogate_with_a_known_answer(monkeypatch):
         assert sum(r[q.label].low <= exact[q.label] <= r[q.label].high for r in reps) >= 8, q.label
 
 
+def test_a_stratum_none_of_whose_rows_differ_adds_its_floor():
+    """Two strata (tests/test_rare_floor.py's: A 1 /yr, B 9 /yr, no pulse): in A 4 of 20 rows differ (B exceeds where
+    A does not), in B neither setting exceeds in 5 rows. Before the floor B added nothing to V_D, as if 5 alike rows
+    proved the settings alike there; now it adds 81 x min(Jeffreys' m2 p0 - p0^2, the two settings' floors there) / 5
+    (both settings' floors are Jeffreys' here: the minimum is that, p0 = 0.5 / 6, m2 = 1), by hand below."""
+    from types import SimpleNamespace
+
+    from pycolfrag.rare.estimate import estimate, jeffreys_floor
+    from pycolfrag.rare.proposal import Design
+    from test_rare_floor import _Q, _cols, _Strata
+
+    def run(y_a):
+        cols = _cols(y_a, 5)
+        floor = jeffreys_floor(cols, _Strata(), Design(), [_Q()])
+        est = estimate(cols, _Strata(), Design(), [_Q()], floor=floor)
+        return SimpleNamespace(cols=cols, strata=_Strata(), design=Design(), quantities=[_Q()], estimate=est,
+                               floor=floor)
+    y_a = np.zeros(20)
+    y_b = np.zeros(20)
+    y_b[[1, 6, 11, 16]] = 1
+    d = paired_differences(run(y_a), run(y_b))["collapse"]
+    var_a = float(np.var(y_b - y_a, ddof=1)) / 20           # 4 of 20 differ by 1: (4 x 0.8^2 + 16 x 0.2^2) / 19
+    p0 = 0.5 / 6
+    assert d.difference == pytest.approx(0.2, rel=1e-14)
+    assert d.sd ** 2 == pytest.approx(var_a + 81 * (p0 - p0 * p0) / 5, rel=1e-12)
+
+
 def test_failed_runs_bound_the_difference():
     """The alternative fails its strongest motions (u_top >= 2): the failed runs are counted and bound D."""
     a, b = _pair(scale=3.0, fail_at=2.0)

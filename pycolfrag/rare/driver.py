@@ -49,8 +49,10 @@ DEFAULT_SEED = 20160601
 #: What a batch's purpose names the algorithm (a change of what the plans mean changes it): v2 sizes the
 #: last batch by the runs left in the budget (v1 planned whole batches); v3 sizes the pilot per site, floors
 #: the allocation's variances and runs (strata with no exceedance, strata that matter) and may take a second
-#: cross-entropy step: the same command and seed plan other runs, and an older folder is not resumed.
-ALGORITHM = "stratified site simulation, defensive mixture, cross-entropy steps; v3"
+#: cross-entropy step: the same command and seed plan other runs, and an older folder is not resumed; v4
+#: estimates every stratum's mean with the weights' known mean as a control variate (rare/estimate.py): other
+#: estimates, hence other stopping and allocation, so a v3 folder is not resumed either.
+ALGORITHM = "stratified site simulation, defensive mixture, cross-entropy steps; v4"
 #: The fewest runs a pilot sized per site holds (5 per stratum where that is more).
 PILOT_MIN_RUNS = 60
 #: Runs per stratum of a pilot sized per site, where the strata are many.

@@ -7,14 +7,24 @@ the same weights w_i (:func:`check_same_events` refuses two sets of rows that ar
 field that differ). With v_i = w_i y_i of each setting (a failed run's imputed as the estimator imputes it,
 w_i times its stratum's weighted exceedance share among the setting's successful rows) and d_i = v_Bi - v_Ai::
 
-    D = sum_h W_h (1/n_h) sum_i d_i              V_D = sum_h W_h^2 s_h^2(d) / n_ok_h
+    D = sum_h W_h [(1/n_h) sum_i d_i - (b_Bh - b_Ah)(ubar_h - 1)]      V_D = sum_h W_h^2 s_h^2(d) / n_ok_h
 
-s_h^2 over the rows that succeeded in both (an imputed value is no observation), n_ok_h their number.
-D is lambda_B - lambda_A of the stratified estimator of :mod:`pycolfrag.rare.estimate` (the same rows, the
-same weights: equal to round-off when no run failed). The interval is D +- z sqrt(V_D) (normal: a difference
-may have either sign). Beside it: V_A + V_B, the variance two independent simulations of the same runs
-would give the difference, and their ratio (V_A + V_B) / V_D -- how many times the runs pairing saves for
-the same precision of the difference --; the runs whose outcome differs between the two settings, Kong's
+b_Ah, b_Bh each setting's regression of v on the weights u = w (the control variate of
+:mod:`pycolfrag.rare.estimate`, by its own rule: 0 where it takes the plain mean), s_h^2 that of
+d_i - (b_Bh - b_Ah)(u_i - ubar_h) over the rows that succeeded in both (an imputed value is no observation),
+n_ok_h their number. A stratum none of whose rows differ has s_h^2 = 0, as if 0 differing runs of n proved the
+settings alike there: it takes a floor instead, as the estimate does for a stratum none of whose runs exceed --
+the smaller of the Jeffreys pseudo-count's m2 p0 - p0^2 of a differing run (p0 = 0.5 / (n_ok_h + 1), m2 the mean
+square weight, at least 1: :func:`pycolfrag.rare.estimate.jeffreys_run_variance`) and the sum of the two
+settings' per-run variances there as their estimates state them (sample, regression or floor): Var(v_B - v_A)
+<= Var(v_A) + Var(v_B) where the outcomes of one event under the two settings are not negatively correlated,
+the premise of pairing; the pseudo-count alone would state a difference wider than two independent simulations
+where two settings differ only in the pulse strata, as a pulse amplitude's. D is lambda_B - lambda_A of the stratified estimator of
+:mod:`pycolfrag.rare.estimate` (the same rows, the same weights: equal to round-off when no run failed). The
+interval is D +- z sqrt(V_D) (normal: a difference may have either sign). Beside it: V_A + V_B, the variances
+the two settings' estimates state (floors included), which two independent simulations of the same runs would
+give the difference, and their ratio (V_A + V_B) / V_D -- how many times the runs pairing saves for the same
+precision of the difference --; the runs whose outcome differs between the two settings, Kong's
 effective number of them (n_eff = (sum |c|)^2 / sum c^2 over their contributions c_i = W_h d_i / n_h); and
 an upper bound on |D| (every stratum's largest weight times the Jeffreys 95 % upper limit of its share of
 differing runs), the only number stated when no run differs. A difference resting on fewer than
@@ -32,7 +42,14 @@ from scipy import stats
 
 from pycolfrag import results as _results
 from pycolfrag.core.errors import ParameterError
-from pycolfrag.rare.estimate import DEFAULT_MIN_NEFF, exceedances, jeffreys_upper, row_weights
+from pycolfrag.rare.estimate import (
+    DEFAULT_MIN_NEFF,
+    exceedances,
+    jeffreys_run_variance,
+    jeffreys_upper,
+    regression,
+    row_weights,
+)
 
 __all__ = ["EVENT_FIELDS", "PairedDifference", "check_same_events", "paired_differences"]
 
@@ -108,15 +125,48 @@ def _imputed(v, w, ok, h, nh):
     return out
 
 
-def _strat_var(x, h, W) -> float:
-    total = 0.0
+def _run_variance(v, ok, r, floor) -> float:
+    """A setting's per-run variance of its stratum as its estimate states it: the regression's, the sample's, or
+    the floor where none of its runs exceeds (rare/estimate.py)."""
+    if r[2] is not None:
+        return r[2]
+    return float(np.var(v[ok], ddof=1)) if np.any(v[ok] != 0) and ok.sum() >= 2 else floor
+
+
+def _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors) -> tuple[float, float]:
+    """(D, V_D): per stratum, each setting's mean by the rare estimator's regression on the weights (its own b,
+    :func:`pycolfrag.rare.estimate.regression`, so that D is lambda_B - lambda_A), s^2 of the rows' difference
+    less (b_B - b_A)(u - ubar) over the rows finished in both; a stratum none of whose rows differ takes the
+    floor of the module docstring instead of 0."""
+    d_terms, v_terms = [], []
     for s in np.unique(h):
-        xs = x[h == s]
-        total += W[s] ** 2 * float(np.var(xs, ddof=1)) / xs.size if xs.size >= 2 else math.inf
-    return total
+        sel = h == s
+        u = w[sel]
+        ra = regression(va[sel], u, ~ok_a[sel], int(np.sum(ya[sel])))
+        rb = regression(vb[sel], u, ~ok_b[sel], int(np.sum(yb[sel])))
+        n = int(sel.sum())
+        d_terms.append(W[s] * (math.fsum(vb[sel] - va[sel]) / n - (rb[1] - ra[1])))
+        both = (ok_a & ok_b)[sel]
+        m = int(both.sum())
+        if m < 2:
+            v_terms.append(math.inf)
+            continue
+        x = (vb[sel] - va[sel])[both] - (rb[0] - ra[0]) * (u[both] - math.fsum(u[both]) / m)
+        if np.any(ya[sel][both] != yb[sel][both]):
+            v_terms.append(W[s] ** 2 * float(np.var(x, ddof=1)) / m)
+        else:
+            m2 = max(1.0, math.fsum(u[both] ** 2) / m)
+            ind = (_run_variance(va[sel], ok_a[sel], ra, floors[0][s])
+                   + _run_variance(vb[sel], ok_b[sel], rb, floors[1][s]))
+            v_terms.append(W[s] ** 2 * min(float(jeffreys_run_variance(m2, m)), ind) / m)
+    return math.fsum(d_terms), math.fsum(v_terms)
 
 
-def _level(q, a, b, w, h, ok_a, ok_b, W, confidence, min_neff) -> PairedDifference:
+def _sd_of(level) -> float:
+    return level.cov * level.rate if math.isfinite(level.cov) else math.inf
+
+
+def _level(q, a, b, w, h, ok_a, ok_b, W, confidence, min_neff, est, floors) -> PairedDifference:
     ya = np.where(ok_a, exceedances(a, q), False).astype(float)
     yb = np.where(ok_b, exceedances(b, q), False).astype(float)
     nh = np.bincount(h, minlength=W.size).astype(float)
@@ -124,9 +174,8 @@ def _level(q, a, b, w, h, ok_a, ok_b, W, confidence, min_neff) -> PairedDifferen
     va, vb = _imputed(w * ya, w, ok_a, h, nh), _imputed(w * yb, w, ok_b, h, nh)
     c = scale * (vb - va)
     both = ok_a & ok_b
-    diff = math.fsum(c)
-    var = _strat_var((vb - va)[both], h[both], W)
-    var_ind = _strat_var((w * ya)[ok_a], h[ok_a], W) + _strat_var((w * yb)[ok_b], h[ok_b], W)
+    diff, var = _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors)
+    var_ind = _sd_of(est[0].levels[q.label]) ** 2 + _sd_of(est[1].levels[q.label]) ** 2
     sd = math.sqrt(var)
     z = float(stats.norm.ppf(0.5 + confidence / 2))
     differ = both & (ya != yb)
@@ -163,5 +212,10 @@ def paired_differences(run_a, run_b, quantities=None, *, confidence: float = 0.9
     ok_a = np.asarray(a["status"]) == _results.STATUS_OK
     ok_b = np.asarray(b["status"]) == _results.STATUS_OK
     W = np.asarray(run_a.strata.rates, dtype=float)
-    return {q.label: _level(q, a, b, w, h, ok_a, ok_b, W, confidence, min_neff)
-            for q in (quantities or run_a.quantities)}
+    quantities = quantities or run_a.quantities
+
+    def floors(q):
+        j = [x.label for x in run_a.quantities].index(q.label)
+        return [np.zeros(W.size) if r.floor is None else np.asarray(r.floor, dtype=float)[:, j] for r in (run_a, run_b)]
+    return {q.label: _level(q, a, b, w, h, ok_a, ok_b, W, confidence, min_neff, (run_a.estimate, run_b.estimate),
+                            floors(q)) for q in quantities}

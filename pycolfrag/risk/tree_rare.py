@@ -34,10 +34,11 @@ from typing import Any
 
 import numpy as np
 
+from pycolfrag import results as _results
 from pycolfrag.core.errors import ParameterError, ResultsFileError
 from pycolfrag.ground_motion.registry import DEFAULT_TP_MODEL, vp_model_key
 from pycolfrag.rare.driver import site_fingerprint
-from pycolfrag.rare.estimate import estimate
+from pycolfrag.rare.estimate import estimate, row_weights
 from pycolfrag.rare.strata import build_strata
 from pycolfrag.risk import tree_stats as ts
 from pycolfrag.risk.logic_tree import RUNS, EndBranchArrays, _canonical
@@ -45,7 +46,7 @@ from pycolfrag.risk.tree_apply import ModelSettings
 from pycolfrag.risk.tree_quantile_error import quantile_errors
 
 __all__ = ["RunGroup", "run_groups", "FOLDER_FILE", "tree_form", "check_folder", "check_reweighting", "row_factors",
-           "branch_estimate", "TreeRare", "tree_of_runs"]
+           "branch_floor", "branch_estimate", "TreeRare", "tree_of_runs"]
 
 #: The tree's record in OUTDIR.
 FOLDER_FILE = "logic_tree_runs.json"
@@ -203,16 +204,35 @@ def row_factors(cols: dict, site, branch_site):
     return rho
 
 
+def branch_floor(run, rho):
+    """The variance floor (:mod:`pycolfrag.rare.estimate`) of a branch whose rows are re-weighted by ``rho``: the
+    run's floor of each stratum times the mean square of w rho over that of w among its successful rows -- the
+    per-run variance m2 p0 - p0^2 of a stratum none of whose runs exceeds, its weights scaled (exactly where rho is
+    one value in the stratum and the p0^2 term small, as a rate factor's); None when the run has no floor."""
+    if run.floor is None:
+        return None
+    ok = np.asarray(run.cols["status"]) == _results.STATUS_OK
+    sub = {k: np.asarray(v)[ok] for k, v in run.cols.items()}
+    w, _ = row_weights(sub, run.strata, run.design)
+    h = np.asarray(sub["stratum"], dtype=int)
+    H = len(run.strata)
+    m2 = np.bincount(h, weights=w * w, minlength=H)
+    m2_rho = np.bincount(h, weights=(w * rho[ok]) ** 2, minlength=H)
+    ratio = np.divide(m2_rho, m2, out=np.ones(H), where=m2 > 0)
+    return np.asarray(run.floor, dtype=float) * ratio[:, None]
+
+
 def branch_estimate(run, branch_site):
     """The estimate of an end branch from its run group's rows (:class:`~pycolfrag.rare.driver.SiteRun`):
-    the run's own when the site is the simulated one, else its rows re-weighted by :func:`row_factors`."""
+    the run's own when the site is the simulated one, else its rows re-weighted by :func:`row_factors` through
+    the rare route's one estimator (:func:`pycolfrag.rare.estimate.estimate`: its control variates and, by
+    :func:`branch_floor`, its variance floor)."""
     rho = row_factors(run.cols, run.site, branch_site)
     if rho is None:
         return run.estimate
-    cols = {**run.cols, "occurrence_weight": np.asarray(run.cols["occurrence_weight"], dtype=float) * rho}
     s = run.stop
-    return estimate(cols, run.strata, run.design, run.quantities, confidence=s.confidence, min_neff=s.min_neff,
-                    max_share=s.max_share, target_cov=s.target_cov)
+    return estimate(run.cols, run.strata, run.design, run.quantities, confidence=s.confidence, min_neff=s.min_neff,
+                    max_share=s.max_share, target_cov=s.target_cov, floor=branch_floor(run, rho), reweight=rho)
 
 
 @dataclass
