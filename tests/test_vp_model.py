@@ -114,10 +114,12 @@ def test_eq6_is_the_empty_vp_model_and_keeps_the_default_folders_identity():
 
 
 #: The tree's Bray & Rodriguez-Marek run group (runs_01), batch_000 of the command below, as main made it at 369b41e
-#: (when the relation rode in tp_model as "rupakhety_2011+bray_rodriguez_marek_2004"): the plan's SHA-256 (every
-#: run's inputs, the pulse parameters' bits among them) and a SHA-256 of the result columns RESULT_COLUMNS.
-MAIN_PLAN_SHA256 = {"runs_00": "75526b9813a91fcb438916b5b1d30e8dcdbf5fb70b6afd378b537af05a6a465b",
-                    "runs_01": "6b9f7d83d52ec9f0802acb9be3c10050948960595f684fef57aac8f16efd3e52"}
+#: (when the relation rode in tp_model as "rupakhety_2011+bray_rodriguez_marek_2004"): a SHA-256 of the plan's inputs
+#: (every run's inputs, the pulse parameters' bits among them: json.dumps(plan["inputs"], sort_keys=True); the plan's
+#: own sha256 also covers its purpose, which names the estimator's algorithm, v3 then) and a SHA-256 of the result
+#: columns RESULT_COLUMNS.
+MAIN_PLAN_INPUTS_SHA256 = {"runs_00": "6eaec9cef33528d4e7e7d091c7cfe26fcf23bbd40d2f0d6d90b6f693b1f2014b",
+                           "runs_01": "1c13fa196583452668b968291383afb18c312c1bbdf9c26fc33e9692bd5a6da7"}
 MAIN_RESULTS_SHA256 = {"runs_00": "720931078e397f346d11b1906d8249ec3826239a8141b6eb2310ecdae110e85e",
                        "runs_01": "5b11fc2fe184123c600b35ae6cbdd49fe0277f18229b597fad20101742274e44"}
 RESULT_COLUMNS = ("status", "collapsed", "u_top", "u_d", "vp_cm_s", "tp_s", "pgv_cm_s")
@@ -142,6 +144,7 @@ def test_the_trees_bray_rodriguez_marek_branch_gives_the_runs_it_gave_before_vp_
     """Only the plumbing changed: the command's tree over vp_model (Eq. (6), Bray & Rodriguez-Marek) on the tiny
     site gives, in both run groups, bit for bit main's inputs and results (hashes above, made by this command on
     main), and the group of the other relation records it as vp_model beside the period relation's name."""
+    import hashlib
     import json
 
     from test_rare_site_plumbing import BASE, _run
@@ -153,7 +156,8 @@ def test_the_trees_bray_rodriguez_marek_branch_gives_the_runs_it_gave_before_vp_
     assert p.returncode == 6, p.stdout + p.stderr            # the run budget ends before the target: as on main
     for g in ("runs_00", "runs_01"):
         plan = json.loads((tmp_path / "out" / g / "batch_000.plan.json").read_text())
-        assert plan["sha256"] == MAIN_PLAN_SHA256[g], g
+        inputs = hashlib.sha256(json.dumps(plan["inputs"], sort_keys=True).encode()).hexdigest()
+        assert inputs == MAIN_PLAN_INPUTS_SHA256[g], g
         assert _results_sha256(tmp_path / "out" / g / "batch_000.h5") == MAIN_RESULTS_SHA256[g], g
     groups = json.loads((tmp_path / "out" / "logic_tree_runs.json").read_text())["groups"]
     assert [(x["tp_model"], x.get("vp_model")) for x in groups] == [("rupakhety_2011", None), ("rupakhety_2011", BRM)]
