@@ -209,9 +209,12 @@ def _git(*args, cwd=ROOT) -> str:
 
 
 def _stale(tree: Path) -> bool:
-    """Whether the tree's extension is missing or was built from other sources than those on disk."""
-    code = ("from pycolfrag.core.ffi import ffi, lib\nfrom pycolfrag.core import source_digest as s\n"
-            "import sys\nb = ffi.string(lib.cf_common_source_digest()).decode()\n"
+    """Whether the tree's extension is missing (an editable install elsewhere would then lend its own:
+    the library loaded must be the tree's) or was built from other sources than those on disk."""
+    code = ("import sys, pathlib, pycolfrag._libcolfrag as m\n"
+            "assert pathlib.Path(m.__file__).resolve().parent == pathlib.Path(sys.argv[1], 'pycolfrag').resolve()\n"
+            "from pycolfrag.core.ffi import ffi, lib\nfrom pycolfrag.core import source_digest as s\n"
+            "b = ffi.string(lib.cf_common_source_digest()).decode()\n"
             "sys.exit(0 if b == s.UNSIGNED or b == s.source_digest(sys.argv[1]) else 1)")
     env = dict(os.environ, PYTHONPATH=str(tree))
     return subprocess.run([sys.executable, "-c", code, str(tree)], env=env, cwd=tree, capture_output=True).returncode != 0
@@ -251,7 +254,10 @@ def run_version(tree: str, options: dict, inputs: Path, out: Path, procs: int) -
     if p.returncode != 0:
         raise SystemExit(f"the version in {tree} failed ({p.returncode}):\n{p.stdout}\n{p.stderr}")
     with open(out, encoding="utf-8") as fh:
-        return json.load(fh)
+        got = json.load(fh)
+    if Path(got["library"]).resolve().parent != (Path(tree) / "pycolfrag").resolve():
+        raise SystemExit(f"the version in {tree} loaded another tree's library: {got['library']}")
+    return got
 
 
 # --------------------------------------------------------------------------- the worker (the version's own pycolfrag)
@@ -292,11 +298,13 @@ def worker(inputs: str, out: str, options: dict, procs: int) -> int:
     jobs = sorted(((i, z[f"acc{i}"], float(dts[i])) for i in range(dts.size)), key=lambda j: -j[1].size)
     with Pool(procs, initializer=_init, initargs=(options,)) as pool:
         runs = list(pool.imap_unordered(_one, jobs, chunksize=1))
+    import pycolfrag._libcolfrag as lib
+
     import pycolfrag as pcf
     opts = pcf.SolverOptions(**options).to_dict() if hasattr(pcf, "SolverOptions") else options
     with open(out, "w", encoding="utf-8") as fh:
         json.dump({"runs": sorted(runs, key=lambda r: r["index"]), "options": opts,
-                   "version": getattr(pcf, "__version__", "?")}, fh)
+                   "version": getattr(pcf, "__version__", "?"), "library": lib.__file__}, fh)
     return 0
 
 
@@ -408,7 +416,7 @@ def main(argv=None) -> int:
         print(f"running {s}: {side['tree']} {side['keywords']} on {len(flat)} inputs ...", flush=True)
         got = run_version(side["tree"], side["keywords"], path, work / f"{s}.json", a.procs)
         runs[s] = got["runs"]
-        side.update(options=got["options"], version=got["version"])
+        side.update(options=got["options"], version=got["version"], library=got["library"])
     for r in (*runs["old"], *runs["new"]):
         e, i, x = flat[r["index"]]
         r.update(ensemble=e, label=x[2])
