@@ -99,7 +99,18 @@ def paired_proportion(old, new) -> dict:
     diff = (c - b) / n if n else math.nan
     se = math.sqrt(max(b + c - (c - b) ** 2 / n, 0.0)) / n if n else math.nan
     return {"n": n, "old": float(old.mean()) if n else math.nan, "new": float(new.mean()) if n else math.nan,
-            "diff": diff, "se": se, "z": _z(diff, se) if n else math.nan, "old_only": b, "new_only": c}
+            "diff": diff, "se": se, "z": _z(diff, se) if n else math.nan, "old_only": b, "new_only": c,
+            "p_exact": mcnemar_exact(b, c)}
+
+
+def mcnemar_exact(b: int, c: int) -> float:
+    """Two-sided exact McNemar p-value: of b + c discordant pairs, as few as min(b, c) on one side under
+    Binomial(b + c, 1/2). Beside the 2 SE rule where the discordant pairs are few (the normal
+    approximation is then liberal: 0 / 4 is 2.02 SE, exact p 0.125)."""
+    m = b + c
+    if m == 0:
+        return 1.0
+    return min(1.0, 2 * sum(math.comb(m, i) for i in range(min(b, c) + 1)) / 2 ** m)
 
 
 def within(row: dict, one_sided: bool = False) -> bool:
@@ -142,7 +153,7 @@ def compare_runs(old: list, new: list) -> dict:
         rows.append({"quantity": f"P({lev.edp} >= {lev.threshold:g})", **paired_proportion(ea, eb)})
     rows.append({"quantity": "P(collapse)", **paired_proportion(col_a, col_b)})
     e = paired_mean([abs(a["energy_error"]) for a in A], [abs(b["energy_error"]) for b in B])
-    rows.append({"quantity": "mean |energy error|", "one_sided": True, **e})
+    rows.append({"quantity": "mean abs(energy error)", "one_sided": True, **e})
     for r in rows:
         r["ok"] = within(r, r.get("one_sided", False))
     failed = (sum(a["failed"] for a in old), sum(b["failed"] for b in new))
@@ -324,12 +335,9 @@ def _given(side: dict) -> str:
 def table(res: dict) -> str:
     """The markdown of a result: its header, the verdict, a summary per ensemble and every row."""
     ok, failing, expected = res["verdict"]["equivalent"], res["verdict"]["failing"], res["verdict"]["expected_by_chance"]
-    sizes = res["sizes"]
-    lines = [f"CPU: {res['cpu']}; {res['date']}; {res['procs']} processes per version, niced, on a shared machine; "
-             f"total CPU {res['cpu_total_s']:.0f} s.",
-             f"Old: {_given(res['old'])}; new: {_given(res['new'])}; default column (`Column.parthenon()`), "
-             f"inputs: pert {sizes['pert']}, rec {sizes['rec']}, strong {sizes['strong']}, "
-             f"grid {35 * sizes['grid']} (35 scenarios x {sizes['grid']}).", "",
+    how = f"{res['procs']} processes per version, niced, on a shared machine" if res["procs"] else "from results files"
+    lines = [f"CPU: {res['cpu']}; {res['date']}; {how}; total CPU {res['cpu_total_s']:.0f} s.",
+             f"Old: {_given(res['old'])}; new: {_given(res['new'])}; {res['inputs']}.", "",
              f"**Verdict: {'equivalent' if ok else 'NOT equivalent'}** (every paired |new - old| <= {Z:g} SE; the "
              f"energy error one-sided){'' if ok else ': beyond ' + f'{Z:g}' + ' SE: ' + '; '.join(failing)}. "
              f"Tests made {res['verdict']['n_tests']}; expected beyond {Z:g} SE by chance alone for an unchanged "
@@ -343,14 +351,14 @@ def table(res: dict) -> str:
                      f"{'equivalent' if not d['failing'] else 'beyond ' + f'{Z:g}' + ' SE: ' + ', '.join(d['failing'])} |")
     lines += ["", "Means over the runs that stand (each version its own); the difference paired over the inputs "
               "where both stand (n), SE = sd of the differences / sqrt(n); probabilities over every input, the "
-              "paired SE McNemar's (discordant pairs old-only / new-only); energy: |energy_error| of every run, "
-              "tested one-sided.", "",
+              "paired SE McNemar's (discordant pairs old-only / new-only, and the exact McNemar p, which says more "
+              "than the 2 SE rule where they are few); energy: |energy_error| of every run, tested one-sided.", "",
               "| ensemble | quantity | n | old | new | new - old ± SE | diff / SE | within 2 SE |",
               "|---|---|---|---|---|---|---|---|"]
     for e, d in res["ensembles"].items():
         for r in d["rows"]:
             q = r["quantity"]
-            disc = f" ({r['old_only']} / {r['new_only']})" if "old_only" in r else ""
+            disc = f" ({r['old_only']} / {r['new_only']}, exact p {r['p_exact']:.2g})" if "old_only" in r else ""
             diff = "n/a" if not math.isfinite(r["diff"]) else \
                 f"{r['diff']:+.4g} ± {r['se']:.4g}" if math.isfinite(r["se"]) else f"{r['diff']:+.4g}"
             lines.append(f"| {e} | {q} | {r['n']} | {_fmt(q, r['old'])} | {_fmt(q, r['new'])} | {diff}{disc} | "
@@ -391,6 +399,8 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--name", default=None, help="name of the files written (default: equivalence[_quick])")
     ap.add_argument("--work", type=Path, default=None, help="folder of exported trees and inputs (default: a temporary one)")
     ap.add_argument("--no-write", action="store_true", help="print only")
+    ap.add_argument("--files", nargs=2, metavar=("OLD.h5", "NEW.h5"),
+                    help="no runs: the same table from two synthetic grid results files, rows paired by (Mw, R, sample)")
     ap.add_argument("--worker", nargs=2, metavar=("INPUTS", "OUT"), help=argparse.SUPPRESS)
     ap.add_argument("--options", default="{}", help=argparse.SUPPRESS)
     return ap
@@ -401,6 +411,8 @@ def main(argv=None) -> int:
     if a.worker:
         return worker(a.worker[0], a.worker[1], json.loads(a.options), a.procs)
     sys.path.insert(0, str(ROOT))
+    if a.files:
+        return compare_files(a.files[0], a.files[1], None if a.no_write else a.name or "equivalence_files")
     sizes = QUICK_SIZES if a.quick else tuple(a.sizes)
     work = a.work or Path(tempfile.mkdtemp(prefix="equivalence_"))
     work.mkdir(parents=True, exist_ok=True)
@@ -422,23 +434,69 @@ def main(argv=None) -> int:
         r.update(ensemble=e, label=x[2])
     ens = {e: compare_runs([r for r in runs["old"] if r["ensemble"] == e], [r for r in runs["new"] if r["ensemble"] == e])
            for e in ENSEMBLES}
+    res = {**_result(sides, ens, runs, a.procs), "sizes": dict(zip(ENSEMBLES, sizes)),
+           "inputs": f"default column (`Column.parthenon()`), inputs: pert {sizes[0]}, rec {sizes[1]}, strong "
+                     f"{sizes[2]}, grid {35 * sizes[3]} (35 scenarios x {sizes[3]})",
+           "wall_s": time.perf_counter() - w0}
+    return _report(res, None if a.no_write else a.name or ("equivalence_quick" if a.quick else "equivalence"))
+
+
+def _result(sides: dict, ens: dict, runs: dict, procs: int) -> dict:
     ok, failing, expected = verdict(ens)
-    res = {"cpu": _cpu(), "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-           "procs": a.procs, "sizes": dict(zip(ENSEMBLES, sizes)), "old": sides["old"], "new": sides["new"],
-           "z": Z, "verdict": {"equivalent": ok, "failing": failing, "expected_by_chance": expected,
-                               "n_tests": sum(len(d["rows"]) for d in ens.values())},
-           "ensembles": ens, "cpu_total_s": sum(r["cpu_s"] for r in (*runs["old"], *runs["new"])),
-           "wall_s": time.perf_counter() - w0, "runs": runs}
+    return {"cpu": _cpu(), "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "procs": procs, "old": sides["old"], "new": sides["new"], "z": Z,
+            "verdict": {"equivalent": ok, "failing": failing, "expected_by_chance": expected,
+                        "n_tests": sum(len(d["rows"]) for d in ens.values())},
+            "ensembles": ens, "cpu_total_s": sum(r["cpu_s"] for r in (*runs["old"], *runs["new"])), "runs": runs}
+
+
+def _report(res: dict, name: str | None) -> int:
+    """Print the table; write NAME.json and NAME.md (name None: print only). Exit status 0 equivalent, else 1."""
     text = table(res)
     print(text)
-    if not a.no_write:
+    if name is not None:
         OUT.mkdir(parents=True, exist_ok=True)
-        name = a.name or ("equivalence_quick" if a.quick else "equivalence")
         with open(OUT / f"{name}.json", "w", encoding="utf-8") as fh:
             json.dump(res, fh, indent=1)
         (OUT / f"{name}.md").write_text(text, encoding="utf-8")
         print(f"wrote {OUT / name}.json and .md")
-    return 0 if ok else 1
+    return 0 if res["verdict"]["equivalent"] else 1
+
+
+def _file_runs(path: str) -> dict:
+    """A synthetic grid's results file as runs keyed by (Mw, R, sample) in thousandths (the grid's row key)."""
+    from pycolfrag.analysis.data import load
+    s = load(path).samples
+    out = {}
+    for i in range(len(s["u_top"])):
+        key = (round(float(s["mw"][i]) * 1000), round(float(s["dist_km"][i]) * 1000), int(s["sample"][i]))
+        out[key] = {"u_top": float(s["u_top"][i]), "u_d": float(s["u_d"][i]), "collapsed": bool(s["collapsed"][i]),
+                    "energy_error": float(s["energy_error"][i]), "failed": int(s["status"][i]) != 0,
+                    "cpu_s": float(s["wall_s"][i])}
+    return out
+
+
+def _solver_of(path: str) -> dict:
+    """The solver options a grid results file was run with (its signature's)."""
+    from pycolfrag.analysis.data import load
+    return json.loads(load(path).attrs["grid_signature"]).get("solver", {})
+
+
+def compare_files(old: str, new: str, name: str | None) -> int:
+    """The same table from two synthetic grid results files, rows paired by their key (``--files``)."""
+    A, B = _file_runs(old), _file_runs(new)
+    keys = sorted(set(A) & set(B))
+    if not keys:
+        raise SystemExit(f"{old} and {new} have no row in common")
+    ens = {"grid file": compare_runs([A[k] for k in keys], [B[k] for k in keys])}
+    runs = {"old": [A[k] for k in keys], "new": [B[k] for k in keys]}
+    sa, sb = _solver_of(old), _solver_of(new)
+    differ = {k for k in set(sa) | set(sb) if sa.get(k) != sb.get(k)}
+    sides = {s: {"commit": p, "keywords": {k: o.get(k) for k in sorted(differ)}, "tree": p}
+             for s, p, o in (("old", old, sa), ("new", new, sb))}
+    res = {**_result(sides, ens, runs, 0), "inputs": f"{len(keys)} rows in both files ({len(A)} and {len(B)} in each); "
+           "CPU s/run: the rows' wall_s", "wall_s": 0.0}
+    return _report(res, name)
 
 
 if __name__ == "__main__":

@@ -103,6 +103,8 @@ def test_paired_proportion_is_mcnemar(eq):
     assert not eq.within(r)
     new[10:14] = False                     # c = 6: 0.04 / 0.028 = 1.43 SE
     assert eq.within(eq.paired_proportion(old, new))
+    assert r["p_exact"] == pytest.approx(2 * (1 + 12 + 66) / 2 ** 12)   # P(X <= 2), X ~ Binomial(12, 1/2), twice
+    assert eq.mcnemar_exact(0, 4) == 0.125 and eq.mcnemar_exact(3, 3) == 1.0 and eq.mcnemar_exact(0, 0) == 1.0
 
 
 def test_more_collapses_are_flagged(eq):
@@ -118,7 +120,7 @@ def test_energy_error_fails_one_sided(eq):
     e = 0.01 + 0.002 * _unit(N, 3)
     worse = e + 3 * 0.001 / math.sqrt(N) + 0.001 * _unit(N, 4)
     better = e - 3 * 0.001 / math.sqrt(N) + 0.001 * _unit(N, 4)
-    assert eq.compare_runs(_runs(BASE, energy=e), _runs(BASE, energy=worse))["failing"] == ["mean |energy error|"]
+    assert eq.compare_runs(_runs(BASE, energy=e), _runs(BASE, energy=worse))["failing"] == ["mean abs(energy error)"]
     assert eq.compare_runs(_runs(BASE, energy=e), _runs(BASE, energy=better))["failing"] == []
 
 
