@@ -145,3 +145,20 @@ def test_help_runs_without_the_package(tmp_path):
                        text=True, cwd=tmp_path, env={"PATH": "/usr/bin:/bin"})
     assert p.returncode == 0, p.stderr
     assert "--new-options" in p.stdout and "--old" in p.stdout
+
+
+def test_work_precision_keeps_the_equivalence_section(tmp_path):
+    """bench/work_precision.py rewrites docs/work_precision.md: the part from its KEEP_MARK on (this bench's
+    evidence) survives, and a file without the mark is rewritten whole."""
+    spec = importlib.util.spec_from_file_location("bench_work_precision", ROOT / "bench" / "work_precision.py")
+    wp = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(wp)
+    doc = tmp_path / "work_precision.md"
+    kept = f"{wp.KEEP_MARK}\n\n## Sleeping joints: the model did not move\n\ntable\n"
+    doc.write_text("# old table\n\nold rows\n\n" + kept)
+    wp.write_keeping(doc, "# new table\n")
+    assert doc.read_text() == "# new table\n\n" + kept
+    doc.write_text("# old table only\n")
+    wp.write_keeping(doc, "# new table\n")
+    assert doc.read_text() == "# new table\n"
+    assert wp.KEEP_MARK in (ROOT / "docs" / "work_precision.md").read_text()
