@@ -58,8 +58,8 @@ def test_identical_inputs_are_equivalent(eq):
     assert d["failing"] == []
     for r in d["rows"]:
         assert r["diff"] == 0 and r["se"] == 0 and r["ok"], r
-    ok, failing, expected = eq.verdict({"pert": d, "grid": d})
-    assert ok and failing == []
+    ok, failing, expected, roundoff = eq.verdict({"pert": d, "grid": d})
+    assert ok and failing == [] and roundoff == []
     assert expected == pytest.approx(2 * len(d["rows"]) * 0.0455, rel=1e-2)
 
 
@@ -81,7 +81,7 @@ def test_shift_of_u_top_flags_that_row_alone(eq, k_se, flagged):
     row = next(r for r in d["rows"] if r["quantity"] == "mean u_top")
     assert row["z"] == pytest.approx(k_se, rel=1e-9)
     assert d["failing"] == (["mean u_top"] if flagged else [])
-    ok, failing, _ = eq.verdict({"rec": d})
+    ok, failing, _, _ = eq.verdict({"rec": d})
     assert ok is not flagged
     assert failing == (["rec: mean u_top"] if flagged else [])
 
@@ -162,3 +162,18 @@ def test_work_precision_keeps_the_equivalence_section(tmp_path):
     wp.write_keeping(doc, "# new table\n")
     assert doc.read_text() == "# new table\n"
     assert wp.KEEP_MARK in (ROOT / "docs" / "work_precision.md").read_text()
+
+
+def test_round_off_beyond_2_se_does_not_fail(eq):
+    """Nearly deterministic pairs (the pert ensemble's u_top): a shift of 3 SE that is 1e-9 of the mean is
+    round-off, reported as such, and passes; the same 3 SE at 1e-5 of the mean fails."""
+    for rel, is_roundoff in ((1e-9, True), (1e-5, False)):
+        s = rel * 0.08 * math.sqrt(N) / 3                   # so that 3 SE = rel x the mean (0.08)
+        new = BASE + 3 * s / math.sqrt(N) + s * _unit(N, 2)
+        d = eq.compare_runs(_runs(BASE), _runs(new))
+        row = next(r for r in d["rows"] if r["quantity"] == "mean u_top")
+        assert row["z"] == pytest.approx(3.0, rel=1e-6) and not row["ok"]
+        assert row["roundoff"] is is_roundoff
+        ok, failing, _, roundoff = eq.verdict({"pert": d})
+        assert ok is is_roundoff
+        assert (roundoff, failing) == ((["pert: mean u_top"], []) if is_roundoff else ([], ["pert: mean u_top"]))
