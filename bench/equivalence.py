@@ -193,9 +193,10 @@ def verdict(ensembles: dict) -> tuple[bool, list, float, list]:
 
 # --------------------------------------------------------------------------- inputs
 
-def grid_inputs(samples_per_scenario: int) -> list:
-    """Rows of the default grid (its 35 scenarios, samples 0..k-1 of each): (acc, dt, label) as the grid
-    makes them (the grid's seeds, its Latin hypercube of 100 samples, its record)."""
+def grid_inputs(samples_per_scenario: int, first: int = 0) -> list:
+    """Rows of the default grid (its 35 scenarios, samples first..first+k-1 of each): (acc, dt, label) as the
+    grid makes them (the grid's seeds, its Latin hypercube of 100 samples, its record). Another ``first``
+    gives rows independent of these: a flagged row is checked again on fresh inputs."""
     import pycolfrag as pcf
     from pycolfrag.grid.rows import SampleContext
     from pycolfrag.grid.spec import GridSpec
@@ -204,7 +205,7 @@ def grid_inputs(samples_per_scenario: int) -> list:
     ctx = SampleContext(spec)
     out = []
     for sc in range(len(spec.scenarios)):
-        for k in range(min(samples_per_scenario, spec.samples)):
+        for k in range(first, min(first + samples_per_scenario, spec.samples)):
             _, _, mw, dist = ctx.locate(sc * spec.samples + k)
             row, acc, dt = _synthetic_record(mw, dist, ctx.hf_seed(sc, k), ctx.pulse(sc, k), spec.record_dt_s,
                                              spec.vp_scale, spec.max_record_s)
@@ -214,13 +215,13 @@ def grid_inputs(samples_per_scenario: int) -> list:
     return out
 
 
-def make_inputs(sizes) -> dict:
-    """name -> [(acc m/s^2, dt s, label)] of every ensemble."""
+def make_inputs(sizes, grid_first: int = 0) -> dict:
+    """name -> [(acc m/s^2, dt s, label)] of every ensemble (an ensemble of size 0 left out)."""
     sys.path.insert(0, str(HERE))
     from contact_convergence import ensembles  # the work-precision ensembles, one text
     out = ensembles(*sizes[:3])
-    out["grid"] = grid_inputs(sizes[3])
-    return out
+    out["grid"] = grid_inputs(sizes[3], grid_first)
+    return {e: v for e, v in out.items() if v}
 
 
 # --------------------------------------------------------------------------- versions
@@ -423,6 +424,8 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--new-options", nargs="*", default=[], metavar="KEY=VALUE", help="simulate() keywords of the new version")
     ap.add_argument("--sizes", type=int, nargs=4, metavar=("PERT", "REC", "STRONG", "GRID"), default=DEFAULT_SIZES,
                     help="inputs of each ensemble; GRID: samples per scenario of the default grid (default: %(default)s)")
+    ap.add_argument("--grid-from", type=int, default=0, metavar="K",
+                    help="the grid's rows from sample K of each scenario (default 0): fresh inputs for a second look")
     ap.add_argument("--quick", action="store_true", help=f"sizes {' '.join(map(str, QUICK_SIZES))} (a smoke run)")
     ap.add_argument("--procs", type=int, default=2, help="processes per version (default 2)")
     ap.add_argument("--name", default=None, help="name of the files written (default: equivalence[_quick])")
@@ -447,8 +450,8 @@ def main(argv=None) -> int:
     work.mkdir(parents=True, exist_ok=True)
     sides = {"old": {**prepare(a.old, work), "keywords": _keywords(a.old_options)},
              "new": {**prepare(a.new, work), "keywords": _keywords(a.new_options)}}
-    inputs = make_inputs(sizes)
-    flat = [(e, i, x) for e in ENSEMBLES for i, x in enumerate(inputs[e])]
+    inputs = make_inputs(sizes, a.grid_from)
+    flat = [(e, i, x) for e in ENSEMBLES for i, x in enumerate(inputs.get(e, ()))]
     path = work / "inputs.npz"
     np.savez(path, dt=np.array([x[1] for _, _, x in flat]), **{f"acc{k}": x[0] for k, (_, _, x) in enumerate(flat)})
     w0 = time.perf_counter()
@@ -462,10 +465,10 @@ def main(argv=None) -> int:
         e, i, x = flat[r["index"]]
         r.update(ensemble=e, label=x[2])
     ens = {e: compare_runs([r for r in runs["old"] if r["ensemble"] == e], [r for r in runs["new"] if r["ensemble"] == e])
-           for e in ENSEMBLES}
+           for e in ENSEMBLES if e in inputs}
     res = {**_result(sides, ens, runs, a.procs), "sizes": dict(zip(ENSEMBLES, sizes)),
            "inputs": f"default column (`Column.parthenon()`), inputs: pert {sizes[0]}, rec {sizes[1]}, strong "
-                     f"{sizes[2]}, grid {35 * sizes[3]} (35 scenarios x {sizes[3]})",
+                     f"{sizes[2]}, grid {35 * sizes[3]} (35 scenarios x samples {a.grid_from}-{a.grid_from + sizes[3] - 1})",
            "wall_s": time.perf_counter() - w0}
     return _report(res, None if a.no_write else a.name or ("equivalence_quick" if a.quick else "equivalence"))
 
@@ -486,7 +489,7 @@ def _report(res: dict, name: str | None) -> int:
     if name is not None:
         OUT.mkdir(parents=True, exist_ok=True)
         with open(OUT / f"{name}.json", "w", encoding="utf-8") as fh:
-            json.dump(res, fh, indent=1)
+            json.dump(res, fh, separators=(",", ":"))   # compact: every run is in it
         (OUT / f"{name}.md").write_text(text, encoding="utf-8")
         print(f"wrote {OUT / name}.json and .md")
     return 0 if res["verdict"]["equivalent"] else 1
