@@ -215,11 +215,11 @@ def grid_inputs(samples_per_scenario: int, first: int = 0) -> list:
     return out
 
 
-def make_inputs(sizes, grid_first: int = 0) -> dict:
+def make_inputs(sizes, grid_first: int = 0, seed_offset: int = 0) -> dict:
     """name -> [(acc m/s^2, dt s, label)] of every ensemble (an ensemble of size 0 left out)."""
     sys.path.insert(0, str(HERE))
     from contact_convergence import ensembles  # the work-precision ensembles, one text
-    out = ensembles(*sizes[:3])
+    out = ensembles(*sizes[:3], seed_offset=seed_offset)
     out["grid"] = grid_inputs(sizes[3], grid_first)
     return {e: v for e, v in out.items() if v}
 
@@ -426,6 +426,9 @@ def _parser() -> argparse.ArgumentParser:
                     help="inputs of each ensemble; GRID: samples per scenario of the default grid (default: %(default)s)")
     ap.add_argument("--grid-from", type=int, default=0, metavar="K",
                     help="the grid's rows from sample K of each scenario (default 0): fresh inputs for a second look")
+    ap.add_argument("--seed-offset", type=int, default=0, metavar="K",
+                    help="other members of the pert, rec and strong ensembles (their seeds + K; default 0, the "
+                         "work-precision ensembles themselves): fresh inputs for a second look")
     ap.add_argument("--quick", action="store_true", help=f"sizes {' '.join(map(str, QUICK_SIZES))} (a smoke run)")
     ap.add_argument("--procs", type=int, default=2, help="processes per version (default 2)")
     ap.add_argument("--name", default=None, help="name of the files written (default: equivalence[_quick])")
@@ -450,7 +453,7 @@ def main(argv=None) -> int:
     work.mkdir(parents=True, exist_ok=True)
     sides = {"old": {**prepare(a.old, work), "keywords": _keywords(a.old_options)},
              "new": {**prepare(a.new, work), "keywords": _keywords(a.new_options)}}
-    inputs = make_inputs(sizes, a.grid_from)
+    inputs = make_inputs(sizes, a.grid_from, a.seed_offset)
     flat = [(e, i, x) for e in ENSEMBLES for i, x in enumerate(inputs.get(e, ()))]
     path = work / "inputs.npz"
     np.savez(path, dt=np.array([x[1] for _, _, x in flat]), **{f"acc{k}": x[0] for k, (_, _, x) in enumerate(flat)})
@@ -468,7 +471,7 @@ def main(argv=None) -> int:
            for e in ENSEMBLES if e in inputs}
     res = {**_result(sides, ens, runs, a.procs), "sizes": dict(zip(ENSEMBLES, sizes)),
            "inputs": f"default column (`Column.parthenon()`), inputs: pert {sizes[0]}, rec {sizes[1]}, strong "
-                     f"{sizes[2]}, grid {35 * sizes[3]} (35 scenarios x samples {a.grid_from}-{a.grid_from + sizes[3] - 1})",
+                     f"{sizes[2]}{f' (seeds + {a.seed_offset})' if a.seed_offset else ''}, grid {35 * sizes[3]} (35 scenarios x samples {a.grid_from}-{a.grid_from + sizes[3] - 1})",
            "wall_s": time.perf_counter() - w0}
     return _report(res, None if a.no_write else a.name or ("equivalence_quick" if a.quick else "equivalence"))
 
