@@ -470,10 +470,18 @@ def main(argv=None) -> int:
     ens = {e: compare_runs([r for r in runs["old"] if r["ensemble"] == e], [r for r in runs["new"] if r["ensemble"] == e])
            for e in ENSEMBLES if e in inputs}
     res = {**_result(sides, ens, runs, a.procs), "sizes": dict(zip(ENSEMBLES, sizes)),
-           "inputs": f"default column (`Column.parthenon()`), inputs: pert {sizes[0]}, rec {sizes[1]}, strong "
-                     f"{sizes[2]}{f' (seeds + {a.seed_offset})' if a.seed_offset else ''}, grid {35 * sizes[3]} (35 scenarios x samples {a.grid_from}-{a.grid_from + sizes[3] - 1})",
+           "inputs": _inputs_text(sizes, a.grid_from, a.seed_offset),
            "wall_s": time.perf_counter() - w0}
     return _report(res, None if a.no_write else a.name or ("equivalence_quick" if a.quick else "equivalence"))
+
+
+def _inputs_text(sizes, grid_from: int, seed_offset: int) -> str:
+    parts = [f"{e} {k}" for e, k in zip(ENSEMBLES[:3], sizes[:3]) if k]
+    if parts and seed_offset:
+        parts[-1] += f" (their seeds + {seed_offset})"
+    if sizes[3]:
+        parts.append(f"grid {35 * sizes[3]} (35 scenarios x samples {grid_from}-{grid_from + sizes[3] - 1})")
+    return "default column (`Column.parthenon()`), inputs: " + ", ".join(parts)
 
 
 def _result(sides: dict, ens: dict, runs: dict, procs: int) -> dict:
