@@ -315,15 +315,19 @@ def _init(options):
 
 def worker(inputs: str, out: str, options: dict, procs: int) -> int:
     from multiprocessing import Pool
+
+    import pycolfrag._libcolfrag as lib
+
+    import pycolfrag as pcf
+    try:   # an option this version lacks, or a bad value, before any run
+        opts = pcf.SolverOptions(**options).to_dict() if hasattr(pcf, "SolverOptions") else options
+    except (TypeError, ValueError) as exc:
+        raise SystemExit(f"bad options {options} for this version: {exc}") from None
     z = np.load(inputs)
     dts = z["dt"]
     jobs = sorted(((i, z[f"acc{i}"], float(dts[i])) for i in range(dts.size)), key=lambda j: -j[1].size)
     with Pool(procs, initializer=_init, initargs=(options,)) as pool:
         runs = list(pool.imap_unordered(_one, jobs, chunksize=1))
-    import pycolfrag._libcolfrag as lib
-
-    import pycolfrag as pcf
-    opts = pcf.SolverOptions(**options).to_dict() if hasattr(pcf, "SolverOptions") else options
     with open(out, "w", encoding="utf-8") as fh:
         json.dump({"runs": sorted(runs, key=lambda r: r["index"]), "options": opts,
                    "version": getattr(pcf, "__version__", "?"), "library": lib.__file__}, fh)
