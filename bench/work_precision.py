@@ -31,6 +31,8 @@ from pycolfrag.analysis.fragility import PERFORMANCE_LEVELS
 G = 9.81
 HERE = os.path.dirname(os.path.abspath(__file__))
 DOCS = os.path.join(HERE, "..", "docs")
+#: docs/work_precision.md from this line on is kept when the table above it is written again
+KEEP_MARK = "<!-- kept by bench/work_precision.py: the sections below are written by hand or by other benches -->"
 
 # name, simulate() keywords, column overrides, the reference the row is compared with
 REF_V = "vertex dt0.25"
@@ -271,10 +273,21 @@ def main(argv=None) -> int:
     text = "\n".join(lines) + "\n"
     print(text)
     if not args.no_write:
-        with open(os.path.join(DOCS, "work_precision.md"), "w", encoding="utf-8") as fh:
-            fh.write(text)
+        write_keeping(os.path.join(DOCS, "work_precision.md"), text)
         plot(S, settings, os.path.join(DOCS, "work_precision.png"))
     return 0
+
+
+def write_keeping(path, text):
+    """Write the generated text to path, keeping the file's part from KEEP_MARK on (the sections after it,
+    bench/equivalence.py's evidence among them, are not this bench's to rewrite)."""
+    kept = ""
+    if os.path.exists(path):
+        with open(path, encoding="utf-8") as fh:
+            old = fh.read()
+        kept = old[old.index(KEEP_MARK):] if KEEP_MARK in old else ""
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(text + ("\n" + kept if kept else ""))
 
 
 def plot(S, settings, path):
