@@ -52,9 +52,11 @@ def _surrogate(model, s, evs, st):
     """The outcome of a sequence under the surrogate rule (every way the same)."""
     times = [e.time_yr for e in evs if not e.outside and e.pulse is not None and e.pulse["Vp_cm_s"] > V_STAR]
     t = times[0] if times else math.nan
+    demand = max([e.pulse["Vp_cm_s"] / V_STAR for e in evs if not e.outside and e.pulse is not None], default=0.0)
     return SimpleNamespace(collapsed={w: bool(times) for w in sq.WAYS}, first_yr={w: [t] * len(PERFORMANCE_LEVELS)
                                                                                      for w in sq.WAYS},
-                           runs=len(evs), restorations=0)
+                           runs=len(evs), restorations=0,
+                           peak={w: {"u_top": demand, "u_d": demand} for w in sq.WAYS})
 
 
 @pytest.fixture
@@ -129,7 +131,8 @@ def _two_or_more(model, s, evs, st):
     times = [e.time_yr for e in evs if not e.outside]
     t = times[1] if len(times) >= 2 else math.nan
     return SimpleNamespace(collapsed={w: len(times) >= 2 for w in sq.WAYS},
-                           first_yr={w: [t] * len(PERFORMANCE_LEVELS) for w in sq.WAYS}, runs=len(evs), restorations=0)
+                           first_yr={w: [t] * len(PERFORMANCE_LEVELS) for w in sq.WAYS}, runs=len(evs), restorations=0,
+                           peak={w: {"u_top": 0.1 * len(times), "u_d": 0.1 * len(times)} for w in sq.WAYS})
 
 
 def test_events_of_equal_score_are_ranked_by_their_time(monkeypatch):

@@ -154,7 +154,9 @@ class SequenceOutcome:
     time (years; NaN), the accumulated ``u_d`` and tilt at the horizon (NaN after a collapse; the intact
     way's: NaN, nothing accumulates), the time of the first exceedance of each level of
     :data:`pycolfrag.damage.PERFORMANCE_LEVELS` (years; NaN: not within the horizon), the restorations,
-    and the runs it took (event runs, settling runs not counted)."""
+    the runs it took (event runs, settling runs not counted), and per way ``peak``: the largest of each EDP
+    the levels read over its events (``u_top``, the sequence's peak; ``u_d``, the accumulated u_d at rest;
+    0 without an event), which the rare sequences' demand model reads."""
 
     sequence: int
     events: list
@@ -165,6 +167,7 @@ class SequenceOutcome:
     first_yr: dict
     restorations: int
     runs: int
+    peak: dict = field(default_factory=dict)
 
 
 def _first_times(times: list, results: list) -> list:
@@ -183,12 +186,18 @@ def _first_times(times: list, results: list) -> list:
     return out
 
 
+def _peak(results: list) -> dict:
+    """The largest u_top (the sequence's peak) and accumulated u_d at rest over ``results`` (NaN ignored)."""
+    return {k: float(max([0.0] + [v for e in results for v in [getattr(e, a)] if v == v]))
+            for k, a in (("u_top", "u_top"), ("u_d", "u_d_rest"))}
+
+
 def _accumulating(way: str, model, motions, times, restoration, st: SequenceSettings):
     seq = run_sequence(model, motions, restoration=restoration, settle=st.settle, **st.solver_options)
     c = seq.collapsed
     return seq, {"collapsed": c, "collapse_yr": times[len(seq.events) - 1] if c else math.nan,
                  "u_d_end": seq.accumulated_u_d, "tilt_end": seq.tilt_rad,
-                 "first_yr": _first_times(times, seq.events)}
+                 "first_yr": _first_times(times, seq.events), "peak": _peak(seq.events)}
 
 
 def _intact(model, motions, times, first, st: SequenceSettings):
@@ -198,14 +207,14 @@ def _intact(model, motions, times, first, st: SequenceSettings):
                          for m in motions[1:]]
     hit = [t for t, e in zip(times, results) if e.collapsed]
     return results, {"collapsed": bool(hit), "collapse_yr": hit[0] if hit else math.nan, "u_d_end": math.nan,
-                     "tilt_end": math.nan, "first_yr": _first_times(times, results)}
+                     "tilt_end": math.nan, "first_yr": _first_times(times, results), "peak": _peak(results)}
 
 
 def run_one(model, s: int, site_events: list, st: SequenceSettings) -> SequenceOutcome:
     """Run sequence ``s``'s events (:func:`sequence_events`) the three ways."""
     todo = [e for e in site_events if not e.outside]
     ways: dict = {w: {"collapsed": False, "collapse_yr": math.nan, "u_d_end": 0.0, "tilt_end": 0.0,
-                      "first_yr": [math.nan] * len(PERFORMANCE_LEVELS)} for w in WAYS}
+                      "first_yr": [math.nan] * len(PERFORMANCE_LEVELS), "peak": _peak([])} for w in WAYS}
     ways["intact"].update(u_d_end=math.nan, tilt_end=math.nan)
     runs, restorations = 0, 0
     if todo:
@@ -223,7 +232,7 @@ def run_one(model, s: int, site_events: list, st: SequenceSettings) -> SequenceO
     return SequenceOutcome(s, site_events, {w: ways[w]["collapsed"] for w in WAYS},
                            {w: ways[w]["collapse_yr"] for w in WAYS}, {w: ways[w]["u_d_end"] for w in WAYS},
                            {w: ways[w]["tilt_end"] for w in WAYS}, {w: ways[w]["first_yr"] for w in WAYS},
-                           restorations, runs)
+                           restorations, runs, {w: ways[w]["peak"] for w in WAYS})
 
 
 def run_site_sequences(site, model, settings: SequenceSettings = SequenceSettings(), progress=None) -> dict:

@@ -253,7 +253,8 @@ def parser() -> argparse.ArgumentParser:
     rare.add_argument("--batch", type=int, default=400, help="rows per batch after the pilot")
     rare.add_argument("--max-rows", type=int, default=20000, help="the row budget")
     rare.add_argument("--shift", type=float, nargs=2, default=None, metavar=("Z_VP", "Z_FP"),
-                      help="the production proposal's shift of the pulse normals (default: +2.5 -1.0)")
+                      help="the production proposal's shift of the pulse normals (default: the cross-entropy step on "
+                           "the pilot's rows)")
     p.add_argument("--mpi", choices=("auto", "yes", "no"), default="auto", help="use MPI (auto: under a launcher)")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True, help="a line per 10 %% done")
     return p
@@ -296,13 +297,13 @@ def main(argv=None) -> int:
 
 
 def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
-    from pycolfrag.risk import sequences_rare as rare  # the rare route's modules, for --rare only
+    from pycolfrag.rare.proposal import production_mixture  # the rare route's modules, for --rare only
+    from pycolfrag.risk import sequences_rare as rare
     from pycolfrag.risk.sequences_rare_run import run_rare_folder
     try:
-        shift = rare.DEFAULT_SHIFT if args.shift is None else tuple(args.shift)
+        mixture = None if args.shift is None else production_mixture(rare.DEFENSIVE, (tuple(args.shift),))
         rs = rare.RareSequenceSettings(sequences=st, target=args.target, target_cov=args.target_cov,
-                                       pilot=args.pilot, batch=args.batch, max_rows=args.max_rows,
-                                       mixture=rare.production_mixture(rare.DEFENSIVE, (shift,)))
+                                       pilot=args.pilot, batch=args.batch, max_rows=args.max_rows, mixture=mixture)
     except PycolfragError as exc:
         log(f"sequences: {exc}")
         return EXIT_ARGS
@@ -314,7 +315,8 @@ def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
     out = Path(args.out)
     (out / "rare_summary.json").write_text(json.dumps(
         {"estimate": run["estimate"], "rows": len(run["rows"]), "runs": run["runs"], "seconds": run["seconds"],
-         "strata": len(run["strata"]), "settings": rare.settings_dict(rs)}, indent=1))
+         "strata": len(run["strata"]), "settings": rare.settings_dict(rs), "design": run["design"].as_dict()},
+        indent=1))
     (out / "rare_summary.md").write_text(text + "\n")
     log(text)
     reached = run["estimate"]["accumulated"][rs.target]["cov"]
