@@ -202,3 +202,14 @@ def test_a_journal_of_the_earlier_algorithm_is_refused_by_name(tmp_path):
     with pytest.raises(ParameterError, match="algorithm"):
         read_lines(path, now, print)
     assert "v2" in now["rare"]["algorithm"]
+
+
+def test_a_journals_rows_give_the_runs_estimate(surrogate):
+    """estimate_rows (bench/sequences_rare.py's reading of a journal, a stopped run's too) replays the design the
+    run's decisions placed -- the first cross-entropy step on the pilot, the second on stages 0 and 1 -- and gives
+    the run's estimate, every way and quantity, bit for bit."""
+    rs = _settings(1)
+    run = R.simulate_sequences(_site(), None, rs)
+    assert any(r["stage"] == R.SECOND_STAGE for r in run["rows"])     # the second step was taken
+    again = R.estimate_rows(_site(), rs, run["rows"])
+    assert again["design"] == run["design"] and again["estimate"] == run["estimate"]

@@ -35,16 +35,24 @@ not a model.
 Each row is run the three ways of the crude sequences (accumulated, intact, restored:
 :func:`pycolfrag.risk.sequences.run_one`, the same calls), so the paired differences come with it.
 
-**Allocation.** A pilot of ``pilot`` rows per stratum, then batches spread over the strata by Neyman's
-rule on the target quantity (the accumulated way's collapse by default): n_h proportional to W_h s_h, with
-s_h floored by a stratum's Jeffreys bound while it has no hit (the rare route's law,
-:func:`pycolfrag.rare.estimate.jeffreys_run_variance`: s_h^2 >= (T W_h)^2 (m2 p_J - p_J^2), p_J = 0.5 / (n_h + 1),
-m2 the mean square weight), until the target's CoV (with the same floor) reaches ``target_cov`` or ``max_rows``
-rows are used. The floor keeps a stratum without a hit from being taken as certain, in the stated CoV and
-in the allocation alike; the CoV from the sample variances alone is stated beside (``cov_sample``), with
-how much of the estimate rests on strata of fewer than 20 rows. No model of the strata's demand narrows the
-floor yet (the rare route's steering and demand models do, for single events): at a site whose rare level
-lies in a few strata the bare floor spreads the rows as crude sampling would (docs/sequences.md).
+**Allocation** (the rare route's steps, one text each: :mod:`pycolfrag.rare.driver`, :mod:`pycolfrag.rare.allocation`).
+A pilot of ``pilot`` rows per stratum under the rare route's pilot proposal; then the production proposal: the
+rare route's cross-entropy step on the pilot's rows for the target's family (collapse: the top displacement's;
+the elite the rows with a collapse once :data:`CE_MIN_HITS` have one, else the top of the sequences' peak u_top),
+and its second step on the rows of the first batch where that elite was thin (rows of stage 2 on); ``mixture``
+fixes it instead. Then batches spread by the rare route's minimax Neyman allocation on the target (the
+accumulated way's collapse by default): the steering model's predicted standard deviation of w y per stratum
+(logistic on the rows' strongest events: Mw, ln R and the pulse normals), each at least the estimate's floor,
+a stratum predicted to carry 1 % of the target, or with 1 % of the site's rate, keeping 20 rows -- until the
+target's CoV (with the floor) reaches ``target_cov`` or ``max_rows`` rows are used. The floor of a stratum with no
+row in A is the rare route's (:func:`pycolfrag.rare.allocation.variance_floor`): the predicted Var[w y] of the
+smaller of the steering and demand models' probabilities (the demand model: ln of the row's peak EDP linear in
+the same features, collapse read as the largest peak u_top a standing sequence reached), at most the Jeffreys
+pseudo-count's (s_h^2 <= (T W_h)^2 (m2 p_J - p_J^2), p_J = 0.5 / (n_h + 1), m2 the mean square weight). The CoV from
+the sample variances alone is stated beside (``cov_sample``), with how much of the estimate rests on strata of
+fewer than 20 rows. v1 (a fixed shift, the bare pseudo-count and plain Neyman) spread the rows as crude sampling
+would where the rare level lies in a few strata (docs/sequences.md). A row whose event is not the strongest is,
+to the models, an event that exceeds nothing (its y is 0), with no EDP (the demand model leaves it out).
 
 Runs are spread over MPI ranks (each batch's rows dealt by index, the rows then shared by every rank:
 every rank takes the same decisions), and every finished row is a line of ``OUT/rows.jsonl`` (rank 0's),
@@ -72,8 +80,8 @@ from pycolfrag.risk.grid_route import QUANTITIES as _RISK_QUANTITIES
 from pycolfrag.risk.sequences import WAYS, SequenceSettings, SiteEvent, run_one, sequence_events
 
 __all__ = ["ALGORITHM", "STREAM_RARE_SEQUENCES", "NO_PULSE_OFFSET", "strength", "RareSequenceSettings", "run_row",
-           "estimate", "allocate", "floors", "design_of", "simulate_sequences", "QUANTITIES", "LEVELS", "settings_dict",
-           "format_estimate"]
+           "estimate", "allocate", "floors", "design_of", "simulate_sequences", "estimate_rows", "QUANTITIES", "LEVELS",
+           "settings_dict", "format_estimate"]
 
 #: What the rows and decisions mean (part of a journal's identity: an older folder is refused by name, not
 #: resumed). v2: a row stores its strongest event's features and each way's peak EDPs; the production proposal
@@ -337,6 +345,21 @@ def simulate_sequences(site, model, rs: RareSequenceSettings, evaluate=None, don
         stage += 1
     fl = floors(rows, strata, design, rs.sequences.seed, events=events)
     return {"rows": rows, "estimate": estimate(rows, strata, years, fl), "strata": strata, "settings": rs,
+            "design": design, "runs": int(sum(r["runs"] for r in rows)),
+            "seconds": float(sum(r["seconds"] for r in rows))}
+
+
+def estimate_rows(site, rs: RareSequenceSettings, rows: list) -> dict:
+    """A journal's ``rows`` (those of a stopped run too) as :func:`simulate_sequences` returns them: the design its
+    decisions placed (the first cross-entropy step on the pilot's rows, the second on the rows of stages 0 and 1
+    where rows of stage 2 exist), the floors and the estimate of every way and quantity."""
+    strata = build_strata(site)
+    design, thin = design_of([r for r in rows if r["stage"] == PILOT_STAGE], strata, rs)
+    if any(r["stage"] == SECOND_STAGE for r in rows):
+        design = second_design(_cols([r for r in rows if r["stage"] < SECOND_STAGE], "accumulated"), strata, design,
+                               _site_settings(rs), (LEVELS[QUANTITIES.index(rs.target)],), thin)
+    fl = floors(rows, strata, design, rs.sequences.seed)
+    return {"rows": rows, "estimate": estimate(rows, strata, rs.sequences.years, fl), "strata": strata, "settings": rs,
             "design": design, "runs": int(sum(r["runs"] for r in rows)),
             "seconds": float(sum(r["seconds"] for r in rows))}
 
