@@ -39,6 +39,7 @@ from pycolfrag.damage import PERFORMANCE_LEVELS
 from pycolfrag.ground_motion.registry import DEFAULT_PULSE_SHAPE, DEFAULT_TP_MODEL
 from pycolfrag.rare.plans import PulseMap
 from pycolfrag.rare.strata import build_strata
+from pycolfrag.risk.aftershocks import Aftershocks
 from pycolfrag.solver.sequence import NO_RESTORATION, Restoration, Settle, run_sequence
 
 __all__ = ["STREAM_SEQUENCES", "DEFAULT_SEED", "SequenceSettings", "SiteEvent", "sequence_events", "SequenceOutcome",
@@ -69,6 +70,7 @@ class SequenceSettings:
     pulse_shape: str = DEFAULT_PULSE_SHAPE
     max_record_s: float | None = None
     solver_options: dict = field(default_factory=dict)
+    aftershocks: Aftershocks | None = None
 
     def __post_init__(self):
         if isinstance(self.years, bool) or not isinstance(self.years, (int, float)) or not 0 < self.years < math.inf:
@@ -86,13 +88,15 @@ class SequenceSettings:
             raise ParameterError(f"max_record_s must be None or a number > 0, got {self.max_record_s!r}")
         if not isinstance(self.solver_options, dict):
             raise ParameterError(f"solver_options must be a dict, got {type(self.solver_options).__name__}")
+        if self.aftershocks is not None and not isinstance(self.aftershocks, Aftershocks):
+            raise ParameterError(f"aftershocks must be None or an Aftershocks, got {type(self.aftershocks).__name__}")
 
 
 @dataclass(frozen=True)
 class SiteEvent:
     """One event of a sequence: its time (years from the sequence's start), source, (Mw, R), the pulse's
     parameters (None: no pulse) and the record's noise seed; ``outside``: where the models do not apply
-    (dropped, no run)."""
+    (dropped, no run); ``parent``: the index of its mainshock for an aftershock, -1 for a mainshock."""
 
     sequence: int
     index: int
@@ -103,16 +107,46 @@ class SiteEvent:
     pulse: dict | None
     hf_seed: int
     outside: bool
+    parent: int = -1
 
 
 def _rng(seed: int, *key) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=key))
 
 
-def sequence_events(site, years: float, seed: int, s: int, pulse_map: PulseMap, ranges: dict, key=None) -> list:
+def _event(s, k, t, j, mw, r, p_pulse, rng, pulse_map, ranges, parent=-1) -> SiteEvent:
+    """An event of source ``j`` at (Mw, R): whether it has a pulse, the pulse's normals and the noise seed from
+    ``rng``, in that order."""
+    has_pulse = bool(rng.uniform() < p_pulse)
+    z4 = rng.standard_normal(4)
+    hf_seed = int(rng.integers(0, 2 ** 63 - 1, dtype=np.int64))
+    rg = ranges[has_pulse]
+    outside = not (rg.mw[0] <= mw <= rg.mw[1] and r <= rg.r_max_km)
+    pulse = pulse_map(mw, r, tuple(float(z) for z in z4)) if has_pulse and not outside else None
+    return SiteEvent(s, k, float(t), j, mw, r, pulse, hf_seed, outside, parent)
+
+
+def aftershocks_of(main: SiteEvent, p_pulse: float, years: float, model: Aftershocks, rng, pulse_map: PulseMap,
+                   ranges: dict) -> list:
+    """The aftershocks of ``main`` within the horizon (:mod:`pycolfrag.risk.aftershocks`): at its distance and
+    source (the rupture's zone), each with a pulse as its mainshock's geometry gives (``p_pulse``)."""
+    t_days, mags = model.sample(main.mw, rng)
+    out = []
+    for t, mw in zip(t_days, mags):
+        when = main.time_yr + float(t) / 365.25
+        ev = _event(main.sequence, main.index, when, main.source, float(mw), main.r_km, p_pulse, rng, pulse_map,
+                    ranges, parent=main.index)
+        if when < years:
+            out.append(ev)
+    return out
+
+
+def sequence_events(site, years: float, seed: int, s: int, pulse_map: PulseMap, ranges: dict, key=None,
+                    aftershocks: Aftershocks | None = None) -> list:
     """The events of sequence ``s`` (see the module's text), in time order. ``ranges``: the models' ranges
     by branch (:func:`pycolfrag.rare.strata.model_ranges`). ``key``: the streams' spawn key before the
-    (0,) of the count and times and the (1, k) of event k (default ``(STREAM_SEQUENCES, s)``)."""
+    (0,) of the count and times and the (1, k) of event k (default ``(STREAM_SEQUENCES, s)``); with
+    ``aftershocks``, mainshock k's from the stream (2, k) (none: the mainshocks alone, the same bits)."""
     key = (STREAM_SEQUENCES, s) if key is None else tuple(key)
     rates = np.array([src.rate for src in site.sources], dtype=float)
     total = float(rates.sum())
@@ -126,14 +160,12 @@ def sequence_events(site, years: float, seed: int, s: int, pulse_map: PulseMap, 
         j = min(int(np.searchsorted(cum, rng.uniform(), side="right")), len(rates) - 1)
         ev = site.sources[j].sample(1, rng)
         mw, r = float(ev.mw[0]), float(ev.r_km[0])
-        has_pulse = bool(rng.uniform() < float(ev.p_pulse[0]))
-        z4 = rng.standard_normal(4)
-        hf_seed = int(rng.integers(0, 2 ** 63 - 1, dtype=np.int64))
-        rg = ranges[has_pulse]
-        outside = not (rg.mw[0] <= mw <= rg.mw[1] and r <= rg.r_max_km)
-        pulse = pulse_map(mw, r, tuple(float(z) for z in z4)) if has_pulse and not outside else None
-        out.append(SiteEvent(s, k, float(times[k]), j, mw, r, pulse, hf_seed, outside))
-    return out
+        main = _event(s, k, times[k], j, mw, r, float(ev.p_pulse[0]), rng, pulse_map, ranges)
+        out.append(main)
+        if aftershocks is not None:
+            out += aftershocks_of(main, float(ev.p_pulse[0]), years, aftershocks, _rng(seed, *key, 2, k), pulse_map,
+                                  ranges)
+    return sorted(out, key=lambda e: e.time_yr) if aftershocks is not None else out
 
 
 def _motion(ev: SiteEvent, st: SequenceSettings):
@@ -246,7 +278,8 @@ def run_site_sequences(site, model, settings: SequenceSettings = SequenceSetting
     t0 = time.perf_counter()
     outcomes = []
     for s in range(settings.n_sequences):
-        evs = sequence_events(site, settings.years, settings.seed, s, pulse_map, strata.ranges)
+        evs = sequence_events(site, settings.years, settings.seed, s, pulse_map, strata.ranges,
+                              aftershocks=settings.aftershocks)
         try:
             outcomes.append(run_one(model, s, evs, settings))
         except Exception as exc:

@@ -98,9 +98,12 @@ STREAM_RARE_SEQUENCES = 5
 #: first cross-entropy step's proposal, and those under the second step's (the rare route's stages).
 PILOT_STAGE, PRODUCTION_STAGE, SECOND_STAGE = 0, 1, 2
 #: The fewest rows exceeding the target in the cross-entropy step's elite (the rare route's ``ce_min_hits``, 20,
-#: made for its pilot of single events; a collapse within 50 years is seen a few times in the sequences' pilot, and
-#: the zero-variance shift is the mean of the collapse's own normals): below it, the top of the family's EDP.
-CE_MIN_HITS = 5
+#: made for its pilot of single events): below it, the rows above the family's weighted 0.9 quantile -- for collapse,
+#: those of u_top > 0.15, a lower level's elite (at the example site its shift, about (+0.95, -0.4), stayed far from
+#: the collapses' normals, about (+2.3, -0.6)). A collapse within 50 years is seen a few times in the sequences'
+#: first rows; the cross-entropy program's answer on them is the weighted mean of the collapses' own normals, and the
+#: defensive share bounds every weight whatever it is.
+CE_MIN_HITS = 3
 #: The production proposal's defensive share alpha_0 of the natural law (the rare route's). Its shift is the
 #: cross-entropy step's on the pilot (:func:`design_of`). A proposal: it sets the variance, never the estimate.
 DEFENSIVE = 0.3
@@ -135,6 +138,9 @@ class RareSequenceSettings:
     def __post_init__(self):
         if not isinstance(self.sequences, SequenceSettings):
             raise ParameterError(f"sequences must be a SequenceSettings, got {type(self.sequences).__name__}")
+        if self.sequences.aftershocks is not None:   # the rows would rank mainshocks and draw x's own aftershocks
+            raise ParameterError("aftershocks are not in the rare sequences yet (crude sequences only): "
+                                 "sequences.aftershocks must be None")
         if self.target not in QUANTITIES:
             raise ParameterError(f"target must be one of {', '.join(QUANTITIES)}, got {self.target!r}")
         if not (isinstance(self.target_cov, (int, float)) and 0 < self.target_cov < 1):
@@ -368,7 +374,8 @@ def settings_dict(rs: RareSequenceSettings) -> dict:
     """The rare settings as plain data (a journal's identity), the algorithm's name included."""
     return {"algorithm": ALGORITHM, "target": rs.target, "target_cov": rs.target_cov, "pilot": rs.pilot,
             "batch": rs.batch, "max_rows": rs.max_rows, "pilot_mixture": rs.pilot_mixture.as_dict(),
-            "mixture": None if rs.mixture is None else rs.mixture.as_dict(), "stream": STREAM_RARE_SEQUENCES,
+            "mixture": None if rs.mixture is None else rs.mixture.as_dict(), "ce_min_hits": CE_MIN_HITS,
+            "stream": STREAM_RARE_SEQUENCES,
             "no_pulse_offset": NO_PULSE_OFFSET}
 
 

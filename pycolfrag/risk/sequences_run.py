@@ -36,6 +36,7 @@ from pycolfrag.grid import get_comm
 from pycolfrag.grid.serve import EXIT_DRAINED
 from pycolfrag.rare.plans import PulseMap
 from pycolfrag.rare.strata import build_strata
+from pycolfrag.risk.aftershocks import REASENBERG_JONES_1989
 from pycolfrag.risk.sequences import (
     DEFAULT_SEED,
     SequenceOutcome,
@@ -119,7 +120,7 @@ def _work(site, model, st: SequenceSettings, todo: list, stop: _Stop, deliver) -
         if stop.asked:
             return
         t0 = time.perf_counter()
-        evs = sequence_events(site, st.years, st.seed, s, pulse_map, strata.ranges)
+        evs = sequence_events(site, st.years, st.seed, s, pulse_map, strata.ranges, aftershocks=st.aftershocks)
         try:
             o = run_one(model, s, evs, st)
         except Exception as exc:
@@ -244,6 +245,9 @@ def parser() -> argparse.ArgumentParser:
                    help="the restored way's policy: reassemble when the accumulated u_d exceeds this")
     p.add_argument("--restore-tilt", type=float, default=math.inf, help="... or the residual tilt exceeds this, rad")
     p.add_argument("--max-record-s", type=float, default=None, help="cut the records (tests and quick looks only)")
+    p.add_argument("--aftershocks", action="store_true",
+                   help="each mainshock's aftershocks of Mw >= 5 within a year, Reasenberg & Jones (1989) generic "
+                        "California (docs/sequences.md, \"Aftershocks\"; crude sequences only)")
     rare = p.add_argument_group("importance sampling on the strongest event (--rare; docs/sequences.md, \"Rare sequences\")")
     rare.add_argument("--rare", action="store_true",
                       help="rows of the rare-event strata instead of crude sequences (--n is not used)")
@@ -270,7 +274,8 @@ def main(argv=None) -> int:
                  Column.from_file(args.column) if args.column else Column.parthenon())
         st = SequenceSettings(years=args.years, n_sequences=args.n, seed=args.seed,
                               restoration=Restoration(u_d=args.restore_u_d, tilt_rad=args.restore_tilt),
-                              max_record_s=args.max_record_s)
+                              max_record_s=args.max_record_s,
+                              aftershocks=REASENBERG_JONES_1989 if args.aftershocks else None)
         if not Path(args.site).is_file():
             raise ParameterError(f"site file {args.site} does not exist")
     except (PycolfragError, OSError) as exc:
