@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import platform
 import sys
 from pathlib import Path
@@ -44,6 +45,14 @@ def _journal(folder: Path, site_path: str) -> tuple:
     return rs, read_lines(folder / "rows.jsonl", head, lambda s: None)
 
 
+def _interval(p: float, cov: float, z: float = 1.6449) -> tuple:
+    """The 90 % interval the rare route states (log-normal: p exp(+-z sqrt(ln(1 + CoV^2))))."""
+    if not (p > 0 and math.isfinite(cov)):
+        return 0.0, math.inf
+    half = z * math.sqrt(math.log1p(cov * cov))
+    return p * math.exp(-half), p * math.exp(half)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("folder", help="the output folder of pycolfrag sequences --rare (rows.jsonl)")
@@ -61,12 +70,13 @@ def main(argv=None) -> int:
           f"{run['seconds']:.0f} s of runs ({platform.processor() or platform.machine()}); horizon {years:g} years")
     for note in run["design"].notes:
         print(f"  production proposal: {note}")
-    print(f"\n| quantity | P within {years:g} yr: accumulated [CoV; sample-variance CoV] | intact [CoV] | restored [CoV] "
-          "| hits | P on strata of < 20 rows |\n|---|---|---|---|---|---|")
+    print(f"\n| quantity | P within {years:g} yr: accumulated [CoV; sample-variance CoV] | its 90 % interval | intact "
+          "[CoV] | restored [CoV] | hits | P on strata of < 20 rows |\n|---|---|---|---|---|---|---|")
     for q, a in est["accumulated"].items():
         cells = " | ".join(f"{est[w][q]['p']:.3g} [{est[w][q]['cov']:.2f}]" for w in ("intact", "restored"))
-        print(f"| {q} | {a['p']:.3g} [{a['cov']:.2f}; {a['cov_sample']:.2f}] | {cells} | {a['hits']} | "
-              f"{a['p_on_few_rows']:.2g} |")
+        lo, hi = _interval(a["p"], a["cov"])
+        print(f"| {q} | {a['p']:.3g} [{a['cov']:.2f}; {a['cov_sample']:.2f}] | [{lo:.3g}, {hi:.3g}] | {cells} | "
+              f"{a['hits']} | {a['p_on_few_rows']:.2g} |")
     if args.single:
         single = json.loads(Path(args.single).read_text())
         s_runs, s_cov = single["runs"], single["levels"]["collapse"]["cov"]
