@@ -2,8 +2,8 @@
 sequences").
 
 Crude sequences (:mod:`pycolfrag.risk.sequences`) spend their runs where nothing happens: at the example
-site a collapse within 50 years has a probability of about 2e-3, which crude Monte Carlo would need some
-12 000 sequences to measure at a CoV of 0.2. Here every sequence is a row of the rare-event route's
+site a collapse within 50 years has a probability of about 7e-5, which crude Monte Carlo would need some
+350 000 sequences to measure at a CoV of 0.2. Here every sequence is a row of the rare-event route's
 strata, on its one strongest event.
 
 **The estimator.** Let the site's mainshocks over [0, T] be a Poisson process Phi of intensity measure
@@ -20,12 +20,12 @@ Mecke (Campbell-Little-Mecke) formula of Poisson processes gives
 the expectation over Phi, the process itself, independent of x. The integral over x is the rare route's:
 its strata h with rates W_h (1/yr), x drawn from the stratum's proposal with weight w(x) = the density
 ratio of the natural law to the proposal (occurrence weight times the pulse normals' ratio:
-:func:`pycolfrag.rare.plans.event_input`, the same inputs as the rare route's run (stage 0, h, j)), and
+:func:`pycolfrag.rare.plans.event_input`, the same inputs as the rare route's run (stage, h, j)), and
 its time uniform on [0, T] (the pilot's rows under the rare route's pilot proposal, the later rows under a
-production proposal shifted towards strong pulses: ``DEFAULT_SHIFT``; each row's weight is that of its own
+production proposal the cross-entropy steps place, below; each row's weight is that of its own
 proposal, so the estimate is unbiased for any). So a row (h, j) draws x, its time, and one natural sequence Phi (its own
 streams), and contributes y = T W_h w(x) 1{x strongest} 1_A; P(A) = sum_h E_h[y], estimated by the strata's
-means, its variance by the strata's sample variances (a stratum with no row in A: a Jeffreys floor,
+means, its variance by the strata's sample variances (a stratum with no row in A: the rare route's floor,
 below). A row whose x is not the strongest contributes 0 and costs no run: that sequence is counted
 where its strongest event is the row's x. The estimate is unbiased for any score; the score only sets
 the variance. Ours ranks events by the pulse's peak velocity Vp when the motion has a pulse, and by
