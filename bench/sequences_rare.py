@@ -3,12 +3,17 @@ accumulation at the example site and its CoV, the accumulated u_d's exceedance o
 runs against those of the single-event rare route at the same CoV.
 
     mpirun -n 2 python -m mpi4py -m pycolfrag sequences examples/site_athens.toml results/sequences_rare \\
-        --rare --target collapse --target-cov 0.2 --pilot 5          # resumable
-    python bench/sequences_rare.py results/sequences_rare --single results/risk/rare/risk.json
+        --rare --target collapse --target-cov 0.2 --pilot 5 --batch 200          # resumable
+    python bench/sequences_rare.py results/sequences_rare --site examples/site_athens.toml \\
+        --single results/risk/rare/risk.json [--json bench/results/sequences_rare.json]
 
-``--single``: the rare route's ``risk.json`` of the same site and column (``make risk-rare``); the single-event
-runs at the sequences' CoV are its runs times (its CoV / the sequences' CoV)^2 (a CoV falls as one over the
-square root of the runs).
+The folder's journal (``rows.jsonl``) is read, so a run stopped before its target (SIGTERM, exit 75) is stated as
+far as it went: its estimate as the run would state it after those rows (``estimate_rows``: the design its
+decisions placed, the rare route's floors), and the runs the target would take at the same cost per unit of
+variance (runs x (CoV / target)^2: a CoV falls as one over the square root of the runs) -- an extrapolation,
+said as such. ``--single``: the rare route's ``risk.json`` of the same site and column (``make risk-rare``); without
+it, ``--single-runs`` and ``--single-cov`` (default: its v3 run, docs/risk.md). The single-event runs at a CoV c are
+its runs x (its CoV / c)^2.
 """
 from __future__ import annotations
 
@@ -19,32 +24,78 @@ import platform
 import sys
 from pathlib import Path
 
+from pycolfrag.core.errors import PycolfragError
+from pycolfrag.rare.proposal import Mixture
+from pycolfrag.risk import sequences_rare as rare
+from pycolfrag.risk.sequences import SequenceSettings
+from pycolfrag.risk.sequences_journal import read_lines
+from pycolfrag.site.sources import load_site
+
+
+def _journal(folder: Path, site_path: str) -> tuple:
+    """(the rare settings, the rows) of a folder's journal; its identity gives the settings (years, seed, rare)."""
+    head = json.loads((folder / "rows.jsonl").open().readline())["identity"]
+    st, r = head["settings"], head["rare"]
+    rs = rare.RareSequenceSettings(
+        sequences=SequenceSettings(years=st["years"], seed=st["seed"]), target=r["target"], target_cov=r["target_cov"],
+        pilot=r["pilot"], batch=r["batch"], max_rows=r["max_rows"], pilot_mixture=Mixture.from_dict(r["pilot_mixture"]),
+        mixture=None if r["mixture"] is None else Mixture.from_dict(r["mixture"]))
+    if r.get("algorithm") != rare.ALGORITHM:
+        raise PycolfragError(f"{folder}: rows of another algorithm ({r.get('algorithm')!r})")
+    return rs, read_lines(folder / "rows.jsonl", head, lambda s: None)
+
+
+def _interval(p: float, cov: float, z: float = 1.6449) -> tuple:
+    """The 90 % interval the rare route states (log-normal: p exp(+-z sqrt(ln(1 + CoV^2))))."""
+    if not (p > 0 and math.isfinite(cov)):
+        return 0.0, math.inf
+    half = z * math.sqrt(math.log1p(cov * cov))
+    return p * math.exp(-half), p * math.exp(half)
+
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("folder", help="the output folder of pycolfrag sequences --rare (rare_summary.json)")
+    p.add_argument("folder", help="the output folder of pycolfrag sequences --rare (rows.jsonl)")
+    p.add_argument("--site", default="examples/site_athens.toml", help="the site file the folder was run on")
     p.add_argument("--single", default=None, help="the rare route's risk.json of the same site and column")
-    p.add_argument("--years", type=float, default=50.0, help="the horizon of the sequences, years")
+    p.add_argument("--single-runs", type=float, default=4430, help="without --single: its runs (v3: 4430)")
+    p.add_argument("--single-cov", type=float, default=0.1864, help="without --single: its collapse CoV (v3: 0.1864)")
+    p.add_argument("--json", default=None, help="write the numbers here too")
     args = p.parse_args(argv)
-    sm = json.loads((Path(args.folder) / "rare_summary.json").read_text())
-    est = sm["estimate"]
-    print(f"rare sequences: {sm['rows']} rows over {sm['strata']} strata, {sm['runs']} event runs, "
-          f"{sm['seconds']:.0f} s of runs ({platform.processor() or platform.machine()})\n")
-    print(f"| quantity | P within {args.years:g} yr: accumulated [CoV] | intact [CoV] | restored [CoV] | hits | "
-          "P on strata of < 20 rows |\n|---|---|---|---|---|---|")
+    rs, rows = _journal(Path(args.folder), args.site)
+    run = rare.estimate_rows(load_site(args.site), rs, rows)
+    est, years, target = run["estimate"], rs.sequences.years, rs.target
+    print(f"rare sequences: {len(rows)} rows over {len(run['strata'])} strata "
+          f"({sum(r['strongest'] for r in rows)} with the row's event the strongest), {run['runs']} event runs, "
+          f"{run['seconds']:.0f} s of runs ({platform.processor() or platform.machine()}); horizon {years:g} years")
+    for note in run["design"].notes:
+        print(f"  production proposal: {note}")
+    print(f"\n| quantity | P within {years:g} yr: accumulated [CoV; sample-variance CoV] | its 90 % interval | intact "
+          "[CoV] | restored [CoV] | hits | P on strata of < 20 rows |\n|---|---|---|---|---|---|---|")
     for q, a in est["accumulated"].items():
-        cells = " | ".join(f"{est[w][q]['p']:.3g} [{est[w][q]['cov']:.2f}]" for w in ("accumulated", "intact", "restored"))
-        print(f"| {q} | {cells} | {a['hits']} | {a['p_on_few_rows']:.2g} |")
+        cells = " | ".join(f"{est[w][q]['p']:.3g} [{est[w][q]['cov']:.2f}]" for w in ("intact", "restored"))
+        lo, hi = _interval(a["p"], a["cov"])
+        print(f"| {q} | {a['p']:.3g} [{a['cov']:.2f}; {a['cov_sample']:.2f}] | [{lo:.3g}, {hi:.3g}] | {cells} | "
+              f"{a['hits']} | {a['p_on_few_rows']:.2g} |")
     if args.single:
         single = json.loads(Path(args.single).read_text())
-        c = single["levels"]["collapse"]
-        cov_seq = est["accumulated"]["collapse"]["cov"]
-        same = single["runs"] * (c["cov"] / cov_seq) ** 2
-        p50 = 1.0 - math.exp(-args.years * c["rate"])
-        print(f"\nsingle event (rare route): lambda(collapse) {c['rate']:.3g}/yr, CoV {c['cov']:.3f} from "
-              f"{single['runs']} runs; P(collapse in {args.years:g} yr) = 1 - exp(-T lambda) = {p50:.3g}")
-        print(f"its runs at the sequences' CoV {cov_seq:.3f}: {same:.0f}; the sequences' runs: {sm['runs']} "
-              f"({sm['runs'] / same:.2f}x; target <= 2x)")
+        s_runs, s_cov = single["runs"], single["levels"]["collapse"]["cov"]
+    else:
+        s_runs, s_cov = args.single_runs, args.single_cov
+    cov = est["accumulated"][target]["cov"]
+    s_at = s_runs * (s_cov / rs.target_cov) ** 2
+    need = run["runs"] * (cov / rs.target_cov) ** 2
+    print(f"\nsingle event (rare route): collapse CoV {s_cov:.3f} from {s_runs:.0f} runs: {s_at:.0f} runs at CoV "
+          f"{rs.target_cov:g}, the target's budget 2x = {2 * s_at:.0f} runs")
+    met = cov <= rs.target_cov and run["runs"] <= 2 * s_at
+    print(f"sequences: {target} CoV {cov:.3f} from {run['runs']} runs; "
+          + ("target met" if met else f"extrapolated by 1/sqrt(runs): {need:.0f} runs at CoV {rs.target_cov:g} "
+             f"({need / s_at:.2f}x the single event's; target <= 2x) -- NOT measured, the run stopped at CoV {cov:.3f}"))
+    if args.json:
+        Path(args.json).write_text(json.dumps({
+            "rows": len(rows), "runs": run["runs"], "seconds": run["seconds"], "design": run["design"].as_dict(),
+            "estimate": est, "single": {"runs": s_runs, "cov": s_cov, "runs_at_target": s_at},
+            "runs_at_target_extrapolated": need, "target_met": met}, indent=1))
     return 0
 
 

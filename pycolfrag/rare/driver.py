@@ -42,7 +42,7 @@ from pycolfrag.rare.proposal import PILOT_MIXTURE, Design, cross_entropy_means, 
 from pycolfrag.rare.strata import DEFAULT_MW_STEP, DEFAULT_R_EDGES_KM, build_strata
 
 __all__ = ["DEFAULT_SEED", "SiteSettings", "StopRule", "SiteRun", "site_fingerprint", "simulate_site", "batch_name",
-           "ALGORITHM", "failures"]
+           "ALGORITHM", "failures", "cross_entropy_design", "thin_of", "second_design", "allocate_batch"]
 
 #: The root seed when none is given (the grid's).
 DEFAULT_SEED = 20160601
@@ -223,11 +223,19 @@ def _ce_design(cols, strata, settings, requested) -> Design:
     return Design(PILOT_MIXTURE, production_mixture(settings.defensive, means), tuple(notes))
 
 
+#: The cross-entropy steps (first, whether its elite was thin, second) and the batch allocation as the rare
+#: sequences (pycolfrag.risk.sequences_rare) take them too, their rows as this simulation's columns: one text each.
+cross_entropy_design = _ce_design
+
+
 def _thin(cols, strata, settings, requested) -> tuple:
     """The families whose first step's elite (from the pilot ``cols``) held fewer than ``ce_min_hits`` runs."""
     got = _ce_inputs(cols, strata, Design(PILOT_MIXTURE), requested)
     return () if got is None else _proposal.thin_families(*got, requested, min_hits=settings.ce_min_hits,
                                                              quantile=settings.ce_quantile)
+
+
+thin_of = _thin
 
 
 def _second_design(cols, strata, design: Design, settings, requested, thin) -> Design:
@@ -239,6 +247,9 @@ def _second_design(cols, strata, design: Design, settings, requested, thin) -> D
            f"{', '.join(thin)}), ")
     return Design(design.pilot, design.production, design.notes + tuple(why + n for n in notes),
                   production_mixture(settings.defensive, means))
+
+
+second_design = _second_design
 
 
 def failures(cols) -> tuple[int, int, str]:
@@ -293,6 +304,9 @@ def _allocate(cols, strata, design, settings, requested, stage: int, used: int, 
     n, _ = _alloc.minimax_allocation(W, var, W @ mean, _alloc.run_floor(W, mean, done), used + size)
     new = _alloc.batch_counts(n, done, size)
     return {int(h): int(k) for h, k in enumerate(new) if k > 0}
+
+
+allocate_batch = _allocate
 
 
 def _progress_lines(stage: int, runs: int, est, requested, stop: StopRule) -> list:

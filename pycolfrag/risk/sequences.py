@@ -39,6 +39,7 @@ from pycolfrag.damage import PERFORMANCE_LEVELS
 from pycolfrag.ground_motion.registry import DEFAULT_PULSE_SHAPE, DEFAULT_TP_MODEL
 from pycolfrag.rare.plans import PulseMap
 from pycolfrag.rare.strata import build_strata
+from pycolfrag.risk.aftershocks import Aftershocks
 from pycolfrag.solver.sequence import NO_RESTORATION, Restoration, Settle, run_sequence
 
 __all__ = ["STREAM_SEQUENCES", "DEFAULT_SEED", "SequenceSettings", "SiteEvent", "sequence_events", "SequenceOutcome",
@@ -69,6 +70,7 @@ class SequenceSettings:
     pulse_shape: str = DEFAULT_PULSE_SHAPE
     max_record_s: float | None = None
     solver_options: dict = field(default_factory=dict)
+    aftershocks: Aftershocks | None = None
 
     def __post_init__(self):
         if isinstance(self.years, bool) or not isinstance(self.years, (int, float)) or not 0 < self.years < math.inf:
@@ -86,13 +88,15 @@ class SequenceSettings:
             raise ParameterError(f"max_record_s must be None or a number > 0, got {self.max_record_s!r}")
         if not isinstance(self.solver_options, dict):
             raise ParameterError(f"solver_options must be a dict, got {type(self.solver_options).__name__}")
+        if self.aftershocks is not None and not isinstance(self.aftershocks, Aftershocks):
+            raise ParameterError(f"aftershocks must be None or an Aftershocks, got {type(self.aftershocks).__name__}")
 
 
 @dataclass(frozen=True)
 class SiteEvent:
     """One event of a sequence: its time (years from the sequence's start), source, (Mw, R), the pulse's
     parameters (None: no pulse) and the record's noise seed; ``outside``: where the models do not apply
-    (dropped, no run)."""
+    (dropped, no run); ``parent``: the index of its mainshock for an aftershock, -1 for a mainshock."""
 
     sequence: int
     index: int
@@ -103,16 +107,46 @@ class SiteEvent:
     pulse: dict | None
     hf_seed: int
     outside: bool
+    parent: int = -1
 
 
 def _rng(seed: int, *key) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=key))
 
 
-def sequence_events(site, years: float, seed: int, s: int, pulse_map: PulseMap, ranges: dict, key=None) -> list:
+def _event(s, k, t, j, mw, r, p_pulse, rng, pulse_map, ranges, parent=-1) -> SiteEvent:
+    """An event of source ``j`` at (Mw, R): whether it has a pulse, the pulse's normals and the noise seed from
+    ``rng``, in that order."""
+    has_pulse = bool(rng.uniform() < p_pulse)
+    z4 = rng.standard_normal(4)
+    hf_seed = int(rng.integers(0, 2 ** 63 - 1, dtype=np.int64))
+    rg = ranges[has_pulse]
+    outside = not (rg.mw[0] <= mw <= rg.mw[1] and r <= rg.r_max_km)
+    pulse = pulse_map(mw, r, tuple(float(z) for z in z4)) if has_pulse and not outside else None
+    return SiteEvent(s, k, float(t), j, mw, r, pulse, hf_seed, outside, parent)
+
+
+def aftershocks_of(main: SiteEvent, p_pulse: float, years: float, model: Aftershocks, rng, pulse_map: PulseMap,
+                   ranges: dict) -> list:
+    """The aftershocks of ``main`` within the horizon (:mod:`pycolfrag.risk.aftershocks`): at its distance and
+    source (the rupture's zone), each with a pulse as its mainshock's geometry gives (``p_pulse``)."""
+    t_days, mags = model.sample(main.mw, rng)
+    out = []
+    for t, mw in zip(t_days, mags):
+        when = main.time_yr + float(t) / 365.25
+        ev = _event(main.sequence, main.index, when, main.source, float(mw), main.r_km, p_pulse, rng, pulse_map,
+                    ranges, parent=main.index)
+        if when < years:
+            out.append(ev)
+    return out
+
+
+def sequence_events(site, years: float, seed: int, s: int, pulse_map: PulseMap, ranges: dict, key=None,
+                    aftershocks: Aftershocks | None = None) -> list:
     """The events of sequence ``s`` (see the module's text), in time order. ``ranges``: the models' ranges
     by branch (:func:`pycolfrag.rare.strata.model_ranges`). ``key``: the streams' spawn key before the
-    (0,) of the count and times and the (1, k) of event k (default ``(STREAM_SEQUENCES, s)``)."""
+    (0,) of the count and times and the (1, k) of event k (default ``(STREAM_SEQUENCES, s)``); with
+    ``aftershocks``, mainshock k's from the stream (2, k) (none: the mainshocks alone, the same bits)."""
     key = (STREAM_SEQUENCES, s) if key is None else tuple(key)
     rates = np.array([src.rate for src in site.sources], dtype=float)
     total = float(rates.sum())
@@ -126,14 +160,12 @@ def sequence_events(site, years: float, seed: int, s: int, pulse_map: PulseMap, 
         j = min(int(np.searchsorted(cum, rng.uniform(), side="right")), len(rates) - 1)
         ev = site.sources[j].sample(1, rng)
         mw, r = float(ev.mw[0]), float(ev.r_km[0])
-        has_pulse = bool(rng.uniform() < float(ev.p_pulse[0]))
-        z4 = rng.standard_normal(4)
-        hf_seed = int(rng.integers(0, 2 ** 63 - 1, dtype=np.int64))
-        rg = ranges[has_pulse]
-        outside = not (rg.mw[0] <= mw <= rg.mw[1] and r <= rg.r_max_km)
-        pulse = pulse_map(mw, r, tuple(float(z) for z in z4)) if has_pulse and not outside else None
-        out.append(SiteEvent(s, k, float(times[k]), j, mw, r, pulse, hf_seed, outside))
-    return out
+        main = _event(s, k, times[k], j, mw, r, float(ev.p_pulse[0]), rng, pulse_map, ranges)
+        out.append(main)
+        if aftershocks is not None:
+            out += aftershocks_of(main, float(ev.p_pulse[0]), years, aftershocks, _rng(seed, *key, 2, k), pulse_map,
+                                  ranges)
+    return sorted(out, key=lambda e: e.time_yr) if aftershocks is not None else out
 
 
 def _motion(ev: SiteEvent, st: SequenceSettings):
@@ -154,7 +186,9 @@ class SequenceOutcome:
     time (years; NaN), the accumulated ``u_d`` and tilt at the horizon (NaN after a collapse; the intact
     way's: NaN, nothing accumulates), the time of the first exceedance of each level of
     :data:`pycolfrag.damage.PERFORMANCE_LEVELS` (years; NaN: not within the horizon), the restorations,
-    and the runs it took (event runs, settling runs not counted)."""
+    the runs it took (event runs, settling runs not counted), and per way ``peak``: the largest of each EDP
+    the levels read over its events (``u_top``, the sequence's peak; ``u_d``, the accumulated u_d at rest;
+    0 without an event), which the rare sequences' demand model reads."""
 
     sequence: int
     events: list
@@ -165,6 +199,7 @@ class SequenceOutcome:
     first_yr: dict
     restorations: int
     runs: int
+    peak: dict = field(default_factory=dict)
 
 
 def _first_times(times: list, results: list) -> list:
@@ -183,12 +218,18 @@ def _first_times(times: list, results: list) -> list:
     return out
 
 
+def _peak(results: list) -> dict:
+    """The largest u_top (the sequence's peak) and accumulated u_d at rest over ``results`` (NaN ignored)."""
+    return {k: float(max([0.0] + [v for e in results for v in [getattr(e, a)] if v == v]))
+            for k, a in (("u_top", "u_top"), ("u_d", "u_d_rest"))}
+
+
 def _accumulating(way: str, model, motions, times, restoration, st: SequenceSettings):
     seq = run_sequence(model, motions, restoration=restoration, settle=st.settle, **st.solver_options)
     c = seq.collapsed
     return seq, {"collapsed": c, "collapse_yr": times[len(seq.events) - 1] if c else math.nan,
                  "u_d_end": seq.accumulated_u_d, "tilt_end": seq.tilt_rad,
-                 "first_yr": _first_times(times, seq.events)}
+                 "first_yr": _first_times(times, seq.events), "peak": _peak(seq.events)}
 
 
 def _intact(model, motions, times, first, st: SequenceSettings):
@@ -198,14 +239,14 @@ def _intact(model, motions, times, first, st: SequenceSettings):
                          for m in motions[1:]]
     hit = [t for t, e in zip(times, results) if e.collapsed]
     return results, {"collapsed": bool(hit), "collapse_yr": hit[0] if hit else math.nan, "u_d_end": math.nan,
-                     "tilt_end": math.nan, "first_yr": _first_times(times, results)}
+                     "tilt_end": math.nan, "first_yr": _first_times(times, results), "peak": _peak(results)}
 
 
 def run_one(model, s: int, site_events: list, st: SequenceSettings) -> SequenceOutcome:
     """Run sequence ``s``'s events (:func:`sequence_events`) the three ways."""
     todo = [e for e in site_events if not e.outside]
     ways: dict = {w: {"collapsed": False, "collapse_yr": math.nan, "u_d_end": 0.0, "tilt_end": 0.0,
-                      "first_yr": [math.nan] * len(PERFORMANCE_LEVELS)} for w in WAYS}
+                      "first_yr": [math.nan] * len(PERFORMANCE_LEVELS), "peak": _peak([])} for w in WAYS}
     ways["intact"].update(u_d_end=math.nan, tilt_end=math.nan)
     runs, restorations = 0, 0
     if todo:
@@ -223,7 +264,7 @@ def run_one(model, s: int, site_events: list, st: SequenceSettings) -> SequenceO
     return SequenceOutcome(s, site_events, {w: ways[w]["collapsed"] for w in WAYS},
                            {w: ways[w]["collapse_yr"] for w in WAYS}, {w: ways[w]["u_d_end"] for w in WAYS},
                            {w: ways[w]["tilt_end"] for w in WAYS}, {w: ways[w]["first_yr"] for w in WAYS},
-                           restorations, runs)
+                           restorations, runs, {w: ways[w]["peak"] for w in WAYS})
 
 
 def run_site_sequences(site, model, settings: SequenceSettings = SequenceSettings(), progress=None) -> dict:
@@ -237,7 +278,8 @@ def run_site_sequences(site, model, settings: SequenceSettings = SequenceSetting
     t0 = time.perf_counter()
     outcomes = []
     for s in range(settings.n_sequences):
-        evs = sequence_events(site, settings.years, settings.seed, s, pulse_map, strata.ranges)
+        evs = sequence_events(site, settings.years, settings.seed, s, pulse_map, strata.ranges,
+                              aftershocks=settings.aftershocks)
         try:
             outcomes.append(run_one(model, s, evs, settings))
         except Exception as exc:

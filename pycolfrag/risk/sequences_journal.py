@@ -33,6 +33,7 @@ def identity(site_path, model, st) -> dict:
     settings = {f.name: getattr(st, f.name) for f in dataclasses.fields(st) if f.name != "n_sequences"}
     settings["restoration"] = dataclasses.asdict(st.restoration)
     settings["settle"] = dataclasses.asdict(st.settle)
+    settings["aftershocks"] = None if st.aftershocks is None else dataclasses.asdict(st.aftershocks)
     return json.loads(json.dumps({
         "site_sha256": hashlib.sha256(Path(site_path).read_bytes()).hexdigest(), "structure": model.to_dict(),
         "settings": settings, "version": __version__,

@@ -2,8 +2,8 @@
 sequences").
 
 Crude sequences (:mod:`pycolfrag.risk.sequences`) spend their runs where nothing happens: at the example
-site a collapse within 50 years has a probability of about 2e-3, which crude Monte Carlo would need some
-12 000 sequences to measure at a CoV of 0.2. Here every sequence is a row of the rare-event route's
+site a collapse within 50 years has a probability of about 7e-5, which crude Monte Carlo would need some
+350 000 sequences to measure at a CoV of 0.2. Here every sequence is a row of the rare-event route's
 strata, on its one strongest event.
 
 **The estimator.** Let the site's mainshocks over [0, T] be a Poisson process Phi of intensity measure
@@ -20,12 +20,12 @@ Mecke (Campbell-Little-Mecke) formula of Poisson processes gives
 the expectation over Phi, the process itself, independent of x. The integral over x is the rare route's:
 its strata h with rates W_h (1/yr), x drawn from the stratum's proposal with weight w(x) = the density
 ratio of the natural law to the proposal (occurrence weight times the pulse normals' ratio:
-:func:`pycolfrag.rare.plans.event_input`, the same inputs as the rare route's run (stage 0, h, j)), and
+:func:`pycolfrag.rare.plans.event_input`, the same inputs as the rare route's run (stage, h, j)), and
 its time uniform on [0, T] (the pilot's rows under the rare route's pilot proposal, the later rows under a
-production proposal shifted towards strong pulses: ``DEFAULT_SHIFT``; each row's weight is that of its own
+production proposal the cross-entropy steps place, below; each row's weight is that of its own
 proposal, so the estimate is unbiased for any). So a row (h, j) draws x, its time, and one natural sequence Phi (its own
 streams), and contributes y = T W_h w(x) 1{x strongest} 1_A; P(A) = sum_h E_h[y], estimated by the strata's
-means, its variance by the strata's sample variances (a stratum with no row in A: a Jeffreys floor,
+means, its variance by the strata's sample variances (a stratum with no row in A: the rare route's floor,
 below). A row whose x is not the strongest contributes 0 and costs no run: that sequence is counted
 where its strongest event is the row's x. The estimate is unbiased for any score; the score only sets
 the variance. Ours ranks events by the pulse's peak velocity Vp when the motion has a pulse, and by
@@ -35,16 +35,24 @@ not a model.
 Each row is run the three ways of the crude sequences (accumulated, intact, restored:
 :func:`pycolfrag.risk.sequences.run_one`, the same calls), so the paired differences come with it.
 
-**Allocation.** A pilot of ``pilot`` rows per stratum, then batches spread over the strata by Neyman's
-rule on the target quantity (the accumulated way's collapse by default): n_h proportional to W_h s_h, with
-s_h floored by a stratum's Jeffreys bound while it has no hit (the rare route's law,
-:func:`pycolfrag.rare.estimate.jeffreys_run_variance`: s_h^2 >= (T W_h)^2 (m2 p_J - p_J^2), p_J = 0.5 / (n_h + 1),
-m2 the mean square weight), until the target's CoV (with the same floor) reaches ``target_cov`` or ``max_rows``
-rows are used. The floor keeps a stratum without a hit from being taken as certain, in the stated CoV and
-in the allocation alike; the CoV from the sample variances alone is stated beside (``cov_sample``), with
-how much of the estimate rests on strata of fewer than 20 rows. No model of the strata's demand narrows the
-floor yet (the rare route's steering and demand models do, for single events): at a site whose rare level
-lies in a few strata the bare floor spreads the rows as crude sampling would (docs/sequences.md).
+**Allocation** (the rare route's steps, one text each: :mod:`pycolfrag.rare.driver`, :mod:`pycolfrag.rare.allocation`).
+A pilot of ``pilot`` rows per stratum under the rare route's pilot proposal; then the production proposal: the
+rare route's cross-entropy step on the pilot's rows for the target's family (collapse: the top displacement's;
+the elite the rows with a collapse once :data:`CE_MIN_HITS` have one, else the top of the sequences' peak u_top),
+and its second step on the rows of the first batch where that elite was thin (rows of stage 2 on); ``mixture``
+fixes it instead. Then batches spread by the rare route's minimax Neyman allocation on the target (the
+accumulated way's collapse by default): the steering model's predicted standard deviation of w y per stratum
+(logistic on the rows' strongest events: Mw, ln R and the pulse normals), each at least the estimate's floor,
+a stratum predicted to carry 1 % of the target, or with 1 % of the site's rate, keeping 20 rows -- until the
+target's CoV (with the floor) reaches ``target_cov`` or ``max_rows`` rows are used. The floor of a stratum with no
+row in A is the rare route's (:func:`pycolfrag.rare.allocation.variance_floor`): the predicted Var[w y] of the
+smaller of the steering and demand models' probabilities (the demand model: ln of the row's peak EDP linear in
+the same features, collapse read as the largest peak u_top a standing sequence reached), at most the Jeffreys
+pseudo-count's (s_h^2 <= (T W_h)^2 (m2 p_J - p_J^2), p_J = 0.5 / (n_h + 1), m2 the mean square weight). The CoV from
+the sample variances alone is stated beside (``cov_sample``), with how much of the estimate rests on strata of
+fewer than 20 rows. v1 (a fixed shift, the bare pseudo-count and plain Neyman) spread the rows as crude sampling
+would where the rare level lies in a few strata (docs/sequences.md). A row whose event is not the strongest is,
+to the models, an event that exceeds nothing (its y is 0), with no EDP (the demand model leaves it out).
 
 Runs are spread over MPI ranks (each batch's rows dealt by index, the rows then shared by every rank:
 every rank takes the same decisions), and every finished row is a line of ``OUT/rows.jsonl`` (rank 0's),
@@ -62,28 +70,49 @@ import numpy as np
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.damage import PERFORMANCE_LEVELS
 from pycolfrag.ground_motion.rupakhety_2011 import mean_vp_cm_s
+from pycolfrag.rare import allocation as _alloc
+from pycolfrag.rare.driver import SiteSettings, allocate_batch, cross_entropy_design, second_design, thin_of
 from pycolfrag.rare.estimate import jeffreys_run_variance
 from pycolfrag.rare.plans import PulseMap, event_input
-from pycolfrag.rare.proposal import PILOT_MIXTURE, Mixture, production_mixture
+from pycolfrag.rare.proposal import PILOT_MIXTURE, Design, Mixture
 from pycolfrag.rare.strata import build_strata
+from pycolfrag.risk.grid_route import QUANTITIES as _RISK_QUANTITIES
 from pycolfrag.risk.sequences import WAYS, SequenceSettings, SiteEvent, run_one, sequence_events
 
-__all__ = ["STREAM_RARE_SEQUENCES", "NO_PULSE_OFFSET", "strength", "RareSequenceSettings", "run_row",
-           "estimate", "allocate", "simulate_sequences", "QUANTITIES", "settings_dict", "format_estimate"]
+__all__ = ["ALGORITHM", "STREAM_RARE_SEQUENCES", "NO_PULSE_OFFSET", "strength", "RareSequenceSettings", "run_row",
+           "estimate", "allocate", "floors", "design_of", "simulate_sequences", "estimate_rows", "QUANTITIES", "LEVELS",
+           "settings_dict", "format_estimate"]
+
+#: What the rows and decisions mean (part of a journal's identity: an older folder is refused by name, not
+#: resumed). v2: a row stores its strongest event's features and each way's peak EDPs; the production proposal
+#: is the rare route's cross-entropy step on the pilot's rows for the target's family (unless ``mixture`` is
+#: given); the variance floor of a stratum without a hit and the batches' allocation are the rare route's
+#: (steering and demand models, run floor, minimax Neyman). v1 (no name in its identity): a fixed shift, the
+#: bare Jeffreys floor and plain Neyman.
+ALGORITHM = ("rare sequences on the strongest event: the rare route's cross-entropy shift, demand-model variance "
+             "floor and model-steered allocation; v2")
 
 #: Stream identifier of a row's own draws (its time, its natural sequence); the crude sequences' is 4.
 STREAM_RARE_SEQUENCES = 5
-#: The run stages of the rows' strongest events in the rare route's streams: the pilot's and the batches'.
-PILOT_STAGE, PRODUCTION_STAGE = 0, 1
-#: The production proposal's shift of (z_vp, z_fp) by default: the cross-entropy shift the rare route's rows
-#: give at the example site (about (+2.5, -1.0) from all of them; issue 33), with the rare route's defensive
-#: share alpha_0 = 0.3 of the natural law. A proposal: it sets the variance, never the estimate.
-DEFAULT_SHIFT = (2.5, -1.0)
+#: The run stages of the rows' strongest events in the rare route's streams: the pilot's, the batches' under the
+#: first cross-entropy step's proposal, and those under the second step's (the rare route's stages).
+PILOT_STAGE, PRODUCTION_STAGE, SECOND_STAGE = 0, 1, 2
+#: The fewest rows exceeding the target in the cross-entropy step's elite (the rare route's ``ce_min_hits``, 20,
+#: made for its pilot of single events): below it, the rows above the family's weighted 0.9 quantile -- for collapse,
+#: those of u_top > 0.15, a lower level's elite (at the example site its shift, about (+0.95, -0.4), stayed far from
+#: the collapses' normals, about (+2.3, -0.6)). A collapse within 50 years is seen a few times in the sequences'
+#: first rows; the cross-entropy program's answer on them is the weighted mean of the collapses' own normals, and the
+#: defensive share bounds every weight whatever it is.
+CE_MIN_HITS = 3
+#: The production proposal's defensive share alpha_0 of the natural law (the rare route's). Its shift is the
+#: cross-entropy step's on the pilot (:func:`design_of`). A proposal: it sets the variance, never the estimate.
 DEFENSIVE = 0.3
 #: A motion without a pulse ranks as a pulse of exp(-NO_PULSE_OFFSET) times Eq. (6)'s median Vp.
 NO_PULSE_OFFSET = 1.0
 #: The quantities of a row, per way: collapse, then each level of Tables III/IV.
 QUANTITIES = ("collapse",) + tuple(lv.label for lv in PERFORMANCE_LEVELS)
+#: The rare route's levels (label, edp, threshold) in the order of :data:`QUANTITIES`.
+LEVELS = tuple(next(q for q in _RISK_QUANTITIES if q.label == label) for label in QUANTITIES)
 
 
 def strength(mw: float, r_km: float, pulse) -> float:
@@ -104,11 +133,14 @@ class RareSequenceSettings:
     batch: int = 400
     max_rows: int = 20000
     pilot_mixture: Mixture = PILOT_MIXTURE
-    mixture: Mixture = production_mixture(DEFENSIVE, (DEFAULT_SHIFT,))
+    mixture: Mixture | None = None     # None: the cross-entropy step on the pilot's rows (:func:`design_of`)
 
     def __post_init__(self):
         if not isinstance(self.sequences, SequenceSettings):
             raise ParameterError(f"sequences must be a SequenceSettings, got {type(self.sequences).__name__}")
+        if self.sequences.aftershocks is not None:   # the rows would rank mainshocks and draw x's own aftershocks
+            raise ParameterError("aftershocks are not in the rare sequences yet (crude sequences only): "
+                                 "sequences.aftershocks must be None")
         if self.target not in QUANTITIES:
             raise ParameterError(f"target must be one of {', '.join(QUANTITIES)}, got {self.target!r}")
         if not (isinstance(self.target_cov, (int, float)) and 0 < self.target_cov < 1):
@@ -118,7 +150,7 @@ class RareSequenceSettings:
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < least:
                 raise ParameterError(f"{name} must be an integer >= {least}, got {v!r}")
         for name in ("pilot_mixture", "mixture"):
-            if not isinstance(getattr(self, name), Mixture):
+            if not isinstance(getattr(self, name), Mixture) and not (name == "mixture" and self.mixture is None):
                 raise ParameterError(f"{name} must be a Mixture, got {type(getattr(self, name)).__name__}")
 
 
@@ -126,58 +158,112 @@ def _row_rng(seed: int, h: int, j: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(STREAM_RARE_SEQUENCES, h, j, 2)))
 
 
-def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse_map: PulseMap) -> dict:
+def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse_map: PulseMap,
+            mixture: Mixture | None = None, stage: int = PRODUCTION_STAGE) -> dict:
     """Row (h, j): its strongest event x (the rare route's run (stage, h, j): stage 0 and the pilot's proposal
-    for the first ``rs.pilot`` rows of a stratum, stage 1 and the production proposal after them), x's time,
-    its natural sequence, and -- when x is the strongest -- the sequence run the three ways. Returns the row
-    as a dict (its hits per way and quantity, its weight, runs and seconds)."""
+    for the first ``rs.pilot`` rows of a stratum, ``stage`` (1 or 2) and the production proposal -- ``mixture``,
+    else ``rs.mixture`` -- after them), x's time, its natural sequence, and -- when x is the strongest -- the sequence
+    run the three ways. Returns the row as a dict (its hits and peak EDPs per way, x's features, its weight, runs
+    and seconds)."""
     t0 = time.perf_counter()
     st = rs.sequences
     pilot = j < rs.pilot
-    x = event_input(strata, st.seed, PILOT_STAGE if pilot else PRODUCTION_STAGE, h, j,
-                    rs.pilot_mixture if pilot else rs.mixture, pulse_map)
+    mixture = rs.pilot_mixture if pilot else (mixture or rs.mixture)
+    if mixture is None:
+        raise ParameterError(f"row ({h}, {j}) is a production row and no production proposal is placed yet")
+    x = event_input(strata, st.seed, PILOT_STAGE if pilot else int(stage), h, j, mixture, pulse_map)
     t_x = float(_row_rng(st.seed, h, j).uniform(0.0, st.years))
     phi = sequence_events(site, st.years, st.seed, j, pulse_map, strata.ranges, key=(STREAM_RARE_SEQUENCES, h, j))
     rank_x = (strength(x["mw"], x["dist_km"], x["pulse"]), t_x)   # ties of the score broken by the time
     strongest = not any(not e.outside and (strength(e.mw, e.r_km, e.pulse), e.time_yr) >= rank_x for e in phi)
-    row = {"h": h, "j": j, "weight": float(x["tags"]["weight"]), "strongest": strongest, "events": len(phi) + 1,
-           "runs": 0, "restorations": 0, "hits": {w: [False] * len(QUANTITIES) for w in WAYS}}
+    tags = x["tags"]
+    row = {"h": h, "j": j, "stage": int(tags["stage"]), "weight": float(tags["weight"]), "strongest": strongest,
+           "mw": x["mw"], "dist_km": x["dist_km"], "pulse": x["pulse"] is not None,
+           "z_vp": float(tags.get("z_vp", 0.0)), "z_fp": float(tags.get("z_fp", 0.0)),
+           "occurrence_weight": float(tags["occurrence_weight"]), "events": len(phi) + 1, "runs": 0,
+           "restorations": 0, "hits": {w: [False] * len(QUANTITIES) for w in WAYS},
+           "peak": {w: {"u_top": 0.0, "u_d": 0.0} for w in WAYS}}
     if strongest:
         ev = SiteEvent(j, -1, t_x, strata[h].source, x["mw"], x["dist_km"], x["pulse"], x["hf_seed"], False)
         evs = sorted(phi + [ev], key=lambda e: e.time_yr)
         o = run_one(model, j, evs, st)
         row["runs"], row["restorations"] = o.runs, o.restorations
         row["hits"] = {w: [bool(o.collapsed[w])] + [bool(math.isfinite(t)) for t in o.first_yr[w]] for w in WAYS}
+        row["peak"] = {w: {k: float(v) for k, v in o.peak[w].items()} for w in WAYS}
     row["seconds"] = time.perf_counter() - t0
     return row
 
 
-def _stratum_stats(rows_h: list, way: str, q: int, years: float, rate: float) -> tuple:
-    """A stratum's mean of y, its sample variance of the mean, that variance with the Jeffreys floor of a
-    stratum without a hit, its rows and its hits."""
+def _cols(rows: list, way: str) -> dict:
+    """The rows as the rare route's columns (its steering, demand and floor models and its cross-entropy step read
+    them): x's features, its stage and weights, and the way's outcome -- a row whose x is not the strongest is a
+    row where nothing is exceeded (y = 0: its sequence counts at its own strongest event) with EDPs 0, which the
+    demand model leaves out (it fits EDP > 0)."""
+    def col(key, dtype=float):
+        return np.array([r[key] for r in rows], dtype=dtype)
+    ran = col("strongest", bool)
+    return {"status": np.zeros(len(rows), dtype=int), "stratum": col("h", int), "index": col("j", int),
+            "stage": col("stage", int), "mw": col("mw"), "dist_km": col("dist_km"), "pulse": col("pulse", bool),
+            "z_vp": col("z_vp"), "z_fp": col("z_fp"), "occurrence_weight": col("occurrence_weight"),
+            "collapsed": ran & np.array([r["hits"][way][0] for r in rows], dtype=bool),
+            **{k: np.where(ran, [r["peak"][way][k] for r in rows], 0.0) for k in ("u_top", "u_d")}}
+
+
+def _steer_rng(seed: int, *key) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(_alloc.STREAM_STEER,) + key))
+
+
+def _steering_events(strata, seed: int) -> list:
+    """The rare route's draws of every stratum's events for its models (they only steer)."""
+    return _alloc.steering_events(strata, _steer_rng(seed))
+
+
+def floors(rows: list, strata, design: Design, seed: int, ways=WAYS, labels=QUANTITIES, events=None) -> dict:
+    """{(way, quantity): (H,)} per-run variance of T-less w y of every stratum none of whose rows exceeds: the rare
+    route's floor (:func:`pycolfrag.rare.allocation.variance_floor`: the steering and demand models' predicted
+    Var[w y], at most the Jeffreys pseudo-count's), fitted on the way's outcomes; 0 where a row exceeds."""
+    events = _steering_events(strata, seed) if events is None else events
+    levels = tuple(LEVELS[QUANTITIES.index(x)] for x in labels)
+    out = {}
+    for w in ways:
+        fl = _alloc.variance_floor(_cols(rows, w), strata, design, levels, _steer_rng(seed, _alloc.STREAM_FLOOR),
+                                   events)
+        out.update({(w, x): fl[:, k] for k, x in enumerate(labels)})
+    return out
+
+
+def _stratum_stats(rows_h: list, way: str, q: int, years: float, rate: float, floor_h=None) -> tuple:
+    """A stratum's mean of y, its sample variance of the mean, that variance with the floor of a stratum without
+    a hit (``floor_h``, the per-run variance of w y :func:`floors` gives, else the bare Jeffreys pseudo-count's),
+    its rows and its hits."""
     n = len(rows_h)
     y = np.array([years * rate * r["weight"] * (r["strongest"] and r["hits"][way][q]) for r in rows_h], dtype=float)
     hits = int(np.count_nonzero(y))
     mean = float(y.mean()) if n else 0.0
     var = float(y.var(ddof=1)) / n if n > 1 else 0.0
     m2 = float(np.mean([r["weight"] ** 2 for r in rows_h])) if n else 1.0
-    floor = (years * rate) ** 2 * float(jeffreys_run_variance(m2, n)) / max(n, 1) if hits == 0 else 0.0
+    per_run = float(jeffreys_run_variance(m2, n)) if floor_h is None else float(floor_h)
+    floor = (years * rate) ** 2 * per_run / max(n, 1) if hits == 0 else 0.0
     return mean, var, max(var, floor), n, hits
 
 
-def estimate(rows: list, strata, years: float) -> dict:
-    """P(within T) of every way and quantity: ``p``, its standard error and CoV with the Jeffreys floor of the
-    strata without a hit (``se``, ``cov``: what those strata could still hold, with no model of them), the
-    same from the strata's sample variances alone (``se_sample``, ``cov_sample``), the hits, and how much of
-    ``p`` rests on strata of fewer than 20 rows."""
+def estimate(rows: list, strata, years: float, floor=None, ways=WAYS, labels=QUANTITIES) -> dict:
+    """P(within T) of every way and quantity: ``p``, its standard error and CoV with the floor of the strata
+    without a hit (``se``, ``cov``: ``floor[(way, quantity)]`` from :func:`floors`, the rare route's model-steered
+    floor; where absent, the bare Jeffreys pseudo-count's, which says what those strata could hold with no model of
+    them), the same from the strata's sample variances alone (``se_sample``, ``cov_sample``), the hits, and how much
+    of ``p`` rests on strata of fewer than 20 rows."""
     by_h: dict = {h: [] for h in range(len(strata))}
     for r in rows:
         by_h[r["h"]].append(r)
+    floor = floor or {}
     out: dict = {}
-    for w in WAYS:
+    for w in ways:
         out[w] = {}
-        for q, name in enumerate(QUANTITIES):
-            st = [_stratum_stats(by_h[h], w, q, years, strata[h].rate) for h in range(len(strata))]
+        for name in labels:
+            q, fl = QUANTITIES.index(name), floor.get((w, name))
+            st = [_stratum_stats(by_h[h], w, q, years, strata[h].rate, None if fl is None else fl[h])
+                  for h in range(len(strata))]
             p = float(sum(x[0] for x in st))
             se_sample, se = math.sqrt(sum(x[1] for x in st)), math.sqrt(sum(x[2] for x in st))
             out[w][name] = {"p": p, "se": se, "cov": se / p if p > 0 else math.inf, "se_sample": se_sample,
@@ -186,67 +272,111 @@ def estimate(rows: list, strata, years: float) -> dict:
     return out
 
 
-def allocate(rows: list, strata, rs: RareSequenceSettings, n: int) -> dict:
-    """``n`` new rows over the strata by Neyman's rule on the target's standard deviations, floored (a stratum
-    without a hit keeps drawing rows in proportion to what it could still hold)."""
+def _site_settings(rs: RareSequenceSettings) -> SiteSettings:
+    """The rare route's settings its cross-entropy step and allocation read (seed, alpha_0, the elite's rule)."""
+    return SiteSettings(seed=int(rs.sequences.seed), defensive=DEFENSIVE, ce_min_hits=CE_MIN_HITS)
+
+
+def design_of(rows: list, strata, rs: RareSequenceSettings) -> tuple[Design, tuple]:
+    """(the proposals, the families whose elite was thin): the pilot's, and the production one -- ``rs.mixture`` when
+    given, else the rare route's cross-entropy step (:func:`pycolfrag.rare.driver.cross_entropy_design`) on the
+    pilot's ``rows`` for the target's family (collapse: the top displacement's; its elite the rows with a collapse
+    once :data:`CE_MIN_HITS` have one, else those at the top of the sequences' peak u_top), with the defensive
+    share alpha_0 = 0.3. Where the elite was thin, :func:`simulate_sequences` takes the rare route's second step
+    after the first batch."""
+    if rs.mixture is not None:
+        return Design(rs.pilot_mixture, rs.mixture, ("the production proposal as given",)), ()
+    cols, requested = _cols(rows, "accumulated"), (LEVELS[QUANTITIES.index(rs.target)],)
+    ce = cross_entropy_design(cols, strata, _site_settings(rs), requested)
+    return Design(rs.pilot_mixture, ce.production, ce.notes), thin_of(cols, strata, _site_settings(rs), requested)
+
+
+def allocate(rows: list, strata, rs: RareSequenceSettings, design: Design, stage: int, n: int, floor=None,
+             events=None) -> dict:
+    """``n`` new rows over the strata: the rare route's allocation of a batch
+    (:func:`pycolfrag.rare.driver.allocate_batch`: the steering model's predicted variances under the production
+    proposal, each at least the estimate's ``floor`` of the target, minimax Neyman, a stratum predicted to matter
+    keeping 20 rows) on the target of the accumulated way."""
     q = QUANTITIES.index(rs.target)
-    by_h: dict = {h: [] for h in range(len(strata))}
-    for r in rows:
-        by_h[r["h"]].append(r)
-    a = np.array([math.sqrt(_stratum_stats(by_h[h], "accumulated", q, rs.sequences.years, strata[h].rate)[2]
-                            * max(len(by_h[h]), 1)) for h in range(len(strata))])
-    if a.sum() <= 0:
-        a = np.ones(len(strata))
-    share = a / a.sum() * n
-    new = np.floor(share).astype(int)
-    rest = n - int(new.sum())
-    for h in np.argsort(-(share - new), kind="stable")[:rest]:
-        new[h] += 1
-    return {h: int(k) for h, k in enumerate(new) if k > 0}
+    fl = None if floor is None else np.asarray(floor[("accumulated", rs.target)], dtype=float)[:, None]
+    events = _steering_events(strata, rs.sequences.seed) if events is None else events
+    return allocate_batch(_cols(rows, "accumulated"), strata, design, _site_settings(rs), (LEVELS[q],), stage,
+                          len(rows), events, n, fl)
 
 
 def simulate_sequences(site, model, rs: RareSequenceSettings, evaluate=None, done=(), log=None) -> dict:
-    """Run rows until the target's CoV or the row budget. ``evaluate(list of (h, j)) -> list of rows`` (None: in
-    this process, in order). A resume gives the rows already finished (``done``): they are not run again.
-    Every decision (the batches' allocations, the stop) is a function of the rows of the batches before it
-    alone, never of ``done``, so a resumed run makes the uninterrupted run's rows and decisions. Returns
-    ``{"rows", "estimate", "strata", "settings", "runs", "seconds"}``."""
+    """Run rows until the target's CoV (with the floor) or the row budget. ``evaluate(list of (h, j), production
+    mixture, stage) -> list of rows`` (None: in this process, in order). A resume gives the rows already finished
+    (``done``): they are not run again. Every decision (the production proposal, the batches' allocations, the
+    stop) is a function of the rows of the batches before it alone, never of ``done``, so a resumed run makes the
+    uninterrupted run's rows and decisions. Returns ``{"rows", "estimate", "strata", "settings", "design", "runs",
+    "seconds"}``."""
     strata = build_strata(site)
     pulse_map = PulseMap(rs.sequences.pulse_shape, rs.sequences.vp_scale, rs.sequences.tp_model)
     if evaluate is None:
-        def evaluate(todo):
-            return [run_row(site, strata, model, rs, h, j, pulse_map) for h, j in todo]
+        def evaluate(todo, mixture, stage):
+            return [run_row(site, strata, model, rs, h, j, pulse_map, mixture, stage) for h, j in todo]
     finished = {(r["h"], r["j"]): r for r in done}
 
-    def run(todo) -> list:
+    def run(todo, mixture, stage) -> list:
         missing = [t for t in todo if t not in finished]
-        for r in evaluate(missing):
+        for r in evaluate(missing, mixture, stage):
             finished[(r["h"], r["j"])] = r
         return [finished[t] for t in todo]
-    rows = run([(h, j) for h in range(len(strata)) for j in range(rs.pilot)])
+    rows = run([(h, j) for h in range(len(strata)) for j in range(rs.pilot)], None, PILOT_STAGE)
+    design, thin = design_of(rows, strata, rs)
+    if log is not None:
+        for note in design.notes:
+            log(f"sequences (rare): production proposal: {note}")
     count = {h: rs.pilot for h in range(len(strata))}
+    events, years, stage = _steering_events(strata, rs.sequences.seed), rs.sequences.years, 1
     while len(rows) < rs.max_rows:
-        est = estimate(rows, strata, rs.sequences.years)["accumulated"][rs.target]
+        fl = floors(rows, strata, design, rs.sequences.seed, ("accumulated",), (rs.target,), events)
+        est = estimate(rows, strata, years, fl, ("accumulated",), (rs.target,))["accumulated"][rs.target]
         if log is not None:
-            log(f"sequences (rare): {len(rows)} rows, P({rs.target}) {est['p']:.4g}, CoV {est['cov']:.3f}")
+            log(f"sequences (rare): {len(rows)} rows, P({rs.target}) {est['p']:.4g}, CoV {est['cov']:.3f} "
+                f"(sample variances alone {est['cov_sample']:.3f})")
         if est["cov"] <= rs.target_cov:
             break
-        new = allocate(rows, strata, rs, min(rs.batch, rs.max_rows - len(rows)))
+        if stage == SECOND_STAGE and thin:   # the rare route's second step, on every row so far
+            design = second_design(_cols(rows, "accumulated"), strata, design, _site_settings(rs),
+                                   (LEVELS[QUANTITIES.index(rs.target)],), thin)
+            if log is not None:
+                log(f"sequences (rare): production proposal from stage 2: {design.notes[-1]}")
+        new = allocate(rows, strata, rs, design, stage, min(rs.batch, rs.max_rows - len(rows)), fl, events)
         todo = [(h, count[h] + t) for h, k in sorted(new.items()) for t in range(k)]
         for h, j in todo:
             count[h] = max(count[h], j + 1)
-        rows += run(todo)
-    return {"rows": rows, "estimate": estimate(rows, strata, rs.sequences.years), "strata": strata, "settings": rs,
-            "runs": int(sum(r["runs"] for r in rows)), "seconds": float(sum(r["seconds"] for r in rows))}
+        rows += run(todo, design.latest, PRODUCTION_STAGE if design.second is None else SECOND_STAGE)
+        stage += 1
+    fl = floors(rows, strata, design, rs.sequences.seed, events=events)
+    return {"rows": rows, "estimate": estimate(rows, strata, years, fl), "strata": strata, "settings": rs,
+            "design": design, "runs": int(sum(r["runs"] for r in rows)),
+            "seconds": float(sum(r["seconds"] for r in rows))}
+
+
+def estimate_rows(site, rs: RareSequenceSettings, rows: list) -> dict:
+    """A journal's ``rows`` (those of a stopped run too) as :func:`simulate_sequences` returns them: the design its
+    decisions placed (the first cross-entropy step on the pilot's rows, the second on the rows of stages 0 and 1
+    where rows of stage 2 exist), the floors and the estimate of every way and quantity."""
+    strata = build_strata(site)
+    design, thin = design_of([r for r in rows if r["stage"] == PILOT_STAGE], strata, rs)
+    if any(r["stage"] == SECOND_STAGE for r in rows):
+        design = second_design(_cols([r for r in rows if r["stage"] < SECOND_STAGE], "accumulated"), strata, design,
+                               _site_settings(rs), (LEVELS[QUANTITIES.index(rs.target)],), thin)
+    fl = floors(rows, strata, design, rs.sequences.seed)
+    return {"rows": rows, "estimate": estimate(rows, strata, rs.sequences.years, fl), "strata": strata, "settings": rs,
+            "design": design, "runs": int(sum(r["runs"] for r in rows)),
+            "seconds": float(sum(r["seconds"] for r in rows))}
 
 
 def settings_dict(rs: RareSequenceSettings) -> dict:
-    """The rare settings as plain data (a journal's identity)."""
-    return {"target": rs.target, "target_cov": rs.target_cov, "pilot": rs.pilot, "batch": rs.batch,
-            "max_rows": rs.max_rows, "pilot_mixture": rs.pilot_mixture.as_dict(), "mixture": rs.mixture.as_dict(),
+    """The rare settings as plain data (a journal's identity), the algorithm's name included."""
+    return {"algorithm": ALGORITHM, "target": rs.target, "target_cov": rs.target_cov, "pilot": rs.pilot,
+            "batch": rs.batch, "max_rows": rs.max_rows, "pilot_mixture": rs.pilot_mixture.as_dict(),
+            "mixture": None if rs.mixture is None else rs.mixture.as_dict(), "ce_min_hits": CE_MIN_HITS,
             "stream": STREAM_RARE_SEQUENCES,
             "no_pulse_offset": NO_PULSE_OFFSET}
-
 
 
 def format_estimate(run: dict, title: str = "") -> str:
@@ -259,6 +389,7 @@ def format_estimate(run: dict, title: str = "") -> str:
              f"{len(rows)} rows over {len(run['strata'])} strata ({strongest} with the row's event the strongest of "
              f"its sequence), {run['runs']} event runs, {run['seconds']:.1f} s of runs; horizon {st.years:g} years, "
              f"seed {st.seed}, restoration {st.restoration.describe()}.", "",
+             *(f"Production proposal: {n}." for n in run["design"].notes), "",
              f"| quantity | P(within {st.years:g} yr): accumulated [CoV] | intact [CoV] | restored [CoV] | "
              "hits (accumulated) | CoV of the sample variances alone | P on strata of < 20 rows |",
              "|---|---|---|---|---|---|---|"]

@@ -36,6 +36,7 @@ from pycolfrag.grid import get_comm
 from pycolfrag.grid.serve import EXIT_DRAINED
 from pycolfrag.rare.plans import PulseMap
 from pycolfrag.rare.strata import build_strata
+from pycolfrag.risk.aftershocks import REASENBERG_JONES_1989
 from pycolfrag.risk.sequences import (
     DEFAULT_SEED,
     SequenceOutcome,
@@ -119,7 +120,7 @@ def _work(site, model, st: SequenceSettings, todo: list, stop: _Stop, deliver) -
         if stop.asked:
             return
         t0 = time.perf_counter()
-        evs = sequence_events(site, st.years, st.seed, s, pulse_map, strata.ranges)
+        evs = sequence_events(site, st.years, st.seed, s, pulse_map, strata.ranges, aftershocks=st.aftershocks)
         try:
             o = run_one(model, s, evs, st)
         except Exception as exc:
@@ -244,6 +245,9 @@ def parser() -> argparse.ArgumentParser:
                    help="the restored way's policy: reassemble when the accumulated u_d exceeds this")
     p.add_argument("--restore-tilt", type=float, default=math.inf, help="... or the residual tilt exceeds this, rad")
     p.add_argument("--max-record-s", type=float, default=None, help="cut the records (tests and quick looks only)")
+    p.add_argument("--aftershocks", action="store_true",
+                   help="each mainshock's aftershocks of Mw >= 5 within a year, Reasenberg & Jones (1989) generic "
+                        "California (docs/sequences.md, \"Aftershocks\"; crude sequences only)")
     rare = p.add_argument_group("importance sampling on the strongest event (--rare; docs/sequences.md, \"Rare sequences\")")
     rare.add_argument("--rare", action="store_true",
                       help="rows of the rare-event strata instead of crude sequences (--n is not used)")
@@ -253,7 +257,8 @@ def parser() -> argparse.ArgumentParser:
     rare.add_argument("--batch", type=int, default=400, help="rows per batch after the pilot")
     rare.add_argument("--max-rows", type=int, default=20000, help="the row budget")
     rare.add_argument("--shift", type=float, nargs=2, default=None, metavar=("Z_VP", "Z_FP"),
-                      help="the production proposal's shift of the pulse normals (default: +2.5 -1.0)")
+                      help="the production proposal's shift of the pulse normals (default: the cross-entropy step on "
+                           "the pilot's rows)")
     p.add_argument("--mpi", choices=("auto", "yes", "no"), default="auto", help="use MPI (auto: under a launcher)")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True, help="a line per 10 %% done")
     return p
@@ -269,7 +274,8 @@ def main(argv=None) -> int:
                  Column.from_file(args.column) if args.column else Column.parthenon())
         st = SequenceSettings(years=args.years, n_sequences=args.n, seed=args.seed,
                               restoration=Restoration(u_d=args.restore_u_d, tilt_rad=args.restore_tilt),
-                              max_record_s=args.max_record_s)
+                              max_record_s=args.max_record_s,
+                              aftershocks=REASENBERG_JONES_1989 if args.aftershocks else None)
         if not Path(args.site).is_file():
             raise ParameterError(f"site file {args.site} does not exist")
     except (PycolfragError, OSError) as exc:
@@ -296,13 +302,13 @@ def main(argv=None) -> int:
 
 
 def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
-    from pycolfrag.risk import sequences_rare as rare  # the rare route's modules, for --rare only
+    from pycolfrag.rare.proposal import production_mixture  # the rare route's modules, for --rare only
+    from pycolfrag.risk import sequences_rare as rare
     from pycolfrag.risk.sequences_rare_run import run_rare_folder
     try:
-        shift = rare.DEFAULT_SHIFT if args.shift is None else tuple(args.shift)
+        mixture = None if args.shift is None else production_mixture(rare.DEFENSIVE, (tuple(args.shift),))
         rs = rare.RareSequenceSettings(sequences=st, target=args.target, target_cov=args.target_cov,
-                                       pilot=args.pilot, batch=args.batch, max_rows=args.max_rows,
-                                       mixture=rare.production_mixture(rare.DEFENSIVE, (shift,)))
+                                       pilot=args.pilot, batch=args.batch, max_rows=args.max_rows, mixture=mixture)
     except PycolfragError as exc:
         log(f"sequences: {exc}")
         return EXIT_ARGS
@@ -314,7 +320,8 @@ def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
     out = Path(args.out)
     (out / "rare_summary.json").write_text(report_json.dumps(
         {"estimate": run["estimate"], "rows": len(run["rows"]), "runs": run["runs"], "seconds": run["seconds"],
-         "strata": len(run["strata"]), "settings": rare.settings_dict(rs)}, indent=1))
+         "strata": len(run["strata"]), "settings": rare.settings_dict(rs), "design": run["design"].as_dict()},
+        indent=1))
     (out / "rare_summary.md").write_text(text + "\n")
     log(text)
     reached = run["estimate"]["accumulated"][rs.target]["cov"]
