@@ -48,13 +48,14 @@ def _exceeds(cols, q, i) -> bool:
 
 
 def _regression_by_hand(cols, q, rows, mean_all):
-    """(b, b (ubar - 1)) of the control variate over a stratum's rows (rare/estimate.py's rule: at least 20
-    successful runs, 5 of them exceeding, weights not all equal, a mean not made negative), by plain loops; None
-    where the plain mean stands."""
+    """(b, b (ubar - 1)) of the control variate over a stratum's rows (rare/estimate.py's rule: at least 100
+    successful runs, 5 of them exceeding but not all, weights not all equal, a mean not made negative), by plain
+    loops; None where the plain mean stands."""
     ok = [i for i in rows if cols["status"][i] == 0]
     u = [float(cols["weight"][i]) for i in ok]
     v = [x * _exceeds(cols, q, i) for x, i in zip(u, ok)]
-    if len(ok) < 20 or sum(_exceeds(cols, q, i) for i in ok) < 5:
+    hits = sum(_exceeds(cols, q, i) for i in ok)
+    if len(ok) < 100 or hits < 5 or hits == len(ok):
         return None
     ub, vb = sum(u) / len(u), sum(v) / len(v)
     suu = sum((x - ub) ** 2 for x in u)

@@ -45,6 +45,7 @@ from pycolfrag.core.errors import ParameterError
 from pycolfrag.rare.estimate import (
     DEFAULT_MIN_NEFF,
     exceedances,
+    jeffreys_floor,
     jeffreys_run_variance,
     jeffreys_upper,
     regression,
@@ -155,7 +156,7 @@ def _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors) -> tuple[float, f
         if np.any(ya[sel][both] != yb[sel][both]):
             v_terms.append(W[s] ** 2 * float(np.var(x, ddof=1)) / m)
         else:
-            m2 = max(1.0, math.fsum(u[both] ** 2) / m)
+            m2 = math.fsum(u[both] ** 2) / m
             ind = (_run_variance(va[sel], ok_a[sel], ra, floors[0][s])
                    + _run_variance(vb[sel], ok_b[sel], rb, floors[1][s]))
             v_terms.append(W[s] ** 2 * min(float(jeffreys_run_variance(m2, m)), ind) / m)
@@ -216,6 +217,7 @@ def paired_differences(run_a, run_b, quantities=None, *, confidence: float = 0.9
 
     def floors(q):
         j = [x.label for x in run_a.quantities].index(q.label)
-        return [np.zeros(W.size) if r.floor is None else np.asarray(r.floor, dtype=float)[:, j] for r in (run_a, run_b)]
+        return [np.asarray(jeffreys_floor(r.cols, r.strata, r.design, r.quantities) if r.floor is None else r.floor,
+                           dtype=float)[:, j] for r in (run_a, run_b)]
     return {q.label: _level(q, a, b, w, h, ok_a, ok_b, W, confidence, min_neff, (run_a.estimate, run_b.estimate),
                             floors(q)) for q in quantities}
