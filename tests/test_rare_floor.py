@@ -225,3 +225,13 @@ def test_the_allocation_sees_the_variance_floor():
     floored = driver._allocate(*args, floor=floor)
     assert sum(floored.values()) == sum(plain.values()) == 1000
     assert floored.get(6, 0) > plain.get(6, 0) + 20, (plain.get(6, 0), floored.get(6, 0))
+
+
+def test_the_jeffreys_run_variance_takes_m2_at_least_1_for_every_caller():
+    """Weights of mean 1 have E[w^2] >= 1 (Jensen): a sample mean square below p0 (ten rows of weight 0.15, the rare
+    sequences' case a review found) made m2 p0 - p0^2 negative, clipped to a floor of 0. The clamp is in the one
+    law every floor calls, so the rare sequences' floor (risk/sequences_rare.py) has it too."""
+    from pycolfrag.rare.estimate import jeffreys_p0, jeffreys_run_variance
+    p0 = float(jeffreys_p0(10))                                    # 0.5 / 11
+    assert float(jeffreys_run_variance(0.15 ** 2, 10)) == pytest.approx(p0 - p0 * p0, rel=1e-15)
+    assert float(jeffreys_run_variance(2.0, 10)) == pytest.approx(2.0 * p0 - p0 * p0, rel=1e-15)
