@@ -41,10 +41,9 @@ def test_sleep_must_be_a_flag(value):
         pcf.SolverOptions(sleep=value)
 
 
-def test_sleeping_is_off_by_default_and_exact_model_reads_no_such_option():
-    assert pcf.SolverOptions().sleep is False and pcf.SolverOptions().sleep_margin == 0.5
+def test_exact_model_reads_no_such_option():
     acc = tb._sine(0.3, 2.0, 1.5)
-    a = pcf.simulate(COL, acc, tb.DT, contact="exact", tail_s=0.5)
+    a = pcf.simulate(COL, acc, tb.DT, contact="exact", tail_s=0.5, sleep=False)
     b = pcf.simulate(COL, acc, tb.DT, contact="exact", tail_s=0.5, sleep=True)
     assert (a.u_top, a.u_d, a.n_steps, a.energy_error) == (b.u_top, b.u_d, b.n_steps, b.energy_error)
 
@@ -75,7 +74,7 @@ def test_continuation_is_the_long_run_bitwise_with_sleeping():
     r1, r2, rl = seq._sequence(COL, early_exit=False, tail_s=0.5, sleep=True)
     assert r1.u_top > 0.01
     seq._assert_bitwise(r1, r2, rl)
-    off = pcf.simulate(COL, np.zeros(2), 0.01, early_exit=False, tail_s=0.1).final_state
+    off = pcf.simulate(COL, np.zeros(2), 0.01, early_exit=False, tail_s=0.1, sleep=False).final_state
     assert r1.final_state.values.size == off.values.size + 51 * COL.n_blocks
     with pytest.raises(ParameterError, match="the state belongs to another solver"):   # the other setting: refused
         pcf.simulate(COL, np.zeros(2), 0.01, initial_state=off, sleep=True)
@@ -87,7 +86,7 @@ def test_weak_motion_is_the_full_law_to_round_off_and_balances_energy():
     is the full law in exact arithmetic: measured 2e-14) but not bitwise (the sleeping law was taken),
     and the energy balance error is the same to 1e-6 of the energy scale."""
     acc = tb._sine(0.02, 2.0, 4.0)
-    a = pcf.simulate(COL, acc, tb.DT, history=True)
+    a = pcf.simulate(COL, acc, tb.DT, history=True, sleep=False)
     b = pcf.simulate(COL, acc, tb.DT, history=True, sleep=True)
     ua, ub = a.history.top_disp[:, 0], b.history.top_disp[:, 0]
     peak = np.abs(ua).max()
@@ -102,7 +101,31 @@ def test_strong_motion_energy_balance_as_good_with_sleeping(amp_g):
     """Rocking and impacts wake the joints and they fall asleep again: the energy balance error with
     sleeping on stays within the energy_tolerance (0.05) as the run without it does."""
     acc = tb._sine(amp_g, 2.0, 3.0)
-    a = pcf.simulate(COL, acc, tb.DT, early_exit=False, tail_s=1.0)
+    a = pcf.simulate(COL, acc, tb.DT, early_exit=False, tail_s=1.0, sleep=False)
     b = pcf.simulate(COL, acc, tb.DT, early_exit=False, tail_s=1.0, sleep=True)
     assert abs(a.energy_error) < 0.05 and abs(b.energy_error) < 0.05
     assert not b.energy_warning
+
+
+def test_slip_wakes_the_joint_at_the_coulomb_threshold():
+    """A squat block (2 m x 2 m x 0.5 m, mu = tan 37 deg: rocking would need 4 g) under a slow ramp of
+    ground acceleration, a(t) = g t / 4 s, slips when a = mu g (quasi-statics: m a = mu m g). With
+    sleeping on the joint sleeps through the ramp's sticking part and must wake before any point
+    reaches the cap: the slip (beyond 2e-5 m, twice the elastic shear displacement mu W / (ks A) =
+    1e-5 m) starts at the same history sample (1 ms) as without sleeping, within 2 % of a = mu g (the
+    ramp's dynamics and the threshold: 0.9 % measured), and the final slip agrees to 1e-9 relative
+    (round-off only) without being bitwise the same (the sleeping law was taken)."""
+    col = pcf.Column.single_block(2.0, 0.5, n_sides=4, joints=pcf.JointProperties(friction_deg=37.0))
+    mu, dt, T = np.tan(np.radians(37.0)), 0.01, 4.0
+    acc = 9.81 * np.arange(0.0, T, dt) / T
+    onset, final = [], []
+    for sleep in (False, True):
+        res = pcf.simulate(col, acc, dt, history=True, history_dt=0.001, tail_s=0.0, early_exit=False, sleep=sleep)
+        x = res.history.block_pos[:, 0, 0] - res.history.block_pos[0, 0, 0]
+        i = int(np.argmax(np.abs(x) > 2e-5))
+        assert i > 0
+        onset.append(i)
+        final.append(x[-1])
+        assert res.history.t[i] / T / mu == pytest.approx(1.0, abs=0.02)
+    assert onset[0] == onset[1]
+    assert final[1] == pytest.approx(final[0], rel=1e-9) and final[1] != final[0]
