@@ -168,8 +168,8 @@ static VM CF_BN(sleeping)(const cf_solver *s, CF_BN(batch) *B, const cf_joint_ch
     return slm;
 }
 
-/* After the full law's step of joint j: the running lanes in try (a bit per lane: their steps that
- * evaluate the energy) whose joint is awake try to fall asleep (as solver_points.c's joint_points). */
+/* After the full law's step of joint j: the running lanes in try (a bit per lane: their ledger steps)
+ * whose joint is awake try to fall asleep (as solver_points.c's joint_points). */
 static void CF_BN(try_sleep)(const cf_solver *s, CF_BN(batch) *B, const cf_joint_chunk *C, int j, const int *has,
                              int try)
 {
@@ -593,7 +593,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
                 active++;
                 cf_solver_run_pre(&B->view[l], r, &e[l], a);
                 need |= e[l].need;
-                try |= e[l].need ? 1 << l : 0;
+                try |= e[l].ledger ? 1 << l : 0;
                 if (s->def.damping_alpha > 0.0 && r->t >= s->def.damping_start_s) damp[l] = -1;
                 Wl[l] = r->m.W; Dd[l] = r->m.Ddamp;
             }

@@ -293,7 +293,7 @@ static int joint_sleeping(cf_solver *s, cf_points *pts, int j, cf_joint_chunk *C
 /* The points of joint j, side by side, in order, through the face runner: the sums of each side
  * into lane l of the chunk, the energies into e, the joint's normal force into s->jfn. With
  * `sleep` on, a sleeping joint takes its linear law instead, and an awake one tries to fall asleep
- * at the steps that evaluate the energy. */
+ * at the run's ledger steps (every CF_LEDGER_STEPS: cf_step_energy.ledger). */
 static void joint_points(cf_solver *s, cf_points *pts, int j, cf_joint_chunk *C, int l, cf_step_energy *e)
 {
     const cf_joint *J = &s->jt[j];
@@ -323,7 +323,7 @@ static void joint_points(cf_solver *s, cf_points *pts, int j, cf_joint_chunk *C,
     s->jfn[j] = S.sm[7];
     e->dslip += S.dslip;
     e->dswitch += S.dswitch;
-    if (sl && e->need) {
+    if (sl && e->ledger) {
         cf_face_pass P[2];
         int has[2];
         joint_passes(pts, J, PJ, C, l, P, has);

@@ -3,7 +3,7 @@
  * "model only what a scene needs". Included by solver_points.c (the single run) and
  * solver_batch.c (a lane of the batch), so that both evaluate the same operations.
  *
- * A joint falls asleep at a step that evaluates the energy (cf_step_energy.need) when every
+ * A joint falls asleep at a ledger step of its run (every CF_LEDGER_STEPS: cf_step_energy.ledger) when every
  * point of both its faces is in sticking contact with a margin m = sleep_margin: state
  * CF_POINT_CONTACT, depth pen_k >= CF_SLEEP_PEN_FLOOR rc and below pmax, |fs_k| <= (1 - m) mu fn_k,
  * and inside the cheap polygon test (within sqrt(fast) of its rest position, or within the face's
@@ -32,7 +32,7 @@
  * takes the step. No slip, release or switch happens while asleep: no dissipation is booked.
  *
  * The state saved per joint (CF_SLEEP_ND doubles, in the model's state copy when `sleep` is on):
- * asleep flag, and per side Ux, Uy, Fx, Fy, E0, g(sleep) and the three budgets. The points' own
+ * asleep flag, the tries' back-off (cf_sleep_try), and per side Ux, Uy, Fx, Fy, E0, g(sleep) and the three budgets. The points' own
  * state keeps its sleep-time values while the joint sleeps.
  */
 #ifndef CF_SOLVER_SLEEP_H
@@ -49,8 +49,13 @@
 enum {
     CF_SL_UX = 0, CF_SL_UY = 3, CF_SL_FX = 6, CF_SL_FY = 9, CF_SL_E0 = 12, CF_SL_GS = 13, CF_SL_BN = 22,
     CF_SL_BT = 23, CF_SL_BI = 24, CF_SL_SIDE = 25,
-    CF_SLEEP_ND = 1 + 2 * CF_SL_SIDE   /* [0]: asleep (0 or 1), then side 0's, side 1's */
+    /* [0]: asleep (0 or 1), [1]: tries still to skip, [2]: tries skipped after the last failure, then
+     * side 0's, side 1's */
+    CF_SL_S0 = 3, CF_SLEEP_ND = CF_SL_S0 + 2 * CF_SL_SIDE
 };
+
+/* after a failed try, a joint skips 1, 3, 7, 15 of its next tries (at most 15: a try every 64 steps) */
+#define CF_SLEEP_BACKOFF_MAX 15.0
 
 /* the side's g from its pass (see the top) */
 static inline void cf_sleep_g(const cf_face_pass *P, double *g)
@@ -140,13 +145,13 @@ static inline int cf_sleep_joint(double *sl, const double (*q)[6], const double 
     *vs = 0.0; *fn = 0.0;
     for (side = 0; side < 2; side++) {
         for (i = 0; i < 6; i++) sm[side][i] = 0.0;
-        if (has[side] && !cf_sleep_side(sl + 1 + side * CF_SL_SIDE, q[side], qs[side], rho[side], J->kn, J->ks,
+        if (has[side] && !cf_sleep_side(sl + CF_SL_S0 + side * CF_SL_SIDE, q[side], qs[side], rho[side], J->kn, J->ks,
                                         &P[side], u[side], sm[side], vs, fn, need))
             return 0;
     }
     for (side = 0; side < 2; side++)
         if (has[side])
-            for (i = 0; i < 6; i++) sl[1 + side * CF_SL_SIDE + i] = u[side][i];
+            for (i = 0; i < 6; i++) sl[CF_SL_S0 + side * CF_SL_SIDE + i] = u[side][i];
     return 1;
 }
 
@@ -157,7 +162,7 @@ static inline void cf_sleep_wake(const cf_points *pts, const cf_points_joint *PJ
 {
     int k;
     for (k = PJ->p0; k < PJ->p0 + PJ->np; k++) {
-        const double *sd = sl + 1 + (k < PJ->p0 + PJ->n0 ? 0 : CF_SL_SIDE), *ux = sd + CF_SL_UX, *uy = sd + CF_SL_UY;
+        const double *sd = sl + CF_SL_S0 + (k < PJ->p0 + PJ->n0 ? 0 : CF_SL_SIDE), *ux = sd + CF_SL_UX, *uy = sd + CF_SL_UY;
         const double lx = pts->lx[k], ly = pts->ly[k], ksw = pts->ksw[k];
         size_t o = (size_t)k * (size_t)stride;
         fsx[o] = fsx[o] - ksw * (ux[0] * lx + ux[1] * ly + ux[2]);
@@ -169,15 +174,15 @@ static inline void cf_sleep_wake(const cf_points *pts, const cf_points_joint *PJ
 /* Try to put the joint to sleep after the full law's step (the points' state as the step left it,
  * stride apart; P[side]: the step's passes, has[side]: the side has points; m: sleep_margin).
  * Returns 1 (asleep, its sleep state in sl) when every point sticks with the margin, else 0. */
-static inline int cf_sleep_try(const cf_points *pts, const cf_points_joint *PJ, const cf_joint *J,
-                               const cf_face_pass *P, const int *has, double m, double *sl, const double *fsx,
-                               const double *fsy, const double *pst, int stride)
+static inline int cf_sleep_try_points(const cf_points *pts, const cf_points_joint *PJ, const cf_joint *J,
+                                      const cf_face_pass *P, const int *has, double m, double *sl, const double *fsx,
+                                      const double *fsy, const double *pst, int stride)
 {
     int side, k, i;
     for (side = 0; side < 2; side++) {
         int k0 = side == 0 ? PJ->p0 : PJ->p0 + PJ->n0, k1 = side == 0 ? PJ->p0 + PJ->n0 : PJ->p0 + PJ->np;
         const cf_face_pass *Q = &P[side];
-        double *sd = sl + 1 + side * CF_SL_SIDE, g[9], pmin = INFINITY, pmx = 0.0, smin = INFINITY, imin = INFINITY;
+        double *sd = sl + CF_SL_S0 + side * CF_SL_SIDE, g[9], pmin = INFINITY, pmx = 0.0, smin = INFINITY, imin = INFINITY;
         const double apo = Q->ff->apo, floor = CF_SLEEP_PEN_FLOOR * Q->ff->rc;
         if (!has[side]) continue;
         cf_sleep_g(Q, g);
@@ -220,6 +225,26 @@ static inline int cf_sleep_try(const cf_points *pts, const cf_points_joint *PJ, 
     }
     sl[0] = 1.0;
     return 1;
+}
+
+/* cf_sleep_try_points at the joint's tries, with a back-off: after a failed try the joint skips 1, 3,
+ * 7, then 15 of its next tries (a joint of a strongly moving run is not checked point by point every
+ * fourth step), a success clears it. */
+static inline int cf_sleep_try(const cf_points *pts, const cf_points_joint *PJ, const cf_joint *J,
+                               const cf_face_pass *P, const int *has, double m, double *sl, const double *fsx,
+                               const double *fsy, const double *pst, int stride)
+{
+    if (sl[1] > 0.0) {
+        sl[1] -= 1.0;
+        return 0;
+    }
+    if (cf_sleep_try_points(pts, PJ, J, P, has, m, sl, fsx, fsy, pst, stride)) {
+        sl[2] = 0.0;
+        return 1;
+    }
+    sl[2] = 2.0 * sl[2] + 1.0 > CF_SLEEP_BACKOFF_MAX ? CF_SLEEP_BACKOFF_MAX : 2.0 * sl[2] + 1.0;
+    sl[1] = sl[2];
+    return 0;
 }
 
 #endif

@@ -69,13 +69,13 @@ def test_two_component_batch_equals_single_runs_with_sleeping():
 
 
 def test_continuation_is_the_long_run_bitwise_with_sleeping():
-    """The sleep state is in the model's state (CF_SLEEP_ND doubles a joint): a run continued from
+    """The sleep state is in the model's state (CF_SLEEP_ND = 53 doubles a joint): a run continued from
     record 1's state equals the long run, bit for bit; the state carries them (its length)."""
     r1, r2, rl = seq._sequence(COL, early_exit=False, tail_s=0.5, sleep=True)
     assert r1.u_top > 0.01
     seq._assert_bitwise(r1, r2, rl)
     off = pcf.simulate(COL, np.zeros(2), 0.01, early_exit=False, tail_s=0.1, sleep=False).final_state
-    assert r1.final_state.values.size == off.values.size + 51 * COL.n_blocks
+    assert r1.final_state.values.size == off.values.size + 53 * COL.n_blocks
     with pytest.raises(ParameterError, match="the state belongs to another solver"):   # the other setting: refused
         pcf.simulate(COL, np.zeros(2), 0.01, initial_state=off, sleep=True)
 
@@ -129,3 +129,15 @@ def test_slip_wakes_the_joint_at_the_coulomb_threshold():
         assert res.history.t[i] / T / mu == pytest.approx(1.0, abs=0.02)
     assert onset[0] == onset[1]
     assert final[1] == pytest.approx(final[0], rel=1e-9) and final[1] != final[0]
+
+
+def test_a_history_does_not_change_a_sleeping_run():
+    """Joints try to fall asleep at the run's ledger steps only (every 4th), never at the history's
+    samples or the run's last step: a run with a history (at an odd interval) is bitwise the run
+    without one, and a continued run is the long run (test above)."""
+    acc = tb._sine(0.25, 2.0, 3.0)
+    a = pcf.simulate(COL, acc, tb.DT, sleep=True)
+    b = pcf.simulate(COL, acc, tb.DT, sleep=True, history=True, history_dt=0.0037)
+    # (the energy error is the balance's worst over the steps it is evaluated at: history samples too)
+    assert (a.u_top, a.u_d, a.n_steps, a.max_top_disp) == (b.u_top, b.u_d, b.n_steps, b.max_top_disp)
+    np.testing.assert_array_equal(a.residual_dislocation, b.residual_dislocation)
