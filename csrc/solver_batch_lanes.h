@@ -54,7 +54,7 @@ typedef struct {
      * the point is tested against, kept with the hint (loads instead of gathers) */
     double *he[6];
     const cf_face **pface;          /* np: that face */
-    double *sleep;                  /* nj x CF_BW x CF_SLEEP_ND: each lane's sleep state of each joint */
+    double *sleep;                  /* nj x CF_SLEEP_ND x CF_BW: each lane's sleep state of each joint, lane innermost */
     cf_run r[CF_BW];
     cf_solver view[CF_BW];
     int job[CF_BW];                 /* -1: idle */
@@ -95,7 +95,7 @@ static void CF_BN(lane_reset)(const cf_solver *s, CF_BN(batch) *B, int l)
         B->pen0[k * CF_BW + l] = 0; B->hint[k * CF_BW + l] = 0;
         CF_BN(hint_edges)(B, k, l);
     }
-    for (k = 0; k < s->nj; k++) memset(B->sleep + ((size_t)k * CF_BW + l) * CF_SLEEP_ND, 0, sizeof(double) * CF_SLEEP_ND);
+    for (k = 0; k < s->nj * CF_SLEEP_ND; k++) B->sleep[(size_t)k * CF_BW + l] = 0.0;
 }
 
 /* The lane's view for the monitor: positions and rotations of every body (all) or of the
@@ -144,28 +144,60 @@ static void CF_BN(lane_fill)(const cf_solver *s, CF_BN(batch) *B, int l, int *ne
     }
 }
 
-/* The sleeping joint j in the lanes (solver_sleep.h, as solver_points.c's joint_sleeping, lane by lane):
- * the lanes of running runs whose joint sleeps take its linear law (their sums into sm, vs, fn; mask
- * returned), those whose joint wakes get their points' shear from the linear map. */
+/* |x| per lane: the sign bit cleared (fabs's bits) */
+static inline VD CF_BN(sleep_abs)(VD x)
+{
+    return (VD)((VM)x & ~(VM)CF_BN(splat)(-0.0));
+}
+
+/* The sleeping joint j in the lanes (solver_sleep.h, as solver_points.c's joint_sleeping): the linear law
+ * of CF_SLEEP_SIDE on whole lane vectors (every lane the single run's operations); returns the running
+ * lanes whose joint stays asleep (their sums in sm, vs, fn, their U advanced); those whose joint wakes
+ * get their points' shear from the linear map. */
 static VM CF_BN(sleeping)(const cf_solver *s, CF_BN(batch) *B, const cf_joint_chunk *C, int j, const int *has,
-                          double (*sm)[2][6], double *vs, double *fn, int need)
+                          VD (*sm)[6], VD *vs, VD *fn, int need)
 {
     const cf_points *pts = (const cf_points *)s->contact;
     const cf_points_joint *PJ = &pts->jt[j];
-    VM slm = (VM)(VD){0};
-    int l, side;
-    for (l = 0; l < CF_BW; l++) {
-        double *sl = B->sleep + ((size_t)j * CF_BW + l) * CF_SLEEP_ND;
-        cf_face_pass P[2];
-        if (B->job[l] < 0 || sl[0] == 0.0) continue;
-        for (side = 0; side < 2; side++) {
-            cf_face_pass_set(pts, &s->jt[j], side, &P[side]);
-            cf_face_pass_lane(C, side, l, &P[side]);
-        }
-        if (cf_sleep_joint(sl, PJ->sq, PJ->sqs, PJ->srho, &s->jt[j], P, has, sm[l], &vs[l], &fn[l], need)) slm[l] = -1;
-        else cf_sleep_wake(pts, PJ, sl, B->fsx + l, B->fsy + l, CF_BW);
+    const cf_joint *J = &s->jt[j];
+    const VD zero = {0};
+    double *base = B->sleep + (size_t)j * CF_SLEEP_ND * CF_BW;
+    VD u[2][6];
+    VM asl = CF_BN(ld)(base) != 0.0, stay;
+    int l, side, i;
+    *vs = zero; *fn = zero;
+    for (side = 0; side < 2; side++)
+        for (i = 0; i < 6; i++) sm[side][i] = zero;
+    for (l = 0; l < CF_BW; l++)
+        if (B->job[l] < 0) asl[l] = 0;
+    if (!CF_BW_BITS(asl)) return asl;
+    stay = asl;
+    for (side = 0; side < 2; side++) {
+        VD sd[CF_SL_SIDE], g[9];
+        VM ok;
+        const double sgn = side == 0 ? -1.0 : 1.0;
+        if (!has[side]) continue;
+        for (i = 0; i < CF_SL_SIDE; i++) sd[i] = CF_BN(ld)(base + (size_t)(CF_SL_S0 + side * CF_SL_SIDE + i) * CF_BW);
+        /* cf_sleep_g of cf_face_pass_lane's map: side 0 in the lower face's frame (M0), side 1 in the upper's (M0^T) */
+        g[0] = CF_BN(ld)(C->M0[0]); g[1] = CF_BN(ld)(C->M0[side == 0 ? 1 : 3]);
+        g[3] = CF_BN(ld)(C->M0[side == 0 ? 3 : 1]); g[4] = CF_BN(ld)(C->M0[4]);
+        g[6] = CF_BN(ld)(C->M0[side == 0 ? 6 : 2]); g[7] = CF_BN(ld)(C->M0[side == 0 ? 7 : 5]);
+        for (i = 0; i < 3; i++) g[3 * i + 2] = CF_BN(ld)(C->mz[side][i]) + CF_BN(ld)(C->t[side][i]);
+        CF_SLEEP_SIDE(VD, zero, CF_BN(sleep_abs), sd, PJ->sq[side], PJ->sqs[side], PJ->srho[side], J->kn, J->ks, J->mu,
+                      sgn, g, CF_BN(ld)(C->A[side][0]), CF_BN(ld)(C->A[side][1]), CF_BN(ld)(C->W[side][0]),
+                      CF_BN(ld)(C->W[side][1]), CF_BN(ld)(C->W[side][2]), u[side], sm[side], *vs, *fn, need, ok);
+        stay = stay & ok;
     }
-    return slm;
+    for (side = 0; side < 2; side++) {
+        if (!has[side]) continue;
+        for (i = 0; i < 6; i++) {
+            double *p = base + (size_t)(CF_SL_S0 + side * CF_SL_SIDE + CF_SL_UX + i) * CF_BW;
+            CF_BN(st)(p, CF_BW_SEL(stay, u[side][i], CF_BN(ld)(p)));
+        }
+    }
+    for (l = 0; l < CF_BW; l++)
+        if (asl[l] && !stay[l]) cf_sleep_wake(pts, PJ, base + l, CF_BW, B->fsx + l, B->fsy + l, CF_BW);
+    return stay;
 }
 
 /* After the full law's step of joint j: the running lanes in try (a bit per lane: their ledger steps)
@@ -176,15 +208,15 @@ static void CF_BN(try_sleep)(const cf_solver *s, CF_BN(batch) *B, const cf_joint
     const cf_points *pts = (const cf_points *)s->contact;
     int l, side;
     for (l = 0; l < CF_BW; l++) {
-        double *sl = B->sleep + ((size_t)j * CF_BW + l) * CF_SLEEP_ND;
+        double *sl = B->sleep + (size_t)j * CF_SLEEP_ND * CF_BW + l;
         cf_face_pass P[2];
         if (!(try & (1 << l)) || B->job[l] < 0 || sl[0] != 0.0) continue;
         for (side = 0; side < 2; side++) {
             cf_face_pass_set(pts, &s->jt[j], side, &P[side]);
             cf_face_pass_lane(C, side, l, &P[side]);
         }
-        cf_sleep_try(pts, &pts->jt[j], &s->jt[j], P, has, pts->sleep_margin, sl, B->fsx + l, B->fsy + l, B->pst + l,
-                     CF_BW);
+        cf_sleep_try(pts, &pts->jt[j], &s->jt[j], P, has, pts->sleep_margin, sl, CF_BW, B->fsx + l, B->fsy + l,
+                     B->pst + l, CF_BW);
     }
 }
 
@@ -208,7 +240,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
         VD s6 = zero, s7 = zero, dslip = zero, dswitch = zero;
         /* sleeping joints (solver_sleep.h): their lanes' sums, and the lanes that sleep (slm); the points
          * are skipped when every running lane sleeps (idle lanes then get zero forces) */
-        double slsm[CF_BW][2][6], slvs[CF_BW], slfn[CF_BW];
+        VD slsm[2][6], slvs, slfn;
         VM slm = (VM)zero;
         for (i = 0; i < 9; i++) { CF_BN(st)(C->RL[i], b->R[9 * bl + i]); CF_BN(st)(C->RU[i], b->R[9 * bu + i]); }
         for (i = 0; i < 3; i++) {
@@ -224,7 +256,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
         if (pts->sleep) {
             int idle = 0;
             for (l = 0; l < CF_BW; l++) idle |= B->job[l] < 0 ? 1 << l : 0;
-            slm = CF_BN(sleeping)(s, B, C, j, has, slsm, slvs, slfn, need);
+            slm = CF_BN(sleeping)(s, B, C, j, has, slsm, &slvs, &slfn, need);
             skip = (CF_BW_BITS(slm) | idle) == (1 << CF_BW) - 1;
         }
         for (side = 0; side < 2; side++) {
@@ -353,12 +385,9 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
             CF_BN(st)(C->sm[side][3], s3); CF_BN(st)(C->sm[side][4], s4); CF_BN(st)(C->sm[side][5], s5);
         }
         if (CF_BW_BITS(slm)) {
-            for (l = 0; l < CF_BW; l++) {
-                if (!slm[l]) continue;
-                for (side = 0; side < 2; side++)
-                    for (i = 0; i < 6; i++) C->sm[side][i][l] = slsm[l][side][i];
-                s6[l] = slvs[l]; s7[l] = slfn[l];
-            }
+            for (side = 0; side < 2; side++)
+                for (i = 0; i < 6; i++) CF_BN(st)(C->sm[side][i], CF_BW_SEL(slm, slsm[side][i], CF_BN(ld)(C->sm[side][i])));
+            s6 = CF_BW_SEL(slm, slvs, s6); s7 = CF_BW_SEL(slm, slfn, s7);
         }
         if (need) {
             *e_vs = *e_vs + s6;

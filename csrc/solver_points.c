@@ -277,7 +277,7 @@ static int joint_sleeping(cf_solver *s, cf_points *pts, int j, cf_joint_chunk *C
     int has[2], side, i;
     joint_passes(pts, J, PJ, C, l, P, has);
     if (!cf_sleep_joint(sl, PJ->sq, PJ->sqs, PJ->srho, J, P, has, sm, &vs, &fn, e->need)) {
-        cf_sleep_wake(pts, PJ, sl, pts->fsx, pts->fsy, 1);
+        cf_sleep_wake(pts, PJ, sl, 1, pts->fsx, pts->fsy, 1);
         return 0;
     }
     for (side = 0; side < 2; side++) {
@@ -327,7 +327,7 @@ static void joint_points(cf_solver *s, cf_points *pts, int j, cf_joint_chunk *C,
         cf_face_pass P[2];
         int has[2];
         joint_passes(pts, J, PJ, C, l, P, has);
-        cf_sleep_try(pts, PJ, J, P, has, pts->sleep_margin, sl, pts->fsx, pts->fsy, pts->state, 1);
+        cf_sleep_try(pts, PJ, J, P, has, pts->sleep_margin, sl, 1, pts->fsx, pts->fsy, pts->state, 1);
     }
 }
 

@@ -65,17 +65,13 @@ static inline void cf_sleep_g(const cf_face_pass *P, double *g)
     g[6] = P->M[6]; g[7] = P->M[7]; g[8] = P->mz[2] + P->t[2];
 }
 
-/* a^T Q b, Q symmetric 3 x 3 stored as (00, 01, 02, 11, 12, 22) */
-static inline double cf_sleep_qf(const double *q, const double *a, const double *b)
-{
-    return a[0] * (q[0] * b[0] + q[1] * b[1] + q[2] * b[2]) + a[1] * (q[1] * b[0] + q[3] * b[1] + q[4] * b[2])
-           + a[2] * (q[2] * b[0] + q[4] * b[1] + q[5] * b[2]);
-}
-
-static inline double cf_sleep_dot(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
+/* a^T Q b (Q symmetric 3 x 3 stored as (00, 01, 02, 11, 12, 22), doubles) and a . b, for a and b of any
+ * lane type: one text for the single run and the batch's lanes */
+#define CF_SLEEP_QF(q, a, b)                                                                         \
+    ((a)[0] * ((q)[0] * (b)[0] + (q)[1] * (b)[1] + (q)[2] * (b)[2])                                  \
+     + (a)[1] * ((q)[1] * (b)[0] + (q)[3] * (b)[1] + (q)[4] * (b)[2])                                \
+     + (a)[2] * ((q)[2] * (b)[0] + (q)[4] * (b)[1] + (q)[5] * (b)[2]))
+#define CF_SLEEP_DOT(a, b) ((a)[0] * (b)[0] + (a)[1] * (b)[1] + (a)[2] * (b)[2])
 
 /* The fixed moments of side `side` of joint PJ's points: Q, Qs (6 each) and rho. */
 static inline void cf_sleep_moments(const cf_points *pts, const cf_points_joint *PJ, int side, double *q, double *qs,
@@ -95,42 +91,57 @@ static inline void cf_sleep_moments(const cf_points *pts, const cf_points_joint 
     }
 }
 
-/* One side of a sleeping joint at this step: the accumulated U advanced by the step's field into
- * u (6: Ux, Uy); 0 when a bound is out of its budget (the joint wakes), else 1 with the side's sums
- * sm[0..5] (force, moment: face frame) and, where need, its spring energy and normal force added
- * to *vs and *fn. sd: the side's sleep state; q, qs, rho: its moments (cf_sleep_moments). */
-static inline int cf_sleep_side(const double *sd, const double *q, const double *qs, double rho, double kn, double ks,
-                                const cf_face_pass *P, double *u, double *sm, double *vs, double *fn, int need)
+/* One side of a sleeping joint at this step, on any lane type T (double, or a lane vector: ZERO its
+ * zero, ABS its absolute value): the accumulated U advanced by the step's field into u (6: Ux, Uy); ok
+ * (an int, or a lane mask) where every bound is within its budget (else the joint wakes); the side's
+ * sums sm[0..5] (force, moment: face frame) and, where need, its spring energy and normal force added
+ * to vs and fn. sd: the side's sleep state (CF_SL_SIDE values of T); q, qs, rho: its moments
+ * (cf_sleep_moments); g: its frame map (cf_sleep_g); A0 ... W2: the step's field. */
+#define CF_SLEEP_SIDE(T, ZERO, ABS, sd, q, qs, rho, kn, ks, mu, sgn, g, A0, A1, W0, W1, W2, u, sm, vs, fn, need, ok) \
+    do {                                                                                                         \
+        T dg_[9], D_, T_, U_, fz_;                                                                               \
+        const T *gx_ = (g), *gy_ = (g) + 3, *gz_ = (g) + 6, *Fx_ = (sd) + CF_SL_FX, *Fy_ = (sd) + CF_SL_FY;      \
+        T *ux_ = (u), *uy_ = (u) + 3;                                                                            \
+        int i_;                                                                                                  \
+        for (i_ = 0; i_ < 3; i_++) {                                                                             \
+            ux_[i_] = (sd)[CF_SL_UX + i_] + ((W1) * gz_[i_] - (W2) * gy_[i_] + (i_ == 2 ? (A0) : (ZERO)));      \
+            uy_[i_] = (sd)[CF_SL_UY + i_] + ((W2) * gx_[i_] - (W0) * gz_[i_] + (i_ == 2 ? (A1) : (ZERO)));      \
+        }                                                                                                        \
+        for (i_ = 0; i_ < 9; i_++) dg_[i_] = (g)[i_] - (sd)[CF_SL_GS + i_];                                     \
+        D_ = (rho) * (ABS(dg_[6]) + ABS(dg_[7])) + ABS(dg_[8]);                                                  \
+        T_ = (rho) * (ABS(dg_[0]) + ABS(dg_[1]) + ABS(dg_[3]) + ABS(dg_[4])) + ABS(dg_[2]) + ABS(dg_[5]);       \
+        U_ = (rho) * (ABS(ux_[0]) + ABS(ux_[1]) + ABS(uy_[0]) + ABS(uy_[1])) + ABS(ux_[2]) + ABS(uy_[2]);       \
+        (ok) = (D_ <= (sd)[CF_SL_BN]) & ((ks) * U_ + (mu) * (kn) * D_ <= (sd)[CF_SL_BT]) & (T_ <= (sd)[CF_SL_BI]); \
+        /* sum fn_k, sum fs_k, and the moments sum (Y fn - Z fy, Z fx - X fn, X fy - Y fx) */                  \
+        fz_ = (sgn) * ((q)[2] * gz_[0] + (q)[4] * gz_[1] + (q)[5] * gz_[2]);                                   \
+        (sm)[0] = Fx_[2] - ((qs)[2] * ux_[0] + (qs)[4] * ux_[1] + (qs)[5] * ux_[2]);                           \
+        (sm)[1] = Fy_[2] - ((qs)[2] * uy_[0] + (qs)[4] * uy_[1] + (qs)[5] * uy_[2]);                           \
+        (sm)[2] = fz_;                                                                                           \
+        (sm)[3] = (sgn) * CF_SLEEP_QF(q, gy_, gz_) - (CF_SLEEP_DOT(gz_, Fy_) - CF_SLEEP_QF(qs, gz_, uy_));       \
+        (sm)[4] = (CF_SLEEP_DOT(gz_, Fx_) - CF_SLEEP_QF(qs, gz_, ux_)) - (sgn) * CF_SLEEP_QF(q, gx_, gz_);       \
+        (sm)[5] = (CF_SLEEP_DOT(gx_, Fy_) - CF_SLEEP_QF(qs, gx_, uy_))                                           \
+                  - (CF_SLEEP_DOT(gy_, Fx_) - CF_SLEEP_QF(qs, gy_, ux_));                                        \
+        if (need) {                                                                                              \
+            /* sum kn w pen^2 / 2 + |fs|^2 / (2 ks w) */                                                         \
+            (vs) = (vs) + (0.5 * CF_SLEEP_QF(q, gz_, gz_) + (sd)[CF_SL_E0]                                       \
+                           - (CF_SLEEP_DOT(Fx_, ux_) + CF_SLEEP_DOT(Fy_, uy_))                                   \
+                           + 0.5 * (CF_SLEEP_QF(qs, ux_, ux_) + CF_SLEEP_QF(qs, uy_, uy_)));                     \
+            (fn) = (fn) + fz_;                                                                                   \
+        }                                                                                                        \
+    } while (0)
+
+/* CF_SLEEP_SIDE on one joint of one run (the state sd of that joint's side, stride sls apart) */
+static inline int cf_sleep_side(const double *sds, int sls, const double *q, const double *qs, double rho,
+                                const cf_joint *J, const cf_face_pass *P, double *u, double *sm, double *vs,
+                                double *fn, int need)
 {
-    double g[9], dg[9], D, T, U, fz, *ux = u, *uy = u + 3;
-    const double *gx = g, *gy = g + 3, *gz = g + 6, *Fx = sd + CF_SL_FX, *Fy = sd + CF_SL_FY;
-    const double mu = P->mu, sgn = P->sgn, A0 = P->A[0], A1 = P->A[1], W0 = P->W[0], W1 = P->W[1], W2 = P->W[2];
-    int i;
+    double g[9], sd[CF_SL_SIDE];
+    int i, ok;
+    for (i = 0; i < CF_SL_SIDE; i++) sd[i] = sds[(size_t)i * (size_t)sls];
     cf_sleep_g(P, g);
-    for (i = 0; i < 3; i++) {
-        ux[i] = sd[CF_SL_UX + i] + (W1 * gz[i] - W2 * gy[i] + (i == 2 ? A0 : 0.0));
-        uy[i] = sd[CF_SL_UY + i] + (W2 * gx[i] - W0 * gz[i] + (i == 2 ? A1 : 0.0));
-    }
-    for (i = 0; i < 9; i++) dg[i] = g[i] - sd[CF_SL_GS + i];
-    D = rho * (fabs(dg[6]) + fabs(dg[7])) + fabs(dg[8]);
-    T = rho * (fabs(dg[0]) + fabs(dg[1]) + fabs(dg[3]) + fabs(dg[4])) + fabs(dg[2]) + fabs(dg[5]);
-    U = rho * (fabs(ux[0]) + fabs(ux[1]) + fabs(uy[0]) + fabs(uy[1])) + fabs(ux[2]) + fabs(uy[2]);
-    if (!(D <= sd[CF_SL_BN]) || !(ks * U + mu * kn * D <= sd[CF_SL_BT]) || !(T <= sd[CF_SL_BI])) return 0;
-    /* sum fn_k, sum fs_k, and the moments sum (Y fn - Z fy, Z fx - X fn, X fy - Y fx) */
-    fz = sgn * (q[2] * gz[0] + q[4] * gz[1] + q[5] * gz[2]);
-    sm[0] = Fx[2] - (qs[2] * ux[0] + qs[4] * ux[1] + qs[5] * ux[2]);
-    sm[1] = Fy[2] - (qs[2] * uy[0] + qs[4] * uy[1] + qs[5] * uy[2]);
-    sm[2] = fz;
-    sm[3] = sgn * cf_sleep_qf(q, gy, gz) - (cf_sleep_dot(gz, Fy) - cf_sleep_qf(qs, gz, uy));
-    sm[4] = (cf_sleep_dot(gz, Fx) - cf_sleep_qf(qs, gz, ux)) - sgn * cf_sleep_qf(q, gx, gz);
-    sm[5] = (cf_sleep_dot(gx, Fy) - cf_sleep_qf(qs, gx, uy)) - (cf_sleep_dot(gy, Fx) - cf_sleep_qf(qs, gy, ux));
-    if (need) {
-        /* sum kn w pen^2 / 2 + |fs|^2 / (2 ks w) */
-        *vs += 0.5 * cf_sleep_qf(q, gz, gz) + sd[CF_SL_E0] - (cf_sleep_dot(Fx, ux) + cf_sleep_dot(Fy, uy))
-               + 0.5 * (cf_sleep_qf(qs, ux, ux) + cf_sleep_qf(qs, uy, uy));
-        *fn += fz;
-    }
-    return 1;
+    CF_SLEEP_SIDE(double, 0.0, fabs, sd, q, qs, rho, J->kn, J->ks, P->mu, P->sgn, g, P->A[0], P->A[1], P->W[0],
+                  P->W[1], P->W[2], u, sm, *vs, *fn, need, ok);
+    return ok;
 }
 
 /* A sleeping joint's step: both sides (P[side], has[side]: the side has points; q, qs, rho per
@@ -145,7 +156,7 @@ static inline int cf_sleep_joint(double *sl, const double (*q)[6], const double 
     *vs = 0.0; *fn = 0.0;
     for (side = 0; side < 2; side++) {
         for (i = 0; i < 6; i++) sm[side][i] = 0.0;
-        if (has[side] && !cf_sleep_side(sl + CF_SL_S0 + side * CF_SL_SIDE, q[side], qs[side], rho[side], J->kn, J->ks,
+        if (has[side] && !cf_sleep_side(sl + CF_SL_S0 + side * CF_SL_SIDE, 1, q[side], qs[side], rho[side], J,
                                         &P[side], u[side], sm[side], vs, fn, need))
             return 0;
     }
@@ -157,12 +168,15 @@ static inline int cf_sleep_joint(double *sl, const double (*q)[6], const double 
 
 /* Wake the joint of points [p0, p0 + np) (the first n0 on side 0): every point's stored shear
  * from the linear map (its state is stride apart: the batch's lanes), the flag cleared. */
-static inline void cf_sleep_wake(const cf_points *pts, const cf_points_joint *PJ, double *sl, double *fsx,
+static inline void cf_sleep_wake(const cf_points *pts, const cf_points_joint *PJ, double *sl, int sls, double *fsx,
                                  double *fsy, int stride)
 {
-    int k;
+    int k, i, side;
+    double u[2][6];
+    for (side = 0; side < 2; side++)
+        for (i = 0; i < 6; i++) u[side][i] = sl[(size_t)(CF_SL_S0 + side * CF_SL_SIDE + CF_SL_UX + i) * (size_t)sls];
     for (k = PJ->p0; k < PJ->p0 + PJ->np; k++) {
-        const double *sd = sl + CF_SL_S0 + (k < PJ->p0 + PJ->n0 ? 0 : CF_SL_SIDE), *ux = sd + CF_SL_UX, *uy = sd + CF_SL_UY;
+        const double *ux = u[k < PJ->p0 + PJ->n0 ? 0 : 1], *uy = ux + 3;
         const double lx = pts->lx[k], ly = pts->ly[k], ksw = pts->ksw[k];
         size_t o = (size_t)k * (size_t)stride;
         fsx[o] = fsx[o] - ksw * (ux[0] * lx + ux[1] * ly + ux[2]);
@@ -175,14 +189,14 @@ static inline void cf_sleep_wake(const cf_points *pts, const cf_points_joint *PJ
  * stride apart; P[side]: the step's passes, has[side]: the side has points; m: sleep_margin).
  * Returns 1 (asleep, its sleep state in sl) when every point sticks with the margin, else 0. */
 static inline int cf_sleep_try_points(const cf_points *pts, const cf_points_joint *PJ, const cf_joint *J,
-                                      const cf_face_pass *P, const int *has, double m, double *sl, const double *fsx,
-                                      const double *fsy, const double *pst, int stride)
+                                      const cf_face_pass *P, const int *has, double m, double *sl, int sls,
+                                      const double *fsx, const double *fsy, const double *pst, int stride)
 {
     int side, k, i;
     for (side = 0; side < 2; side++) {
         int k0 = side == 0 ? PJ->p0 : PJ->p0 + PJ->n0, k1 = side == 0 ? PJ->p0 + PJ->n0 : PJ->p0 + PJ->np;
         const cf_face_pass *Q = &P[side];
-        double *sd = sl + CF_SL_S0 + side * CF_SL_SIDE, g[9], pmin = INFINITY, pmx = 0.0, smin = INFINITY, imin = INFINITY;
+        double sd[CF_SL_SIDE], g[9], pmin = INFINITY, pmx = 0.0, smin = INFINITY, imin = INFINITY;
         const double apo = Q->ff->apo, floor = CF_SLEEP_PEN_FLOOR * Q->ff->rc;
         if (!has[side]) continue;
         cf_sleep_g(Q, g);
@@ -222,6 +236,7 @@ static inline int cf_sleep_try_points(const cf_points *pts, const cf_points_join
         sd[CF_SL_BN] = m * (pmin < Q->pmax - pmx ? pmin : Q->pmax - pmx);
         sd[CF_SL_BT] = m * smin;
         sd[CF_SL_BI] = m * imin;
+        for (i = 0; i < CF_SL_SIDE; i++) sl[(size_t)(CF_SL_S0 + side * CF_SL_SIDE + i) * (size_t)sls] = sd[i];
     }
     sl[0] = 1.0;
     return 1;
@@ -231,19 +246,20 @@ static inline int cf_sleep_try_points(const cf_points *pts, const cf_points_join
  * 7, then 15 of its next tries (a joint of a strongly moving run is not checked point by point every
  * fourth step), a success clears it. */
 static inline int cf_sleep_try(const cf_points *pts, const cf_points_joint *PJ, const cf_joint *J,
-                               const cf_face_pass *P, const int *has, double m, double *sl, const double *fsx,
-                               const double *fsy, const double *pst, int stride)
+                               const cf_face_pass *P, const int *has, double m, double *sl, int sls,
+                               const double *fsx, const double *fsy, const double *pst, int stride)
 {
-    if (sl[1] > 0.0) {
-        sl[1] -= 1.0;
+    double *wait = sl + sls, *level = sl + 2 * sls;
+    if (*wait > 0.0) {
+        *wait -= 1.0;
         return 0;
     }
-    if (cf_sleep_try_points(pts, PJ, J, P, has, m, sl, fsx, fsy, pst, stride)) {
-        sl[2] = 0.0;
+    if (cf_sleep_try_points(pts, PJ, J, P, has, m, sl, sls, fsx, fsy, pst, stride)) {
+        *level = 0.0;
         return 1;
     }
-    sl[2] = 2.0 * sl[2] + 1.0 > CF_SLEEP_BACKOFF_MAX ? CF_SLEEP_BACKOFF_MAX : 2.0 * sl[2] + 1.0;
-    sl[1] = sl[2];
+    *level = 2.0 * *level + 1.0 > CF_SLEEP_BACKOFF_MAX ? CF_SLEEP_BACKOFF_MAX : 2.0 * *level + 1.0;
+    *wait = *level;
     return 0;
 }
 
