@@ -69,7 +69,7 @@ int main(int argc, char **argv)
     unsigned long long h = 1469598103934665603ULL;
     double c0, c1;
     FILE *f;
-    if (argc < 3) { fprintf(stderr, "usage: %s FILE single|batch=W [perimeterN|exact|planar|mono]...\n", argv[0]); return 2; }
+    if (argc < 3) { fprintf(stderr, "usage: %s FILE single|batch=W [perimeterN|exact|planar|mono|sleep]...\n", argv[0]); return 2; }
     if (!strncmp(argv[2], "batch=", 6)) width = atoi(argv[2] + 6);
     else if (strcmp(argv[2], "single")) { fprintf(stderr, "unknown mode %s\n", argv[2]); return 2; }
 #ifdef NO_BATCH
@@ -100,6 +100,7 @@ int main(int argc, char **argv)
         } else if (!strcmp(argv[i], "exact")) def.contact = CF_SOLVER_CONTACT_EXACT;
         else if (!strcmp(argv[i], "planar")) def.planar = 1;
         else if (!strcmp(argv[i], "mono")) def.monolithic = 1;
+        else if (!strcmp(argv[i], "sleep")) cf_solver_options_set(&def, "sleep", 1);
         else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
     }
     s = cf_solver_create();

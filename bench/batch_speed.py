@@ -82,7 +82,7 @@ def main(argv=None):
     ap.add_argument("--define", nargs="*", default=[], metavar="MACRO",
                     help="preprocessor macros for both builds, e.g. CF_FORCE_AVX2 (an AVX2 CPU)")
     ap.add_argument("--case", nargs="*", default=[], help="solver options of bench/batch_profile.c "
-                    "(perimeterN, exact, planar, mono; default: the grid's)")
+                    "(perimeterN, exact, planar, mono, sleep; default: the grid's)")
     args = ap.parse_args(argv)
     bdir = ROOT / "build"
     bdir.mkdir(exist_ok=True)

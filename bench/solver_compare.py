@@ -29,6 +29,8 @@ CASES = [
     ("exact", ["exact"]),
     ("vertex, planar", ["vertex", "planar"]),
     ("vertex, monolithic", ["vertex", "mono"]),
+    ("vertex, sleeping", ["vertex", "sleep"]),
+    ("perimeter 2, sleeping", ["perimeter2", "sleep"]),
 ]
 
 

@@ -16,7 +16,7 @@
  * (bench/solver_compare.py builds it against this tree and a baseline tree and times both
  * alternately in one run.)
  * Run:
- *   build/solver_profile [vertex|perimeter1|perimeter2|exact] [planar] [mono] [dtf=0.8] [repeat=7] [setup]
+ *   build/solver_profile [vertex|perimeter1|perimeter2|exact] [planar] [mono] [dtf=0.8] [repeat=7] [setup] [sleep]
  *   perf record -g build/solver_profile vertex repeat=20 && perf report
  * "setup" times cf_solver_setup alone (geometry, sub-contacts, stability limit).
  */
@@ -84,6 +84,7 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[a], "planar")) def.planar = 1;
         else if (!strcmp(argv[a], "mono")) def.monolithic = 1;
         else if (!strcmp(argv[a], "setup")) setup_only = 1;
+        else if (!strcmp(argv[a], "sleep")) cf_solver_options_set(&def, "sleep", 1);
         else if (!strncmp(argv[a], "dtf=", 4)) def.dt_factor = atof(argv[a] + 4);
         else if (!strncmp(argv[a], "repeat=", 7)) repeat = atoi(argv[a] + 7);
         else { fprintf(stderr, "unknown argument %s\n", argv[a]); return 2; }

@@ -19,6 +19,7 @@
 #include "solver_batch.h"
 #include "solver_internal.h"
 #include "solver_points_internal.h"
+#include "solver_sleep.h"
 
 /* A job's history buffers (NULL / capacity 0: none) as the solver (or a lane's view) writes them */
 static void batch_job_history(cf_solver *v, const cf_solver_batch_job *jb)

@@ -54,6 +54,7 @@ typedef struct {
      * the point is tested against, kept with the hint (loads instead of gathers) */
     double *he[6];
     const cf_face **pface;          /* np: that face */
+    double *sleep;                  /* nj x CF_SLEEP_ND x CF_BW: each lane's sleep state of each joint, lane innermost */
     cf_run r[CF_BW];
     cf_solver view[CF_BW];
     int job[CF_BW];                 /* -1: idle */
@@ -94,6 +95,7 @@ static void CF_BN(lane_reset)(const cf_solver *s, CF_BN(batch) *B, int l)
         B->pen0[k * CF_BW + l] = 0; B->hint[k * CF_BW + l] = 0;
         CF_BN(hint_edges)(B, k, l);
     }
+    for (k = 0; k < s->nj * CF_SLEEP_ND; k++) B->sleep[(size_t)k * CF_BW + l] = 0.0;
 }
 
 /* The lane's view for the monitor: positions and rotations of every body (all) or of the
@@ -142,12 +144,88 @@ static void CF_BN(lane_fill)(const cf_solver *s, CF_BN(batch) *B, int l, int *ne
     }
 }
 
+/* |x| per lane: the sign bit cleared (fabs's bits) */
+static inline VD CF_BN(sleep_abs)(VD x)
+{
+    return (VD)((VM)x & ~(VM)CF_BN(splat)(-0.0));
+}
+
+/* The sleeping joint j in the lanes (solver_sleep.h, as solver_points.c's joint_sleeping): the linear law
+ * of CF_SLEEP_SIDE on whole lane vectors (every lane the single run's operations); returns the running
+ * lanes whose joint stays asleep (their sums in sm, vs, fn, their U advanced); those whose joint wakes
+ * get their points' shear from the linear map. */
+static VM CF_BN(sleeping)(const cf_solver *s, CF_BN(batch) *B, const cf_joint_chunk *C, int j, const int *has,
+                          VD (*sm)[6], VD *vs, VD *fn, int need)
+{
+    const cf_points *pts = (const cf_points *)s->contact;
+    const cf_points_joint *PJ = &pts->jt[j];
+    const cf_joint *J = &s->jt[j];
+    const VD zero = {0};
+    double *base = B->sleep + (size_t)j * CF_SLEEP_ND * CF_BW;
+    VD u[2][6];
+    VM asl = CF_BN(ld)(base) != 0.0, stay;
+    int l, side, i;
+    *vs = zero; *fn = zero;
+    for (side = 0; side < 2; side++)
+        for (i = 0; i < 6; i++) sm[side][i] = zero;
+    for (l = 0; l < CF_BW; l++)
+        if (B->job[l] < 0) asl[l] = 0;
+    if (!CF_BW_BITS(asl)) return asl;
+    stay = asl;
+    for (side = 0; side < 2; side++) {
+        VD sd[CF_SL_SIDE], g[9];
+        VM ok;
+        const double sgn = side == 0 ? -1.0 : 1.0;
+        if (!has[side]) continue;
+        for (i = 0; i < CF_SL_SIDE; i++) sd[i] = CF_BN(ld)(base + (size_t)(CF_SL_S0 + side * CF_SL_SIDE + i) * CF_BW);
+        /* cf_sleep_g of cf_face_pass_lane's map: side 0 in the lower face's frame (M0), side 1 in the upper's (M0^T) */
+        g[0] = CF_BN(ld)(C->M0[0]); g[1] = CF_BN(ld)(C->M0[side == 0 ? 1 : 3]);
+        g[3] = CF_BN(ld)(C->M0[side == 0 ? 3 : 1]); g[4] = CF_BN(ld)(C->M0[4]);
+        g[6] = CF_BN(ld)(C->M0[side == 0 ? 6 : 2]); g[7] = CF_BN(ld)(C->M0[side == 0 ? 7 : 5]);
+        for (i = 0; i < 3; i++) g[3 * i + 2] = CF_BN(ld)(C->mz[side][i]) + CF_BN(ld)(C->t[side][i]);
+        CF_SLEEP_SIDE(VD, zero, CF_BN(sleep_abs), sd, PJ->sq[side], PJ->sqs[side], PJ->srho[side], J->kn, J->ks, J->mu,
+                      sgn, g, CF_BN(ld)(C->A[side][0]), CF_BN(ld)(C->A[side][1]), CF_BN(ld)(C->W[side][0]),
+                      CF_BN(ld)(C->W[side][1]), CF_BN(ld)(C->W[side][2]), u[side], sm[side], *vs, *fn, need, ok);
+        stay = stay & ok;
+    }
+    for (side = 0; side < 2; side++) {
+        if (!has[side]) continue;
+        for (i = 0; i < 6; i++) {
+            double *p = base + (size_t)(CF_SL_S0 + side * CF_SL_SIDE + CF_SL_UX + i) * CF_BW;
+            CF_BN(st)(p, CF_BW_SEL(stay, u[side][i], CF_BN(ld)(p)));
+        }
+    }
+    for (l = 0; l < CF_BW; l++)
+        if (asl[l] && !stay[l]) cf_sleep_wake(pts, PJ, base + l, CF_BW, B->fsx + l, B->fsy + l, CF_BW);
+    return stay;
+}
+
+/* After the full law's step of joint j: the running lanes in try (a bit per lane: their ledger steps)
+ * whose joint is awake try to fall asleep (as solver_points.c's joint_points). */
+static void CF_BN(try_sleep)(const cf_solver *s, CF_BN(batch) *B, const cf_joint_chunk *C, int j, const int *has,
+                             int try)
+{
+    const cf_points *pts = (const cf_points *)s->contact;
+    int l, side;
+    for (l = 0; l < CF_BW; l++) {
+        double *sl = B->sleep + (size_t)j * CF_SLEEP_ND * CF_BW + l;
+        cf_face_pass P[2];
+        if (!(try & (1 << l)) || B->job[l] < 0 || sl[0] != 0.0) continue;
+        for (side = 0; side < 2; side++) {
+            cf_face_pass_set(pts, &s->jt[j], side, &P[side]);
+            cf_face_pass_lane(C, side, l, &P[side]);
+        }
+        cf_sleep_try(pts, &pts->jt[j], &s->jt[j], P, has, pts->sleep_margin, sl, CF_BW, B->fsx + l, B->fsy + l,
+                     B->pst + l, CF_BW);
+    }
+}
+
 /* 2. contacts of every joint, in joint order, for all lanes (solver_points.c's order); the spring
  * energy and the joints' normal forces only where need (a constant: two instances) */
 static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_solver *s, CF_BN(batch) *B,
                                                                       cf_joint_chunk *C, cf_chunk_before_fn before,
                                                                       cf_chunk_after_fn after, VD *e_vs, VD *e_dslip,
-                                                                      VD *e_dswitch, const int need)
+                                                                      VD *e_dswitch, const int need, int try)
 {
     const VD zero = {0};
     const cf_points *pts = (const cf_points *)s->contact;
@@ -158,8 +236,12 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
     for (j = 0; j < s->nj; j++) {
         const cf_joint *J = &s->jt[j];
         const cf_points_joint *PJ = &pts->jt[j];
-        int bl = J->bl, bu = J->bu, side, end = PJ->p0 + PJ->np;
+        int bl = J->bl, bu = J->bu, side, end = PJ->p0 + PJ->np, has[2] = {PJ->n0 > 0, PJ->np > PJ->n0}, skip = 0;
         VD s6 = zero, s7 = zero, dslip = zero, dswitch = zero;
+        /* sleeping joints (solver_sleep.h): their lanes' sums, and the lanes that sleep (slm); the points
+         * are skipped when every running lane sleeps (idle lanes then get zero forces) */
+        VD slsm[2][6], slvs, slfn;
+        VM slm = (VM)zero;
         for (i = 0; i < 9; i++) { CF_BN(st)(C->RL[i], b->R[9 * bl + i]); CF_BN(st)(C->RU[i], b->R[9 * bu + i]); }
         for (i = 0; i < 3; i++) {
             CF_BN(st)(C->xl[i], b->x[3 * bl + i]); CF_BN(st)(C->xu[i], b->x[3 * bu + i]);
@@ -171,6 +253,12 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
         CF_BN(st)(C->lz[0], CF_BN(splat)(PJ->lz[0])); CF_BN(st)(C->lz[1], CF_BN(splat)(PJ->lz[1]));
         CF_BN(st)(C->gl, CF_BN(splat)(bl != 0 ? 1.0 : 0.0));
         before(C, CF_BW, s->dt);
+        if (pts->sleep) {
+            int idle = 0;
+            for (l = 0; l < CF_BW; l++) idle |= B->job[l] < 0 ? 1 << l : 0;
+            slm = CF_BN(sleeping)(s, B, C, j, has, slsm, &slvs, &slfn, need);
+            skip = (CF_BW_BITS(slm) | idle) == (1 << CF_BW) - 1;
+        }
         for (side = 0; side < 2; side++) {
             int k0 = side == 0 ? PJ->p0 : PJ->p0 + PJ->n0, k1 = side == 0 ? PJ->p0 + PJ->n0 : end, k, built = 0;
             cf_face_pass P, PL[CF_BW];
@@ -179,7 +267,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
             const cf_face *ff;
             double apo2, apotol;
             CF_BN(st)(C->has[side], CF_BN(splat)(k1 > k0 ? 1.0 : 0.0));
-            if (k1 <= k0) {
+            if (k1 <= k0 || skip) {
                 for (i = 0; i < 6; i++) CF_BN(st)(C->sm[side][i], zero);
                 continue;
             }
@@ -206,7 +294,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                 const double ksw = pts->ksw[k], ihkw = pts->ihkw[k];
                 int bits, fb;
                 st0 = cf_point_state_is(st, CF_POINT_OPEN);
-                open = ~pos & st0;
+                open = (~pos & st0) | slm;   /* a sleeping lane: nothing to do */
                 /* open before and now, not overlapping the plane: nothing to do */
                 if (CF_BW_BITS(open) == (1 << CF_BW) - 1) continue;
                 act = pos & ~(pen > P.pmax);
@@ -237,7 +325,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                              fsx0, fsy0, f, lim, fx, fy, m2);
                 /* in contact (from state 1, or taking contact from state 0): the law of
                  * cf_law_update, sticking or slipping; the point is in state 1 after it */
-                ok = act & in & (st0 | st1);
+                ok = act & in & (st0 | st1) & ~slm;
                 slip = ok & (m2 > CF_LAW_CAP2(CF_LAW_SMUL, lim));
                 if (CF_BW_BITS(slip)) {
                     VD sc, fxs, fys, diss;
@@ -251,7 +339,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
                 /* leaving contact from state 1 (not overlapping the plane any more): the release
                  * of cf_law_release -- its stored shear energy dissipated, the shear reset --
                  * and state 0 */
-                lift = ~pos & st1;
+                lift = ~pos & st1 & ~slm;
                 nz = (fsx0 != 0.0) | (fsy0 != 0.0);
                 dslip = dslip + CF_BN(mask)(CF_LAW_SHEAR_ENERGY(fsx0, fsy0, ihkw), lift & nz);
                 CF_BN(st)(pfsx, CF_PH_SEL(ok, fx, CF_PH_SEL(lift & nz, zero, fsx0)));
@@ -296,10 +384,16 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
             CF_BN(st)(C->sm[side][0], s0); CF_BN(st)(C->sm[side][1], s1); CF_BN(st)(C->sm[side][2], s2);
             CF_BN(st)(C->sm[side][3], s3); CF_BN(st)(C->sm[side][4], s4); CF_BN(st)(C->sm[side][5], s5);
         }
+        if (CF_BW_BITS(slm)) {
+            for (side = 0; side < 2; side++)
+                for (i = 0; i < 6; i++) CF_BN(st)(C->sm[side][i], CF_BW_SEL(slm, slsm[side][i], CF_BN(ld)(C->sm[side][i])));
+            s6 = CF_BW_SEL(slm, slvs, s6); s7 = CF_BW_SEL(slm, slfn, s7);
+        }
         if (need) {
             *e_vs = *e_vs + s6;
             B->jfn[j] = s7;
         }
+        if (pts->sleep && try) CF_BN(try_sleep)(s, B, C, j, has, try);
         *e_dslip = *e_dslip + dslip;
         *e_dswitch = *e_dswitch + dswitch;
         after(C, CF_BW);
@@ -380,10 +474,10 @@ static void CF_BN(connectors)(const cf_solver *s, CF_BN(batch) *B, cf_step_energ
 }
 
 static void CF_BN(contacts)(const cf_solver *s, CF_BN(batch) *B, cf_joint_chunk *C, cf_chunk_before_fn before,
-                            cf_chunk_after_fn after, VD *e_vs, VD *e_dslip, VD *e_dswitch, int need)
+                            cf_chunk_after_fn after, VD *e_vs, VD *e_dslip, VD *e_dswitch, int need, int try)
 {
-    if (need) CF_BN(contacts_body)(s, B, C, before, after, e_vs, e_dslip, e_dswitch, 1);
-    else CF_BN(contacts_body)(s, B, C, before, after, e_vs, e_dslip, e_dswitch, 0);
+    if (need) CF_BN(contacts_body)(s, B, C, before, after, e_vs, e_dslip, e_dswitch, 1, try);
+    else CF_BN(contacts_body)(s, B, C, before, after, e_vs, e_dslip, e_dswitch, 0, try);
 }
 
 /* Where the batch keeps its arrays, in one block: the lanes' vectors first (the block is aligned
@@ -402,6 +496,7 @@ static size_t CF_BN(layout)(CF_BN(batch) *B, unsigned char *base, int nb, int nj
     TAKE(B->b.fdamp_prev, VD, 3 * nb); TAKE(B->b.tdamp_prev, VD, 3 * nb); TAKE(B->jfn, VD, nj);
     TAKE(B->fsx, double, npw); TAKE(B->fsy, double, npw); TAKE(B->pst, double, npw); TAKE(B->pen0, double, npw);
     for (i = 0; i < 6; i++) TAKE(B->he[i], double, npw);
+    TAKE(B->sleep, double, (size_t)nj * CF_BW * CF_SLEEP_ND);
     TAKE(B->pface, const cf_face *, np);
     TAKE(B->hint, int, npw);
 #undef TAKE
@@ -505,7 +600,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
         VD ag[3], ke, vg, Wl, Dd, e_vs, e_dslip, e_dswitch;
         VM damp = (VM)zero;
         cf_step_energy e[CF_BW];
-        int end[CF_BW], need = 0;
+        int end[CF_BW], need = 0, try = 0;
         /* the caller's check (cf_solver_set_check) after every CF_SOLVER_CHECK_STEPS steps of the batch
          * (idle ones included), as cf_solver_run does */
         if (s->check && steps > 0 && steps % CF_SOLVER_CHECK_STEPS == 0 && s->check(s->check_user)) {
@@ -527,6 +622,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
                 active++;
                 cf_solver_run_pre(&B->view[l], r, &e[l], a);
                 need |= e[l].need;
+                try |= e[l].ledger ? 1 << l : 0;
                 if (s->def.damping_alpha > 0.0 && r->t >= s->def.damping_start_s) damp[l] = -1;
                 Wl[l] = r->m.W; Dd[l] = r->m.Ddamp;
             }
@@ -537,7 +633,7 @@ static int CF_BN(run)(cf_solver *s, int n_jobs, const cf_solver_batch_job *jobs,
             continue;   /* every lane waits for the next start */
         }
         CF_BN(phase_rotations)(s, &B->b);
-        CF_BN(contacts)(s, B, C, before, after, &e_vs, &e_dslip, &e_dswitch, need);
+        CF_BN(contacts)(s, B, C, before, after, &e_vs, &e_dslip, &e_dswitch, need, try);
         if (s->conn) CF_BN(connectors)(s, B, e);
         CF_BN(phase_velocities)(s, &B->b, ag, damp, &Wl, &Dd, &ke, &vg);
         for (l = 0; l < CF_BW; l++) {

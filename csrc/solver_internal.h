@@ -109,6 +109,7 @@ typedef struct {
     double dslip;    /* slip dissipation this step, J */
     double dswitch;  /* spring energy removed by points leaving/entering a face polygon, J */
     int need;        /* 1: the energy balance is evaluated at this step */
+    int ledger;      /* 1: a step of the run's CF_LEDGER_STEPS (n % CF_LEDGER_STEPS == 0): awake joints try to sleep */
     double vc;       /* connectors' stored energy, J (only when need; 0 without connectors) */
     double dconn;    /* connectors' dissipation this step, J (0 without connectors) */
 } cf_step_energy;

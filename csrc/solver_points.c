@@ -16,6 +16,7 @@
 
 #include "solver_math_internal.h"
 #include "solver_points_internal.h"
+#include "solver_sleep.h"
 
 /* The joints in lanes. The per-joint work around the points -- the frame map of the
  * upper body in the lower face's frame, the relative displacement field over the step
@@ -252,14 +253,55 @@ static void chunk_gather(const cf_solver *s, const cf_points *pts, const double 
     }
 }
 
+/* The passes of joint j's two sides from lane l of the chunk (has[side]: the side has points). */
+static void joint_passes(const cf_points *pts, const cf_joint *J, const cf_points_joint *PJ, const cf_joint_chunk *C,
+                         int l, cf_face_pass *P, int *has)
+{
+    int side;
+    for (side = 0; side < 2; side++) {
+        has[side] = side == 0 ? PJ->n0 > 0 : PJ->np > PJ->n0;
+        cf_face_pass_set(pts, J, side, &P[side]);
+        cf_face_pass_lane(C, side, l, &P[side]);
+    }
+}
+
+/* A sleeping joint j (solver_sleep.h): 1 when it stays asleep this step (its sums in lane l, its
+ * spring energy into e, its normal force into s->jfn); 0 when it wakes (every point's shear set
+ * from the linear map: the full law takes the step). */
+static int joint_sleeping(cf_solver *s, cf_points *pts, int j, cf_joint_chunk *C, int l, cf_step_energy *e, double *sl)
+{
+    const cf_joint *J = &s->jt[j];
+    const cf_points_joint *PJ = &pts->jt[j];
+    cf_face_pass P[2];
+    double sm[2][6], vs, fn;
+    int has[2], side, i;
+    joint_passes(pts, J, PJ, C, l, P, has);
+    if (!cf_sleep_joint(sl, PJ->sq, PJ->sqs, PJ->srho, J, P, has, sm, &vs, &fn, e->need)) {
+        cf_sleep_wake(pts, PJ, sl, 1, pts->fsx, pts->fsy, 1);
+        return 0;
+    }
+    for (side = 0; side < 2; side++) {
+        C->has[side][l] = has[side] ? 1.0 : 0.0;
+        for (i = 0; i < 6; i++) C->sm[side][i][l] = sm[side][i];
+    }
+    e->vs += vs;
+    s->jfn[j] = fn;
+    pts->slept++;
+    return 1;
+}
+
 /* The points of joint j, side by side, in order, through the face runner: the sums of each side
- * into lane l of the chunk, the energies into e, the joint's normal force into s->jfn. */
+ * into lane l of the chunk, the energies into e, the joint's normal force into s->jfn. With
+ * `sleep` on, a sleeping joint takes its linear law instead, and an awake one tries to fall asleep
+ * at the run's ledger steps (every CF_LEDGER_STEPS: cf_step_energy.ledger). */
 static void joint_points(cf_solver *s, cf_points *pts, int j, cf_joint_chunk *C, int l, cf_step_energy *e)
 {
     const cf_joint *J = &s->jt[j];
     const cf_points_joint *PJ = &pts->jt[j];
     int side, i, end = PJ->p0 + PJ->np;
     cf_face_sums S;
+    double *sl = pts->sleep ? pts->sleep_state + (size_t)j * CF_SLEEP_ND : NULL;
+    if (sl && sl[0] != 0.0 && joint_sleeping(s, pts, j, C, l, e, sl)) return;
     S.dslip = 0.0; S.dswitch = 0.0;
     S.sm[6] = S.sm[7] = 0.0;
     for (side = 0; side < 2; side++) {
@@ -281,6 +323,12 @@ static void joint_points(cf_solver *s, cf_points *pts, int j, cf_joint_chunk *C,
     s->jfn[j] = S.sm[7];
     e->dslip += S.dslip;
     e->dswitch += S.dswitch;
+    if (sl && e->ledger) {
+        cf_face_pass P[2];
+        int has[2];
+        joint_passes(pts, J, PJ, C, l, P, has);
+        cf_sleep_try(pts, PJ, J, P, has, pts->sleep_margin, sl, 1, pts->fsx, pts->fsy, pts->state, 1);
+    }
 }
 
 /* Apply joint j's forces from lane l of the chunk, as the single run does: force F at the face
@@ -347,7 +395,7 @@ static void points_free(void *state)
     if (!p) return;
     free(p->jt); free(p->side); free(p->hint); free(p->loc); free(p->w); free(p->ihkw);
     free(p->lx); free(p->ly); free(p->hx); free(p->hy); free(p->fast); free(p->knw); free(p->ksw);
-    free(p->fsx); free(p->fsy); free(p->state); free(p->pen0);
+    free(p->fsx); free(p->fsy); free(p->state); free(p->pen0); free(p->sleep_state);
     free(p);
 }
 
@@ -359,10 +407,12 @@ static cf_points *points_alloc(int np, int nj)
     int bad;
     if (!p) return NULL;
     p->np = np;
+    p->nj = nj;
     p->jt = (cf_points_joint *)calloc((size_t)(nj > 0 ? nj : 1), sizeof *p->jt);
     p->side = (int *)calloc(n, sizeof(int)); p->hint = (int *)calloc(n, sizeof(int));
     p->loc = (double *)calloc(3 * n, sizeof(double));
-    bad = !p->jt || !p->side || !p->hint || !p->loc;
+    p->sleep_state = (double *)calloc((size_t)(nj > 0 ? nj : 1) * CF_SLEEP_ND, sizeof(double));
+    bad = !p->jt || !p->side || !p->hint || !p->loc || !p->sleep_state;
 #define POINTS_ARRAY(a) do { p->a = (double *)calloc(n, sizeof(double)); bad |= !p->a; } while (0)
     POINTS_ARRAY(w); POINTS_ARRAY(ihkw); POINTS_ARRAY(lx); POINTS_ARRAY(ly); POINTS_ARRAY(hx); POINTS_ARRAY(hy);
     POINTS_ARRAY(fast); POINTS_ARRAY(knw); POINTS_ARRAY(ksw); POINTS_ARRAY(fsx); POINTS_ARRAY(fsy);
@@ -399,7 +449,7 @@ static void points_derived(const cf_joint *J, cf_points *p, int j)
 
 /* The state of a points model: the face points at the polygon vertices (mm = 0) or mm per edge of
  * a refined face mesh (solver_face_points.c), what the hot loop reads of each, its options. */
-static int points_create(cf_solver *s, int mm, double contact_tolerance, double reentry_depth, void **state)
+static int points_create(cf_solver *s, int mm, const double *opt, void **state)
 {
     cf_face_points fp;
     cf_points *p;
@@ -407,8 +457,10 @@ static int points_create(cf_solver *s, int mm, double contact_tolerance, double 
     if (st) return st;
     p = points_alloc(fp.np, s->nj);
     if (!p) { cf_solver_face_points_free(&fp); return cf_solver_fail(s, CF_ENOMEM, "out of memory"); }
-    p->contact_tolerance = contact_tolerance;
-    p->reentry_depth = reentry_depth;
+    p->contact_tolerance = opt[0];
+    p->reentry_depth = opt[1];
+    p->sleep = opt[2] != 0.0;
+    p->sleep_margin = opt[3];
     memcpy(p->side, fp.side, sizeof(int) * (size_t)fp.np);
     memcpy(p->loc, fp.loc, sizeof(double) * 3 * (size_t)fp.np);
     memcpy(p->w, fp.w, sizeof(double) * (size_t)fp.np);
@@ -419,6 +471,8 @@ static int points_create(cf_solver *s, int mm, double contact_tolerance, double 
         points_derived(J, p, j);
         /* every point of a face lies in that face's plane: one body-frame z per face */
         PJ->lz[0] = J->fu.c[2]; PJ->lz[1] = J->fl.c[2];
+        cf_sleep_moments(p, PJ, 0, PJ->sq[0], PJ->sqs[0], &PJ->srho[0]);
+        cf_sleep_moments(p, PJ, 1, PJ->sq[1], PJ->sqs[1], &PJ->srho[1]);
         for (k = PJ->p0; k < PJ->p0 + PJ->np; k++)
             if (p->loc[3 * k + 2] != PJ->lz[p->side[k]]) st = cf_solver_fail(s, CF_EINVAL, "internal: point off its face plane");
     }
@@ -438,7 +492,15 @@ static int points_create(cf_solver *s, int mm, double contact_tolerance, double 
      "A point that was off the face (beside it, below its plane) and comes back onto it at most this "       \
      "fraction of the face's circumradius deep takes contact with its spring compressed to that depth (the " \
      "energy it brings is booked as contact_switch); a deeper one takes contact with its spring "            \
-     "unstretched. 0: every re-entry unstretched (docs/accuracy.md, \"Two-component motion\")."}
+     "unstretched. 0: every re-entry unstretched (docs/accuracy.md, \"Two-component motion\")."},             \
+    {"sleep", CF_SOLVER_OPTION_FLAG, 0, 1, 0, 0, 0, "-",                                                    \
+     "Sleeping joints: a joint whose points all stick with the margin sleep_margin is advanced by its "     \
+     "linear law (O(1) per step) until a bound on its motion says a point could open, slip or leave the "    \
+     "face (docs/performance.md, \"Sleeping joints\"); results change by round-off only."},                  \
+    {"sleep_margin", CF_SOLVER_OPTION_REAL, 0.0, 1.0, 1, 1, 0.5, "-",                                        \
+     "Margin of the sleeping joints: a joint falls asleep when every point's shear is at most 1 - m of "    \
+     "its Coulomb cap, and wakes when its motion could use m of the points' smallest depth, slip margin "    \
+     "or distance to the face's edge."}
 static const cf_solver_option vertex_options[] = {POINTS_OPTIONS};
 static const cf_solver_option perimeter_options[] = {
     POINTS_OPTIONS,
@@ -450,12 +512,12 @@ static const cf_solver_option perimeter_options[] = {
  * edge of a refined face mesh. */
 static int vertex_create(cf_solver *s, const double *opt, void **state)
 {
-    return points_create(s, 0, opt[0], opt[1], state);
+    return points_create(s, 0, opt, state);
 }
 
 static int perimeter_create(cf_solver *s, const double *opt, void **state)
 {
-    return points_create(s, (int)opt[2], opt[0], opt[1], state);
+    return points_create(s, (int)opt[4], opt, state);
 }
 
 /* The points' state at the start of a run: no shear, open, no offset; the polygon tests'
@@ -465,6 +527,8 @@ static void points_reset(const cf_solver *s, void *state)
     cf_points *p = (cf_points *)state;
     size_t n = (size_t)p->np;
     (void)s;
+    memset(p->sleep_state, 0, sizeof(double) * (size_t)(p->nj > 0 ? p->nj : 1) * CF_SLEEP_ND);
+    p->slept = 0;
     if (n == 0) return;
     memset(p->fsx, 0, sizeof(double) * n);
     memset(p->fsy, 0, sizeof(double) * n);
@@ -474,11 +538,13 @@ static void points_reset(const cf_solver *s, void *state)
 }
 
 /* The state that carries over (solver_state.c): per point its shear spring (x, y), contact state,
- * offset and the polygon test's starting edge (an int, exact as a double). */
+ * offset and the polygon test's starting edge (an int, exact as a double); with `sleep` on, each
+ * joint's sleep state after them (solver_sleep.h). */
 static long points_state_doubles(const cf_solver *s, const void *state)
 {
+    const cf_points *p = (const cf_points *)state;
     (void)s;
-    return 5 * (long)((const cf_points *)state)->np;
+    return 5 * (long)p->np + (p->sleep ? (long)p->nj * CF_SLEEP_ND : 0);
 }
 
 static void points_state_copy(const cf_solver *s, void *state, double *buf, int to_buf)
@@ -490,10 +556,12 @@ static void points_state_copy(const cf_solver *s, void *state, double *buf, int 
         memcpy(buf, p->fsx, sz); memcpy(buf + n, p->fsy, sz); memcpy(buf + 2 * n, p->state, sz);
         memcpy(buf + 3 * n, p->pen0, sz);
         for (k = 0; k < n; k++) buf[4 * n + k] = p->hint[k];
+        if (p->sleep) memcpy(buf + 5 * n, p->sleep_state, sizeof(double) * (size_t)p->nj * CF_SLEEP_ND);
     } else {
         memcpy(p->fsx, buf, sz); memcpy(p->fsy, buf + n, sz); memcpy(p->state, buf + 2 * n, sz);
         memcpy(p->pen0, buf + 3 * n, sz);
         for (k = 0; k < n; k++) p->hint[k] = (int)buf[4 * n + k];
+        if (p->sleep) memcpy(p->sleep_state, buf + 5 * n, sizeof(double) * (size_t)p->nj * CF_SLEEP_ND);
     }
 }
 

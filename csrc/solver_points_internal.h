@@ -23,10 +23,11 @@
 typedef struct {
     int p0, np, n0;                 /* its points [p0, p0 + np), the first n0 on the upper face */
     double lz[2];                   /* body-frame z of the points of side 0 (upper face) and side 1 (lower face) */
+    double sq[2][6], sqs[2][6], srho[2];   /* per side the moments of a sleeping joint (solver_sleep.h) */
 } cf_points_joint;
 
 typedef struct {
-    int np;
+    int np, nj;
     cf_points_joint *jt;            /* one per joint */
     int *side, *hint;
     double *loc, *w, *ihkw;
@@ -34,6 +35,10 @@ typedef struct {
     double *fsx, *fsy, *state, *pen0;
     double contact_tolerance;       /* the option: overhang that still bears / the face's circumradius */
     double reentry_depth;           /* the option: deepest stretched re-entry / the face's circumradius */
+    int sleep;                      /* the option: sleeping joints (solver_sleep.h) */
+    double sleep_margin;            /* the option: their margin m */
+    double *sleep_state;            /* nj x CF_SLEEP_ND: each joint's sleep state (the single run's) */
+    long slept;                     /* joint-steps taken asleep since the run began (single run; the C tests read it) */
 } cf_points;
 
 /* The constants of one face's pass over the points that touch it: the frame map and

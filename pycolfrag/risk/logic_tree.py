@@ -57,6 +57,7 @@ NUMERICAL_SETTINGS = {
     "residual_window_s": "the window of the residual dislocation", "max_record_s": "the record's length",
     "energy_tolerance": "the energy check's tolerance", "unstable_tolerance": "the energy check's tolerance",
     "contact_tolerance": "the contact search's tolerance", "early_exit": "when a run stops",
+    "sleep": "the sleeping joints (results change by round-off only)", "sleep_margin": "the sleeping joints' margin",
     "draws": "the intervals' draws", "n_draws": "the intervals' draws", "seed": "the random streams",
 }
 

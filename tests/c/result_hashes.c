@@ -16,7 +16,8 @@
  * epistyle (cf_solver_setup_scene: their own outputs and connector histories hashed too), each
  * alone and as batches of every width the build and CPU run (the dowelled column in lanes, the
  * portal one run after the other), whose every job, outputs and connector histories included,
- * must equal its run alone.
+ * must equal its run alone. Last, with sleeping joints on (option sleep): six configurations alone
+ * and as batches, and the two scenes.
  */
 #include <math.h>
 #include <stdio.h>
@@ -44,6 +45,7 @@ typedef struct {
     int contact, ppe, planar, mono, two, damp;
     double amp_g, dtf;
     double kn;             /* joint stiffness kn = ks, Pa/m; 0 = the default 1e9 */
+    int sleep;             /* option sleep (sleeping joints) */
 } config;
 
 /* The burst of a configuration: amplitude factor f on the config's amplitude. */
@@ -74,6 +76,7 @@ static cf_solver *setup(const config *c, int early_exit)
     def.contact = c->contact; cf_solver_options_set(&def, "points_per_edge", c->ppe); def.planar = c->planar;
     def.monolithic = c->mono; def.dt_factor = c->dtf; def.early_exit = early_exit;
     def.tail_s = 2.0;
+    cf_solver_options_set(&def, "sleep", c->sleep);
     if (c->damp) { def.damping_alpha = 0.5; def.damping_start_s = 3.0; }
     st = cf_solver_setup(s, &def, NB, nseg, seg, 2700.0, kn, kn, 0.7535540501027942);
     if (st) { printf("%-14s setup failed: %s\n", c->name, cf_solver_message(s)); cf_solver_free(s); return NULL; }
@@ -233,7 +236,10 @@ typedef struct {
     cf_solver_scene sc;
 } scene_def;
 
-static const char *const SCENE_NAMES[2] = {"dowels-ti", "portal-2"};
+static const char *const SCENE_NAMES_AWAKE[2] = {"dowels-ti", "portal-2"};
+static const char *const SCENE_NAMES_SLEEP[2] = {"dowels+sleep", "portal+sleep"};
+static int scene_sleep = 0;   /* the scenes' option sleep (their lines with it come last) */
+#define SCENE_NAMES (scene_sleep ? SCENE_NAMES_SLEEP : SCENE_NAMES_AWAKE)
 
 static void scene_make(int which, scene_def *p)
 {
@@ -271,6 +277,7 @@ static cf_solver *scene_setup(int which, scene_def *p)
     scene_make(which, p);
     cf_solver_def_default(&def);
     def.early_exit = 0; def.tail_s = 2.0;
+    cf_solver_options_set(&def, "sleep", scene_sleep);
     if (cf_solver_setup_scene(s, &def, &p->sc)) {
         printf("%-14s setup failed: %s\n", SCENE_NAMES[which], cf_solver_message(s));
         cf_solver_free(s);
@@ -289,7 +296,7 @@ typedef struct {
 
 static int scene_job_make(const cf_solver *s, double f, int n, scene_job *jb, cf_solver_batch_job *bj, double **out)
 {
-    static const config c = {"scene", 0, 1, 0, 0, 1, 0, 0.4, 0.8, 0};
+    static const config c = {"scene", 0, 1, 0, 0, 1, 0, 0.4, 0.8, 0, 0};
     int nc, nb, nd, nbl, nj;
     long cap = cf_solver_history_capacity(s, n, 0.005);
     double *p;
@@ -413,21 +420,29 @@ static int scene_case(int which)
 int main(void)
 {
     static const config cs[] = {
-        {"vertex", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 0, 0, 0.25, 0.8, 0},
-        {"vertex-2c", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.25, 0.8, 0},
-        {"vertex-damp", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 0, 1, 0.25, 0.8, 0},
-        {"vertex-strong", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.6, 0.8, 0},
-        {"perimeter2", CF_SOLVER_CONTACT_PERIMETER, 2, 0, 0, 0, 0, 0.25, 0.8, 0},
-        {"perimeter3-2c", CF_SOLVER_CONTACT_PERIMETER, 3, 0, 0, 1, 0, 0.25, 0.8, 0},
-        {"exact", CF_SOLVER_CONTACT_EXACT, 1, 0, 0, 0, 0, 0.25, 0.8, 0},
-        {"exact-2c", CF_SOLVER_CONTACT_EXACT, 1, 0, 0, 1, 0, 0.4, 0.8, 0},
-        {"planar", CF_SOLVER_CONTACT_VERTEX, 1, 1, 0, 0, 0, 0.25, 0.8, 0},
-        {"mono", CF_SOLVER_CONTACT_VERTEX, 1, 0, 1, 0, 0, 0.25, 0.8, 0},
-        {"collapse", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 1.6, 0.8, 0},
-        {"vertex-dt04", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.3, 0.4, 0},
+        {"vertex", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 0, 0, 0.25, 0.8, 0, 0},
+        {"vertex-2c", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.25, 0.8, 0, 0},
+        {"vertex-damp", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 0, 1, 0.25, 0.8, 0, 0},
+        {"vertex-strong", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.6, 0.8, 0, 0},
+        {"perimeter2", CF_SOLVER_CONTACT_PERIMETER, 2, 0, 0, 0, 0, 0.25, 0.8, 0, 0},
+        {"perimeter3-2c", CF_SOLVER_CONTACT_PERIMETER, 3, 0, 0, 1, 0, 0.25, 0.8, 0, 0},
+        {"exact", CF_SOLVER_CONTACT_EXACT, 1, 0, 0, 0, 0, 0.25, 0.8, 0, 0},
+        {"exact-2c", CF_SOLVER_CONTACT_EXACT, 1, 0, 0, 1, 0, 0.4, 0.8, 0, 0},
+        {"planar", CF_SOLVER_CONTACT_VERTEX, 1, 1, 0, 0, 0, 0.25, 0.8, 0, 0},
+        {"mono", CF_SOLVER_CONTACT_VERTEX, 1, 0, 1, 0, 0, 0.25, 0.8, 0, 0},
+        {"collapse", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 1.6, 0.8, 0, 0},
+        {"vertex-dt04", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.3, 0.4, 0, 0},
         /* stiff joints: impacts last fewer steps (the hard case of docs/accuracy.md) */
-        {"stiff-2c", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.5, 0.8, 1e10},
-        {"stiff-exact", CF_SOLVER_CONTACT_EXACT, 1, 0, 0, 1, 0, 0.5, 0.8, 1e10},
+        {"stiff-2c", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.5, 0.8, 1e10, 0},
+        {"stiff-exact", CF_SOLVER_CONTACT_EXACT, 1, 0, 0, 1, 0, 0.5, 0.8, 1e10, 0},
+    };
+    static const config sl[] = {
+        {"vertex+sleep", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 0, 0, 0.25, 0.8, 0, 1},
+        {"weak-2c+sleep", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.03, 0.8, 0, 1},
+        {"perim2+sleep", CF_SOLVER_CONTACT_PERIMETER, 2, 0, 0, 0, 0, 0.25, 0.8, 0, 1},
+        {"mono+sleep", CF_SOLVER_CONTACT_VERTEX, 1, 0, 1, 0, 0, 0.25, 0.8, 0, 1},
+        {"collapse+sleep", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 1.6, 0.8, 0, 1},
+        {"stiff-2c+sleep", CF_SOLVER_CONTACT_VERTEX, 1, 0, 0, 1, 0, 0.5, 0.8, 1e10, 1},
     };
     size_t i;
     int bad = 0;
@@ -436,6 +451,14 @@ int main(void)
     bad |= batch(&cs[0], 1);
     bad |= batch(&cs[3], 1);
     for (i = 0; i < sizeof cs / sizeof cs[0]; i++) bad |= batch(&cs[i], 0);
+    bad |= scene_case(0);
+    bad |= scene_case(1);
+    /* sleeping joints (option sleep; their lines after all the others, which stay as they were): every
+     * width and the batch must give the single run's bits with it too */
+    for (i = 0; i < sizeof sl / sizeof sl[0]; i++) bad |= run(&sl[i]);
+    bad |= batch(&sl[0], 1);
+    for (i = 0; i < sizeof sl / sizeof sl[0]; i++) bad |= batch(&sl[i], 0);
+    scene_sleep = 1;
     bad |= scene_case(0);
     bad |= scene_case(1);
     return bad;
