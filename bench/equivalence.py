@@ -403,15 +403,8 @@ def _row_word(r: dict) -> str:
 # --------------------------------------------------------------------------- main
 
 def _cpu() -> str:
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    import platform
-    return platform.processor() or platform.machine()
+    from pycolfrag.grid.schedule import cpu_model  # here: --help needs nothing but numpy
+    return cpu_model()
 
 
 def _keywords(items) -> dict:

@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import time
 
 import numpy as np
 
 import pycolfrag as pcf
+from pycolfrag.grid.schedule import cpu_model
 
 CASES = [
     ("vertex (default)", dict(contact="vertex")),
@@ -41,7 +41,7 @@ def main(argv=None):
     acc = 0.25 * 9.81 * np.sin(2 * np.pi * 2.0 * t)
     tail = 20.0 - t[-1]
     print(f"default column, 0.25 g 2 Hz sine for 3 s, {20.0:.0f} s simulated; best of {args.repeat} runs")
-    print(f"machine: {_cpu_model()}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}")
+    print(f"machine: {cpu_model()}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}")
     print(f"{'option':<24} {'steps':>7} {'dt ms':>7} {'us/step':>8} {'sim s/wall s':>13} {'wall s/20 s':>12} "
           f"{'u_top':>7} {'energy err':>10}")
     for name, opts in CASES:
@@ -60,17 +60,6 @@ def main(argv=None):
         pcf.simulate(col, acc[:2], dt, tail_s=0.0)
         best = min(best, time.perf_counter() - t0)
     print(f"fixed cost per simulate() call (set-up, checks; 2-sample record): {1e3 * best:.2f} ms")
-
-
-def _cpu_model():
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
 
 
 if __name__ == "__main__":
