@@ -86,7 +86,8 @@ from pycolfrag.core.errors import PycolfragError
 
 __all__ = ["WeightError", "LevelEstimate", "Estimate", "exceedances", "row_weights", "estimate", "DEFAULT_MIN_NEFF",
            "DEFAULT_MAX_SHARE", "UNRESOLVED", "efficiency", "FEW_RUNS", "jeffreys_floor", "jeffreys_p0",
-           "jeffreys_run_variance", "jeffreys_upper", "CV_MIN_RUNS", "CV_MIN_HITS", "regression"]
+           "jeffreys_run_variance", "jeffreys_upper", "CV_MIN_RUNS", "CV_MIN_HITS", "regression",
+           "stratum_run_variance"]
 
 #: Fewest effective exceedances a level's estimate may rest on (the stopping rule's floor too).
 DEFAULT_MIN_NEFF = 10.0
@@ -280,6 +281,23 @@ def regression(v, u, failed, hits: int) -> tuple[float, float, float | None]:
     return b, shift, math.fsum((dv - b * du) ** 2) / (n_ok - 2)
 
 
+def stratum_run_variance(real, hit: bool, s2, floor_h) -> tuple[float, bool]:
+    """(the per-run variance of w y in one stratum as the estimate states it, whether it is the floor), from the
+    successful runs' values ``real``: the control variate's residual variance ``s2`` where its rule took the
+    stratum (not None); else the sample variance where one of them exceeds (``hit``); else, every run missing,
+    the floor ``floor_h`` (None: 0; module docstring); infinite with fewer than 2 runs. One text for the
+    estimate and the paired difference (:mod:`pycolfrag.risk.paired_difference`)."""
+    n = real.size
+    if s2 is not None:
+        return float(s2), False
+    if n >= 2 and hit:
+        mu = math.fsum(real) / n
+        return math.fsum((real - mu) ** 2) / (n - 1), False
+    if n >= 2:
+        return (0.0 if floor_h is None else float(floor_h)), True
+    return math.inf, False
+
+
 def _level(q, W, groups, w, y, confidence, limits, floor=None, u=None):
     """One level from the rows grouped by stratum: (LevelEstimate, per-stratum W_h mu_h); ``floor``: the
     per-run variance of every stratum none of whose runs exceeds (None: 0); ``u``: every row's control variate
@@ -299,16 +317,11 @@ def _level(q, W, groups, w, y, confidence, limits, floor=None, u=None):
         # would shrink the CoV by about n_ok / n (0.086 for 0.107 at 20 % failed); with no failure, the same bits
         real = v[~g.failed]
         n_ok = real.size
-        if s2 is not None:
-            var_terms.append(W[g.h] ** 2 * s2 / n_ok)
-        elif n_ok >= 2 and np.any(y[g.rows][~g.failed]):
-            mu_ok = math.fsum(real) / n_ok
-            var_terms.append(W[g.h] ** 2 * (math.fsum((real - mu_ok) ** 2) / (n_ok - 1)) / n_ok)
-        elif n_ok >= 2:     # every run misses: the floor, not 0 (module docstring)
-            var_terms.append(0.0 if floor is None else W[g.h] ** 2 * float(floor[g.h]) / n_ok)
+        s2, floored = stratum_run_variance(real, bool(np.any(y[g.rows][~g.failed])), s2,
+                                           None if floor is None else floor[g.h])
+        var_terms.append(W[g.h] ** 2 * s2 / n_ok if math.isfinite(s2) else math.inf)
+        if floored:
             floor_terms.append(var_terms[-1])
-        else:
-            var_terms.append(math.inf)
         if n < FEW_RUNS:
             few_terms.append(per[g.h])
         contrib.append(W[g.h] * real[real > 0] / n)

@@ -50,6 +50,7 @@ from pycolfrag.rare.estimate import (
     jeffreys_upper,
     regression,
     row_weights,
+    stratum_run_variance,
 )
 
 __all__ = ["EVENT_FIELDS", "PairedDifference", "check_same_events", "paired_differences"]
@@ -127,11 +128,10 @@ def _imputed(v, w, ok, h, nh):
 
 
 def _run_variance(v, ok, r, floor) -> float:
-    """A setting's per-run variance of its stratum as its estimate states it: the regression's, the sample's, or
-    the floor where none of its runs exceeds (rare/estimate.py)."""
-    if r[2] is not None:
-        return r[2]
-    return float(np.var(v[ok], ddof=1)) if np.any(v[ok] != 0) and ok.sum() >= 2 else floor
+    """A setting's per-run variance of its stratum as its estimate states it (the estimator's own rule,
+    :func:`pycolfrag.rare.estimate.stratum_run_variance`: the regression's, the sample's, or the floor where none
+    of its runs exceeds)."""
+    return stratum_run_variance(v[ok], bool(np.any(v[ok] != 0)), r[2], floor)[0]
 
 
 def _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors) -> tuple[float, float]:
