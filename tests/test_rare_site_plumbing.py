@@ -43,18 +43,21 @@ def _env():
     return env
 
 
-def _cmd(args, ranks=1):
-    py = [sys.executable, "-m", "pycolfrag", "risk"]
+def _cmd(args, ranks=1, command="risk"):
+    """The ``pycolfrag COMMAND`` line of ``args``, on ``ranks`` MPI ranks (mpirun) when more than one (also the
+    sequences command's tests)."""
+    py = [sys.executable, "-m", "pycolfrag", command]
     if ranks == 1:
         return py + args
     return ["timeout", "-k", "10", "240", "mpirun", "--allow-run-as-root", "-n", str(ranks), sys.executable, "-m",
-            "mpi4py", "-m", "pycolfrag", "risk"] + args
+            "mpi4py", "-m", "pycolfrag", command] + args
 
 
-def _run(args, ranks=1):
+def _run(args, ranks=1, command="risk", env=None):
     if ranks > 1 and shutil.which("mpirun") is None:
         pytest.skip("mpirun not installed (make system)")
-    return subprocess.run(_cmd(args, ranks), capture_output=True, text=True, env=_env(), cwd=ROOT, timeout=300)
+    return subprocess.run(_cmd(args, ranks, command), capture_output=True, text=True, env=env or _env(), cwd=ROOT,
+                          timeout=300)
 
 
 def _levels(out: Path) -> dict:

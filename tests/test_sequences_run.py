@@ -7,10 +7,8 @@ sequences, a journal of other settings or another site is refused by name, a hel
 from __future__ import annotations
 
 import json
-import shutil
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -22,7 +20,9 @@ from pycolfrag.risk import sequences_run as sr
 from pycolfrag.site.sources import load_site
 from pycolfrag.solver.sequence import Restoration
 from pycolfrag.structure.column import Column
+from test_rare_site_plumbing import _cmd as plumbing_cmd
 from test_rare_site_plumbing import _env as plumbing_env
+from test_rare_site_plumbing import _run as plumbing_run
 
 ROOT = Path(__file__).resolve().parents[1]
 COLUMN = ROOT / "bench" / "data" / "column_two_drums.toml"   # the rare route's cheap verification column
@@ -51,16 +51,11 @@ def _env():
 
 
 def _cmd(args, ranks=1):
-    if ranks == 1:
-        return [sys.executable, "-m", "pycolfrag", "sequences"] + args
-    return ["timeout", "-k", "10", "240", "mpirun", "--allow-run-as-root", "-n", str(ranks), sys.executable, "-m",
-            "mpi4py", "-m", "pycolfrag", "sequences"] + args
+    return plumbing_cmd(args, ranks, "sequences")
 
 
 def _run(args, ranks=1):
-    if ranks > 1 and shutil.which("mpirun") is None:
-        pytest.skip("mpirun not installed (make system)")
-    return subprocess.run(_cmd(args, ranks), capture_output=True, text=True, env=_env(), cwd=ROOT, timeout=300)
+    return plumbing_run(args, ranks, "sequences", _env())
 
 
 def _stopped(args, journal: Path, lines: int):
