@@ -219,10 +219,10 @@ def test_the_allocation_sees_the_variance_floor():
     assert run.runs == 70
     events = allocation.steering_events(run.strata, np.random.default_rng(1))
     args = (run.cols, run.strata, run.design, run.settings, run.requested, 1, 70, events, 1000)
-    plain = driver._allocate(*args)
+    plain = driver.allocate_batch(*args)
     floor = np.zeros((len(run.strata), len(run.requested)))
     floor[6] = 0.05
-    floored = driver._allocate(*args, floor=floor)
+    floored = driver.allocate_batch(*args, floor=floor)
     assert sum(floored.values()) == sum(plain.values()) == 1000
     assert floored.get(6, 0) > plain.get(6, 0) + 20, (plain.get(6, 0), floored.get(6, 0))
 

@@ -214,7 +214,7 @@ def _ce_inputs(cols, strata, design, requested):
     return z, contrib[pulse], y, scores
 
 
-def _ce_design(cols, strata, settings, requested) -> Design:
+def cross_entropy_design(cols, strata, settings, requested) -> Design:
     """The production mixture from the pilot's rows (every stratum's weights under the pilot's proposal)."""
     got = _ce_inputs(cols, strata, Design(PILOT_MIXTURE), requested)
     if got is None:
@@ -225,20 +225,16 @@ def _ce_design(cols, strata, settings, requested) -> Design:
 
 #: The cross-entropy steps (first, whether its elite was thin, second) and the batch allocation as the rare
 #: sequences (pycolfrag.risk.sequences_rare) take them too, their rows as this simulation's columns: one text each.
-cross_entropy_design = _ce_design
 
-
-def _thin(cols, strata, settings, requested) -> tuple:
+def thin_of(cols, strata, settings, requested) -> tuple:
     """The families whose first step's elite (from the pilot ``cols``) held fewer than ``ce_min_hits`` runs."""
     got = _ce_inputs(cols, strata, Design(PILOT_MIXTURE), requested)
     return () if got is None else _proposal.thin_families(*got, requested, min_hits=settings.ce_min_hits,
                                                              quantile=settings.ce_quantile)
 
 
-thin_of = _thin
 
-
-def _second_design(cols, strata, design: Design, settings, requested, thin) -> Design:
+def second_design(cols, strata, design: Design, settings, requested, thin) -> Design:
     """The second cross-entropy step: the same program on every row so far (the pilot's and the first
     production batch's, each under its own stage's mixture), the proposal of the batches from stage 2 on."""
     means, notes = cross_entropy_means(*_ce_inputs(cols, strata, design, requested), requested,
@@ -248,8 +244,6 @@ def _second_design(cols, strata, design: Design, settings, requested, thin) -> D
     return Design(design.pilot, design.production, design.notes + tuple(why + n for n in notes),
                   production_mixture(settings.defensive, means))
 
-
-second_design = _second_design
 
 
 def failures(cols) -> tuple[int, int, str]:
@@ -288,7 +282,7 @@ def _check_pilot(cols) -> None:
                              "folder's batch_000.h5")
 
 
-def _allocate(cols, strata, design, settings, requested, stage: int, used: int, events, size: int,
+def allocate_batch(cols, strata, design, settings, requested, stage: int, used: int, events, size: int,
               floor=None) -> dict:
     """The ``size`` runs of production batch ``stage`` per stratum (minimax-CoV Neyman, model-steered; each
     predicted variance at least the estimate's ``floor`` of the requested levels, so that the allocation sees
@@ -305,8 +299,6 @@ def _allocate(cols, strata, design, settings, requested, stage: int, used: int, 
     new = _alloc.batch_counts(n, done, size)
     return {int(h): int(k) for h, k in enumerate(new) if k > 0}
 
-
-allocate_batch = _allocate
 
 
 def _progress_lines(stage: int, runs: int, est, requested, stop: StopRule) -> list:
@@ -417,10 +409,10 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
         _check_same_run(batch_name(1), stored[0], run.fp)
         run.design = Design.from_dict(stored[0]["design"])
     else:
-        run.design = _ce_design(run.parts[0], run.strata, settings, run.requested)
+        run.design = cross_entropy_design(run.parts[0], run.strata, settings, run.requested)
     for note in run.design.notes:
         log(f"cross-entropy step: {note}")
-    thin = _thin(run.parts[0], run.strata, settings, run.requested)
+    thin = thin_of(run.parts[0], run.strata, settings, run.requested)
     stage, stopped = 1, "budget"
     while True:
         est = run.estimate()
@@ -435,11 +427,12 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
             if used >= stop.max_runs:
                 break
             if stage == 2 and thin:
-                run.design = _second_design(_cat(run.parts), run.strata, run.design, settings, run.requested, thin)
-                for note in run.design.notes[len(run.design.notes) // 2:]:
+                first = len(run.design.notes)      # the second step's notes follow the first's
+                run.design = second_design(_cat(run.parts), run.strata, run.design, settings, run.requested, thin)
+                for note in run.design.notes[first:]:
                     log(f"cross-entropy step: {note}")
             idx = [run.quantities.index(q) for q in run.requested]
-            counts = _allocate(_cat(run.parts), run.strata, run.design, settings, run.requested, stage, used,
+            counts = allocate_batch(_cat(run.parts), run.strata, run.design, settings, run.requested, stage, used,
                                run.steering_events(), min(settings.batch, stop.max_runs - used),
                                None if run.last_floor is None else run.last_floor[:, idx])
         else:

@@ -38,7 +38,16 @@ from pycolfrag.core.errors import StaleBuildError
 from pycolfrag.grid.serve import sigterm_handler as _sigterm_handler
 from pycolfrag.rare import allocation as _alloc
 from pycolfrag.rare import driver as _driver
-from pycolfrag.rare.driver import SiteRun, _cat, _ce_design, _check_same_run, _Run, _stop_reason, batch_name, failures
+from pycolfrag.rare.driver import (
+    SiteRun,
+    _cat,
+    _check_same_run,
+    _Run,
+    _stop_reason,
+    batch_name,
+    cross_entropy_design,
+    failures,
+)
 from pycolfrag.rare.evaluator import GridEvaluator
 from pycolfrag.rare.proposal import PILOT_MIXTURE, Design
 
@@ -131,7 +140,7 @@ def _design(runs, live, settings):
             _check_same_run(batch_name(1), stored[0], runs[g].fp)
             return Design.from_dict(stored[0]["design"])
     lead = runs[live[0]]
-    return _ce_design(lead.parts[0], lead.strata, settings, lead.requested)
+    return cross_entropy_design(lead.parts[0], lead.strata, settings, lead.requested)
 
 
 def _stored_design(runs, live, stage: int) -> None:
@@ -184,7 +193,7 @@ def simulate_paired(site, settings, stop, evaluators, quantities, log=print, nam
             r.design = design
         for note in design.notes:
             log(f"cross-entropy step ({names[live[0]]}'s pilot): {note}")
-        thin = _driver._thin(runs[live[0]].parts[0], runs[live[0]].strata, settings, runs[live[0]].requested)
+        thin = _driver.thin_of(runs[live[0]].parts[0], runs[live[0]].strata, settings, runs[live[0]].requested)
     while live:
         ests = {g: runs[g].estimate() for g in live}
         for g in live:
@@ -199,7 +208,7 @@ def simulate_paired(site, settings, stop, evaluators, quantities, log=print, nam
             if stopped != "budget" or used >= stop.max_runs:
                 break
             if stage == 2 and thin:       # the driver's second cross-entropy step, on the lead group's rows
-                design = _driver._second_design(_cat(lead.parts), lead.strata, lead.design, settings, lead.requested, thin)
+                design = _driver.second_design(_cat(lead.parts), lead.strata, lead.design, settings, lead.requested, thin)
                 for r in runs:
                     r.design = design
             idx = [lead.quantities.index(q) for q in lead.requested]

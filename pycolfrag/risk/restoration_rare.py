@@ -197,9 +197,7 @@ def _simulate(a, p, comm, size, log, command):
     code, runs = _sim.run_paired(p, evs, QUANTITIES, comm, size, log, "restoration", a.simulate, names)
     if code is not None:
         return code, None
-    codes = [_sim._exit_code(r, lambda s, n=n: log(f"[{n}] {s}")) for r, n in zip(runs, names)]
-    code = next((c for c in (_sim.EXIT_UNRESOLVED, _sim.EXIT_NOT_CONVERGED) if c in codes), _sim.EXIT_OK)
-    return code, runs
+    return _sim.paired_exit_code(runs, names, log), runs
 
 
 def main(argv=None) -> int:

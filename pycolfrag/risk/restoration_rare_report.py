@@ -12,6 +12,7 @@ from pathlib import Path
 from pycolfrag.core import report_json
 from pycolfrag.core.errors import OutputError
 from pycolfrag.rare.driver import failures
+from pycolfrag.rare.estimate import DEFAULT_MIN_NEFF
 from pycolfrag.risk.report import _write_text
 
 __all__ = ["BEGIN", "END", "FIGURE", "TITLE", "markdown", "to_json", "figure", "write_outputs", "summary"]
@@ -46,7 +47,7 @@ def _head(result) -> list:
     r0 = runs[0]
     s = r0.settings
     return [f"Site `{r0.site.path}` ({r0.site.name}); {len(alts)} alternatives, each {r0.runs} runs on the same events "
-            f"(seed {s.seed}, pilot {s.pilot_per_stratum} per stratum over {len(r0.strata)} strata, batches of at most "
+            f"(seed {s.seed}, pilot {s.pilot_for(len(r0.strata))} per stratum over {len(r0.strata)} strata, batches of at most "
             f"{s.batch}; stopped: {r0.stopped}, target CoV {r0.stop.target_cov:g}, budget {r0.stop.max_runs} runs each): "
             + "; ".join(f"**{a.key}** `{a.path}` ({a.name})" for a in alts) + ".", "",
             "The model's annual rate of each level at this site (the paper's model choices, one site file), with its "
@@ -71,9 +72,9 @@ def markdown(result, years=(50.0,)) -> str:
           "| level | " + " | ".join(others) + " |", "|---|" + "---|" * len(others)]
     for lb in labels:
         L.append(f"| {lb} | " + " | ".join(_diff_cell(diffs[k][lb]) for k in others) + " |")
-    bad = [(a.key, failures(r.cols)) for a, r in zip(alts, runs) if failures(r.cols)[0]]
+    bad = [(a.key, f) for a, f in ((a, failures(r.cols)) for a, r in zip(alts, runs)) if f[0]]
     L += ["", "A difference whose interval excludes 0 is a finding of this model at this site; one that includes 0 "
-          "is not distinguished by these runs. FEW DIFFERING RUNS: fewer than 10 effective runs separate the two, "
+          f"is not distinguished by these runs. FEW DIFFERING RUNS: fewer than {DEFAULT_MIN_NEFF:g} effective runs separate the two, "
           "its interval is not to be trusted."]
     if bad:
         L += ["", "**Failed runs**: " + "; ".join(f"{k}: {f[0]} of {f[1]} ({f[2]})" for k, f in bad)

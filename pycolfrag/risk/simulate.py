@@ -33,7 +33,8 @@ from pycolfrag.site.sources import OUTSIDE_CHOICES, load_site, read_pulse_model
 from pycolfrag.structure.column import Column
 
 __all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_NOT_CONVERGED", "EXIT_UNRESOLVED",
-           "EXIT_DRAINED", "add_arguments", "settings_from_args", "run_simulation", "run_paired", "solver_options_of"]
+           "EXIT_DRAINED", "add_arguments", "settings_from_args", "run_simulation", "run_paired", "paired_exit_code",
+           "solver_options_of"]
 
 #: Exit codes: those of the grid (0 ok, 2 bad arguments or a folder of another simulation, 4 an
 #: operating-system error, 5 a batch file written by another run, 75 stopped by SIGTERM: the batch
@@ -247,6 +248,14 @@ def _on_rank0(check, comm, *args) -> None:
         raise error
     if refused is not None:
         raise ParameterError(refused)
+
+
+def paired_exit_code(runs, names, log) -> int:
+    """The exit code of several runs on the same events (the tree's run settings, the restoration's
+    alternatives): 7 when one is unresolved, else 6 when one did not converge, else 0; each run's say logged
+    under its name."""
+    codes = [_exit_code(r, lambda s, n=n: log(f"[{n}] {s}")) for r, n in zip(runs, names)]
+    return next((c for c in (EXIT_UNRESOLVED, EXIT_NOT_CONVERGED) if c in codes), EXIT_OK)
 
 
 def _exit_code(run, log) -> int:

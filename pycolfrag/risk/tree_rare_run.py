@@ -63,14 +63,6 @@ def prepare(a) -> dict:
             "groups": run_groups(checked, record)}
 
 
-def _exit_code(runs, names, log) -> int:
-    codes = [_sim._exit_code(r, lambda s, n=n: log(f"[{n}] {s}")) for r, n in zip(runs, names)]
-    for code in (_sim.EXIT_UNRESOLVED, _sim.EXIT_NOT_CONVERGED):
-        if code in codes:
-            return code
-    return _sim.EXIT_OK
-
-
 def _simulate(a, p, comm, size, log, argv):
     """(exit code, runs or None) of the paired simulation, rank 0 (the other ranks serve, then return)."""
     from pycolfrag.risk.grid_route import QUANTITIES
@@ -85,7 +77,7 @@ def _simulate(a, p, comm, size, log, argv):
                                  [g.folder for g in p["groups"]])
     if code is not None:
         return code, None
-    return _exit_code(runs, [g.folder for g in p["groups"]], log), runs
+    return _sim.paired_exit_code(runs, [g.folder for g in p["groups"]], log), runs
 
 
 def run(argv) -> int:
