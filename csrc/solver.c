@@ -387,12 +387,12 @@ void cf_solver_run_pre(const cf_solver *s, cf_run *r, cf_step_energy *e, double 
     long n = r->n;
     r->t = n * dt;
     r->hist_now = s->h_cap > 0 && r->m.hcount - r->m.h0 < s->h_cap && r->t + 0.5 * dt > r->m.hcount * s->def.history_dt;
-    /* the spring energies at CF_LEDGER_STEPS, history samples and the last step; the rest of the
-     * ledger every step */
-    e->need = n % CF_LEDGER_STEPS == 0 || n == r->nsteps || r->hist_now;
-    /* not the history's samples nor the run's last step: whether a run keeps a history or is continued
-     * later must not change when its joints fall asleep */
+    /* the ledger steps (every CF_LEDGER_STEPS-th), not the history's samples nor the run's last step: whether
+     * a run keeps a history or is continued later must not change when its joints fall asleep */
     e->ledger = n % CF_LEDGER_STEPS == 0;
+    /* the spring energies at the ledger steps, history samples and the last step; the rest of the
+     * ledger every step */
+    e->need = e->ledger || n == r->nsteps || r->hist_now;
     e->vc = 0.0; e->dconn = 0.0;
     ag[0] = ground_acc(r->ax, r->nrec, r->i0, r->dtr, r->t);
     ag[1] = ground_acc(r->ay, r->nrec, r->i0, r->dtr, r->t);

@@ -130,14 +130,13 @@ static inline void cf_sleep_moments(const cf_points *pts, const cf_points_joint 
         }                                                                                                        \
     } while (0)
 
-/* CF_SLEEP_SIDE on one joint of one run (the state sd of that joint's side, stride sls apart) */
-static inline int cf_sleep_side(const double *sds, int sls, const double *q, const double *qs, double rho,
+/* CF_SLEEP_SIDE on one joint of one run (sd: the state of that joint's side, read in place) */
+static inline int cf_sleep_side(const double *sd, const double *q, const double *qs, double rho,
                                 const cf_joint *J, const cf_face_pass *P, double *u, double *sm, double *vs,
                                 double *fn, int need)
 {
-    double g[9], sd[CF_SL_SIDE];
-    int i, ok;
-    for (i = 0; i < CF_SL_SIDE; i++) sd[i] = sds[(size_t)i * (size_t)sls];
+    double g[9];
+    int ok;
     cf_sleep_g(P, g);
     CF_SLEEP_SIDE(double, 0.0, fabs, sd, q, qs, rho, J->kn, J->ks, P->mu, P->sgn, g, P->A[0], P->A[1], P->W[0],
                   P->W[1], P->W[2], u, sm, *vs, *fn, need, ok);
@@ -156,7 +155,7 @@ static inline int cf_sleep_joint(double *sl, const double (*q)[6], const double 
     *vs = 0.0; *fn = 0.0;
     for (side = 0; side < 2; side++) {
         for (i = 0; i < 6; i++) sm[side][i] = 0.0;
-        if (has[side] && !cf_sleep_side(sl + CF_SL_S0 + side * CF_SL_SIDE, 1, q[side], qs[side], rho[side], J,
+        if (has[side] && !cf_sleep_side(sl + CF_SL_S0 + side * CF_SL_SIDE, q[side], qs[side], rho[side], J,
                                         &P[side], u[side], sm[side], vs, fn, need))
             return 0;
     }

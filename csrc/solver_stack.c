@@ -245,8 +245,8 @@ void cf_solver_stack_tilt(cf_solver *s)
         double xp = f->vx[0], th = def->initial_tilt_rad, c = cf_math_cos(th), sn = cf_math_sin(th);
         double zp = s->x0[3 * 1 + 2] + f->c[2];
         for (k = 1; k < f->n; k++) if (f->vx[k] > xp) xp = f->vx[k];
-        if (s->asb && s->jt[0].cout > 0.0) xp *= s->jt[0].cout;   /* a chipped base face's annulus */
-        if (s->asb && s->jt[0].csec) xp = cf_solver_as_built_reach(&s->jt[0]);   /* ... missing a sector */
+        if (s->asb && s->jt[0].csec) xp = cf_solver_as_built_reach(&s->jt[0]);   /* a base face missing a sector */
+        else if (s->asb && s->jt[0].cout > 0.0) xp *= s->jt[0].cout;   /* ... chipped to an annulus */
         if (s->asb) xp += s->x0[3 * 1] + f->c[0];   /* the base block's axis at its offset */
         for (i = 1; i < nbody; i++) {
             double dx = s->x0[3 * i] - xp, dz = s->x0[3 * i + 2] - zp;

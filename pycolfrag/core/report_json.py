@@ -1,5 +1,6 @@
 """The JSON text of every report a user reads (risk.json, logic_tree.json, restoration.json, the sequences'
-summaries, the subset command's output): strict JSON (RFC 8259), which has no NaN or Infinity.
+summaries; the subset command's output writes its own "nan"/"inf" strings, which pass unchanged): strict JSON
+(RFC 8259), which has no NaN or Infinity.
 
 Python's :func:`json.dumps` writes ``NaN`` and ``Infinity`` by default, which JavaScript, ``jq`` and most
 other readers refuse. An undefined number of a report (a CoV without runs, a quantile of no sample, an

@@ -32,7 +32,10 @@ import numpy as np
 
 from pycolfrag.core.errors import ParameterError
 
-__all__ = ["Aftershocks", "REASENBERG_JONES_1989"]
+#: Days in a (Julian) year: the aftershocks' clock (days) against the sequences' (years).
+DAYS_PER_YEAR = 365.25
+
+__all__ = ["Aftershocks", "REASENBERG_JONES_1989", "DAYS_PER_YEAR"]
 
 
 @dataclass(frozen=True)
@@ -45,7 +48,7 @@ class Aftershocks:
     p: float = 1.08
     c_days: float = 0.05
     m_min: float = 5.0
-    window_days: float = 365.25
+    window_days: float = DAYS_PER_YEAR
 
     def __post_init__(self):
         for name in ("a", "b", "p", "c_days", "m_min", "window_days"):

@@ -116,8 +116,9 @@ def check_same_events(cols_a: dict, cols_b: dict, names=("A", "B")) -> tuple:
     return np.flatnonzero(done_a)[ia], np.flatnonzero(done_b)[ib]
 
 
-def _imputed(v, w, ok, h, nh):
-    """v with each failed row's value its weight times the stratum's weighted share among successful rows."""
+def _imputed(v, w, ok, h):
+    """v with each failed row's value its weight times the stratum's weighted share among successful rows: the
+    estimate's law (:func:`pycolfrag.rare.estimate._stratum_values`) on the rows of every stratum at once."""
     out = v.copy()
     for s in np.unique(h[~ok]):
         sel = h == s
@@ -172,7 +173,7 @@ def _level(q, a, b, w, h, ok_a, ok_b, W, confidence, min_neff, est, floors) -> P
     yb = np.where(ok_b, exceedances(b, q), False).astype(float)
     nh = np.bincount(h, minlength=W.size).astype(float)
     scale = W[h] / nh[h]                                    # W_h / n_h of every row
-    va, vb = _imputed(w * ya, w, ok_a, h, nh), _imputed(w * yb, w, ok_b, h, nh)
+    va, vb = _imputed(w * ya, w, ok_a, h), _imputed(w * yb, w, ok_b, h)
     c = scale * (vb - va)
     both = ok_a & ok_b
     diff, var = _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors)
@@ -215,9 +216,8 @@ def paired_differences(run_a, run_b, quantities=None, *, confidence: float = 0.9
     W = np.asarray(run_a.strata.rates, dtype=float)
     quantities = quantities or run_a.quantities
 
-    def floors(q):
-        j = [x.label for x in run_a.quantities].index(q.label)
-        return [np.asarray(jeffreys_floor(r.cols, r.strata, r.design, r.quantities) if r.floor is None else r.floor,
-                           dtype=float)[:, j] for r in (run_a, run_b)]
+    fa, fb = (np.asarray(jeffreys_floor(r.cols, r.strata, r.design, r.quantities) if r.floor is None else r.floor,
+                         dtype=float) for r in (run_a, run_b))        # (H, L) each, read once
+    col = {x.label: j for j, x in enumerate(run_a.quantities)}
     return {q.label: _level(q, a, b, w, h, ok_a, ok_b, W, confidence, min_neff, (run_a.estimate, run_b.estimate),
-                            floors(q)) for q in quantities}
+                            [fa[:, col[q.label]], fb[:, col[q.label]]]) for q in quantities}

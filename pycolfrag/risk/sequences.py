@@ -39,7 +39,7 @@ from pycolfrag.damage import PERFORMANCE_LEVELS
 from pycolfrag.ground_motion.registry import DEFAULT_PULSE_SHAPE, DEFAULT_TP_MODEL
 from pycolfrag.rare.plans import PulseMap
 from pycolfrag.rare.strata import build_strata
-from pycolfrag.risk.aftershocks import Aftershocks
+from pycolfrag.risk.aftershocks import DAYS_PER_YEAR, Aftershocks
 from pycolfrag.solver.sequence import NO_RESTORATION, Restoration, Settle, run_sequence
 
 __all__ = ["STREAM_SEQUENCES", "DEFAULT_SEED", "SequenceSettings", "SiteEvent", "sequence_events", "SequenceOutcome",
@@ -133,7 +133,7 @@ def aftershocks_of(main: SiteEvent, p_pulse: float, years: float, model: Aftersh
     t_days, mags = model.sample(main.mw, rng)
     out = []
     for t, mw in zip(t_days, mags):
-        when = main.time_yr + float(t) / 365.25
+        when = main.time_yr + float(t) / DAYS_PER_YEAR
         ev = _event(main.sequence, main.index, when, main.source, float(mw), main.r_km, p_pulse, rng, pulse_map,
                     ranges, parent=main.index)
         if when < years:

@@ -9,7 +9,7 @@ node -- loses at most the sequences being run; the same command then runs only w
 
 The journal's first line is its **identity**: the site file's bytes (SHA-256), the structure's table,
 every setting but the number of sequences (years, seed, restoration, settling, records, solver options),
-the package version and the C library's source digest. A journal of another identity is refused (exit
+the package version and the grid's code digest (Python sources, C library, solver options). A journal of another identity is refused (exit
 2, naming what differs), so a resumed run never keeps a sequence another run computed; a larger ``--n``
 resumes and adds sequences (sequence ``s`` is the same whatever the count), a smaller one reads the
 first ``n``. A torn last line (a write cut by ``kill -9``) is dropped and said; any other damage is
@@ -328,7 +328,8 @@ def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
     if reached > rs.target_cov:   # the row budget ran out first: said, and exit 6 as the rare route's
         log(f"sequences: the row budget ({rs.max_rows}) was spent before {rs.target}'s CoV reached "
             f"{rs.target_cov:g} (it is {reached:.3g}); rerun with a larger --max-rows to go on (exit 6)")
-        return 6
+        from pycolfrag.risk.simulate import EXIT_NOT_CONVERGED  # the rare route's code for a spent budget
+        return EXIT_NOT_CONVERGED
     return EXIT_OK
 
 

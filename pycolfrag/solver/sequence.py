@@ -27,7 +27,7 @@ import numpy as np
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.ground_motion.record import Record
 from pycolfrag.solver import run as _run  # through the module, as sample.py calls it
-from pycolfrag.solver.state import State
+from pycolfrag.solver.state import _HEAD, _MON, State
 
 __all__ = ["Restoration", "NO_RESTORATION", "Settle", "EventResult", "SequenceResult", "run_sequence", "at_rest",
            "tilt_rad", "model_height"]
@@ -167,10 +167,10 @@ class SequenceResult:
 
 #: Where a state holds the monitor's running peak of the top's displacement (m): the header's 22 values,
 #: then the monitor's, of which it is the 11th (csrc/solver_state.c, ``mon[10]``).
-_PEAK = 22 + 10
+_PEAK = _HEAD + 10
 #: csrc/solver_state.c's layout: CF_ST_HEAD + CF_ST_MON values, then CF_ST_BODY per body, the residual ring
 #: (the header's values 8 x 9), then a scene's running peak of each column's top (the header's value 6 of them).
-_BODIES, _BODY = 22 + 12, 22
+_BODIES, _BODY = _HEAD + _MON, 22
 
 
 def _peak_slots(state: State) -> list[int]:
@@ -187,7 +187,7 @@ def _u_top(model, state: State, slots: list[int]) -> float:
     if len(slots) == 1:
         return float(state.values[_PEAK]) / model.base_diameter
     cols = model.scene_parts().columns
-    return max(float(state.values[k]) / (2.0 * col.blocks[0].bottom.r_bottom) for k, (col, _, _) in zip(slots[1:], cols))
+    return max(float(state.values[k]) / col.base_diameter for k, (col, _, _) in zip(slots[1:], cols))
 
 
 def _with_peaks(state: State | None, slots: list[int], peaks) -> State | None:
