@@ -176,12 +176,14 @@ def test_the_peak_of_an_event_alone_in_a_scene_and_a_dowelled_column(kind):
     e1, e2 = seq.events
     assert e1.u_top_event == e1.u_top == r1.u_top
     assert e2.u_top == r2.u_top == max(r1.u_top, e2.u_top_event)   # the portal's second event rocks it further
-    diameter = 2.0 * model.scene_parts().columns[0][0].blocks[0].bottom.r_bottom
+    diameter = model.scene_parts().columns[0][0].base_diameter
     sampled = float(np.max(np.hypot(*r2h.history.top_disp.T))) / diameter   # column 0's (a scene's history)
     own = e2.response.columns["u_top"] if kind == "portal" else [e2.u_top_event]
-    assert e2.u_top_event == max(own)
+    if kind == "portal":        # (a column has one peak: the same comparison would hold by construction)
+        assert e2.u_top_event == max(own)
     assert sampled <= own[0] < sampled * 1.01
     assert same(seq.final_state.values, r2.final_state.values)
     slots = sequence._peak_slots(r1.final_state)
     assert len(slots) == (3 if kind == "portal" else 1)
-    assert max(r1.final_state.values[slots[1:]], default=r1.max_top_disp) == r1.max_top_disp
+    if kind == "portal":        # the columns' own peaks, the largest the run's (a column has none of its own)
+        assert max(r1.final_state.values[slots[1:]]) == r1.max_top_disp

@@ -32,7 +32,6 @@ from pycolfrag.ground_motion import (
     baker_2007,
     mavroeidis_papageorgiou_2003,
     pulse_shape,
-    record,
     registry,
     rupakhety_2011,
     shahi_baker_2014,
@@ -104,13 +103,11 @@ def stochastic(Mw, dist_km, seed=None, dt=0.005, normals=None) -> Record:
     ``hf_window_start_s``, ``hf_nfft``).
     """
     from pycolfrag.ground_motion import atkinson_silva_2000 as as00  # loads C: the package must import without it
-    from pycolfrag.ground_motion.synthesis import _generator_meta, _keyed  # as00 (above)
+    from pycolfrag.ground_motion.synthesis import _generator_meta, _stochastic_meta  # as00 (above)
     dt = positive_float(dt, "dt")
     seed = None if seed is None else _seed(seed)
     acc, info = as00.simulate(Mw, dist_km, seed, dt=dt, normals=normals)
-    meta = {**_keyed(record.PARAMETERS, (float(Mw), float(dist_km), seed, dt)), "kind": "stochastic"}
-    meta.update(_generator_meta(info))
-    return Record(acc, dt, meta=meta)
+    return Record(acc, dt, meta=_stochastic_meta(float(Mw), float(dist_km), seed, dt, _generator_meta(info)))
 
 
 class NormalsLayout(NamedTuple):

@@ -29,13 +29,15 @@ from pycolfrag.ground_motion.record import Record
 
 __all__ = ["ScenarioSynthesis", "prepare", "near_fault"]
 
-#: The meta keys of :data:`pycolfrag.ground_motion.record.PARAMETERS` (Mw, dist_km, seed, dt_s).
-_RECORD_KEYS = tuple(p.meta_key for p in record.PARAMETERS)
-
-
 def _keyed(parameters, values) -> dict:
     """``{meta key: value}`` of declared parameters, in their order."""
     return {p.meta_key: v for p, v in zip(parameters, values, strict=True)}
+
+
+def _stochastic_meta(Mw, dist_km, seed, dt, generator_meta) -> dict:
+    """The meta of a stochastic record (:func:`pycolfrag.ground_motion.stochastic`, a prepared scenario's record
+    without a pulse): the record's parameters, its kind, the generator's details."""
+    return {**_keyed(record.PARAMETERS, (Mw, dist_km, seed, dt)), "kind": "stochastic", **generator_meta}
 
 
 def _generator_meta(info):
@@ -90,9 +92,8 @@ def near_fault(Mw, dist_km, seed, dt, vp_scale, model, prepared, hf, generator_m
         if plans is not None:
             plans[hf.size] = plan
     acc = _combined(hf, pulse_acc, plan)                                            # steps 3-6
-    meta = {**dict(zip(_RECORD_KEYS, (Mw, dist_km, seed, dt), strict=True)), "kind": "near-fault",
-            "vp_scale": vp_scale, **dict(zip((p.meta_key for p in model.PARAMETERS), prepared.meta(t0, pulse_acc),
-                                             strict=True)),
+    meta = {**_keyed(record.PARAMETERS, (Mw, dist_km, seed, dt)), "kind": "near-fault",
+            "vp_scale": vp_scale, **_keyed(model.PARAMETERS, prepared.meta(t0, pulse_acc)),
             "pulse_shape": model.SHAPE, "t_peak_s": t_peak, "pad_before_s": n_pre * dt, "pad_after_s": n_post * dt,
             "hf_polarity": int(polarity), "pulse_seeded_from": source, **generator_meta}
     parts = {"hf": hf, "pulse": pulse_acc, "hf_modified": acc - pulse_acc} if components else None
@@ -130,10 +131,8 @@ class ScenarioSynthesis:
         ``hf``, ``pulse`` and ``hf_modified`` parts (a grid row runs ``acc`` alone)."""
         hf = self._noise_record(seed)
         if self.model is None:
-            meta = dict(zip(_RECORD_KEYS, (self.Mw, self.dist_km, seed, self.dt), strict=True))
-            meta["kind"] = "stochastic"
-            meta.update(self._generator_meta)
-            return Record._checked(hf, self.dt, meta)
+            return Record._checked(hf, self.dt, _stochastic_meta(self.Mw, self.dist_km, seed, self.dt,
+                                                                  self._generator_meta))
         return near_fault(self.Mw, self.dist_km, seed, self.dt, self.vp_scale, self.model, self.model.prepare(*inputs),
                           hf, self._generator_meta, source=source, plans=self._plans, components=components)
 
