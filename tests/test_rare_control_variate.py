@@ -1,5 +1,6 @@
-"""The rare route's control variates: the weights' known mean (1 per stratum) and the sampled normals' (0) in the
-estimate of every level (pycolfrag/rare/estimate.py, docs/rare_events.md).
+"""The rare route's control variate: the weights' known mean (1 per stratum) in the estimate of every level
+(pycolfrag/rare/estimate.py, docs/rare_events.md; the sampled normals' known means were tried as further controls
+and not kept, docs/risk.md).
 
 Where the expected numbers come from:
 

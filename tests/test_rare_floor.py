@@ -149,7 +149,9 @@ def test_the_no_pulse_strata_are_not_starved_and_their_misses_are_counted():
     no-pulse stratum but one at the pilot's 5 runs (their runs all missing u_d > 0.005, which then added no
     variance: stated CoV 0.049 for this seed, against the 0.15 the surrogate's 40 repetitions observe). Now every
     no-pulse stratum of at least 1 % of the site's event rate holds FEW_RUNS runs (the steering model predicts a
-    share of its frequent levels there), and the strata none of whose runs exceed add to the variance."""
+    share of its frequent levels there), and the strata none of whose runs exceed add to the variance. (The small
+    site has 6 such no-pulse strata: its strata and rates are fixed by tests/test_rare_site.py's site, not by the
+    run; the count guards against a test that checks none.)"""
     with redirect_stdout(io.StringIO()):
         run = simulate_site(small_site(), SiteSettings(seed=1001, batch=200, **SMALL), StopRule(0.01, 870),
                             SurrogateEvaluator(), QUANTITIES, log=lambda s: None)
