@@ -233,7 +233,6 @@ def thin_of(cols, strata, settings, requested) -> tuple:
                                                              quantile=settings.ce_quantile)
 
 
-
 def second_design(cols, strata, design: Design, settings, requested, thin) -> Design:
     """The second cross-entropy step: the same program on every row so far (the pilot's and the first
     production batch's, each under its own stage's mixture), the proposal of the batches from stage 2 on."""
@@ -243,7 +242,6 @@ def second_design(cols, strata, design: Design, settings, requested, thin) -> De
            f"{', '.join(thin)}), ")
     return Design(design.pilot, design.production, design.notes + tuple(why + n for n in notes),
                   production_mixture(settings.defensive, means))
-
 
 
 def failures(cols) -> tuple[int, int, str]:
@@ -298,7 +296,6 @@ def allocate_batch(cols, strata, design, settings, requested, stage: int, used: 
     n, _ = _alloc.minimax_allocation(W, var, W @ mean, _alloc.run_floor(W, mean, done), used + size)
     new = _alloc.batch_counts(n, done, size)
     return {int(h): int(k) for h, k in enumerate(new) if k > 0}
-
 
 
 def _progress_lines(stage: int, runs: int, est, requested, stop: StopRule) -> list:

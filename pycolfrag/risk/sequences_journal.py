@@ -16,14 +16,13 @@ from pathlib import Path
 
 from pycolfrag.core.errors import ParameterError, PycolfragError, ResultsFileError
 from pycolfrag.core.version import __version__
+from pycolfrag.grid.command import EXIT_ARGS, EXIT_LOCKED, EXIT_OK, EXIT_OS_ERROR  # the grid's codes
 from pycolfrag.grid.signing import code_digest
 from pycolfrag.results.lock import ResultsLockedError, RunLock
 from pycolfrag.solver.options import SolverOptions
 
 __all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "identity", "read_lines", "Journal", "open_journal",
            "abort_others"]
-
-EXIT_OK, EXIT_ARGS, EXIT_OS_ERROR, EXIT_LOCKED = 0, 2, 4, 5
 
 
 def identity(site_path, model, st) -> dict:

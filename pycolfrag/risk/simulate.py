@@ -18,6 +18,7 @@ from pathlib import Path
 from pycolfrag import results as _results
 from pycolfrag.core.errors import ParameterError, PycolfragError, ResultsFileError
 from pycolfrag.grid import get_comm
+from pycolfrag.grid.command import EXIT_ARGS, EXIT_LOCKED, EXIT_OK, EXIT_OS_ERROR  # the grid's codes
 from pycolfrag.grid.probes import check_record_dt, check_solver_options
 from pycolfrag.grid.serve import EXIT_DRAINED
 from pycolfrag.grid.spec import DEFAULT_RECORD_DT_S
@@ -42,7 +43,7 @@ __all__ = ["EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_NOT_CON
 #: converged (the report is written, those levels marked), and 7: failed runs leave a requested level
 #: unresolved (they could move it by more than its CoV; the report is written, those levels marked;
 #: :mod:`pycolfrag.rare.estimate`).
-EXIT_OK, EXIT_ARGS, EXIT_OS_ERROR, EXIT_LOCKED, EXIT_NOT_CONVERGED, EXIT_UNRESOLVED = 0, 2, 4, 5, 6, 7
+EXIT_NOT_CONVERGED, EXIT_UNRESOLVED = 6, 7
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
