@@ -166,3 +166,87 @@ def test_mpirun_one_and_two_ranks_give_the_same_file_bit_for_bit(tmp_path):
     assert _without_run(docs[1]) == _without_run(docs[2])
     assert rows[1] == rows[2] and len(rows[1].splitlines()) == docs[1]["runs"] > 50
     assert math.isfinite(docs[1]["probability"]) and docs[1]["probability"] > 0
+
+
+# --------------------------------------------------------------------------- the journal: a stopped estimate resumes
+_RUN_BATCH = sus.run_batch
+
+
+def _main_counting(monkeypatch, argv) -> tuple[int, list]:
+    """``cmd.main(argv)`` in this process, the sizes of the batches it ran (not read back) counted."""
+    ran = []
+
+    def counting(batch):
+        ran.append(len(batch))
+        return _RUN_BATCH(batch)
+    monkeypatch.setattr(sus, "run_batch", counting)
+    return cmd.main(argv), ran
+
+
+def test_a_stopped_estimate_resumes_from_its_journal_bit_for_bit(tmp_path, monkeypatch, capsys):
+    """An estimate stopped after its first two batches (its journal cut there, with a torn third line, as a
+    kill while writing leaves it) resumes by the same command: the two batches are read back, not run, and
+    the file and the rows are bitwise the uninterrupted estimate's (the estimate is a pure function of the
+    seed and the rows; JSON floats round-trip every double). Expected: N = 20 and p0 = 0.1, so level 0 is
+    one batch of 20 runs and every later batch one step of the N p0 = 2 chains: the first two batches hold
+    20 + 2 runs."""
+    whole, rows_whole = tmp_path / "whole.json", tmp_path / "whole.jsonl"
+    code, ran_whole = _main_counting(monkeypatch, [*TINY, "--n", "20", "--seed", "11", "--out", str(whole),
+                                                   "--rows", str(rows_whole)])
+    assert code == cmd.EXIT_OK and sum(ran_whole) == json.loads(whole.read_text())["runs"]
+    lines = Path(str(whole) + ".journal").read_text().splitlines(keepends=True)
+    assert len(lines) == 1 + len(ran_whole) > 3                        # the identity, then a line per batch
+    cut = tmp_path / "cut.json"
+    Path(str(cut) + ".journal").write_text("".join(lines[:3]) + lines[3][:40])
+    capsys.readouterr()
+    code, ran = _main_counting(monkeypatch, [*TINY, "--n", "20", "--seed", "11", "--out", str(cut),
+                                             "--rows", str(tmp_path / "cut.jsonl")])
+    assert code == cmd.EXIT_OK
+    err = capsys.readouterr().err
+    assert "cut short" in err and "resuming from" in err and "2 batches done" in err
+    assert ran == ran_whole[2:]                                        # the first two batches were not run again
+    a, b = json.loads(whole.read_text()), json.loads(cut.read_text())
+    assert b["runs_read_back"] == sum(ran_whole[:2]) == 22 and a["runs_read_back"] == 0
+    drop = ("command", "runs_by_rank", "wall_s", "runs_read_back")
+    assert {k: v for k, v in a.items() if k not in drop} == {k: v for k, v in b.items() if k not in drop}
+    assert rows_whole.read_text() == (tmp_path / "cut.jsonl").read_text()
+    assert Path(str(cut) + ".journal").read_text() == "".join(lines)   # the journal now the whole run's
+
+
+def test_a_journal_of_another_estimate_is_refused_naming_what_differs(tmp_path, capsys):
+    """A journal begun with another seed (or N) is refused before any run, exit 2, naming the setting; a
+    journal whose identity matches but whose batch holds other runs (another code's normals, here a
+    changed key) is refused by the batch; a lower level or the confidence changed resumes (the runs do not
+    depend on them)."""
+    out = tmp_path / "p.json"
+    assert cmd.main([*TINY, "--n", "20", "--seed", "11", "--max-levels", "2", "--out", str(out)]) == cmd.EXIT_OK
+    jp = Path(str(out) + ".journal")
+    capsys.readouterr()
+    assert cmd.main([*TINY, "--n", "20", "--seed", "12", "--max-levels", "2", "--out", str(out)]) == cmd.EXIT_ARGS
+    err = capsys.readouterr().err
+    assert str(jp) in err and "seed: 11 in the journal, 12 now" in err and "another --journal" in err
+    again = ["--mw", "6.25", "--dist", "10", "--levels", "0.25", "0.35", "--solver", "monolithic=true", "--n", "20",
+             "--seed", "11", "--max-levels", "2", "--confidence", "0.8", "--out", str(tmp_path / "q.json"),
+             "--journal", str(jp)]
+    assert cmd.main(again) == cmd.EXIT_OK
+    assert json.loads((tmp_path / "q.json").read_text())["runs_read_back"] == json.loads(out.read_text())["runs"]
+    lines = jp.read_text().splitlines()
+    second = json.loads(lines[1])
+    second["key"] = "0" * 64
+    jp.write_text("\n".join([lines[0], json.dumps(second), *lines[2:]]) + "\n")
+    capsys.readouterr()
+    assert cmd.main(again) == cmd.EXIT_ARGS
+    assert "its batch 0 holds other runs" in capsys.readouterr().err
+
+
+def test_a_journal_held_by_a_running_estimate_is_refused(tmp_path, capsys):
+    """Two estimates on one journal: the second is refused (exit 5, the grid's code) while the first holds
+    its lock (the journal's lock of every run, :class:`pycolfrag.results.lock.RunLock`)."""
+    from pycolfrag.results.lock import RunLock
+    out = tmp_path / "p.json"
+    lock = RunLock.acquire(Path(str(out) + ".journal"), log=lambda m: None)
+    try:
+        assert cmd.main([*TINY, "--n", "20", "--out", str(out)]) == cmd.EXIT_LOCKED == 5
+    finally:
+        lock.release()
+    assert "p.json.journal" in capsys.readouterr().err and not out.exists()

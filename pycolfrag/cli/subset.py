@@ -9,12 +9,19 @@ one scenario (Mw, R, a pulse shape or none, a column), the lower levels from the
 (:meth:`pycolfrag.rare.subset.SubsetResult.at`); the result, its CoV and interval, every level of the
 algorithm and the settings are written to a JSON file. Under MPI rank 0 runs the algorithm and every
 batch of runs is shared by the ranks (:class:`pycolfrag.rare.subset_mpi.MPIEvaluator`): the file's
-numbers are bitwise those of one process. Exit codes: 0 done, 2 bad input (the value named), 3 the
-levels stopped rising (every run at the same score, or failed), 4 the output cannot be written.
+numbers are bitwise those of one process. Every batch's rows are kept, synced, in a journal
+(``<out>.journal``, or ``--journal``) before the next batch starts: a run stopped (killed, Ctrl-C, a
+machine's end) is resumed by the same command, its finished batches read back instead of run (the
+estimate is a pure function of the seed and the rows, so the file is bitwise an uninterrupted run's); a
+journal of another estimate (the problem, the algorithm's settings, the code) is refused by name. Exit
+codes: 0 done, 2 bad input (the value named; a journal of another estimate), 3 the levels stopped rising
+(every run at the same score, or failed), 4 the output cannot be written, 5 the journal is held by a
+running estimate.
 """
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import math
 import os
@@ -26,17 +33,21 @@ from pycolfrag.core import report_json
 from pycolfrag.core.errors import ParameterError, RareEventError
 from pycolfrag.core.help import HelpFormatter
 from pycolfrag.core.version import __version__
+from pycolfrag.grid.signing import code_digest
 from pycolfrag.ground_motion import registry
 from pycolfrag.rare import subset as sus
 from pycolfrag.rare.subset_mpi import MPIEvaluator
+from pycolfrag.risk import sequences_journal as journals
 from pycolfrag.risk.simulate import solver_options_of
 from pycolfrag.structure.column import Column
 
-__all__ = ["build_parser", "main", "KIND", "EXIT_OK", "EXIT_ARGS", "EXIT_STOPPED", "EXIT_OS_ERROR"]
+__all__ = ["build_parser", "main", "KIND", "EXIT_OK", "EXIT_ARGS", "EXIT_STOPPED", "EXIT_OS_ERROR", "EXIT_LOCKED",
+           "journal_identity", "JournaledEvaluator"]
 
 #: ``kind`` of the output file.
 KIND = "pycolfrag-subset-simulation"
 EXIT_OK, EXIT_ARGS, EXIT_STOPPED, EXIT_OS_ERROR = 0, 2, 3, 4
+EXIT_LOCKED = journals.EXIT_LOCKED   # the grid's code: the journal is held by a running estimate
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -73,6 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
     o.add_argument("--rows", default=None, metavar="FILE.jsonl",
                    help="also every run's row (level, chain, step, score, IMs, EDPs, collapse, status), one JSON "
                         "line each, in the order run (default: not written)")
+    o.add_argument("--journal", default=None, metavar="FILE",
+                   help="where every finished batch's rows are kept (default: OUT.journal); the same command "
+                        "resumes from it, a journal of another estimate is refused; delete it to start afresh")
     o.add_argument("--processes", type=int, default=1, help="processes on this machine (without MPI)")
     o.add_argument("--mpi", choices=("auto", "yes", "no"), default="auto",
                    help="use MPI: auto = when started by mpirun/srun or 'python -m mpi4py'")
@@ -99,7 +113,8 @@ def problem_from_args(args) -> tuple[sus.SubsetProblem, list[float]]:
     if len(set(levels)) != len(levels):
         raise ParameterError(f"--levels: a level is repeated in {args.levels}")
     out = Path(args.out)
-    for opt, path in (("--out", out), ("--rows", None if args.rows is None else Path(args.rows))):
+    for opt, path in (("--out", out), ("--rows", None if args.rows is None else Path(args.rows)),
+                      ("--journal", None if args.journal is None else Path(args.journal))):
         if path is not None and path.is_dir():
             raise ParameterError(f"{opt} {path} is a folder: give a file's path")
         if path is not None and not path.parent.is_dir():
@@ -157,7 +172,74 @@ def _row(r: dict) -> dict:
     return _plain({k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in r.items()})
 
 
+def journal_identity(prob: sus.SubsetProblem, args) -> dict:
+    """What a journal's runs are of: the problem (column, scenario, EDP, its highest level, solver options),
+    the settings the runs depend on (seed, N, p0, the most levels), and the code (the grid's digest of the
+    package's sources, the C library and the solver options). The lower levels and the confidence are
+    read off the runs afterwards: changing them resumes."""
+    return json.loads(report_json.dumps({
+        "problem": prob.describe(), "seed": args.seed, "n": args.n, "p0": args.p0, "max_levels": args.max_levels,
+        "version": __version__, "code_digest": code_digest(prob.solver_options)}))
+
+
+def _batch_key(batch) -> str:
+    """A batch's runs as one digest: each run's identity (level, chain, step) and its normals' bits."""
+    h = hashlib.sha256()
+    for inp in batch:
+        h.update(f"{inp['level']},{inp['chain']},{inp['step']};".encode())
+        h.update(inp["normals"].astype("<f8").tobytes())
+    return h.hexdigest()
+
+
+class JournaledEvaluator:
+    """``evaluate(batch) -> rows`` that keeps every batch: the k-th batch the journal holds is read back (its
+    runs' key checked: a journal whose batches are other runs is refused), the next ones run by ``evaluate``
+    and appended, synced, before they are returned. Either way the rows are the journal's JSON (floats
+    round-trip exactly, NaN included), so a resumed estimate is bitwise an uninterrupted one."""
+
+    def __init__(self, evaluate, entries: list, journal, path):
+        self.evaluate, self.entries, self.journal, self.path = evaluate, entries, journal, path
+        self.batches = 0
+        self.read_back = 0      # runs read from the journal instead of run
+
+    def __call__(self, batch):
+        key, k = _batch_key(batch), self.batches
+        if k < len(self.entries):
+            entry = self.entries[k]
+            if entry.get("key") != key or len(entry.get("rows", ())) != len(batch):
+                raise ParameterError(f"{self.path}: its batch {k} holds other runs than this estimate's: delete it "
+                                     "or give another --journal")
+            rows = entry["rows"]
+            self.read_back += len(rows)
+        else:
+            rows = json.loads(json.dumps([{k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in r.items()}
+                                          for r in self.evaluate(batch)]))
+            self.journal.add({"batch": k, "key": key, "rows": rows})
+        self.batches += 1
+        return rows
+
+
 def _run_root(args, prob, levels, ev, ranks: int, argv) -> int:
+    jpath = Path(args.journal) if args.journal else Path(args.out + ".journal")
+    lock, entries, journal, error = journals.open_journal(jpath, journal_identity(prob, args), _log, name="subset",
+                                                          remedy="delete it or give another --journal")
+    if error is not None:
+        print(f"pycolfrag subset: {error[1]}", file=sys.stderr)
+        return error[0]
+    if entries:
+        print(f"pycolfrag subset: resuming from {jpath}: {len(entries)} batches done", file=sys.stderr, flush=True)
+    try:
+        return _estimate(args, prob, levels, JournaledEvaluator(ev, entries, journal, jpath), ranks, argv)
+    finally:
+        journal.close()
+        lock.release()
+
+
+def _log(msg: str) -> None:
+    print(f"pycolfrag subset: {msg}", file=sys.stderr, flush=True)
+
+
+def _estimate(args, prob, levels, ev, ranks: int, argv) -> int:
     def progress(lv):
         print(f"level {lv.index}: {lv.runs} runs, next threshold {lv.next_threshold:.4g}, fraction {lv.p_next:.3g}"
               + (f", acceptance {lv.acceptance:.2f}" if lv.index else ""), file=sys.stderr, flush=True)
@@ -169,12 +251,16 @@ def _run_root(args, prob, levels, ev, ranks: int, argv) -> int:
     except RareEventError as exc:
         print(f"pycolfrag subset: {exc}", file=sys.stderr)
         return EXIT_STOPPED
+    except ParameterError as exc:     # a journal whose batches are another estimate's
+        print(f"pycolfrag subset: error: {exc}", file=sys.stderr)
+        return EXIT_ARGS
     command = " ".join(["pycolfrag subset", *argv])
     try:
         if args.rows is not None:
             _write(Path(args.rows), "".join(json.dumps(_row(r)) + "\n" for r in res.rows))
-        by_rank = ev.runs_by_rank if isinstance(ev, MPIEvaluator) else [res.runs]
+        by_rank = ev.evaluate.runs_by_rank if isinstance(ev.evaluate, MPIEvaluator) else [res.runs - ev.read_back]
         doc = result_document(res, levels, prob, command, by_rank, time.time() - t0)
+        doc["runs_read_back"] = ev.read_back
         _write(Path(args.out), report_json.dumps(doc, indent=1) + "\n")
     except OSError as exc:
         print(f"pycolfrag subset: cannot write {args.out}: {exc}", file=sys.stderr)

@@ -1,5 +1,6 @@
 """A sequences run's journal (:mod:`pycolfrag.risk.sequences_run`, :mod:`pycolfrag.risk.sequences_rare_run`): its
-identity line and the refusal of another run's, its lines (a torn last one cut off), its lock, and the exit codes.
+identity line and the refusal of another run's, its lines (a torn last one cut off), its lock, and the exit codes;
+``pycolfrag subset`` keeps its batches' rows by the same text (:mod:`pycolfrag.cli.subset`).
 
 A journal is a text file of JSON lines written by rank 0 alone: the first line ``{"pycolfrag_sequences": 1,
 "identity": ...}``, then one line per finished entry, flushed and synced before the next is taken.
@@ -51,9 +52,11 @@ def _differences(a: dict, b: dict, where: str = "") -> list:
     return out
 
 
-def read_lines(path: Path, ident: dict, log) -> list:
+def read_lines(path: Path, ident: dict, log, name: str = "sequences", remedy: str = "give another folder") -> list:
     """The entries of a journal after its identity line (dicts); an absent journal has none. Refused
-    (:class:`ParameterError`) when its identity is not ``ident``; a torn last line is cut off."""
+    (:class:`ParameterError`) when its identity is not ``ident``; a torn last line is cut off. ``name``: what
+    the journal is of, and ``remedy`` what to do, in the messages (``pycolfrag subset``'s journal is read by
+    the same text)."""
     if not path.exists():
         return []
     raw = path.read_bytes()
@@ -61,7 +64,7 @@ def read_lines(path: Path, ident: dict, log) -> list:
     if lines and lines[-1] == b"":
         lines.pop()
     elif lines:   # no newline after the last line: a write cut short
-        log(f"sequences: {path}: its last line was cut short (a run stopped while writing it); dropped")
+        log(f"{name}: {path}: its last line was cut short (a run stopped while writing it); dropped")
         with open(path, "r+b") as f:
             f.truncate(len(raw) - len(lines[-1]))
         lines.pop()
@@ -71,27 +74,27 @@ def read_lines(path: Path, ident: dict, log) -> list:
         head = json.loads(lines[0])
         found = head["identity"]
     except (ValueError, KeyError, TypeError):
-        raise ParameterError(f"{path} is not a sequences journal: give another folder") from None
+        raise ParameterError(f"{path} is not a {name} journal: {remedy}") from None
     diff = _differences(found, ident)
     if diff:
-        raise ParameterError(f"{path} holds the sequences of another run ({'; '.join(diff[:4])}"
-                             f"{'; ...' if len(diff) > 4 else ''}): give another folder")
+        raise ParameterError(f"{path} holds the {name} of another run ({'; '.join(diff[:4])}"
+                             f"{'; ...' if len(diff) > 4 else ''}): {remedy}")
     out = []
     for i, line in enumerate(lines[1:], start=2):
         try:
             out.append(json.loads(line))
         except ValueError as exc:
-            raise ParameterError(f"{path}, line {i}: damaged ({exc}): give another folder") from None
+            raise ParameterError(f"{path}, line {i}: damaged ({exc}): {remedy}") from None
     return out
 
 
 class Journal:
     """Rank 0's journal: one line per sequence, flushed and synced before the next is taken."""
 
-    def __init__(self, path: Path, ident: dict, fresh: bool):
+    def __init__(self, path: Path, ident: dict, fresh: bool, name: str = "sequences"):
         self.f = open(path, "a", encoding="utf-8")
         if fresh:
-            self._write({"pycolfrag_sequences": 1, "identity": ident})
+            self._write({f"pycolfrag_{name}": 1, "identity": ident})
 
     def _write(self, d: dict) -> None:
         self.f.write(json.dumps(d) + "\n")
@@ -111,7 +114,7 @@ class Journal:
         self.f.close()
 
 
-def open_journal(path: Path, ident: dict, log, read=None):
+def open_journal(path: Path, ident: dict, log, read=None, name: str = "sequences", remedy: str = "give another folder"):
     """Rank 0's journal at ``path``, locked: ``(lock, entries, journal, error)``; ``entries`` are
     :func:`read_lines`'s, or ``read(path, ident, log)``'s; ``error`` is None or ``(exit code, message)`` (the
     folder held by a running run, a journal of another run, an operating-system error), the lock released."""
@@ -119,8 +122,8 @@ def open_journal(path: Path, ident: dict, log, read=None):
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         lock = RunLock.acquire(path, log=log)
-        entries = (read or read_lines)(path, ident, log)
-        journal = Journal(path, ident, fresh=not path.exists() or path.stat().st_size == 0)
+        entries = read(path, ident, log) if read is not None else read_lines(path, ident, log, name, remedy)
+        journal = Journal(path, ident, fresh=not path.exists() or path.stat().st_size == 0, name=name)
         return lock, entries, journal, None
     except ResultsLockedError as exc:
         error = (EXIT_LOCKED, str(exc))
