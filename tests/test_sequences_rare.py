@@ -55,7 +55,7 @@ def _surrogate(model, s, evs, st):
     demand = max([e.pulse["Vp_cm_s"] / V_STAR for e in evs if not e.outside and e.pulse is not None], default=0.0)
     return SimpleNamespace(collapsed={w: bool(times) for w in sq.WAYS}, first_yr={w: [t] * len(PERFORMANCE_LEVELS)
                                                                                      for w in sq.WAYS},
-                           runs=len(evs), restorations=0,
+                           runs=len(evs), shared=0, restorations=0,
                            peak={w: {"u_top": demand, "u_d": demand} for w in sq.WAYS})
 
 

@@ -186,9 +186,11 @@ class SequenceOutcome:
     time (years; NaN), the accumulated ``u_d`` and tilt at the horizon (NaN after a collapse; the intact
     way's: NaN, nothing accumulates), the time of the first exceedance of each level of
     :data:`pycolfrag.damage.PERFORMANCE_LEVELS` (years; NaN: not within the horizon), the restorations,
-    the runs it took (event runs, settling runs not counted), and per way ``peak``: the largest of each EDP
+    the runs it took (event runs made, settling runs not counted), and per way ``peak``: the largest of each EDP
     the levels read over its events (``u_top``, the sequence's peak; ``u_d``, the accumulated u_d at rest;
-    0 without an event), which the rare sequences' demand model reads."""
+    0 without an event), which the rare sequences' demand model reads; ``shared``: the event runs a way took
+    from another instead of making them (the same computation: ``runs + shared`` is what the three ways run
+    apart would make)."""
 
     sequence: int
     events: list
@@ -200,6 +202,7 @@ class SequenceOutcome:
     restorations: int
     runs: int
     peak: dict = field(default_factory=dict)
+    shared: int = 0
 
 
 def _first_times(times: list, results: list) -> list:
@@ -224,8 +227,8 @@ def _peak(results: list) -> dict:
             for k, a in (("u_top", "u_top"), ("u_d", "u_d_rest"))}
 
 
-def _accumulating(way: str, model, motions, times, restoration, st: SequenceSettings):
-    seq = run_sequence(model, motions, restoration=restoration, settle=st.settle, **st.solver_options)
+def _accumulating(model, motions, times, restoration, st: SequenceSettings, known=None):
+    seq = run_sequence(model, motions, restoration=restoration, settle=st.settle, known=known, **st.solver_options)
     c = seq.collapsed
     return seq, {"collapsed": c, "collapse_yr": times[len(seq.events) - 1] if c else math.nan,
                  "u_d_end": seq.accumulated_u_d, "tilt_end": seq.tilt_rad,
@@ -234,37 +237,59 @@ def _accumulating(way: str, model, motions, times, restoration, st: SequenceSett
 
 def _intact(model, motions, times, first, st: SequenceSettings):
     """Every event on the intact column; the first event's run is the accumulated way's (bitwise the same
-    call), reused."""
-    results = [first] + [run_sequence(model, [m], settle=st.settle, **st.solver_options).events[0]
-                         for m in motions[1:]]
+    call), reused (``first``; None: run it too)."""
+    given = [] if first is None else [first]
+    results = given + [run_sequence(model, [m], settle=st.settle, **st.solver_options).events[0]
+                       for m in motions[len(given):]]
     hit = [t for t, e in zip(times, results) if e.collapsed]
     return results, {"collapsed": bool(hit), "collapse_yr": hit[0] if hit else math.nan, "u_d_end": math.nan,
                      "tilt_end": math.nan, "first_yr": _first_times(times, results), "peak": _peak(results)}
 
 
+#: Share the runs that are the same computation between the ways (docs/sequences.md, "Runs shared between the
+#: ways"). False runs every way's every event (the tests compare the two, bit for bit): internal, not a setting.
+_SHARE = True
+
+
+def _known(accumulated: list, intact: list):
+    """The restored way's runs already made (``run_sequence``'s ``known``): before its policy first acts it is the
+    accumulated way call for call (the same state in, the same run), and an event right after a restoration
+    meets the intact column at rest, the intact way's run of that event."""
+    def known(k: int, restorations: int, fresh: bool):
+        if restorations == 0:
+            return accumulated[k]   # the accumulated way reached k: it stops only where this way would
+        return intact[k] if fresh else None
+    return known
+
+
 def run_one(model, s: int, site_events: list, st: SequenceSettings) -> SequenceOutcome:
-    """Run sequence ``s``'s events (:func:`sequence_events`) the three ways."""
+    """Run sequence ``s``'s events (:func:`sequence_events`) the three ways, each run that two ways share made
+    once (:data:`_SHARE`): ``runs`` counts the runs made, ``shared`` those a way took from another."""
     todo = [e for e in site_events if not e.outside]
     ways: dict = {w: {"collapsed": False, "collapse_yr": math.nan, "u_d_end": 0.0, "tilt_end": 0.0,
                       "first_yr": [math.nan] * len(PERFORMANCE_LEVELS), "peak": _peak([])} for w in WAYS}
     ways["intact"].update(u_d_end=math.nan, tilt_end=math.nan)
-    runs, restorations = 0, 0
+    runs, restorations, asked = 0, 0, 0
     if todo:
         motions, times = [_motion(e, st) for e in todo], [e.time_yr for e in todo]
-        acc, ways["accumulated"] = _accumulating("accumulated", model, motions, times, NO_RESTORATION, st)
-        runs += len(acc.events)
-        _, ways["intact"] = _intact(model, motions, times, acc.events[0], st)
-        runs += len(motions) - 1
-        if any(not e.collapsed and st.restoration.due(e.u_d_rest, e.tilt_rad) for e in acc.events):
-            res, ways["restored"] = _accumulating("restored", model, motions, times, st.restoration, st)
-            runs += len(res.events)
+        acc, ways["accumulated"] = _accumulating(model, motions, times, NO_RESTORATION, st)
+        intact, ways["intact"] = _intact(model, motions, times, acc.events[0] if _SHARE else None, st)
+        runs += len(acc.events) + len(intact) - (1 if _SHARE else 0)
+        asked += len(acc.events) + len(intact)
+        acts = any(not e.collapsed and st.restoration.due(e.u_d_rest, e.tilt_rad) for e in acc.events)
+        if acts or not _SHARE:
+            res, ways["restored"] = _accumulating(model, motions, times, st.restoration, st,
+                                                  _known(acc.events, intact) if _SHARE else None)
+            runs += len(res.events) - res.reused
+            asked += len(res.events)
             restorations = res.restorations
         else:   # the policy never acts: the restored way is the accumulated one, call for call
             ways["restored"] = dict(ways["accumulated"])
+            asked += len(acc.events)
     return SequenceOutcome(s, site_events, {w: ways[w]["collapsed"] for w in WAYS},
                            {w: ways[w]["collapse_yr"] for w in WAYS}, {w: ways[w]["u_d_end"] for w in WAYS},
                            {w: ways[w]["tilt_end"] for w in WAYS}, {w: ways[w]["first_yr"] for w in WAYS},
-                           restorations, runs, {w: ways[w]["peak"] for w in WAYS})
+                           restorations, runs, {w: ways[w]["peak"] for w in WAYS}, asked - runs)
 
 
 def run_site_sequences(site, model, settings: SequenceSettings = SequenceSettings(), progress=None) -> dict:
@@ -332,7 +357,8 @@ def summarize(run: dict) -> dict:
         "events_per_sequence": float(n_events.mean()), "expected_events": run["total_rate"] * st.years,
         "sequences_without_event": int((n_events == 0).sum()),
         "dropped_outside": int(sum(e.outside for o in outs for e in o.events)),
-        "runs": int(sum(o.runs for o in outs)), "wall_s": run["wall_s"],
+        "runs": int(sum(o.runs for o in outs)), "shared_runs": int(sum(o.shared for o in outs)),
+        "wall_s": run["wall_s"],
         "p_collapse": {w: _p(col[w]) for w in WAYS},
         "collapse_difference": _paired(diff),
         "u_d_end_quantiles": {q: float(np.quantile(u_end, q, method="inverted_cdf")) for q in (0.5, 0.9, 0.99)},
@@ -358,7 +384,8 @@ def format_summary(sm: dict, title: str = "") -> str:
              f"{sm['n_sequences']} sequences of {sm['years']:g} years (seed {sm['seed']}), total rate "
              f"{sm['total_rate_per_yr']:.4g}/yr: {sm['events_per_sequence']:.3f} events per sequence (expected "
              f"{sm['expected_events']:.3f}), {sm['sequences_without_event']} without an event, "
-             f"{sm['dropped_outside']} event(s) outside the models dropped; {sm['runs']} event runs, "
+             f"{sm['dropped_outside']} event(s) outside the models dropped; {sm['runs']} event runs "
+             f"({sm['shared_runs']} more shared between the ways), "
              f"{sm['wall_s']:.1f} s.", "",
              f"P(collapse within {sm['years']:g} yr), ± one binomial standard error:",
              f"- with accumulation: {_pct(pc['accumulated'])}",

@@ -180,14 +180,14 @@ def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse
     row = {"h": h, "j": j, "stage": int(tags["stage"]), "weight": float(tags["weight"]), "strongest": strongest,
            "mw": x["mw"], "dist_km": x["dist_km"], "pulse": x["pulse"] is not None,
            "z_vp": float(tags.get("z_vp", 0.0)), "z_fp": float(tags.get("z_fp", 0.0)),
-           "occurrence_weight": float(tags["occurrence_weight"]), "events": len(phi) + 1, "runs": 0,
+           "occurrence_weight": float(tags["occurrence_weight"]), "events": len(phi) + 1, "runs": 0, "shared": 0,
            "restorations": 0, "hits": {w: [False] * len(QUANTITIES) for w in WAYS},
            "peak": {w: {"u_top": 0.0, "u_d": 0.0} for w in WAYS}}
     if strongest:
         ev = SiteEvent(j, -1, t_x, strata[h].source, x["mw"], x["dist_km"], x["pulse"], x["hf_seed"], False)
         evs = sorted(phi + [ev], key=lambda e: e.time_yr)
         o = run_one(model, j, evs, st)
-        row["runs"], row["restorations"] = o.runs, o.restorations
+        row["runs"], row["shared"], row["restorations"] = o.runs, o.shared, o.restorations
         row["hits"] = {w: [bool(o.collapsed[w])] + [bool(math.isfinite(t)) for t in o.first_yr[w]] for w in WAYS}
         row["peak"] = {w: {k: float(v) for k, v in o.peak[w].items()} for w in WAYS}
     row["seconds"] = time.perf_counter() - t0
@@ -351,8 +351,13 @@ def simulate_sequences(site, model, rs: RareSequenceSettings, evaluate=None, don
         stage += 1
     fl = floors(rows, strata, design, rs.sequences.seed, events=events)
     return {"rows": rows, "estimate": estimate(rows, strata, years, fl), "strata": strata, "settings": rs,
-            "design": design, "runs": int(sum(r["runs"] for r in rows)),
+            "design": design, "runs": int(sum(r["runs"] for r in rows)), "shared": _shared(rows),
             "seconds": float(sum(r["seconds"] for r in rows))}
+
+
+def _shared(rows: list) -> int:
+    """The event runs the rows' ways shared (:func:`pycolfrag.risk.sequences.run_one`; 0 in rows made before)."""
+    return int(sum(r.get("shared", 0) for r in rows))
 
 
 def estimate_rows(site, rs: RareSequenceSettings, rows: list) -> dict:
@@ -366,7 +371,7 @@ def estimate_rows(site, rs: RareSequenceSettings, rows: list) -> dict:
                                _site_settings(rs), (LEVELS[QUANTITIES.index(rs.target)],), thin)
     fl = floors(rows, strata, design, rs.sequences.seed)
     return {"rows": rows, "estimate": estimate(rows, strata, rs.sequences.years, fl), "strata": strata, "settings": rs,
-            "design": design, "runs": int(sum(r["runs"] for r in rows)),
+            "design": design, "runs": int(sum(r["runs"] for r in rows)), "shared": _shared(rows),
             "seconds": float(sum(r["seconds"] for r in rows))}
 
 
@@ -387,7 +392,8 @@ def format_estimate(run: dict, title: str = "") -> str:
     strongest = sum(r["strongest"] for r in rows)
     lines = [f"## {title or 'Sequences at a site, importance sampling on the strongest event'}", "",
              f"{len(rows)} rows over {len(run['strata'])} strata ({strongest} with the row's event the strongest of "
-             f"its sequence), {run['runs']} event runs, {run['seconds']:.1f} s of runs; horizon {st.years:g} years, "
+             f"its sequence), {run['runs']} event runs ({run['shared']} more shared between the ways), "
+             f"{run['seconds']:.1f} s of runs; horizon {st.years:g} years, "
              f"seed {st.seed}, restoration {st.restoration.describe()}.", "",
              *(f"Production proposal: {n}." for n in run["design"].notes), "",
              f"| quantity | P(within {st.years:g} yr): accumulated [CoV] | intact [CoV] | restored [CoV] | "

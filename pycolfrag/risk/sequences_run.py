@@ -319,7 +319,8 @@ def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
                                      f"importance sampling on the strongest event")
     out = Path(args.out)
     (out / "rare_summary.json").write_text(report_json.dumps(
-        {"estimate": run["estimate"], "rows": len(run["rows"]), "runs": run["runs"], "seconds": run["seconds"],
+        {"estimate": run["estimate"], "rows": len(run["rows"]), "runs": run["runs"], "shared": run["shared"],
+         "seconds": run["seconds"],
          "strata": len(run["strata"]), "settings": rare.settings_dict(rs), "design": run["design"].as_dict()},
         indent=1))
     (out / "rare_summary.md").write_text(text + "\n")

@@ -151,7 +151,8 @@ class SequenceResult:
     """A sequence's events (up to its collapse), its end state (None after a collapse), and the count of
     restorations; ``accumulated_u_d`` and ``tilt_rad`` are those of the end state (NaN after a collapse;
     when the last event was followed by a restoration: 0 from the as-built rest, and from a given
-    ``initial_state`` its tilt and NaN for its u_d, which is its run's, not kept)."""
+    ``initial_state`` its tilt and NaN for its u_d, which is its run's, not kept); ``reused``: how many of its events
+    were taken from ``run_sequence``'s ``known`` rather than run (its event runs: ``len(events) - reused``)."""
 
     events: list
     final_state: State | None
@@ -159,6 +160,7 @@ class SequenceResult:
     restorations: int
     accumulated_u_d: float
     tilt_rad: float
+    reused: int = 0
 
     @property
     def collapse_event(self) -> int | None:
@@ -256,13 +258,20 @@ def _record_dt(rec) -> float:
 
 
 def run_sequence(model, records, *, restoration: Restoration = NO_RESTORATION, settle: Settle | None = Settle(),
-                 initial_state: State | None = None, options=None, **overrides) -> SequenceResult:
+                 initial_state: State | None = None, options=None, known=None, **overrides) -> SequenceResult:
     """Run ``records`` (Records, or ``(acc_x, dt)`` tuples) one after the other on ``model``, each from
     the state the previous one left (see the module's text); ``initial_state`` (None: the as-built rest)
     is where the sequence and every restoration start; ``options`` and ``**overrides`` as
     :func:`pycolfrag.simulate`'s, for every event run (the settling run overrides ``tail_s``,
     ``damping_alpha``, ``damping_start_s`` and ``early_exit``). ``settle=None``: no settling run (the
-    next event starts where the event's tail ended: the continuation API's chain)."""
+    next event starts where the event's tail ended: the continuation API's chain).
+
+    ``known``: None, or a callable ``known(k, restorations, fresh)`` giving record ``k``'s :class:`EventResult`
+    already computed by the same calls from the same state -- ``restorations`` done before it, ``fresh`` when its
+    state is ``initial_state`` itself (the start, or right after a restoration: a flag, no state compared) -- or
+    None to run it. The caller vouches that it is the same computation (the same model, record, settling and
+    options from that state); its runs are taken as they are (its ``index`` and ``restored`` set here), not run,
+    and counted in the result's ``reused`` (docs/sequences.md, "Runs shared between the ways")."""
     recs = _records(records)
     if not isinstance(restoration, Restoration):
         raise ParameterError(f"restoration must be a Restoration, got {type(restoration).__name__}")
@@ -271,24 +280,33 @@ def run_sequence(model, records, *, restoration: Restoration = NO_RESTORATION, s
     if initial_state is not None and not isinstance(initial_state, State):
         raise ParameterError(f"initial_state must be a State or None, got {type(initial_state).__name__}")
     height = model_height(model)
-    state, events, restored_count = initial_state, [], 0
+    state, events, restored_count, reused, fresh = initial_state, [], 0, 0, True
     u_d_acc, tilt = math.nan, math.nan
+    rest_speed = settle.rest_speed if settle else Settle.rest_speed
     for k, rec in enumerate(recs):
-        res, u_top_event, peak = _event_run(model, rec, state, options, overrides)
-        last = res
-        settled = None
-        if not res.collapsed and settle is not None:
-            settled = last = _settle(model, res, settle, _record_dt(rec), options, overrides)
-        collapsed = bool(last.collapsed)
-        state, u_d_acc, tilt, still = _measures(last, height, settle.rest_speed if settle else Settle.rest_speed)
-        restore = (not collapsed) and restoration.due(u_d_acc, tilt)
-        events.append(EventResult(k, max(peak, float(last.u_top)), float(res.u_d), collapsed, u_d_acc, tilt, still,
-                                  restore, res, settled, u_top_event))
-        if collapsed:
+        done = None if known is None else known(k, restored_count, fresh)
+        if done is not None:   # the same calls from the same state, made already: taken as they are
+            reused += 1
+            last = done.settled if done.settled is not None else done.response
+            state, u_d_acc, tilt, still = _measures(last, height, rest_speed)
+            restore = (not done.collapsed) and restoration.due(u_d_acc, tilt)
+            events.append(dataclasses.replace(done, index=k, restored=restore))
+        else:
+            res, u_top_event, peak = _event_run(model, rec, state, options, overrides)
+            last = res
+            settled = None
+            if not res.collapsed and settle is not None:
+                settled = last = _settle(model, res, settle, _record_dt(rec), options, overrides)
+            state, u_d_acc, tilt, still = _measures(last, height, rest_speed)
+            restore = (not last.collapsed) and restoration.due(u_d_acc, tilt)
+            events.append(EventResult(k, max(peak, float(last.u_top)), float(res.u_d), bool(last.collapsed), u_d_acc,
+                                      tilt, still, restore, res, settled, u_top_event))
+        fresh = False
+        if events[-1].collapsed:
             break
         if restore:
             restored_count += 1
-            state, u_d_acc, tilt = initial_state, 0.0, 0.0
+            state, u_d_acc, tilt, fresh = initial_state, 0.0, 0.0, True
     if initial_state is not None and events and events[-1].restored:
         u_d_acc, tilt = math.nan, tilt_rad(initial_state)   # the as-built state's u_d is its run's, not kept
-    return SequenceResult(events, state, bool(events[-1].collapsed), restored_count, u_d_acc, tilt)
+    return SequenceResult(events, state, bool(events[-1].collapsed), restored_count, u_d_acc, tilt, reused)
