@@ -194,16 +194,38 @@ def _rows(out: Path) -> list:
     return [json.dumps({k: v for k, v in d.items() if k != "seconds"}) for d in map(json.loads, lines)]
 
 
-@pytest.fixture(scope="module")
-def rare_reference(site_file):
-    """The rare estimator run in this process with the command's settings (rows without their wall times)."""
+def _rare_run(site_file) -> dict:
+    """The rare estimator run in this process with the command's settings."""
     from pycolfrag.risk import sequences_rare as rare
     st = sq.SequenceSettings(years=10.0, n_sequences=1000, seed=3, restoration=Restoration(u_d=0.005),
                              max_record_s=4.0)
     rs = rare.RareSequenceSettings(sequences=st, target="u_d > 0.005", target_cov=0.01, pilot=2, batch=12,
                                    max_rows=40)
-    run = rare.simulate_sequences(load_site(site_file), Column.from_file(COLUMN), rs)
+    return rare.simulate_sequences(load_site(site_file), Column.from_file(COLUMN), rs)
+
+
+@pytest.fixture(scope="module")
+def rare_reference(site_file):
+    """The rare estimator's rows (without their wall times) and estimate, run in this process."""
+    run = _rare_run(site_file)
     return [json.dumps({k: v for k, v in r.items() if k != "seconds"}) for r in run["rows"]], run["estimate"]
+
+
+def test_rare_rows_are_those_of_the_ways_run_apart(site_file, rare_reference, monkeypatch):
+    """The runs the ways share (docs/sequences.md, "Runs shared between the ways") change no row but its count of
+    runs made: the estimator with every way's every event run (``sq._SHARE = False``) gives the same rows bit for
+    bit (JSON lines), its runs those made here plus those shared, and the same estimate."""
+    monkeypatch.setattr(sq, "_SHARE", False)
+    apart = _rare_run(site_file)
+    rows = [json.loads(r) for r in rare_reference[0]]
+    assert sum(r["shared"] for r in rows) > 0 and any(r["restorations"] for r in rows)
+    assert [r["runs"] for r in apart["rows"]] == [r["runs"] + r["shared"] for r in rows]
+    assert all(r["shared"] == 0 for r in apart["rows"])
+
+    def bare(r: dict) -> str:
+        return json.dumps({k: v for k, v in r.items() if k not in ("seconds", "runs", "shared")})
+    assert [bare(r) for r in apart["rows"]] == [bare(r) for r in rows]
+    assert json.dumps(apart["estimate"]) == json.dumps(rare_reference[1])
 
 
 def test_rare_rows_are_the_in_process_estimators(site_file, rare_reference, tmp_path):
