@@ -131,8 +131,8 @@ def _two_or_more(model, s, evs, st):
     times = [e.time_yr for e in evs if not e.outside]
     t = times[1] if len(times) >= 2 else math.nan
     return SimpleNamespace(collapsed={w: len(times) >= 2 for w in sq.WAYS},
-                           first_yr={w: [t] * len(PERFORMANCE_LEVELS) for w in sq.WAYS}, runs=len(evs), restorations=0,
-                           peak={w: {"u_top": 0.1 * len(times), "u_d": 0.1 * len(times)} for w in sq.WAYS})
+                           first_yr={w: [t] * len(PERFORMANCE_LEVELS) for w in sq.WAYS}, runs=len(evs), shared=0,
+                           restorations=0, peak={w: {"u_top": 0.1 * len(times), "u_d": 0.1 * len(times)} for w in sq.WAYS})
 
 
 def test_events_of_equal_score_are_ranked_by_their_time(monkeypatch):
