@@ -66,8 +66,8 @@ def main(argv=None) -> int:
     run = rare.estimate_rows(load_site(args.site), rs, rows)
     est, years, target = run["estimate"], rs.sequences.years, rs.target
     print(f"rare sequences: {len(rows)} rows over {len(run['strata'])} strata "
-          f"({sum(r['strongest'] for r in rows)} with the row's event the strongest), {run['runs']} event runs, "
-          f"{run['seconds']:.0f} s of runs ({platform.processor() or platform.machine()}); horizon {years:g} years")
+          f"({sum(r['strongest'] for r in rows)} with the row's event the strongest), {run['runs']} event runs "
+          f"({run['shared']} more shared between the ways), {run['seconds']:.0f} s of runs ({platform.processor() or platform.machine()}); horizon {years:g} years")
     for note in run["design"].notes:
         print(f"  production proposal: {note}")
     print(f"\n| quantity | P within {years:g} yr: accumulated [CoV; sample-variance CoV] | its 90 % interval | intact "
@@ -93,7 +93,7 @@ def main(argv=None) -> int:
              f"({need / s_at:.2f}x the single event's; target <= 2x) -- NOT measured, the run stopped at CoV {cov:.3f}"))
     if args.json:
         Path(args.json).write_text(json.dumps({
-            "rows": len(rows), "runs": run["runs"], "seconds": run["seconds"], "design": run["design"].as_dict(),
+            "rows": len(rows), "runs": run["runs"], "shared": run["shared"], "seconds": run["seconds"], "design": run["design"].as_dict(),
             "estimate": est, "single": {"runs": s_runs, "cov": s_cov, "runs_at_target": s_at},
             "runs_at_target_extrapolated": need, "target_met": met}, indent=1))
     return 0

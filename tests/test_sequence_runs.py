@@ -105,6 +105,8 @@ def test_a_collapse_ends_the_sequence():
     (lambda: run_sequence(COL, [R1], restoration=0.01), "restoration must be a Restoration"),
     (lambda: run_sequence(COL, [R1], settle="yes"), "settle must be a Settle"),
     (lambda: run_sequence(COL, [R1], initial_state="s"), "initial_state must be a State"),
+    (lambda: run_sequence(COL, [R1], known=5), "known must be None or a callable"),
+    (lambda: run_sequence(COL, [R1], known=lambda k, n, fresh: 3), r"known\(0, 0, True\) must give an EventResult"),
     (lambda: Restoration(u_d=-0.01), r"Restoration.u_d must be a number > 0.*-0.01"),
     (lambda: Restoration(u_d=float("nan")), r"Restoration.u_d must be a number > 0.*nan"),
     (lambda: Restoration(tilt_rad="big"), r"Restoration.tilt_rad must be a number > 0.*'big'"),

@@ -279,12 +279,17 @@ def run_sequence(model, records, *, restoration: Restoration = NO_RESTORATION, s
         raise ParameterError(f"settle must be a Settle or None, got {type(settle).__name__}")
     if initial_state is not None and not isinstance(initial_state, State):
         raise ParameterError(f"initial_state must be a State or None, got {type(initial_state).__name__}")
+    if known is not None and not callable(known):
+        raise ParameterError(f"known must be None or a callable (k, restorations, fresh), got {type(known).__name__}")
     height = model_height(model)
     state, events, restored_count, reused, fresh = initial_state, [], 0, 0, True
     u_d_acc, tilt = math.nan, math.nan
     rest_speed = settle.rest_speed if settle else Settle.rest_speed
     for k, rec in enumerate(recs):
         done = None if known is None else known(k, restored_count, fresh)
+        if done is not None and not isinstance(done, EventResult):
+            raise ParameterError(f"known({k}, {restored_count}, {fresh}) must give an EventResult or None, got "
+                                 f"{type(done).__name__}")
         if done is not None:   # the same calls from the same state, made already: taken as they are
             reused += 1
             last = done.settled if done.settled is not None else done.response
