@@ -59,7 +59,7 @@ static unsigned long long hash_result(unsigned long long h, int st, const cf_sol
 
 int main(int argc, char **argv)
 {
-    cf_geometry_segment seg[NB + 1];
+    cf_geometry_segment seg[NB + 1] = {{0}};
     int nseg[NB], i, count, width = -1;
     double **acc, *dt, *resid;
     int *n;

@@ -65,7 +65,7 @@ static unsigned long long hash_bytes(unsigned long long h, const void *p, size_t
 int main(int argc, char **argv)
 {
     enum { NB = 13 };
-    cf_geometry_segment seg[NB + 1];
+    cf_geometry_segment seg[NB + 1] = {{0}};
     int nseg[NB], i, a, repeat = 7, setup_only = 0;
     double dtr = 0.005, density = 2700.0, kn = 1e9, ks = 1e9, mu = 0.7535540501027942;
     double *acc, *times, *cpu, resid[NB];

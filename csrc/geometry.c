@@ -21,17 +21,37 @@ static double poly_int(double r0, double r1, double h, int p, int q)
     return sum * cf_math_pow(h, q + 1);
 }
 
+double cf_geometry_segment_aspect(const cf_geometry_segment *s)
+{
+    return s->aspect == 0.0 ? 1.0 : s->aspect;
+}
+
+double cf_geometry_circumradius(const cf_geometry_segment *s, double r)
+{
+    double a = cf_geometry_segment_aspect(s), best = 0.0;
+    int k;
+    if (a == 1.0) return r;
+    for (k = 0; k < s->n_sides; k++) {
+        double ph = s->phase_rad + 2.0 * CF_PI * k / s->n_sides;
+        double x = r * cf_math_cos(ph), y = a * r * cf_math_sin(ph);
+        if (x * x + y * y > best) best = x * x + y * y;
+    }
+    return sqrt(best);
+}
+
 static int seg_ok(const cf_geometry_segment *s)
 {
     return s && isfinite(s->height) && s->height > 0 && isfinite(s->r_bottom) && s->r_bottom > 0
-        && isfinite(s->r_top) && s->r_top > 0 && s->n_sides >= 3 && isfinite(s->phase_rad);
+        && isfinite(s->r_top) && s->r_top > 0 && s->n_sides >= 3 && isfinite(s->phase_rad)
+        && isfinite(s->aspect) && s->aspect >= 0.0;
 }
 
 int cf_geometry_segment_props(const cf_geometry_segment *s, double rho, cf_geometry_massprops *out)
 {
-    double k, c, v, zc, i4, i22;
+    double k, c, v, zc, i4, i22, a;
     if (!seg_ok(s) || !out || !(rho > 0) || !isfinite(rho)) return CF_EINVAL;
-    k = 0.5 * s->n_sides * cf_math_sin(2.0 * CF_PI / s->n_sides);
+    a = cf_geometry_segment_aspect(s);   /* a = 1: every product below by 1.0, exact */
+    k = 0.5 * s->n_sides * cf_math_sin(2.0 * CF_PI / s->n_sides) * a;
     c = (2.0 + cf_math_cos(2.0 * CF_PI / s->n_sides)) / 12.0;
     v = k * poly_int(s->r_bottom, s->r_top, s->height, 2, 0);
     zc = k * poly_int(s->r_bottom, s->r_top, s->height, 2, 1) / v;
@@ -41,15 +61,17 @@ int cf_geometry_segment_props(const cf_geometry_segment *s, double rho, cf_geome
     out->mass = rho * v;
     out->height = s->height;
     out->com_z = zc;
-    out->izz = rho * 2.0 * k * c * i4;
-    out->ixx = rho * (k * c * i4 + k * i22) - out->mass * zc * zc;
+    /* k holds a: about y int x^2 dA = k c r^4, about x int y^2 dA = k c r^4 a^2 */
+    out->izz = a == 1.0 ? rho * 2.0 * k * c * i4 : rho * k * c * i4 * (1.0 + a * a);
+    out->ixx = rho * (k * c * i4 * (a * a) + k * i22) - out->mass * zc * zc;
+    out->iyy = rho * (k * c * i4 + k * i22) - out->mass * zc * zc;
     return CF_OK;
 }
 
 int cf_geometry_block_props(const cf_geometry_segment *segs, int n, double rho, cf_geometry_massprops *out)
 {
     cf_geometry_massprops p;
-    double m = 0, mz = 0, z0 = 0, ixx = 0, izz = 0, v = 0;
+    double m = 0, mz = 0, z0 = 0, ixx = 0, iyy = 0, izz = 0, v = 0;
     int i, st;
     if (!segs || n < 1 || !out) return CF_EINVAL;
     for (i = 0; i < n; i++) {
@@ -67,9 +89,10 @@ int cf_geometry_block_props(const cf_geometry_segment *segs, int n, double rho, 
         cf_geometry_segment_props(&segs[i], rho, &p);
         dz = z0 + p.com_z - out->com_z;
         ixx += p.ixx + p.mass * dz * dz;
+        iyy += p.iyy + p.mass * dz * dz;
         izz += p.izz;
         z0 += p.height;
     }
-    out->ixx = ixx; out->izz = izz;
+    out->ixx = ixx; out->iyy = iyy; out->izz = izz;
     return CF_OK;
 }

@@ -12,6 +12,12 @@
  *   V = k_n int r^2 dz,  izz = rho 2 k_n c_n int r^4 dz,
  *   ixx = rho int (k_n c_n r^4 + k_n r^2 (z - zc)^2) dz,
  * the integrals of polynomials in z evaluated exactly (binomial expansion).
+ *
+ * A segment's `aspect` a scales its section along its body's y axis (the polygon is built at its
+ * phase, then y -> a y): a = 4-gon at phase pi/4 of circumradius b / sqrt 2 with a = d / b is the
+ * rectangle b x d (a wall). 0 (a zeroed struct) reads as 1: the regular polygon. The scaled section's
+ * second moments are k c r^4 a (about y, int x^2 dA) and k c r^4 a^3 (about x, int y^2 dA), its area
+ * k r^2 a: the inertia is diag(ixx, iyy, izz), iyy = ixx for a = 1.
  */
 #ifndef CF_GEOMETRY_H
 #define CF_GEOMETRY_H
@@ -23,6 +29,7 @@ typedef struct {
     double r_top;      /* circumradius of the top polygon, m, > 0 */
     double phase_rad;  /* angle of the first vertex from +x, rad */
     int n_sides;       /* polygon sides, >= 3 */
+    double aspect;     /* the section's scale along y (> 0; 0 reads as 1, the regular polygon) */
 } cf_geometry_segment;
 
 typedef struct {
@@ -30,12 +37,19 @@ typedef struct {
     double volume;     /* m^3 */
     double height;     /* m */
     double com_z;      /* centre of mass above the bottom face, m */
-    double ixx;        /* moment of inertia about a horizontal axis through the COM, kg m^2 (= iyy) */
+    double ixx;        /* moment of inertia about the x axis through the COM, kg m^2 */
     double izz;        /* moment of inertia about the vertical axis through the COM, kg m^2 */
+    double iyy;        /* moment of inertia about the y axis through the COM, kg m^2 (= ixx at aspect 1) */
 } cf_geometry_massprops;
 
 /* Area of a regular n-gon of circumradius r, m^2. */
 double cf_geometry_polygon_area(int n_sides, double r);
+
+/* The segment's aspect (0 read as 1). */
+double cf_geometry_segment_aspect(const cf_geometry_segment *seg);
+
+/* The circumradius of the segment's section whose unscaled circumradius is r (r itself at aspect 1). */
+double cf_geometry_circumradius(const cf_geometry_segment *seg, double r);
 
 /* Mass properties of one segment (density kg/m^3). CF_EINVAL on bad geometry. */
 int cf_geometry_segment_props(const cf_geometry_segment *seg, double density, cf_geometry_massprops *out);

@@ -130,6 +130,8 @@ static int check_column(cf_solver *s, int nblk, const int *nseg, const cf_geomet
             return cf_solver_fail(s, CF_EINVAL, "segment %d: height and radii must be finite and > 0 (got h=%g, r_bottom=%g, r_top=%g)",
                         i, g->height, g->r_bottom, g->r_top);
         if (g->n_sides < 3 || g->n_sides > CF_MAXS) return cf_solver_fail(s, CF_EINVAL, "segment %d: n_sides must be in [3, %d], got %d", i, CF_MAXS, g->n_sides);
+        if (!isfinite(g->aspect) || g->aspect < 0.0)
+            return cf_solver_fail(s, CF_EINVAL, "segment %d: aspect must be finite and > 0 (0: 1), got %g", i, g->aspect);
     }
     if (!(density > 0) || !isfinite(density)) return cf_solver_fail(s, CF_EINVAL, "density must be > 0, got %g", density);
     if (!kn || !ks || !mu) return cf_solver_fail(s, CF_EINVAL, "joint properties missing");

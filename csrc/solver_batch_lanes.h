@@ -273,7 +273,7 @@ static inline __attribute__((always_inline)) void CF_BN(contacts_body)(const cf_
             }
             cf_face_pass_set(pts, J, side, &P);
             ff = P.ff;
-            apo2 = ff->apo * ff->apo; apotol = ff->apo + P.tol;
+            apo2 = ff->apoc * ff->apoc; apotol = ff->apo + P.tol;
             /* the frame map: side 0 in the lower face's frame (M0), side 1 in the upper's (M0^T) */
             Mx0 = CF_BN(ld)(C->M0[0]); Mx1 = CF_BN(ld)(C->M0[side == 0 ? 1 : 3]);
             My0 = CF_BN(ld)(C->M0[side == 0 ? 3 : 1]); My1 = CF_BN(ld)(C->M0[4]);

@@ -67,8 +67,13 @@ int cf_solver_points_lanes_widest(void);
 typedef struct {
     double c[3];                 /* face centre in the body frame, m */
     int n;                       /* sides */
-    double apo, rc, area;        /* apothem, circumradius (m), area (m^2) */
-    double ec[CF_MAXS], es[CF_MAXS];   /* outward in-plane edge normals */
+    double apo, rc, area;        /* apothem of the unscaled polygon, circumradius (m), area (m^2) */
+    /* aspect (the section's scale along y, geometry.h) and the radius of a circle inside the face (m):
+     * apo at aspect 1, apo min(1, asp) else. The face tests run on the unscaled polygon: (X, Y) is
+     * inside iff (X, Y / asp) is within apo of every edge, so es holds the normals' y parts / asp
+     * (unit normals at aspect 1; the tolerance then grows the face by tol asp along y) */
+    double asp, apoc;
+    double ec[CF_MAXS], es[CF_MAXS];   /* outward in-plane edge normals (the y parts / asp) */
     double vx[CF_MAXS], vy[CF_MAXS];   /* vertices relative to the centre, CCW */
     double poly[2 * CF_MAXS];          /* the same, interleaved (x, y) */
     double ecw[CF_MAXS + 2], esw[CF_MAXS + 2];   /* edge normals with wrap-around: ecw[k + 1] = ec[k mod n] */
@@ -303,7 +308,7 @@ double cf_solver_as_built_reach(const cf_joint *J);
  * every moving body about the +x base edge (after the connectors have taken the untilted rest) */
 void cf_solver_stack_tilt(struct cf_solver *s);
 int cf_solver_stack_alloc(struct cf_solver *s, int nblk, int nbody, int nj);
-void cf_solver_stack_face(cf_face *f, int n, double r, double phase, double cz);
+void cf_solver_stack_face(cf_face *f, int n, double r, double phase, double cz, double asp);
 
 /* solver_scene.c: the bodies and joints of a scene of several columns or with beams (its checks
  * included; the columns' blocks and joints are checked by the caller), and its monitor's map */
@@ -353,7 +358,7 @@ static inline int cf_face_inside(const cf_face *f, double X, double Y, double to
 {
     int k;
     double lim = f->apo + tol;
-    if (X * X + Y * Y <= f->apo * f->apo) return 1;
+    if (X * X + Y * Y <= f->apoc * f->apoc) return 1;
     for (k = 0; k < f->n; k++)
         if (X * f->ec[k] + Y * f->es[k] > lim) return 0;
     return 1;

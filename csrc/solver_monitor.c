@@ -112,6 +112,19 @@ static inline int box_within(const double *box, double tol, const double *c, dou
     return dx * dx + dy * dy < r * r;
 }
 
+/* Is the centre of mass (dx, dy) (m, horizontal) from the centre of face f of body b well beyond the face,
+ * more than twice its reach that way? A regular face reaches rc whichever way; a scaled one (geometry.h)
+ * its vertices' furthest projection on that direction, as body b holds the face now. */
+static int beyond(const cf_solver *s, int b, const cf_face *f, double dx, double dy)
+{
+    double d[3] = {dx, dy, 0.0}, e[3], reach = 0.0;
+    int k;
+    if (f->asp == 1.0) return dx * dx + dy * dy > 4.0 * f->rc * f->rc;
+    mat_tvec(s->R + 9 * b, d, e);
+    for (k = 0; k < f->n; k++) if (f->vx[k] * e[0] + f->vy[k] * e[1] > reach) reach = f->vx[k] * e[0] + f->vy[k] * e[1];
+    return dx * dx + dy * dy > 2.0 * reach;
+}
+
 /* Bearing j of a scene: has its beam's seat on that column (the centre of the beam's bearings
  * there, moving with the beam) left the column's top face? More than half the seat then overhangs:
  * the beam is unseated (the off-footprint criterion of a beam). */
@@ -140,7 +153,8 @@ static int unseated(const cf_solver *s, int j)
  *   Measured both from the supporting (lower) face, with its radius, and from the
  *   moving block's own bottom face, with its own radius: a narrow block on a wide
  *   drum can tip over far inside the drum's face (on the unbounded ground the two
- *   faces are the same).
+ *   faces are the same). A scaled section (geometry.h) reaches unequally: twice its
+ *   reach towards the centre of mass, as the face lies now (beyond()).
  * - off the footprint: the centre of a block's bottom face has slid outside the
  *   polygon of the face below (in that face's plane): more than half of the joint
  *   overhangs. Rocking alone moves this centre by b (1 - cos tilt) only. A beam of a
@@ -184,16 +198,19 @@ int cf_solver_monitor_collapse(const cf_solver *s, int *blk)
         cf_face_world(s, J->bu, &J->fu, cU, nU);
         cf_face_world(s, J->bl, &J->fl, cL, nL);
         cs = J->bl == 0 ? cU : cL;   /* on the ground the supporting face is the block's own */
-        if (!J->bearing && (!box_within(box, tol, cs, J->fl.rc) || !box_within(box, tol, cU, J->fu.rc))) {
+        if (!J->bearing && (J->fl.asp != 1.0 || J->fu.asp != 1.0 || !box_within(box, tol, cs, J->fl.rc)
+                            || !box_within(box, tol, cU, J->fu.rc))) {
             double mx = 0, my = 0, mt = 0, gx, gy, dx, dy;
             for (i = J->bu; i < J->above; i++) {
                 mx += s->m[i] * s->x[3 * i]; my += s->m[i] * s->x[3 * i + 1]; mt += s->m[i];
             }
             gx = mx / mt; gy = my / mt;
             dx = gx - cs[0]; dy = gy - cs[1];
-            if (dx * dx + dy * dy > 4.0 * J->fl.rc * J->fl.rc) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
+            if (J->bl == 0 ? beyond(s, J->bu, &J->fu, dx, dy) : beyond(s, J->bl, &J->fl, dx, dy)) {
+                *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING;
+            }
             dx = gx - cU[0]; dy = gy - cU[1];
-            if (dx * dx + dy * dy > 4.0 * J->fu.rc * J->fu.rc) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
+            if (beyond(s, J->bu, &J->fu, dx, dy)) { *blk = J->logical; return CF_SOLVER_COLLAPSE_OVERTURNING; }
         }
         if (foot < 0 && J->bearing) {
             if (unseated(s, j)) foot = j;

@@ -131,7 +131,7 @@ static inline int cf_face_inside_hint(const cf_face *f, double X, double Y, doub
 {
     int n = f->n, k = *hint, kp, km;
     double best, pp, pm;
-    if (X * X + Y * Y <= f->apo * f->apo) return 1;
+    if (X * X + Y * Y <= f->apoc * f->apoc) return 1;
     best = X * f->ec[k] + Y * f->es[k];
     kp = k + 1 == n ? 0 : k + 1;
     pp = X * f->ec[kp] + Y * f->es[kp];

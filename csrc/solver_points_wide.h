@@ -50,7 +50,7 @@ void CF_POINTS_RUN(cf_points *pts, const cf_face_pass *P, int k0, int k1, cf_fac
     const double *knw = pts->knw, *ksw = pts->ksw, *ihkw = pts->ihkw, *state = pts->state;
     double *fsx = pts->fsx, *fsy = pts->fsy;
     const double M0 = P->M[0], M1 = P->M[1], M3 = P->M[3], M4 = P->M[4], M6 = P->M[6], M7 = P->M[7];
-    const double apo2 = P->ff->apo * P->ff->apo, apotol = P->ff->apo + P->tol;
+    const double apo2 = P->ff->apoc * P->ff->apoc, apotol = P->ff->apo + P->tol;
     const VD zero = {0}, half = zero + 0.5, mu = zero + P->mu;
     const VM all = ~(VM)zero, unb = P->unbounded ? all : (VM)zero;
     const int full = (1 << CF_BW) - 1;

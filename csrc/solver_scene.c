@@ -136,28 +136,30 @@ static void column_build(cf_solver *s, const cf_solver_scene *sc, int c, int blk
         cf_joint *J = &s->jt[j0 + i];
         cf_geometry_block_props(sc->segments + off, ns, s->density, &bp[kb]);
         s->m[b] = bp[kb].mass;
-        s->inertia[3 * b] = bp[kb].ixx; s->inertia[3 * b + 1] = bp[kb].ixx; s->inertia[3 * b + 2] = bp[kb].izz;
+        s->inertia[3 * b] = bp[kb].ixx; s->inertia[3 * b + 1] = bp[kb].iyy; s->inertia[3 * b + 2] = bp[kb].izz;
         s->blk_body[kb] = b;
         s->blk_bot[3 * kb + 2] = -bp[kb].com_z;
         s->blk_top[3 * kb + 2] = bp[kb].height - bp[kb].com_z;
         s->blk_h[kb] = bp[kb].height; s->blk_m[kb] = bp[kb].mass;
-        s->joint_diam[kb] = 2.0 * bot->r_bottom;
+        s->joint_diam[kb] = 2.0 * cf_geometry_circumradius(bot, bot->r_bottom);
         s->blk_rc[kb] = 0.0;
         for (k = off; k < off + ns; k++) {
-            if (sc->segments[k].r_bottom > s->blk_rc[kb]) s->blk_rc[kb] = sc->segments[k].r_bottom;
-            if (sc->segments[k].r_top > s->blk_rc[kb]) s->blk_rc[kb] = sc->segments[k].r_top;
+            const cf_geometry_segment *g = &sc->segments[k];
+            if (cf_geometry_circumradius(g, g->r_bottom) > s->blk_rc[kb]) s->blk_rc[kb] = cf_geometry_circumradius(g, g->r_bottom);
+            if (cf_geometry_circumradius(g, g->r_top) > s->blk_rc[kb]) s->blk_rc[kb] = cf_geometry_circumradius(g, g->r_top);
         }
         s->x0[3 * b] = X; s->x0[3 * b + 1] = Y;
         J->logical = kb;
         J->bl = i == 0 ? 0 : b - 1;
         J->bu = b;
-        cf_solver_stack_face(&J->fu, bot->n_sides, bot->r_bottom, bot->phase_rad, s->blk_bot[3 * kb + 2]);
+        cf_solver_stack_face(&J->fu, bot->n_sides, bot->r_bottom, bot->phase_rad, s->blk_bot[3 * kb + 2], cf_geometry_segment_aspect(bot));
         if (i == 0) {
-            cf_solver_stack_face(&J->fl, bot->n_sides, bot->r_bottom, bot->phase_rad, 0.0);
+            cf_solver_stack_face(&J->fl, bot->n_sides, bot->r_bottom, bot->phase_rad, 0.0, cf_geometry_segment_aspect(bot));
             J->fl.c[0] = X; J->fl.c[1] = Y;   /* the ground's face under the column */
         } else {
             top = &sc->segments[off - 1];      /* the last segment of the block below */
-            cf_solver_stack_face(&J->fl, top->n_sides, top->r_top, top->phase_rad, s->blk_top[3 * (kb - 1) + 2]);
+            cf_solver_stack_face(&J->fl, top->n_sides, top->r_top, top->phase_rad, s->blk_top[3 * (kb - 1) + 2],
+                                 cf_geometry_segment_aspect(top));
         }
         J->area = J->fl.area < J->fu.area ? J->fl.area : J->fu.area;
         J->kn = sc->kn[j0 + i]; J->ks = sc->ks[j0 + i]; J->mu = sc->mu[j0 + i];
@@ -165,7 +167,8 @@ static void column_build(cf_solver *s, const cf_solver_scene *sc, int c, int blk
         off += ns;
         if (i == nb - 1) {   /* the column's top: the polygon its top block carries */
             top = &sc->segments[off - 1];
-            cf_solver_stack_face(&s->scene->col_top[c], top->n_sides, top->r_top, top->phase_rad, s->blk_top[3 * kb + 2]);
+            cf_solver_stack_face(&s->scene->col_top[c], top->n_sides, top->r_top, top->phase_rad, s->blk_top[3 * kb + 2],
+                                 cf_geometry_segment_aspect(top));
         }
     }
 }
@@ -215,9 +218,9 @@ static int bearing_build(cf_solver *s, const cf_solver_scene *sc, cf_scene_info 
     J->logical = kb;
     J->bl = s->blk_body[cap];
     J->bu = s->blk_body[kb];
-    cf_solver_stack_face(&J->fl, 4, rad, 0.25 * CF_PI, s->blk_top[3 * cap + 2]);
+    cf_solver_stack_face(&J->fl, 4, rad, 0.25 * CF_PI, s->blk_top[3 * cap + 2], 1.0);
     J->fl.c[0] = G->x - X; J->fl.c[1] = G->y - Y;
-    cf_solver_stack_face(&J->fu, 4, rad, 0.25 * CF_PI, -0.5 * B->height);
+    cf_solver_stack_face(&J->fu, 4, rad, 0.25 * CF_PI, -0.5 * B->height, 1.0);
     J->fu.c[0] = G->x - B->x; J->fu.c[1] = G->y - B->y;
     J->area = J->fl.area;
     J->kn = G->kn; J->ks = G->ks; J->mu = G->mu;
@@ -385,7 +388,7 @@ static int scene_map(cf_solver *s, const cf_solver_scene *sc, int nj_col)
     for (c = 0; c < sc->n_columns; c++) {
         info->col_blk0[c] = blk; info->col_nblk[c] = sc->columns[c].n_blocks;
         info->col_j0[c] = blk; info->col_nj[c] = sc->columns[c].n_blocks;
-        info->col_base_diam[c] = 2.0 * sc->segments[seg].r_bottom;
+        info->col_base_diam[c] = 2.0 * cf_geometry_circumradius(&sc->segments[seg], sc->segments[seg].r_bottom);
         for (r = 0; r < sc->columns[c].n_blocks; r++) seg += sc->n_segments[blk + r];
         blk += sc->columns[c].n_blocks;
     }

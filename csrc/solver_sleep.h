@@ -196,7 +196,7 @@ static inline int cf_sleep_try_points(const cf_points *pts, const cf_points_join
         int k0 = side == 0 ? PJ->p0 : PJ->p0 + PJ->n0, k1 = side == 0 ? PJ->p0 + PJ->n0 : PJ->p0 + PJ->np;
         const cf_face_pass *Q = &P[side];
         double sd[CF_SL_SIDE], g[9], pmin = INFINITY, pmx = 0.0, smin = INFINITY, imin = INFINITY;
-        const double apo = Q->ff->apo, floor = CF_SLEEP_PEN_FLOOR * Q->ff->rc;
+        const double apo = Q->ff->apoc, floor = CF_SLEEP_PEN_FLOOR * Q->ff->rc;
         if (!has[side]) continue;
         cf_sleep_g(Q, g);
         for (i = 0; i < 12; i++) sd[i] = 0.0;   /* U, Fx, Fy */

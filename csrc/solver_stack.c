@@ -35,18 +35,26 @@ void cf_solver_stack_release(cf_solver *s)
 
 /* A regular n-gon face of circumradius r, first vertex at angle phase, centred on the body's axis at
  * height cz of the body frame (a scene moves the centre off the axis afterwards). */
-void cf_solver_stack_face(cf_face *f, int n, double r, double phase, double cz)
+void cf_solver_stack_face(cf_face *f, int n, double r, double phase, double cz, double asp)
 {
     int k;
     double a = CF_PI / n;
     f->c[0] = 0; f->c[1] = 0; f->c[2] = cz;
     f->n = n; f->rc = r; f->apo = r * cf_math_cos(a);
     f->area = cf_geometry_polygon_area(n, r);
+    f->asp = asp; f->apoc = f->apo;
     for (k = 0; k < n; k++) {
         double ph = phase + 2.0 * CF_PI * k / n;
         f->vx[k] = r * cf_math_cos(ph); f->vy[k] = r * cf_math_sin(ph);
-        f->poly[2 * k] = f->vx[k]; f->poly[2 * k + 1] = f->vy[k];
         f->ec[k] = cf_math_cos(ph + a); f->es[k] = cf_math_sin(ph + a);
+        if (asp != 1.0) { f->vy[k] *= asp; f->es[k] /= asp; }   /* the section scaled along y (geometry.h) */
+        f->poly[2 * k] = f->vx[k]; f->poly[2 * k + 1] = f->vy[k];
+    }
+    if (asp != 1.0) {
+        double rc2 = 0.0;
+        for (k = 0; k < n; k++) if (f->vx[k] * f->vx[k] + f->vy[k] * f->vy[k] > rc2) rc2 = f->vx[k] * f->vx[k] + f->vy[k] * f->vy[k];
+        f->rc = sqrt(rc2); f->area *= asp;
+        if (asp < 1.0) f->apoc = f->apo * asp;
     }
     for (k = 0; k < n + 2; k++) {
         int m = (k + n - 1) % n;
@@ -93,11 +101,12 @@ static void block_masses(cf_solver *s, int nblk, const int *nseg, const cf_geome
             }
             zbot[i + 1] = zbot[i] + bp[i].height;
             s->blk_h[i] = bp[i].height; s->blk_m[i] = bp[i].mass;
-            s->joint_diam[i] = 2.0 * segs[off].r_bottom;
+            s->joint_diam[i] = 2.0 * cf_geometry_circumradius(&segs[off], segs[off].r_bottom);
             s->blk_rc[i] = 0.0;
             for (k = off; k < off + nseg[i]; k++) {
-                if (segs[k].r_bottom > s->blk_rc[i]) s->blk_rc[i] = segs[k].r_bottom;
-                if (segs[k].r_top > s->blk_rc[i]) s->blk_rc[i] = segs[k].r_top;
+                double rb = cf_geometry_circumradius(&segs[k], segs[k].r_bottom), rt = cf_geometry_circumradius(&segs[k], segs[k].r_top);
+                if (rb > s->blk_rc[i]) s->blk_rc[i] = rb;
+                if (rt > s->blk_rc[i]) s->blk_rc[i] = rt;
             }
             s->total_mass += bp[i].mass;
             mz += bp[i].mass * (zbot[i] + bp[i].com_z);
@@ -105,7 +114,7 @@ static void block_masses(cf_solver *s, int nblk, const int *nseg, const cf_geome
         }
         s->total_h = zbot[nblk];
         s->com_h = mz / s->total_mass;
-        s->base_diam = 2.0 * segs[0].r_bottom;
+        s->base_diam = 2.0 * cf_geometry_circumradius(&segs[0], segs[0].r_bottom);
     }
 }
 
@@ -121,7 +130,7 @@ static void bodies_place(cf_solver *s, int nblk, const cf_geometry_segment *segs
         cf_geometry_massprops all;
         cf_geometry_block_props(segs, nseg_tot, density, &all);
         s->m[1] = all.mass;
-        s->inertia[3] = all.ixx; s->inertia[4] = all.ixx; s->inertia[5] = all.izz;
+        s->inertia[3] = all.ixx; s->inertia[4] = all.iyy; s->inertia[5] = all.izz;
         for (i = 0; i < nblk; i++) {
             s->blk_body[i] = 1;
             s->blk_off[3 * i + 2] = zbot[i] + bp[i].com_z - all.com_z;
@@ -131,7 +140,7 @@ static void bodies_place(cf_solver *s, int nblk, const cf_geometry_segment *segs
     } else {
         for (i = 0; i < nblk; i++) {
             s->m[i + 1] = bp[i].mass;
-            s->inertia[3 * (i + 1)] = bp[i].ixx; s->inertia[3 * (i + 1) + 1] = bp[i].ixx;
+            s->inertia[3 * (i + 1)] = bp[i].ixx; s->inertia[3 * (i + 1) + 1] = bp[i].iyy;
             s->inertia[3 * (i + 1) + 2] = bp[i].izz;
             s->blk_body[i] = i + 1;
             s->blk_bot[3 * i + 2] = -bp[i].com_z;
@@ -171,16 +180,25 @@ static int joints_make(cf_solver *s, int nblk, const int *nseg, const cf_geometr
             J->logical = j;
             J->bl = def->monolithic ? 0 : j;
             J->bu = def->monolithic ? 1 : j + 1;
-            cf_solver_stack_face(&J->fu, bot->n_sides, bot->r_bottom, phu, s->blk_bot[3 * j + 2]);
+            cf_solver_stack_face(&J->fu, bot->n_sides, bot->r_bottom, phu, s->blk_bot[3 * j + 2], cf_geometry_segment_aspect(bot));
             if (j == 0) {
-                cf_solver_stack_face(&J->fl, bot->n_sides, bot->r_bottom, phu, 0.0);
+                cf_solver_stack_face(&J->fl, bot->n_sides, bot->r_bottom, phu, 0.0, cf_geometry_segment_aspect(bot));
             } else {
                 const cf_geometry_segment *top = &segs[last[j - 1]];
                 double phl = place ? top->phase_rad + rl : top->phase_rad;
-                cf_solver_stack_face(&J->fl, top->n_sides, top->r_top, phl, s->blk_top[3 * (j - 1) + 2]);
+                cf_solver_stack_face(&J->fl, top->n_sides, top->r_top, phl, s->blk_top[3 * (j - 1) + 2],
+                                     cf_geometry_segment_aspect(top));
             }
             J->area = J->fl.area < J->fu.area ? J->fl.area : J->fu.area;
-            if (pu) {
+            if (pu && (J->fu.asp != 1.0 || J->fl.asp != 1.0)) {
+                int v;
+                for (v = 0; v < CF_SOLVER_AS_BUILT && !st; v++)
+                    if (pu[v] != 0.0 || pl[v] != 0.0)
+                        st = cf_solver_fail(s, CF_EINVAL, "joint %d: as-built values (offset, rotation, chipping, a missing "
+                                            "part) are for regular sections; a face here has aspect %g", j,
+                                            J->fu.asp != 1.0 ? J->fu.asp : J->fl.asp);
+            }
+            if (pu && !st) {
                 double dx = j > 0 ? pu[0] - pl[0] : 0.0, dy = j > 0 ? pu[1] - pl[1] : 0.0;
                 int turned = dx != 0.0 || dy != 0.0 || ru != rl;
                 /* the faces' centres off the bodies' origins (a block missing a part) */

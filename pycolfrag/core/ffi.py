@@ -72,5 +72,6 @@ def segment_arrays(blocks):
         arr[i].r_top = s.r_top
         arr[i].phase_rad = s.phase_rad
         arr[i].n_sides = int(s.n_sides)
+        arr[i].aspect = s.aspect
     nseg = ffi.new("int[]", [len(b.segments) for b in blocks])
     return arr, nseg

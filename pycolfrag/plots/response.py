@@ -288,6 +288,7 @@ def _rest_faces(col):
         for s in blk.segments:
             ang = s.phase_rad + turn + 2.0 * math.pi * np.arange(s.n_sides) / s.n_sides
             c, sn = np.cos(ang), np.sin(ang)
+            sn = sn * s.aspect   # a section scaled along y (pycolfrag/structure/segment.py)
             bot = np.column_stack([dx + s.r_bottom * c, dy + s.r_bottom * sn, np.full(s.n_sides, z)])
             top = np.column_stack([dx + s.r_top * c, dy + s.r_top * sn, np.full(s.n_sides, z + s.height)])
             faces.append(bot)

@@ -37,7 +37,7 @@ def part_steps(model) -> list[tuple[float, str, str]]:
     for j in range(col.n_blocks):
         m = masses[j] if j == 0 else min(masses[j], masses[j - 1])
         seg = col.blocks[j].segments[0]
-        area = 0.5 * seg.n_sides * seg.r_bottom ** 2 * math.sin(2 * math.pi / seg.n_sides)
+        area = 0.5 * seg.n_sides * seg.r_bottom ** 2 * math.sin(2 * math.pi / seg.n_sides) * seg.aspect
         k = col.joint(j).kn * area
         out.append((2.0 * math.sqrt(m / k), f"joint {j} of the column (kn = {col.joint(j).kn:.3g} Pa/m over "
                     f"{area:.3g} m^2 on a block of {m:.4g} kg)", "a lower joint kn"))

@@ -325,6 +325,11 @@ def check(col) -> None:
     """ParameterError naming the value when col's placement cannot stand (the module's list)."""
     if not placed(col):
         return
+    for i, b in enumerate(col.blocks):
+        if any(s.aspect != 1.0 for s in b.segments):
+            raise ParameterError(f"blocks[{i}]: as-built values ({_offsets(col, 0)}) are for "
+                                 f"regular sections; a segment here has aspect "
+                                 f"{next(s.aspect for s in b.segments if s.aspect != 1.0):g}")
     if col.foundation_tilt_deg:
         raise ParameterError(f"as-built offsets or rotations ({_offsets(col, 0)}) on a tilted foundation "
                              f"(foundation_tilt_deg = {col.foundation_tilt_deg:g}) are not supported: its static "

@@ -37,35 +37,10 @@ from pycolfrag.core.validate import positive_float, real
 from pycolfrag.structure import as_built, foundation
 from pycolfrag.structure.connectors import Connectors, connectors_on
 from pycolfrag.structure.scene_parts import SceneParts
-
-#: Most polygon sides the solver handles (``CF_SOLVER_MAX_SIDES`` in csrc/solver.h).
-MAX_SIDES = int(_lib.CF_SOLVER_MAX_SIDES)
+from pycolfrag.structure.segment import MAX_SIDES, Segment, _check_keys, _n_sides  # noqa: F401  (re-exported)
 
 __all__ = ["Segment", "Block", "JointProperties", "Column"]
 
-
-def _check_keys(d, known, where: str) -> dict:
-    """``d`` must be a mapping whose keys are all in ``known`` (a typo must not fall back to a default)."""
-    if not isinstance(d, dict):
-        raise ParameterError(f"{where} must be a mapping (JSON object / TOML table), got {type(d).__name__}: {d!r}")
-    unknown = set(d) - set(known)
-    if unknown:
-        raise ParameterError(f"{where}: unknown keys {sorted(unknown)} (known: {sorted(known)})")
-    return d
-
-
-def _n_sides(value, where: str) -> int:
-    """An integral number of polygon sides (10 and 10.0 pass; 3.7 and "ten" do not)."""
-    msg = f"{where + ': ' if where else ''}n_sides must be an integer in [3, {MAX_SIDES}], got {value!r}"
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ParameterError(msg)
-    v = float(value)
-    if not math.isfinite(v) or v != int(v) or not 3 <= v <= MAX_SIDES:
-        raise ParameterError(msg)
-    return int(v)
-
-
-_SEGMENT_KEYS = ("height", "diameter_bottom", "diameter_top", "n_sides", "phase_deg")
 _BLOCK_KEYS = ("name", "segments", *as_built.KEYS)
 _SHAFT_KEYS = ("drum_heights", "diameter_bottom", "diameter_top", "n_sides", "phase_deg", "provenance")
 _CAPITAL_KEYS = ("echinus_height", "echinus_diameter_bottom", "echinus_diameter_top", "abacus_height",
@@ -73,84 +48,6 @@ _CAPITAL_KEYS = ("echinus_height", "echinus_diameter_bottom", "echinus_diameter_
 _COLUMN_KEYS = ("name", "provenance", "description", "units", "density", "n_sides", "phase_deg", "shaft",
                 "capital", "joints", "joint_overrides", "blocks", "connectors", "foundation_tilt_deg",
                 "foundation_tilt_azimuth_deg")
-
-
-@dataclass(frozen=True)
-class Segment:
-    """A regular ``n_sides``-gon frustum (prism when ``r_bottom == r_top``).
-
-    Parameters
-    ----------
-    height : float
-        Height of the segment, m (> 0).
-    r_bottom, r_top : float
-        Circumradius of the bottom and top polygon, m (> 0).
-    n_sides : int
-        Number of polygon sides (>= 3).
-    phase_rad : float
-        Angle of the first vertex from +x, rad. Default 0 (a vertex points along x).
-    """
-
-    height: float
-    r_bottom: float
-    r_top: float
-    n_sides: int = 10
-    phase_rad: float = 0.0
-
-    def __post_init__(self):
-        object.__setattr__(self, "height", positive_float(self.height, "segment height (m)"))
-        object.__setattr__(self, "r_bottom", positive_float(self.r_bottom, "segment bottom radius (m)"))
-        object.__setattr__(self, "r_top", positive_float(self.r_top, "segment top radius (m)"))
-        object.__setattr__(self, "n_sides", _n_sides(self.n_sides, "segment"))
-        ph = real(self.phase_rad, "phase_rad")
-        if not math.isfinite(ph):
-            raise ParameterError(f"phase_rad must be finite, got {self.phase_rad!r}")
-        object.__setattr__(self, "phase_rad", ph)
-
-    @property
-    def _k(self) -> float:
-        """Area of the polygon of unit circumradius: (n/2) sin(2 pi / n)."""
-        return 0.5 * self.n_sides * math.sin(2.0 * math.pi / self.n_sides)
-
-    @property
-    def volume(self) -> float:
-        """Exact volume, m^3: k h (r0^2 + r0 r1 + r1^2) / 3."""
-        r0, r1 = self.r_bottom, self.r_top
-        return self._k * self.height * (r0 * r0 + r0 * r1 + r1 * r1) / 3.0
-
-    @property
-    def centroid_height(self) -> float:
-        """Height of the centroid above the segment's bottom face, m (exact for linear taper)."""
-        r0, r1, h = self.r_bottom, self.r_top, self.height
-        # integral of z * (r0 + (r1 - r0) z/h)^2 dz over [0, h] divided by the volume integral
-        num = h * h * (r0 * r0 / 2.0 + 2.0 * r0 * (r1 - r0) / 3.0 + (r1 - r0) ** 2 / 4.0)
-        den = h * (r0 * r0 + r0 * r1 + r1 * r1) / 3.0
-        return num / den
-
-    def to_dict(self) -> dict:
-        return {
-            "height": self.height,
-            "diameter_bottom": 2.0 * self.r_bottom,
-            "diameter_top": 2.0 * self.r_top,
-            "n_sides": int(self.n_sides),
-            "phase_deg": math.degrees(self.phase_rad),
-        }
-
-    @classmethod
-    def from_dict(cls, d: dict, where: str = "segment") -> "Segment":
-        _check_keys(d, _SEGMENT_KEYS, where)
-        try:
-            return cls(
-                height=d["height"],
-                r_bottom=0.5 * real(d["diameter_bottom"], "diameter_bottom (m)"),
-                r_top=0.5 * real(d.get("diameter_top", d["diameter_bottom"]), "diameter_top (m)"),
-                n_sides=_n_sides(d.get("n_sides", 10), ""),  # where is prefixed below
-                phase_rad=math.radians(real(d.get("phase_deg", 0.0), "phase_deg")),
-            )
-        except KeyError as exc:
-            raise ParameterError(f"{where}: missing key {exc}") from None
-        except (TypeError, ValueError) as exc:
-            raise ParameterError(f"{where}: {exc}") from None
 
 
 @dataclass(frozen=True)

@@ -297,13 +297,6 @@ class Connectors:
                    count=d.get("count", 1), radius=d.get("radius", 0.0), phase_deg=d.get("phase_deg", 0.0))
 
 
-def inside_polygon(x: float, y: float, r: float, n: int, phase: float) -> bool:
-    """Is (x, y) inside the regular n-gon of circumradius r whose first vertex is at angle phase?"""
-    apo = r * math.cos(math.pi / n)
-    return all(x * math.cos(phase + math.pi / n + 2.0 * math.pi * k / n)
-               + y * math.sin(phase + math.pi / n + 2.0 * math.pi * k / n) <= apo * (1.0 + 1e-12) for k in range(n))
-
-
 def connectors_on(column, connectors) -> tuple:
     """``connectors`` (a Connectors or a sequence of them) as a tuple, each checked on ``column``:
     its joints exist and every dowel lies on both faces of its joint (the ground's face under the
@@ -317,12 +310,13 @@ def connectors_on(column, connectors) -> tuple:
         if not isinstance(c, Connectors):
             raise ParameterError(f"connectors must be Connectors, got {type(c).__name__}")
         for j in c.joint_list(column.n_blocks):
-            faces = [(column.blocks[j].bottom, column.blocks[j].bottom.r_bottom)]
+            faces = [(column.blocks[j].bottom, False)]
             if j > 0:
-                faces.append((column.blocks[j - 1].top, column.blocks[j - 1].top.r_top))
+                faces.append((column.blocks[j - 1].top, True))
             for x, y in c.positions():
-                for seg, r in faces:
-                    if not inside_polygon(x, y, r, seg.n_sides, seg.phase_rad):
+                for seg, top in faces:
+                    if not seg.inside(x, y, top):
                         raise ParameterError(f"connectors: a dowel at ({x:.4g}, {y:.4g}) m lies outside the face of "
-                                             f"joint {j} (circumradius {r:.4g} m, {seg.n_sides} sides)")
+                                             f"joint {j} (circumradius {seg.circumradius(top):.4g} m, "
+                                             f"{seg.n_sides} sides)")
     return out

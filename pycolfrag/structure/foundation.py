@@ -27,6 +27,8 @@ from pycolfrag.core.validate import real
 
 def _support(seg, top: bool, azimuth_rad: float) -> float:
     """The support distance (m) of a segment's bottom (or top) polygon towards azimuth."""
+    if seg.aspect != 1.0:   # a scaled section (pycolfrag/structure/segment.py)
+        return max(x * math.cos(azimuth_rad) + y * math.sin(azimuth_rad) for x, y in seg.vertices(top))
     r = seg.r_top if top else seg.r_bottom
     return max(r * math.cos(seg.phase_rad + 2.0 * math.pi * k / seg.n_sides - azimuth_rad)
                for k in range(seg.n_sides))

@@ -28,7 +28,6 @@ from pycolfrag.core import input_files
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.core.validate import integer, positive_float
 from pycolfrag.structure.column import Column, JointProperties, _check_keys
-from pycolfrag.structure.connectors import inside_polygon
 from pycolfrag.structure.scene_parts import Beam, Bearing, SceneParts
 
 __all__ = ["Epistyle", "Colonnade", "SceneParts", "Beam", "Bearing", "PORTAL_SPACING",
@@ -100,7 +99,7 @@ def top_square(col: Column) -> float:
     for _ in range(80):
         mid = 0.5 * (lo + hi)
         h = 0.5 * mid
-        if all(inside_polygon(sx * h, sy * h, seg.r_top, seg.n_sides, seg.phase_rad) for sx in (-1, 1) for sy in (-1, 1)):
+        if all(seg.inside(sx * h, sy * h, top=True) for sx in (-1, 1) for sy in (-1, 1)):
             lo = mid
         else:
             hi = mid
@@ -154,7 +153,7 @@ class Colonnade:
                                  f"least 2 columns, got {self.n_columns}")
         self.epistyle = epistyle
         self.name = str(name)
-        rmax = max(max(s.r_bottom, s.r_top) for b in column.blocks for s in b.segments)
+        rmax = max(max(s.circumradius(), s.circumradius(True)) for b in column.blocks for s in b.segments)
         if self.n_columns > 1 and self.spacing <= 2.0 * rmax:
             raise ParameterError(f"spacing = {spacing!r} m: the columns overlap (their largest radius is {rmax:.4g} m, "
                                  f"so the axes must be more than {2 * rmax:.4g} m apart)")

@@ -65,7 +65,7 @@ static void record(const config *c, double f, double *ax, double *ay, double *az
 
 static cf_solver *setup(const config *c, int early_exit)
 {
-    cf_geometry_segment seg[NB + 1];
+    cf_geometry_segment seg[NB + 1] = {{0}};
     int nseg[NB], st;
     cf_solver_def def;
     cf_solver *s = cf_solver_create();

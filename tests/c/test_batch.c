@@ -22,7 +22,7 @@ enum { NB = 3, NREC = 301, NJ = 6 };
 /* three drums of 0.5 m radius, 1 m high, on the ground */
 static cf_solver *column(int contact, int early_exit)
 {
-    cf_geometry_segment seg[NB];
+    cf_geometry_segment seg[NB] = {{0}};
     int nseg[NB], i;
     cf_solver_def def;
     cf_solver *s = cf_solver_create();
@@ -160,7 +160,7 @@ static void test_stop_takes_longest_first(void)
  * with an axial part, a clearance dowel in joint 1, an elastoplastic one in joint 2 that breaks. */
 static cf_solver *dowelled(int early_exit)
 {
-    cf_geometry_segment seg[NB];
+    cf_geometry_segment seg[NB] = {{0}};
     int nseg[NB], i;
     double kn[NB], ks[NB], mu[NB];
     cf_solver_scene_column col;
@@ -276,7 +276,7 @@ static void test_dowelled_runs(void)
  * several columns and a beam */
 static cf_solver *portal(void)
 {
-    cf_geometry_segment seg[2 * NB];
+    cf_geometry_segment seg[2 * NB] = {{0}};
     int nseg[2 * NB], i;
     double kn[2 * NB], ks[2 * NB], mu[2 * NB];
     cf_solver_scene_column col[2];

@@ -11,7 +11,7 @@
 static void test_square_prism(void)
 {
     double a = 0.7, h = 1.9, rho = 2700.0, m = rho * a * a * h;
-    cf_geometry_segment s = {h, a / sqrt(2.0), a / sqrt(2.0), CF_PI / 4, 4};
+    cf_geometry_segment s = {h, a / sqrt(2.0), a / sqrt(2.0), CF_PI / 4, 4, 1.0};
     cf_geometry_massprops p;
     CF_CHECK(cf_geometry_segment_props(&s, rho, &p) == CF_OK);
     CF_CHECK_REL(p.mass, m, 1e-13);
@@ -26,7 +26,7 @@ static void test_square_prism(void)
 static void test_square_pyramid(void)
 {
     double a = 1.2, h = 2.0, rho = 1000.0, m = rho * a * a * h / 3.0;
-    cf_geometry_segment s = {h, a / sqrt(2.0), 1e-9, 0.3, 4};
+    cf_geometry_segment s = {h, a / sqrt(2.0), 1e-9, 0.3, 4, 1.0};
     cf_geometry_massprops p;
     CF_CHECK(cf_geometry_segment_props(&s, rho, &p) == CF_OK);
     CF_CHECK_REL(p.mass, m, 1e-8);
@@ -47,7 +47,7 @@ static void test_frustum_vs_cone_frustum(void)
     double izzc = 0.3 * mc * (pow(r1, 5) - pow(r0, 5)) / (pow(r1, 3) - pow(r0, 3));
     /* centroid of a cone frustum: h (r0^2 + 2 r0 r1 + 3 r1^2) / (4 (r0^2 + r0 r1 + r1^2)) */
     double zc = h * (r0 * r0 + 2 * r0 * r1 + 3 * r1 * r1) / (4.0 * (r0 * r0 + r0 * r1 + r1 * r1));
-    cf_geometry_segment s = {h, r0, r1, 0.0, n};
+    cf_geometry_segment s = {h, r0, r1, 0.0, n, 1.0};
     cf_geometry_massprops p;
     CF_CHECK(cf_geometry_segment_props(&s, rho, &p) == CF_OK);
     CF_CHECK_REL(p.volume, vc * kn / CF_PI, 1e-13);
@@ -59,8 +59,8 @@ static void test_frustum_vs_cone_frustum(void)
 static void test_block_composite(void)
 {
     double r = 0.8, rho = 2500.0;
-    cf_geometry_segment whole = {2.0, r, r, 0.1, 7};
-    cf_geometry_segment two[2] = {{0.6, r, r, 0.1, 7}, {1.4, r, r, 0.1, 7}};
+    cf_geometry_segment whole = {2.0, r, r, 0.1, 7, 1.0};
+    cf_geometry_segment two[2] = {{0.6, r, r, 0.1, 7, 1.0}, {1.4, r, r, 0.1, 7, 1.0}};
     cf_geometry_massprops a, b;
     CF_CHECK(cf_geometry_block_props(&whole, 1, rho, &a) == CF_OK);
     CF_CHECK(cf_geometry_block_props(two, 2, rho, &b) == CF_OK);
@@ -71,15 +71,50 @@ static void test_block_composite(void)
     CF_CHECK_REL(b.height, 2.0, 1e-15);
 }
 
+/* Rectangular prism, width b (x), depth d (y), height h: the square of side b at phase pi/4 scaled by
+ * a = d / b along y (geometry.h). m = rho b d h, ixx = m (d^2 + h^2) / 12, iyy = m (b^2 + h^2) / 12,
+ * izz = m (b^2 + d^2) / 12 (any solid-mechanics table); and a = 1 gives iyy = ixx bit for bit. */
+static void test_rectangular_prism(void)
+{
+    double b = 0.6, d = 2.9, h = 1.7, rho = 2400.0, m = rho * b * d * h;
+    cf_geometry_segment s = {h, b / sqrt(2.0), b / sqrt(2.0), CF_PI / 4, 4, d / b};
+    cf_geometry_segment two[2] = {{0.5, b / sqrt(2.0), b / sqrt(2.0), CF_PI / 4, 4, d / b},
+                                  {1.2, b / sqrt(2.0), b / sqrt(2.0), CF_PI / 4, 4, d / b}};
+    cf_geometry_massprops p, q;
+    CF_CHECK(cf_geometry_segment_props(&s, rho, &p) == CF_OK);
+    CF_CHECK_REL(p.mass, m, 1e-13);
+    CF_CHECK_REL(p.com_z, h / 2, 1e-13);
+    CF_CHECK_REL(p.ixx, m * (d * d + h * h) / 12.0, 1e-12);
+    CF_CHECK_REL(p.iyy, m * (b * b + h * h) / 12.0, 1e-12);
+    CF_CHECK_REL(p.izz, m * (b * b + d * d) / 12.0, 1e-12);
+    CF_CHECK_REL(cf_geometry_circumradius(&s, s.r_bottom), 0.5 * sqrt(b * b + d * d), 1e-13);
+    CF_CHECK(cf_geometry_block_props(two, 2, rho, &q) == CF_OK);   /* the same body in two segments */
+    CF_CHECK_REL(q.ixx, p.ixx, 1e-13);
+    CF_CHECK_REL(q.iyy, p.iyy, 1e-13);
+    CF_CHECK_REL(q.izz, p.izz, 1e-13);
+    s.aspect = 1.0;
+    CF_CHECK(cf_geometry_segment_props(&s, rho, &p) == CF_OK);
+    CF_CHECK(p.iyy == p.ixx);
+    s.aspect = 0.0;   /* a zeroed struct: the regular polygon */
+    CF_CHECK(cf_geometry_segment_props(&s, rho, &q) == CF_OK);
+    CF_CHECK(q.ixx == p.ixx && q.izz == p.izz && q.mass == p.mass);
+    CF_CHECK(cf_geometry_circumradius(&s, 0.7) == 0.7);
+}
+
 static void test_bad_geometry(void)
 {
     cf_geometry_massprops p;
-    cf_geometry_segment s = {-1.0, 1.0, 1.0, 0.0, 10};
+    cf_geometry_segment s = {-1.0, 1.0, 1.0, 0.0, 10, 1.0};
     CF_CHECK(cf_geometry_segment_props(&s, 2700, &p) == CF_EINVAL);
     s.height = 1.0; s.n_sides = 2;
     CF_CHECK(cf_geometry_segment_props(&s, 2700, &p) == CF_EINVAL);
     s.n_sides = 10;
     CF_CHECK(cf_geometry_segment_props(&s, 0.0, &p) == CF_EINVAL);
+    s.aspect = -0.5;
+    CF_CHECK(cf_geometry_segment_props(&s, 2700, &p) == CF_EINVAL);
+    s.aspect = NAN;
+    CF_CHECK(cf_geometry_segment_props(&s, 2700, &p) == CF_EINVAL);
+    s.aspect = 1.0;
     CF_CHECK(cf_geometry_block_props(&s, 0, 2700, &p) == CF_EINVAL);
 }
 
@@ -128,6 +163,7 @@ int main(void)
     CF_RUN(test_square_pyramid);
     CF_RUN(test_frustum_vs_cone_frustum);
     CF_RUN(test_block_composite);
+    CF_RUN(test_rectangular_prism);
     CF_RUN(test_bad_geometry);
     CF_RUN(test_quaternions);
     return CF_TEST_SUMMARY("test_geometry");

@@ -28,7 +28,7 @@ static void portal_make(portal *p)
     double r = 0.25 * sqrt(2.0);
     memset(p, 0, sizeof *p);
     for (i = 0; i < 2; i++) {
-        cf_geometry_segment g = {2.5, r, r, 0.25 * CF_PI, 4};
+        cf_geometry_segment g = {2.5, r, r, 0.25 * CF_PI, 4, 1.0};
         p->seg[i] = g; p->nseg[i] = 1;
         p->kn[i] = 1e10; p->ks[i] = 1e10; p->mu[i] = 0.8;
         p->col[i].x = i == 0 ? -1.0 : 1.0; p->col[i].n_blocks = 1;

@@ -50,7 +50,7 @@ static void test_options_refused_by_name(void)
 
 static cf_solver *column(int sleep, double margin, int contact)
 {
-    cf_geometry_segment seg[NB + 1];
+    cf_geometry_segment seg[NB + 1] = {{0}};
     int nseg[NB];
     cf_solver_def def;
     cf_solver *s = cf_solver_create();
@@ -123,7 +123,7 @@ static void test_weak_sine_sleeps_and_agrees(void)
  * more than 1e-9 m. */
 static long lift_off(int sleep, double *a_onset, long *slept)
 {
-    cf_geometry_segment seg = {2.0, 0.2 / cos(CF_PI / 4), 0.2 / cos(CF_PI / 4), CF_PI / 4, 4};
+    cf_geometry_segment seg = {2.0, 0.2 / cos(CF_PI / 4), 0.2 / cos(CF_PI / 4), CF_PI / 4, 4, 1.0};
     int nseg = 1;
     cf_solver_def def;
     cf_solver *s = cf_solver_create();

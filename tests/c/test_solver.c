@@ -14,7 +14,7 @@
  * before this solver was written, about 1.0 ms (per-block estimates give 1.3 ms). 5 % covers "about". */
 static void test_dt_crit_default_column(void)
 {
-    cf_geometry_segment seg[14]; int nseg[13];
+    cf_geometry_segment seg[14] = {{0}}; int nseg[13];
     cf_solver_def d;
     cf_solver *s = cf_solver_create();
     parthenon_column(seg, nseg);
@@ -28,7 +28,7 @@ static void test_dt_crit_default_column(void)
 /* At rest under zero ground motion: nothing moves (the start is exact equilibrium). */
 static void test_statics(void)
 {
-    cf_geometry_segment seg[14]; int nseg[13], i;
+    cf_geometry_segment seg[14] = {{0}}; int nseg[13], i;
     cf_solver_def d;
     cf_solver_result r;
     double acc[101] = {0}, pos[3 * 13 * 40], res[13];
@@ -49,7 +49,7 @@ static void test_statics(void)
 
 static void test_bad_input(void)
 {
-    cf_geometry_segment seg[14]; int nseg[13];
+    cf_geometry_segment seg[14] = {{0}}; int nseg[13];
     cf_solver_def d;
     cf_solver_result r;
     double acc[3] = {0, NAN, 0};
@@ -94,7 +94,7 @@ static void test_bad_input(void)
  * definition are refused by name. */
 static void test_as_built(void)
 {
-    cf_geometry_segment seg[2];
+    cf_geometry_segment seg[2] = {{0}};
     int nseg[2] = {1, 1}, i;
     double kn[2] = {1e9, 1e9}, ks[2] = {1e9, 1e9}, mu[2] = {0.75, 0.75}, place[2 * CF_SOLVER_AS_BUILT] = {0}, dt0;
     cf_solver_def d;
@@ -218,7 +218,7 @@ static void test_contact_registry(void)
  * 0.005 s) of a 0.3 g 2 Hz sine. */
 static cf_solver *sine_column(double *acc, double tail_s, int early_exit)
 {
-    cf_geometry_segment seg[PARTHENON_NB + 1]; int nseg[PARTHENON_NB], i;
+    cf_geometry_segment seg[PARTHENON_NB + 1] = {{0}}; int nseg[PARTHENON_NB], i;
     cf_solver_def d;
     cf_solver *s = cf_solver_create();
     parthenon_column(seg, nseg);
@@ -396,7 +396,7 @@ static double uniform(unsigned long long *r)   /* xorshift64, [-1, 1) */
  * 1.5 m, down up to 0.3 m and tilted up to 0.6 rad (overturning, off the footprint). */
 static void test_collapse_criteria(void)
 {
-    cf_geometry_segment seg[14]; int nseg[13], i, k, top;
+    cf_geometry_segment seg[14] = {{0}}; int nseg[13], i, k, top;
     cf_solver_def d;
     cf_solver *s = cf_solver_create();
     unsigned long long r = 0x9e3779b97f4a7c15ULL;

@@ -1,0 +1,130 @@
+"""A section scaled along y (csrc/geometry.h, pycolfrag/structure/segment.py): the rectangular block of a
+wall, ``Segment.rectangle(h, b, d)`` -- width b along x, depth d along y.
+
+The closed forms: a rigid rectangular block of width b (in the direction of shaking) and height h on
+rigid ground lifts off, and under a held acceleration overturns, at a = g b / h (its centre of mass
+h / 2 over the pivot edge b / 2 away); shaken along y it lifts at g d / h. The method is
+tests/test_as_built.py's quasi-static ramp and hold (2 s ramp, 6 s hold), stiff joints (kn = ks = 1e11
+Pa/m): the block stands at 0.99x and overturns at 1.01x. Measured by bisection (10 halvings) for b = 0.4,
+d = 1.0, h = 2: vertex 0.99995 both ways, perimeter the same. The exact model's soft-joint shift
+(tests/test_as_built.py's text) gives 0.96113 along x (the shift of a 0.4 m square: the pressure under
+the block is the same whatever its depth) and 0.97725 along y; the block turned a quarter (b and d
+swapped) gives the same two numbers with the axes swapped -- the section's orientation.
+"""
+import math
+
+import numpy as np
+import pytest
+
+import pycolfrag as pcf
+from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.ffi import ffi, lib, segment_arrays
+from pycolfrag.structure.column import Block, Column
+from pycolfrag.structure.segment import Segment
+
+G = 9.81
+JOINTS = pcf.JointProperties(kn=1e11, ks=1e11)
+B, D, H = 0.4, 1.0, 2.0
+
+
+def wall_block(b=B, d=D, h=H, joints=JOINTS):
+    return Column((Block((Segment.rectangle(h, b, d),), name="block"),), joints=joints)
+
+
+def overturns(col, level_g, axis, contact, t_ramp=2.0, t_hold=6.0, dt=0.01):
+    t = np.arange(0.0, t_ramp + t_hold, dt)
+    a = level_g * G * np.minimum(t / t_ramp, 1.0)
+    if axis == "x":
+        r = pcf.simulate(col, a, dt, tail_s=0.0, contact=contact)
+    else:
+        r = pcf.simulate(col, np.zeros_like(a), dt, acc_y=a, tail_s=0.0, contact=contact)
+    assert not r.collapsed or r.collapse_reason == "overturning", r.collapse_reason
+    return r.collapsed
+
+
+@pytest.mark.parametrize("contact", ["vertex", "perimeter"])
+@pytest.mark.parametrize("axis", ["x", "y"])
+def test_rectangular_block_lifts_at_g_width_over_height_in_each_direction(contact, axis):
+    closed = (B if axis == "x" else D) / H
+    col = wall_block()
+    assert not overturns(col, 0.99 * closed, axis, contact)
+    assert overturns(col, 1.01 * closed, axis, contact)
+
+
+def test_exact_model_sees_the_section_turned_with_the_block():
+    """The exact model's thresholds (its soft-joint shift measured, the module's text) hold both ways,
+    and swapping b and d swaps them between the axes."""
+    for (b, d), axis, closed in (((B, D), "x", 0.96113 * B / H), ((B, D), "y", 0.97725 * D / H),
+                                 ((D, B), "y", 0.96113 * B / H), ((D, B), "x", 0.97725 * D / H)):
+        col = wall_block(b, d)
+        assert not overturns(col, 0.995 * closed, axis, "exact"), (b, d, axis)
+        assert overturns(col, 1.005 * closed, axis, "exact"), (b, d, axis)
+
+
+@pytest.mark.parametrize("contact", ["vertex", "perimeter", "exact"])
+def test_wall_of_courses_stands_at_rest(contact):
+    """Three courses 1 m high, 0.5 x 2 m, no ground motion: every block stays within 1e-9 m (the joints
+    pre-compressed by what they carry) and the energy balance closes."""
+    col = Column([Block((Segment.rectangle(1.0, 0.5, 2.0),)) for _ in range(3)], joints=JOINTS)
+    r = pcf.simulate(col, np.zeros(100), 0.01, history=True, early_exit=False, contact=contact)
+    assert np.abs(r.history.block_pos - r.history.block_pos[0]).max() < 1e-9
+    assert not r.collapsed and r.energy_error < 1e-6
+
+
+def test_mass_properties_are_the_boxs():
+    """C's block properties (csrc/geometry.c) against m = rho b d h, ixx = m (d^2 + h^2) / 12, iyy =
+    m (b^2 + h^2) / 12, izz = m (b^2 + d^2) / 12, and Python's volume and centroid."""
+    seg = Segment.rectangle(H, B, D)
+    segs, _ = segment_arrays([Block((seg,))])
+    p = ffi.new("cf_geometry_massprops *")
+    assert lib.cf_geometry_block_props(segs, 1, 2700.0, p) == lib.CF_OK
+    m = 2700.0 * B * D * H
+    assert p.mass == pytest.approx(m, rel=1e-13) and seg.volume == pytest.approx(B * D * H, rel=1e-13)
+    assert p.ixx == pytest.approx(m * (D * D + H * H) / 12, rel=1e-12)
+    assert p.iyy == pytest.approx(m * (B * B + H * H) / 12, rel=1e-12)
+    assert p.izz == pytest.approx(m * (B * B + D * D) / 12, rel=1e-12)
+    assert seg.centroid_height == pytest.approx(H / 2, rel=1e-13)
+    assert seg.circumradius() == pytest.approx(0.5 * math.hypot(B, D), rel=1e-13)
+    xs, ys = zip(*seg.vertices())
+    assert max(xs) == pytest.approx(B / 2, rel=1e-13) and max(ys) == pytest.approx(D / 2, rel=1e-13)
+
+
+def test_segment_aspect_is_checked_and_read_from_files():
+    for bad in (0.0, -1.0, float("nan"), float("inf"), "wide"):
+        with pytest.raises(ParameterError, match="aspect"):
+            Segment(1.0, 0.5, 0.5, 4, 0.0, bad)
+    with pytest.raises(ParameterError, match="rectangle depth"):
+        Segment.rectangle(1.0, 0.5, -2.0)
+    seg = Segment.rectangle(1.0, 0.5, 2.0)
+    assert Segment.from_dict(seg.to_dict()) == seg
+    assert Segment.from_dict({"height": 1.0, "width": 0.5, "depth": 2.0}) == seg
+    assert "aspect" not in Segment(1.0, 0.5, 0.5).to_dict()   # a drum's table as before
+    with pytest.raises(ParameterError, match="segment: a rectangular segment takes height, width and depth only"):
+        Segment.from_dict({"height": 1.0, "width": 0.5, "depth": 2.0, "n_sides": 4})
+    with pytest.raises(ParameterError, match="segment: a rectangular segment"):
+        Segment.from_dict({"height": 1.0, "width": 0.5})
+    col = wall_block()
+    assert Column.from_dict(col.to_dict()).to_json() == col.to_json()
+
+
+def test_c_refuses_a_bad_aspect_by_name():
+    """A NaN aspect reaching C (past Python's checks) is refused by the set-up, naming the segment."""
+    col = wall_block()
+    object.__setattr__(col.blocks[0].segments[0], "aspect", float("nan"))
+    with pytest.raises(ParameterError, match="segment 0: aspect must be finite"):
+        pcf.simulate(col, np.zeros(10), 0.01)
+
+
+def test_as_built_values_on_a_scaled_section_are_refused_by_name():
+    seg = Segment.rectangle(1.0, 0.5, 2.0)
+    with pytest.raises(ParameterError, match="are for regular sections; a segment here has aspect 4"):
+        Column((Block((seg,)), Block((seg,), offset=(0.01, 0.0))), joints=JOINTS)
+
+
+def test_c_refuses_as_built_values_on_a_scaled_section():
+    """Past Python's check (the aspect set after the column was made), C's set-up refuses the placement."""
+    seg = Segment.rectangle(1.0, 0.5, 0.5)
+    col = Column((Block((seg,)), Block((seg,), offset=(0.01, 0.0))), joints=JOINTS)
+    object.__setattr__(col.blocks[1].segments[0], "aspect", 2.0)
+    with pytest.raises(ParameterError, match="as-built values .* are for regular sections; a face here has aspect 2"):
+        pcf.simulate(col, np.zeros(10), 0.01)
