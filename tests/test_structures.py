@@ -15,6 +15,7 @@ from pycolfrag.solver import scene_setup as scene_run
 from pycolfrag.solver.run import Response
 from pycolfrag.structure import kinds as structures
 from pycolfrag.structure.connectors import Connectors
+from pycolfrag.structure.lintel import LintelOnWall
 from pycolfrag.structure.scene import Colonnade
 from pycolfrag.structure.scene_parts import SceneParts
 
@@ -75,7 +76,7 @@ def test_a_class_with_parts_is_not_a_structure_until_registered():
         def scene_parts(self):
             return col.scene_parts()
 
-    with pytest.raises(ParameterError, match="col must be a Column or a Colonnade, got Impostor"):
+    with pytest.raises(ParameterError, match="col must be a Column or a Colonnade or a LintelOnWall, got Impostor"):
         pcf.simulate(Impostor(), ACC, 0.01)
     with pytest.raises(ParameterError, match="a Column or a Colonnade"):
         structures.kind_of(Impostor())
@@ -118,7 +119,7 @@ def test_every_kind_declares_its_edps_and_parts():
     """Each line's EDPs are named quantities (names.EDPS) that a Response carries; each kind's
     example gives its parts for C as SceneParts; the default kind (no file key) comes first."""
     fields = {f.name for f in dataclasses.fields(Response)}
-    examples = {"column": pcf.Column.parthenon(), "colonnade": Colonnade.portal(2)}
+    examples = {"column": pcf.Column.parthenon(), "colonnade": Colonnade.portal(2), "lintel": LintelOnWall.example()}
     assert structures.KINDS[0].file_key == "" and all(k.file_key for k in structures.KINDS[1:])
     for kind in structures.KINDS:
         assert set(kind.edps) <= set(names.EDPS) and set(kind.edps) <= fields, kind

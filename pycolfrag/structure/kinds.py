@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from pycolfrag.core import input_files
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.structure.column import Column
+from pycolfrag.structure.lintel import LintelOnWall
 from pycolfrag.structure.scene import Colonnade
 
 __all__ = ["StructureKind", "Kinds", "KINDS", "BY_CLASS", "ACCEPTED", "kind_of", "kind_of_dict", "model_from_dict",
@@ -53,6 +54,7 @@ class StructureKind:
 KINDS: tuple[StructureKind, ...] = (
     StructureKind("column", Column, "", False, STACK_EDPS + DOWEL_EDPS),
     StructureKind("colonnade", Colonnade, "n_columns", True, STACK_EDPS + DOWEL_EDPS + EPISTYLE_EDPS),
+    StructureKind("lintel", LintelOnWall, "wall", True, STACK_EDPS + DOWEL_EDPS + EPISTYLE_EDPS),
 )
 
 
