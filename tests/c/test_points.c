@@ -146,8 +146,38 @@ static void test_law_transitions_book_energy(void)
     CF_CHECK_REL(S.dslip, 300.0 * 300.0 / (2.0 * o.ksw), 1e-15);
 }
 
+/* A face scaled along y (geometry.h: the square of side b at phase pi/4, y -> a y, the rectangle b x a b):
+ * cf_face_inside and cf_face_inside_hint (the walk from every start edge) agree with |x| <= b/2, |y| <= a b/2
+ * on a grid of points around it (none within 1e-9 of the boundary), at a < 1 and a > 1; its area, reach
+ * (rc) and inscribed circle (apoc) are the rectangle's. */
+static void test_scaled_face_is_the_rectangle(void)
+{
+    const double b = 0.4, as[2] = {0.4, 2.5};
+    int ia, i, j, h;
+    for (ia = 0; ia < 2; ia++) {
+        double a = as[ia], d = a * b;
+        cf_face f;
+        cf_solver_stack_face(&f, 4, b / sqrt(2.0), 0.25 * CF_PI, 0.0, a);
+        CF_CHECK_REL(f.area, b * d, 1e-13);
+        CF_CHECK_REL(f.rc, 0.5 * sqrt(b * b + d * d), 1e-13);
+        CF_CHECK_REL(f.apoc, 0.5 * (b < d ? b : d), 1e-13);
+        for (i = -60; i <= 60; i++)
+            for (j = -60; j <= 60; j++) {
+                double x = 0.00737 * i, y = 0.00737 * j * a;
+                int in = fabs(x) <= 0.5 * b && fabs(y) <= 0.5 * d;
+                if (fabs(fabs(x) - 0.5 * b) < 1e-9 || fabs(fabs(y) - 0.5 * d) < 1e-9) continue;
+                CF_CHECK(cf_face_inside(&f, x, y, 0.0) == in);
+                for (h = 0; h < 4; h++) {
+                    int hint = h;
+                    CF_CHECK(cf_face_inside_hint(&f, x, y, 0.0, &hint) == in);
+                }
+            }
+    }
+}
+
 int main(void)
 {
+    CF_RUN(test_scaled_face_is_the_rectangle);
     CF_RUN(test_next_open);
     CF_RUN(test_next_too_deep_and_off_face);
     CF_RUN(test_next_on_face);
