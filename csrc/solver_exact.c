@@ -251,13 +251,7 @@ static int exact_create(cf_solver *s, const double *opt, void **state)
     for (j = 0; j < s->nj; j++) {
         const cf_joint *J = &s->jt[j];
         const cf_face *fa = J->fl.area < J->fu.area ? &J->fl : &J->fu;
-        ej[j].polar = fa->area * fa->rc * fa->rc * (2.0 + cf_math_cos(2.0 * CF_PI / fa->n)) / 6.0;
-        if (fa->asp != 1.0) {   /* a scaled section (geometry.h): r0 the unscaled circumradius, mean vx^2 = r0^2 / 2 */
-            double r02 = 0.0;
-            int k;
-            for (k = 0; k < fa->n; k++) r02 += 2.0 * fa->vx[k] * fa->vx[k] / fa->n;
-            ej[j].polar = fa->area * r02 * (2.0 + cf_math_cos(2.0 * CF_PI / fa->n)) / 12.0 * (1.0 + fa->asp * fa->asp);
-        }
+        ej[j].polar = fa->polar;
         if (J->asb) ej[j].polar = J->cpolar;   /* as built: the overlap's about its centroid */
     }
     *state = ej;

@@ -73,6 +73,7 @@ typedef struct {
      * inside iff (X, Y / asp) is within apo of every edge, so es holds the normals' y parts / asp
      * (unit normals at aspect 1; the tolerance then grows the face by tol asp along y) */
     double asp, apoc;
+    double polar;                /* the face's polar moment of area about its centre, m^4 */
     double ec[CF_MAXS], es[CF_MAXS];   /* outward in-plane edge normals (the y parts / asp) */
     double vx[CF_MAXS], vy[CF_MAXS];   /* vertices relative to the centre, CCW */
     double poly[2 * CF_MAXS];          /* the same, interleaved (x, y) */

@@ -43,6 +43,7 @@ void cf_solver_stack_face(cf_face *f, int n, double r, double phase, double cz, 
     f->n = n; f->rc = r; f->apo = r * cf_math_cos(a);
     f->area = cf_geometry_polygon_area(n, r);
     f->asp = asp; f->apoc = f->apo;
+    f->polar = f->area * r * r * (2.0 + cf_math_cos(2.0 * CF_PI / n)) / 6.0;
     for (k = 0; k < n; k++) {
         double ph = phase + 2.0 * CF_PI * k / n;
         f->vx[k] = r * cf_math_cos(ph); f->vy[k] = r * cf_math_sin(ph);
@@ -55,6 +56,8 @@ void cf_solver_stack_face(cf_face *f, int n, double r, double phase, double cz, 
         for (k = 0; k < n; k++) if (f->vx[k] * f->vx[k] + f->vy[k] * f->vy[k] > rc2) rc2 = f->vx[k] * f->vx[k] + f->vy[k] * f->vy[k];
         f->rc = sqrt(rc2); f->area *= asp;
         if (asp < 1.0) f->apoc = f->apo * asp;
+        /* int (x^2 + y^2) dA = k c r^4 a (1 + a^2) (geometry.h), the area k r^2 a */
+        f->polar = f->area * r * r * (2.0 + cf_math_cos(2.0 * CF_PI / n)) / 12.0 * (1.0 + asp * asp);
     }
     for (k = 0; k < n + 2; k++) {
         int m = (k + n - 1) % n;

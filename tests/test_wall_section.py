@@ -166,3 +166,24 @@ def test_c_refuses_as_built_values_on_a_scaled_section():
     object.__setattr__(col.blocks[1].segments[0], "aspect", 2.0)
     with pytest.raises(ParameterError, match="as-built values .* are for regular sections; a face here has aspect 2"):
         pcf.simulate(col, np.zeros(10), 0.01)
+
+
+def test_tilted_foundation_threshold_takes_the_sections_reach():
+    """The static overturning tilt of a b x d x h block on a tilted foundation (pycolfrag/structure/foundation.py)
+    is atan(b / h) towards x and atan(d / h) towards y (its centre of mass h / 2 over an edge b / 2 or d / 2
+    away)."""
+    from pycolfrag.structure import foundation
+    col = wall_block()
+    for az, w in ((0.0, B), (90.0, D), (180.0, B)):
+        what, deg = foundation.thresholds(col, az)[0]
+        assert deg == pytest.approx(math.degrees(math.atan(w / H)), rel=1e-12), what
+
+
+def test_dowels_lie_on_the_scaled_face():
+    """A dowel at y = 0.8 m lies on a 0.4 x 2 m course (its face reaches 1 m along y, the unscaled square
+    0.2 m); one at x = 0.3 m does not (the face reaches 0.2 m along x): refused naming the joint."""
+    from pycolfrag.structure.connectors import Connectors
+    col = Column([Block((Segment.rectangle(1.0, 0.4, 2.0),)) for _ in range(2)], joints=JOINTS)
+    assert len(col.with_connectors(Connectors.of("titanium", (1,), radius=0.8, count=2, phase_deg=90.0)).dowels()) == 2
+    with pytest.raises(ParameterError, match="lies outside the face of joint 1"):
+        col.with_connectors(Connectors.of("titanium", (1,), radius=0.3, count=2, phase_deg=0.0))

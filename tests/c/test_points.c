@@ -149,11 +149,17 @@ static void test_law_transitions_book_energy(void)
 /* A face scaled along y (geometry.h: the square of side b at phase pi/4, y -> a y, the rectangle b x a b):
  * cf_face_inside and cf_face_inside_hint (the walk from every start edge) agree with |x| <= b/2, |y| <= a b/2
  * on a grid of points around it (none within 1e-9 of the boundary), at a < 1 and a > 1; its area, reach
- * (rc) and inscribed circle (apoc) are the rectangle's. */
+ * (rc), inscribed circle (apoc) and polar moment (b d (b^2 + d^2) / 12) are the rectangle's; at a = 1 the
+ * square's polar moment is the regular polygon's A r^2 (2 + cos(2 pi / n)) / 6 = b^4 / 6. */
 static void test_scaled_face_is_the_rectangle(void)
 {
     const double b = 0.4, as[2] = {0.4, 2.5};
     int ia, i, j, h;
+    {
+        cf_face f;
+        cf_solver_stack_face(&f, 4, b / sqrt(2.0), 0.25 * CF_PI, 0.0, 1.0);
+        CF_CHECK_REL(f.polar, b * b * b * b / 6.0, 1e-13);
+    }
     for (ia = 0; ia < 2; ia++) {
         double a = as[ia], d = a * b;
         cf_face f;
@@ -161,6 +167,7 @@ static void test_scaled_face_is_the_rectangle(void)
         CF_CHECK_REL(f.area, b * d, 1e-13);
         CF_CHECK_REL(f.rc, 0.5 * sqrt(b * b + d * d), 1e-13);
         CF_CHECK_REL(f.apoc, 0.5 * (b < d ? b : d), 1e-13);
+        CF_CHECK_REL(f.polar, b * d * (b * b + d * d) / 12.0, 1e-13);   /* the exact model's torsion */
         for (i = -60; i <= 60; i++)
             for (j = -60; j <= 60; j++) {
                 double x = 0.00737 * i, y = 0.00737 * j * a;
