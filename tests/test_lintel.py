@@ -7,10 +7,12 @@ import numpy as np
 import pytest
 
 import pycolfrag as pcf
+from pycolfrag.analysis.data import load
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.structure import kinds
 from pycolfrag.structure.lintel import LintelOnWall
 from pycolfrag.structure.scene import Epistyle
+from test_grid import _ok, _serial  # noqa: E402  (tests/ is not a package)
 
 G = 9.81
 
@@ -94,3 +96,17 @@ def test_bad_lintels_are_refused_naming_the_value():
         LintelOnWall.from_dict({"column": m.column.to_dict()})
     with pytest.raises(ParameterError, match="does not fit on the wall's top face"):
         m.replace(wall=LintelOnWall.wall(0.5, 0.2, [1.0] * 3))
+
+
+def test_grid_of_a_lintel_on_a_wall(tmp_path):
+    """The grid takes the kind by its scene file's key (``wall``): every row runs, the lintel's EDPs are
+    stored, and the results file's model is the scene read back."""
+    m = LintelOnWall.example()
+    scene, out = tmp_path / "gate.json", tmp_path / "gate.h5"
+    scene.write_text(m.to_json())
+    _ok(_serial(["--mw", "6.5", "--dist", "5", "20", "--samples", "2", "--max-record-s", "4", "--no-figures",
+                 "--no-progress", "--scene", str(scene), "--out", str(out)]))
+    r = load(out)
+    s = r.samples
+    assert r.complete and (s["status"] == 0).all() and np.isfinite(s["epistyle_slip_mm"]).all()
+    assert kinds.model_from_dict(json.loads(r.attrs["column"])).to_json() == m.to_json()

@@ -1,7 +1,8 @@
 """The Structure contract and the registry of structure kinds (docs/architecture.md, "Costs of change").
 
 A structure is what :func:`~pycolfrag.simulate`, :func:`~pycolfrag.simulate_batch`, a grid and a
-results file take: today a :class:`~pycolfrag.structure.column.Column` or a :class:`~pycolfrag.structure.scene.Colonnade`.
+results file take: today a :class:`~pycolfrag.structure.column.Column`, a :class:`~pycolfrag.structure.scene.Colonnade`
+or a :class:`~pycolfrag.structure.lintel.LintelOnWall`.
 Every kind of structure
 
 * is a class with ``scene_parts()``, its parts for C (a :class:`~pycolfrag.structure.scene_parts.SceneParts`:
@@ -14,8 +15,9 @@ Every kind of structure
   epistyle and dowel) even without dowels, and the EDPs its runs give (``names.EDPS``).
 
 The kind of a structure is the line of its class (:func:`kind_of`), of a file's table the line whose
-key it has (:func:`kind_of_dict`): no attribute or key is tested anywhere else. A new kind (a lintel
-resting on a column and a wall) is its class, its line here, and the C it truly needs.
+key it has (:func:`kind_of_dict`): no attribute or key is tested anywhere else. A new kind is its class,
+its line here, and the C it truly needs: the lintel resting on a column and a wall (``lintel.py``) needed
+no C (its wall is a column of rectangular blocks, ``Segment.rectangle``).
 """
 from __future__ import annotations
 
