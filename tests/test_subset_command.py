@@ -250,3 +250,19 @@ def test_a_journal_held_by_a_running_estimate_is_refused(tmp_path, capsys):
     finally:
         lock.release()
     assert "p.json.journal" in capsys.readouterr().err and not out.exists()
+
+
+def test_a_file_that_is_no_journal_is_refused_untouched_and_paths_must_differ(tmp_path, capsys):
+    """``--journal`` naming a file that is not a subset journal is refused (exit 2) before anything is cut
+    from it -- a torn last line is only ever cut from a journal --, and ``--journal`` or ``--rows`` that
+    are ``--out`` (or each other) are refused by name before any run (the result would overwrite the
+    journal)."""
+    notes = tmp_path / "notes.txt"
+    notes.write_text("first line\nsecond line without a newline")
+    before = notes.read_bytes()
+    out = tmp_path / "p.json"
+    assert cmd.main([*TINY, "--n", "20", "--out", str(out), "--journal", str(notes)]) == cmd.EXIT_ARGS
+    assert "is not a subset journal" in capsys.readouterr().err and notes.read_bytes() == before
+    for extra in (["--journal", str(out)], ["--rows", str(out)], ["--rows", str(out) + ".journal"]):
+        assert cmd.main([*TINY, "--n", "20", "--out", str(out), *extra]) == cmd.EXIT_ARGS
+        assert "are the same file" in capsys.readouterr().err and not out.exists()

@@ -113,12 +113,18 @@ def problem_from_args(args) -> tuple[sus.SubsetProblem, list[float]]:
     if len(set(levels)) != len(levels):
         raise ParameterError(f"--levels: a level is repeated in {args.levels}")
     out = Path(args.out)
-    for opt, path in (("--out", out), ("--rows", None if args.rows is None else Path(args.rows)),
-                      ("--journal", None if args.journal is None else Path(args.journal))):
+    paths = (("--out", out), ("--rows", None if args.rows is None else Path(args.rows)),
+             ("--journal", Path(args.journal) if args.journal is not None else Path(args.out + ".journal")))
+    for opt, path in paths:
         if path is not None and path.is_dir():
             raise ParameterError(f"{opt} {path} is a folder: give a file's path")
         if path is not None and not path.parent.is_dir():
             raise ParameterError(f"{opt} {path}: its folder {str(path.parent)!r} does not exist")
+    named = [(opt, path.resolve()) for opt, path in paths if path is not None]
+    for i, (opt, path) in enumerate(named):
+        for other, p2 in named[:i]:
+            if path == p2:
+                raise ParameterError(f"{other} and {opt} are the same file {str(path)!r}: give each its own")
     if args.processes < 1:
         raise ParameterError(f"--processes must be >= 1, got {args.processes}")
     col = Column.from_file(args.column) if args.column else Column.parthenon()
@@ -220,7 +226,7 @@ class JournaledEvaluator:
 
 
 def _run_root(args, prob, levels, ev, ranks: int, argv) -> int:
-    jpath = Path(args.journal) if args.journal else Path(args.out + ".journal")
+    jpath = Path(args.journal) if args.journal is not None else Path(args.out + ".journal")
     lock, entries, journal, error = journals.open_journal(jpath, journal_identity(prob, args), _log, name="subset",
                                                           remedy="delete it or give another --journal")
     if error is not None:
@@ -236,7 +242,8 @@ def _run_root(args, prob, levels, ev, ranks: int, argv) -> int:
 
 
 def _log(msg: str) -> None:
-    print(f"pycolfrag subset: {msg}", file=sys.stderr, flush=True)
+    """The journal's and its lock's messages (each names what it is of), on stderr."""
+    print(msg, file=sys.stderr, flush=True)
 
 
 def _estimate(args, prob, levels, ev, ranks: int, argv) -> int:

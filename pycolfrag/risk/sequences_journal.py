@@ -61,6 +61,9 @@ def read_lines(path: Path, ident: dict, log, name: str = "sequences", remedy: st
         return []
     raw = path.read_bytes()
     lines = raw.split(b"\n")
+    head_key = f'{{"pycolfrag_{name}": 1'.encode()
+    if raw and not raw.startswith(head_key):   # checked before anything is cut: another file is never touched
+        raise ParameterError(f"{path} is not a {name} journal: {remedy}")
     if lines and lines[-1] == b"":
         lines.pop()
     elif lines:   # no newline after the last line: a write cut short
