@@ -245,9 +245,9 @@ restoration: setup
 # titanium and wooden dowels and the 2-column portal simulated by the rare-event route with common random numbers
 # at the example site, at most RESTORATION_RUNS runs each (batches of 535 after the 430-run pilot), then every
 # alternative's rate and its paired difference from the free column, the page's block and restoration_rare.png.
-# The budget ends it before the target CoV (exit 6, the outputs written and marked): accepted here. About 25 CPU-
-# minutes at 965 runs each (free 2, wood 6, titanium 7.5, the portal 9.5); rerunning resumes, and with the runs
-# done rewrites the outputs.
+# The budget ends it before the target CoV (exit 6, the outputs written and marked): accepted here. About 10 CPU-
+# minutes at 965 runs each by the runs' own clocks (free 0.8, titanium 1.3, wood 2.7, the portal 4.7; 2026-12-06,
+# AMD EPYC), about 5 minutes' wall on 2 ranks; rerunning resumes, and with the runs done rewrites the outputs.
 RESTORATION_DIR  ?= results/restoration/rare
 RESTORATION_RUNS ?= 965
 RESTORATION_ALTS := --alternative free=examples/column_parthenon.toml \
