@@ -67,7 +67,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pycolfrag.core.errors import ParameterError
+from pycolfrag.core.errors import ParameterError, RareEventError
 from pycolfrag.damage import PERFORMANCE_LEVELS
 from pycolfrag.ground_motion.rupakhety_2011 import mean_vp_cm_s
 from pycolfrag.rare import allocation as _alloc
@@ -77,9 +77,10 @@ from pycolfrag.rare.plans import PulseMap, event_input
 from pycolfrag.rare.proposal import PILOT_MIXTURE, Design, Mixture
 from pycolfrag.rare.strata import build_strata
 from pycolfrag.risk.grid_route import QUANTITIES as _RISK_QUANTITIES
-from pycolfrag.risk.sequences import WAYS, SequenceSettings, SiteEvent, run_one, sequence_events
+from pycolfrag.risk.sequences import WAYS, SequenceSettings, SiteEvent, aftershocks_of, run_one, sequence_events
 
 __all__ = ["ALGORITHM", "STREAM_RARE_SEQUENCES", "NO_PULSE_OFFSET", "strength", "RareSequenceSettings", "run_row",
+           "refuse_outside_aftershocks", "X_AFTERSHOCKS", "X_GEOMETRY",
            "estimate", "allocate", "floors", "design_of", "simulate_sequences", "estimate_rows", "QUANTITIES", "LEVELS",
            "settings_dict", "format_estimate"]
 
@@ -109,6 +110,11 @@ CE_MIN_HITS = 3
 DEFENSIVE = 0.3
 #: A motion without a pulse ranks as a pulse of exp(-NO_PULSE_OFFSET) times Eq. (6)'s median Vp.
 NO_PULSE_OFFSET = 1.0
+#: A row's own streams for its event x's aftershocks and for the directivity geometry they carry pulses with
+#: (after ``(STREAM_RARE_SEQUENCES, h, j)``; 0, (1, k) and (2, k) are its natural sequence's, 2 x's time).
+X_AFTERSHOCKS, X_GEOMETRY = 3, 4
+#: The directivity geometries drawn at a time, and the most batches, for x's pulse probability given its branch.
+_GEOMETRY_BATCH, _GEOMETRY_TRIES = 64, 16384
 #: The quantities of a row, per way: collapse, then each level of Tables III/IV.
 QUANTITIES = ("collapse",) + tuple(lv.label for lv in PERFORMANCE_LEVELS)
 #: The rare route's levels (label, edp, threshold) in the order of :data:`QUANTITIES`.
@@ -138,9 +144,6 @@ class RareSequenceSettings:
     def __post_init__(self):
         if not isinstance(self.sequences, SequenceSettings):
             raise ParameterError(f"sequences must be a SequenceSettings, got {type(self.sequences).__name__}")
-        if self.sequences.aftershocks is not None:   # the rows would rank mainshocks and draw x's own aftershocks
-            raise ParameterError("aftershocks are not in the rare sequences yet (crude sequences only): "
-                                 "sequences.aftershocks must be None")
         if self.target not in QUANTITIES:
             raise ParameterError(f"target must be one of {', '.join(QUANTITIES)}, got {self.target!r}")
         if not (isinstance(self.target_cov, (int, float)) and 0 < self.target_cov < 1):
@@ -154,8 +157,48 @@ class RareSequenceSettings:
                 raise ParameterError(f"{name} must be a Mixture, got {type(getattr(self, name)).__name__}")
 
 
-def _row_rng(seed: int, h: int, j: int) -> np.random.Generator:
-    return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(STREAM_RARE_SEQUENCES, h, j, 2)))
+def _row_rng(seed: int, h: int, j: int, part: int = 2) -> np.random.Generator:
+    """Row (h, j)'s own stream ``part``: 2 its event's time, :data:`X_AFTERSHOCKS` and :data:`X_GEOMETRY`."""
+    return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(STREAM_RARE_SEQUENCES, h, j, part)))
+
+
+def _x_pulse_probability(strata, h: int, r_km: float, rng: np.random.Generator) -> float:
+    """The pulse-occurrence probability at the directivity geometry of row event x of stratum ``h`` at ``r_km``, the
+    geometry drawn from its source's law given x's branch (docs/sequences.md, "Aftershocks in the rare sequences"):
+    drawn as the crude sequences draw an event's (the source's pulse model's ``draw``) and kept with probability p
+    (1 - p without a pulse), the first kept of each batch taken. A model that draws no geometry (one value, a given
+    p) gives its one p at once. x's aftershocks carry pulses with it, as a crude mainshock's do with its own p."""
+    st = strata[h]
+    model = strata.sources[st.source].pulse
+    r = np.full(_GEOMETRY_BATCH, float(r_km))
+    for _ in range(_GEOMETRY_TRIES):
+        p = np.asarray(model.draw(r, rng)[0], dtype=float)
+        if np.all(p == p[0]):
+            return float(p[0])
+        kept = np.flatnonzero(rng.uniform(size=p.size) < (p if st.pulse else 1.0 - p))
+        if kept.size:
+            return float(p[kept[0]])
+    raise RareEventError(f"stratum {h} ({st.source_name}, {'pulse' if st.pulse else 'no pulse'}) at R = {r_km:g} km: "
+                         f"no directivity geometry of its branch in {_GEOMETRY_BATCH * _GEOMETRY_TRIES} draws (the "
+                         "branch's probability there is below 1e-6): its aftershocks' pulse occurrence is not drawn")
+
+
+def refuse_outside_aftershocks(strata, rs: RareSequenceSettings) -> None:
+    """With aftershocks, a site part of whose mainshocks lies outside the models where their aftershocks may lie
+    inside (Mw below or above the models, or a pulse beyond the pulse model's distance) is refused by name: the rows'
+    events are the strata's, inside the models, so a sequence with no mainshock inside would not be counted, while
+    the crude sequences count its aftershocks (docs/sequences.md, "Aftershocks in the rare sequences"). Outside only
+    by a distance beyond every model's (no-pulse R beyond its limit): its aftershocks, at its distance, are outside
+    too, and nothing is lost."""
+    if rs.sequences.aftershocks is None:
+        return
+    bad = [o for o in strata.outside if o.mw_below > 0 or o.mw_above > 0 or o.pulse > 0]
+    if bad:
+        raise ParameterError(
+            "aftershocks in the rare sequences need every mainshock whose aftershocks may fall where the models apply "
+            "to lie there itself (the rows' events are the strata's): outside the models are "
+            + "; ".join(o.text() for o in bad)
+            + ". Run the crude sequences (without --rare), or change the sources")
 
 
 def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse_map: PulseMap,
@@ -173,9 +216,11 @@ def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse
         raise ParameterError(f"row ({h}, {j}) is a production row and no production proposal is placed yet")
     x = event_input(strata, st.seed, PILOT_STAGE if pilot else int(stage), h, j, mixture, pulse_map)
     t_x = float(_row_rng(st.seed, h, j).uniform(0.0, st.years))
-    phi = sequence_events(site, st.years, st.seed, j, pulse_map, strata.ranges, key=(STREAM_RARE_SEQUENCES, h, j))
+    phi = sequence_events(site, st.years, st.seed, j, pulse_map, strata.ranges, key=(STREAM_RARE_SEQUENCES, h, j),
+                          aftershocks=st.aftershocks)
     rank_x = (strength(x["mw"], x["dist_km"], x["pulse"]), t_x)   # ties of the score broken by the time
-    strongest = not any(not e.outside and (strength(e.mw, e.r_km, e.pulse), e.time_yr) >= rank_x for e in phi)
+    strongest = not any(e.parent == -1 and not e.outside and (strength(e.mw, e.r_km, e.pulse), e.time_yr) >= rank_x
+                        for e in phi)   # ranked over the mainshocks alone (an aftershock's parent is its mainshock)
     tags = x["tags"]
     row = {"h": h, "j": j, "stage": int(tags["stage"]), "weight": float(tags["weight"]), "strongest": strongest,
            "mw": x["mw"], "dist_km": x["dist_km"], "pulse": x["pulse"] is not None,
@@ -183,9 +228,16 @@ def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse
            "occurrence_weight": float(tags["occurrence_weight"]), "events": len(phi) + 1, "runs": 0, "shared": 0,
            "restorations": 0, "hits": {w: [False] * len(QUANTITIES) for w in WAYS},
            "peak": {w: {"u_top": 0.0, "u_d": 0.0} for w in WAYS}}
+    after: list = []
     if strongest:
-        ev = SiteEvent(j, -1, t_x, strata[h].source, x["mw"], x["dist_km"], x["pulse"], x["hf_seed"], False)
-        evs = sorted(phi + [ev], key=lambda e: e.time_yr)
+        n_main = sum(e.parent == -1 for e in phi)   # x's index: after the natural mainshocks' (its aftershocks' parent)
+        ev = SiteEvent(j, n_main, t_x, strata[h].source, x["mw"], x["dist_km"], x["pulse"], x["hf_seed"], False)
+        if st.aftershocks is not None:   # given x, from x's own streams: the same law under any proposal
+            p_x = _x_pulse_probability(strata, h, x["dist_km"], _row_rng(st.seed, h, j, X_GEOMETRY))
+            after = aftershocks_of(ev, p_x, st.years, st.aftershocks, _row_rng(st.seed, h, j, X_AFTERSHOCKS),
+                                   pulse_map, strata.ranges)
+        evs = sorted(phi + [ev] + after, key=lambda e: e.time_yr)
+        row["events"] += len(after)
         o = run_one(model, j, evs, st)
         row["runs"], row["shared"], row["restorations"] = o.runs, o.shared, o.restorations
         row["hits"] = {w: [bool(o.collapsed[w])] + [bool(math.isfinite(t)) for t in o.first_yr[w]] for w in WAYS}
@@ -312,6 +364,7 @@ def simulate_sequences(site, model, rs: RareSequenceSettings, evaluate=None, don
     uninterrupted run's rows and decisions. Returns ``{"rows", "estimate", "strata", "settings", "design", "runs",
     "seconds"}``."""
     strata = build_strata(site)
+    refuse_outside_aftershocks(strata, rs)
     pulse_map = PulseMap(rs.sequences.pulse_shape, rs.sequences.vp_scale, rs.sequences.tp_model)
     if evaluate is None:
         def evaluate(todo, mixture, stage):
