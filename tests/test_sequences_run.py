@@ -194,11 +194,11 @@ def _rows(out: Path) -> list:
     return [json.dumps({k: v for k, v in d.items() if k != "seconds"}) for d in map(json.loads, lines)]
 
 
-def _rare_run(site_file) -> dict:
-    """The rare estimator run in this process with the command's settings."""
+def _rare_run(site_file, aftershocks=None) -> dict:
+    """The rare estimator run in this process with the command's settings (``aftershocks``: --aftershocks's)."""
     from pycolfrag.risk import sequences_rare as rare
     st = sq.SequenceSettings(years=10.0, n_sequences=1000, seed=3, restoration=Restoration(u_d=0.005),
-                             max_record_s=4.0)
+                             max_record_s=4.0, aftershocks=aftershocks)
     rs = rare.RareSequenceSettings(sequences=st, target="u_d > 0.005", target_cov=0.01, pilot=2, batch=12,
                                    max_rows=40)
     return rare.simulate_sequences(load_site(site_file), Column.from_file(COLUMN), rs)
@@ -246,6 +246,35 @@ def test_rare_sigterm_then_resume_gives_the_uninterrupted_rows(site_file, rare_r
     p = _run([str(site_file), str(out)] + ARGS + RARE)
     assert p.returncode == 6 and "row budget" in p.stdout, p.stdout + p.stderr   # CoV 0.01 is out of 40 rows' reach
     assert _rows(out) == rare_reference[0]
+
+
+def test_rare_with_aftershocks_sigterm_then_resume_gives_the_uninterrupted_rows(site_file, rare_reference, tmp_path):
+    """``--rare --aftershocks`` (docs/sequences.md, "Aftershocks in the rare sequences"): stopped by SIGTERM (exit 75)
+    and rerun, the journal holds the rows the estimator makes in this process, whose sequences hold more events
+    than without aftershocks."""
+    from pycolfrag.risk.aftershocks import REASENBERG_JONES_1989
+    run = _rare_run(site_file, REASENBERG_JONES_1989)
+    want = [json.dumps({k: v for k, v in r.items() if k != "seconds"}) for r in run["rows"]]
+    out = tmp_path / "stopped"
+    proc, text = _stopped([str(site_file), str(out)] + ARGS + RARE + ["--aftershocks"], out / "rows.jsonl", 9)
+    assert proc.returncode == 75, text
+    p = _run([str(site_file), str(out)] + ARGS + RARE + ["--aftershocks"])
+    assert p.returncode == 6 and "row budget" in p.stdout, p.stdout + p.stderr
+    assert _rows(out) == want
+    ran = [json.loads(r) for r in want]
+    without = [json.loads(r) for r in rare_reference[0]]
+    pilot = [[(r["h"], r["j"], r["strongest"]) for r in rows if r["stage"] == 0] for rows in (ran, without)]
+    assert pilot[0] == pilot[1]   # the pilot's rows are the same events, ranked alike (the mainshocks alone)
+    assert sum(r["events"] for r in ran) > sum(r["events"] for r in without)
+
+
+def test_a_rare_journal_begun_without_aftershocks_is_refused_with_them(site_file, tmp_path):
+    out = tmp_path / "rare"
+    assert _run([str(site_file), str(out)] + ARGS + RARE + ["--max-rows", "16"]).returncode == 6   # the pilot
+    before = (out / "rows.jsonl").read_bytes()
+    p = _run([str(site_file), str(out)] + ARGS + RARE + ["--max-rows", "16", "--aftershocks"])
+    assert p.returncode == 2 and "another run" in p.stdout and "aftershocks" in p.stdout, p.stdout + p.stderr
+    assert (out / "rows.jsonl").read_bytes() == before
 
 
 @pytest.mark.mpi
