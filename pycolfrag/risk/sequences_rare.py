@@ -32,6 +32,15 @@ the variance. Ours ranks events by the pulse's peak velocity Vp when the motion 
 exp(-1) times Eq. (6)'s median Vp of the event's (Mw, R) when it has none (:func:`strength`): a rank,
 not a model.
 
+**Aftershocks** (``sequences.aftershocks``; docs/sequences.md, "Aftershocks in the rare sequences"). The process
+is then the mainshocks', each carrying its aftershocks as its mark (given the mainshock, a Poisson process: the
+marking theorem keeps the whole a Poisson process), and the ranking is over the mainshocks alone (an aftershock,
+which may be stronger than its mainshock, is never ranked). A row's natural sequence holds its mainshocks'
+aftershocks (the crude sequences' draws on the row's streams), and x's own are drawn given x from the row's streams
+(3, :data:`X_AFTERSHOCKS`; its directivity geometry given its branch from 4, :data:`X_GEOMETRY`): the same law under
+the proposal and the target, so the weight stays the mainshock's. A site with mainshocks outside the models whose
+aftershocks may lie inside is refused (:func:`refuse_outside_aftershocks`): no row could count their sequences.
+
 Each row is run the three ways of the crude sequences (accumulated, intact, restored:
 :func:`pycolfrag.risk.sequences.run_one`, the same calls), so the paired differences come with it.
 
@@ -205,9 +214,9 @@ def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse
             mixture: Mixture | None = None, stage: int = PRODUCTION_STAGE) -> dict:
     """Row (h, j): its strongest event x (the rare route's run (stage, h, j): stage 0 and the pilot's proposal
     for the first ``rs.pilot`` rows of a stratum, ``stage`` (1 or 2) and the production proposal -- ``mixture``,
-    else ``rs.mixture`` -- after them), x's time, its natural sequence, and -- when x is the strongest -- the sequence
-    run the three ways. Returns the row as a dict (its hits and peak EDPs per way, x's features, its weight, runs
-    and seconds)."""
+    else ``rs.mixture`` -- after them), x's time, its natural sequence, and -- when x is the strongest mainshock -- x's
+    aftershocks (with ``rs.sequences.aftershocks``) and the sequence run the three ways. Returns the row as a dict
+    (its hits and peak EDPs per way, x's features, its weight, its sequence's events, runs and seconds)."""
     t0 = time.perf_counter()
     st = rs.sequences
     pilot = j < rs.pilot

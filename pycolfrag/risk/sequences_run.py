@@ -247,7 +247,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--max-record-s", type=float, default=None, help="cut the records (tests and quick looks only)")
     p.add_argument("--aftershocks", action="store_true",
                    help="each mainshock's aftershocks of Mw >= 5 within a year, Reasenberg & Jones (1989) generic "
-                        "California (docs/sequences.md, \"Aftershocks\"; crude sequences only)")
+                        "California (docs/sequences.md, \"Aftershocks\"; with --rare: \"Aftershocks in the rare "
+                        "sequences\")")
     rare = p.add_argument_group("importance sampling on the strongest event (--rare; docs/sequences.md, \"Rare sequences\")")
     rare.add_argument("--rare", action="store_true",
                       help="rows of the rare-event strata instead of crude sequences (--n is not used)")
