@@ -27,6 +27,7 @@ from pathlib import Path
 from pycolfrag.core.errors import PycolfragError
 from pycolfrag.rare.proposal import Mixture
 from pycolfrag.risk import sequences_rare as rare
+from pycolfrag.risk.aftershocks import Aftershocks
 from pycolfrag.risk.sequences import SequenceSettings
 from pycolfrag.risk.sequences_journal import read_lines
 from pycolfrag.site.sources import load_site
@@ -37,7 +38,8 @@ def _journal(folder: Path, site_path: str) -> tuple:
     head = json.loads((folder / "rows.jsonl").open().readline())["identity"]
     st, r = head["settings"], head["rare"]
     rs = rare.RareSequenceSettings(
-        sequences=SequenceSettings(years=st["years"], seed=st["seed"]), target=r["target"], target_cov=r["target_cov"],
+        sequences=SequenceSettings(years=st["years"], seed=st["seed"], aftershocks=None if st.get("aftershocks") is None
+                                   else Aftershocks(**st["aftershocks"])), target=r["target"], target_cov=r["target_cov"],
         pilot=r["pilot"], batch=r["batch"], max_rows=r["max_rows"], pilot_mixture=Mixture.from_dict(r["pilot_mixture"]),
         mixture=None if r["mixture"] is None else Mixture.from_dict(r["mixture"]))
     if r.get("algorithm") != rare.ALGORITHM:
@@ -67,7 +69,8 @@ def main(argv=None) -> int:
     est, years, target = run["estimate"], rs.sequences.years, rs.target
     print(f"rare sequences: {len(rows)} rows over {len(run['strata'])} strata "
           f"({sum(r['strongest'] for r in rows)} with the row's event the strongest), {run['runs']} event runs "
-          f"({run['shared']} more shared between the ways), {run['seconds']:.0f} s of runs ({platform.processor() or platform.machine()}); horizon {years:g} years")
+          f"({run['shared']} more shared between the ways), {run['seconds']:.0f} s of runs ({platform.processor() or platform.machine()}); horizon {years:g} years"
+          + (f", with aftershocks ({rs.sequences.aftershocks})" if rs.sequences.aftershocks is not None else ""))
     for note in run["design"].notes:
         print(f"  production proposal: {note}")
     print(f"\n| quantity | P within {years:g} yr: accumulated [CoV; sample-variance CoV] | its 90 % interval | intact "
