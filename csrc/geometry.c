@@ -39,6 +39,12 @@ double cf_geometry_circumradius(const cf_geometry_segment *s, double r)
     return sqrt(best);
 }
 
+double cf_geometry_section_diameter(double r, double aspect)
+{
+    if (aspect == 0.0 || aspect >= 1.0) return 2.0 * r;   /* a = 1: 2 r, the regular polygon's */
+    return 2.0 * r * aspect;
+}
+
 static int seg_ok(const cf_geometry_segment *s)
 {
     return s && isfinite(s->height) && s->height > 0 && isfinite(s->r_bottom) && s->r_bottom > 0

@@ -51,6 +51,13 @@ double cf_geometry_segment_aspect(const cf_geometry_segment *seg);
 /* The circumradius of the segment's section whose unscaled circumradius is r (r itself at aspect 1). */
 double cf_geometry_circumradius(const cf_geometry_segment *seg, double r);
 
+/* The diameter of a section of unscaled circumradius r and aspect a (0 read as 1) that normalises u_top and
+ * u_d: 2 r min(1, a), the narrower diameter of the corner ellipse (semi-axes r along x, r a along y) on
+ * which the scaled polygon's vertices lie -- 2 r at a = 1 (the regular polygon's circumscribed diameter),
+ * sqrt 2 times the thickness of a rectangle built from the 45-degree square (Segment.rectangle), and
+ * continuous at a = 1. Python's Column.base_diameter and joint_diameters call this, never restate it. */
+double cf_geometry_section_diameter(double r, double aspect);
+
 /* Mass properties of one segment (density kg/m^3). CF_EINVAL on bad geometry. */
 int cf_geometry_segment_props(const cf_geometry_segment *seg, double density, cf_geometry_massprops *out);
 

@@ -141,7 +141,7 @@ static void column_build(cf_solver *s, const cf_solver_scene *sc, int c, int blk
         s->blk_bot[3 * kb + 2] = -bp[kb].com_z;
         s->blk_top[3 * kb + 2] = bp[kb].height - bp[kb].com_z;
         s->blk_h[kb] = bp[kb].height; s->blk_m[kb] = bp[kb].mass;
-        s->joint_diam[kb] = 2.0 * cf_geometry_circumradius(bot, bot->r_bottom);
+        s->joint_diam[kb] = cf_geometry_section_diameter(bot->r_bottom, bot->aspect);
         s->blk_rc[kb] = 0.0;
         for (k = off; k < off + ns; k++) {
             const cf_geometry_segment *g = &sc->segments[k];
@@ -388,7 +388,7 @@ static int scene_map(cf_solver *s, const cf_solver_scene *sc, int nj_col)
     for (c = 0; c < sc->n_columns; c++) {
         info->col_blk0[c] = blk; info->col_nblk[c] = sc->columns[c].n_blocks;
         info->col_j0[c] = blk; info->col_nj[c] = sc->columns[c].n_blocks;
-        info->col_base_diam[c] = 2.0 * cf_geometry_circumradius(&sc->segments[seg], sc->segments[seg].r_bottom);
+        info->col_base_diam[c] = cf_geometry_section_diameter(sc->segments[seg].r_bottom, sc->segments[seg].aspect);
         for (r = 0; r < sc->columns[c].n_blocks; r++) seg += sc->n_segments[blk + r];
         blk += sc->columns[c].n_blocks;
     }

@@ -104,7 +104,7 @@ static void block_masses(cf_solver *s, int nblk, const int *nseg, const cf_geome
             }
             zbot[i + 1] = zbot[i] + bp[i].height;
             s->blk_h[i] = bp[i].height; s->blk_m[i] = bp[i].mass;
-            s->joint_diam[i] = 2.0 * cf_geometry_circumradius(&segs[off], segs[off].r_bottom);
+            s->joint_diam[i] = cf_geometry_section_diameter(segs[off].r_bottom, segs[off].aspect);
             s->blk_rc[i] = 0.0;
             for (k = off; k < off + nseg[i]; k++) {
                 double rb = cf_geometry_circumradius(&segs[k], segs[k].r_bottom), rt = cf_geometry_circumradius(&segs[k], segs[k].r_top);
@@ -117,7 +117,7 @@ static void block_masses(cf_solver *s, int nblk, const int *nseg, const cf_geome
         }
         s->total_h = zbot[nblk];
         s->com_h = mz / s->total_mass;
-        s->base_diam = 2.0 * cf_geometry_circumradius(&segs[0], segs[0].r_bottom);
+        s->base_diam = cf_geometry_section_diameter(segs[0].r_bottom, segs[0].aspect);
     }
 }
 

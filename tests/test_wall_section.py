@@ -204,3 +204,46 @@ def test_dowels_lie_on_the_scaled_face():
     assert len(col.with_connectors(Connectors.of("titanium", (1,), radius=0.8, count=2, phase_deg=90.0)).dowels()) == 2
     with pytest.raises(ParameterError, match="lies outside the face of joint 1"):
         col.with_connectors(Connectors.of("titanium", (1,), radius=0.3, count=2, phase_deg=0.0))
+
+
+def _wall(b, d, courses=3):
+    return Column([Block((Segment.rectangle(1.0, b, d),)) for _ in range(courses)], joints=JOINTS)
+
+
+@pytest.mark.parametrize("b, d", [(0.5, 2.0), (2.0, 0.5)])
+def test_base_diameter_is_the_one_c_normalises_by(b, d):
+    """One base diameter (csrc/geometry.c, cf_geometry_section_diameter): 2 r min(1, aspect), sqrt 2 times the
+    wall's thickness whichever way it lies; C's u_top is the top's peak displacement (m) over it, and the
+    joints' diameters are the same face's. Before, Python had 2 r and C twice the half-diagonal."""
+    col = _wall(b, d)
+    assert col.base_diameter == pytest.approx(math.sqrt(2.0) * min(b, d), rel=1e-15)
+    assert col.joint_diameters == [col.base_diameter] * 3
+    t = np.arange(0.0, 2.0, 0.005)
+    r = pcf.simulate(col, 0.2 * G * np.sin(2 * np.pi * 1.5 * t), 0.005, acc_y=0.2 * G * np.sin(2 * np.pi * t), tail_s=1.0)
+    assert r.max_top_disp > 1e-3 and not r.collapsed
+    assert r.u_top * col.base_diameter == pytest.approx(r.max_top_disp, rel=1e-12)   # round-off of one division
+
+
+def test_lintel_scene_columns_are_normalised_by_their_base_diameters():
+    """Each column of the lintel scene (the column and the wall): its u_top times its Python base diameter
+    is its peak top displacement (m), to round-off."""
+    from pycolfrag.structure.lintel import LintelOnWall
+    m = LintelOnWall.example()
+    t = np.arange(0.0, 2.0, 0.005)
+    r = pcf.simulate(m, 0.4 * G * np.sin(2 * np.pi * 1.5 * t), 0.005)
+    diam = [c.base_diameter for c, _, _ in m.scene_parts().columns]
+    np.testing.assert_allclose(r.columns["u_top"] * diam, r.columns["max_top_disp"], rtol=1e-12)
+
+
+def test_sequence_u_top_of_a_quiet_second_event_is_the_first_events():
+    """A wall's sequence: a record, then one of zeros (no settling). The second event's sequence u_top is
+    the peak the first left in the state over Python's base diameter, and equals the first event's u_top
+    as C normalised it (round-off)."""
+    from pycolfrag.solver.sequence import run_sequence
+    col = _wall(0.5, 2.0)
+    t = np.arange(0.0, 2.0, 0.005)
+    s = run_sequence(col, [(0.2 * G * np.sin(2 * np.pi * 1.5 * t), 0.005), (np.zeros(20), 0.005)], settle=None,
+                     tail_s=0.0)
+    first, second = s.events
+    assert first.u_top > 0.0 and not s.collapsed
+    assert second.u_top == pytest.approx(first.response.u_top, rel=1e-12)

@@ -460,13 +460,16 @@ class Column:
 
     @property
     def base_diameter(self) -> float:
-        """Circumscribed diameter of the bottom face of block 1, m (normalises u_top)."""
-        return 2.0 * self.blocks[0].bottom.r_bottom
+        """The diameter of the bottom face of block 1, m, the one C normalises u_top by
+        (``cf_geometry_section_diameter``: 2 r min(1, aspect), the circumscribed diameter of a regular face)."""
+        seg = self.blocks[0].bottom
+        return float(_lib.cf_geometry_section_diameter(seg.r_bottom, seg.aspect))
 
     @property
     def joint_diameters(self) -> list[float]:
-        """Diameter at each joint (bottom face of the block above), m (normalises u_d)."""
-        return [2.0 * b.bottom.r_bottom for b in self.blocks]
+        """Diameter at each joint (bottom face of the block above), m, the one C normalises u_d by
+        (``cf_geometry_section_diameter``)."""
+        return [float(_lib.cf_geometry_section_diameter(b.bottom.r_bottom, b.bottom.aspect)) for b in self.blocks]
 
     @property
     def joint_heights(self) -> list[float]:
