@@ -113,16 +113,26 @@ static inline int box_within(const double *box, double tol, const double *c, dou
 }
 
 /* Is the centre of mass (dx, dy) (m, horizontal) from the centre of face f of body b well beyond the face,
- * more than twice its reach that way? A regular face reaches rc whichever way; a scaled one (geometry.h)
- * its vertices' furthest projection on that direction, as body b holds the face now. */
+ * more than two radii from its centre? A regular face: two circumradii rc, whichever way. A scaled face
+ * (geometry.h) is the image of the regular polygon of circumradius R under y -> a y, its corners on the
+ * ellipse of semi-axes R (x) and R a (y); the regular test "outside the circle of radius 2 R" maps under the
+ * same y -> a y to "outside that ellipse doubled", i.e. more than twice the ellipse's radius in the
+ * direction e of the centre of mass (e as body b holds the face now, its part in the face's plane):
+ *   |d|^2 > 4 rho(e)^2,  rho^2 = R^2 a^2 |e|^2 / (a^2 ex^2 + ey^2).
+ * That is the radius, not the support function R sqrt(ex^2 + a^2 ey^2) / |e|: the criterion asks where the
+ * centre of mass lies (a point against the doubled face), and only the radius keeps it the affine image of
+ * the regular one. Both give R along x and R a along y, so it tends to the regular test as a -> 1 (the
+ * vertices' furthest projection did not: rc cos(pi / n) along an edge's normal), and a wall's block
+ * toppling across its thickness is caught at twice R min(1, a). Squared, no square root. */
 static int beyond(const cf_solver *s, int b, const cf_face *f, double dx, double dy)
 {
-    double d[3] = {dx, dy, 0.0}, e[3], reach = 0.0;
-    int k;
-    if (f->asp == 1.0) return dx * dx + dy * dy > 4.0 * f->rc * f->rc;
+    double d[3] = {dx, dy, 0.0}, e[3], a = f->asp, d2 = dx * dx + dy * dy, R2, q;
+    if (a == 1.0) return d2 > 4.0 * f->rc * f->rc;
     mat_tvec(s->R + 9 * b, d, e);
-    for (k = 0; k < f->n; k++) if (f->vx[k] * e[0] + f->vy[k] * e[1] > reach) reach = f->vx[k] * e[0] + f->vy[k] * e[1];
-    return dx * dx + dy * dy > 2.0 * reach;
+    R2 = f->vx[0] * f->vx[0] + (f->vy[0] / a) * (f->vy[0] / a);   /* the unscaled circumradius, squared */
+    q = e[0] * e[0] + e[1] * e[1];
+    if (q == 0.0) return d2 > 0.0;   /* the face stands on edge to the horizontal: no reach that way */
+    return d2 * (a * a * e[0] * e[0] + e[1] * e[1]) > 4.0 * R2 * a * a * q;
 }
 
 /* Bearing j of a scene: has its beam's seat on that column (the centre of the beam's bearings
@@ -153,8 +163,8 @@ static int unseated(const cf_solver *s, int j)
  *   Measured both from the supporting (lower) face, with its radius, and from the
  *   moving block's own bottom face, with its own radius: a narrow block on a wide
  *   drum can tip over far inside the drum's face (on the unbounded ground the two
- *   faces are the same). A scaled section (geometry.h) reaches unequally: twice its
- *   reach towards the centre of mass, as the face lies now (beyond()).
+ *   faces are the same). A scaled section (geometry.h): twice the radius, towards the
+ *   centre of mass, of the ellipse through its corners, as the face lies now (beyond()).
  * - off the footprint: the centre of a block's bottom face has slid outside the
  *   polygon of the face below (in that face's plane): more than half of the joint
  *   overhangs. Rocking alone moves this centre by b (1 - cos tilt) only. A beam of a
