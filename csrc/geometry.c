@@ -45,6 +45,31 @@ double cf_geometry_section_diameter(double r, double aspect)
     return 2.0 * r * aspect;
 }
 
+/* asinh(x) = ln(x + sqrt(x^2 + 1)), odd: taken for |x| (no cancellation for x < 0) */
+static double asinh_odd(double x)
+{
+    double ax = x < 0.0 ? -x : x, v = cf_math_log(ax + sqrt(ax * ax + 1.0));
+    return x < 0.0 ? -v : v;
+}
+
+double cf_geometry_section_mean_radius(int n, double r, double phase, double aspect)
+{
+    double a = aspect == 0.0 ? 1.0 : aspect, sum = 0.0, area = 0.0;
+    int k;
+    for (k = 0; k < n; k++) {
+        double p0 = phase + 2.0 * CF_PI * k / n, p1 = phase + 2.0 * CF_PI * (k + 1) / n;
+        double x0 = r * cf_math_cos(p0), y0 = a * r * cf_math_sin(p0);
+        double x1 = r * cf_math_cos(p1), y1 = a * r * cf_math_sin(p1);
+        double ex = x1 - x0, ey = y1 - y0, len = sqrt(ex * ex + ey * ey);
+        double h = (x0 * y1 - x1 * y0) / len;           /* the edge's distance from the centre (CCW: > 0) */
+        double t0 = (x0 * ex + y0 * ey) / len, t1 = (x1 * ex + y1 * ey) / len;
+        double s0 = sqrt(t0 * t0 + h * h), s1 = sqrt(t1 * t1 + h * h);
+        sum += h / 6.0 * (t1 * s1 - t0 * s0 + h * h * (asinh_odd(t1 / h) - asinh_odd(t0 / h)));
+        area += 0.5 * h * len;
+    }
+    return sum / area;
+}
+
 static int seg_ok(const cf_geometry_segment *s)
 {
     return s && isfinite(s->height) && s->height > 0 && isfinite(s->r_bottom) && s->r_bottom > 0

@@ -58,6 +58,13 @@ double cf_geometry_circumradius(const cf_geometry_segment *seg, double r);
  * continuous at a = 1. Python's Column.base_diameter and joint_diameters call this, never restate it. */
 double cf_geometry_section_diameter(double r, double aspect);
 
+/* The mean distance from its centre, (1/A) int |r| dA (m), of a regular n-gon of circumradius r, first vertex
+ * at phase, scaled by aspect along y (0 read as 1): per edge, the triangle with its apex at the centre,
+ * (h / 6) [t sqrt(t^2 + h^2) + h^2 asinh(t / h)] between the edge's ends (h the edge's distance from the
+ * centre, t the place along it from the foot of the perpendicular). (2/3) r for a disc; the exact
+ * model's torsional friction arm (solver_exact.c). */
+double cf_geometry_section_mean_radius(int n_sides, double r, double phase_rad, double aspect);
+
 /* Mass properties of one segment (density kg/m^3). CF_EINVAL on bad geometry. */
 int cf_geometry_segment_props(const cf_geometry_segment *seg, double density, cf_geometry_massprops *out);
 

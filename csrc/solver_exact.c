@@ -227,6 +227,8 @@ static void joint_exact(cf_solver *s, void *state, const cf_joint *J, const doub
         mt_trial = ej->mt - kt * wr * dt;
         req = sqrt(r.area / CF_PI);
         lim = mu * fn * (2.0 / 3.0) * req;
+        if (J->fl.tarm != 1.0 || J->fu.tarm != 1.0)   /* a scaled face: its shape's arm (cf_face.tarm) */
+            lim *= (J->fl.area < J->fu.area ? &J->fl : &J->fu)->tarm;
         if (fabs(mt_trial) > lim) {
             double capped = mt_trial > 0 ? lim : -lim;
             /* trapezoidal work on the torsional spring minus its elastic energy change */

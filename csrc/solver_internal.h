@@ -74,6 +74,9 @@ typedef struct {
      * (unit normals at aspect 1; the tolerance then grows the face by tol asp along y) */
     double asp, apoc;
     double polar;                /* the face's polar moment of area about its centre, m^4 */
+    /* the exact model's torsional friction arm over its regular one, (2/3) sqrt(A_c / pi): 1 at aspect 1;
+     * scaled, rbar(a) / (rbar(1) sqrt(a)), rbar the face's mean distance from its centre (geometry.h) */
+    double tarm;
     double ec[CF_MAXS], es[CF_MAXS];   /* outward in-plane edge normals (the y parts / asp) */
     double vx[CF_MAXS], vy[CF_MAXS];   /* vertices relative to the centre, CCW */
     double poly[2 * CF_MAXS];          /* the same, interleaved (x, y) */

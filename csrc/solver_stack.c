@@ -42,7 +42,7 @@ void cf_solver_stack_face(cf_face *f, int n, double r, double phase, double cz, 
     f->c[0] = 0; f->c[1] = 0; f->c[2] = cz;
     f->n = n; f->rc = r; f->apo = r * cf_math_cos(a);
     f->area = cf_geometry_polygon_area(n, r);
-    f->asp = asp; f->apoc = f->apo;
+    f->asp = asp; f->apoc = f->apo; f->tarm = 1.0;
     f->polar = f->area * r * r * (2.0 + cf_math_cos(2.0 * CF_PI / n)) / 6.0;
     for (k = 0; k < n; k++) {
         double ph = phase + 2.0 * CF_PI * k / n;
@@ -58,6 +58,8 @@ void cf_solver_stack_face(cf_face *f, int n, double r, double phase, double cz, 
         if (asp < 1.0) f->apoc = f->apo * asp;
         /* int (x^2 + y^2) dA = k c r^4 a (1 + a^2) (geometry.h), the area k r^2 a */
         f->polar = f->area * r * r * (2.0 + cf_math_cos(2.0 * CF_PI / n)) / 12.0 * (1.0 + asp * asp);
+        f->tarm = cf_geometry_section_mean_radius(n, r, phase, asp)
+                / (cf_geometry_section_mean_radius(n, r, phase, 1.0) * sqrt(asp));
     }
     for (k = 0; k < n + 2; k++) {
         int m = (k + n - 1) % n;
