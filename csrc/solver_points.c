@@ -441,7 +441,7 @@ static void points_derived(const cf_joint *J, cf_points *p, int j)
         p->lx[k] = p->loc[3 * k]; p->ly[k] = p->loc[3 * k + 1];
         p->hx[k] = hx; p->hy[k] = hy;
         /* squared radius of the cheap test (-1: none; the point then takes the polygon test) */
-        p->fast[k] = (homein && tol > 2e-9 * oth->rc) ? (tol - 1e-9 * oth->rc) * (tol - 1e-9 * oth->rc) : -1.0;
+        p->fast[k] = homein ? cf_points_quick_r2(oth, tol) : -1.0;
         p->knw[k] = J->kn * p->w[k]; p->ksw[k] = J->ks * p->w[k];
         p->ihkw[k] = 0.5 / (J->ks * p->w[k]);
     }

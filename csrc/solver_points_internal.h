@@ -124,6 +124,18 @@ void cf_solver_points_w2_run(cf_points *pts, const cf_face_pass *P, int k0, int 
 void cf_solver_points_w4_run(cf_points *pts, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
 void cf_solver_points_w8_run(cf_points *pts, const cf_face_pass *P, int k0, int k1, cf_face_sums *S, int need);
 
+/* The squared radius of the hot loop's cheap inside test of a point whose home lies inside face f (within
+ * 1e-9 rc of it, cf_face_inside), contact tolerance tol (m): every point that near its home is inside f grown
+ * by tol -- the polygon test's answer, never more. A face scaled along y by a grows by tol a along y (its
+ * test runs on (X, Y / a)): for a < 1 the radius shrinks by a. -1: none (the polygon test decides). */
+static inline double cf_points_quick_r2(const cf_face *f, double tol)
+{
+    double r = tol - 1e-9 * f->rc;
+    if (!(tol > 2e-9 * f->rc)) return -1.0;
+    if (f->asp < 1.0) r *= f->asp;
+    return r * r;
+}
+
 /* Regular polygon test with a hint: the projection of (X, Y) on the edge normals is
  * unimodal around the polygon, so walking from the last maximising edge finds the
  * maximum in a few steps. Inside iff that maximum <= apothem + tol. */

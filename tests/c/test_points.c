@@ -182,8 +182,35 @@ static void test_scaled_face_is_the_rectangle(void)
     }
 }
 
+/* The cheap inside test (cf_points_quick_r2) never accepts what the polygon test refuses: homes inside a
+ * face (a grid, and points within 1e-10 of its sides), each moved by the quick radius (less 1e-12) in 16
+ * directions, are inside the face grown by tol -- at a = 0.4 (tol a along y: before, the radius was tol, and
+ * a point tol along y from a home at the long side was refused by the polygon), 1 and 2.5. */
+static void test_quick_inside_is_within_the_polygon_test(void)
+{
+    const double b = 0.4, as[3] = {0.4, 1.0, 2.5};
+    int ia, i, j, k;
+    for (ia = 0; ia < 3; ia++) {
+        double a = as[ia], d = a * b, tol, r;
+        cf_face f;
+        cf_solver_stack_face(&f, 4, b / sqrt(2.0), 0.25 * CF_PI, 0.0, a);
+        tol = 0.01 * f.rc;
+        r = sqrt(cf_points_quick_r2(&f, tol)) - 1e-12;
+        for (i = -10; i <= 10; i++)
+            for (j = -10; j <= 10; j++) {
+                double hx = (0.5 * b - 1e-10) * i / 10.0, hy = (0.5 * d - 1e-10) * j / 10.0;
+                CF_CHECK(cf_face_inside(&f, hx, hy, 1e-9 * f.rc));
+                for (k = 0; k < 16; k++) {
+                    double ph = 2.0 * CF_PI * k / 16.0;
+                    CF_CHECK(cf_face_inside(&f, hx + r * cos(ph), hy + r * sin(ph), tol));
+                }
+            }
+    }
+}
+
 int main(void)
 {
+    CF_RUN(test_quick_inside_is_within_the_polygon_test);
     CF_RUN(test_scaled_face_is_the_rectangle);
     CF_RUN(test_next_open);
     CF_RUN(test_next_too_deep_and_off_face);
