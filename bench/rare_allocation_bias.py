@@ -1,0 +1,192 @@
+"""The steered allocation's finite-sample bias on the single-event rare route (docs/rare_events.md, "The steered
+allocation's finite-sample bias"), on surrogates of the tests' column (tests/rare_surrogate.py): exact rates by
+quadrature, the production driver (``simulate_site``: pilot, cross-entropy steps, batches, floors, control
+variate) as ``pycolfrag risk --simulate`` runs it.
+
+Each repetition simulates the tests' small site (tests/test_rare_site.py: 14 strata, 870 runs in batches of
+200, seed 1000 + i; a target CoV of 0.01 never stops early, so every simulation makes its 870 runs) under one
+surrogate and one allocation:
+
+* surrogates -- ``base``: the tests' surrogate (a level is u_top above a threshold; the steering model's features
+  Mw, ln R, z_vp, z_fp foresee ln u_top up to the record noise, sd 0.45); ``partly``: base, and besides a run
+  collapses with probability q(Mw, R) = 0.04 exp(2 (Mw - 6.5)) min(1, 5 km / R) drawn from its record noise seed
+  (a coin of the seed's own stream, independent of the noise: random given the features, reproducible);
+  ``coin2``, ``coin05``: base, and a run collapses with a constant probability 0.02 or 0.005 whatever its event
+  (hits that nothing of the event foretells). A collapse exceeds every level, so each level's probability
+  given the event is P + q (1 - P), P the base surrogate's, and the exact rates are the quadrature of
+  tests/rare_surrogate.py with it;
+* allocations -- ``steered``: the driver's (minimax-CoV Neyman, model-steered, run and variance floors);
+  ``proportional``: every batch in proportion to the strata's event rates (``batch_counts`` of W_h (runs so
+  far + batch)), which reads no outcome: the same driver with ``allocate_batch`` replaced.
+
+Per surrogate, allocation and level: the mean of the estimates over the repetitions against the exact rate (in %
+and in pooled standard errors), the observed CoV, the stated CoV (root mean square) and the share of the stated
+90 % intervals that hold the exact rate; both for the production estimator (the control variate) and the plain
+stratum means on the same rows.
+
+    nice -n 10 .venv/bin/python bench/rare_allocation_bias.py --reps 48      # about 1.5 CPU-s a simulation
+    nice -n 10 .venv/bin/python bench/rare_allocation_bias.py --reps 48 --surrogates coin2 --allocations steered
+"""
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import math
+import sys
+from contextlib import redirect_stdout
+from pathlib import Path
+
+import numpy as np
+from scipy import integrate
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
+import rare_surrogate  # noqa: E402
+from pycolfrag import results as _results  # noqa: E402
+from pycolfrag.rare import allocation as _alloc  # noqa: E402
+from pycolfrag.rare import driver  # noqa: E402
+from pycolfrag.rare.driver import SiteSettings, StopRule, simulate_site  # noqa: E402
+from pycolfrag.rare.estimate import estimate  # noqa: E402
+from pycolfrag.risk.site_risk import QUANTITIES  # noqa: E402
+from rare_surrogate import SurrogateEvaluator, level_probability  # noqa: E402
+from test_rare_site import SMALL, small_site  # noqa: E402
+
+RUNS = 870
+#: The coin's stream under a run's record noise seed (the noise itself is the seed's first draw).
+COIN_KEY = 7
+
+
+def _partly(mw, r):
+    return 0.04 * np.exp(2.0 * (np.asarray(mw) - 6.5)) * np.minimum(1.0, 5.0 / np.asarray(r))
+
+
+#: q(Mw, R km): a run's probability of an extra collapse, by surrogate (None: the tests' surrogate).
+CHANCE = {"base": None, "partly": _partly,
+          "coin2": lambda mw, r: np.full(np.shape(mw), 0.02), "coin05": lambda mw, r: np.full(np.shape(mw), 0.005)}
+
+
+def coin(hf_seed) -> float:
+    """A uniform of the run's record noise seed, from a stream of its own (independent of the noise)."""
+    return float(np.random.default_rng(np.random.SeedSequence(int(hf_seed), spawn_key=(COIN_KEY,))).random())
+
+
+class CoinEvaluator(SurrogateEvaluator):
+    """The tests' surrogate, a run collapsing besides when its coin falls below q(Mw, R)."""
+
+    def __init__(self, chance):
+        super().__init__()
+        self.chance = chance
+
+    def evaluate(self, name, inputs, purpose, limit=None):
+        cols = super().evaluate(name, inputs, purpose, limit)
+        if self.chance is not None:
+            u = np.array([coin(s) for s in cols["hf_seed"]])
+            extra = u < self.chance(cols["mw"], cols["dist_km"])
+            cols["collapsed"] = (cols["collapsed"].astype(bool) | extra).astype(np.uint8)
+        return cols
+
+
+def exact_rates(site, quantities, chance) -> dict:
+    """lambda of every level with the extra collapse: tests/rare_surrogate.py's quadrature of P + q (1 - P)."""
+    if chance is None:
+        return rare_surrogate.exact_rates(site, quantities)
+    out = {}
+    for q in quantities:
+        def prob(pulse, m, r):
+            p = level_probability(q, pulse, m, r)  # noqa: B023 (called within this iteration)
+            c = float(chance(m, r))  # noqa: B023 (as above)
+            return p + c * (1.0 - p)
+        total = 0.0
+        for s in site.sources:
+            def over_r(m):
+                def g(r):
+                    p = float(s.pulse.mean_probability(np.array([r]))[0])  # noqa: B023 (as above)
+                    return p * prob(True, m, r) + (1 - p) * prob(False, m, r)
+                d = s.distance  # noqa: B023 (as above)
+                if getattr(d, "atoms", None) is not None:
+                    return sum(w * g(x) for x, w in d.atoms)
+                return integrate.quad(lambda r: float(d.pdf(r)) * g(r), *d.support, epsabs=0, epsrel=1e-10)[0]
+            mm = s.magnitude
+            if getattr(mm, "atoms", None) is not None:
+                total += s.rate * sum(w * over_r(x) for x, w in mm.atoms)
+            else:
+                total += s.rate * integrate.quad(lambda m: float(mm.pdf(m)) * over_r(m), *mm.support,  # noqa: B023
+                                                 epsabs=0, epsrel=1e-10)[0]
+        out[q.label] = total
+    return out
+
+
+def proportional(cols, strata, design, settings, requested, stage, used, events, size, floor=None) -> dict:
+    """The batch in proportion to the strata's event rates: reads the runs so far, never their outcomes."""
+    W = strata.rates
+    finished = np.asarray(cols["status"]) != _results.STATUS_PENDING
+    done = np.bincount(np.asarray(cols["stratum"])[finished], minlength=len(strata))
+    new = _alloc.batch_counts(W / W.sum() * (used + size), done, size)
+    return {int(h): int(k) for h, k in enumerate(new) if k > 0}
+
+
+def repetitions(surrogate: str, allocation: str, reps: int, first_seed: int = 1000) -> dict:
+    """{estimator: [rates, covs, held]} lists (reps x levels) of one surrogate and allocation."""
+    site = small_site()
+    exact = exact_rates(site, QUANTITIES, CHANCE[surrogate])
+    steered = driver.allocate_batch
+    out: dict = {k: [[], [], []] for k in ("control variate", "plain")}
+    try:
+        if allocation == "proportional":
+            driver.allocate_batch = proportional
+        for i in range(reps):
+            with redirect_stdout(io.StringIO()):
+                run = simulate_site(site, SiteSettings(seed=first_seed + i, batch=200, **SMALL),
+                                    StopRule(0.01, RUNS), CoinEvaluator(CHANCE[surrogate]), QUANTITIES,
+                                    log=lambda s: None)
+            assert run.runs == RUNS
+            for key in out:
+                e = estimate(run.cols, run.strata, run.design, run.quantities, floor=run.floor,
+                             control=key != "plain")
+                lv = [e.levels[q.label] for q in QUANTITIES]
+                out[key][0].append([x.rate for x in lv])
+                out[key][1].append([x.cov for x in lv])
+                out[key][2].append([bool(x.low <= exact[x.label] <= x.high) for x in lv])
+    finally:
+        driver.allocate_batch = steered
+    return {"exact": exact, **out}
+
+
+def table(results: dict, reps: int, first_seed: int = 1000) -> str:
+    lines = [f"Surrogate small site (14 strata), {reps} simulations of {RUNS} runs each (seeds {first_seed}-"
+             f"{first_seed + reps - 1}):", "",
+             "| surrogate | allocation | level | exact /yr | estimator | mean / exact - 1 (SE) | bias / SE | "
+             "observed CoV | stated CoV (rms) | 90 % held |", "|---|---|---|---:|---|---:|---:|---:|---:|---:|"]
+    for (sur, alloc), res in results.items():
+        for j, q in enumerate(QUANTITIES):
+            lam = res["exact"][q.label]
+            for key in ("control variate", "plain"):
+                rates, covs, held = (np.asarray(x, dtype=float) for x in res[key])
+                n = rates.shape[0]
+                mean, sd = rates[:, j].mean(), rates[:, j].std(ddof=1)
+                se = sd / math.sqrt(n)
+                lines.append(f"| {sur} | {alloc} | {q.label} | {lam:.3e} | {key} | {100 * (mean / lam - 1):+.1f} % "
+                             f"({100 * se / lam:.1f}) | {(mean - lam) / se:+.1f} | {sd / lam:.3f} | "
+                             f"{math.sqrt(np.nanmean(covs[:, j] ** 2)):.3f} | {held[:, j].mean():.2f} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--reps", type=int, default=48)
+    ap.add_argument("--surrogates", nargs="+", default=list(CHANCE), choices=list(CHANCE))
+    ap.add_argument("--allocations", nargs="+", default=["steered", "proportional"],
+                    choices=["steered", "proportional"])
+    ap.add_argument("--first-seed", type=int, default=1000)
+    ap.add_argument("--json", type=Path, help="also write the raw estimates here")
+    a = ap.parse_args(argv)
+    results = {(s, al): repetitions(s, al, a.reps, a.first_seed) for s in a.surrogates for al in a.allocations}
+    if a.json:
+        a.json.write_text(json.dumps({f"{s}/{al}": r for (s, al), r in results.items()}))
+    print(table(results, a.reps, a.first_seed))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
