@@ -25,7 +25,9 @@ and in pooled standard errors), the observed CoV, the stated CoV (root mean squa
 stratum means on the same rows.
 
     nice -n 10 .venv/bin/python bench/rare_allocation_bias.py --reps 48      # about 1.5 CPU-s a simulation
-    nice -n 10 .venv/bin/python bench/rare_allocation_bias.py --reps 48 --surrogates coin2 --allocations steered
+    nice -n 10 .venv/bin/python bench/rare_allocation_bias.py --reps 48 --surrogates coin2 --allocations steered \
+        --first-seed 2000 --json more.json
+    .venv/bin/python bench/rare_allocation_bias.py --pool a.json more.json --levels collapse   # pooled, no runs
 """
 from __future__ import annotations
 
@@ -153,23 +155,41 @@ def repetitions(surrogate: str, allocation: str, reps: int, first_seed: int = 10
     return {"exact": exact, **out}
 
 
-def table(results: dict, reps: int, first_seed: int = 1000) -> str:
-    lines = [f"Surrogate small site (14 strata), {reps} simulations of {RUNS} runs each (seeds {first_seed}-"
-             f"{first_seed + reps - 1}):", "",
-             "| surrogate | allocation | level | exact /yr | estimator | mean / exact - 1 (SE) | bias / SE | "
-             "observed CoV | stated CoV (rms) | 90 % held |", "|---|---|---|---:|---|---:|---:|---:|---:|---:|"]
+def table(results: dict, levels=None) -> str:
+    """The table of :func:`repetitions`' results, {(surrogate, allocation): result}; ``levels``: the labels shown."""
+    lines = [f"Surrogate small site (14 strata), simulations of {RUNS} runs each:", "",
+             "| surrogate | allocation | sims | level | exact /yr | estimator | mean / exact - 1 (SE) | bias / SE | "
+             "observed CoV | stated CoV (rms) | 90 % held |", "|---|---|---:|---|---:|---|---:|---:|---:|---:|---:|"]
     for (sur, alloc), res in results.items():
         for j, q in enumerate(QUANTITIES):
+            if levels and q.label not in levels:
+                continue
             lam = res["exact"][q.label]
             for key in ("control variate", "plain"):
                 rates, covs, held = (np.asarray(x, dtype=float) for x in res[key])
                 n = rates.shape[0]
                 mean, sd = rates[:, j].mean(), rates[:, j].std(ddof=1)
                 se = sd / math.sqrt(n)
-                lines.append(f"| {sur} | {alloc} | {q.label} | {lam:.3e} | {key} | {100 * (mean / lam - 1):+.1f} % "
+                lines.append(f"| {sur} | {alloc} | {n} | {q.label} | {lam:.3e} | {key} | {100 * (mean / lam - 1):+.1f} % "
                              f"({100 * se / lam:.1f}) | {(mean - lam) / se:+.1f} | {sd / lam:.3f} | "
                              f"{math.sqrt(np.nanmean(covs[:, j] ** 2)):.3f} | {held[:, j].mean():.2f} |")
     return "\n".join(lines)
+
+
+def merged(paths) -> dict:
+    """The results of several ``--json`` files (other seeds of the same surrogates), pooled."""
+    out: dict = {}
+    for p in paths:
+        for name, res in json.loads(Path(p).read_text()).items():
+            key = tuple(name.split("/"))
+            if key not in out:
+                out[key] = {"exact": res["exact"], **{k: [list(x) for x in v] for k, v in res.items() if k != "exact"}}
+            else:
+                for k, v in res.items():
+                    if k != "exact":
+                        for acc, x in zip(out[key][k], v):
+                            acc.extend(x)
+    return out
 
 
 def main(argv=None) -> int:
@@ -180,11 +200,16 @@ def main(argv=None) -> int:
                     choices=["steered", "proportional"])
     ap.add_argument("--first-seed", type=int, default=1000)
     ap.add_argument("--json", type=Path, help="also write the raw estimates here")
+    ap.add_argument("--pool", type=Path, nargs="+", help="no simulation: the table of these --json files, pooled")
+    ap.add_argument("--levels", nargs="+", help="the levels the table shows (default: all)")
     a = ap.parse_args(argv)
+    if a.pool:
+        print(table(merged(a.pool), a.levels))
+        return 0
     results = {(s, al): repetitions(s, al, a.reps, a.first_seed) for s in a.surrogates for al in a.allocations}
     if a.json:
         a.json.write_text(json.dumps({f"{s}/{al}": r for (s, al), r in results.items()}))
-    print(table(results, a.reps, a.first_seed))
+    print(table(results, a.levels))
     return 0
 
 
