@@ -128,8 +128,8 @@ def proportional(cols, strata, design, settings, requested, stage, used, events,
     return {int(h): int(k) for h, k in enumerate(new) if k > 0}
 
 
-def repetitions(surrogate: str, allocation: str, reps: int, first_seed: int = 1000) -> dict:
-    """{estimator: [rates, covs, held]} lists (reps x levels) of one surrogate and allocation."""
+def repetitions(surrogate: str, allocation: str, reps: int, first_seed: int = 1000, runs: int = RUNS) -> dict:
+    """{estimator: [rates, covs, held]} lists (reps x levels) of one surrogate and allocation, ``runs`` runs each."""
     site = small_site()
     exact = exact_rates(site, QUANTITIES, CHANCE[surrogate])
     steered = driver.allocate_batch
@@ -140,9 +140,9 @@ def repetitions(surrogate: str, allocation: str, reps: int, first_seed: int = 10
         for i in range(reps):
             with redirect_stdout(io.StringIO()):
                 run = simulate_site(site, SiteSettings(seed=first_seed + i, batch=200, **SMALL),
-                                    StopRule(0.01, RUNS), CoinEvaluator(CHANCE[surrogate]), QUANTITIES,
+                                    StopRule(0.01, runs), CoinEvaluator(CHANCE[surrogate]), QUANTITIES,
                                     log=lambda s: None)
-            assert run.runs == RUNS
+            assert run.runs == runs
             for key in out:
                 e = estimate(run.cols, run.strata, run.design, run.quantities, floor=run.floor,
                              control=key != "plain")
@@ -152,15 +152,15 @@ def repetitions(surrogate: str, allocation: str, reps: int, first_seed: int = 10
                 out[key][2].append([bool(x.low <= exact[x.label] <= x.high) for x in lv])
     finally:
         driver.allocate_batch = steered
-    return {"exact": exact, **out}
+    return {"exact": exact, "runs": runs, **out}
 
 
 def table(results: dict, levels=None) -> str:
     """The table of :func:`repetitions`' results, {(surrogate, allocation): result}; ``levels``: the labels shown."""
-    lines = [f"Surrogate small site (14 strata), simulations of {RUNS} runs each:", "",
-             "| surrogate | allocation | sims | level | exact /yr | estimator | mean / exact - 1 (SE) | bias / SE | "
-             "observed CoV | stated CoV (rms) | 90 % held |", "|---|---|---:|---|---:|---|---:|---:|---:|---:|---:|"]
-    for (sur, alloc), res in results.items():
+    lines = ["Surrogate small site (14 strata):", "",
+             "| surrogate | allocation | runs | sims | level | exact /yr | estimator | mean / exact - 1 (SE) | bias / SE | "
+             "observed CoV | stated CoV (rms) | 90 % held |", "|---|---|---:|---:|---|---:|---|---:|---:|---:|---:|---:|"]
+    for (sur, alloc, runs), res in results.items():
         for j, q in enumerate(QUANTITIES):
             if levels and q.label not in levels:
                 continue
@@ -170,7 +170,7 @@ def table(results: dict, levels=None) -> str:
                 n = rates.shape[0]
                 mean, sd = rates[:, j].mean(), rates[:, j].std(ddof=1)
                 se = sd / math.sqrt(n)
-                lines.append(f"| {sur} | {alloc} | {n} | {q.label} | {lam:.3e} | {key} | {100 * (mean / lam - 1):+.1f} % "
+                lines.append(f"| {sur} | {alloc} | {runs} | {n} | {q.label} | {lam:.3e} | {key} | {100 * (mean / lam - 1):+.1f} % "
                              f"({100 * se / lam:.1f}) | {(mean - lam) / se:+.1f} | {sd / lam:.3f} | "
                              f"{math.sqrt(np.nanmean(covs[:, j] ** 2)):.3f} | {held[:, j].mean():.2f} |")
     return "\n".join(lines)
@@ -181,12 +181,13 @@ def merged(paths) -> dict:
     out: dict = {}
     for p in paths:
         for name, res in json.loads(Path(p).read_text()).items():
-            key = tuple(name.split("/"))
+            key = (*name.split("/"), res.get("runs", RUNS))
             if key not in out:
-                out[key] = {"exact": res["exact"], **{k: [list(x) for x in v] for k, v in res.items() if k != "exact"}}
+                out[key] = {"exact": res["exact"], **{k: [list(x) for x in v] for k, v in res.items()
+                                                      if k not in ("exact", "runs")}}
             else:
                 for k, v in res.items():
-                    if k != "exact":
+                    if k not in ("exact", "runs"):
                         for acc, x in zip(out[key][k], v):
                             acc.extend(x)
     return out
@@ -199,6 +200,7 @@ def main(argv=None) -> int:
     ap.add_argument("--allocations", nargs="+", default=["steered", "proportional"],
                     choices=["steered", "proportional"])
     ap.add_argument("--first-seed", type=int, default=1000)
+    ap.add_argument("--runs", type=int, default=RUNS, help="runs per simulation (870: pilot and 4 batches of 200)")
     ap.add_argument("--json", type=Path, help="also write the raw estimates here")
     ap.add_argument("--pool", type=Path, nargs="+", help="no simulation: the table of these --json files, pooled")
     ap.add_argument("--levels", nargs="+", help="the levels the table shows (default: all)")
@@ -206,9 +208,10 @@ def main(argv=None) -> int:
     if a.pool:
         print(table(merged(a.pool), a.levels))
         return 0
-    results = {(s, al): repetitions(s, al, a.reps, a.first_seed) for s in a.surrogates for al in a.allocations}
+    results = {(s, al, a.runs): repetitions(s, al, a.reps, a.first_seed, a.runs) for s in a.surrogates
+               for al in a.allocations}
     if a.json:
-        a.json.write_text(json.dumps({f"{s}/{al}": r for (s, al), r in results.items()}))
+        a.json.write_text(json.dumps({f"{s}/{al}": r for (s, al, _), r in results.items()}))
     print(table(results, a.levels))
     return 0
 
