@@ -24,10 +24,17 @@ and in pooled standard errors), the observed CoV, the stated CoV (root mean squa
 90 % intervals that hold the exact rate; both for the production estimator (the control variate) and the plain
 stratum means on the same rows.
 
-    nice -n 10 .venv/bin/python bench/rare_allocation_bias.py --reps 48      # about 1.5 CPU-s a simulation
-    nice -n 10 .venv/bin/python bench/rare_allocation_bias.py --reps 48 --surrogates coin2 --allocations steered \
-        --first-seed 2000 --json more.json
-    .venv/bin/python bench/rare_allocation_bias.py --pool a.json more.json --levels collapse   # pooled, no runs
+    nice -n 10 .venv/bin/python bench/rare_allocation_bias.py --reps 48      # 0.5-1.5 CPU-s a simulation of 870 runs
+
+docs/rare_events.md's table (about 12 CPU-minutes in all), then pooled with no runs:
+
+    B="nice -n 10 .venv/bin/python bench/rare_allocation_bias.py"
+    $B --reps 80 --allocations steered --json s870.json
+    $B --reps 48 --allocations proportional --json p870.json
+    $B --reps 80 --first-seed 2000 --surrogates base --json base2000.json
+    $B --reps 48 --runs 1670 --surrogates coin2 coin05 --allocations steered --json s1670.json
+    $B --reps 48 --runs 1670 --surrogates coin2 coin05 --allocations proportional --json p1670.json
+    $B --pool s870.json p870.json base2000.json s1670.json p1670.json --levels collapse
 """
 from __future__ import annotations
 
@@ -173,6 +180,9 @@ def table(results: dict, levels=None) -> str:
                 lines.append(f"| {sur} | {alloc} | {runs} | {n} | {q.label} | {lam:.3e} | {key} | {100 * (mean / lam - 1):+.1f} % "
                              f"({100 * se / lam:.1f}) | {(mean - lam) / se:+.1f} | {sd / lam:.3f} | "
                              f"{math.sqrt(np.nanmean(covs[:, j] ** 2)):.3f} | {held[:, j].mean():.2f} |")
+    lines.append("\n90 % intervals holding the exact rate, all levels, the production estimator:")
+    for (sur, alloc, runs), res in results.items():
+        lines.append(f"  {sur} {alloc} {runs}: {np.asarray(res['control variate'][2], dtype=float).mean():.2f}")
     return "\n".join(lines)
 
 
