@@ -47,7 +47,6 @@ from contextlib import redirect_stdout
 from pathlib import Path
 
 import numpy as np
-from scipy import integrate
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
@@ -100,30 +99,11 @@ def exact_rates(site, quantities, chance) -> dict:
     """lambda of every level with the extra collapse: tests/rare_surrogate.py's quadrature of P + q (1 - P)."""
     if chance is None:
         return rare_surrogate.exact_rates(site, quantities)
-    out = {}
-    for q in quantities:
-        def prob(pulse, m, r):
-            p = level_probability(q, pulse, m, r)  # noqa: B023 (called within this iteration)
-            c = float(chance(m, r))  # noqa: B023 (as above)
-            return p + c * (1.0 - p)
-        total = 0.0
-        for s in site.sources:
-            def over_r(m):
-                def g(r):
-                    p = float(s.pulse.mean_probability(np.array([r]))[0])  # noqa: B023 (as above)
-                    return p * prob(True, m, r) + (1 - p) * prob(False, m, r)
-                d = s.distance  # noqa: B023 (as above)
-                if getattr(d, "atoms", None) is not None:
-                    return sum(w * g(x) for x, w in d.atoms)
-                return integrate.quad(lambda r: float(d.pdf(r)) * g(r), *d.support, epsabs=0, epsrel=1e-10)[0]
-            mm = s.magnitude
-            if getattr(mm, "atoms", None) is not None:
-                total += s.rate * sum(w * over_r(x) for x, w in mm.atoms)
-            else:
-                total += s.rate * integrate.quad(lambda m: float(mm.pdf(m)) * over_r(m), *mm.support,  # noqa: B023
-                                                 epsabs=0, epsrel=1e-10)[0]
-        out[q.label] = total
-    return out
+
+    def prob(q, pulse, m, r):
+        p = level_probability(q, pulse, m, r)
+        return p + float(chance(m, r)) * (1.0 - p)
+    return rare_surrogate.exact_rates(site, quantities, prob)
 
 
 def proportional(cols, strata, design, settings, requested, stage, used, events, size, floor=None) -> dict:

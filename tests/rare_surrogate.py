@@ -105,10 +105,12 @@ def level_probability(q, pulse: bool, mw, r) -> float:
     return stats.norm.sf((math.log(t) - _mean(pulse, A_TOP, mw, r)) / _sd(pulse, S_TOP))
 
 
-def exact_rates(site, quantities) -> dict:
+def exact_rates(site, quantities, probability=level_probability) -> dict:
     """lambda of every level: sum over sources of nu int int f(m) f(r) [p(r) P_pulse + (1 - p(r)) P_nopulse],
     by adaptive quadrature (scipy.integrate.quad, relative tolerance 1e-10) over the sources' own
-    densities (pdf; a characteristic magnitude or fixed distance as its one value)."""
+    densities (pdf; a characteristic magnitude or fixed distance as its one value). ``probability(q, pulse,
+    mw, r)``: P(level | event), :func:`level_probability` unless a surrogate of the surrogate says otherwise
+    (bench/rare_allocation_bias.py's extra collapses)."""
     out = {}
     for q in quantities:
         total = 0.0
@@ -116,7 +118,7 @@ def exact_rates(site, quantities) -> dict:
             def over_r(m):
                 def g(r):
                     p = float(s.pulse.mean_probability(np.array([r]))[0])  # noqa: B023 (quad calls g within this iteration)
-                    return p * level_probability(q, True, m, r) + (1 - p) * level_probability(q, False, m, r)  # noqa: B023 (as above)
+                    return p * probability(q, True, m, r) + (1 - p) * probability(q, False, m, r)  # noqa: B023 (as above)
                 d = s.distance  # noqa: B023 (as above)
                 if getattr(d, "atoms", None) is not None:
                     return sum(w * g(x) for x, w in d.atoms)
