@@ -115,30 +115,72 @@ def proportional(cols, strata, design, settings, requested, stage, used, events,
     return {int(h): int(k) for h, k in enumerate(new) if k > 0}
 
 
+class Frozen:
+    """The steered allocation made once, from the pilot's rows, and kept: the driver's minimax-CoV target n_h
+    of the first production batch (``driver.allocate_batch`` up to its last step), every production batch (the
+    first included) split in proportion to it by largest remainder -- after the pilot no allocation reads an
+    outcome. The target, not the first batch's increment n_h - pilot_h: the increment leaves out the strata
+    whose pilot already meets their target, and the estimate on the production rows alone needs every stratum
+    (each has n_h >= its pilot's 5 runs, so at least 3 of 200 runs a batch)."""
+
+    def __init__(self):
+        self.share = None
+
+    def __call__(self, cols, strata, design, settings, requested, stage, used, events, size, floor=None) -> dict:
+        if self.share is None:
+            model = _alloc.SteeringModel(cols, requested)
+            rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
+            mean, var = _alloc.predicted_moments(strata, design.latest, model, requested, rng, events)
+            if floor is not None:
+                var = np.maximum(var, floor)
+            W = strata.rates
+            done = np.bincount(np.asarray(cols["stratum"])[np.asarray(cols["status"]) != _results.STATUS_PENDING],
+                               minlength=len(strata))
+            n, _ = _alloc.minimax_allocation(W, var, W @ mean, _alloc.run_floor(W, mean, done), used + size)
+            self.share = np.asarray(n, dtype=float) / float(np.sum(n))
+        new = _alloc.batch_counts(self.share, np.zeros(self.share.size), size)
+        return {int(h): int(k) for h, k in enumerate(new) if k > 0}
+
+
+#: The estimators of a repetition: (name, control variate, production rows only).
+ESTIMATORS = {"control variate": (True, False), "plain": (False, False),
+              "production, control variate": (True, True), "production, plain": (False, True)}
+
+
 def repetitions(surrogate: str, allocation: str, reps: int, first_seed: int = 1000, runs: int = RUNS) -> dict:
-    """{estimator: [rates, covs, held]} lists (reps x levels) of one surrogate and allocation, ``runs`` runs each."""
+    """{estimator: [rates, covs, held]} lists (reps x levels) of one surrogate and allocation, ``runs`` runs each.
+    ``frozen``: :class:`Frozen`, and no second cross-entropy step (it reads the first batch's outcomes: every
+    production batch keeps the first step's proposal, placed from the pilot); its estimators besides on the
+    production rows alone (stage > 0)."""
     site = small_site()
     exact = exact_rates(site, QUANTITIES, CHANCE[surrogate])
-    steered = driver.allocate_batch
-    out: dict = {k: [[], [], []] for k in ("control variate", "plain")}
+    steered, thin_of = driver.allocate_batch, driver.thin_of
+    keys = [k for k, (_, prod) in ESTIMATORS.items() if allocation == "frozen" or not prod]
+    out: dict = {k: [[], [], []] for k in keys}
     try:
         if allocation == "proportional":
             driver.allocate_batch = proportional
         for i in range(reps):
+            if allocation == "frozen":
+                driver.allocate_batch, driver.thin_of = Frozen(), lambda *a: ()
             with redirect_stdout(io.StringIO()):
                 run = simulate_site(site, SiteSettings(seed=first_seed + i, batch=200, **SMALL),
                                     StopRule(0.01, runs), CoinEvaluator(CHANCE[surrogate]), QUANTITIES,
                                     log=lambda s: None)
             assert run.runs == runs
             for key in out:
-                e = estimate(run.cols, run.strata, run.design, run.quantities, floor=run.floor,
-                             control=key != "plain")
+                control, prod = ESTIMATORS[key]
+                cols = run.cols
+                if prod:
+                    mask = np.asarray(cols["stage"]) > 0
+                    cols = {k: np.asarray(v)[mask] for k, v in cols.items()}
+                e = estimate(cols, run.strata, run.design, run.quantities, floor=run.floor, control=control)
                 lv = [e.levels[q.label] for q in QUANTITIES]
                 out[key][0].append([x.rate for x in lv])
                 out[key][1].append([x.cov for x in lv])
                 out[key][2].append([bool(x.low <= exact[x.label] <= x.high) for x in lv])
     finally:
-        driver.allocate_batch = steered
+        driver.allocate_batch, driver.thin_of = steered, thin_of
     return {"exact": exact, "runs": runs, **out}
 
 
@@ -152,7 +194,7 @@ def table(results: dict, levels=None) -> str:
             if levels and q.label not in levels:
                 continue
             lam = res["exact"][q.label]
-            for key in ("control variate", "plain"):
+            for key in (k for k in ESTIMATORS if k in res):
                 rates, covs, held = (np.asarray(x, dtype=float) for x in res[key])
                 n = rates.shape[0]
                 mean, sd = rates[:, j].mean(), rates[:, j].std(ddof=1)
@@ -188,7 +230,7 @@ def main(argv=None) -> int:
     ap.add_argument("--reps", type=int, default=48)
     ap.add_argument("--surrogates", nargs="+", default=list(CHANCE), choices=list(CHANCE))
     ap.add_argument("--allocations", nargs="+", default=["steered", "proportional"],
-                    choices=["steered", "proportional"])
+                    choices=["steered", "proportional", "frozen"])
     ap.add_argument("--first-seed", type=int, default=1000)
     ap.add_argument("--runs", type=int, default=RUNS, help="runs per simulation (870: pilot and 4 batches of 200)")
     ap.add_argument("--json", type=Path, help="also write the raw estimates here")
