@@ -17,7 +17,11 @@ surrogate and one allocation:
   tests/rare_surrogate.py with it;
 * allocations -- ``steered``: the driver's (minimax-CoV Neyman, model-steered, run and variance floors);
   ``proportional``: every batch in proportion to the strata's event rates (``batch_counts`` of W_h (runs so
-  far + batch)), which reads no outcome: the same driver with ``allocate_batch`` replaced.
+  far + batch)), which reads no outcome: the same driver with ``allocate_batch`` replaced; ``frozen`` (remedy
+  (2) of the doc, prototyped here only): the steered allocation made once, from the pilot's rows, and every
+  production batch split in proportion to that target (:class:`Frozen`), with no second cross-entropy step, so
+  that after the pilot nothing reads an outcome; its estimators besides on the production rows alone
+  (``production, ...``: given the pilot, their counts are fixed).
 
 Per surrogate, allocation and level: the mean of the estimates over the repetitions against the exact rate (in %
 and in pooled standard errors), the observed CoV, the stated CoV (root mean square) and the share of the stated
@@ -35,6 +39,14 @@ docs/rare_events.md's table (about 12 CPU-minutes in all), then pooled with no r
     $B --reps 48 --runs 1670 --surrogates coin2 coin05 --allocations steered --json s1670.json
     $B --reps 48 --runs 1670 --surrogates coin2 coin05 --allocations proportional --json p1670.json
     $B --pool s870.json p870.json base2000.json s1670.json p1670.json --levels collapse
+
+The frozen allocation (docs/rare_events.md, "A remedy, prototyped in the bench"; about 12 CPU-minutes):
+
+    $B --reps 120 --allocations frozen --json f870.json
+    $B --reps 120 --first-seed 2000 --allocations frozen --json f870b.json
+    $B --reps 64 --runs 1670 --allocations frozen --json f1670.json
+    $B --reps 48 --runs 1670 --surrogates base partly --allocations steered --json s1670bp.json
+    $B --pool f870.json f870b.json f1670.json s1670bp.json --levels collapse
 """
 from __future__ import annotations
 
