@@ -40,13 +40,14 @@ docs/rare_events.md's table (about 12 CPU-minutes in all), then pooled with no r
     $B --reps 48 --runs 1670 --surrogates coin2 coin05 --allocations proportional --json p1670.json
     $B --pool s870.json p870.json base2000.json s1670.json p1670.json --levels collapse
 
-The frozen allocation (docs/rare_events.md, "A remedy, prototyped in the bench"; about 12 CPU-minutes):
+The frozen allocation (docs/rare_events.md, "A remedy, prototyped in the bench"; about 15 CPU-minutes):
 
     $B --reps 120 --allocations frozen --json f870.json
     $B --reps 120 --first-seed 2000 --allocations frozen --json f870b.json
     $B --reps 64 --runs 1670 --allocations frozen --json f1670.json
+    $B --reps 64 --runs 1670 --first-seed 2000 --allocations frozen --json f1670b.json
     $B --reps 48 --runs 1670 --surrogates base partly --allocations steered --json s1670bp.json
-    $B --pool f870.json f870b.json f1670.json s1670bp.json --levels collapse
+    $B --pool f870.json f870b.json f1670.json f1670b.json s1670bp.json --levels collapse
 """
 from __future__ import annotations
 
