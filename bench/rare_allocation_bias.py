@@ -141,15 +141,8 @@ class Frozen:
 
     def __call__(self, cols, strata, design, settings, requested, stage, used, events, size, floor=None) -> dict:
         if self.share is None:
-            model = _alloc.SteeringModel(cols, requested)
-            rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
-            mean, var = _alloc.predicted_moments(strata, design.latest, model, requested, rng, events)
-            if floor is not None:
-                var = np.maximum(var, floor)
-            W = strata.rates
-            done = np.bincount(np.asarray(cols["stratum"])[np.asarray(cols["status"]) != _results.STATUS_PENDING],
-                               minlength=len(strata))
-            n, _ = _alloc.minimax_allocation(W, var, W @ mean, _alloc.run_floor(W, mean, done), used + size)
+            n, _ = driver.allocation_target(cols, strata, design, settings, requested, stage, used, events, size,
+                                            floor)
             self.share = np.asarray(n, dtype=float) / float(np.sum(n))
         new = _alloc.batch_counts(self.share, np.zeros(self.share.size), size)
         return {int(h): int(k) for h, k in enumerate(new) if k > 0}

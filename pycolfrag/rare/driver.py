@@ -42,7 +42,7 @@ from pycolfrag.rare.proposal import PILOT_MIXTURE, Design, cross_entropy_means, 
 from pycolfrag.rare.strata import DEFAULT_MW_STEP, DEFAULT_R_EDGES_KM, build_strata
 
 __all__ = ["DEFAULT_SEED", "SiteSettings", "StopRule", "SiteRun", "site_fingerprint", "simulate_site", "batch_name",
-           "ALGORITHM", "failures", "cross_entropy_design", "thin_of", "second_design", "allocate_batch"]
+           "ALGORITHM", "failures", "cross_entropy_design", "thin_of", "second_design", "allocate_batch", "allocation_target"]
 
 #: The root seed when none is given (the grid's).
 DEFAULT_SEED = 20160601
@@ -280,11 +280,11 @@ def _check_pilot(cols) -> None:
                              "folder's batch_000.h5")
 
 
-def allocate_batch(cols, strata, design, settings, requested, stage: int, used: int, events, size: int,
-              floor=None) -> dict:
-    """The ``size`` runs of production batch ``stage`` per stratum (minimax-CoV Neyman, model-steered; each
-    predicted variance at least the estimate's ``floor`` of the requested levels, so that the allocation sees
-    the variance the estimate states)."""
+def allocation_target(cols, strata, design, settings, requested, stage: int, used: int, events, size: int,
+                      floor=None) -> tuple:
+    """``(n, done)``: the runs every stratum should have after production batch ``stage`` (minimax-CoV Neyman,
+    model-steered; each predicted variance at least the estimate's ``floor`` of the requested levels, so that
+    the allocation sees the variance the estimate states) and the runs it has finished."""
     model = _alloc.SteeringModel(cols, requested)
     rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
     mean, var = _alloc.predicted_moments(strata, design.latest, model, requested, rng, events)
@@ -294,6 +294,14 @@ def allocate_batch(cols, strata, design, settings, requested, stage: int, used: 
     finished = np.asarray(cols["status"]) != _results.STATUS_PENDING
     done = np.bincount(np.asarray(cols["stratum"])[finished], minlength=len(strata))
     n, _ = _alloc.minimax_allocation(W, var, W @ mean, _alloc.run_floor(W, mean, done), used + size)
+    return n, done
+
+
+def allocate_batch(cols, strata, design, settings, requested, stage: int, used: int, events, size: int,
+              floor=None) -> dict:
+    """The ``size`` runs of production batch ``stage`` per stratum: the increments towards
+    :func:`allocation_target`'s counts."""
+    n, done = allocation_target(cols, strata, design, settings, requested, stage, used, events, size, floor)
     new = _alloc.batch_counts(n, done, size)
     return {int(h): int(k) for h, k in enumerate(new) if k > 0}
 
