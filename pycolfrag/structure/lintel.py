@@ -12,16 +12,12 @@ wall must be of like height (the solver's levelling course takes up settlement o
 """
 from __future__ import annotations
 
-import json
-import os
-import tomllib
 from typing import Any
 
-from pycolfrag.core import input_files
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.core.validate import positive_float
 from pycolfrag.structure.column import Block, Column, JointProperties, _check_keys
-from pycolfrag.structure.scene import Epistyle, _tiles, top_square
+from pycolfrag.structure.scene import Epistyle, SceneKind, _tiles, column_of, top_square
 from pycolfrag.structure.scene_parts import Beam, Bearing, SceneParts
 from pycolfrag.structure.segment import Segment
 
@@ -51,15 +47,7 @@ def _reach(col: Column, sign: float) -> float:
     return max(sign * x for b in col.blocks for s in b.segments for top in (False, True) for x, _ in s.vertices(top))
 
 
-def _column(c, base_dir: str | None, what: str) -> Column:
-    if isinstance(c, str):
-        return Column.from_file(c if os.path.isabs(c) or base_dir is None else os.path.join(base_dir, c))
-    if isinstance(c, dict):
-        return Column.from_dict(c)
-    raise ParameterError(f"lintel scene: {what} must be a file name or a table, got {type(c).__name__}")
-
-
-class LintelOnWall:
+class LintelOnWall(SceneKind):
     """A lintel resting on a column and a wall.
 
     Parameters
@@ -147,14 +135,6 @@ class LintelOnWall:
                             wall=self.wall.with_joints(joints, **changes))
 
     @property
-    def n_blocks(self) -> int:
-        return self.scene_parts().n_blocks
-
-    @property
-    def n_joints(self) -> int:
-        return self.scene_parts().n_joints
-
-    @property
     def mass(self) -> float:
         """Total mass, kg."""
         return self.column.mass + self.wall.mass + sum(b.density * b.length * b.width * b.height
@@ -165,9 +145,6 @@ class LintelOnWall:
         return {"name": self.name, "column": self.column.to_dict(), "wall": self.wall.to_dict(), "span": self.span,
                 "lintel": self.lintel.to_dict()}
 
-    def to_json(self) -> str:
-        return json.dumps(self.to_dict(), sort_keys=True)
-
     @classmethod
     def from_dict(cls, d, base_dir: str | None = None) -> "LintelOnWall":
         """From the scene format (docs/scene_format.md); a ``column`` or ``wall`` given as a path is read
@@ -177,19 +154,9 @@ class LintelOnWall:
             if k not in d:
                 raise ParameterError(f"lintel scene: missing key {k!r} (a column file or a table in the column format)")
         lintel = Epistyle.from_dict(d["lintel"]) if "lintel" in d else LINTEL
-        return cls(_column(d["column"], base_dir, "column"), _column(d["wall"], base_dir, "wall"), d.get("span", 2.5),
+        return cls(column_of(d["column"], base_dir, "lintel scene: column"),
+                   column_of(d["wall"], base_dir, "lintel scene: wall"), d.get("span", 2.5),
                    lintel, d.get("name", "lintel on a wall"))
-
-    @classmethod
-    def from_file(cls, path) -> "LintelOnWall":
-        """A scene file (TOML or JSON), read by the one policy for files a user names."""
-        text = input_files.read_text(path, "scene file")
-        name = os.fspath(path)
-        try:
-            d = tomllib.loads(text) if name.lower().endswith(".toml") else input_files.json_loads(text)
-        except ValueError as exc:
-            raise ParameterError(f"cannot parse scene file {name}: {exc}") from None
-        return cls.from_dict(d, os.path.dirname(os.path.abspath(name)))
 
     def replace(self, **changes) -> "LintelOnWall":
         """A copy with other arguments (``column``, ``wall``, ``span``, ``lintel``, ``name``)."""

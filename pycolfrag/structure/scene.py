@@ -30,7 +30,7 @@ from pycolfrag.core.validate import integer, positive_float
 from pycolfrag.structure.column import Column, JointProperties, _check_keys
 from pycolfrag.structure.scene_parts import Beam, Bearing, SceneParts
 
-__all__ = ["Epistyle", "Colonnade", "SceneParts", "Beam", "Bearing", "PORTAL_SPACING",
+__all__ = ["Epistyle", "Colonnade", "SceneKind", "column_of", "SceneParts", "Beam", "Bearing", "PORTAL_SPACING",
            "PORTAL_EPISTYLE_HEIGHT"]
 
 #: The portals' axial spacing of the columns, m: an assumption of the order of the Parthenon's
@@ -123,7 +123,46 @@ def _tiles(x0: float, x1: float, y0: float, y1: float) -> list[tuple[float, floa
     return out
 
 
-class Colonnade:
+def column_of(c, base_dir: str | None, where: str) -> Column:
+    """A scene file's column: a file name (relative to ``base_dir``, the scene file's folder) or a table in
+    the column format; ``where`` names it in the error."""
+    if isinstance(c, str):
+        return Column.from_file(c if os.path.isabs(c) or base_dir is None else os.path.join(base_dir, c))
+    if isinstance(c, dict):
+        return Column.from_dict(c)
+    raise ParameterError(f"{where} must be a file name or a table, got {type(c).__name__}")
+
+
+class SceneKind:
+    """What every scene kind has from its parts and its dict (the Structure contract's common part,
+    :mod:`pycolfrag.structure.kinds`): its counts, its JSON and its file reader. A kind gives
+    ``scene_parts()``, ``to_dict()`` and ``from_dict(d, base_dir)``."""
+
+    @property
+    def n_blocks(self) -> int:
+        return self.scene_parts().n_blocks  # type: ignore[attr-defined]
+
+    @property
+    def n_joints(self) -> int:
+        return self.scene_parts().n_joints  # type: ignore[attr-defined]
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), sort_keys=True)  # type: ignore[attr-defined]
+
+    @classmethod
+    def from_file(cls, path):
+        """A scene file (TOML or JSON, docs/scene_format.md), read by the one policy for files a user
+        names (:mod:`pycolfrag.core.input_files`)."""
+        text = input_files.read_text(path, "scene file")
+        name = os.fspath(path)
+        try:
+            d = tomllib.loads(text) if name.lower().endswith(".toml") else input_files.json_loads(text)
+        except ValueError as exc:
+            raise ParameterError(f"cannot parse scene file {name}: {exc}") from None
+        return cls.from_dict(d, os.path.dirname(os.path.abspath(name)))
+
+
+class Colonnade(SceneKind):
     """A straight row of equal columns on one ground, optionally with epistyles over the spans.
 
     Parameters
@@ -208,14 +247,6 @@ class Colonnade:
         return self.replace(column=self.column.with_joints(joints, **changes))
 
     @property
-    def n_blocks(self) -> int:
-        return self.scene_parts().n_blocks
-
-    @property
-    def n_joints(self) -> int:
-        return self.scene_parts().n_joints
-
-    @property
     def mass(self) -> float:
         """Total mass, kg."""
         return self.n_columns * self.column.mass + sum(b.density * b.length * b.width * b.height
@@ -251,9 +282,6 @@ class Colonnade:
             d["epistyle"] = self.epistyle.to_dict()
         return d
 
-    def to_json(self) -> str:
-        return json.dumps(self.to_dict(), sort_keys=True)
-
     @classmethod
     def from_dict(cls, d, base_dir: str | None = None) -> "Colonnade":
         """A colonnade from the scene format (docs/scene_format.md); a ``column`` given as a path is read
@@ -261,28 +289,9 @@ class Colonnade:
         _check_keys(d, _SCENE_KEYS, "scene")
         if "column" not in d:
             raise ParameterError("scene: missing key 'column' (a column file or a table in the column format)")
-        c = d["column"]
-        if isinstance(c, str):
-            path = c if os.path.isabs(c) or base_dir is None else os.path.join(base_dir, c)
-            column = Column.from_file(path)
-        elif isinstance(c, dict):
-            column = Column.from_dict(c)
-        else:
-            raise ParameterError(f"scene: column must be a file name or a table, got {type(c).__name__}")
+        column = column_of(d["column"], base_dir, "scene: column")
         epistyle = Epistyle.from_dict(d["epistyle"]) if "epistyle" in d else None
         return cls(column, d.get("n_columns", 2), d.get("spacing", PORTAL_SPACING), epistyle, d.get("name", "colonnade"))
-
-    @classmethod
-    def from_file(cls, path) -> "Colonnade":
-        """A scene file (TOML or JSON, docs/scene_format.md), read by the one policy for files a user
-        names (:mod:`pycolfrag.core.input_files`)."""
-        text = input_files.read_text(path, "scene file")
-        name = os.fspath(path)
-        try:
-            d = tomllib.loads(text) if name.lower().endswith(".toml") else input_files.json_loads(text)
-        except ValueError as exc:
-            raise ParameterError(f"cannot parse scene file {name}: {exc}") from None
-        return cls.from_dict(d, os.path.dirname(os.path.abspath(name)))
 
     def replace(self, **changes) -> "Colonnade":
         """A copy with other arguments (``column``, ``n_columns``, ``spacing``, ``epistyle``, ``name``)."""
