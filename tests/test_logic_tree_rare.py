@@ -119,7 +119,7 @@ def test_a_tree_of_identical_branches_gives_the_one_branch_estimate_exactly():
     # ... and that estimate is the one with the variance floor (strata none of whose runs exceed add their floor)
     assert any(e.levels[q.label].floored_strata > 0 and e.levels[q.label].floor_variance_share > 0
                for e in tr.estimates for q in QUANTITIES)
-    floored = estimate(single.cols, single.strata, single.design, QUANTITIES, floor=single.floor)
+    floored = estimate(single.cols, single.strata, single.design, QUANTITIES, floor=single.floor, pieces=True)
     assert all(tr.estimates[0].levels[q.label].cov == floored.levels[q.label].cov for q in QUANTITIES)
 
 
@@ -196,7 +196,7 @@ def _fault_part(tr, run) -> float:
     from pycolfrag.rare.estimate import estimate
     keep = np.asarray(run.cols["source"]) == 0
     cols = {**run.cols, "occurrence_weight": np.where(keep, run.cols["occurrence_weight"], 0.0)}
-    return estimate(cols, run.strata, run.design, run.quantities).levels["collapse"].rate
+    return estimate(cols, run.strata, run.design, run.quantities, pieces=True).levels["collapse"].rate
 
 
 def test_a_branch_beyond_the_simulated_site_is_refused_before_any_run():

@@ -82,9 +82,9 @@ def test_below_the_run_and_hit_counts_the_plain_estimator_stands():
     assert _est(enough).rate != _est(enough, control=False).rate
 
 
-def test_a_folder_of_the_plain_estimator_is_not_resumed(monkeypatch):
-    """The control variate changes the estimates, hence the stopping and the allocation: the algorithm's identity is
-    v4, and a folder planned by v3 (the plain estimator) is refused on resume, naming the algorithm."""
+def test_a_folder_of_an_older_algorithm_is_not_resumed(monkeypatch):
+    """The batches as pieces (v5) change the allocation and the estimates, as the control variate (v4) did: a folder
+    planned by v4 (pooled means) is refused on resume, naming the algorithm."""
     import io
     from contextlib import redirect_stdout
 
@@ -93,11 +93,11 @@ def test_a_folder_of_the_plain_estimator_is_not_resumed(monkeypatch):
     from pycolfrag.risk.site_risk import QUANTITIES
     from rare_surrogate import SurrogateEvaluator
     from test_rare_site import SMALL, small_site
-    assert driver.ALGORITHM.endswith("; v4")
+    assert driver.ALGORITHM.endswith("; v5")
     ev = SurrogateEvaluator()
     settings, stop = driver.SiteSettings(seed=4, batch=100, **SMALL), driver.StopRule(0.5, 200)
     with monkeypatch.context() as m, redirect_stdout(io.StringIO()):
-        m.setattr(driver, "ALGORITHM", "stratified site simulation, defensive mixture, cross-entropy steps; v3")
+        m.setattr(driver, "ALGORITHM", "stratified site simulation, defensive mixture, cross-entropy steps; v4")
         driver.simulate_site(small_site(), settings, stop, ev, QUANTITIES, log=lambda s: None)
     with pytest.raises(ResultsFileError, match="algorithm"), redirect_stdout(io.StringIO()):
         driver.simulate_site(small_site(), settings, stop, ev, QUANTITIES, log=lambda s: None)

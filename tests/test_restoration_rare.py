@@ -134,7 +134,7 @@ def test_rows_of_other_events_are_refused_naming_the_row_and_field():
 SITE = ROOT / "tests" / "data" / "site_rare_tiny.toml"
 ALTS = [f"free={EX / 'column_parthenon.toml'}", f"titanium={EX / 'column_parthenon_titanium.toml'}",
         f"portal={EX / 'portal_2.toml'}"]
-QUICK = ["--max-record-s", "3", "--pilot", "2", "--max-runs", "12", "--batch", "4", "--seed", "3", "--no-progress"]
+QUICK = ["--max-record-s", "3", "--pilot", "2", "--max-runs", "16", "--batch", "8", "--seed", "3", "--no-progress"]
 
 
 @pytest.fixture(scope="module")
@@ -142,7 +142,7 @@ def folder(tmp_path_factory):
     out = tmp_path_factory.mktemp("restoration") / "rare"
     args = [str(SITE)] + [x for a in ALTS for x in ("--alternative", a)] + ["--simulate", str(out)] + QUICK
     code = rr.main(args)
-    assert code in (0, 6), code          # 6: the budget (12 runs) before the target CoV, as asked
+    assert code in (0, 6), code          # 6: the budget (16 runs) before the target CoV, as asked
     return out
 
 
@@ -171,7 +171,7 @@ def test_the_alternatives_see_the_same_events(folder):
     js = strict_loads((folder / "restoration.json").read_text())      # no NaN or Infinity: strict JSON
     assert [a["key"] for a in js["alternatives"]] == keys and js["reference"] == "free"
     assert sorted(js["differences"]) == ["portal", "titanium"]
-    assert all(a["runs"] == 12 for a in js["alternatives"])
+    assert all(a["runs"] == 16 for a in js["alternatives"])
     assert "restoration-rare" not in (folder / "restoration.md").read_text()     # the block's text alone
     assert (folder / report.FIGURE).read_bytes().startswith(b"\x89PNG")
 

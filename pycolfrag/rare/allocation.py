@@ -4,12 +4,11 @@ Before every production batch a *steering model* -- one ridge-penalised logistic
 and branch on all rows so far (with a pulse: Mw, ln R, z_vp, z_fp, z_fp^2, the last for the resonance of
 the pulse period; without: Mw, ln R) -- predicts every stratum's standard deviation sigma_hl of w y
 under the production proposal, by Monte Carlo over cheap draws of the stratum's events (no runs). The
-total n = runs so far + the batch is then split as Neyman (1934) would for several levels at once
+batch is then split as Neyman (1934) would for several levels at once
 (Cochran 1977, section 5.5): n_h proportional to W_h sqrt(sum_l c_l sigma_hl^2 / lambda_l^2), with the
 level weights c_l moved towards the level whose predicted CoV is worst until the worst is smallest
-(multiplicative updates), every stratum keeping at least the rows it has. The batch is the positive
-differences, scaled to its size and rounded by largest remainder (ties by stratum index): integers,
-the same on every machine that computes the same model.
+(multiplicative updates). Each production batch's runs are so split on their own (v5, below), rounded by largest
+remainder (ties by stratum index): integers, the same on every machine that computes the same model.
 
 The estimate's variance floor comes from here too (:func:`variance_floor`): a stratum none of whose runs
 exceeds a level is given the predicted Var[w y] of the smaller of the steering model's probability and a
@@ -21,13 +20,16 @@ no-pulse strata (86 % of its event rate) kept the pilot's 5 runs each while the 
 batches (docs/rare_events.md).
 
 The model steers and nothing more: every row is unbiased for its stratum's mean given the design it was drawn
-under, so the estimate (:mod:`pycolfrag.rare.estimate`) is unbiased given the allocation where the allocation
-does not depend on the strata's own outcomes (a proportional or fixed one). This one does: a stratum whose rows
-are hit is sent more rows, and its mean over them -- a mean over n rows where n grows after a hit -- is
-biased low by O(1/n), little where the model's features foresee the hits and much where they do not (on the
-tests' surrogate at 870 runs: collapse -5 % when u_top foretells it, -10 % to -31 % with collapses of a coin
-the features cannot see, none measurable with a proportional allocation; bench/rare_allocation_bias.py,
-docs/rare_events.md, "The steered allocation's finite-sample bias"). The plan it gives is stored
+under, and every batch's counts are fixed before it runs, so each batch is an unbiased stratified estimate given
+the batches before it. v4 split the *total* (runs so far + the batch), every stratum keeping the rows it had, and
+pooled each stratum's rows: a stratum whose rows were hit was sent more rows, and its mean over them was biased
+low by O(1/n), little where the model's features foresee the hits and much where they do not (on the tests'
+surrogate at 870 runs: collapse -5 % when u_top foretells it, -10 % to -31 % with collapses of a coin the features
+cannot see; bench/rare_allocation_bias.py, docs/rare_events.md). v5 splits each *batch* on its own
+(:func:`piece_allocation`: the same minimax-CoV Neyman rule over the batch's runs, at least
+:data:`PIECE_MIN_RUNS` in every stratum, strata that matter their part of FEW_RUNS, :func:`piece_floor`), and the
+estimate combines the batches as pieces (:mod:`pycolfrag.rare.estimate`, "Batches as pieces"): unbiased whatever
+the steering. The plan it gives is stored
 before the batch runs and a resume reads it back, never recomputes it (the fit is not guaranteed to be
 bitwise the same across BLAS builds).
 """
@@ -42,7 +44,8 @@ from pycolfrag.rare.estimate import FEW_RUNS, exceedances, jeffreys_floor
 from pycolfrag.rare.proposal import COLLAPSE_FAMILY
 
 __all__ = ["RIDGE", "STEERING_DRAWS", "STREAM_STEER", "MATTER_SHARE", "SteeringModel", "steering_events",
-           "predicted_moments", "DemandModel", "variance_floor", "run_floor", "STREAM_FLOOR", "minimax_allocation", "batch_counts"]
+           "predicted_moments", "DemandModel", "variance_floor", "run_floor", "STREAM_FLOOR", "minimax_allocation", "batch_counts",
+           "PIECE_MIN_RUNS", "piece_floor", "piece_allocation"]
 
 #: Ridge penalty of the steering model's coefficients (not the intercept): keeps a level with 0-3
 #: exceedances finite.
@@ -56,6 +59,9 @@ STREAM_FLOOR = 0
 #: A stratum the steering model predicts to carry at least this share of a requested level's rate, or with this
 #: share of the site's event rate, keeps at least FEW_RUNS runs.
 MATTER_SHARE = 0.01
+#: Every production batch gives every stratum at least this many runs: each batch is its own stratified estimate
+#: (a piece, :func:`pycolfrag.rare.estimate.piece_factors`), which needs every stratum, and a variance two runs.
+PIECE_MIN_RUNS = 2
 
 
 def _features(mw, r_km, z=None) -> np.ndarray:
@@ -272,3 +278,26 @@ def batch_counts(n_target: np.ndarray, done: np.ndarray, batch: int) -> np.ndarr
     for h in order[:rest]:
         base[h] += 1
     return base
+
+
+def piece_floor(W: np.ndarray, mean: np.ndarray, used: int, size: int) -> np.ndarray:
+    """The fewest runs each stratum gets in a batch of ``size`` after ``used`` runs: :data:`PIECE_MIN_RUNS`, and
+    where :func:`run_floor` says the stratum matters, its part of FEW_RUNS, ceil(FEW_RUNS size / (used + size)),
+    so that such a stratum reaches about FEW_RUNS runs over the batches; the latter dropped where both do not fit."""
+    H = W.size
+    matters = run_floor(W, mean, np.zeros(H)) > 0
+    part = max(PIECE_MIN_RUNS, -(-FEW_RUNS * int(size) // max(int(used) + int(size), 1)))
+    floor = np.where(matters, part, PIECE_MIN_RUNS)
+    return floor if floor.sum() <= size else np.full(H, PIECE_MIN_RUNS)
+
+
+def piece_allocation(W: np.ndarray, var: np.ndarray, lam: np.ndarray, mean: np.ndarray, used: int,
+                     size: int) -> np.ndarray:
+    """A production batch's ``size`` runs per stratum (integers): the batch's own minimax-CoV Neyman split of the
+    predicted variances ``var`` (H, L) and rates ``lam`` (:func:`minimax_allocation` with ``size`` runs in all, no
+    stratum keeping rows it has: the batch is a piece of its own), at least :func:`piece_floor`, rounded by largest
+    remainder. ``mean``: the predicted means (H, L') behind the floor."""
+    if size < PIECE_MIN_RUNS * W.size:
+        raise ValueError(f"a batch of {size} runs cannot give each of {W.size} strata {PIECE_MIN_RUNS}")
+    n, _ = minimax_allocation(W, var, lam, piece_floor(W, mean, used, size), size)
+    return batch_counts(n, np.zeros(W.size), size)

@@ -9,8 +9,10 @@
    every later batch) before its first run. Where no level of a family was exceeded by ``ce_min_hits`` pilot runs
    (:func:`~pycolfrag.rare.proposal.thin_families`), a *second step* on every row after ``batch_001`` places
    the proposal of ``batch_002`` on (stored in their plans, read back on resume).
-3. *Batches* (stages 1, 2, ...): ``batch`` runs each, allocated by the minimax-CoV Neyman rule of
-   :mod:`~pycolfrag.rare.allocation`, until every requested level reaches the target CoV with at least
+3. *Batches* (stages 1, 2, ...): ``batch`` runs each, every one allocated on its own by the minimax-CoV Neyman
+   rule of :mod:`~pycolfrag.rare.allocation` (steered by every row so far; every stratum at least 2 runs), its
+   stratified estimate a piece that the estimator combines with the pilot's and the other batches' in
+   proportion to their runs (unbiased whatever the steering: docs/rare_events.md, "Batches as pieces"), until every requested level reaches the target CoV with at least
    ``min_neff`` effective exceedances and no run carrying more than ``max_share`` of it, or the run
    budget is spent (the last batch is cut to a prefix of its plan). The estimate and CoV of every level
    are said after every batch.
@@ -42,7 +44,7 @@ from pycolfrag.rare.proposal import PILOT_MIXTURE, Design, cross_entropy_means, 
 from pycolfrag.rare.strata import DEFAULT_MW_STEP, DEFAULT_R_EDGES_KM, build_strata
 
 __all__ = ["DEFAULT_SEED", "SiteSettings", "StopRule", "SiteRun", "site_fingerprint", "simulate_site", "batch_name",
-           "ALGORITHM", "failures", "cross_entropy_design", "thin_of", "second_design", "allocate_batch", "allocation_target"]
+           "ALGORITHM", "failures", "cross_entropy_design", "thin_of", "second_design", "allocate_batch", "batch_moments"]
 
 #: The root seed when none is given (the grid's).
 DEFAULT_SEED = 20160601
@@ -52,7 +54,10 @@ DEFAULT_SEED = 20160601
 #: cross-entropy step: the same command and seed plan other runs, and an older folder is not resumed; v4
 #: estimates every stratum's mean with the weights' known mean as a control variate (rare/estimate.py): other
 #: estimates, hence other stopping and allocation, so a v3 folder is not resumed either.
-ALGORITHM = "stratified site simulation, defensive mixture, cross-entropy steps; v4"
+#: v5 allocates every production batch on its own (every stratum at least 2 runs) and combines the batches'
+#: stratified estimates as pieces with weights their sizes: the steered allocation left the pooled means biased low
+#: (docs/rare_events.md, "Batches as pieces").
+ALGORITHM = "stratified site simulation, defensive mixture, cross-entropy steps, batches as pieces; v5"
 #: The fewest runs a pilot sized per site holds (5 per stratum where that is more).
 PILOT_MIN_RUNS = 60
 #: Runs per stratum of a pilot sized per site, where the strata are many.
@@ -280,29 +285,25 @@ def _check_pilot(cols) -> None:
                              "folder's batch_000.h5")
 
 
-def allocation_target(cols, strata, design, settings, requested, stage: int, used: int, events, size: int,
-                      floor=None) -> tuple:
-    """``(n, done)``: the runs every stratum should have after production batch ``stage`` (minimax-CoV Neyman,
-    model-steered; each predicted variance at least the estimate's ``floor`` of the requested levels, so that
-    the allocation sees the variance the estimate states) and the runs it has finished."""
+def batch_moments(cols, strata, design, settings, requested, stage: int, events, floor=None) -> tuple:
+    """``(mean, var)`` (H, L): every stratum's predicted mean and variance of w y of the requested levels under
+    the latest proposal, by the steering model fitted on ``cols`` (each variance at least the estimate's ``floor``,
+    so that the allocation sees the variance the estimate states)."""
     model = _alloc.SteeringModel(cols, requested)
     rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
     mean, var = _alloc.predicted_moments(strata, design.latest, model, requested, rng, events)
-    if floor is not None:
-        var = np.maximum(var, floor)
-    W = strata.rates
-    finished = np.asarray(cols["status"]) != _results.STATUS_PENDING
-    done = np.bincount(np.asarray(cols["stratum"])[finished], minlength=len(strata))
-    n, _ = _alloc.minimax_allocation(W, var, W @ mean, _alloc.run_floor(W, mean, done), used + size)
-    return n, done
+    return mean, (var if floor is None else np.maximum(var, floor))
 
 
 def allocate_batch(cols, strata, design, settings, requested, stage: int, used: int, events, size: int,
-              floor=None) -> dict:
-    """The ``size`` runs of production batch ``stage`` per stratum: the increments towards
-    :func:`allocation_target`'s counts."""
-    n, done = allocation_target(cols, strata, design, settings, requested, stage, used, events, size, floor)
-    new = _alloc.batch_counts(n, done, size)
+                   floor=None) -> dict:
+    """The ``size`` runs of production batch ``stage`` per stratum: the batch's own minimax-CoV Neyman split,
+    steered by every row so far, at least :func:`~pycolfrag.rare.allocation.piece_floor` in every stratum
+    (:func:`~pycolfrag.rare.allocation.piece_allocation`): the batch is a stratified sample of counts fixed
+    before it runs, its estimate a piece the estimator combines with the others (v5)."""
+    mean, var = batch_moments(cols, strata, design, settings, requested, stage, events, floor)
+    W = strata.rates
+    new = _alloc.piece_allocation(W, var, W @ mean, mean, used, size)
     return {int(h): int(k) for h, k in enumerate(new) if k > 0}
 
 
@@ -337,6 +338,12 @@ class _Run:
         if stop.max_runs < pilot:
             raise ParameterError(f"--max-runs {stop.max_runs} is below one pilot: {pilot} runs ({self.pilot_per_stratum} "
                                  f"in each of the site's {len(self.strata)} strata)")
+        least = _alloc.PIECE_MIN_RUNS * len(self.strata)
+        if settings.batch < least:
+            raise ParameterError(f"--batch {settings.batch} is below {least} runs: every batch gives each of the site's "
+                                 f"{len(self.strata)} strata at least {_alloc.PIECE_MIN_RUNS} (its own stratified "
+                                 "estimate, a piece of the whole)")
+        self.least_batch = least
         rec = evaluator.record
         self.pulse_map = PulseMap(rec.pulse_shape, rec.vp_scale, rec.tp_model, rec.vp_model)
         self.fp = _fingerprint(site, settings, self.quantities)
@@ -389,7 +396,7 @@ class _Run:
         self.last_floor = self.floor(cols)
         return estimate(cols, self.strata, self.design, self.quantities, confidence=self.stop.confidence,
                         min_neff=self.stop.min_neff, max_share=self.stop.max_share, target_cov=self.stop.target_cov,
-                        floor=self.last_floor)
+                        floor=self.last_floor, pieces=True)
 
     def report(self, stage: int, est) -> None:
         runs = sum(b["runs"] for b in self.batches)
@@ -429,7 +436,10 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
             stopped = _stop_reason(est, run.requested, stop)
             if stopped != "budget":
                 break
-            if used >= stop.max_runs:
+            if stop.max_runs - used < run.least_batch:
+                if used < stop.max_runs:
+                    log(f"site simulation: the {stop.max_runs - used} runs left in the budget cannot give each of the "
+                        f"{len(run.strata)} strata {_alloc.PIECE_MIN_RUNS}: not run")
                 break
             if stage == 2 and thin:
                 first = len(run.design.notes)      # the second step's notes follow the first's

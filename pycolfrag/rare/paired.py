@@ -13,7 +13,8 @@ seed. What makes that so:
 * the production mixture's shifts come from the pilot of the *lead* group (the first one that has a successful
   pilot run: the caller puts the tree's first alternatives first), stored in every group's ``batch_001`` plan;
 * every production batch's counts are one allocation for all groups: the minimax-CoV Neyman rule of
-  :mod:`pycolfrag.rare.allocation` over every (group, level) pair, each group's steering model predicting its
+  :mod:`pycolfrag.rare.allocation` over every (group, level) pair, the batch split on its own (a piece of every
+  group's estimate, :func:`pycolfrag.rare.allocation.piece_allocation`), each group's steering model predicting its
   own levels (a level whose prediction equals the same level's in an earlier group -- groups whose runs came
   out the same -- counts once, so one group, or any number of identical ones, is allocated exactly as the
   single simulation is);
@@ -33,7 +34,6 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from pycolfrag import results as _results
 from pycolfrag.core.errors import StaleBuildError
 from pycolfrag.grid.serve import sigterm_handler as _sigterm_handler
 from pycolfrag.rare import allocation as _alloc
@@ -104,11 +104,8 @@ def joint_counts(parts_by_group, strata, design, settings, requested, stage: int
     kept: list = []
     means: list = []
     for g, parts in enumerate(parts_by_group):
-        model = _alloc.SteeringModel(_cat(parts), requested)
-        rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_alloc.STREAM_STEER, stage)))
-        mean, var = _alloc.predicted_moments(strata, design.latest, model, requested, rng, events)
-        if floors is not None and floors[g] is not None:
-            var = np.maximum(var, floors[g])
+        mean, var = _driver.batch_moments(_cat(parts), strata, design, settings, requested, stage, events,
+                                          None if floors is None else floors[g])
         means.append(mean)
         lam = W @ mean
         for j in range(var.shape[1]):
@@ -118,12 +115,8 @@ def joint_counts(parts_by_group, strata, design, settings, requested, stage: int
             kept.append((j, col))
             var_cols.append(var[:, j])
             lam_cols.append(lam[j])
-    cols = _cat(parts_by_group[0])
-    finished = np.asarray(cols["status"]) != _results.STATUS_PENDING
-    done = np.bincount(np.asarray(cols["stratum"])[finished], minlength=len(strata))
-    n, _ = _alloc.minimax_allocation(W, np.column_stack(var_cols), np.array(lam_cols),
-                                     _alloc.run_floor(W, np.column_stack(means), done), used + size)
-    new = _alloc.batch_counts(n, done, size)
+    new = _alloc.piece_allocation(W, np.column_stack(var_cols), np.array(lam_cols), np.column_stack(means), used,
+                                  size)
     return {int(h): int(k) for h, k in enumerate(new) if k > 0}
 
 
@@ -205,8 +198,8 @@ def simulate_paired(site, settings, stop, evaluators, quantities, log=print, nam
         counts = _stored_counts(runs, live, stage)
         if counts is None:
             stopped = _joint_stop(ests, runs, live, stop)
-            if stopped != "budget" or used >= stop.max_runs:
-                break
+            if stopped != "budget" or stop.max_runs - used < lead.least_batch:
+                break                     # converged, or the runs left cannot visit every stratum twice
             if stage == 2 and thin:       # the driver's second cross-entropy step, on the lead group's rows
                 design = _driver.second_design(_cat(lead.parts), lead.strata, lead.design, settings, lead.requested, thin)
                 for r in runs:

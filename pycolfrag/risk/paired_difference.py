@@ -9,7 +9,9 @@ w_i times its stratum's weighted exceedance share among the setting's successful
 
     D = sum_h W_h [(1/n_h) sum_i d_i - (b_Bh - b_Ah)(ubar_h - 1)]      V_D = sum_h W_h^2 s_h^2(d) / n_ok_h
 
-b_Ah, b_Bh each setting's regression of v on the weights u = w (the control variate of
+(with the batches as pieces, v5 of the rare route: every (1/n_h) sum_i is (1/n_h) sum_i f_i and every variance
+term is times the stratum's design effect deff_h, :func:`pycolfrag.rare.estimate.piece_factors`, the factors of the
+rows of both settings alike), b_Ah, b_Bh each setting's regression of v on the weights u = w (the control variate of
 :mod:`pycolfrag.rare.estimate`, by its own rule: 0 where it takes the plain mean), s_h^2 that of
 d_i - (b_Bh - b_Ah)(u_i - ubar_h) over the rows that succeeded in both (an imputed value is no observation),
 n_ok_h their number. A stratum none of whose rows differ has s_h^2 = 0, as if 0 differing runs of n proved the
@@ -48,6 +50,8 @@ from pycolfrag.rare.estimate import (
     jeffreys_floor,
     jeffreys_run_variance,
     jeffreys_upper,
+    piece_factors,
+    piece_weights,
     regression,
     row_weights,
     stratum_run_variance,
@@ -135,19 +139,36 @@ def _run_variance(v, ok, r, floor) -> float:
     return stratum_run_variance(v[ok], bool(np.any(v[ok] != 0)), r[2], floor)[0]
 
 
-def _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors) -> tuple[float, float]:
+def _pieces(stage, h, both) -> tuple[np.ndarray, dict]:
+    """(every row's factor f, every stratum's design effect) of the rows' batches combined as pieces, as the
+    estimate combines them (:func:`pycolfrag.rare.estimate.piece_factors`; the variance over the rows finished in
+    both settings)."""
+    a = piece_weights(stage)
+    f, deff = np.ones(h.size), {}
+    for s in np.unique(h):
+        sel = h == s
+        fs, deff[s] = piece_factors(stage[sel], ~both[sel], a)
+        if fs is not None:
+            f[sel] = fs
+    return f, deff
+
+
+def _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors, f, deff) -> tuple[float, float]:
     """(D, V_D): per stratum, each setting's mean by the rare estimator's regression on the weights (its own b,
     :func:`pycolfrag.rare.estimate.regression`, so that D is lambda_B - lambda_A), s^2 of the rows' difference
     less (b_B - b_A)(u - ubar) over the rows finished in both; a stratum none of whose rows differ takes the
-    floor of the module docstring instead of 0."""
+    floor of the module docstring instead of 0. ``f``, ``deff``: the batches as pieces (:func:`_pieces`)."""
     d_terms, v_terms = [], []
     for s in np.unique(h):
         sel = h == s
         u = w[sel]
-        ra = regression(va[sel], u, ~ok_a[sel], int(np.sum(ya[sel])))
-        rb = regression(vb[sel], u, ~ok_b[sel], int(np.sum(yb[sel])))
+        single = deff[s] == 1.0 and np.all(f[sel] == 1.0)
+        fs = None if single else f[sel]
+        ra = regression(va[sel], u, ~ok_a[sel], int(np.sum(ya[sel])), fs)
+        rb = regression(vb[sel], u, ~ok_b[sel], int(np.sum(yb[sel])), fs)
         n = int(sel.sum())
-        d_terms.append(W[s] * (math.fsum(vb[sel] - va[sel]) / n - (rb[1] - ra[1])))
+        dv = vb[sel] - va[sel] if single else fs * (vb[sel] - va[sel])
+        d_terms.append(W[s] * (math.fsum(dv) / n - (rb[1] - ra[1])))
         both = (ok_a & ok_b)[sel]
         m = int(both.sum())
         if m < 2:
@@ -155,12 +176,12 @@ def _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors) -> tuple[float, f
             continue
         x = (vb[sel] - va[sel])[both] - (rb[0] - ra[0]) * (u[both] - math.fsum(u[both]) / m)
         if np.any(ya[sel][both] != yb[sel][both]):
-            v_terms.append(W[s] ** 2 * float(np.var(x, ddof=1)) / m)
+            v_terms.append(W[s] ** 2 * float(np.var(x, ddof=1)) / m * deff[s])
         else:
             m2 = math.fsum(u[both] ** 2) / m
             ind = (_run_variance(va[sel], ok_a[sel], ra, floors[0][s])
                    + _run_variance(vb[sel], ok_b[sel], rb, floors[1][s]))
-            v_terms.append(W[s] ** 2 * min(float(jeffreys_run_variance(m2, m)), ind) / m)
+            v_terms.append(W[s] ** 2 * min(float(jeffreys_run_variance(m2, m)), ind) / m * deff[s])
     return math.fsum(d_terms), math.fsum(v_terms)
 
 
@@ -172,11 +193,12 @@ def _level(q, a, b, w, h, ok_a, ok_b, W, confidence, min_neff, est, floors) -> P
     ya = np.where(ok_a, exceedances(a, q), False).astype(float)
     yb = np.where(ok_b, exceedances(b, q), False).astype(float)
     nh = np.bincount(h, minlength=W.size).astype(float)
-    scale = W[h] / nh[h]                                    # W_h / n_h of every row
+    both = ok_a & ok_b
+    f, deff = _pieces(np.asarray(a["stage"]), h, both)
+    scale = W[h] / nh[h] * f                                # W_h f_i / n_h of every row (f: the batches as pieces)
     va, vb = _imputed(w * ya, w, ok_a, h), _imputed(w * yb, w, ok_b, h)
     c = scale * (vb - va)
-    both = ok_a & ok_b
-    diff, var = _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors)
+    diff, var = _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors, f, deff)
     var_ind = _sd_of(est[0].levels[q.label]) ** 2 + _sd_of(est[1].levels[q.label]) ** 2
     sd = math.sqrt(var)
     z = float(stats.norm.ppf(0.5 + confidence / 2))

@@ -152,7 +152,8 @@ def compare_with_grid(run, risk_zero, risk_clamp) -> GridComparison:
     keep = [st.inside(*box) for st in run.strata.strata]
     s = run.stop
     in_grid = estimate(run.cols, run.strata, run.design, run.quantities, confidence=s.confidence, min_neff=s.min_neff,
-                       max_share=s.max_share, target_cov=None, keep=keep, floor=getattr(run, "floor", None))
+                       max_share=s.max_share, target_cov=None, keep=keep, floor=getattr(run, "floor", None),
+                       pieces=True)
     zero = {q.label: tuple(risk_zero.rate[q.label]) for q in run.quantities}
     clamp = {q.label: tuple(risk_clamp.rate[q.label]) for q in run.quantities}
     agree = {q.label: _agree(in_grid.levels[q.label], zero[q.label]) for q in run.quantities}

@@ -232,7 +232,8 @@ def branch_estimate(run, branch_site):
         return run.estimate
     s = run.stop
     return estimate(run.cols, run.strata, run.design, run.quantities, confidence=s.confidence, min_neff=s.min_neff,
-                    max_share=s.max_share, target_cov=s.target_cov, floor=branch_floor(run, rho), reweight=rho)
+                    max_share=s.max_share, target_cov=s.target_cov, floor=branch_floor(run, rho), reweight=rho,
+                    pieces=True)
 
 
 @dataclass
