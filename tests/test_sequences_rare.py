@@ -189,8 +189,9 @@ def test_the_floor_given_replaces_the_bare_jeffreys_one(surrogate):
 
 
 def test_a_journal_of_the_earlier_algorithm_is_refused_by_name(tmp_path):
-    """Rows of v1 (a fixed shift, no features, no peaks) cannot be resumed by v2's decisions: the journal's identity
-    names the algorithm, and a v1 journal (no name) is refused naming it."""
+    """Rows of an earlier algorithm cannot be resumed by v3's decisions (v1: a fixed shift, no features, no peaks; v2:
+    no batch in a row, pooled means): the journal's identity names the algorithm, and a v1 journal (no name) and a
+    v2 journal are refused naming it."""
     import json
 
     from pycolfrag.risk.sequences_journal import read_lines
@@ -201,7 +202,11 @@ def test_a_journal_of_the_earlier_algorithm_is_refused_by_name(tmp_path):
     path.write_text(json.dumps({"pycolfrag_sequences": 1, "identity": old}) + "\n")
     with pytest.raises(ParameterError, match="algorithm"):
         read_lines(path, now, print)
-    assert "v2" in now["rare"]["algorithm"]
+    assert now["rare"]["algorithm"].endswith("; v3")
+    v2 = {"rare": {**now["rare"], "algorithm": now["rare"]["algorithm"].replace(", batches as pieces; v3", "; v2")}}
+    path.write_text(json.dumps({"pycolfrag_sequences": 1, "identity": v2}) + "\n")
+    with pytest.raises(ParameterError, match="algorithm"):
+        read_lines(path, now, print)
 
 
 def test_a_journals_rows_give_the_runs_estimate(surrogate):

@@ -81,7 +81,7 @@ from pycolfrag.damage import PERFORMANCE_LEVELS
 from pycolfrag.ground_motion.rupakhety_2011 import mean_vp_cm_s
 from pycolfrag.rare import allocation as _alloc
 from pycolfrag.rare.driver import SiteSettings, allocate_batch, cross_entropy_design, second_design, thin_of
-from pycolfrag.rare.estimate import jeffreys_run_variance
+from pycolfrag.rare.estimate import jeffreys_run_variance, piece_factors, piece_weights
 from pycolfrag.rare.plans import PulseMap, event_input
 from pycolfrag.rare.proposal import PILOT_MIXTURE, Design, Mixture
 from pycolfrag.rare.strata import build_strata
@@ -99,8 +99,11 @@ __all__ = ["ALGORITHM", "STREAM_RARE_SEQUENCES", "NO_PULSE_OFFSET", "strength", 
 #: given); the variance floor of a stratum without a hit and the batches' allocation are the rare route's
 #: (steering and demand models, run floor, minimax Neyman). v1 (no name in its identity): a fixed shift, the
 #: bare Jeffreys floor and plain Neyman.
+#: v3: every batch allocated on its own (every stratum at least 2 rows) and the strata's means the batches'
+#: combined as pieces, as the rare route's v5 (a row stores its ``batch``): the pooled means under the steered
+#: allocation were biased low (docs/sequences.md, "The steered allocation's bias").
 ALGORITHM = ("rare sequences on the strongest event: the rare route's cross-entropy shift, demand-model variance "
-             "floor and model-steered allocation; v2")
+             "floor and model-steered allocation, batches as pieces; v3")
 
 #: Stream identifier of a row's own draws (its time, its natural sequence); the crude sequences' is 4.
 STREAM_RARE_SEQUENCES = 5
@@ -211,12 +214,13 @@ def refuse_outside_aftershocks(strata, rs: RareSequenceSettings) -> None:
 
 
 def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse_map: PulseMap,
-            mixture: Mixture | None = None, stage: int = PRODUCTION_STAGE) -> dict:
+            mixture: Mixture | None = None, stage: int = PRODUCTION_STAGE, batch: int = 0) -> dict:
     """Row (h, j): its strongest event x (the rare route's run (stage, h, j): stage 0 and the pilot's proposal
     for the first ``rs.pilot`` rows of a stratum, ``stage`` (1 or 2) and the production proposal -- ``mixture``,
     else ``rs.mixture`` -- after them), x's time, its natural sequence, and -- when x is the strongest mainshock -- x's
     aftershocks (with ``rs.sequences.aftershocks``) and the sequence run the three ways. Returns the row as a dict
-    (its hits and peak EDPs per way, x's features, its weight, its sequence's events, runs and seconds)."""
+    (its hits and peak EDPs per way, x's features, its weight, its sequence's events, runs and seconds; ``batch``
+    the batch it was allocated in, 0 the pilot's: a piece of the estimate)."""
     t0 = time.perf_counter()
     st = rs.sequences
     pilot = j < rs.pilot
@@ -231,7 +235,8 @@ def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse
     strongest = not any(e.parent == -1 and not e.outside and (strength(e.mw, e.r_km, e.pulse), e.time_yr) >= rank_x
                         for e in phi)   # ranked over the mainshocks alone (an aftershock's parent is its mainshock)
     tags = x["tags"]
-    row = {"h": h, "j": j, "stage": int(tags["stage"]), "weight": float(tags["weight"]), "strongest": strongest,
+    row = {"h": h, "j": j, "stage": int(tags["stage"]), "batch": int(batch), "weight": float(tags["weight"]),
+           "strongest": strongest,
            "mw": x["mw"], "dist_km": x["dist_km"], "pulse": x["pulse"] is not None,
            "z_vp": float(tags.get("z_vp", 0.0)), "z_fp": float(tags.get("z_fp", 0.0)),
            "occurrence_weight": float(tags["occurrence_weight"]), "events": len(phi) + 1, "runs": 0, "shared": 0,
@@ -293,18 +298,20 @@ def floors(rows: list, strata, design: Design, seed: int, ways=WAYS, labels=QUAN
     return out
 
 
-def _stratum_stats(rows_h: list, way: str, q: int, years: float, rate: float, floor_h=None) -> tuple:
+def _stratum_stats(rows_h: list, way: str, q: int, years: float, rate: float, floor_h=None, a=None) -> tuple:
     """A stratum's mean of y, its sample variance of the mean, that variance with the floor of a stratum without
     a hit (``floor_h``, the per-run variance of w y :func:`floors` gives, else the bare Jeffreys pseudo-count's),
-    its rows and its hits."""
+    its rows and its hits. ``a``: the batches' weights (:func:`pycolfrag.rare.estimate.piece_weights`): the mean
+    the batches' means combined as pieces, the variance times their design effect (the rare route's estimator)."""
     n = len(rows_h)
     y = np.array([years * rate * r["weight"] * (r["strongest"] and r["hits"][way][q]) for r in rows_h], dtype=float)
+    f, deff = (None, 1.0) if a is None or not n else piece_factors([r["batch"] for r in rows_h], np.zeros(n, bool), a)
     hits = int(np.count_nonzero(y))
-    mean = float(y.mean()) if n else 0.0
-    var = float(y.var(ddof=1)) / n if n > 1 else 0.0
+    mean = (float(y.mean()) if f is None else float(np.mean(f * y))) if n else 0.0
+    var = float(y.var(ddof=1)) / n * deff if n > 1 else 0.0
     m2 = float(np.mean([r["weight"] ** 2 for r in rows_h])) if n else 1.0
     per_run = float(jeffreys_run_variance(m2, n)) if floor_h is None else float(floor_h)
-    floor = (years * rate) ** 2 * per_run / max(n, 1) if hits == 0 else 0.0
+    floor = (years * rate) ** 2 * per_run / max(n, 1) * deff if hits == 0 else 0.0
     return mean, var, max(var, floor), n, hits
 
 
@@ -313,17 +320,19 @@ def estimate(rows: list, strata, years: float, floor=None, ways=WAYS, labels=QUA
     without a hit (``se``, ``cov``: ``floor[(way, quantity)]`` from :func:`floors`, the rare route's model-steered
     floor; where absent, the bare Jeffreys pseudo-count's, which says what those strata could hold with no model of
     them), the same from the strata's sample variances alone (``se_sample``, ``cov_sample``), the hits, and how much
-    of ``p`` rests on strata of fewer than 20 rows."""
+    of ``p`` rests on strata of fewer than 20 rows. The batches' means are combined as pieces (rows of a v3 run
+    store their ``batch``; :func:`_stratum_stats`)."""
     by_h: dict = {h: [] for h in range(len(strata))}
     for r in rows:
         by_h[r["h"]].append(r)
+    a = piece_weights([r["batch"] for r in rows]) if rows and all("batch" in r for r in rows) else None
     floor = floor or {}
     out: dict = {}
     for w in ways:
         out[w] = {}
         for name in labels:
             q, fl = QUANTITIES.index(name), floor.get((w, name))
-            st = [_stratum_stats(by_h[h], w, q, years, strata[h].rate, None if fl is None else fl[h])
+            st = [_stratum_stats(by_h[h], w, q, years, strata[h].rate, None if fl is None else fl[h], a)
                   for h in range(len(strata))]
             p = float(sum(x[0] for x in st))
             se_sample, se = math.sqrt(sum(x[1] for x in st)), math.sqrt(sum(x[2] for x in st))
@@ -366,33 +375,38 @@ def allocate(rows: list, strata, rs: RareSequenceSettings, design: Design, stage
 
 
 def simulate_sequences(site, model, rs: RareSequenceSettings, evaluate=None, done=(), log=None) -> dict:
-    """Run rows until the target's CoV (with the floor) or the row budget. ``evaluate(list of (h, j), production
-    mixture, stage) -> list of rows`` (None: in this process, in order). A resume gives the rows already finished
+    """Run rows until the target's CoV (with the floor) or the row budget. ``evaluate(list of (h, j, batch),
+    production mixture, stage) -> list of rows`` (None: in this process, in order). A resume gives the rows already finished
     (``done``): they are not run again. Every decision (the production proposal, the batches' allocations, the
     stop) is a function of the rows of the batches before it alone, never of ``done``, so a resumed run makes the
     uninterrupted run's rows and decisions. Returns ``{"rows", "estimate", "strata", "settings", "design", "runs",
     "seconds"}``."""
     strata = build_strata(site)
     refuse_outside_aftershocks(strata, rs)
+    least = _alloc.PIECE_MIN_RUNS * len(strata)
+    if rs.batch < least:
+        raise ParameterError(f"batch {rs.batch} is below {least} rows: every batch gives each of the site's "
+                             f"{len(strata)} strata at least {_alloc.PIECE_MIN_RUNS} (its own stratified estimate, a "
+                             "piece of the whole)")
     pulse_map = PulseMap(rs.sequences.pulse_shape, rs.sequences.vp_scale, rs.sequences.tp_model)
     if evaluate is None:
         def evaluate(todo, mixture, stage):
-            return [run_row(site, strata, model, rs, h, j, pulse_map, mixture, stage) for h, j in todo]
+            return [run_row(site, strata, model, rs, h, j, pulse_map, mixture, stage, b) for h, j, b in todo]
     finished = {(r["h"], r["j"]): r for r in done}
 
     def run(todo, mixture, stage) -> list:
-        missing = [t for t in todo if t not in finished]
+        missing = [t for t in todo if t[:2] not in finished]
         for r in evaluate(missing, mixture, stage):
             finished[(r["h"], r["j"])] = r
-        return [finished[t] for t in todo]
-    rows = run([(h, j) for h in range(len(strata)) for j in range(rs.pilot)], None, PILOT_STAGE)
+        return [finished[t[:2]] for t in todo]
+    rows = run([(h, j, 0) for h in range(len(strata)) for j in range(rs.pilot)], None, PILOT_STAGE)
     design, thin = design_of(rows, strata, rs)
     if log is not None:
         for note in design.notes:
             log(f"sequences (rare): production proposal: {note}")
     count = {h: rs.pilot for h in range(len(strata))}
     events, years, stage = _steering_events(strata, rs.sequences.seed), rs.sequences.years, 1
-    while len(rows) < rs.max_rows:
+    while rs.max_rows - len(rows) >= least:      # rows left that cannot visit every stratum twice are not run
         fl = floors(rows, strata, design, rs.sequences.seed, ("accumulated",), (rs.target,), events)
         est = estimate(rows, strata, years, fl, ("accumulated",), (rs.target,))["accumulated"][rs.target]
         if log is not None:
@@ -406,8 +420,8 @@ def simulate_sequences(site, model, rs: RareSequenceSettings, evaluate=None, don
             if log is not None:
                 log(f"sequences (rare): production proposal from stage 2: {design.notes[-1]}")
         new = allocate(rows, strata, rs, design, stage, min(rs.batch, rs.max_rows - len(rows)), fl, events)
-        todo = [(h, count[h] + t) for h, k in sorted(new.items()) for t in range(k)]
-        for h, j in todo:
+        todo = [(h, count[h] + t, stage) for h, k in sorted(new.items()) for t in range(k)]
+        for h, j, _ in todo:
             count[h] = max(count[h], j + 1)
         rows += run(todo, design.latest, PRODUCTION_STAGE if design.second is None else SECOND_STAGE)
         stage += 1

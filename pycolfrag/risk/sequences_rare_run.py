@@ -80,8 +80,8 @@ def run_rare_folder(site_path, model, rs: rare.RareSequenceSettings, folder, com
                 raise _Stopped()
             chunk = todo[c:c + step]
             try:   # a failure on one rank (a run, the journal) ends every rank: the others would wait for it
-                mine = [rare.run_row(site, strata, model, rs, h, j, pulse_map, mixture, stage)
-                        for k, (h, j) in enumerate(chunk) if k % size == rank]
+                mine = [rare.run_row(site, strata, model, rs, h, j, pulse_map, mixture, stage, b)
+                        for k, (h, j, b) in enumerate(chunk) if k % size == rank]
                 parts = comm.allgather(mine) if comm is not None else [mine]
                 rows = [parts[k % size][k // size] for k in range(len(chunk))]
                 if journal is not None:
