@@ -30,9 +30,9 @@ from pathlib import Path
 import numpy as np
 
 from pycolfrag.rare.driver import SiteSettings, StopRule, simulate_site
-from pycolfrag.rare.estimate import exceedances, row_weights
 from pycolfrag.rare.evaluator import GridEvaluator, RecordSettings
 from pycolfrag.rare.paired import simulate_paired
+from pycolfrag.risk.paired_difference import paired_differences
 from pycolfrag.risk.site_risk import QUANTITIES
 from pycolfrag.site.sources import load_site
 from pycolfrag.structure.column import Column
@@ -43,24 +43,6 @@ LEVELS = ("u_top > 0.15", "u_top > 0.35", "u_d > 0.005", "collapse")
 
 def _evaluator(folder: Path, record: RecordSettings) -> GridEvaluator:
     return GridEvaluator(folder, record, None, progress=False, log=lambda s: None)
-
-
-def _paired_variance(run_a, run_b, label: str) -> float:
-    """The stratified variance of lambda_b - lambda_a from the rows of one paired simulation (the same events and
-    weights in both): Sum_h W_h^2 s_h^2(w (y_b - y_a)) / n_h."""
-    q = next(x for x in QUANTITIES if x.label == label)
-    ok = (np.asarray(run_a.cols["status"]) == 0) & (np.asarray(run_b.cols["status"]) == 0)
-    cols = {k: np.asarray(v)[ok] for k, v in run_a.cols.items()}
-    w, _ = row_weights(cols, run_a.strata, run_a.design)
-    d = w * (exceedances({k: np.asarray(v)[ok] for k, v in run_b.cols.items()}, q).astype(float)
-             - exceedances(cols, q).astype(float))
-    h = np.asarray(cols["stratum"])
-    total = 0.0
-    for s in np.unique(h):
-        x = d[h == s]
-        if x.size > 1:
-            total += run_a.strata.rates[s] ** 2 * float(np.var(x, ddof=1)) / x.size
-    return total
 
 
 def _records(args) -> tuple:
@@ -81,11 +63,12 @@ def _repetition(site, r: int, args, tmp: Path) -> dict:
     ib = simulate_site(site, SiteSettings(seed=1000 + r, batch=args.batch), stop, _evaluator(tmp / f"i{r}b", scaled),
                        QUANTITIES, log=quiet)
     out = {}
+    paired = paired_differences(pa, pb)      # the product's paired variance (the batches as pieces, its floors)
     for lb in LEVELS:
         la, lb_ = pa.estimate.levels[lb], pb.estimate.levels[lb]
         out[lb] = {"paired": lb_.rate - la.rate,
                    "independent": ib.estimate.levels[lb].rate - ia.estimate.levels[lb].rate,
-                   "within_paired": _paired_variance(pa, pb, lb),
+                   "within_paired": paired[lb].sd ** 2,
                    "within_independent": (la.cov * la.rate) ** 2 + (lb_.cov * lb_.rate) ** 2}
     return out
 

@@ -15,7 +15,9 @@ surrogate and one allocation:
   (hits that nothing of the event foretells). A collapse exceeds every level, so each level's probability
   given the event is P + q (1 - P), P the base surrogate's, and the exact rates are the quadrature of
   tests/rare_surrogate.py with it;
-* allocations -- ``steered``: the driver's (minimax-CoV Neyman, model-steered, run and variance floors);
+* allocations -- ``steered``: the driver's (v5: every batch split on its own by the minimax-CoV Neyman rule,
+  model-steered, run and variance floors; the estimate the batches combined as pieces -- v4's pooled steered rows,
+  docs/rare_events.md's "(v4)" table, are not reproduced by it);
   ``proportional``: every batch in proportion to the strata's event rates (``batch_counts`` of W_h (runs so
   far + batch)), which reads no outcome: the same driver with ``allocate_batch`` replaced; ``frozen`` (remedy
   (2) of the doc, prototyped here only): the steered allocation made once, from the pilot's rows, and every
@@ -30,7 +32,18 @@ stratum means on the same rows.
 
     nice -n 10 .venv/bin/python bench/rare_allocation_bias.py --reps 48      # 0.5-1.5 CPU-s a simulation of 870 runs
 
-docs/rare_events.md's table (about 12 CPU-minutes in all), then pooled with no runs:
+docs/rare_events.md's table of the pieces (v5, "Batches as pieces"; about 25 CPU-minutes), then pooled:
+
+    B="nice -n 10 .venv/bin/python bench/rare_allocation_bias.py"
+    $B --reps 120 --allocations steered --json p870a.json
+    $B --reps 120 --first-seed 2000 --allocations steered --json p870b.json
+    $B --reps 64 --runs 1670 --allocations steered --json p1670a.json
+    $B --reps 64 --runs 1670 --first-seed 2000 --allocations steered --json p1670b.json
+    $B --pool p870a.json p870b.json --levels collapse
+    $B --pool p1670a.json p1670b.json --levels collapse
+    $B --reps 64 --target-cov 0.25 --runs 4000 --allocations steered --json t025.json    # the stopping rule's part
+
+The v4 tables (before the pieces: the steered rows are v4's driver's; about 12 CPU-minutes in all):
 
     B="nice -n 10 .venv/bin/python bench/rare_allocation_bias.py"
     $B --reps 80 --allocations steered --json s870.json
@@ -40,7 +53,8 @@ docs/rare_events.md's table (about 12 CPU-minutes in all), then pooled with no r
     $B --reps 48 --runs 1670 --surrogates coin2 coin05 --allocations proportional --json p1670.json
     $B --pool s870.json p870.json base2000.json s1670.json p1670.json --levels collapse
 
-The frozen allocation (docs/rare_events.md, "A remedy, prototyped in the bench"; about 15 CPU-minutes):
+The frozen allocation (docs/rare_events.md, "A remedy prototyped in the bench, not taken", measured under v4; today
+it keeps v5's first batch's split; about 15 CPU-minutes):
 
     $B --reps 120 --allocations frozen --json f870.json
     $B --reps 120 --first-seed 2000 --allocations frozen --json f870b.json
@@ -141,9 +155,8 @@ class Frozen:
 
     def __call__(self, cols, strata, design, settings, requested, stage, used, events, size, floor=None) -> dict:
         if self.share is None:
-            n, _ = driver.allocation_target(cols, strata, design, settings, requested, stage, used, events, size,
-                                            floor)
-            self.share = np.asarray(n, dtype=float) / float(np.sum(n))
+            n = driver.allocate_batch(cols, strata, design, settings, requested, stage, used, events, size, floor)
+            self.share = np.array([n.get(h, 0) for h in range(len(strata))], dtype=float) / float(size)
         new = _alloc.batch_counts(self.share, np.zeros(self.share.size), size)
         return {int(h): int(k) for h, k in enumerate(new) if k > 0}
 
@@ -153,7 +166,8 @@ ESTIMATORS = {"control variate": (True, False), "plain": (False, False),
               "production, control variate": (True, True), "production, plain": (False, True)}
 
 
-def repetitions(surrogate: str, allocation: str, reps: int, first_seed: int = 1000, runs: int = RUNS) -> dict:
+def repetitions(surrogate: str, allocation: str, reps: int, first_seed: int = 1000, runs: int = RUNS,
+                target_cov: float = 0.01) -> dict:
     """{estimator: [rates, covs, held]} lists (reps x levels) of one surrogate and allocation, ``runs`` runs each.
     ``frozen``: :class:`Frozen`, and no second cross-entropy step (it reads the first batch's outcomes: every
     production batch keeps the first step's proposal, placed from the pilot); its estimators besides on the
@@ -162,7 +176,8 @@ def repetitions(surrogate: str, allocation: str, reps: int, first_seed: int = 10
     exact = exact_rates(site, QUANTITIES, CHANCE[surrogate])
     steered, thin_of = driver.allocate_batch, driver.thin_of
     keys = [k for k, (_, prod) in ESTIMATORS.items() if allocation == "frozen" or not prod]
-    out: dict = {k: [[], [], []] for k in keys}
+    out: dict = {k: [[], [], [], []] for k in keys}
+    spent: list = []
     try:
         if allocation == "proportional":
             driver.allocate_batch = proportional
@@ -171,43 +186,56 @@ def repetitions(surrogate: str, allocation: str, reps: int, first_seed: int = 10
                 driver.allocate_batch, driver.thin_of = Frozen(), lambda *a: ()
             with redirect_stdout(io.StringIO()):
                 run = simulate_site(site, SiteSettings(seed=first_seed + i, batch=200, **SMALL),
-                                    StopRule(0.01, runs), CoinEvaluator(CHANCE[surrogate]), QUANTITIES,
+                                    StopRule(target_cov, runs), CoinEvaluator(CHANCE[surrogate]), QUANTITIES,
                                     log=lambda s: None)
-            assert run.runs == runs
+            assert run.runs == runs or target_cov > 0.01      # a target CoV of 0.01 never stops early
+            spent.append(run.runs)
             for key in out:
                 control, prod = ESTIMATORS[key]
+                pieces = allocation == "steered"          # the driver's own (v5): every batch a piece
                 cols = run.cols
                 if prod:
                     mask = np.asarray(cols["stage"]) > 0
                     cols = {k: np.asarray(v)[mask] for k, v in cols.items()}
-                e = estimate(cols, run.strata, run.design, run.quantities, floor=run.floor, control=control)
+                e = estimate(cols, run.strata, run.design, run.quantities, floor=run.floor, control=control,
+                             pieces=pieces)
                 lv = [e.levels[q.label] for q in QUANTITIES]
                 out[key][0].append([x.rate for x in lv])
                 out[key][1].append([x.cov for x in lv])
                 out[key][2].append([bool(x.low <= exact[x.label] <= x.high) for x in lv])
+                out[key][3].append([x.status == "refused" for x in lv])
     finally:
         driver.allocate_batch, driver.thin_of = steered, thin_of
-    return {"exact": exact, "runs": runs, **out}
+    return {"exact": exact, "runs": runs, "spent": spent, **out}
 
 
 def table(results: dict, levels=None) -> str:
     """The table of :func:`repetitions`' results, {(surrogate, allocation): result}; ``levels``: the labels shown."""
     lines = ["Surrogate small site (14 strata):", "",
              "| surrogate | allocation | runs | sims | level | exact /yr | estimator | mean / exact - 1 (SE) | bias / SE | "
-             "observed CoV | stated CoV (rms) | 90 % held |", "|---|---|---:|---:|---|---:|---|---:|---:|---:|---:|---:|"]
+             "observed CoV | stated CoV (rms) | 90 % held | refused | 90 % held, not refused |",
+             "|---|---|---:|---:|---|---:|---|---:|---:|---:|---:|---:|---:|---:|"]
     for (sur, alloc, runs), res in results.items():
         for j, q in enumerate(QUANTITIES):
             if levels and q.label not in levels:
                 continue
             lam = res["exact"][q.label]
             for key in (k for k in ESTIMATORS if k in res):
-                rates, covs, held = (np.asarray(x, dtype=float) for x in res[key])
+                rates, covs, held = (np.asarray(x, dtype=float) for x in res[key][:3])
+                refused = np.asarray(res[key][3], dtype=bool) if len(res[key]) > 3 else np.zeros(held.shape, bool)
+                kept = ~refused[:, j]
+                kept_held = f"{held[kept, j].mean():.2f}" if kept.any() else "-"
                 n = rates.shape[0]
                 mean, sd = rates[:, j].mean(), rates[:, j].std(ddof=1)
                 se = sd / math.sqrt(n)
                 lines.append(f"| {sur} | {alloc} | {runs} | {n} | {q.label} | {lam:.3e} | {key} | {100 * (mean / lam - 1):+.1f} % "
                              f"({100 * se / lam:.1f}) | {(mean - lam) / se:+.1f} | {sd / lam:.3f} | "
-                             f"{math.sqrt(np.nanmean(covs[:, j] ** 2)):.3f} | {held[:, j].mean():.2f} |")
+                             f"{math.sqrt(np.nanmean(covs[:, j] ** 2)):.3f} | {held[:, j].mean():.2f} | "
+                             f"{refused[:, j].mean():.2f} | {kept_held} |")
+    for (sur, alloc, runs), res in results.items():
+        if res.get("spent") and min(res["spent"]) < runs:
+            lines.append(f"\n{sur} {alloc}: stopped by the target CoV after {np.mean(res['spent']):.0f} runs on average "
+                         f"({min(res['spent'])}-{max(res['spent'])}; budget {runs})")
     lines.append("\n90 % intervals holding the exact rate, all levels, the production estimator:")
     for (sur, alloc, runs), res in results.items():
         lines.append(f"  {sur} {alloc} {runs}: {np.asarray(res['control variate'][2], dtype=float).mean():.2f}")
@@ -222,10 +250,10 @@ def merged(paths) -> dict:
             key = (*name.split("/"), res.get("runs", RUNS))
             if key not in out:
                 out[key] = {"exact": res["exact"], **{k: [list(x) for x in v] for k, v in res.items()
-                                                      if k not in ("exact", "runs")}}
+                                                      if k not in ("exact", "runs", "spent")}}
             else:
                 for k, v in res.items():
-                    if k not in ("exact", "runs"):
+                    if k not in ("exact", "runs", "spent"):
                         for acc, x in zip(out[key][k], v):
                             acc.extend(x)
     return out
@@ -239,6 +267,9 @@ def main(argv=None) -> int:
                     choices=["steered", "proportional", "frozen"])
     ap.add_argument("--first-seed", type=int, default=1000)
     ap.add_argument("--runs", type=int, default=RUNS, help="runs per simulation (870: pilot and 4 batches of 200)")
+    ap.add_argument("--target-cov", type=float, default=0.01,
+                    help="the stopping rule's target (default 0.01: never reached, every simulation spends --runs; "
+                         "with another, --runs is the budget and the rule stops on the estimates, as in production)")
     ap.add_argument("--json", type=Path, help="also write the raw estimates here")
     ap.add_argument("--pool", type=Path, nargs="+", help="no simulation: the table of these --json files, pooled")
     ap.add_argument("--levels", nargs="+", help="the levels the table shows (default: all)")
@@ -246,7 +277,7 @@ def main(argv=None) -> int:
     if a.pool:
         print(table(merged(a.pool), a.levels))
         return 0
-    results = {(s, al, a.runs): repetitions(s, al, a.reps, a.first_seed, a.runs) for s in a.surrogates
+    results = {(s, al, a.runs): repetitions(s, al, a.reps, a.first_seed, a.runs, a.target_cov) for s in a.surrogates
                for al in a.allocations}
     if a.json:
         a.json.write_text(json.dumps({f"{s}/{al}": r for (s, al, _), r in results.items()}))

@@ -35,7 +35,8 @@ VARIANTS = ("plain", "control variate")
 
 
 def _variant(key: str, run):
-    return estimate(run.cols, run.strata, run.design, run.quantities, floor=run.floor, control=key != "plain")
+    return estimate(run.cols, run.strata, run.design, run.quantities, floor=run.floor, control=key != "plain",
+                    pieces=True)
 
 
 def repetitions(reps: int, first_seed: int = 1000) -> dict:

@@ -411,7 +411,7 @@ def split_lines(crude: dict) -> list:
         allc = {k: np.concatenate([c[k] for c in cols]) for k in cols[0]}
         parts["pilot alone"].append([estimate(cols[0], st, d, QUANTITIES).levels[q.label].rate for q in QUANTITIES])
         parts["batch 1 alone"].append([both[0][q.label].rate + both[1][q.label].rate for q in QUANTITIES])
-        parts["all"].append([estimate(allc, st, d, QUANTITIES).levels[q.label].rate for q in QUANTITIES])
+        parts["all"].append([estimate(allc, st, d, QUANTITIES, pieces=True).levels[q.label].rate for q in QUANTITIES])
     L = ["", "The repetitions' rows by stage, mean / crude rate (difference in standard errors):", "",
          "| rows | " + " | ".join(q.label for q in QUANTITIES) + " |", "|---|" + "---:|" * len(QUANTITIES)]
     for name, rows in parts.items():

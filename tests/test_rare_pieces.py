@@ -10,7 +10,9 @@ Where the expected numbers come from:
   the pooled means (v4's) is below it, computed here by plain loops over the same outcomes;
 * the pieces' factors and design effect written out by hand for a small stratum: a_b the batch's share of all
   finished runs, f = a_b n / n_b, deff = n_ok sum_b a_b^2 / n_ok,b (the variance of sum_b a_b mean_b with a common
-  per-run variance s^2 is s^2 sum_b a_b^2 / n_b);
+  per-run variance s^2 is s^2 sum_b a_b^2 / n_b); the stated variance sum_b a_b^2 s_b^2 / n_b of the batches' own
+  sample variances, whose expectation over every outcome of the design is the estimate's true variance exactly
+  (each s_b^2 unbiased given the batches before, its counts fixed), where a variance pooled over the batches is low;
 * with one batch the pieces are the pooled mean, bit for bit.
 """
 from __future__ import annotations
@@ -125,24 +127,46 @@ def test_with_one_batch_the_pieces_are_the_pooled_means_bit_for_bit():
 
 
 def test_the_stated_variance_is_the_pieces_variance():
-    """The CoV with pieces: sum_h W_h^2 s_h^2 sum_b a_b^2 / n_hb, s_h^2 the stratum's sample variance over all its
-    rows (plain loops)."""
+    """The CoV with pieces: sum_h W_h^2 sum_b a_b^2 s_hb^2 / n_hb, s_hb^2 the sample variance of batch b's rows of
+    stratum h (plain loops)."""
     h = [0] * 4 + [1] * 4 + [0] * 10 + [1] * 2
     stage = [0] * 8 + [1] * 12
     y = [1, 0, 0, 0, 0, 1, 0, 0] + [1, 1, 0, 0, 0, 0, 0, 1, 0, 0] + [0, 1]
     e = estimate(_cols(h, stage, y), _Strata(), Design(), [_Q()], pieces=True).levels["collapse"]
-    a0, a1 = 8 / 20, 12 / 20
+    a = (8 / 20, 12 / 20)
     lam = var = 0.0
-    for s, (n0, n1) in enumerate(((4, 10), (4, 2))):
-        ys = [v for hh, v in zip(h, y) if hh == s]
-        y0 = [v for hh, st, v in zip(h, stage, y) if hh == s and st == 0]
-        y1 = [v for hh, st, v in zip(h, stage, y) if hh == s and st == 1]
-        lam += _Strata.rates[s] * (a0 * sum(y0) / n0 + a1 * sum(y1) / n1)
-        m = sum(ys) / len(ys)
-        s2 = sum((v - m) ** 2 for v in ys) / (len(ys) - 1)
-        var += _Strata.rates[s] ** 2 * s2 * (a0 ** 2 / n0 + a1 ** 2 / n1)
+    for s in (0, 1):
+        for b in (0, 1):
+            yb = [v for hh, st, v in zip(h, stage, y) if hh == s and st == b]
+            m = sum(yb) / len(yb)
+            lam += _Strata.rates[s] * a[b] * m
+            var += _Strata.rates[s] ** 2 * a[b] ** 2 * sum((v - m) ** 2 for v in yb) / (len(yb) - 1) / len(yb)
     assert e.rate == pytest.approx(lam, rel=1e-12)
     assert e.cov == pytest.approx(math.sqrt(var) / lam, rel=1e-12)
+
+
+def test_the_stated_variance_is_unbiased_where_a_pooled_one_is_low():
+    """Over every outcome of the outcome-reading design: the expectation of the stated variance (the pieces' own
+    sample variances) is the estimate's true variance E[lambda^2] - lambda^2, to round-off; a per-run variance
+    pooled over the batches (the stratum's s^2 x sum_b a_b^2 / n_hb, plain loops) is low -- its rows' counts follow
+    the outcomes, the flaw the pieces mend in the mean."""
+    lam = float(_Strata.rates @ np.array(P))
+    e2 = e_var = e_pooled = 0.0
+    for h, stage, y, prob in _outcomes():
+        est = estimate(_cols(h, stage, y), _Strata(), Design(), [_Q()], pieces=True).levels["collapse"]
+        e2 += prob * est.rate ** 2
+        e_var += prob * ((est.cov * est.rate) ** 2 if est.rate > 0 else 0.0)   # no hit: CoV infinite, variance 0
+        pooled = 0.0
+        for s in (0, 1):
+            ys = [v for hh, v in zip(h, y) if hh == s]
+            n_b = [sum(1 for hh, st in zip(h, stage) if hh == s and st == b) for b in (0, 1)]
+            m = sum(ys) / len(ys)
+            s2 = sum((v - m) ** 2 for v in ys) / (len(ys) - 1)
+            pooled += _Strata.rates[s] ** 2 * s2 * ((2 * FIRST / 10) ** 2 / n_b[0] + (SECOND / 10) ** 2 / n_b[1])
+        e_pooled += prob * pooled
+    true_var = e2 - lam ** 2
+    assert e_var == pytest.approx(true_var, rel=1e-9)
+    assert e_pooled < 0.95 * true_var, e_pooled / true_var
 
 
 def test_a_batch_gives_every_stratum_its_floor_and_the_rest_by_neyman():

@@ -108,7 +108,7 @@ def test_a_stratum_without_a_hit_keeps_its_jeffreys_floor(surrogate):
     stated variance of the mean (T W)^2 (m2 p - p^2) / n with m2 = 1 and p = 0.5 / 11 (rare.estimate's law); a
     stratum without a row adds (T W)^2 / 4 (p = 1/2, n taken as 1)."""
     site = _site()
-    rows = [{"h": 0, "j": j, "weight": 1.0, "strongest": True, "runs": 1, "seconds": 0.0,
+    rows = [{"h": 0, "j": j, "batch": 0, "weight": 1.0, "strongest": True, "runs": 1, "seconds": 0.0,
              "hits": {w: [False] * len(R.QUANTITIES) for w in sq.WAYS}} for j in range(10)]
     from pycolfrag.rare.strata import build_strata
     strata = build_strata(site)
@@ -177,7 +177,7 @@ def test_the_floor_given_replaces_the_bare_jeffreys_one(surrogate):
     of w y), its variance of the mean is (T W)^2 floor / n; the other strata keep the bare pseudo-count's."""
     from pycolfrag.rare.strata import build_strata
     strata = build_strata(_site())
-    rows = [{"h": 0, "j": j, "weight": 1.0, "strongest": True, "runs": 1, "seconds": 0.0,
+    rows = [{"h": 0, "j": j, "batch": 0, "weight": 1.0, "strongest": True, "runs": 1, "seconds": 0.0,
              "hits": {w: [False] * len(R.QUANTITIES) for w in sq.WAYS}} for j in range(10)]
     fl = np.full(len(strata), 1e-4)
     est = R.estimate(rows, strata, YEARS, {("accumulated", "collapse"): fl})

@@ -299,5 +299,10 @@ def piece_allocation(W: np.ndarray, var: np.ndarray, lam: np.ndarray, mean: np.n
     remainder. ``mean``: the predicted means (H, L') behind the floor."""
     if size < PIECE_MIN_RUNS * W.size:
         raise ValueError(f"a batch of {size} runs cannot give each of {W.size} strata {PIECE_MIN_RUNS}")
-    n, _ = minimax_allocation(W, var, lam, piece_floor(W, mean, used, size), size)
-    return batch_counts(n, np.zeros(W.size), size)
+    floor = piece_floor(W, mean, used, size)
+    n, _ = minimax_allocation(W, var, lam, floor, size)
+    counts = batch_counts(n, np.zeros(W.size), size)
+    if np.any(counts < floor):         # a non-finite predicted variance or rate: the split means nothing
+        raise ValueError(f"the batch's split {counts.tolist()} misses its floor {floor.tolist()} (predicted variances "
+                         "or rates not finite?)")
+    return counts

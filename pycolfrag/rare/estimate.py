@@ -41,15 +41,22 @@ of the runs, a_b = (runs of batch b) / (all runs) -- the sizes its plans fix (``
 one's from the budget)::
 
     mu_hl = sum_b a_b mean_b(w y)  =  (1 / n_h) sum_i f_i w_i y_il,    f_i = a_b n_h / n_hb
-    V_l   = sum_h W_h^2 s_hl^2 sum_b a_b^2 / n_hb  =  sum_h W_h^2 s_hl^2 / n_h x deff_h
+    V_l   = sum_h W_h^2 sum_b a_b^2 s_hbl^2 / n_hb
 
-(:func:`piece_weights`, :func:`piece_factors`; a_b rescaled over the batches a stratum has -- all of them, as every
-batch gives every stratum at least two runs). s_hl^2 is the stratum's per-run variance as above (sample, control
-variate's residual, or floor), pooled over its batches: one per-run variance, of which each batch's mean has
-1 / n_hb. deff_h >= 1, equal to 1 where the batches split the stratum in proportion to their sizes: what pieces
-cost against pooling at the same counts. The control variate's b is the stratum's (all rows), applied to the
-pieces' ubar = (1 / n_h) sum f_i u_i; the failed runs' bounds, n_eff and the largest run's share take the rows'
+(:func:`piece_weights`, :func:`piece_factors`, :func:`piece_variance`; a_b rescaled over the batches a stratum has
+-- all of them, as every batch gives every stratum at least two runs; a batch cut by the budget may not). s_hbl^2
+is the sample variance of w y over batch b's successful rows of the stratum (of the control variate's residuals
+w y - b w where its rule takes the stratum, b the stratum's from all its rows): unbiased given the batches before,
+as the batch's mean is. A variance pooled over the batches is not -- its rows' counts follow the outcomes, the
+mean's v4 flaw again (on the tests' two-stratum enumeration, 0.875 of the true variance). A stratum none of whose
+runs exceeds takes the floor below as its per-run variance, s_hl^2 sum_b a_b^2 / n_hb = s_hl^2 / n_h x deff_h,
+deff_h = n_h sum_b a_b^2 / n_hb >= 1, equal to 1 where the batches split the stratum in proportion to their sizes:
+what pieces cost against pooling at the same counts (:func:`piece_factors`). The control variate's ubar is the
+pieces' (1 / n_h) sum f_i u_i; the failed runs' bounds, n_eff and the largest run's share take the rows'
 contributions W_h f_i w_i y_i / n_h. With one batch f = 1 and every number is the pooled one, bit for bit.
+**At a fixed budget.** The weights a_b are fixed by the plans given the number of batches; the stopping rule on
+``target_cov`` chooses that number from the estimates, which biases a mean stopped on its own estimate high by
+O(1/n) (Siegmund 1985; measured, docs/rare_events.md).
 
 Diagnostics of every level: the *effective number of
 exceedances* n_eff = (sum c)^2 / sum c^2 over the rows' contributions c_i = W_h w_i y_il / n_h (Kong's
@@ -107,7 +114,7 @@ from pycolfrag.core.errors import PycolfragError
 __all__ = ["WeightError", "LevelEstimate", "Estimate", "exceedances", "row_weights", "estimate", "DEFAULT_MIN_NEFF",
            "DEFAULT_MAX_SHARE", "UNRESOLVED", "efficiency", "FEW_RUNS", "jeffreys_floor", "jeffreys_p0",
            "jeffreys_run_variance", "jeffreys_upper", "CV_MIN_RUNS", "CV_MIN_HITS", "regression",
-           "stratum_run_variance", "piece_weights", "piece_factors"]
+           "stratum_run_variance", "piece_weights", "piece_factors", "piece_parts", "piece_variance"]
 
 #: Fewest effective exceedances a level's estimate may rest on (the stopping rule's floor too).
 DEFAULT_MIN_NEFF = 10.0
@@ -253,6 +260,7 @@ class _Group:
     failed: np.ndarray          # bool over rows
     f: np.ndarray | None = None
     deff: float = 1.0
+    parts: tuple | None = None  # (every row's piece, the pieces' rescaled weights): :func:`piece_parts`
 
 
 def piece_weights(stage) -> dict:
@@ -261,6 +269,35 @@ def piece_weights(stage) -> dict:
     stage = np.asarray(stage)
     keys, counts = np.unique(stage, return_counts=True)
     return {int(k): float(c) / float(stage.size) for k, c in zip(keys, counts)}
+
+
+def piece_parts(stage, a: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(every row's piece, 0, 1, ... in the order of the batches present; their weights a_b rescaled to sum to 1)
+    of one stratum's rows ``stage``."""
+    keys, inverse = np.unique(np.asarray(stage), return_inverse=True)
+    share = np.array([a[int(k)] for k in keys], dtype=float)
+    return inverse, share / math.fsum(share)
+
+
+def piece_variance(r, failed, parts, fallback: float) -> float:
+    """sum_b a_b^2 s_b^2 / n_ok,b: the variance of one stratum's combination of pieces, s_b^2 the sample variance of
+    ``r`` (w y, or the control variate's residuals w y - b w) over the batch's successful rows -- unbiased given the
+    batches before it, its counts fixed before it ran (v5; a variance pooled over the batches is not: its rows'
+    counts follow the outcomes). A batch with fewer than two successful rows takes the per-run variance
+    ``fallback`` over its finished rows (its failed runs are no observation)."""
+    part, share = parts
+    r = np.asarray(r, dtype=float)
+    good = ~np.asarray(failed, dtype=bool)
+    terms = []
+    for b in range(share.size):
+        sel = part == b
+        x = r[sel & good]
+        if x.size >= 2:
+            m = math.fsum(x) / x.size
+            terms.append(share[b] ** 2 * math.fsum((x - m) ** 2) / (x.size - 1) / x.size)
+        else:
+            terms.append(share[b] ** 2 * fallback / max(x.size, int(np.sum(sel)), 1))
+    return math.fsum(terms)
 
 
 def piece_factors(stage, failed, a: dict) -> tuple[np.ndarray | None, float]:
@@ -362,7 +399,7 @@ def _level(q, W, groups, w, y, confidence, limits, floor=None, u=None):
     for g in groups:
         v, s_ok, w_failed = _stratum_values(g, w, y)
         n = g.rows.size
-        _, shift, s2 = (0.0, 0.0, None) if u is None else regression(v, u[g.rows], g.failed,
+        b, shift, s2 = (0.0, 0.0, None) if u is None else regression(v, u[g.rows], g.failed,
                                                                       int(np.sum(y[g.rows][~g.failed])), g.f)
         fv = v if g.f is None else g.f * v                   # the pieces' combination (module docstring)
         if g.f is not None:
@@ -377,7 +414,11 @@ def _level(q, W, groups, w, y, confidence, limits, floor=None, u=None):
         n_ok = real.size
         s2, floored = stratum_run_variance(real, bool(np.any(y[g.rows][~g.failed])), s2,
                                            None if floor is None else floor[g.h])
-        var_terms.append(W[g.h] ** 2 * s2 / n_ok * g.deff if math.isfinite(s2) else math.inf)
+        if g.parts is not None and not floored and math.isfinite(s2):   # the pieces' own variances (v5)
+            r = v if b == 0.0 else v - b * u[g.rows]
+            var_terms.append(W[g.h] ** 2 * piece_variance(r, g.failed, g.parts, s2))
+        else:
+            var_terms.append(W[g.h] ** 2 * s2 / n_ok * g.deff if math.isfinite(s2) else math.inf)
         if floored:
             floor_terms.append(var_terms[-1])
         if n < FEW_RUNS:
@@ -419,7 +460,7 @@ def _groups(h_all, ok, order, strata, keep, stage=None, a=None) -> list:
             short.append(h)
             continue
         f, deff = (None, 1.0) if a is None else piece_factors(stage[rows], ~ok[rows], a)
-        groups.append(_Group(h, rows, ~ok[rows], f, deff))
+        groups.append(_Group(h, rows, ~ok[rows], f, deff, None if f is None else piece_parts(stage[rows], a)))
     if short:
         raise PycolfragError(f"strata {short[:10]} hold fewer than two finished runs: no estimate yet")
     return groups

@@ -199,6 +199,9 @@ def simulate_paired(site, settings, stop, evaluators, quantities, log=print, nam
         if counts is None:
             stopped = _joint_stop(ests, runs, live, stop)
             if stopped != "budget" or stop.max_runs - used < lead.least_batch:
+                if stopped == "budget" and used < stop.max_runs:
+                    log(f"site simulation: the {stop.max_runs - used} runs left in the budget cannot give each of the "
+                        f"{len(lead.strata)} strata {_alloc.PIECE_MIN_RUNS}: not run")
                 break                     # converged, or the runs left cannot visit every stratum twice
             if stage == 2 and thin:       # the driver's second cross-entropy step, on the lead group's rows
                 design = _driver.second_design(_cat(lead.parts), lead.strata, lead.design, settings, lead.requested, thin)

@@ -51,6 +51,8 @@ from pycolfrag.rare.estimate import (
     jeffreys_run_variance,
     jeffreys_upper,
     piece_factors,
+    piece_parts,
+    piece_variance,
     piece_weights,
     regression,
     row_weights,
@@ -139,25 +141,28 @@ def _run_variance(v, ok, r, floor) -> float:
     return stratum_run_variance(v[ok], bool(np.any(v[ok] != 0)), r[2], floor)[0]
 
 
-def _pieces(stage, h, both) -> tuple[np.ndarray, dict]:
-    """(every row's factor f, every stratum's design effect) of the rows' batches combined as pieces, as the
-    estimate combines them (:func:`pycolfrag.rare.estimate.piece_factors`; the variance over the rows finished in
-    both settings)."""
+def _pieces(stage, h, both) -> tuple[np.ndarray, dict, dict]:
+    """(every row's factor f, every stratum's design effect, every stratum's pieces -- None for one batch) of the
+    rows' batches combined as pieces, as the estimate combines them (:func:`pycolfrag.rare.estimate.piece_factors`;
+    the variance over the rows finished in both settings)."""
     a = piece_weights(stage)
-    f, deff = np.ones(h.size), {}
+    f, deff, parts = np.ones(h.size), {}, {}
     for s in np.unique(h):
         sel = h == s
         fs, deff[s] = piece_factors(stage[sel], ~both[sel], a)
+        parts[s] = None if fs is None else piece_parts(stage[sel], a)
         if fs is not None:
             f[sel] = fs
-    return f, deff
+    return f, deff, parts
 
 
-def _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors, f, deff) -> tuple[float, float]:
+def _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors, f, deff, parts) -> tuple[float, float]:
     """(D, V_D): per stratum, each setting's mean by the rare estimator's regression on the weights (its own b,
     :func:`pycolfrag.rare.estimate.regression`, so that D is lambda_B - lambda_A), s^2 of the rows' difference
     less (b_B - b_A)(u - ubar) over the rows finished in both; a stratum none of whose rows differ takes the
-    floor of the module docstring instead of 0. ``f``, ``deff``: the batches as pieces (:func:`_pieces`)."""
+    floor of the module docstring instead of 0. ``f``, ``deff``, ``parts``: the batches as pieces (:func:`_pieces`;
+    where rows differ, each batch's own sample variance of the difference, :func:`pycolfrag.rare.estimate.
+    piece_variance`)."""
     d_terms, v_terms = [], []
     for s in np.unique(h):
         sel = h == s
@@ -175,8 +180,11 @@ def _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors, f, deff) -> tuple
             v_terms.append(math.inf)
             continue
         x = (vb[sel] - va[sel])[both] - (rb[0] - ra[0]) * (u[both] - math.fsum(u[both]) / m)
-        if np.any(ya[sel][both] != yb[sel][both]):
-            v_terms.append(W[s] ** 2 * float(np.var(x, ddof=1)) / m * deff[s])
+        if np.any(ya[sel][both] != yb[sel][both]) and parts[s] is not None:
+            r = (vb[sel] - va[sel]) - (rb[0] - ra[0]) * u
+            v_terms.append(W[s] ** 2 * piece_variance(r, ~both, parts[s], float(np.var(x, ddof=1))))
+        elif np.any(ya[sel][both] != yb[sel][both]):
+            v_terms.append(W[s] ** 2 * float(np.var(x, ddof=1)) / m)
         else:
             m2 = math.fsum(u[both] ** 2) / m
             ind = (_run_variance(va[sel], ok_a[sel], ra, floors[0][s])
@@ -194,11 +202,11 @@ def _level(q, a, b, w, h, ok_a, ok_b, W, confidence, min_neff, est, floors) -> P
     yb = np.where(ok_b, exceedances(b, q), False).astype(float)
     nh = np.bincount(h, minlength=W.size).astype(float)
     both = ok_a & ok_b
-    f, deff = _pieces(np.asarray(a["stage"]), h, both)
+    f, deff, parts = _pieces(np.asarray(a["stage"]), h, both)
     scale = W[h] / nh[h] * f                                # W_h f_i / n_h of every row (f: the batches as pieces)
     va, vb = _imputed(w * ya, w, ok_a, h), _imputed(w * yb, w, ok_b, h)
     c = scale * (vb - va)
-    diff, var = _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors, f, deff)
+    diff, var = _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors, f, deff, parts)
     var_ind = _sd_of(est[0].levels[q.label]) ** 2 + _sd_of(est[1].levels[q.label]) ** 2
     sd = math.sqrt(var)
     z = float(stats.norm.ppf(0.5 + confidence / 2))

@@ -81,7 +81,7 @@ from pycolfrag.damage import PERFORMANCE_LEVELS
 from pycolfrag.ground_motion.rupakhety_2011 import mean_vp_cm_s
 from pycolfrag.rare import allocation as _alloc
 from pycolfrag.rare.driver import SiteSettings, allocate_batch, cross_entropy_design, second_design, thin_of
-from pycolfrag.rare.estimate import jeffreys_run_variance, piece_factors, piece_weights
+from pycolfrag.rare.estimate import jeffreys_run_variance, piece_factors, piece_parts, piece_variance, piece_weights
 from pycolfrag.rare.plans import PulseMap, event_input
 from pycolfrag.rare.proposal import PILOT_MIXTURE, Design, Mixture
 from pycolfrag.rare.strata import build_strata
@@ -302,13 +302,17 @@ def _stratum_stats(rows_h: list, way: str, q: int, years: float, rate: float, fl
     """A stratum's mean of y, its sample variance of the mean, that variance with the floor of a stratum without
     a hit (``floor_h``, the per-run variance of w y :func:`floors` gives, else the bare Jeffreys pseudo-count's),
     its rows and its hits. ``a``: the batches' weights (:func:`pycolfrag.rare.estimate.piece_weights`): the mean
-    the batches' means combined as pieces, the variance times their design effect (the rare route's estimator)."""
+    the batches' means combined as pieces, the variance from each batch's own rows, the floor times their design
+    effect (the rare route's estimator)."""
     n = len(rows_h)
     y = np.array([years * rate * r["weight"] * (r["strongest"] and r["hits"][way][q]) for r in rows_h], dtype=float)
-    f, deff = (None, 1.0) if a is None or not n else piece_factors([r["batch"] for r in rows_h], np.zeros(n, bool), a)
+    batches = [r["batch"] for r in rows_h]
+    f, deff = (None, 1.0) if a is None or not n else piece_factors(batches, np.zeros(n, bool), a)
     hits = int(np.count_nonzero(y))
     mean = (float(y.mean()) if f is None else float(np.mean(f * y))) if n else 0.0
-    var = float(y.var(ddof=1)) / n * deff if n > 1 else 0.0
+    var = float(y.var(ddof=1)) / n if n > 1 else 0.0
+    if f is not None:          # each batch's own sample variance (rare/estimate.py, piece_variance)
+        var = piece_variance(y, np.zeros(n, bool), piece_parts(batches, a), float(y.var(ddof=1)))
     m2 = float(np.mean([r["weight"] ** 2 for r in rows_h])) if n else 1.0
     per_run = float(jeffreys_run_variance(m2, n)) if floor_h is None else float(floor_h)
     floor = (years * rate) ** 2 * per_run / max(n, 1) * deff if hits == 0 else 0.0
@@ -321,11 +325,14 @@ def estimate(rows: list, strata, years: float, floor=None, ways=WAYS, labels=QUA
     floor; where absent, the bare Jeffreys pseudo-count's, which says what those strata could hold with no model of
     them), the same from the strata's sample variances alone (``se_sample``, ``cov_sample``), the hits, and how much
     of ``p`` rests on strata of fewer than 20 rows. The batches' means are combined as pieces (rows of a v3 run
-    store their ``batch``; :func:`_stratum_stats`)."""
+    store their ``batch``; :func:`_stratum_stats`); rows without it are refused."""
     by_h: dict = {h: [] for h in range(len(strata))}
     for r in rows:
         by_h[r["h"]].append(r)
-    a = piece_weights([r["batch"] for r in rows]) if rows and all("batch" in r for r in rows) else None
+    if rows and not all("batch" in r for r in rows):
+        raise ParameterError("rows without their batch (made before the rare sequences' v3): their means cannot be "
+                             "combined as pieces; rerun in a new folder")
+    a = piece_weights([r["batch"] for r in rows]) if rows else None
     floor = floor or {}
     out: dict = {}
     for w in ways:
@@ -406,6 +413,7 @@ def simulate_sequences(site, model, rs: RareSequenceSettings, evaluate=None, don
             log(f"sequences (rare): production proposal: {note}")
     count = {h: rs.pilot for h in range(len(strata))}
     events, years, stage = _steering_events(strata, rs.sequences.seed), rs.sequences.years, 1
+    converged = False
     while rs.max_rows - len(rows) >= least:      # rows left that cannot visit every stratum twice are not run
         fl = floors(rows, strata, design, rs.sequences.seed, ("accumulated",), (rs.target,), events)
         est = estimate(rows, strata, years, fl, ("accumulated",), (rs.target,))["accumulated"][rs.target]
@@ -413,6 +421,7 @@ def simulate_sequences(site, model, rs: RareSequenceSettings, evaluate=None, don
             log(f"sequences (rare): {len(rows)} rows, P({rs.target}) {est['p']:.4g}, CoV {est['cov']:.3f} "
                 f"(sample variances alone {est['cov_sample']:.3f})")
         if est["cov"] <= rs.target_cov:
+            converged = True
             break
         if stage == SECOND_STAGE and thin:   # the rare route's second step, on every row so far
             design = second_design(_cols(rows, "accumulated"), strata, design, _site_settings(rs),
@@ -425,6 +434,9 @@ def simulate_sequences(site, model, rs: RareSequenceSettings, evaluate=None, don
             count[h] = max(count[h], j + 1)
         rows += run(todo, design.latest, PRODUCTION_STAGE if design.second is None else SECOND_STAGE)
         stage += 1
+    if not converged and 0 < rs.max_rows - len(rows) < least and log is not None:
+        log(f"sequences (rare): the {rs.max_rows - len(rows)} rows left in the budget cannot give each of the "
+            f"{len(strata)} strata {_alloc.PIECE_MIN_RUNS}: not run")
     fl = floors(rows, strata, design, rs.sequences.seed, events=events)
     return {"rows": rows, "estimate": estimate(rows, strata, years, fl), "strata": strata, "settings": rs,
             "design": design, "runs": int(sum(r["runs"] for r in rows)), "shared": _shared(rows),
