@@ -11,7 +11,7 @@ in this process (no MPI: what `make risk-tree` runs on NRANKS ranks gives the sa
   mean has, n_00 (CoV_00 / CoV_mean)^2 (the CoV of a stratified estimate falls as 1/sqrt(n)), target <= 4x;
 * paired against independent, for each pair of run settings that differ in one branch set: the variance of the
   difference of their collapse rates estimated within the run from the paired rows (the same events and weights:
-  the stratified variance of w (y_b - y_a)) against V_a + V_b (what two independent simulations of these sizes
+  the product's paired variance, pycolfrag.risk.paired_difference) against V_a + V_b (what two independent simulations of these sizes
   would have), their ratio being the factor of runs that the common random numbers save for the same precision of
   that difference.
 
@@ -30,8 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
+from pycolfrag.risk.paired_difference import paired_differences
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from logic_tree_pairing import _paired_variance  # noqa: E402  (the same within-run paired variance)
 
 ROOT = Path(__file__).resolve().parents[1]
 LEVEL = "collapse"
@@ -103,7 +104,7 @@ def report(tr, wall: float, target: float) -> dict:
             print(f"  {tr.groups[a].folder} - {tr.groups[b].folder}: rows not aligned, skipped")
             continue
         la, lb = ra.estimate.levels[LEVEL], rb.estimate.levels[LEVEL]
-        vp = _paired_variance(ra, rb, LEVEL)
+        vp = paired_differences(ra, rb)[LEVEL].sd ** 2       # the product's paired variance (pieces, floors)
         vi = (la.cov * la.rate) ** 2 + (lb.cov * lb.rate) ** 2
         ratio = vi / vp if vp > 0 else math.inf
         pairs.append({"a": tr.groups[a].folder, "b": tr.groups[b].folder, "set": name, "difference": lb.rate - la.rate,
