@@ -29,7 +29,7 @@ cannot see; bench/rare_allocation_bias.py, docs/rare_events.md). v5 splits each 
 (:func:`piece_allocation`: the same minimax-CoV Neyman rule over the batch's runs, at least
 :data:`PIECE_MIN_RUNS` in every stratum, strata that matter their part of FEW_RUNS, :func:`piece_floor`), and the
 estimate combines the batches as pieces (:mod:`pycolfrag.rare.estimate`, "Batches as pieces"): unbiased whatever
-the steering. The plan it gives is stored
+the steering, at a fixed budget. The plan it gives is stored
 before the batch runs and a resume reads it back, never recomputes it (the fit is not guaranteed to be
 bitwise the same across BLAS builds).
 """

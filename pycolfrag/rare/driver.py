@@ -12,9 +12,10 @@
 3. *Batches* (stages 1, 2, ...): ``batch`` runs each, every one allocated on its own by the minimax-CoV Neyman
    rule of :mod:`~pycolfrag.rare.allocation` (steered by every row so far; every stratum at least 2 runs), its
    stratified estimate a piece that the estimator combines with the pilot's and the other batches' in
-   proportion to their runs (unbiased whatever the steering: docs/rare_events.md, "Batches as pieces"), until every requested level reaches the target CoV with at least
-   ``min_neff`` effective exceedances and no run carrying more than ``max_share`` of it, or the run
-   budget is spent (the last batch is cut to a prefix of its plan). The estimate and CoV of every level
+   proportion to their runs (unbiased whatever the steering, at a fixed budget: docs/rare_events.md, "Batches as
+   pieces (v5)"), until every requested level reaches the target CoV with at least ``min_neff`` effective
+   exceedances and no run carrying more than ``max_share`` of it (a stop on the estimates: a small high bias,
+   measured there), or the run budget is spent (runs left that cannot give every stratum 2 are not run). The estimate and CoV of every level
    are said after every batch.
 
 Every batch goes through an evaluator (:class:`~pycolfrag.rare.evaluator.GridEvaluator`: the grid's
