@@ -184,8 +184,8 @@ def test_two_mpi_ranks_give_the_one_rank_sequences(site_file, reference, tmp_pat
 
 # --------------------------------------------------------------------------- --rare: the strongest event's rows
 
-RARE = ["--rare", "--target", "u_d > 0.005", "--target-cov", "0.01", "--pilot", "2", "--batch", "12",
-        "--max-rows", "40"]
+RARE = ["--rare", "--target", "u_d > 0.005", "--target-cov", "0.01", "--pilot", "2", "--batch", "16",
+        "--max-rows", "48"]
 
 
 def _rows(out: Path) -> list:
@@ -199,8 +199,8 @@ def _rare_run(site_file, aftershocks=None) -> dict:
     from pycolfrag.risk import sequences_rare as rare
     st = sq.SequenceSettings(years=10.0, n_sequences=1000, seed=3, restoration=Restoration(u_d=0.005),
                              max_record_s=4.0, aftershocks=aftershocks)
-    rs = rare.RareSequenceSettings(sequences=st, target="u_d > 0.005", target_cov=0.01, pilot=2, batch=12,
-                                   max_rows=40)
+    rs = rare.RareSequenceSettings(sequences=st, target="u_d > 0.005", target_cov=0.01, pilot=2, batch=16,
+                                   max_rows=48)
     return rare.simulate_sequences(load_site(site_file), Column.from_file(COLUMN), rs)
 
 
@@ -231,7 +231,7 @@ def test_rare_rows_are_those_of_the_ways_run_apart(site_file, rare_reference, mo
 def test_rare_rows_are_the_in_process_estimators(site_file, rare_reference, tmp_path):
     out = tmp_path / "rare"
     p = _run([str(site_file), str(out)] + ARGS + RARE)
-    assert p.returncode == 6 and "row budget" in p.stdout, p.stdout + p.stderr   # CoV 0.01 is out of 40 rows' reach
+    assert p.returncode == 6 and "row budget" in p.stdout, p.stdout + p.stderr   # CoV 0.01 is out of 48 rows' reach
     assert _rows(out) == rare_reference[0]
     est = json.loads((out / "rare_summary.json").read_text())["estimate"]
     assert est["accumulated"]["u_d > 0.005"]["p"] == rare_reference[1]["accumulated"]["u_d > 0.005"]["p"]
@@ -244,7 +244,7 @@ def test_rare_sigterm_then_resume_gives_the_uninterrupted_rows(site_file, rare_r
     assert proc.returncode == 75, text
     assert not (out / "rare_summary.json").exists()
     p = _run([str(site_file), str(out)] + ARGS + RARE)
-    assert p.returncode == 6 and "row budget" in p.stdout, p.stdout + p.stderr   # CoV 0.01 is out of 40 rows' reach
+    assert p.returncode == 6 and "row budget" in p.stdout, p.stdout + p.stderr   # CoV 0.01 is out of 48 rows' reach
     assert _rows(out) == rare_reference[0]
 
 
