@@ -166,7 +166,7 @@ def test_the_stated_variance_is_unbiased_where_a_pooled_one_is_low():
         e_pooled += prob * pooled
     true_var = e2 - lam ** 2
     assert e_var == pytest.approx(true_var, rel=1e-9)
-    assert e_pooled < 0.95 * true_var, e_pooled / true_var
+    assert e_pooled == pytest.approx(0.87544 * true_var, rel=1e-4)     # measured by these loops: 12.5 % low
 
 
 def test_a_batch_gives_every_stratum_its_floor_and_the_rest_by_neyman():

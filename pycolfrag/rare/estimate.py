@@ -48,7 +48,7 @@ one's from the budget)::
 is the sample variance of w y over batch b's successful rows of the stratum (of the control variate's residuals
 w y - b w where its rule takes the stratum, b the stratum's from all its rows): unbiased given the batches before,
 as the batch's mean is. A variance pooled over the batches is not -- its rows' counts follow the outcomes, the
-mean's v4 flaw again (on the tests' two-stratum enumeration, 0.875 of the true variance). A stratum none of whose
+mean's v4 flaw again (on the tests' two-stratum enumeration, 0.875 of the true variance, the batches' own 1.000). A stratum none of whose
 runs exceeds takes the floor below as its per-run variance, s_hl^2 sum_b a_b^2 / n_hb = s_hl^2 / n_h x deff_h,
 deff_h = n_h sum_b a_b^2 / n_hb >= 1, equal to 1 where the batches split the stratum in proportion to their sizes:
 what pieces cost against pooling at the same counts (:func:`piece_factors`). The control variate's ubar is the
@@ -303,8 +303,10 @@ def piece_variance(r, failed, parts, fallback: float) -> float:
 def piece_factors(stage, failed, a: dict) -> tuple[np.ndarray | None, float]:
     """(f, deff) of one stratum's rows in the combination of pieces (module docstring): its mean
     sum_b a_b mean_b = (1 / n) sum_i f_i v_i with f_i = a_b n / n_b over the batches b present (their a_b
-    rescaled to sum to 1), and its variance s^2 / n_ok x deff, deff = n_ok sum_b a_b^2 / n_ok,b (1 for one batch:
-    the plain mean, bit for bit)."""
+    rescaled to sum to 1), and the design effect deff = n_ok sum_b a_b^2 / n_ok,b (1 for one batch: the plain mean,
+    bit for bit) by which a common per-run variance -- the floor of a stratum none of whose runs exceeds -- is
+    that of the combination, s^2 / n_ok x deff (with exceedances the batches' own variances stand:
+    :func:`piece_variance`). A batch whose every run failed counts as one run here: deff may then fall below 1."""
     stage = np.asarray(stage)
     keys, inverse, counts = np.unique(stage, return_inverse=True, return_counts=True)
     if keys.size == 1:
