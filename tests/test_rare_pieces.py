@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import pytest
@@ -27,31 +26,7 @@ import pytest
 from pycolfrag.rare import allocation
 from pycolfrag.rare.estimate import estimate, piece_factors, piece_weights
 from pycolfrag.rare.proposal import Design
-
-
-@dataclass(frozen=True)
-class _Q:
-    label: str = "collapse"
-    edp: object = None
-    threshold: float = math.inf
-
-
-@dataclass(frozen=True)
-class _St:
-    pulse: bool = False
-
-
-class _Strata:
-    """Two no-pulse strata of rates 1 and 9 /yr."""
-
-    rates = np.array([1.0, 9.0])
-    strata = (_St(), _St())
-
-    def __len__(self):
-        return 2
-
-    def __getitem__(self, h):
-        return self.strata[h]
+from test_rare_floor import _Q, _Strata  # the floor tests' level and two no-pulse strata of rates 1 and 9 /yr
 
 
 def _cols(h, stage, y):
