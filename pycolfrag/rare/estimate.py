@@ -307,15 +307,12 @@ def piece_factors(stage, failed, a: dict) -> tuple[np.ndarray | None, float]:
     bit for bit) by which a common per-run variance -- the floor of a stratum none of whose runs exceeds -- is
     that of the combination, s^2 / n_ok x deff (with exceedances the batches' own variances stand:
     :func:`piece_variance`). A batch whose every run failed counts as one run here: deff may then fall below 1."""
-    stage = np.asarray(stage)
-    keys, inverse, counts = np.unique(stage, return_inverse=True, return_counts=True)
-    if keys.size == 1:
+    inverse, share = piece_parts(stage, a)
+    if share.size == 1:
         return None, 1.0
-    share = np.array([a[int(k)] for k in keys], dtype=float)
-    share /= math.fsum(share)
-    n = stage.size
-    f = (share * (n / counts))[inverse]
-    ok = np.bincount(inverse[~np.asarray(failed, dtype=bool)], minlength=keys.size)
+    n = inverse.size
+    f = (share * (n / np.bincount(inverse, minlength=share.size)))[inverse]
+    ok = np.bincount(inverse[~np.asarray(failed, dtype=bool)], minlength=share.size)
     n_ok = int(ok.sum())
     deff = n_ok * math.fsum(share ** 2 / np.maximum(ok, 1)) if n_ok else 1.0
     return f, deff

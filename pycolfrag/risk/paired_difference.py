@@ -9,9 +9,10 @@ w_i times its stratum's weighted exceedance share among the setting's successful
 
     D = sum_h W_h [(1/n_h) sum_i d_i - (b_Bh - b_Ah)(ubar_h - 1)]      V_D = sum_h W_h^2 s_h^2(d) / n_ok_h
 
-(with the batches as pieces, v5 of the rare route: every (1/n_h) sum_i is (1/n_h) sum_i f_i and every variance
-term is times the stratum's design effect deff_h, :func:`pycolfrag.rare.estimate.piece_factors`, the factors of the
-rows of both settings alike), b_Ah, b_Bh each setting's regression of v on the weights u = w (the control variate of
+(with the batches as pieces, v5 of the rare route: every (1/n_h) sum_i is (1/n_h) sum_i f_i, the factors of the
+rows of both settings alike, :func:`pycolfrag.rare.estimate.piece_factors`; s_h^2(d) / n_ok_h is each batch's own
+sample variance of the difference times a_b^2 over its rows, :func:`pycolfrag.rare.estimate.piece_variance`, and
+a floor is times the stratum's design effect deff_h), b_Ah, b_Bh each setting's regression of v on the weights u = w (the control variate of
 :mod:`pycolfrag.rare.estimate`, by its own rule: 0 where it takes the plain mean), s_h^2 that of
 d_i - (b_Bh - b_Ah)(u_i - ubar_h) over the rows that succeeded in both (an imputed value is no observation),
 n_ok_h their number. A stratum none of whose rows differ has s_h^2 = 0, as if 0 differing runs of n proved the
@@ -167,7 +168,7 @@ def _paired_terms(va, vb, ya, yb, w, h, ok_a, ok_b, W, floors, f, deff, parts) -
     for s in np.unique(h):
         sel = h == s
         u = w[sel]
-        single = deff[s] == 1.0 and np.all(f[sel] == 1.0)
+        single = parts[s] is None                            # one batch: the plain means
         fs = None if single else f[sel]
         ra = regression(va[sel], u, ~ok_a[sel], int(np.sum(ya[sel])), fs)
         rb = regression(vb[sel], u, ~ok_b[sel], int(np.sum(yb[sel])), fs)
