@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pycolfrag.risk.paired_difference import paired_differences
+from pycolfrag.risk.paired_difference import common_batches, paired_differences
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -99,7 +99,7 @@ def report(tr, wall: float, target: float) -> dict:
     pairs = []
     print(f"paired against independent ({LEVEL}; within-run variances of the difference):")
     for a, b, name in _pairs(tr):
-        ra, rb = tr.runs[a], tr.runs[b]
+        ra, rb = common_batches(tr.runs[a], tr.runs[b])     # the batches both run settings took
         if not _aligned(ra, rb):
             print(f"  {tr.groups[a].folder} - {tr.groups[b].folder}: rows not aligned, skipped")
             continue

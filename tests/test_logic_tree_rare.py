@@ -387,3 +387,76 @@ def test_a_tree_of_one_run_setting_is_the_single_simulation_file_for_file(tmp_pa
     ends = json.loads((tmp_path / "tree" / "logic_tree.json").read_text())["end_branches"]
     assert all(ends[1]["levels"][lb]["rate"] == ref[lb]["rate"] for lb in ref)
     assert all(ends[0]["levels"][lb]["rate"] == pytest.approx(0.5 * ref[lb]["rate"], rel=1e-12) for lb in ref)
+
+
+def _scaled_collapse(scale: float):
+    """P(collapse | event) of :class:`Scaled` (pulse motions ``scale`` times stronger: ln u_top + ln scale), in the
+    surrogate's closed form (tests/rare_surrogate.py)."""
+    from rare_surrogate import A_TOP, _mean, _sd, S_TOP
+    from scipy import stats
+
+    def probability(q, pulse, mw, r):
+        shift = math.log(scale) if pulse else 0.0
+        return stats.norm.sf((math.log(COLLAPSE_AT) - shift - _mean(pulse, A_TOP, mw, r)) / _sd(pulse, S_TOP))
+    return probability
+
+
+def test_the_tree_stops_on_its_mean_and_spreads_the_runs_by_their_share():
+    """TreeShare (docs/logic_tree.md, "Where the runs go"): vp_scale 1 (weight 0.8) and 2 (0.2) on the surrogate,
+    target CoV 0.1 on the tree's mean collapse rate. Each simulation stops when the mean's stated CoV (the bound
+    Sum w sd over its mean) reaches 0.1 -- not when each run setting does, as without a share (then the mean's CoV
+    overshoots to about 0.07 and the runs are 1.5-1.8x); the run settings sit out batches (their files differ),
+    and a batch both ran is the same counts and events in both. Over 10 simulations the mean is within 3 standard
+    errors of the exact sum of the weights times the surrogate's exact collapse rates (scipy quadrature; the
+    stopping rule's small high bias, docs/rare_events.md, is inside that)."""
+    from rare_surrogate import exact_rates as exact
+    from pycolfrag.risk.tree_rare import TreeShare
+    tree = _tree([{"choice": "vp_scale", "branches": [{"value": 1.0, "weight": 0.8}, {"value": 2.0, "weight": 0.2}]}])
+    d = site_dict()
+    checked = check_tree(tree, d, "small")
+    groups = run_groups(checked, RecordSettings())
+    site = site_from_dict(d, "small")
+    collapse = [q for q in QUANTITIES if q.label == "collapse"]
+    truth = (0.8 * exact(site, collapse, _scaled_collapse(1.0))["collapse"]
+             + 0.2 * exact(site, collapse, _scaled_collapse(2.0))["collapse"])
+    stop = StopRule(0.1, 20000)
+    means = []
+    for seed in range(10):
+        settings = SiteSettings(seed=seed, batch=200, levels=("collapse",), **SMALL)
+        evs = [Scaled(1.0), Scaled(2.0)]
+        share = TreeShare((0.8, 0.2), (0, 1), tuple(checked.sites), 0.1, settings.batch)
+        runs = simulate_paired(site, settings, stop, evs, QUANTITIES, log=lambda s: None, share=share)
+        tr = tree_of_runs(tree, checked.ends, checked.sites, groups, runs, (50.0,))
+        st = tr.stats["collapse"]
+        assert all(r.stopped == "target" for r in runs)
+        assert st["mean_sd_bound"] <= 0.1 * st["mean"]
+        means.append(st["mean"])
+        if seed < 2:
+            assert sorted(evs[0].plans) != sorted(evs[1].plans)          # a run setting sat out a batch
+            for name in set(evs[0].plans) & set(evs[1].plans):
+                (pa, ia), (pb, ib) = evs[0].plans[name], evs[1].plans[name]
+                assert pa == pb and [x["hf_seed"] for x in ia] == [x["hf_seed"] for x in ib]
+            alone = simulate_paired(site, settings, stop, [Scaled(1.0), Scaled(2.0)], QUANTITIES, log=lambda s: None)
+            st_alone = tree_of_runs(tree, checked.ends, checked.sites, groups, alone, (50.0,)).stats["collapse"]
+            assert st_alone["mean_sd_bound"] < 0.085 * st_alone["mean"]  # each setting at 0.1: the mean overshoots
+            assert sum(r.runs for r in runs) < 0.75 * sum(r.runs for r in alone)
+    m = np.array(means)
+    assert abs(m.mean() - truth) <= 3 * m.std(ddof=1) / math.sqrt(m.size)
+
+
+def test_the_runs_stay_steered_by_the_weights_the_folder_began_with(tmp_path):
+    """A change of the weights re-weights the runs but does not move where the later runs go (a resume takes the
+    uninterrupted run's decisions): the folder's record keeps its first weights (steering_weights)."""
+    from pycolfrag.risk.tree_rare import check_folder, steering_weights
+    d = site_dict()
+
+    def tree_of(w):
+        return _tree([{"choice": "vp_scale", "branches": [{"value": 1.0, "weight": w}, {"value": 2.0, "weight": 1 - w}]},
+                      {"choice": "rate_factor", "branches": [{"value": 1.0, "weight": 0.5}, {"value": 2.0, "weight": 0.5}]}])
+    first, later = tree_of(0.75), tree_of(0.25)
+    groups = run_groups(check_tree(first, d, "small"), RecordSettings())
+    assert check_folder(tmp_path, first, groups) == ""
+    assert "steered by the weights the folder began with" in check_folder(tmp_path, later, groups)
+    ends = check_tree(later, d, "small").ends
+    assert [e.weight for e in ends] == pytest.approx([0.125, 0.125, 0.375, 0.375])
+    assert steering_weights(tmp_path, later, ends).tolist() == pytest.approx([0.375, 0.375, 0.125, 0.125])

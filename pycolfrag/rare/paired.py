@@ -19,7 +19,12 @@ seed. What makes that so:
   out the same -- counts once, so one group, or any number of identical ones, is allocated exactly as the
   single simulation is);
 * the simulation stops when every group's requested levels have converged (or are unresolved at the target
-  CoV), or when the budget -- ``max_runs`` per group -- is spent.
+  CoV), or when the budget -- ``max_runs`` per group -- is spent;
+* or, given a ``share`` rule (a logic tree's :class:`pycolfrag.risk.tree_rare.TreeShare`), when *that* rule says
+  its target is met: before each production batch it names the groups that take the batch (the others sit it
+  out: they run nothing in it), so that the runs go where the rule's estimate needs them. A group that sits out a
+  batch has no file of it; the groups that take it run the same counts of the same events. The rule reads only the
+  groups' rows before the batch, so a resume takes the same decisions.
 
 A group whose every pilot run failed is *dead*: it gets no further runs (they would fail too), is said, and
 its estimate marks every level unresolved. Resume: every group's plans are on disk before their runs; a batch
@@ -157,6 +162,16 @@ def _stored_counts(runs, live, stage: int):
     return None
 
 
+def _view(r: "_Run", est, stopped: str = "budget") -> SiteRun:
+    """A group's state between batches as a :class:`SiteRun` (what a ``share`` rule reads)."""
+    return SiteRun(r.site, r.strata, r.design, r.settings, r.stop, r.quantities, r.requested, _cat(r.parts), est,
+                   stopped, r.batches, r.history, record=r.ev.record, floor=r.last_floor)
+
+
+def _used(r: "_Run") -> int:
+    return sum(b["runs"] for b in r.batches)
+
+
 def _joint_stop(ests, runs, live, stop) -> str:
     reasons = [_stop_reason(ests[g], runs[g].requested, stop) for g in live]
     if all(r == "target" for r in reasons):
@@ -164,10 +179,13 @@ def _joint_stop(ests, runs, live, stop) -> str:
     return "budget" if "budget" in reasons else "failures"
 
 
-def simulate_paired(site, settings, stop, evaluators, quantities, log=print, names=None) -> list:
+def simulate_paired(site, settings, stop, evaluators, quantities, log=print, names=None, share=None) -> list:
     """Run (or resume, or read) the simulation of ``site`` for every group (one evaluator each, its own folder
     and record settings) on the same events; rank 0 only. Returns one :class:`SiteRun` per group (a dead
-    group's holds its pilot). ``names``: the groups' names in what is said (default: group 0, 1, ...)."""
+    group's holds its pilot). ``names``: the groups' names in what is said (default: group 0, 1, ...).
+    ``share``: None (every group takes every batch until every group's levels converged), or a callable
+    ``share(stage, views) -> (reason, takers)`` of the live groups' :class:`SiteRun` so far (``views``, a dict
+    by group), ``reason`` "target", "failures" (stop) or "budget" (go on with the groups ``takers``)."""
     names = list(names or [f"group {g}" for g in range(len(evaluators))])
     runs = [_Run(site, settings, stop, ev, quantities, (lambda s, n=n: log(f"[{n}] {s}"))) for ev, n in
             zip(evaluators, names)]
@@ -187,20 +205,30 @@ def simulate_paired(site, settings, stop, evaluators, quantities, log=print, nam
         for note in design.notes:
             log(f"cross-entropy step ({names[live[0]]}'s pilot): {note}")
         thin = _driver.thin_of(runs[live[0]].parts[0], runs[live[0]].strata, settings, runs[live[0]].requested)
+    took, ests = list(live), {}
     while live:
-        ests = {g: runs[g].estimate() for g in live}
-        for g in live:
+        for g in took:                                 # a group that sat out the last batch keeps its estimate
+            ests[g] = runs[g].estimate()
             runs[g].report(stage - 1, ests[g])
         lead = runs[live[0]]
-        if lead.batches[-1]["limit"] < lead.batches[-1]["planned"]:
+        if any(runs[g].batches[-1]["limit"] < runs[g].batches[-1]["planned"] for g in took):
             break                                      # the budget cut this batch
-        used = sum(b["runs"] for b in lead.batches)
-        counts = _stored_counts(runs, live, stage)
+        used = {g: _used(runs[g]) for g in live}
+        if share is None:
+            takers, reason = list(live), _joint_stop(ests, runs, live, stop)
+        else:
+            reason, wanted = share(stage, {g: _view(runs[g], ests[g]) for g in live})
+            takers = [g for g in live if g in set(wanted) and stop.max_runs - used[g] >= lead.least_batch]
+            if reason == "budget" and wanted and not takers:
+                log(f"site simulation: the run settings {', '.join(names[g] for g in wanted)} have fewer runs left in "
+                    f"the budget than each of the {len(lead.strata)} strata {_alloc.PIECE_MIN_RUNS}: not run")
+        counts = _stored_counts(runs, takers, stage)
         if counts is None:
-            stopped = _joint_stop(ests, runs, live, stop)
-            if stopped != "budget" or stop.max_runs - used < lead.least_batch:
-                if stopped == "budget" and used < stop.max_runs:
-                    log(f"site simulation: the {stop.max_runs - used} runs left in the budget cannot give each of the "
+            stopped = reason
+            room = min((stop.max_runs - used[g] for g in takers), default=0)
+            if stopped != "budget" or room < lead.least_batch:
+                if stopped == "budget" and 0 < room:
+                    log(f"site simulation: the {room} runs left in the budget cannot give each of the "
                         f"{len(lead.strata)} strata {_alloc.PIECE_MIN_RUNS}: not run")
                 break                     # converged, or the runs left cannot visit every stratum twice
             if stage == 2 and thin:       # the driver's second cross-entropy step, on the lead group's rows
@@ -208,13 +236,15 @@ def simulate_paired(site, settings, stop, evaluators, quantities, log=print, nam
                 for r in runs:
                     r.design = design
             idx = [lead.quantities.index(q) for q in lead.requested]
-            counts = joint_counts([runs[g].parts for g in live], lead.strata, lead.design, settings, lead.requested,
-                                  stage, used, lead.steering_events(), min(settings.batch, stop.max_runs - used),
-                                  [None if runs[g].last_floor is None else runs[g].last_floor[:, idx] for g in live])
+            counts = joint_counts([runs[g].parts for g in takers], lead.strata, lead.design, settings, lead.requested,
+                                  stage, min(used[g] for g in takers), lead.steering_events(),
+                                  min(settings.batch, room),
+                                  [None if runs[g].last_floor is None else runs[g].last_floor[:, idx] for g in takers])
         else:
             _stored_design(runs, live, stage)
-        for g in live:
+        for g in takers:
             runs[g].run_batch(stage, *runs[g].planned(stage, counts, runs[g].design.latest))
+        took = takers
         stage += 1
     out = []
     for g, r in enumerate(runs):

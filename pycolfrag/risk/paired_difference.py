@@ -38,7 +38,7 @@ of A as an exceedance (the low end), and the other way round.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import stats
@@ -47,6 +47,7 @@ from pycolfrag import results as _results
 from pycolfrag.core.errors import ParameterError
 from pycolfrag.rare.estimate import (
     DEFAULT_MIN_NEFF,
+    estimate,
     exceedances,
     jeffreys_floor,
     jeffreys_run_variance,
@@ -60,7 +61,7 @@ from pycolfrag.rare.estimate import (
     stratum_run_variance,
 )
 
-__all__ = ["EVENT_FIELDS", "PairedDifference", "check_same_events", "paired_differences"]
+__all__ = ["EVENT_FIELDS", "PairedDifference", "check_same_events", "common_batches", "paired_differences"]
 
 #: The fields of a row that make its event: identical in both settings, row for row.
 EVENT_FIELDS = ("stage", "stratum", "index", "source", "mw", "dist_km", "hf_seed", "pulse", "z_mw", "z_dist", "z_vp",
@@ -121,6 +122,27 @@ def check_same_events(cols_a: dict, cols_b: dict, names=("A", "B")) -> tuple:
                 f"{int(a['index'][ia][k])}): {f} is {x[k]!r} in {names[0]} and {y[k]!r} in {names[1]}: not the same "
                 "events, so no paired difference (simulate both with one seed and site: simulate_paired)")
     return np.flatnonzero(done_a)[ia], np.flatnonzero(done_b)[ib]
+
+
+def common_batches(run_a, run_b) -> tuple:
+    """The two runs restricted to the batches both ran (``(run_a, run_b)`` themselves when they ran the same ones),
+    each estimate recomputed on its part: a logic tree's run settings sit out the batches their share of the tree's
+    error does not ask for (:class:`pycolfrag.risk.tree_rare.TreeShare`), and a batch both ran is the same events in
+    both. Every batch is a piece of its own (unbiased given the batches before it), so the part is an estimate of
+    both settings' rates on the same events; the runs' own variance floors stand (per run, as the estimate's)."""
+    sa, sb = (np.asarray(r.cols["stage"], dtype=int) for r in (run_a, run_b))
+    both = np.intersect1d(np.unique(sa), np.unique(sb))
+    if both.size == np.unique(sa).size == np.unique(sb).size:
+        return run_a, run_b
+    out = []
+    for r, st in ((run_a, sa), (run_b, sb)):
+        keep = np.isin(st, both)
+        cols = {k: np.asarray(v)[keep] for k, v in r.cols.items()}
+        x = r.stop
+        est = estimate(cols, r.strata, r.design, r.quantities, confidence=x.confidence, min_neff=x.min_neff,
+                       max_share=x.max_share, target_cov=x.target_cov, floor=r.floor, pieces=True)
+        out.append(replace(r, cols=cols, estimate=est))
+    return tuple(out)
 
 
 def _imputed(v, w, ok, h):

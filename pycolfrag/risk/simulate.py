@@ -207,14 +207,16 @@ def run_simulation(args, quantities, argv=None, before=None):
     return _exit_code(run, log), run
 
 
-def run_paired(p: dict, evs, quantities, comm, size: int, log, what: str, folder, names):
+def run_paired(p: dict, evs, quantities, comm, size: int, log, what: str, folder, names, share=None):
     """The paired simulation of several run settings on rank 0 (``p``: its ``site``, ``settings``, ``stop``;
     ``evs`` the settings' evaluators), with the signals and failures every run has: ``(None, runs)``, or
     ``(exit code, None)`` when SIGTERM drained a batch (75), a run failed (:func:`_failed`), or an interrupt
-    aborts every rank (:func:`abort_on_interrupt`, re-raised)."""
+    aborts every rank (:func:`abort_on_interrupt`, re-raised). ``share``: where the runs go
+    (:func:`pycolfrag.rare.paired.simulate_paired`; None: every setting every batch)."""
     try:
         with sigterm_stops_all(evs):
-            runs = simulate_paired(p["site"], p["settings"], p["stop"], evs, quantities, log=log, names=names)
+            runs = simulate_paired(p["site"], p["settings"], p["stop"], evs, quantities, log=log, names=names,
+                                   share=share)
     except BatchStopped as exc:
         log(f"{what}: {exc}; every finished run is in {folder}, no estimate or report is made from a part of a batch: "
             f"rerun the same command to compute the rest (exit {EXIT_DRAINED})")

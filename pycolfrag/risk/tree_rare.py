@@ -21,6 +21,8 @@ re-weighted, and the tree's statistics (docs/logic_tree.md, "On the rare-event r
   estimate; with rho = 1 it is that estimate bit for bit. It needs the simulated site to reach every event
   of the branch: a branch Mmax above the site file's, or a no-pulse branch of a pulse-only site, is refused
   before any run (set the site file's value to the tree's widest).
+* :class:`TreeShare` -- where the runs go: the simulation stops when the tree's weighted mean meets the target
+  CoV, and each production batch is run by the run settings whose share of the mean's error asks for it.
 * :func:`tree_of_runs` -- every end branch's estimate and the tree's statistics (weighted mean, OpenQuake's
   quantiles, variance split, tornado: :mod:`pycolfrag.risk.tree_stats`).
 """
@@ -45,8 +47,8 @@ from pycolfrag.risk.logic_tree import RUNS, EndBranchArrays, _canonical
 from pycolfrag.risk.tree_apply import ModelSettings
 from pycolfrag.risk.tree_quantile_error import quantile_errors
 
-__all__ = ["RunGroup", "run_groups", "FOLDER_FILE", "tree_form", "check_folder", "check_reweighting", "row_factors",
-           "branch_floor", "branch_estimate", "TreeRare", "tree_of_runs"]
+__all__ = ["RunGroup", "run_groups", "FOLDER_FILE", "tree_form", "check_folder", "steering_weights", "check_reweighting",
+           "row_factors", "branch_floor", "branch_estimate", "TreeShare", "TreeRare", "tree_of_runs"]
 
 #: The tree's record in OUTDIR.
 FOLDER_FILE = "logic_tree_runs.json"
@@ -120,7 +122,7 @@ def check_folder(outdir, tree, groups) -> str:
     differences); record the tree when the folder has none. Returns a note when only the weights changed."""
     path = Path(outdir) / FOLDER_FILE
     now = {"kind": _KIND, "version": 1, "form": tree_form(tree), "groups": [_group_record(g) for g in groups],
-           "weights": _weights(tree)}
+           "weights": _weights(tree), "steering_weights": _weights(tree)}
     now = json.loads(json.dumps(now))
     if path.exists():
         try:
@@ -133,10 +135,12 @@ def check_folder(outdir, tree, groups) -> str:
                 f"{outdir} was begun with another logic tree or other run settings:\n  - " + "\n  - ".join(diffs[:20])
                 + "\nResuming would mix the runs of two trees: rerun with the tree and settings it began with, or use "
                 "another folder (a change of the weights alone is allowed: the runs do not depend on them)")
+        now["steering_weights"] = old.get("steering_weights", old.get("weights"))
         if old.get("weights") == now["weights"]:
             return ""
         note = (f"the tree's weights changed since {outdir} began ({'; '.join(_diffs(old.get('weights'), now['weights'], 'weights'))}): "
-                "the runs do not depend on the weights, so the same runs are re-weighted, with no new runs")
+                "the same runs are re-weighted, with no new runs (where the runs go stays steered by the weights the "
+                "folder began with)")
     else:
         note = ""
         Path(outdir).mkdir(parents=True, exist_ok=True)
@@ -144,6 +148,19 @@ def check_folder(outdir, tree, groups) -> str:
     tmp.write_text(json.dumps(now, indent=1, sort_keys=True) + "\n", encoding="utf-8")
     tmp.replace(path)
     return note
+
+
+def steering_weights(outdir, tree, ends) -> np.ndarray:
+    """The end branches' weights that steer the runs (:class:`TreeShare`): those of the tree the folder began with
+    (its record's ``steering_weights``; a folder's first weights, kept when the weights change), so that a resume
+    with other weights takes the uninterrupted run's decisions and re-weights its runs, with no new runs. A sampled
+    tree's end branches weigh 1/N whatever the weights."""
+    rec = json.loads((Path(outdir) / FOLDER_FILE).read_text(encoding="utf-8"))
+    first = rec.get("steering_weights", rec.get("weights"))
+    if tree.samples:
+        return np.array([e.weight for e in ends], dtype=float)
+    names = [s.name for s in tree.branch_sets]
+    return np.array([math.prod(first[n][i] for n, i in zip(names, e.index)) for e in ends], dtype=float)
 
 
 def _support(model):
@@ -234,6 +251,68 @@ def branch_estimate(run, branch_site):
     return estimate(run.cols, run.strata, run.design, run.quantities, confidence=s.confidence, min_neff=s.min_neff,
                     max_share=s.max_share, target_cov=s.target_cov, floor=branch_floor(run, rho), reweight=rho,
                     pieces=True)
+
+
+@dataclass(frozen=True)
+class TreeShare:
+    """Where a logic tree's runs go (``share`` of :func:`pycolfrag.rare.paired.simulate_paired`; docs/logic_tree.md,
+    "Where the runs go"). The target is the tree's: the weighted mean of every requested level with the estimation
+    CoV ``target_cov``, stated as the bound at full correlation, S = Sum_e w_e sd_e (the branches share their events),
+    against m = Sum_e w_e lambda_e. Run setting g's part of S is c_g = Sum_{e in g} w_e sd_e; with its n_g runs its
+    sd falls as 1 / sqrt(n), so u_g = c_g sqrt(n_g) is its part per unit of runs and the fewest runs that give
+    S = target m are n_g = N* t_g, t_g = u_g^(2/3) / Sum u^(2/3), N* = (Sum u^(2/3))^3 / (target m)^2 (Lagrange).
+
+    Before each production batch: the first is taken by every run setting (each gets a piece of production runs,
+    and the lead's second cross-entropy step reads it); after it, the tree stops ("target"; "failures" when a branch
+    is unresolved by failed runs) when every requested level has S <= target m and no branch's estimate is refused
+    (too few effective exceedances); otherwise a batch is taken, for each level not met, by the run settings with a
+    refused branch or fewer runs than their n_g (the one whose batch would cut S most when none is short). The
+    weights are the folder's first (:func:`steering_weights`), the branches' estimates :func:`branch_estimate`'s."""
+
+    weights: tuple                  # end branches' steering weights
+    group_of: tuple                 # the run group of every end branch
+    sites: tuple                    # every end branch's site
+    target_cov: float
+    batch: int
+
+    def branch_levels(self, views: dict, label: str) -> list:
+        """(weight, group, LevelEstimate) of every end branch whose group is live in ``views``."""
+        return [(w, g, branch_estimate(views[g], s).levels[label])
+                for w, g, s in zip(self.weights, self.group_of, self.sites) if g in views]
+
+    def __call__(self, stage: int, views: dict) -> tuple:
+        if stage <= 1:
+            return "budget", sorted(views)
+        takers: set = set()
+        unresolved = False
+        requested = next(iter(views.values())).requested
+        for q in requested:
+            lv = self.branch_levels(views, q.label)
+            m = math.fsum(w * e.rate for w, _, e in lv)
+            sd = {g: 0.0 for g in views}
+            short = set()
+            for w, g, e in lv:
+                unresolved |= e.status == "unresolved"
+                if e.status == "refused" or not math.isfinite(e.cov):
+                    short.add(g)
+                else:
+                    sd[g] += w * e.cov * e.rate
+            if not short and math.fsum(sd.values()) <= self.target_cov * m:
+                continue
+            level = set(short)
+            n = {g: max(int(views[g].estimate.n_runs), 1) for g in views}
+            u = {g: sd[g] * math.sqrt(n[g]) for g in views if g not in short}
+            z = math.fsum(x ** (2.0 / 3.0) for x in u.values())
+            if m > 0 and z > 0:
+                total = z ** 3 / (self.target_cov * m) ** 2
+                level |= {g for g, x in u.items() if n[g] < total * x ** (2.0 / 3.0) / z}
+            if not level:
+                gain = {g: sd[g] * (1.0 - math.sqrt(n[g] / (n[g] + self.batch))) for g in views}
+                level.add(max(sorted(gain), key=lambda g: gain[g]))
+            takers |= level
+        if not takers:
+            return ("failures" if unresolved else "target"), []
+        return "budget", sorted(takers)
 
 
 @dataclass

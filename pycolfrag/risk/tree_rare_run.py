@@ -5,10 +5,11 @@ tree's statistics and outputs (:mod:`pycolfrag.risk.tree_rare`, :mod:`pycolfrag.
 
 Everything before the first run is checked on every rank (the tree, every branch against the models, every
 branch site's reach by re-weighting, the folder's record of the tree on rank 0): a refusal exits 2 with
-nothing run. Exit codes as a single simulation's (:mod:`pycolfrag.risk.simulate`): 75 on SIGTERM (rerun the
-same command: the outputs equal an uninterrupted run's), 6 when the budget ran out before every run setting's
-requested levels converged, 7 when failed runs leave a requested level unresolved in any run setting (or
-every pilot run of one failed).
+nothing run. The target CoV is the tree's weighted mean's, and each production batch is run by the run settings
+whose share of the mean's error asks for it (:class:`pycolfrag.risk.tree_rare.TreeShare`). Exit codes as a single
+simulation's (:mod:`pycolfrag.risk.simulate`): 75 on SIGTERM (rerun the same command: the outputs equal an
+uninterrupted run's), 6 when the budget ran out before the tree's mean met its target, 7 when failed runs leave a
+requested level unresolved in any run setting (or every pilot run of one failed).
 """
 from __future__ import annotations
 
@@ -74,10 +75,30 @@ def _simulate(a, p, comm, size, log, argv):
         serve_groups(evs)
         return _sim.EXIT_OK, None
     code, runs = _sim.run_paired(p, evs, QUANTITIES, comm, size, log, "risk --simulate --logic-tree", a.simulate,
-                                 [g.folder for g in p["groups"]])
+                                 [g.folder for g in p["groups"]], share=tree_share(p, a.simulate))
     if code is not None:
         return code, None
-    return _sim.paired_exit_code(runs, [g.folder for g in p["groups"]], log), runs
+    return tree_exit_code(runs, [g.folder for g in p["groups"]], log), runs
+
+
+def tree_share(p: dict, outdir) -> "TreeShare":
+    """Where the tree's runs go (:class:`~pycolfrag.risk.tree_rare.TreeShare`): the stop rule's target CoV is the
+    tree's weighted mean's, steered by the weights the folder began with."""
+    from pycolfrag.risk.tree_rare import TreeShare, steering_weights
+    group_of = [next(g for g, grp in enumerate(p["groups"]) if k in grp.ends) for k in range(len(p["ends"]))]
+    return TreeShare(tuple(steering_weights(outdir, p["tree"], p["ends"])), tuple(group_of), tuple(p["sites"]),
+                     p["stop"].target_cov, p["settings"].batch)
+
+
+def tree_exit_code(runs, names, log) -> int:
+    """7 when failed runs leave a requested level of a run setting unresolved (said, as a single simulation's);
+    else 6 when the budget ran out before the tree's mean met its target (:class:`TreeShare`); else 0."""
+    codes = [_sim._exit_code(r, lambda s, n=n: log(f"[{n}] {s}")) for r, n in zip(runs, names)]
+    if _sim.EXIT_UNRESOLVED in codes:
+        return _sim.EXIT_UNRESOLVED
+    if any(r.stopped == "failures" for r in runs):
+        return _sim.EXIT_UNRESOLVED
+    return _sim.EXIT_OK if all(r.stopped == "target" for r in runs) else _sim.EXIT_NOT_CONVERGED
 
 
 def run(argv) -> int:
