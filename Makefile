@@ -198,11 +198,10 @@ risk-rare: risk
 
 # The example site's default logic tree (examples/logic_tree_default.toml, docs/logic_tree.md "Default tree"):
 # pulse amplitude x contact model x pulse occurrence, 8 end branches on 4 run settings, every run setting on
-# the same events (common random numbers) by the rare-event route on NRANKS MPI ranks, TREE_MAX_RUNS runs per
-# run setting (or fewer, when every branch's collapse rate reaches a CoV of TREE_COV first: exit 6 when the
-# budget ends the run, as here, is expected). The target is the tree's MEAN collapse rate at a CoV of at most
-# TREE_COV, which needs far fewer runs than every branch at that CoV (the paper's branch, the rarest, would need
-# ~12 000); bench/risk_tree.py then reads the folder (no new runs), prints the mean, its CoV, every quantile's
+# the same events (common random numbers) by the rare-event route on NRANKS MPI ranks, until the tree's MEAN
+# collapse rate reaches a CoV of TREE_COV (each batch run by the run settings whose share of the mean's error
+# asks for it, docs/logic_tree.md "Where the runs go"), at most TREE_MAX_RUNS runs per run setting (exit 6 when
+# that budget ends the run first); bench/risk_tree.py then reads the folder (no new runs), prints the mean, its CoV, every quantile's
 # estimation error, the runs and the paired differences, and fails when the mean's CoV is above TREE_COV: rerun
 # with a larger TREE_MAX_RUNS (it resumes). Needs no grid. Writes TREE_DIR/logic_tree.md (mean, 16-84 % band,
 # tornado, the committee's summary) and a folder per run setting. About 16 000 runs, 17 CPU-minutes.

@@ -45,7 +45,7 @@ from pycolfrag.rare.proposal import COLLAPSE_FAMILY
 
 __all__ = ["RIDGE", "STEERING_DRAWS", "STREAM_STEER", "MATTER_SHARE", "SteeringModel", "steering_events",
            "predicted_moments", "DemandModel", "variance_floor", "run_floor", "STREAM_FLOOR", "minimax_allocation", "batch_counts",
-           "PIECE_MIN_RUNS", "piece_floor", "piece_allocation"]
+           "PIECE_MIN_RUNS", "piece_floor", "piece_allocation", "runs_left_unused"]
 
 #: Ridge penalty of the steering model's coefficients (not the intercept): keeps a level with 0-3
 #: exceedances finite.
@@ -278,6 +278,13 @@ def batch_counts(n_target: np.ndarray, done: np.ndarray, batch: int) -> np.ndarr
     for h in order[:rest]:
         base[h] += 1
     return base
+
+
+def runs_left_unused(left: int, n_strata: int, what: str = "runs") -> str:
+    """What is said when the ``left`` runs (or rows) of a budget are too few for a batch: every batch gives each
+    stratum at least :data:`PIECE_MIN_RUNS`, so they are not run."""
+    return (f"the {left} {what} left in the budget cannot give each of the {n_strata} strata {PIECE_MIN_RUNS}: "
+            "not run")
 
 
 def piece_floor(W: np.ndarray, mean: np.ndarray, used: int, size: int) -> np.ndarray:

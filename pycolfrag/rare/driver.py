@@ -439,8 +439,7 @@ def simulate_site(site, settings: SiteSettings, stop: StopRule, evaluator, quant
                 break
             if stop.max_runs - used < run.least_batch:
                 if used < stop.max_runs:
-                    log(f"site simulation: the {stop.max_runs - used} runs left in the budget cannot give each of the "
-                        f"{len(run.strata)} strata {_alloc.PIECE_MIN_RUNS}: not run")
+                    log(f"site simulation: {_alloc.runs_left_unused(stop.max_runs - used, len(run.strata))}")
                 break
             if stage == 2 and thin:
                 first = len(run.design.notes)      # the second step's notes follow the first's

@@ -220,16 +220,15 @@ def simulate_paired(site, settings, stop, evaluators, quantities, log=print, nam
             reason, wanted = share(stage, {g: _view(runs[g], ests[g]) for g in live})
             takers = [g for g in live if g in set(wanted) and stop.max_runs - used[g] >= lead.least_batch]
             if reason == "budget" and wanted and not takers:
-                log(f"site simulation: the run settings {', '.join(names[g] for g in wanted)} have fewer runs left in "
-                    f"the budget than each of the {len(lead.strata)} strata {_alloc.PIECE_MIN_RUNS}: not run")
+                log(f"site simulation: for the run settings {', '.join(names[g] for g in wanted)}, "
+                    f"{_alloc.runs_left_unused('few', len(lead.strata))}")
         counts = _stored_counts(runs, takers, stage)
         if counts is None:
             stopped = reason
             room = min((stop.max_runs - used[g] for g in takers), default=0)
             if stopped != "budget" or room < lead.least_batch:
                 if stopped == "budget" and 0 < room:
-                    log(f"site simulation: the {room} runs left in the budget cannot give each of the "
-                        f"{len(lead.strata)} strata {_alloc.PIECE_MIN_RUNS}: not run")
+                    log(f"site simulation: {_alloc.runs_left_unused(room, len(lead.strata))}")
                 break                     # converged, or the runs left cannot visit every stratum twice
             if stage == 2 and thin:       # the driver's second cross-entropy step, on the lead group's rows
                 design = _driver.second_design(_cat(lead.parts), lead.strata, lead.design, settings, lead.requested, thin)

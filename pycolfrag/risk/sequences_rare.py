@@ -435,8 +435,7 @@ def simulate_sequences(site, model, rs: RareSequenceSettings, evaluate=None, don
         rows += run(todo, design.latest, PRODUCTION_STAGE if design.second is None else SECOND_STAGE)
         stage += 1
     if not converged and 0 < rs.max_rows - len(rows) < least and log is not None:
-        log(f"sequences (rare): the {rs.max_rows - len(rows)} rows left in the budget cannot give each of the "
-            f"{len(strata)} strata {_alloc.PIECE_MIN_RUNS}: not run")
+        log(f"sequences (rare): {_alloc.runs_left_unused(rs.max_rows - len(rows), len(strata), 'rows')}")
     fl = floors(rows, strata, design, rs.sequences.seed, events=events)
     return {"rows": rows, "estimate": estimate(rows, strata, years, fl), "strata": strata, "settings": rs,
             "design": design, "runs": int(sum(r["runs"] for r in rows)), "shared": _shared(rows),
