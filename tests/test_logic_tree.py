@@ -245,16 +245,17 @@ def test_the_example_tree_reads_and_passes_the_checks_against_the_example_site()
     assert {s.sources[1].magnitude.m_max for s in checked.sites} == {6.6, 6.8, 7.0}
 
 
-def test_the_vp_scale_check_is_the_default_tree_but_for_the_amplitudes_alternative():
-    """examples/logic_tree_vp_scale.toml (docs/logic_tree.md, "How much the answer rests on Bray &
-    Rodriguez-Marek's coefficients"): the default tree's sets and weights, the amplitude carried by vp_scale 1 and 2
-    instead of the two relations -- so that the check compares the alternative alone."""
+def test_the_bray_rodriguez_marek_tree_is_the_default_tree_but_for_the_amplitudes_alternative():
+    """examples/logic_tree_brm.toml (docs/logic_tree.md, "How much the answer rests on the amplitude's
+    alternative"): the default tree's sets and weights, the amplitude's alternative Bray & Rodriguez-Marek (2004)
+    instead of 2 x Eq. (6) -- so that the comparison of the two answers is that of the alternative alone."""
     default = lt.load_tree(ROOT / "examples" / "logic_tree_default.toml")
-    check = lt.load_tree(ROOT / "examples" / "logic_tree_vp_scale.toml")
-    assert [s.choice.name for s in check.branch_sets] == ["vp_scale", "contact", "pulse_model"]
-    assert [(b.value, b.weight) for b in check.branch_sets[0].branches] == [(1.0, 0.6), (2.0, 0.4)]
-    assert [b.weight for b in default.branch_sets[0].branches] == [0.6, 0.4]
-    assert check.branch_sets[1:] == default.branch_sets[1:]
+    brm = lt.load_tree(ROOT / "examples" / "logic_tree_brm.toml")
+    assert [s.choice.name for s in default.branch_sets] == ["vp_scale", "contact", "pulse_model"]
+    assert [(b.value, b.weight) for b in default.branch_sets[0].branches] == [(1.0, 0.6), (2.0, 0.4)]
+    assert [(b.value, b.weight) for b in brm.branch_sets[0].branches] == [("rupakhety_2011", 0.6),
+                                                                         ("bray_rodriguez_marek_2004", 0.4)]
+    assert brm.branch_sets[1:] == default.branch_sets[1:]
 
 
 def test_the_probe_refuses_a_column_that_collapses_under_gravity():

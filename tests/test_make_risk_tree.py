@@ -38,8 +38,8 @@ def test_make_risk_tree_runs_the_default_tree_on_the_rare_route_to_cov_0_2_of_co
     a.site, a.logic_tree = str(ROOT / a.site), str(ROOT / a.logic_tree)
     p = prepare(a)                                      # the checks before any run, the probes included
     assert len(p["ends"]) == 8 and len(p["groups"]) == 4
-    brm = "bray_rodriguez_marek_2004"
     assert [g.record.tp_model for g in p["groups"]] == ["rupakhety_2011"] * 4
-    assert [g.record.vp_model for g in p["groups"]] == ["", "", brm, brm]
+    assert [g.record.vp_model for g in p["groups"]] == [""] * 4          # Eq. (6), the paper's relation
+    assert [g.record.vp_scale for g in p["groups"]] == [1.0, 1.0, 2.0, 2.0]
     assert [g.record.solver_options.contact for g in p["groups"]] == ["vertex", "exact", "vertex", "exact"]
     assert not (tmp_path / "tree").exists()             # nothing written before the run

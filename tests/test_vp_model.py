@@ -1,6 +1,6 @@
 """The pulse-amplitude alternative to Eq. (6) (Bray & Rodriguez-Marek 2004), ``vp_model`` as a run setting of its own
-beside ``tp_model`` (empty: Eq. (6)) and the tree's ``vp_model`` choice; the default tree of the example site
-(examples/logic_tree_default.toml)."""
+beside ``tp_model`` (empty: Eq. (6)) and the tree's ``vp_model`` choice; the default tree of the example site and
+examples/logic_tree_brm.toml (the default tree with Bray & Rodriguez-Marek as the amplitude's alternative)."""
 from __future__ import annotations
 
 import math
@@ -163,13 +163,16 @@ def test_the_trees_bray_rodriguez_marek_branch_gives_the_runs_it_gave_before_vp_
     assert [(x["tp_model"], x.get("vp_model")) for x in groups] == [("rupakhety_2011", None), ("rupakhety_2011", BRM)]
 
 
-def test_the_default_tree_has_three_sets_eight_branches_and_the_papers_choices_first_and_heaviest():
-    tree = lt.load_tree(ROOT / "examples" / "logic_tree_default.toml")
+@pytest.mark.parametrize("name,amplitude", [("logic_tree_default.toml", 1.0), ("logic_tree_brm.toml", "rupakhety_2011")])
+def test_the_default_tree_has_three_sets_eight_branches_and_the_papers_choices_first_and_heaviest(name, amplitude):
+    """The default tree and its Bray & Rodriguez-Marek variant: the paper's Eq. (6) as printed (vp_scale 1, or the
+    relation named), the vertex contacts and the site file's pulse model first and heaviest."""
+    tree = lt.load_tree(ROOT / "examples" / name)
     checked = ta.check_tree(tree, SITE, "site_athens.toml")
     assert len(tree.branch_sets) >= 3 and len(checked.ends) >= 8
     assert math.fsum(e.weight for e in checked.ends) == pytest.approx(1.0, abs=1e-14)
     firsts = [s.branches[0] for s in tree.branch_sets]
-    assert [b.value for b in firsts[:2]] == ["rupakhety_2011", "vertex"]
+    assert [b.value for b in firsts[:2]] == [amplitude, "vertex"]
     assert firsts[2].value["model"] == SITE["pulse"]["model"]
     assert all(b.weight == max(x.weight for x in s.branches) for s, b in zip(tree.branch_sets, firsts))
     assert len({e.runs_key for e in checked.ends}) == 4

@@ -70,7 +70,9 @@ def _branch_table(tr) -> list:
         lines.append(f"| {end.path} [{g.folder}] | {end.weight:.4g} | {tr.runs[tr.group_of[k]].runs} | "
                      f"{f'**{failed}**' if failed else 0} | " + " | ".join(cells) + " |")
     return lines + ["", "CoV: the estimate's own (docs/rare_events.md); a status other than converged is written after "
-                    "it; a refused level gives only its upper bound.", ""]
+                    "it (ABOVE TARGET: the branch's own CoV is above --target-cov, which is the tree's mean's: the runs "
+                    "stop when the mean meets it, docs/logic_tree.md \"Where the runs go\"); a refused level gives only "
+                    "its upper bound.", ""]
 
 
 def _groups(tr) -> list:
@@ -86,8 +88,9 @@ def markdown(tr) -> str:
     head = _head(tr)
     body = (head[:2] + summary_lines(tr) + head[2:] + _level_table(tr) + _tr._prob_table(tr) + _failed_lines(tr) + _tr._split_lines(tr, "collapse")
             + _branch_table(tr) + _groups(tr))
-    body += ["Not done yet (docs/logic_tree.md): sampling branches to meet a target of the "
-             "tree's mean at least cost (every run setting gets the same runs)."]
+    body += ["Where the runs go: the target CoV is the tree's mean's; each production batch after the first was run by "
+             "the run settings whose share of the mean's error asked for it (a run setting with fewer runs sat batches "
+             "out; docs/logic_tree.md, \"Where the runs go\")."]
     return "\n".join(body) + "\n"
 
 
