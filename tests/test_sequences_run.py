@@ -238,6 +238,26 @@ def test_rare_rows_are_the_in_process_estimators(site_file, rare_reference, tmp_
     assert "importance sampling on the strongest event" in (out / "rare_summary.md").read_text()
 
 
+def test_a_rare_run_its_budget_stopped_goes_on_under_a_larger_one(site_file, rare_reference, tmp_path):
+    """A budget of the pilot and whole batches (16 + 16 rows: exit 6, "the rows so far are kept") resumes under a
+    larger one (48) and gives the rows of the run begun with 48, bit for bit; a budget that cut its last batch (16 +
+    a batch of 20 of 24) is part of the journal's identity: a larger one is refused naming it (another budget
+    would place other rows), and the stop says to begin another folder."""
+    out = tmp_path / "grown"
+    p = _run([str(site_file), str(out)] + ARGS + RARE + ["--max-rows", "32"])
+    assert p.returncode == 6 and "the rows so far are kept" in p.stdout, p.stdout + p.stderr
+    assert _rows(out) == rare_reference[0][:32]
+    p = _run([str(site_file), str(out)] + ARGS + RARE)
+    assert p.returncode == 6, p.stdout + p.stderr
+    assert _rows(out) == rare_reference[0]
+    cut = tmp_path / "cut"
+    p = _run([str(site_file), str(cut)] + ARGS + RARE + ["--batch", "24", "--max-rows", "36"])
+    assert p.returncode == 6 and "its last batch was cut" in p.stdout, p.stdout + p.stderr
+    assert len(_rows(cut)) == 36
+    p = _run([str(site_file), str(cut)] + ARGS + RARE + ["--batch", "24", "--max-rows", "64"])
+    assert p.returncode == 2 and "max_rows: 36 in the journal" in p.stdout + p.stderr, p.stdout + p.stderr
+
+
 def test_rare_sigterm_then_resume_gives_the_uninterrupted_rows(site_file, rare_reference, tmp_path):
     out = tmp_path / "stopped"
     proc, text = _stopped([str(site_file), str(out)] + ARGS + RARE, out / "rows.jsonl", 9)

@@ -66,7 +66,8 @@ to the models, an event that exceeds nothing (its y is 0), with no EDP (the dema
 Runs are spread over MPI ranks (each batch's rows dealt by index, the rows then shared by every rank:
 every rank takes the same decisions), and every finished row is a line of ``OUT/rows.jsonl`` (rank 0's),
 so a stopped run resumes: the journal's identity is that of :mod:`pycolfrag.risk.sequences_run` plus the
-rare settings.
+rare settings (:func:`journal_settings`: a row budget that cuts no batch is not part of it, so that a run its
+budget stopped goes on under a larger one).
 """
 from __future__ import annotations
 
@@ -91,7 +92,7 @@ from pycolfrag.risk.sequences import WAYS, SequenceSettings, SiteEvent, aftersho
 __all__ = ["ALGORITHM", "STREAM_RARE_SEQUENCES", "NO_PULSE_OFFSET", "strength", "RareSequenceSettings", "run_row",
            "refuse_outside_aftershocks", "X_AFTERSHOCKS", "X_GEOMETRY",
            "estimate", "allocate", "floors", "design_of", "simulate_sequences", "estimate_rows", "QUANTITIES", "LEVELS",
-           "settings_dict", "format_estimate"]
+           "settings_dict", "journal_settings", "format_estimate"]
 
 #: What the rows and decisions mean (part of a journal's identity: an older folder is refused by name, not
 #: resumed). v2: a row stores its strongest event's features and each way's peak EDPs; the production proposal
@@ -460,6 +461,19 @@ def estimate_rows(site, rs: RareSequenceSettings, rows: list) -> dict:
     return {"rows": rows, "estimate": estimate(rows, strata, rs.sequences.years, fl), "strata": strata, "settings": rs,
             "design": design, "runs": int(sum(r["runs"] for r in rows)), "shared": _shared(rows),
             "seconds": float(sum(r["seconds"] for r in rows))}
+
+
+def journal_settings(rs: RareSequenceSettings, n_strata: int) -> dict:
+    """The rare settings of a journal's identity: :func:`settings_dict` with the row budget as ``"whole batches"``
+    where it cuts no batch -- the pilot done, the rows left after its last whole batch too few for a batch (fewer
+    than 2 per stratum: not run) -- so that every budget of that kind makes the same batches as far as it goes, and
+    a run stopped by its budget resumes under a larger one. A budget that cuts the pilot or a batch (its last one
+    smaller than ``batch``) stays in the identity: another budget would place other rows."""
+    d = settings_dict(rs)
+    pilot = rs.pilot * n_strata
+    if rs.max_rows >= pilot and (rs.max_rows - pilot) % rs.batch < _alloc.PIECE_MIN_RUNS * n_strata:
+        d["max_rows"] = "whole batches"
+    return d
 
 
 def settings_dict(rs: RareSequenceSettings) -> dict:

@@ -46,7 +46,12 @@ def run_rare_folder(site_path, model, rs: rare.RareSequenceSettings, folder, com
     rank, size = (comm.Get_rank(), comm.Get_size()) if comm is not None else (0, 1)
     folder = Path(folder)
     site = load_site(site_path)
-    ident = {**identity(site_path, model, rs.sequences), "rare": rare.settings_dict(rs)}
+    try:
+        strata = build_strata(site)   # the site simulation's check, every rank alike
+    except PycolfragError as exc:
+        log(f"sequences: {exc}")
+        return EXIT_ARGS, None
+    ident = {**identity(site_path, model, rs.sequences), "rare": rare.journal_settings(rs, len(strata))}
     lock = journal = error = None
     entries: list = []
     if rank == 0:
@@ -58,15 +63,6 @@ def run_rare_folder(site_path, model, rs: rare.RareSequenceSettings, folder, com
         log(f"sequences: {error[1]}")
         return error[0], None
     done = entries
-    try:
-        strata = build_strata(site)   # the site simulation's check, every rank alike
-    except PycolfragError as exc:
-        log(f"sequences: {exc}")
-        if journal is not None:
-            journal.close()
-        if lock is not None:
-            lock.release()
-        return EXIT_ARGS, None
     pulse_map = PulseMap(rs.sequences.pulse_shape, rs.sequences.vp_scale, rs.sequences.tp_model)
     asked = [False]
     old = signal.signal(signal.SIGTERM, lambda signum, frame: asked.__setitem__(0, True))

@@ -328,8 +328,12 @@ def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
     log(text)
     reached = run["estimate"]["accumulated"][rs.target]["cov"]
     if reached > rs.target_cov:   # the row budget ran out first: said, and exit 6 as the rare route's
+        more = ("rerun with a larger --max-rows to go on: the rows so far are kept" if
+                rare.journal_settings(rs, len(run["strata"]))["max_rows"] == "whole batches" else
+                "its last batch was cut, so a larger --max-rows would place other rows: rerun in another folder, "
+                "with a budget of the pilot plus whole batches to be able to go on")
         log(f"sequences: the row budget ({rs.max_rows}) was spent before {rs.target}'s CoV reached "
-            f"{rs.target_cov:g} (it is {reached:.3g}); rerun with a larger --max-rows to go on (exit 6)")
+            f"{rs.target_cov:g} (it is {reached:.3g}); {more} (exit 6)")
         from pycolfrag.risk.simulate import EXIT_NOT_CONVERGED  # the rare route's code for a spent budget
         return EXIT_NOT_CONVERGED
     return EXIT_OK
