@@ -12,7 +12,7 @@ far as it went: its estimate as the run would state it after those rows (``estim
 decisions placed, the rare route's floors), and the runs the target would take at the same cost per unit of
 variance (runs x (CoV / target)^2: a CoV falls as one over the square root of the runs) -- an extrapolation,
 said as such. ``--single``: the rare route's ``risk.json`` of the same site and column (``make risk-rare``); without
-it, ``--single-runs`` and ``--single-cov`` (default: its v3 run, docs/risk.md). The single-event runs at a CoV c are
+it, ``--single-runs`` and ``--single-cov`` (default: its v5 run, docs/risk.md). The single-event runs at a CoV c are
 its runs x (its CoV / c)^2.
 """
 from __future__ import annotations
@@ -40,7 +40,8 @@ def _journal(folder: Path, site_path: str) -> tuple:
     rs = rare.RareSequenceSettings(
         sequences=SequenceSettings(years=st["years"], seed=st["seed"], aftershocks=None if st.get("aftershocks") is None
                                    else Aftershocks(**st["aftershocks"])), target=r["target"], target_cov=r["target_cov"],
-        pilot=r["pilot"], batch=r["batch"], max_rows=r["max_rows"], pilot_mixture=Mixture.from_dict(r["pilot_mixture"]),
+        pilot=r["pilot"], batch=r["batch"], pilot_mixture=Mixture.from_dict(r["pilot_mixture"]),
+        max_rows=r["max_rows"] if isinstance(r["max_rows"], int) else 10 ** 9,   # "whole batches": any budget
         mixture=None if r["mixture"] is None else Mixture.from_dict(r["mixture"]))
     if r.get("algorithm") != rare.ALGORITHM:
         raise PycolfragError(f"{folder}: rows of another algorithm ({r.get('algorithm')!r})")
@@ -60,8 +61,8 @@ def main(argv=None) -> int:
     p.add_argument("folder", help="the output folder of pycolfrag sequences --rare (rows.jsonl)")
     p.add_argument("--site", default="examples/site_athens.toml", help="the site file the folder was run on")
     p.add_argument("--single", default=None, help="the rare route's risk.json of the same site and column")
-    p.add_argument("--single-runs", type=float, default=4430, help="without --single: its runs (v3: 4430)")
-    p.add_argument("--single-cov", type=float, default=0.1864, help="without --single: its collapse CoV (v3: 0.1864)")
+    p.add_argument("--single-runs", type=float, default=6430, help="without --single: its runs (v5: 6430)")
+    p.add_argument("--single-cov", type=float, default=0.138, help="without --single: its collapse CoV (v5: 0.138)")
     p.add_argument("--json", default=None, help="write the numbers here too")
     args = p.parse_args(argv)
     rs, rows = _journal(Path(args.folder), args.site)
