@@ -204,7 +204,7 @@ risk-rare: risk
 # that budget ends the run first); bench/risk_tree.py then reads the folder (no new runs), prints the mean, its CoV, every quantile's
 # estimation error, the runs and the paired differences, and fails when the mean's CoV is above TREE_COV: rerun
 # with a larger TREE_MAX_RUNS (it resumes). Needs no grid. Writes TREE_DIR/logic_tree.md (mean, 16-84 % band,
-# tornado, the committee's summary) and a folder per run setting. About 16 000 runs, 17 CPU-minutes.
+# tornado, the committee's summary) and a folder per run setting. About 9 700 runs, 9 minutes on 2 cores.
 TREE          ?= examples/logic_tree_default.toml
 # Said after a run the budget ended: under `python -m mpi4py` a non-zero exit is MPI_Abort's, whose banner reads
 # like a crash (a plain exit prints mpirun's own banner instead).

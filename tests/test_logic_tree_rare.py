@@ -444,6 +444,79 @@ def test_the_tree_stops_on_its_mean_and_spreads_the_runs_by_their_share():
     assert abs(m.mean() - truth) <= 3 * m.std(ddof=1) / math.sqrt(m.size)
 
 
+def _share_run(target, evaluators, max_runs=20000, seed=0):
+    """The surrogate tree of the test above (vp_scale 1 / 2, weights 0.8 / 0.2) simulated under TreeShare."""
+    from pycolfrag.risk.tree_rare import TreeShare
+    tree = _tree([{"choice": "vp_scale", "branches": [{"value": 1.0, "weight": 0.8}, {"value": 2.0, "weight": 0.2}]}])
+    d = site_dict()
+    checked = check_tree(tree, d, "small")
+    settings = SiteSettings(seed=seed, batch=200, levels=("collapse",), **SMALL)
+    share = TreeShare((0.8, 0.2), (0, 1), tuple(checked.sites), target, settings.batch)
+    return simulate_paired(site_from_dict(d, "small"), settings, StopRule(target, max_runs), evaluators, QUANTITIES,
+                           log=lambda s: None, share=share)
+
+
+def _resumed(evaluators):
+    """Fresh evaluators holding the plans and rows of ``evaluators`` (a folder resumed)."""
+    out = [Scaled(e.scale) for e in evaluators]
+    for new, old in zip(out, evaluators):
+        new.plans = dict(old.plans)
+    return out
+
+
+def test_a_resume_reads_every_planned_batch_whatever_the_stopping_rule_now():
+    """The stopping rule is not signed (a resume may change --target-cov and --max-runs): a tree folder run to a
+    mean CoV of 0.08, resumed at 0.1 or 0.3, reads every batch on disk as planned -- its takers from the plans --
+    and runs nothing new, so that its rows are the first run's; resumed at 0.06 it goes on from them. Each batch's
+    plan names its takers, the same list in every run setting that ran it."""
+    first = [Scaled(1.0), Scaled(2.0)]
+    runs = _share_run(0.08, first)
+    rows = [np.asarray(r.cols["index"]).tolist() for r in runs]
+    assert sorted(first[0].plans) != sorted(first[1].plans)            # a run setting sat out a batch
+    for name in set(first[0].plans) | set(first[1].plans):
+        takers = [g for g, e in enumerate(first) if name in e.plans]
+        assert name == "batch_000" or all(e.plans[name][0]["takers"] == takers for e in first if name in e.plans)
+    for target in (0.1, 0.3):
+        again = _resumed(first)
+        resumed = _share_run(target, again)
+        assert [np.asarray(r.cols["index"]).tolist() for r in resumed] == rows
+        assert [sorted(e.plans) for e in again] == [sorted(e.plans) for e in first]
+    more = _resumed(first)
+    went_on = _share_run(0.06, more)
+    assert sum(r.runs for r in went_on) > sum(r.runs for r in runs)
+    assert all(set(e.plans) >= set(o.plans) for e, o in zip(more, first))
+
+
+def test_a_run_setting_out_of_budget_sits_out_and_the_tree_ends_on_the_budget():
+    """--max-runs is per run setting: at 1 270 runs (the pilot's 70 and six batches of 200) a run setting that has
+    spent its budget takes no batch, the others go on until theirs is spent, and the run ends "budget" (exit 6 of
+    the command) with the mean's CoV above its target (0.02: out of reach)."""
+    runs = _share_run(0.02, [Scaled(1.0), Scaled(2.0)], max_runs=1270)
+    assert all(r.runs <= 1270 for r in runs) and max(r.runs for r in runs) == 1270
+    assert all(r.stopped == "budget" for r in runs)
+
+
+def test_the_command_steers_by_the_weights_the_folder_began_with(tmp_path):
+    """tree_rare_run.tree_share reads the folder's first weights: after a resume with other weights, the share's
+    end-branch weights are still the first tree's (and the outputs re-weight with the new ones)."""
+    from pycolfrag.risk.tree_rare import check_folder
+    from pycolfrag.risk.tree_rare_run import tree_share
+    d = site_dict()
+
+    def tree_of(w):
+        return _tree([{"choice": "vp_scale", "branches": [{"value": 1.0, "weight": w}, {"value": 2.0, "weight": 1 - w}]}])
+    first, later = tree_of(0.75), tree_of(0.25)
+    checked = check_tree(later, d, "small")
+    groups = run_groups(checked, RecordSettings())
+    check_folder(tmp_path, first, groups)
+    check_folder(tmp_path, later, groups)
+    p = {"tree": later, "ends": checked.ends, "sites": checked.sites, "groups": groups,
+         "stop": StopRule(0.2, 1000), "settings": SiteSettings(seed=0, batch=200, **SMALL)}
+    share = tree_share(p, tmp_path)
+    assert share.weights == pytest.approx((0.75, 0.25)) and share.group_of == (0, 1)
+    assert [e.weight for e in checked.ends] == pytest.approx([0.25, 0.75])
+
+
 def test_the_runs_stay_steered_by_the_weights_the_folder_began_with(tmp_path):
     """A change of the weights re-weights the runs but does not move where the later runs go (a resume takes the
     uninterrupted run's decisions): the folder's record keeps its first weights (steering_weights)."""

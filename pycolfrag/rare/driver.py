@@ -353,8 +353,9 @@ class _Run:
         self._events = None
         self.last_floor = None
 
-    def planned(self, stage: int, counts: dict, mixture):
-        """(inputs, purpose) of batch ``stage``: the stored plan, or a new one from ``counts``."""
+    def planned(self, stage: int, counts: dict, mixture, extra=None):
+        """(inputs, purpose) of batch ``stage``: the stored plan, or a new one from ``counts`` (``extra``: more of
+        the purpose, e.g. the run settings that take the batch)."""
         name = batch_name(stage)
         stored = self.ev.stored(name)
         if stored is not None:
@@ -362,7 +363,7 @@ class _Run:
             return stored[1], stored[0]
         runs = interleave(counts, {})
         purpose = {"run": self.fp, "stage": stage, "counts": sorted([h, n] for h, n in counts.items()),
-                   "design": self.design.as_dict() if stage > 0 else None}
+                   "design": self.design.as_dict() if stage > 0 else None, **(extra or {})}
         return plan_inputs(self.strata, self.settings.seed, stage, runs, mixture, self.pulse_map), purpose
 
     def run_batch(self, stage: int, inputs, purpose) -> int:

@@ -21,10 +21,12 @@ seed. What makes that so:
 * the simulation stops when every group's requested levels have converged (or are unresolved at the target
   CoV), or when the budget -- ``max_runs`` per group -- is spent;
 * or, given a ``share`` rule (a logic tree's :class:`pycolfrag.risk.tree_rare.TreeShare`), when *that* rule says
-  its target is met: before each production batch it names the groups that take the batch (the others sit it
-  out: they run nothing in it), so that the runs go where the rule's estimate needs them. A group that sits out a
-  batch has no file of it; the groups that take it run the same counts of the same events. The rule reads only the
-  groups' rows before the batch, so a resume takes the same decisions.
+  its target is met: before each production batch after the first (which every live group takes: the lead's rows
+  of it place the second cross-entropy step) it names the groups that take the batch (the others sit it out: they
+  run nothing in it), so that the runs go where the rule's estimate needs them. A group that sits out a batch has
+  no file of it; the groups that take it run the same counts of the same events, and their plans name them
+  (``takers``). A stage planned in any group is resumed as planned -- its takers from the plan, no rule asked, no
+  stop -- so a resume reads every batch on disk whatever the stopping rule is now.
 
 A group whose every pilot run failed is *dead*: it gets no further runs (they would fail too), is said, and
 its estimate marks every level unresolved. Resume: every group's plans are on disk before their runs; a batch
@@ -154,11 +156,17 @@ def _stored_design(runs, live, stage: int) -> None:
 
 def _stored_counts(runs, live, stage: int):
     """The counts of batch ``stage`` when any group has planned it (an interrupted stage), else None."""
+    stored = _stored_purpose(runs, live, stage)
+    return None if stored is None else {int(h): int(n) for h, n in stored["counts"]}
+
+
+def _stored_purpose(runs, live, stage: int):
+    """The purpose of the first stored plan of batch ``stage`` among the groups ``live``, else None."""
     for g in live:
         stored = runs[g].ev.stored(batch_name(stage))
         if stored is not None:
             _check_same_run(batch_name(stage), stored[0], runs[g].fp)
-            return {int(h): int(n) for h, n in stored[0]["counts"]}
+            return stored[0]
     return None
 
 
@@ -214,15 +222,19 @@ def simulate_paired(site, settings, stop, evaluators, quantities, log=print, nam
         if any(runs[g].batches[-1]["limit"] < runs[g].batches[-1]["planned"] for g in took):
             break                                      # the budget cut this batch
         used = {g: _used(runs[g]) for g in live}
+        planned = _stored_purpose(runs, live, stage) if share is not None else None
         if share is None:
             takers, reason = list(live), _joint_stop(ests, runs, live, stop)
+        elif planned is not None:          # a stage planned before an interruption: as planned
+            takers, reason = [g for g in live if g in planned.get("takers", live)], "budget"
+        elif stage == 1:                   # every live group's first production batch
+            takers, reason = [g for g in live if stop.max_runs - used[g] >= lead.least_batch], "budget"
         else:
             reason, wanted = share(stage, {g: _view(runs[g], ests[g]) for g in live})
             takers = [g for g in live if g in set(wanted) and stop.max_runs - used[g] >= lead.least_batch]
-            if reason == "budget" and wanted and not takers:
-                log(f"site simulation: for the run settings {', '.join(names[g] for g in wanted)}, "
-                    f"{_alloc.runs_left_unused('few', len(lead.strata))}")
-        counts = _stored_counts(runs, takers, stage)
+            for g in (g for g in wanted if g not in takers and reason == "budget"):
+                log(f"[{names[g]}] site simulation: {_alloc.runs_left_unused(stop.max_runs - used[g], len(lead.strata))}")
+        counts = _stored_counts(runs, takers if planned is None else live, stage)
         if counts is None:
             stopped = reason
             room = min((stop.max_runs - used[g] for g in takers), default=0)
@@ -241,8 +253,9 @@ def simulate_paired(site, settings, stop, evaluators, quantities, log=print, nam
                                   [None if runs[g].last_floor is None else runs[g].last_floor[:, idx] for g in takers])
         else:
             _stored_design(runs, live, stage)
+        extra = None if share is None else {"takers": list(takers)}
         for g in takers:
-            runs[g].run_batch(stage, *runs[g].planned(stage, counts, runs[g].design.latest))
+            runs[g].run_batch(stage, *runs[g].planned(stage, counts, runs[g].design.latest, extra))
         took = takers
         stage += 1
     out = []

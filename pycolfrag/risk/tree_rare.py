@@ -258,16 +258,17 @@ class TreeShare:
     """Where a logic tree's runs go (``share`` of :func:`pycolfrag.rare.paired.simulate_paired`; docs/logic_tree.md,
     "Where the runs go"). The target is the tree's: the weighted mean of every requested level with the estimation
     CoV ``target_cov``, stated as the bound at full correlation, S = Sum_e w_e sd_e (the branches share their events),
-    against m = Sum_e w_e lambda_e. Run setting g's part of S is c_g = Sum_{e in g} w_e sd_e; with its n_g runs its
-    sd falls as 1 / sqrt(n), so u_g = c_g sqrt(n_g) is its part per unit of runs and the fewest runs that give
-    S = target m are n_g = N* t_g, t_g = u_g^(2/3) / Sum u^(2/3), N* = (Sum u^(2/3))^3 / (target m)^2 (Lagrange).
+    against m = Sum_e w_e lambda_e; a branch whose estimate is refused (too few effective exceedances) enters S with
+    its upper bound on the rate in place of an sd. Run setting g's part of S is c_g = Sum_{e in g} w_e sd_e; with its
+    n_g runs its sd falls as 1 / sqrt(n), so u_g = c_g sqrt(n_g) is its part per unit of runs and the fewest runs
+    that give S = target m are n_g = N* t_g, t_g = u_g^(2/3) / Sum u^(2/3), N* = (Sum u^(2/3))^3 / (target m)^2
+    (Lagrange).
 
-    Before each production batch: the first is taken by every run setting (each gets a piece of production runs,
-    and the lead's second cross-entropy step reads it); after it, the tree stops ("target"; "failures" when a branch
-    is unresolved by failed runs) when every requested level has S <= target m and no branch's estimate is refused
-    (too few effective exceedances); otherwise a batch is taken, for each level not met, by the run settings with a
-    refused branch or fewer runs than their n_g (the one whose batch would cut S most when none is short). The
-    weights are the folder's first (:func:`steering_weights`), the branches' estimates :func:`branch_estimate`'s."""
+    Asked before each production batch after the first (which every run setting takes): the tree stops ("target";
+    "failures" when a branch is unresolved by failed runs) when every requested level has S <= target m; otherwise
+    a batch is taken, for each level not met, by the run settings with fewer runs than their n_g (the one whose
+    batch would cut S most when none is short). The weights are the folder's first (:func:`steering_weights`), the
+    branches' estimates :func:`branch_estimate`'s."""
 
     weights: tuple                  # end branches' steering weights
     group_of: tuple                 # the run group of every end branch
@@ -281,8 +282,6 @@ class TreeShare:
                 for w, g, s in zip(self.weights, self.group_of, self.sites) if g in views]
 
     def __call__(self, stage: int, views: dict) -> tuple:
-        if stage <= 1:
-            return "budget", sorted(views)
         takers: set = set()
         unresolved = False
         requested = next(iter(views.values())).requested
@@ -290,22 +289,19 @@ class TreeShare:
             lv = self.branch_levels(views, q.label)
             m = math.fsum(w * e.rate for w, _, e in lv)
             sd = {g: 0.0 for g in views}
-            short = set()
             for w, g, e in lv:
                 unresolved |= e.status == "unresolved"
-                if e.status == "refused" or not math.isfinite(e.cov):
-                    short.add(g)
-                else:
-                    sd[g] += w * e.cov * e.rate
-            if not short and math.fsum(sd.values()) <= self.target_cov * m:
+                known = e.status != "refused" and math.isfinite(e.cov)
+                sd[g] += w * (e.cov * e.rate if known else e.bound)
+            if math.fsum(sd.values()) <= self.target_cov * m:
                 continue
-            level = set(short)
             n = {g: max(int(views[g].estimate.n_runs), 1) for g in views}
-            u = {g: sd[g] * math.sqrt(n[g]) for g in views if g not in short}
+            level = {g for g in views if not math.isfinite(sd[g])}
+            u = {g: sd[g] * math.sqrt(n[g]) for g in views if g not in level}
             z = math.fsum(x ** (2.0 / 3.0) for x in u.values())
-            if m > 0 and z > 0:
+            if m > 0 and z > 0 and not level:
                 total = z ** 3 / (self.target_cov * m) ** 2
-                level |= {g for g, x in u.items() if n[g] < total * x ** (2.0 / 3.0) / z}
+                level = {g for g, x in u.items() if n[g] < total * x ** (2.0 / 3.0) / z}
             if not level:
                 gain = {g: sd[g] * (1.0 - math.sqrt(n[g] / (n[g] + self.batch))) for g in views}
                 level.add(max(sorted(gain), key=lambda g: gain[g]))

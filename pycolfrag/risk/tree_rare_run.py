@@ -97,6 +97,8 @@ def tree_exit_code(runs, names, log) -> int:
     if _sim.EXIT_UNRESOLVED in codes:
         return _sim.EXIT_UNRESOLVED
     if any(r.stopped == "failures" for r in runs):
+        log("risk --simulate --logic-tree: the tree's mean met its target, but failed runs leave a branch's level "
+            "unresolved (its run setting's rows re-weighted to its site: logic_tree.md's branch table marks it)")
         return _sim.EXIT_UNRESOLVED
     return _sim.EXIT_OK if all(r.stopped == "target" for r in runs) else _sim.EXIT_NOT_CONVERGED
 
