@@ -92,9 +92,13 @@ def main(argv=None) -> int:
     print(f"\nsingle event (rare route): collapse CoV {s_cov:.3f} from {s_runs:.0f} runs: {s_at:.0f} runs at CoV "
           f"{rs.target_cov:g}, the target's budget 2x = {2 * s_at:.0f} runs")
     met = cov <= rs.target_cov and run["runs"] <= 2 * s_at
+    reached = (f"reached CoV {rs.target_cov:g}: measured {run['runs'] / s_at:.2f}x the single event's runs at CoV "
+               f"{rs.target_cov:g} (target <= 2x: {'met' if met else 'NOT met'}); at exactly {rs.target_cov:g} by "
+               f"1/sqrt(runs) {need:.0f} runs ({need / s_at:.2f}x)")
     print(f"sequences: {target} CoV {cov:.3f} from {run['runs']} runs; "
-          + ("target met" if met else f"extrapolated by 1/sqrt(runs): {need:.0f} runs at CoV {rs.target_cov:g} "
-             f"({need / s_at:.2f}x the single event's; target <= 2x) -- NOT measured, the run stopped at CoV {cov:.3f}"))
+          + (reached if cov <= rs.target_cov else f"extrapolated by 1/sqrt(runs): {need:.0f} runs at CoV "
+             f"{rs.target_cov:g} ({need / s_at:.2f}x the single event's; target <= 2x) -- NOT measured, the run stopped "
+             f"at CoV {cov:.3f}"))
     if args.json:
         Path(args.json).write_text(json.dumps({
             "rows": len(rows), "runs": run["runs"], "shared": run["shared"], "seconds": run["seconds"], "design": run["design"].as_dict(),
