@@ -392,8 +392,9 @@ def test_a_tree_of_one_run_setting_is_the_single_simulation_file_for_file(tmp_pa
 def _scaled_collapse(scale: float):
     """P(collapse | event) of :class:`Scaled` (pulse motions ``scale`` times stronger: ln u_top + ln scale), in the
     surrogate's closed form (tests/rare_surrogate.py)."""
-    from rare_surrogate import A_TOP, _mean, _sd, S_TOP
     from scipy import stats
+
+    from rare_surrogate import A_TOP, S_TOP, _mean, _sd
 
     def probability(q, pulse, mw, r):
         shift = math.log(scale) if pulse else 0.0
@@ -409,8 +410,8 @@ def test_the_tree_stops_on_its_mean_and_spreads_the_runs_by_their_share():
     and a batch both ran is the same counts and events in both. Over 10 simulations the mean is within 3 standard
     errors of the exact sum of the weights times the surrogate's exact collapse rates (scipy quadrature; the
     stopping rule's small high bias, docs/rare_events.md, is inside that)."""
-    from rare_surrogate import exact_rates as exact
     from pycolfrag.risk.tree_rare import TreeShare
+    from rare_surrogate import exact_rates as exact
     tree = _tree([{"choice": "vp_scale", "branches": [{"value": 1.0, "weight": 0.8}, {"value": 2.0, "weight": 0.2}]}])
     d = site_dict()
     checked = check_tree(tree, d, "small")

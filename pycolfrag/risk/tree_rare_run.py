@@ -81,7 +81,7 @@ def _simulate(a, p, comm, size, log, argv):
     return tree_exit_code(runs, [g.folder for g in p["groups"]], log), runs
 
 
-def tree_share(p: dict, outdir) -> "TreeShare":
+def tree_share(p: dict, outdir):
     """Where the tree's runs go (:class:`~pycolfrag.risk.tree_rare.TreeShare`): the stop rule's target CoV is the
     tree's weighted mean's, steered by the weights the folder began with."""
     from pycolfrag.risk.tree_rare import TreeShare, steering_weights
