@@ -170,10 +170,10 @@ def _stored_purpose(runs, live, stage: int):
     return None
 
 
-def _view(r: "_Run", est, stopped: str = "budget") -> SiteRun:
-    """A group's state between batches as a :class:`SiteRun` (what a ``share`` rule reads)."""
+def _view(r: "_Run", est) -> SiteRun:
+    """A group's state between batches as a :class:`SiteRun` (what a ``share`` rule reads; not stopped yet)."""
     return SiteRun(r.site, r.strata, r.design, r.settings, r.stop, r.quantities, r.requested, _cat(r.parts), est,
-                   stopped, r.batches, r.history, record=r.ev.record, floor=r.last_floor)
+                   "budget", r.batches, r.history, record=r.ev.record, floor=r.last_floor)
 
 
 def _used(r: "_Run") -> int:

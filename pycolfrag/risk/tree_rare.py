@@ -48,7 +48,7 @@ from pycolfrag.risk.tree_apply import ModelSettings
 from pycolfrag.risk.tree_quantile_error import quantile_errors
 
 __all__ = ["RunGroup", "run_groups", "FOLDER_FILE", "tree_form", "check_folder", "steering_weights", "check_reweighting",
-           "row_factors", "branch_floor", "branch_estimate", "TreeShare", "TreeRare", "tree_of_runs"]
+           "row_factors", "branch_floor", "branch_estimate", "TreeShare", "TreeRare", "groups_of_ends", "tree_of_runs"]
 
 #: The tree's record in OUTDIR.
 FOLDER_FILE = "logic_tree_runs.json"
@@ -276,17 +276,18 @@ class TreeShare:
     target_cov: float
     batch: int
 
-    def branch_levels(self, views: dict, label: str) -> list:
-        """(weight, group, LevelEstimate) of every end branch whose group is live in ``views``."""
-        return [(w, g, branch_estimate(views[g], s).levels[label])
+    def branch_estimates(self, views: dict) -> list:
+        """(weight, group, Estimate) of every end branch whose group is live in ``views``."""
+        return [(w, g, branch_estimate(views[g], s))
                 for w, g, s in zip(self.weights, self.group_of, self.sites) if g in views]
 
     def __call__(self, stage: int, views: dict) -> tuple:
         takers: set = set()
         unresolved = False
         requested = next(iter(views.values())).requested
+        branches = self.branch_estimates(views)         # once: every level reads them
         for q in requested:
-            lv = self.branch_levels(views, q.label)
+            lv = [(w, g, est.levels[q.label]) for w, g, est in branches]
             m = math.fsum(w * e.rate for w, _, e in lv)
             sd = {g: 0.0 for g in views}
             for w, g, e in lv:
@@ -349,11 +350,16 @@ def level_stats(values, sds, weights, index, sets, names) -> dict:
             "quantile_error": quantile_errors(v, s, weights)}
 
 
+def groups_of_ends(groups, n_ends: int) -> list:
+    """The run group of every end branch (its position in ``groups``, whose ``ends`` list it)."""
+    return [next(g for g, grp in enumerate(groups) if k in grp.ends) for k in range(n_ends)]
+
+
 def tree_of_runs(tree, ends, sites, groups, runs, years, note: str = "") -> TreeRare:
     """Every end branch's estimate (its group's rows, re-weighted to its site) and the tree's statistics of every
     level: the rate's, with the failed runs' bounds (every failed run as none, as an exceedance) where runs failed,
     and P in each horizon's."""
-    group_of = [next(g for g, grp in enumerate(groups) if k in grp.ends) for k in range(len(ends))]
+    group_of = groups_of_ends(groups, len(ends))
     ests = [branch_estimate(runs[g], s) for g, s in zip(group_of, sites)]
     labels = tuple(q.label for q in runs[0].quantities)
     out = TreeRare(tree, tuple(ends), groups, runs, ests, group_of, labels, tuple(years), note)

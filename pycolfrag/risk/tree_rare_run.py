@@ -84,8 +84,8 @@ def _simulate(a, p, comm, size, log, argv):
 def tree_share(p: dict, outdir):
     """Where the tree's runs go (:class:`~pycolfrag.risk.tree_rare.TreeShare`): the stop rule's target CoV is the
     tree's weighted mean's, steered by the weights the folder began with."""
-    from pycolfrag.risk.tree_rare import TreeShare, steering_weights
-    group_of = [next(g for g, grp in enumerate(p["groups"]) if k in grp.ends) for k in range(len(p["ends"]))]
+    from pycolfrag.risk.tree_rare import TreeShare, groups_of_ends, steering_weights
+    group_of = groups_of_ends(p["groups"], len(p["ends"]))
     return TreeShare(tuple(steering_weights(outdir, p["tree"], p["ends"])), tuple(group_of), tuple(p["sites"]),
                      p["stop"].target_cov, p["settings"].batch)
 
