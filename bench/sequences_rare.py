@@ -42,7 +42,8 @@ def _journal(folder: Path, site_path: str) -> tuple:
                                    else Aftershocks(**st["aftershocks"])), target=r["target"], target_cov=r["target_cov"],
         pilot=r["pilot"], batch=r["batch"], pilot_mixture=Mixture.from_dict(r["pilot_mixture"]),
         max_rows=r["max_rows"] if isinstance(r["max_rows"], int) else 10 ** 9,   # "whole batches": any budget
-        mixture=None if r["mixture"] is None else Mixture.from_dict(r["mixture"]))
+        mixture=None if r["mixture"] is None else Mixture.from_dict(r["mixture"]), ways=tuple(r["ways"]),
+        tail_share=r["tail_share"])
     if r.get("algorithm") != rare.ALGORITHM:
         raise PycolfragError(f"{folder}: rows of another algorithm ({r.get('algorithm')!r})")
     return rs, read_lines(folder / "rows.jsonl", head, lambda s: None)
@@ -74,12 +75,14 @@ def main(argv=None) -> int:
           + (f", with aftershocks ({rs.sequences.aftershocks})" if rs.sequences.aftershocks is not None else ""))
     for note in run["design"].notes:
         print(f"  production proposal: {note}")
-    print(f"\n| quantity | P within {years:g} yr: accumulated [CoV; sample-variance CoV] | its 90 % interval | intact "
-          "[CoV] | restored [CoV] | hits | P on strata of < 20 rows |\n|---|---|---|---|---|---|---|")
+    others = rs.ways[1:]
+    print(f"\n| quantity | P within {years:g} yr: accumulated [CoV; sample-variance CoV] | its 90 % interval | "
+          + "".join(f"{w} [CoV] | " for w in others) + "hits | P on strata of < 20 rows |\n|---|---|---|"
+          + "---|" * (len(others) + 2))
     for q, a in est["accumulated"].items():
-        cells = " | ".join(f"{est[w][q]['p']:.3g} [{est[w][q]['cov']:.2f}]" for w in ("intact", "restored"))
+        cells = "".join(f"{est[w][q]['p']:.3g} [{est[w][q]['cov']:.2f}] | " for w in others)
         lo, hi = _interval(a["p"], a["cov"])
-        print(f"| {q} | {a['p']:.3g} [{a['cov']:.2f}; {a['cov_sample']:.2f}] | [{lo:.3g}, {hi:.3g}] | {cells} | "
+        print(f"| {q} | {a['p']:.3g} [{a['cov']:.2f}; {a['cov_sample']:.2f}] | [{lo:.3g}, {hi:.3g}] | {cells}"
               f"{a['hits']} | {a['p_on_few_rows']:.2g} |")
     if args.single:
         single = json.loads(Path(args.single).read_text())
@@ -102,6 +105,8 @@ def main(argv=None) -> int:
     if args.json:
         Path(args.json).write_text(json.dumps({
             "rows": len(rows), "runs": run["runs"], "shared": run["shared"], "seconds": run["seconds"], "design": run["design"].as_dict(),
+            "ways": list(rs.ways), "tail_share": rs.tail_share,
+            "tails_run": sum(bool(r["strongest"] and r["tail_weight"] > 0) for r in rows),
             "estimate": est, "single": {"runs": s_runs, "cov": s_cov, "runs_at_target": s_at},
             "runs_at_target_extrapolated": need, "target_met": met}, indent=1))
     return 0

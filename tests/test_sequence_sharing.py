@@ -109,3 +109,39 @@ def test_known_runs_are_taken_as_they_are_and_counted():
             == [repr((e.index, e.u_top, e.u_d, e.u_d_rest, e.tilt_rad, e.collapsed, e.restored)) for e in ref.events]
         assert repr((seq.accumulated_u_d, seq.tilt_rad)) == repr((ref.accumulated_u_d, ref.tilt_rad))
         assert seq.final_state.values.tobytes() == ref.final_state.values.tobytes()   # NaN slots too
+
+
+def _way(o, w: str) -> str:
+    """A way's outcome as text (floats by repr: their bits)."""
+    return repr((o.collapsed[w], o.collapse_yr[w], o.u_d_end[w], o.tilt_end[w], o.first_yr[w], o.peak[w]))
+
+
+@pytest.mark.parametrize("ways", [("accumulated",), ("accumulated", "restored"), ("accumulated", "intact")])
+def test_the_ways_asked_for_are_those_of_the_three_bit_for_bit_with_fewer_runs(ways):
+    """``run_one(..., ways)`` (the rare sequences' ``ways``): each way asked for is, bit for bit, that way of the three
+    run together, the others are absent, and the runs made are the definition's count for those ways alone: the
+    accumulated way's a; the intact way's n - 1 more (its first is the accumulated way's); the restored way's events
+    after its first restoration that do not follow a restoration directly -- and, without the intact way, those that
+    do (the intact way's run of the event, no longer made for it). Policy u_d > 0.002: it acts in sequences 0 and 1."""
+    st = sq.SequenceSettings(restoration=Restoration(u_d=0.002), **QUICK)
+    for s in (0, 1):
+        every, some = sq.run_one(COL, s, _events(s), st), sq.run_one(COL, s, _events(s), st, ways)
+        assert set(some.collapsed) == set(ways) and set(some.peak) == set(ways)
+        for w in ways:
+            assert _way(some, w) == _way(every, w), (s, w)
+        motions = [sq._motion(e, st) for e in _events(s) if not e.outside]
+        acc = run_sequence(COL, motions, settle=st.settle).events
+        res = run_sequence(COL, motions, restoration=st.restoration, settle=st.settle).events
+        first = next(k for k, e in enumerate(res) if e.restored)
+        made = len(acc) + (len(motions) - 1 if "intact" in ways else 0)
+        if "restored" in ways:
+            made += len(res) - 1 - first   # every event after the first restoration
+        assert some.runs == made and some.runs < every.runs, (s, ways, some.runs, made, every.runs)
+        assert some.restorations == (every.restorations if "restored" in ways else 0)
+
+
+def test_ways_without_the_accumulated_one_or_unknown_are_refused_by_name():
+    st = sq.SequenceSettings(**QUICK)
+    for ways in (("intact",), ("accumulated", "all"), ("accumulated", "accumulated"), "accumulated"):
+        with pytest.raises(sq.ParameterError, match="ways"):
+            sq.run_one(COL, 2, _events(2), st, ways)

@@ -288,6 +288,35 @@ def test_rare_with_aftershocks_sigterm_then_resume_gives_the_uninterrupted_rows(
     assert sum(r["events"] for r in ran) > sum(r["events"] for r in without)
 
 
+def test_rare_ways_and_tail_share_are_the_in_process_estimators_and_part_of_the_identity(site_file, tmp_path):
+    """``--ways accumulated --tail-share 0.5``: the journal holds the rows the estimator makes in this process with
+    those settings (the accumulated way alone in each row, half the tails run); a journal begun with them is refused
+    with another share; the settings are refused by name without --rare or out of range."""
+    from pycolfrag.risk import sequences_rare as rare
+    st = sq.SequenceSettings(years=10.0, n_sequences=1000, seed=3, restoration=Restoration(u_d=0.005),
+                             max_record_s=4.0)
+    rs = rare.RareSequenceSettings(sequences=st, target="u_d > 0.005", target_cov=0.01, pilot=2, batch=16,
+                                   max_rows=32, ways=("accumulated",), tail_share=0.5)
+    run = rare.simulate_sequences(load_site(site_file), Column.from_file(COLUMN), rs)
+    want = [json.dumps({k: v for k, v in r.items() if k != "seconds"}) for r in run["rows"]]
+    assert all(set(r["hits"]) == {"accumulated"} for r in run["rows"])
+    ran = [r for r in run["rows"] if r["strongest"]]
+    assert {r["tail_weight"] for r in ran} == {0.0, 2.0}
+    out = tmp_path / "acc"
+    mine = ["--ways", "accumulated", "--tail-share", "0.5", "--max-rows", "32"]
+    p = _run([str(site_file), str(out)] + ARGS + RARE + mine)
+    assert p.returncode == 6, p.stdout + p.stderr
+    assert _rows(out) == want
+    assert "P(within 10 yr): accumulated" in (out / "rare_summary.md").read_text()
+    p = _run([str(site_file), str(out)] + ARGS + RARE + mine[:-4] + ["--tail-share", "0.25", "--max-rows", "32"])
+    assert p.returncode == 2 and "tail_share" in p.stdout, p.stdout + p.stderr
+    for bad, named in ((["--ways", "intact"], "ways"), (["--tail-share", "0"], "tail_share")):
+        p = _run([str(site_file), str(tmp_path / "bad")] + ARGS + RARE + bad)
+        assert p.returncode == 2 and named in p.stdout, p.stdout + p.stderr
+    p = _run([str(site_file), str(tmp_path / "crude")] + ARGS + ["--ways", "accumulated"])
+    assert p.returncode == 2 and "--rare" in p.stdout, p.stdout + p.stderr
+
+
 def test_a_rare_journal_begun_without_aftershocks_is_refused_with_them(site_file, tmp_path):
     out = tmp_path / "rare"
     assert _run([str(site_file), str(out)] + ARGS + RARE + ["--max-rows", "16"]).returncode == 6   # the pilot

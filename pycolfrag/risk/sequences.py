@@ -43,7 +43,7 @@ from pycolfrag.risk.aftershocks import DAYS_PER_YEAR, Aftershocks
 from pycolfrag.solver.sequence import NO_RESTORATION, Restoration, Settle, run_sequence
 
 __all__ = ["STREAM_SEQUENCES", "DEFAULT_SEED", "SequenceSettings", "SiteEvent", "sequence_events", "SequenceOutcome",
-           "run_site_sequences", "summarize", "format_summary", "WAYS"]
+           "run_site_sequences", "summarize", "format_summary", "WAYS", "check_ways"]
 
 #: Stream identifier of the sequences' draws (the grid's streams are 1 and 2, the site simulation's 3).
 STREAM_SEQUENCES = 4
@@ -254,42 +254,63 @@ _SHARE = True
 def _known(accumulated: list, intact: list):
     """The restored way's runs already made (``run_sequence``'s ``known``): before its policy first acts it is the
     accumulated way call for call (the same state in, the same run), and an event right after a restoration
-    meets the intact column at rest, the intact way's run of that event."""
+    meets the intact column at rest, the intact way's run of that event (``intact`` empty where that way is not
+    run: the restored way makes those runs itself)."""
     def known(k: int, restorations: int, fresh: bool):
         if restorations == 0:
             return accumulated[k]   # the accumulated way reached k: it stops only where this way would
-        return intact[k] if fresh else None
+        return intact[k] if fresh and k < len(intact) else None
     return known
 
 
-def run_one(model, s: int, site_events: list, st: SequenceSettings) -> SequenceOutcome:
-    """Run sequence ``s``'s events (:func:`sequence_events`) the three ways, each run that two ways share made
-    once (:data:`_SHARE`): ``runs`` counts the runs made, ``shared`` those a way took from another."""
+def check_ways(ways) -> tuple:
+    """``ways`` as a tuple of :data:`WAYS` in their order: the accumulated way and any of the others (the intact
+    way's first run and the restored way's runs before its policy acts are the accumulated way's), refused by
+    name otherwise."""
+    if isinstance(ways, str) or not all(isinstance(w, str) for w in ways):
+        raise ParameterError(f"ways must be a sequence of names out of {', '.join(WAYS)}, got {ways!r}")
+    bad = [w for w in ways if w not in WAYS]
+    if bad or "accumulated" not in ways or len(set(ways)) != len(tuple(ways)):
+        raise ParameterError(f"ways must hold 'accumulated' and any of 'intact', 'restored', each once; got "
+                             f"{', '.join(map(repr, ways)) or 'none'}")
+    return tuple(w for w in WAYS if w in ways)
+
+
+def run_one(model, s: int, site_events: list, st: SequenceSettings, ways=WAYS) -> SequenceOutcome:
+    """Run sequence ``s``'s events (:func:`sequence_events`) the ``ways`` (:func:`check_ways`; default the
+    three), each run that two ways share made once (:data:`_SHARE`): ``runs`` counts the runs made, ``shared``
+    those a way took from another. The outcome holds the ways asked for alone."""
+    ways = check_ways(ways)
+    out: dict = {w: {"collapsed": False, "collapse_yr": math.nan, "u_d_end": 0.0, "tilt_end": 0.0,
+                     "first_yr": [math.nan] * len(PERFORMANCE_LEVELS), "peak": _peak([])} for w in WAYS}
+    out["intact"].update(u_d_end=math.nan, tilt_end=math.nan)
     todo = [e for e in site_events if not e.outside]
-    ways: dict = {w: {"collapsed": False, "collapse_yr": math.nan, "u_d_end": 0.0, "tilt_end": 0.0,
-                      "first_yr": [math.nan] * len(PERFORMANCE_LEVELS), "peak": _peak([])} for w in WAYS}
-    ways["intact"].update(u_d_end=math.nan, tilt_end=math.nan)
     runs, restorations, asked = 0, 0, 0
     if todo:
         motions, times = [_motion(e, st) for e in todo], [e.time_yr for e in todo]
-        acc, ways["accumulated"] = _accumulating(model, motions, times, NO_RESTORATION, st)
-        intact, ways["intact"] = _intact(model, motions, times, acc.events[0] if _SHARE else None, st)
-        runs += len(acc.events) + len(intact) - (1 if _SHARE else 0)
-        asked += len(acc.events) + len(intact)
-        acts = any(not e.collapsed and st.restoration.due(e.u_d_rest, e.tilt_rad) for e in acc.events)
-        if acts or not _SHARE:
-            res, ways["restored"] = _accumulating(model, motions, times, st.restoration, st,
-                                                  _known(acc.events, intact) if _SHARE else None)
-            runs += len(res.events) - res.reused
-            asked += len(res.events)
-            restorations = res.restorations
-        else:   # the policy never acts: the restored way is the accumulated one, call for call
-            ways["restored"] = dict(ways["accumulated"])
-            asked += len(acc.events)
-    return SequenceOutcome(s, site_events, {w: ways[w]["collapsed"] for w in WAYS},
-                           {w: ways[w]["collapse_yr"] for w in WAYS}, {w: ways[w]["u_d_end"] for w in WAYS},
-                           {w: ways[w]["tilt_end"] for w in WAYS}, {w: ways[w]["first_yr"] for w in WAYS},
-                           restorations, runs, {w: ways[w]["peak"] for w in WAYS}, asked - runs)
+        acc, out["accumulated"] = _accumulating(model, motions, times, NO_RESTORATION, st)
+        runs += len(acc.events)
+        asked += len(acc.events)
+        intact: list = []
+        if "intact" in ways:
+            intact, out["intact"] = _intact(model, motions, times, acc.events[0] if _SHARE else None, st)
+            runs += len(intact) - (1 if _SHARE else 0)
+            asked += len(intact)
+        if "restored" in ways:
+            acts = any(not e.collapsed and st.restoration.due(e.u_d_rest, e.tilt_rad) for e in acc.events)
+            if acts or not _SHARE:
+                res, out["restored"] = _accumulating(model, motions, times, st.restoration, st,
+                                                     _known(acc.events, intact) if _SHARE else None)
+                runs += len(res.events) - res.reused
+                asked += len(res.events)
+                restorations = res.restorations
+            else:   # the policy never acts: the restored way is the accumulated one, call for call
+                out["restored"] = dict(out["accumulated"])
+                asked += len(acc.events)
+    return SequenceOutcome(s, site_events, {w: out[w]["collapsed"] for w in ways},
+                           {w: out[w]["collapse_yr"] for w in ways}, {w: out[w]["u_d_end"] for w in ways},
+                           {w: out[w]["tilt_end"] for w in ways}, {w: out[w]["first_yr"] for w in ways},
+                           restorations, runs, {w: out[w]["peak"] for w in ways}, asked - runs)
 
 
 def run_site_sequences(site, model, settings: SequenceSettings = SequenceSettings(), progress=None) -> dict:

@@ -41,8 +41,13 @@ aftershocks (the crude sequences' draws on the row's streams), and x's own are d
 the proposal and the target, so the weight stays the mainshock's. A site with mainshocks outside the models whose
 aftershocks may lie inside is refused (:func:`refuse_outside_aftershocks`): no row could count their sequences.
 
-Each row is run the three ways of the crude sequences (accumulated, intact, restored:
-:func:`pycolfrag.risk.sequences.run_one`, the same calls), so the paired differences come with it.
+Each row is run the ways of the crude sequences (accumulated, intact, restored: :func:`pycolfrag.risk.sequences.run_one`,
+the same calls; ``ways``, the accumulated one and any of the others), so the paired differences come with it.
+
+**The tail** (``tail_share`` q; docs/sequences.md, "The tail after the strongest event"): a row runs the events after
+x with probability q (its own stream :data:`X_TAIL`, drawn before any run), else stops at x; a hit first seen after
+x counts 1 / q. The tail's hits only add to those up to x, so the estimate stays unbiased; q = 1 (the default) runs
+every tail.
 
 **Allocation** (the rare route's steps, one text each: :mod:`pycolfrag.rare.driver`, :mod:`pycolfrag.rare.allocation`).
 A pilot of ``pilot`` rows per stratum under the rare route's pilot proposal; then the production proposal: the
@@ -87,10 +92,18 @@ from pycolfrag.rare.plans import PulseMap, event_input
 from pycolfrag.rare.proposal import PILOT_MIXTURE, Design, Mixture
 from pycolfrag.rare.strata import build_strata
 from pycolfrag.risk.grid_route import QUANTITIES as _RISK_QUANTITIES
-from pycolfrag.risk.sequences import WAYS, SequenceSettings, SiteEvent, aftershocks_of, run_one, sequence_events
+from pycolfrag.risk.sequences import (
+    WAYS,
+    SequenceSettings,
+    SiteEvent,
+    aftershocks_of,
+    check_ways,
+    run_one,
+    sequence_events,
+)
 
 __all__ = ["ALGORITHM", "STREAM_RARE_SEQUENCES", "NO_PULSE_OFFSET", "strength", "RareSequenceSettings", "run_row",
-           "refuse_outside_aftershocks", "X_AFTERSHOCKS", "X_GEOMETRY",
+           "refuse_outside_aftershocks", "X_AFTERSHOCKS", "X_GEOMETRY", "X_TAIL", "TAIL_SHARE",
            "estimate", "allocate", "floors", "design_of", "simulate_sequences", "estimate_rows", "QUANTITIES", "LEVELS",
            "settings_dict", "journal_settings", "format_estimate"]
 
@@ -103,8 +116,10 @@ __all__ = ["ALGORITHM", "STREAM_RARE_SEQUENCES", "NO_PULSE_OFFSET", "strength", 
 #: v3: every batch allocated on its own (every stratum at least 2 rows) and the strata's means the batches'
 #: combined as pieces, as the rare route's v5 (a row stores its ``batch``): the pooled means under the steered
 #: allocation were biased low (docs/sequences.md, "The steered allocation's bias").
+#: v4: Russian roulette on the tail (the events after x: :data:`TAIL_SHARE`), a row stores which of its hits came
+#: after x (``late``) and its ``tail_weight``; the ways run are a setting (``ways``).
 ALGORITHM = ("rare sequences on the strongest event: the rare route's cross-entropy shift, demand-model variance "
-             "floor and model-steered allocation, batches as pieces; v3")
+             "floor and model-steered allocation, batches as pieces, roulette on the tail after x; v4")
 
 #: Stream identifier of a row's own draws (its time, its natural sequence); the crude sequences' is 4.
 STREAM_RARE_SEQUENCES = 5
@@ -126,6 +141,17 @@ NO_PULSE_OFFSET = 1.0
 #: A row's own streams for its event x's aftershocks and for the directivity geometry they carry pulses with
 #: (after ``(STREAM_RARE_SEQUENCES, h, j)``; 0, (1, k) and (2, k) are its natural sequence's, 2 x's time).
 X_AFTERSHOCKS, X_GEOMETRY = 3, 4
+#: A row's own stream for whether its sequence's tail (the events after x) is run (:data:`TAIL_SHARE`).
+X_TAIL = 6
+#: The share of rows whose tail -- the events after x, the strongest -- is run (Russian roulette: the others stop
+#: at x, and a hit first seen in the tail counts 1 / TAIL_SHARE; docs/sequences.md, "The tail after the strongest
+#: event"). The default, 1, runs every tail (v3's rows). Unbiased at any share, but the stated standard error
+#: holds only where the tail's hits are seen often enough: where they are rare and heavy (x's own aftershocks on
+#: the aftershock surrogate: 0-3 of 500 hits), rows that saw none understate both the estimate and its error, so a
+#: share below 1 is for sites where the tail is measured to matter little -- the estimate states its ``late_hits``
+#: and ``p_late``. At the example site 0 of 26 collapses and 1 of 135 exceedances of u_d 0.01 in 251 rows of the
+#: pulse strata came after x, while the tail held 0.74 of the 2.42 events a row.
+TAIL_SHARE = 1.0
 #: The directivity geometries drawn at a time, and the most batches, for x's pulse probability given its branch.
 _GEOMETRY_BATCH, _GEOMETRY_TRIES = 64, 16384
 #: The quantities of a row, per way: collapse, then each level of Tables III/IV.
@@ -153,8 +179,14 @@ class RareSequenceSettings:
     max_rows: int = 20000
     pilot_mixture: Mixture = PILOT_MIXTURE
     mixture: Mixture | None = None     # None: the cross-entropy step on the pilot's rows (:func:`design_of`)
+    ways: tuple = WAYS
+    tail_share: float = TAIL_SHARE
 
     def __post_init__(self):
+        object.__setattr__(self, "ways", check_ways(self.ways))
+        q = self.tail_share
+        if isinstance(q, bool) or not isinstance(q, (int, float)) or not 0 < q <= 1:   # NaN fails too
+            raise ParameterError(f"tail_share must be a number in (0, 1], got {q!r}")
         if not isinstance(self.sequences, SequenceSettings):
             raise ParameterError(f"sequences must be a SequenceSettings, got {type(self.sequences).__name__}")
         if self.target not in QUANTITIES:
@@ -241,8 +273,9 @@ def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse
            "mw": x["mw"], "dist_km": x["dist_km"], "pulse": x["pulse"] is not None,
            "z_vp": float(tags.get("z_vp", 0.0)), "z_fp": float(tags.get("z_fp", 0.0)),
            "occurrence_weight": float(tags["occurrence_weight"]), "events": len(phi) + 1, "runs": 0, "shared": 0,
-           "restorations": 0, "hits": {w: [False] * len(QUANTITIES) for w in WAYS},
-           "peak": {w: {"u_top": 0.0, "u_d": 0.0} for w in WAYS}}
+           "restorations": 0, "hits": {w: [False] * len(QUANTITIES) for w in rs.ways},
+           "late": {w: [False] * len(QUANTITIES) for w in rs.ways}, "tail_weight": 0.0, "tail_events": 0,
+           "peak": {w: {"u_top": 0.0, "u_d": 0.0} for w in rs.ways}}
     after: list = []
     if strongest:
         n_main = sum(e.parent == -1 for e in phi)   # x's index: after the natural mainshocks' (its aftershocks' parent)
@@ -253,10 +286,15 @@ def run_row(site, strata, model, rs: RareSequenceSettings, h: int, j: int, pulse
                                    pulse_map, strata.ranges)
         evs = sorted(phi + [ev] + after, key=lambda e: e.time_yr)
         row["events"] += len(after)
-        o = run_one(model, j, evs, st)
+        tail = rs.tail_share >= 1 or bool(_row_rng(st.seed, h, j, X_TAIL).uniform() < rs.tail_share)
+        o = run_one(model, j, evs if tail else [e for e in evs if e.time_yr <= t_x], st, rs.ways)
         row["runs"], row["shared"], row["restorations"] = o.runs, o.shared, o.restorations
-        row["hits"] = {w: [bool(o.collapsed[w])] + [bool(math.isfinite(t)) for t in o.first_yr[w]] for w in WAYS}
-        row["peak"] = {w: {k: float(v) for k, v in o.peak[w].items()} for w in WAYS}
+        row["hits"] = {w: [bool(o.collapsed[w])] + [bool(math.isfinite(t)) for t in o.first_yr[w]] for w in rs.ways}
+        row["late"] = {w: [bool(o.collapsed[w] and o.collapse_yr[w] > t_x)] + [bool(t > t_x) for t in o.first_yr[w]]
+                       for w in rs.ways}
+        row["tail_weight"] = 1.0 / rs.tail_share if tail else 0.0
+        row["tail_events"] = sum(e.time_yr > t_x and not e.outside for e in evs)
+        row["peak"] = {w: {k: float(v) for k, v in o.peak[w].items()} for w in rs.ways}
     row["seconds"] = time.perf_counter() - t0
     return row
 
@@ -299,6 +337,15 @@ def floors(rows: list, strata, design: Design, seed: int, ways=WAYS, labels=QUAN
     return out
 
 
+def _value(row: dict, way: str, q: int) -> float:
+    """A row's outcome of quantity ``q`` in ``way`` before its weights: 0 without a hit (or where x is not the
+    strongest), 1 for a hit at or before x, the row's ``tail_weight`` (1 / :data:`TAIL_SHARE` where its tail was
+    run) for a hit first seen after x (Russian roulette on the tail: unbiased, as the tail's hits only add)."""
+    if not (row["strongest"] and row["hits"][way][q]):
+        return 0.0
+    return float(row["tail_weight"]) if row["late"][way][q] else 1.0
+
+
 def _stratum_stats(rows_h: list, way: str, q: int, years: float, rate: float, floor_h=None, a=None) -> tuple:
     """A stratum's mean of y, its sample variance of the mean, that variance with the floor of a stratum without
     a hit (``floor_h``, the per-run variance of w y :func:`floors` gives, else the bare Jeffreys pseudo-count's),
@@ -306,18 +353,20 @@ def _stratum_stats(rows_h: list, way: str, q: int, years: float, rate: float, fl
     the batches' means combined as pieces, the variance from each batch's own rows, the floor times their design
     effect (the rare route's estimator)."""
     n = len(rows_h)
-    y = np.array([years * rate * r["weight"] * (r["strongest"] and r["hits"][way][q]) for r in rows_h], dtype=float)
+    y = np.array([years * rate * r["weight"] * _value(r, way, q) for r in rows_h], dtype=float)
     batches = [r["batch"] for r in rows_h]
     f, deff = (None, 1.0) if a is None or not n else piece_factors(batches, np.zeros(n, bool), a)
     hits = int(np.count_nonzero(y))
     mean = (float(y.mean()) if f is None else float(np.mean(f * y))) if n else 0.0
+    late = np.array([bool(r["strongest"] and r["hits"][way][q] and r["late"][way][q]) for r in rows_h], dtype=bool)
+    mean_late = (float(np.mean(np.where(late, y if f is None else f * y, 0.0)))) if n else 0.0
     var = float(y.var(ddof=1)) / n if n > 1 else 0.0
     if f is not None:          # each batch's own sample variance (rare/estimate.py, piece_variance)
         var = piece_variance(y, np.zeros(n, bool), piece_parts(batches, a), float(y.var(ddof=1)))
     m2 = float(np.mean([r["weight"] ** 2 for r in rows_h])) if n else 1.0
     per_run = float(jeffreys_run_variance(m2, n)) if floor_h is None else float(floor_h)
     floor = (years * rate) ** 2 * per_run / max(n, 1) * deff if hits == 0 else 0.0
-    return mean, var, max(var, floor), n, hits
+    return mean, var, max(var, floor), n, hits, int(np.count_nonzero(late)), mean_late
 
 
 def estimate(rows: list, strata, years: float, floor=None, ways=WAYS, labels=QUANTITIES) -> dict:
@@ -346,7 +395,8 @@ def estimate(rows: list, strata, years: float, floor=None, ways=WAYS, labels=QUA
             se_sample, se = math.sqrt(sum(x[1] for x in st)), math.sqrt(sum(x[2] for x in st))
             out[w][name] = {"p": p, "se": se, "cov": se / p if p > 0 else math.inf, "se_sample": se_sample,
                             "cov_sample": se_sample / p if p > 0 else math.inf, "hits": int(sum(x[4] for x in st)),
-                            "p_on_few_rows": float(sum(x[0] for x in st if x[3] < 20))}
+                            "p_on_few_rows": float(sum(x[0] for x in st if x[3] < 20)),
+                            "late_hits": int(sum(x[5] for x in st)), "p_late": float(sum(x[6] for x in st))}
     return out
 
 
@@ -437,8 +487,8 @@ def simulate_sequences(site, model, rs: RareSequenceSettings, evaluate=None, don
         stage += 1
     if not converged and 0 < rs.max_rows - len(rows) < least and log is not None:
         log(f"sequences (rare): {_alloc.runs_left_unused(rs.max_rows - len(rows), len(strata), 'rows')}")
-    fl = floors(rows, strata, design, rs.sequences.seed, events=events)
-    return {"rows": rows, "estimate": estimate(rows, strata, years, fl), "strata": strata, "settings": rs,
+    fl = floors(rows, strata, design, rs.sequences.seed, rs.ways, events=events)
+    return {"rows": rows, "estimate": estimate(rows, strata, years, fl, rs.ways), "strata": strata, "settings": rs,
             "design": design, "runs": int(sum(r["runs"] for r in rows)), "shared": _shared(rows),
             "seconds": float(sum(r["seconds"] for r in rows))}
 
@@ -457,8 +507,9 @@ def estimate_rows(site, rs: RareSequenceSettings, rows: list) -> dict:
     if any(r["stage"] == SECOND_STAGE for r in rows):
         design = second_design(_cols([r for r in rows if r["stage"] < SECOND_STAGE], "accumulated"), strata, design,
                                _site_settings(rs), (LEVELS[QUANTITIES.index(rs.target)],), thin)
-    fl = floors(rows, strata, design, rs.sequences.seed)
-    return {"rows": rows, "estimate": estimate(rows, strata, rs.sequences.years, fl), "strata": strata, "settings": rs,
+    fl = floors(rows, strata, design, rs.sequences.seed, rs.ways)
+    return {"rows": rows, "estimate": estimate(rows, strata, rs.sequences.years, fl, rs.ways), "strata": strata,
+            "settings": rs,
             "design": design, "runs": int(sum(r["runs"] for r in rows)), "shared": _shared(rows),
             "seconds": float(sum(r["seconds"] for r in rows))}
 
@@ -482,7 +533,7 @@ def settings_dict(rs: RareSequenceSettings) -> dict:
             "batch": rs.batch, "max_rows": rs.max_rows, "pilot_mixture": rs.pilot_mixture.as_dict(),
             "mixture": None if rs.mixture is None else rs.mixture.as_dict(), "ce_min_hits": CE_MIN_HITS,
             "stream": STREAM_RARE_SEQUENCES,
-            "no_pulse_offset": NO_PULSE_OFFSET}
+            "no_pulse_offset": NO_PULSE_OFFSET, "ways": list(rs.ways), "tail_share": rs.tail_share}
 
 
 def format_estimate(run: dict, title: str = "") -> str:
@@ -491,17 +542,20 @@ def format_estimate(run: dict, title: str = "") -> str:
     est = run["estimate"]
     rows = run["rows"]
     strongest = sum(r["strongest"] for r in rows)
+    ways = run["settings"].ways
+    tails = sum(r["strongest"] and r["tail_weight"] > 0 for r in rows)
     lines = [f"## {title or 'Sequences at a site, importance sampling on the strongest event'}", "",
              f"{len(rows)} rows over {len(run['strata'])} strata ({strongest} with the row's event the strongest of "
              f"its sequence), {run['runs']} event runs ({run['shared']} more shared between the ways), "
              f"{run['seconds']:.1f} s of runs; horizon {st.years:g} years, "
-             f"seed {st.seed}, restoration {st.restoration.describe()}.", "",
+             f"seed {st.seed}, restoration {st.restoration.describe()}; the tail after x run in {tails} of "
+             f"{strongest} rows (share {run['settings'].tail_share:g}).", "",
              *(f"Production proposal: {n}." for n in run["design"].notes), "",
-             f"| quantity | P(within {st.years:g} yr): accumulated [CoV] | intact [CoV] | restored [CoV] | "
+             f"| quantity | {' | '.join(f'P(within {st.years:g} yr): {w} [CoV]' for w in ways)} | "
              "hits (accumulated) | CoV of the sample variances alone | P on strata of < 20 rows |",
-             "|---|---|---|---|---|---|---|"]
+             "|---|" + "---|" * (len(ways) + 3)]
     for q in QUANTITIES:
-        cells = [f"{est[w][q]['p']:.4g} [{est[w][q]['cov']:.2f}]" for w in WAYS]
+        cells = [f"{est[w][q]['p']:.4g} [{est[w][q]['cov']:.2f}]" for w in ways]
         a = est["accumulated"][q]
         lines.append(f"| {q} | {' | '.join(cells)} | {a['hits']} | {a['cov_sample']:.3g} | {a['p_on_few_rows']:.3g} |")
     return "\n".join(lines)

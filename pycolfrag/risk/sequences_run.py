@@ -257,6 +257,12 @@ def parser() -> argparse.ArgumentParser:
     rare.add_argument("--pilot", type=int, default=10, help="rows per stratum before the allocation")
     rare.add_argument("--batch", type=int, default=400, help="rows per batch after the pilot")
     rare.add_argument("--max-rows", type=int, default=20000, help="the row budget")
+    rare.add_argument("--ways", default=None,
+                      help="the ways run, comma-separated: accumulated and any of intact, restored (default all three; "
+                           "accumulated alone costs the fewest runs)")
+    rare.add_argument("--tail-share", type=float, default=None,
+                      help="the share of rows whose events after the strongest are run (Russian roulette: fewer "
+                           "runs where the tail rarely matters; default 1, every row's; docs/sequences.md)")
     rare.add_argument("--shift", type=float, nargs=2, default=None, metavar=("Z_VP", "Z_FP"),
                       help="the production proposal's shift of the pulse normals (default: the cross-entropy step on "
                            "the pilot's rows)")
@@ -285,6 +291,9 @@ def main(argv=None) -> int:
 
     if args.rare:
         return _main_rare(args, model, st, comm, log)
+    if args.ways is not None or args.tail_share is not None:
+        log("sequences: --ways and --tail-share are settings of the rare sequences (--rare)")
+        return EXIT_ARGS
 
     def progress(done, total):
         if args.progress and (done == total or done % max(1, total // 10) == 0):
@@ -308,8 +317,11 @@ def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
     from pycolfrag.risk.sequences_rare_run import run_rare_folder
     try:
         mixture = None if args.shift is None else production_mixture(rare.DEFENSIVE, (tuple(args.shift),))
+        ways = rare.WAYS if args.ways is None else tuple(w.strip() for w in args.ways.split(","))
         rs = rare.RareSequenceSettings(sequences=st, target=args.target, target_cov=args.target_cov,
-                                       pilot=args.pilot, batch=args.batch, max_rows=args.max_rows, mixture=mixture)
+                                       pilot=args.pilot, batch=args.batch, max_rows=args.max_rows, mixture=mixture,
+                                       ways=ways, tail_share=rare.TAIL_SHARE if args.tail_share is None else
+                                       args.tail_share)
     except PycolfragError as exc:
         log(f"sequences: {exc}")
         return EXIT_ARGS
