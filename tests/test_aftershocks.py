@@ -153,6 +153,14 @@ def test_an_unknown_model_is_refused_naming_it_and_the_known():
         aftershock_model("page2016-greece")
 
 
+def test_the_bare_flag_is_rj1989_and_a_name_picks_the_model():
+    """``--aftershocks`` alone keeps meaning rj1989 (the runs and docs before Page et al. used it bare)."""
+    from pycolfrag.risk.sequences_run import parser
+    args = lambda *more: parser().parse_args(["site.toml", "out", *more]).aftershocks  # noqa: E731
+    assert (args(), args("--aftershocks"), args("--aftershocks", "page2016-sz-onshore")) == (
+        None, "rj1989", "page2016-sz-onshore")
+
+
 def test_the_rare_sequences_take_aftershocks():
     """Once refused by name; now taken (tests/test_sequences_rare_aftershocks.py holds them to the exact answer)."""
     from pycolfrag.risk import sequences_rare as R
