@@ -118,13 +118,16 @@ def test_a_torn_last_line_is_dropped_and_rerun(site_file, reference, tmp_path):
     assert _journal(out) == reference
 
 
-@pytest.mark.parametrize("change, named", [(["--seed", "4"], "seed"), (["--years", "11"], "years"),
-                                           (["--restore-u-d", "0.01"], "u_d")])
-def test_a_journal_of_other_settings_is_refused_by_name(site_file, tmp_path, change, named):
+@pytest.mark.parametrize("begun, change, named", [
+    ([], ["--seed", "4"], "seed"), ([], ["--years", "11"], "years"), ([], ["--restore-u-d", "0.01"], "u_d"),
+    # another aftershock model: its parameters are the identity's (dataclasses.asdict of the model), so a journal
+    # begun with rj1989 (the bare flag) is refused with Page et al.'s SZ-GENERIC, naming the fields that differ
+    (["--aftershocks"], ["--aftershocks", "page2016-sz-generic"], "aftershocks.a")])
+def test_a_journal_of_other_settings_is_refused_by_name(site_file, tmp_path, begun, change, named):
     out = tmp_path / "out"
-    assert _run([str(site_file), str(out), "--n", "1"] + ARGS).returncode == 0
+    assert _run([str(site_file), str(out), "--n", "1"] + ARGS + begun).returncode == 0
     before = (out / sr.JOURNAL).read_bytes()
-    args = list(ARGS)
+    args = ARGS + begun
     i = args.index(change[0]) if change[0] in args else None
     args = args[:i] + args[i + 2:] + change if i is not None else args + change
     p = _run([str(site_file), str(out), "--n", "2"] + args)
@@ -157,6 +160,8 @@ def test_bad_arguments_are_refused_by_name(site_file, tmp_path):
     assert p.returncode == 2 and "n_sequences" in p.stdout and "0" in p.stdout
     p = _run([str(tmp_path / "absent.toml"), str(tmp_path / "o")] + ARGS)
     assert p.returncode == 2 and "absent.toml" in p.stdout
+    p = _run([str(site_file), str(tmp_path / "o")] + ARGS + ["--aftershocks", "page2016-greece"])
+    assert p.returncode == 2 and "'page2016-greece'" in p.stdout and "page2016-sz-generic" in p.stdout, p.stdout
 
 
 def test_sigterm_stops_after_the_running_sequence_and_the_rerun_completes(site_file, tmp_path):

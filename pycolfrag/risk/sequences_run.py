@@ -36,7 +36,7 @@ from pycolfrag.grid import get_comm
 from pycolfrag.grid.serve import EXIT_DRAINED
 from pycolfrag.rare.plans import PulseMap
 from pycolfrag.rare.strata import build_strata
-from pycolfrag.risk.aftershocks import REASENBERG_JONES_1989
+from pycolfrag.risk.aftershocks import AFTERSHOCK_MODELS, DEFAULT_AFTERSHOCK_MODEL, aftershock_model
 from pycolfrag.risk.sequences import (
     DEFAULT_SEED,
     SequenceOutcome,
@@ -245,10 +245,11 @@ def parser() -> argparse.ArgumentParser:
                    help="the restored way's policy: reassemble when the accumulated u_d exceeds this")
     p.add_argument("--restore-tilt", type=float, default=math.inf, help="... or the residual tilt exceeds this, rad")
     p.add_argument("--max-record-s", type=float, default=None, help="cut the records (tests and quick looks only)")
-    p.add_argument("--aftershocks", action="store_true",
-                   help="each mainshock's aftershocks of Mw >= 5 within a year, Reasenberg & Jones (1989) generic "
-                        "California (docs/sequences.md, \"Aftershocks\"; with --rare: \"Aftershocks in the rare "
-                        "sequences\")")
+    p.add_argument("--aftershocks", nargs="?", const=DEFAULT_AFTERSHOCK_MODEL, default=None, metavar="MODEL",
+                   help="each mainshock's aftershocks of Mw >= 5 within a year, by the generic parameters MODEL: "
+                        "rj1989 (Reasenberg & Jones 1989, California; the flag alone) or page2016-REGION (Page et "
+                        "al. 2016 by tectonic region); one of " + ", ".join(AFTERSHOCK_MODELS) + " (docs/sequences.md, "
+                        "\"Aftershocks\"; with --rare: \"Aftershocks in the rare sequences\")")
     rare = p.add_argument_group("importance sampling on the strongest event (--rare; docs/sequences.md, \"Rare sequences\")")
     rare.add_argument("--rare", action="store_true",
                       help="rows of the rare-event strata instead of crude sequences (--n is not used)")
@@ -282,7 +283,7 @@ def main(argv=None) -> int:
         st = SequenceSettings(years=args.years, n_sequences=args.n, seed=args.seed,
                               restoration=Restoration(u_d=args.restore_u_d, tilt_rad=args.restore_tilt),
                               max_record_s=args.max_record_s,
-                              aftershocks=REASENBERG_JONES_1989 if args.aftershocks else None)
+                              aftershocks=None if args.aftershocks is None else aftershock_model(args.aftershocks))
         if not Path(args.site).is_file():
             raise ParameterError(f"site file {args.site} does not exist")
     except (PycolfragError, OSError) as exc:
