@@ -491,10 +491,23 @@ def test_a_resume_reads_every_planned_batch_whatever_the_stopping_rule_now():
 def test_a_run_setting_out_of_budget_sits_out_and_the_tree_ends_on_the_budget():
     """--max-runs is per run setting: at 1 270 runs (the pilot's 70 and six batches of 200) a run setting that has
     spent its budget takes no batch, the others go on until theirs is spent, and the run ends "budget" (exit 6 of
-    the command) with the mean's CoV above its target (0.02: out of reach)."""
+    the command) with the mean's CoV above its target (0.02: out of reach). TreeShare on the surrogate asks for both
+    settings in every batch here, so a share that asks for group 0 alone in stages 2 and 3 and then for both puts
+    group 1 two batches behind when group 0's budget is spent: group 1 takes stages 7 and 8 alone up to its own
+    budget. (Letting a group out of budget take a batch instead ends the run at stage 7 with group 1 at 870: seen.)"""
     runs = _share_run(0.02, [Scaled(1.0), Scaled(2.0)], max_runs=1270)
     assert all(r.runs <= 1270 for r in runs) and max(r.runs for r in runs) == 1270
     assert all(r.stopped == "budget" for r in runs)
+
+    def share(stage, views):
+        return "budget", ([0] if stage in (2, 3) else [0, 1])
+    evs = [Scaled(1.0), Scaled(2.0)]
+    settings = SiteSettings(seed=0, batch=200, levels=("collapse",), **SMALL)
+    runs = simulate_paired(site_from_dict(site_dict(), "small"), settings, StopRule(0.02, 1270), evs, QUANTITIES,
+                           log=lambda s: None, share=share)
+    assert [r.runs for r in runs] == [1270, 1270] and all(r.stopped == "budget" for r in runs)
+    assert sorted(set(evs[1].plans) - set(evs[0].plans)) == ["batch_007", "batch_008"]
+    assert sorted(set(evs[0].plans) - set(evs[1].plans)) == ["batch_002", "batch_003"]
 
 
 def test_the_command_steers_by_the_weights_the_folder_began_with(tmp_path):
