@@ -37,6 +37,8 @@ def _journal(folder: Path, site_path: str) -> tuple:
     """(the rare settings, the rows) of a folder's journal; its identity gives the settings (years, seed, rare)."""
     head = json.loads((folder / "rows.jsonl").open().readline())["identity"]
     st, r = head["settings"], head["rare"]
+    if r.get("algorithm") != rare.ALGORITHM:
+        raise PycolfragError(f"{folder}: rows of another algorithm ({r.get('algorithm')!r})")
     rs = rare.RareSequenceSettings(
         sequences=SequenceSettings(years=st["years"], seed=st["seed"], aftershocks=None if st.get("aftershocks") is None
                                    else Aftershocks(**st["aftershocks"])), target=r["target"], target_cov=r["target_cov"],
@@ -44,8 +46,6 @@ def _journal(folder: Path, site_path: str) -> tuple:
         max_rows=r["max_rows"] if isinstance(r["max_rows"], int) else 10 ** 9,   # "whole batches": any budget
         mixture=None if r["mixture"] is None else Mixture.from_dict(r["mixture"]), ways=tuple(r["ways"]),
         tail_share=r["tail_share"])
-    if r.get("algorithm") != rare.ALGORITHM:
-        raise PycolfragError(f"{folder}: rows of another algorithm ({r.get('algorithm')!r})")
     return rs, read_lines(folder / "rows.jsonl", head, lambda s: None)
 
 
@@ -77,13 +77,13 @@ def main(argv=None) -> int:
         print(f"  production proposal: {note}")
     others = rs.ways[1:]
     print(f"\n| quantity | P within {years:g} yr: accumulated [CoV; sample-variance CoV] | its 90 % interval | "
-          + "".join(f"{w} [CoV] | " for w in others) + "hits | P on strata of < 20 rows |\n|---|---|---|"
-          + "---|" * (len(others) + 2))
+          + "".join(f"{w} [CoV] | " for w in others) + "hits | of them after x | P from them | P on strata of < 20 "
+          "rows |\n|---|---|---|" + "---|" * (len(others) + 4))
     for q, a in est["accumulated"].items():
         cells = "".join(f"{est[w][q]['p']:.3g} [{est[w][q]['cov']:.2f}] | " for w in others)
         lo, hi = _interval(a["p"], a["cov"])
         print(f"| {q} | {a['p']:.3g} [{a['cov']:.2f}; {a['cov_sample']:.2f}] | [{lo:.3g}, {hi:.3g}] | {cells}"
-              f"{a['hits']} | {a['p_on_few_rows']:.2g} |")
+              f"{a['hits']} | {a['late_hits']} | {a['p_late']:.3g} | {a['p_on_few_rows']:.2g} |")
     if args.single:
         single = json.loads(Path(args.single).read_text())
         s_runs, s_cov = single["runs"], single["levels"]["collapse"]["cov"]

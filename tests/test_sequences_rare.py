@@ -97,12 +97,16 @@ def test_any_ranking_gives_the_exact_probability(surrogate, monkeypatch):
 
 
 def test_a_row_whose_event_is_not_the_strongest_costs_no_run(surrogate):
-    run = R.simulate_sequences(_site(), None, _settings(2, max_rows=200, target_cov=0.01))
+    """... and a row whose tail is run runs every event of its sequence, one whose tail is not (share 0.5) runs those
+    up to x alone."""
+    run = R.simulate_sequences(_site(), None, _settings(2, max_rows=200, target_cov=0.01, tail_share=0.5))
     weak = [r for r in run["rows"] if not r["strongest"]]
     assert weak and all(r["runs"] == 0 and not any(any(h) for h in r["hits"].values()) for r in weak)
     strong = [r for r in run["rows"] if r["strongest"]]
+    ran, cut = ([r for r in strong if (r["tail_weight"] > 0) == t and r["tail_events"]] for t in (True, False))
+    assert len(ran) > 5 and len(cut) > 5, (len(ran), len(cut))
     assert all(r["runs"] == r["events"] for r in strong if r["tail_weight"] > 0)   # the tail run: every event
-    assert all(r["runs"] < r["events"] for r in strong if r["tail_weight"] == 0 and r["tail_events"])
+    assert all(r["runs"] == r["events"] - r["tail_events"] for r in cut)
 
 
 def test_a_stratum_without_a_hit_keeps_its_jeffreys_floor(surrogate):
@@ -263,7 +267,9 @@ def test_the_roulette_on_the_tail_gives_the_exact_probability_with_fewer_runs(mo
 
 @pytest.mark.parametrize("kw, named", [({"tail_share": 0.0}, "tail_share"), ({"tail_share": 1.5}, "tail_share"),
                                        ({"tail_share": math.nan}, "tail_share"), ({"ways": ("intact",)}, "ways"),
-                                       ({"ways": ("accumulated", "nope")}, "ways"), ({"ways": "accumulated"}, "ways")])
+                                       ({"ways": ("accumulated", "nope")}, "ways"), ({"ways": "accumulated"}, "ways"),
+                                       ({"tail_share": 0.5, "sequences": sq.SequenceSettings(
+                                           aftershocks=sq.Aftershocks())}, "tail_share 0.5 with aftershocks")])
 def test_bad_tail_shares_and_ways_are_refused_by_name(kw, named):
     with pytest.raises(ParameterError, match=named):
         R.RareSequenceSettings(**kw)

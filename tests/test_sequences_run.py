@@ -315,6 +315,8 @@ def test_rare_ways_and_tail_share_are_the_in_process_estimators_and_part_of_the_
     assert "P(within 10 yr): accumulated" in (out / "rare_summary.md").read_text()
     p = _run([str(site_file), str(out)] + ARGS + RARE + mine[:-4] + ["--tail-share", "0.25", "--max-rows", "32"])
     assert p.returncode == 2 and "tail_share" in p.stdout, p.stdout + p.stderr
+    p = _run([str(site_file), str(out)] + ARGS + RARE + ["--tail-share", "0.5", "--max-rows", "32"])   # all ways
+    assert p.returncode == 2 and "ways" in p.stdout, p.stdout + p.stderr
     for bad, named in ((["--ways", "intact"], "ways"), (["--tail-share", "0"], "tail_share")):
         p = _run([str(site_file), str(tmp_path / "bad")] + ARGS + RARE + bad)
         assert p.returncode == 2 and named in p.stdout, p.stdout + p.stderr

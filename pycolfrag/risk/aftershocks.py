@@ -25,17 +25,10 @@ which GenericRJ_Parameters.java calls "the Generic Reasenberg-Jones parameters d
 BSSA)"). Page's a goes with b = 1: it is not interchangeable with Reasenberg & Jones's a, which goes with
 b = 0.91 (the two give different counts below the mainshock's magnitude even at one a).
 
-Which a of Page's. The file gives, per region, the maximum-likelihood a of the region's sequences pooled (with
-its p: ``aValue_MaxLike``, ``pValue_MaxLike``) and the mean and standard deviation of a between sequences
-(``aValue_Mean``, ``aValue_Sigma``: the intersequence variability, a normal spread of a with sigma about 0.6,
-which the USGS forecasts sample). Here a is one number per model, so each mainshock's aftershocks are a Poisson
-process of one rate, and the pooled a is taken: it is the one fixed a that gives the sequences' mean count (the
-mean a, -2.47 for SZ-GENERIC, is the typical sequence's, and a normal a of mean -2.47 and sigma 0.63 has a mean
-rate of 10 ** (-2.47 + ln(10) 0.63 ** 2 / 2) = 10 ** -2.01, near the pooled -2.09; the mean a as a fixed a
-would count 10 ** 0.38 = 2.4 times too few). The intersequence variability is not modelled: the mean count per
-mainshock is the pooled one, its spread between mainshocks only Poisson's, too narrow (a sequence far more
-productive than the mean is rarer here than in nature). Page's fit saw 10 days of aftershocks; the one-year
-window here (``window_days``, as for Reasenberg & Jones) extends the Omori law beyond them.
+Which a of Page's: the maximum-likelihood a of the region's sequences pooled (with its p), the one fixed a that
+keeps the sequences' mean count; the spread of a between sequences (Page's intersequence variability) is not
+modelled, and Page's 10-day fit is extended to the window here (docs/sequences.md, "Aftershocks", says why and by
+how much).
 
 No Greece-specific parameters of this form were found (the search is in docs/sequences.md, which also says which
 Page region Greek places fall in); every parameter is a field, and :data:`AFTERSHOCK_MODELS` names the published

@@ -144,13 +144,9 @@ X_AFTERSHOCKS, X_GEOMETRY = 3, 4
 #: A row's own stream for whether its sequence's tail (the events after x) is run (:data:`TAIL_SHARE`).
 X_TAIL = 6
 #: The share of rows whose tail -- the events after x, the strongest -- is run (Russian roulette: the others stop
-#: at x, and a hit first seen in the tail counts 1 / TAIL_SHARE; docs/sequences.md, "The tail after the strongest
-#: event"). The default, 1, runs every tail (v3's rows). Unbiased at any share, but the stated standard error
-#: holds only where the tail's hits are seen often enough: where they are rare and heavy (x's own aftershocks on
-#: the aftershock surrogate: 0-3 of 500 hits), rows that saw none understate both the estimate and its error, so a
-#: share below 1 is for sites where the tail is measured to matter little -- the estimate states its ``late_hits``
-#: and ``p_late``. At the example site 0 of 26 collapses and 1 of 135 exceedances of u_d 0.01 in 251 rows of the
-#: pulse strata came after x, while the tail held 0.74 of the 2.42 events a row.
+#: at x, and a hit first seen in the tail counts 1 / TAIL_SHARE). 1, the default, runs every tail (v3's rows).
+#: Unbiased at any share; where and why a share below 1 may be used, and what it risks: docs/sequences.md, "The tail
+#: after the strongest event" (refused with aftershocks).
 TAIL_SHARE = 1.0
 #: The directivity geometries drawn at a time, and the most batches, for x's pulse probability given its branch.
 _GEOMETRY_BATCH, _GEOMETRY_TRIES = 64, 16384
@@ -187,6 +183,10 @@ class RareSequenceSettings:
         q = self.tail_share
         if isinstance(q, bool) or not isinstance(q, (int, float)) or not 0 < q <= 1:   # NaN fails too
             raise ParameterError(f"tail_share must be a number in (0, 1], got {q!r}")
+        if q < 1 and self.sequences.aftershocks is not None:
+            raise ParameterError(f"tail_share {q!r} with aftershocks: x's own aftershocks are in the tail, whose rare "
+                                 "and heavy hits a share below 1 misses, with its error (docs/sequences.md, \"The tail "
+                                 "after the strongest event\"): use 1")
         if not isinstance(self.sequences, SequenceSettings):
             raise ParameterError(f"sequences must be a SequenceSettings, got {type(self.sequences).__name__}")
         if self.target not in QUANTITIES:
@@ -552,10 +552,16 @@ def format_estimate(run: dict, title: str = "") -> str:
              f"{strongest} rows (share {run['settings'].tail_share:g}).", "",
              *(f"Production proposal: {n}." for n in run["design"].notes), "",
              f"| quantity | {' | '.join(f'P(within {st.years:g} yr): {w} [CoV]' for w in ways)} | "
-             "hits (accumulated) | CoV of the sample variances alone | P on strata of < 20 rows |",
-             "|---|" + "---|" * (len(ways) + 3)]
+             "hits (accumulated) | of them after x | P from them | CoV of the sample variances alone | "
+             "P on strata of < 20 rows |",
+             "|---|" + "---|" * (len(ways) + 5)]
     for q in QUANTITIES:
         cells = [f"{est[w][q]['p']:.4g} [{est[w][q]['cov']:.2f}]" for w in ways]
         a = est["accumulated"][q]
-        lines.append(f"| {q} | {' | '.join(cells)} | {a['hits']} | {a['cov_sample']:.3g} | {a['p_on_few_rows']:.3g} |")
+        lines.append(f"| {q} | {' | '.join(cells)} | {a['hits']} | {a['late_hits']} | {a['p_late']:.3g} | "
+                     f"{a['cov_sample']:.3g} | {a['p_on_few_rows']:.3g} |")
+    if run["settings"].tail_share < 1:
+        lines += ["", f"A share {run['settings'].tail_share:g} of the tails was run: the stated errors hold only where "
+                      "the hits after x are seen often enough (docs/sequences.md, \"The tail after the strongest "
+                      "event\"); rerun with --tail-share 1 where the column of hits after x is not small."]
     return "\n".join(lines)
