@@ -269,7 +269,8 @@ def test_the_roulette_on_the_tail_gives_the_exact_probability_with_fewer_runs(mo
                                        ({"tail_share": math.nan}, "tail_share"), ({"ways": ("intact",)}, "ways"),
                                        ({"ways": ("accumulated", "nope")}, "ways"), ({"ways": "accumulated"}, "ways"),
                                        ({"tail_share": 0.5, "sequences": sq.SequenceSettings(
-                                           aftershocks=sq.Aftershocks())}, "tail_share 0.5 with aftershocks")])
+                                           aftershocks=sq.Aftershocks())}, "tail_share 0.5 with aftershocks"),
+                                       ({"tail_share": 0.5, "sequences": None}, "sequences must be")])
 def test_bad_tail_shares_and_ways_are_refused_by_name(kw, named):
     with pytest.raises(ParameterError, match=named):
         R.RareSequenceSettings(**kw)

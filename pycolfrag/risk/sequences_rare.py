@@ -179,6 +179,8 @@ class RareSequenceSettings:
     tail_share: float = TAIL_SHARE
 
     def __post_init__(self):
+        if not isinstance(self.sequences, SequenceSettings):
+            raise ParameterError(f"sequences must be a SequenceSettings, got {type(self.sequences).__name__}")
         object.__setattr__(self, "ways", check_ways(self.ways))
         q = self.tail_share
         if isinstance(q, bool) or not isinstance(q, (int, float)) or not 0 < q <= 1:   # NaN fails too
@@ -187,8 +189,6 @@ class RareSequenceSettings:
             raise ParameterError(f"tail_share {q!r} with aftershocks: x's own aftershocks are in the tail, whose rare "
                                  "and heavy hits a share below 1 misses, with its error (docs/sequences.md, \"The tail "
                                  "after the strongest event\"): use 1")
-        if not isinstance(self.sequences, SequenceSettings):
-            raise ParameterError(f"sequences must be a SequenceSettings, got {type(self.sequences).__name__}")
         if self.target not in QUANTITIES:
             raise ParameterError(f"target must be one of {', '.join(QUANTITIES)}, got {self.target!r}")
         if not (isinstance(self.target_cov, (int, float)) and 0 < self.target_cov < 1):
