@@ -106,7 +106,7 @@ def main(argv=None) -> int:
         Path(args.json).write_text(json.dumps({
             "rows": len(rows), "runs": run["runs"], "shared": run["shared"], "seconds": run["seconds"], "design": run["design"].as_dict(),
             "ways": list(rs.ways), "tail_share": rs.tail_share,
-            "tails_run": sum(bool(r["strongest"] and r["tail_weight"] > 0) for r in rows),
+            "tails_run": rare.tails_run(rows),
             "estimate": est, "single": {"runs": s_runs, "cov": s_cov, "runs_at_target": s_at},
             "runs_at_target_extrapolated": need, "target_met": met}, indent=1))
     return 0

@@ -105,7 +105,7 @@ from pycolfrag.risk.sequences import (
 __all__ = ["ALGORITHM", "STREAM_RARE_SEQUENCES", "NO_PULSE_OFFSET", "strength", "RareSequenceSettings", "run_row",
            "refuse_outside_aftershocks", "X_AFTERSHOCKS", "X_GEOMETRY", "X_TAIL", "TAIL_SHARE",
            "estimate", "allocate", "floors", "design_of", "simulate_sequences", "estimate_rows", "QUANTITIES", "LEVELS",
-           "settings_dict", "journal_settings", "format_estimate"]
+           "settings_dict", "journal_settings", "tails_run", "format_estimate"]
 
 #: What the rows and decisions mean (part of a journal's identity: an older folder is refused by name, not
 #: resumed). v2: a row stores its strongest event's features and each way's peak EDPs; the production proposal
@@ -536,6 +536,12 @@ def settings_dict(rs: RareSequenceSettings) -> dict:
             "no_pulse_offset": NO_PULSE_OFFSET, "ways": list(rs.ways), "tail_share": rs.tail_share}
 
 
+def tails_run(rows: list) -> int:
+    """The rows whose tail -- the events after x, the strongest -- was run (x the strongest of its sequence and the
+    roulette's draw kept its tail: a ``tail_weight`` above 0; every such row at ``tail_share`` 1)."""
+    return sum(bool(r["strongest"] and r["tail_weight"] > 0) for r in rows)
+
+
 def format_estimate(run: dict, title: str = "") -> str:
     """The estimate of :func:`simulate_sequences` as text: P(within T) per quantity and way, with the CoV."""
     st = run["settings"].sequences
@@ -543,12 +549,11 @@ def format_estimate(run: dict, title: str = "") -> str:
     rows = run["rows"]
     strongest = sum(r["strongest"] for r in rows)
     ways = run["settings"].ways
-    tails = sum(r["strongest"] and r["tail_weight"] > 0 for r in rows)
     lines = [f"## {title or 'Sequences at a site, importance sampling on the strongest event'}", "",
              f"{len(rows)} rows over {len(run['strata'])} strata ({strongest} with the row's event the strongest of "
              f"its sequence), {run['runs']} event runs ({run['shared']} more shared between the ways), "
              f"{run['seconds']:.1f} s of runs; horizon {st.years:g} years, "
-             f"seed {st.seed}, restoration {st.restoration.describe()}; the tail after x run in {tails} of "
+             f"seed {st.seed}, restoration {st.restoration.describe()}; the tail after x run in {tails_run(rows)} of "
              f"{strongest} rows (share {run['settings'].tail_share:g}).", "",
              *(f"Production proposal: {n}." for n in run["design"].notes), "",
              f"| quantity | {' | '.join(f'P(within {st.years:g} yr): {w} [CoV]' for w in ways)} | "
