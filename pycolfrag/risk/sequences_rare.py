@@ -337,13 +337,15 @@ def floors(rows: list, strata, design: Design, seed: int, ways=WAYS, labels=QUAN
     return out
 
 
-def _value(row: dict, way: str, q: int) -> float:
-    """A row's outcome of quantity ``q`` in ``way`` before its weights: 0 without a hit (or where x is not the
-    strongest), 1 for a hit at or before x, the row's ``tail_weight`` (1 / :data:`TAIL_SHARE` where its tail was
-    run) for a hit first seen after x (Russian roulette on the tail: unbiased, as the tail's hits only add)."""
+def _value(row: dict, way: str, q: int) -> tuple[float, bool]:
+    """A row's outcome of quantity ``q`` in ``way`` before its weights, and whether it is a hit first seen after x:
+    (0, False) without a hit (or where x is not the strongest), (1, False) for a hit at or before x, (the row's
+    ``tail_weight``, True) for a hit first seen after x -- 1 / :data:`TAIL_SHARE` where its tail was run (Russian
+    roulette on the tail: unbiased, as the tail's hits only add)."""
     if not (row["strongest"] and row["hits"][way][q]):
-        return 0.0
-    return float(row["tail_weight"]) if row["late"][way][q] else 1.0
+        return 0.0, False
+    late = bool(row["late"][way][q])
+    return (float(row["tail_weight"]) if late else 1.0), late
 
 
 def _stratum_stats(rows_h: list, way: str, q: int, years: float, rate: float, floor_h=None, a=None) -> tuple:
@@ -353,12 +355,13 @@ def _stratum_stats(rows_h: list, way: str, q: int, years: float, rate: float, fl
     the batches' means combined as pieces, the variance from each batch's own rows, the floor times their design
     effect (the rare route's estimator)."""
     n = len(rows_h)
-    y = np.array([years * rate * r["weight"] * _value(r, way, q) for r in rows_h], dtype=float)
+    values = [_value(r, way, q) for r in rows_h]
+    y = np.array([years * rate * r["weight"] * v for r, (v, _) in zip(rows_h, values)], dtype=float)
+    late = np.array([is_late for _, is_late in values], dtype=bool)
     batches = [r["batch"] for r in rows_h]
     f, deff = (None, 1.0) if a is None or not n else piece_factors(batches, np.zeros(n, bool), a)
     hits = int(np.count_nonzero(y))
     mean = (float(y.mean()) if f is None else float(np.mean(f * y))) if n else 0.0
-    late = np.array([bool(r["strongest"] and r["hits"][way][q] and r["late"][way][q]) for r in rows_h], dtype=bool)
     mean_late = (float(np.mean(np.where(late, y if f is None else f * y, 0.0)))) if n else 0.0
     var = float(y.var(ddof=1)) / n if n > 1 else 0.0
     if f is not None:          # each batch's own sample variance (rare/estimate.py, piece_variance)
