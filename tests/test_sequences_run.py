@@ -193,6 +193,19 @@ RARE = ["--rare", "--target", "u_d > 0.005", "--target-cov", "0.01", "--pilot", 
         "--max-rows", "48"]
 
 
+def test_the_rare_options_not_given_are_the_settings_defaults():
+    """Only the --rare options given reach RareSequenceSettings; the others are its fields' defaults (their one text),
+    which the help states."""
+    from pycolfrag.risk import sequences_rare as R
+    st = sq.SequenceSettings()
+    args = sr.parser().parse_args(["site.toml", "out", "--rare"])
+    assert sr.rare_settings(args, st) == R.RareSequenceSettings(sequences=st)
+    args = sr.parser().parse_args(["site.toml", "out", "--rare", "--pilot", "3", "--ways", "accumulated, intact"])
+    assert sr.rare_settings(args, st) == R.RareSequenceSettings(sequences=st, pilot=3, ways=("accumulated", "intact"))
+    text = " ".join(sr.parser().format_help().split())
+    assert "the row budget (default: 20000)" in text and "(default: accumulated,intact,restored)" in text, text
+
+
 def _rows(out: Path) -> list:
     """The rows of a rare journal in order, without their wall times."""
     lines = (out / "rows.jsonl").read_text().splitlines()[1:]

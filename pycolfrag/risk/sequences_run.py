@@ -63,7 +63,7 @@ from pycolfrag.structure.column import Column
 from pycolfrag.structure.kinds import scene_from_file
 
 __all__ = ["JOURNAL", "EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_DRAINED", "identity",
-           "outcome_to_dict", "outcome_from_dict", "read_journal", "run_folder", "main"]
+           "outcome_to_dict", "outcome_from_dict", "read_journal", "run_folder", "rare_settings", "main"]
 
 #: The journal's name in the output folder.
 JOURNAL = "sequences.jsonl"
@@ -229,8 +229,27 @@ def _status():
     return _mpi().Status()
 
 
+#: The options of ``--rare`` that are :class:`pycolfrag.risk.sequences_rare.RareSequenceSettings`' fields of the same
+#: name: None in the parser, so that only those given reach the settings and each default has its one text there.
+_RARE_FIELDS = ("target", "target_cov", "pilot", "batch", "max_rows", "ways", "tail_share")
+
+
+class _Help(HelpFormatter):
+    """The commands' help style, the ``--rare`` options' defaults read from the settings' fields when the help is
+    shown (the rare modules are loaded for ``--rare`` and the help alone)."""
+
+    def _get_help_string(self, action):
+        if action.dest not in _RARE_FIELDS:
+            return super()._get_help_string(action)
+        from pycolfrag.risk.sequences_rare import RareSequenceSettings
+        default = next(f.default for f in dataclasses.fields(RareSequenceSettings) if f.name == action.dest)
+        if isinstance(default, tuple):   # the ways, in --ways' own syntax
+            default = ",".join(default)
+        return f"{action.help} (default: {default})"
+
+
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="pycolfrag sequences", formatter_class=HelpFormatter,
+    p = argparse.ArgumentParser(prog="pycolfrag sequences", formatter_class=_Help,
                                 description=__doc__.split("\n\n")[0] + " Under MPI: mpirun -n N python -m mpi4py -m "
                                 "pycolfrag sequences ...; rerunning the same command resumes.")
     p.add_argument("site", help="site file (TOML, docs/risk.md)")
@@ -253,17 +272,17 @@ def parser() -> argparse.ArgumentParser:
     rare = p.add_argument_group("importance sampling on the strongest event (--rare; docs/sequences.md, \"Rare sequences\")")
     rare.add_argument("--rare", action="store_true",
                       help="rows of the rare-event strata instead of crude sequences (--n is not used)")
-    rare.add_argument("--target", default="collapse", help="the quantity whose CoV stops the run (accumulated way)")
-    rare.add_argument("--target-cov", type=float, default=0.2, help="stop when the target's CoV reaches this")
-    rare.add_argument("--pilot", type=int, default=10, help="rows per stratum before the allocation")
-    rare.add_argument("--batch", type=int, default=400, help="rows per batch after the pilot")
-    rare.add_argument("--max-rows", type=int, default=20000, help="the row budget")
+    rare.add_argument("--target", default=None, help="the quantity whose CoV stops the run (accumulated way)")
+    rare.add_argument("--target-cov", type=float, default=None, help="stop when the target's CoV reaches this")
+    rare.add_argument("--pilot", type=int, default=None, help="rows per stratum before the allocation")
+    rare.add_argument("--batch", type=int, default=None, help="rows per batch after the pilot")
+    rare.add_argument("--max-rows", type=int, default=None, help="the row budget")
     rare.add_argument("--ways", default=None,
-                      help="the ways run, comma-separated: accumulated and any of intact, restored (default all three; "
-                           "accumulated alone costs the fewest runs)")
+                      help="the ways run, comma-separated: accumulated and any of intact, restored (accumulated alone "
+                           "costs the fewest runs)")
     rare.add_argument("--tail-share", type=float, default=None,
                       help="the share of rows whose events after the strongest are run (Russian roulette: fewer "
-                           "runs where the tail rarely matters; default 1, every row's; docs/sequences.md)")
+                           "runs where the tail rarely matters; 1 runs every row's; docs/sequences.md)")
     rare.add_argument("--shift", type=float, nargs=2, default=None, metavar=("Z_VP", "Z_FP"),
                       help="the production proposal's shift of the pulse normals (default: the cross-entropy step on "
                            "the pilot's rows)")
@@ -312,17 +331,23 @@ def main(argv=None) -> int:
     return EXIT_OK
 
 
-def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
+def rare_settings(args, st: SequenceSettings):
+    """The :class:`pycolfrag.risk.sequences_rare.RareSequenceSettings` of the parsed ``--rare`` options: those given,
+    the others left to the settings' own defaults; ParameterError names a bad one."""
     from pycolfrag.rare.proposal import production_mixture  # the rare route's modules, for --rare only
     from pycolfrag.risk import sequences_rare as rare
+    mixture = None if args.shift is None else production_mixture(rare.DEFENSIVE, (tuple(args.shift),))
+    given = {k: getattr(args, k) for k in _RARE_FIELDS if getattr(args, k) is not None}
+    if "ways" in given:
+        given["ways"] = tuple(w.strip() for w in given["ways"].split(","))
+    return rare.RareSequenceSettings(sequences=st, mixture=mixture, **given)
+
+
+def _main_rare(args, model, st: SequenceSettings, comm, log) -> int:
+    from pycolfrag.risk import sequences_rare as rare  # the rare route's modules, for --rare only
     from pycolfrag.risk.sequences_rare_run import run_rare_folder
     try:
-        mixture = None if args.shift is None else production_mixture(rare.DEFENSIVE, (tuple(args.shift),))
-        ways = rare.WAYS if args.ways is None else tuple(w.strip() for w in args.ways.split(","))
-        rs = rare.RareSequenceSettings(sequences=st, target=args.target, target_cov=args.target_cov,
-                                       pilot=args.pilot, batch=args.batch, max_rows=args.max_rows, mixture=mixture,
-                                       ways=ways, tail_share=rare.TAIL_SHARE if args.tail_share is None else
-                                       args.tail_share)
+        rs = rare_settings(args, st)
     except PycolfragError as exc:
         log(f"sequences: {exc}")
         return EXIT_ARGS
