@@ -161,6 +161,20 @@ def test_the_bare_flag_is_rj1989_and_a_name_picks_the_model():
         None, "rj1989", "page2016-sz-onshore")
 
 
+def test_a_word_after_the_bare_flag_that_names_no_model_is_the_site_or_the_folder():
+    """argparse's optional value takes any word: ``--aftershocks site.toml out`` read the site file as the model
+    (then lacked ``out``). The word is the model where it names one; else the site or folder, with rj1989; a
+    misspelt name with no other place is still the model (refused by name: tests/test_sequences_run.py)."""
+    from pycolfrag.risk.sequences_run import parse_args
+    got = lambda *argv: (lambda a: (a.site, a.out, a.aftershocks))(parse_args(list(argv)))  # noqa: E731
+    assert got("--aftershocks", "site.toml", "out") == ("site.toml", "out", "rj1989")
+    assert got("site.toml", "--aftershocks", "out", "--rare") == ("site.toml", "out", "rj1989")
+    assert got("--aftershocks", "page2016-sz-generic", "site.toml", "out") == (
+        "site.toml", "out", "page2016-sz-generic")
+    assert got("site.toml", "out", "--aftershocks", "page2016-greece")[2] == "page2016-greece"
+    assert got("site.toml", "out")[2] is None
+
+
 def test_the_rare_sequences_take_aftershocks():
     """Once refused by name; now taken (tests/test_sequences_rare_aftershocks.py holds them to the exact answer)."""
     from pycolfrag.risk import sequences_rare as R

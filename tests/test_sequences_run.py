@@ -6,6 +6,7 @@ sequences, a journal of other settings or another site is refused by name, a hel
 (exit 5), and two MPI ranks give the one-rank sequences."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import signal
 import subprocess
@@ -17,6 +18,7 @@ import pytest
 from pycolfrag.results.lock import RunLock
 from pycolfrag.risk import sequences as sq
 from pycolfrag.risk import sequences_run as sr
+from pycolfrag.risk.aftershocks import AFTERSHOCK_MODELS
 from pycolfrag.site.sources import load_site
 from pycolfrag.solver.sequence import Restoration
 from pycolfrag.structure.column import Column
@@ -162,6 +164,17 @@ def test_bad_arguments_are_refused_by_name(site_file, tmp_path):
     assert p.returncode == 2 and "absent.toml" in p.stdout
     p = _run([str(site_file), str(tmp_path / "o")] + ARGS + ["--aftershocks", "page2016-greece"])
     assert p.returncode == 2 and "'page2016-greece'" in p.stdout and "page2016-sz-generic" in p.stdout, p.stdout
+
+
+@pytest.mark.parametrize("words, model", [([], "rj1989"), (["page2016-sz-generic"], "page2016-sz-generic")])
+def test_aftershocks_before_the_site_file_leave_it_the_site(site_file, tmp_path, words, model):
+    """``--aftershocks SITE OUT``: the site file is the site, with rj1989 (it was read as the model and refused), and
+    ``--aftershocks page2016-sz-generic SITE OUT`` keeps that model: the journal's identity holds its parameters."""
+    out = tmp_path / "out"
+    p = _run(["--aftershocks", *words, str(site_file), str(out), "--n", "1"] + ARGS)
+    assert p.returncode == 0, p.stdout + p.stderr
+    head = json.loads((out / sr.JOURNAL).open().readline())["identity"]
+    assert head["settings"]["aftershocks"] == json.loads(json.dumps(dataclasses.asdict(AFTERSHOCK_MODELS[model])))
 
 
 def test_sigterm_stops_after_the_running_sequence_and_the_rerun_completes(site_file, tmp_path):

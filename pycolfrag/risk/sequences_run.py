@@ -63,7 +63,7 @@ from pycolfrag.structure.column import Column
 from pycolfrag.structure.kinds import scene_from_file
 
 __all__ = ["JOURNAL", "EXIT_OK", "EXIT_ARGS", "EXIT_OS_ERROR", "EXIT_LOCKED", "EXIT_DRAINED", "identity",
-           "outcome_to_dict", "outcome_from_dict", "read_journal", "run_folder", "rare_settings", "main"]
+           "outcome_to_dict", "outcome_from_dict", "read_journal", "run_folder", "rare_settings", "parse_args", "main"]
 
 #: The journal's name in the output folder.
 JOURNAL = "sequences.jsonl"
@@ -266,8 +266,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--max-record-s", type=float, default=None, help="cut the records (tests and quick looks only)")
     p.add_argument("--aftershocks", nargs="?", const=DEFAULT_AFTERSHOCK_MODEL, default=None, metavar="MODEL",
                    help="each mainshock's aftershocks of Mw >= 5 within a year, by the generic parameters MODEL: "
-                        "rj1989 (Reasenberg & Jones 1989, California; the flag alone) or page2016-REGION (Page et "
-                        "al. 2016 by tectonic region); one of " + ", ".join(AFTERSHOCK_MODELS) + " (docs/sequences.md, "
+                        "rj1989 (Reasenberg & Jones 1989, California; the flag alone, also where the word after it "
+                        "names no model: --aftershocks site.toml out) or page2016-REGION (Page et al. 2016 by "
+                        "tectonic region); one of " + ", ".join(AFTERSHOCK_MODELS) + " (docs/sequences.md, "
                         "\"Aftershocks\"; with --rare: \"Aftershocks in the rare sequences\")")
     rare = p.add_argument_group("importance sampling on the strongest event (--rare; docs/sequences.md, \"Rare sequences\")")
     rare.add_argument("--rare", action="store_true",
@@ -291,8 +292,35 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def _aftershocks_bare(argv: list) -> list:
+    """``argv`` with every ``--aftershocks`` followed by a word that names no aftershock model made explicit
+    (``--aftershocks=`` the model the flag alone means), so that the word is left to the positional arguments."""
+    out = list(argv)
+    for i, (word, after) in enumerate(zip(argv, argv[1:])):
+        if word == "--":
+            break
+        if word == "--aftershocks" and not after.startswith("-") and after not in AFTERSHOCK_MODELS:
+            out[i] = f"--aftershocks={DEFAULT_AFTERSHOCK_MODEL}"
+    return out
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    """The command line, parsed by :func:`parser`, but for the word after ``--aftershocks``: argparse gives an
+    optional value any word, so ``--aftershocks site.toml out`` would read the site file as the model (and lack
+    ``out``). Here the word is the model where it names one, or where no positional argument could take it
+    (``site.toml out --aftershocks page2016-greece``: refused in :func:`main`, naming the known models); any other
+    word is the site or the folder, and the flag alone means rj1989."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    p, bare = parser(), _aftershocks_bare(argv)
+    if bare != argv:
+        args, rest = p.parse_known_args(bare)
+        if not rest:
+            return args
+    return p.parse_args(argv)
+
+
 def main(argv=None) -> int:
-    args = parser().parse_args(argv)
+    args = parse_args(argv)
     comm = get_comm(args.mpi)
     rank = comm.Get_rank() if comm is not None else 0
     log = (lambda s: print(s, flush=True)) if rank == 0 else (lambda s: None)
