@@ -322,7 +322,7 @@ def test_rare_with_aftershocks_sigterm_then_resume_gives_the_uninterrupted_rows(
 def test_rare_ways_and_tail_share_are_the_in_process_estimators_and_part_of_the_identity(site_file, tmp_path):
     """``--ways accumulated --tail-share 0.5``: the journal holds the rows the estimator makes in this process with
     those settings (the accumulated way alone in each row, half the tails run); a journal begun with them is refused
-    with another share; the settings are refused by name without --rare or out of range."""
+    with another share; the settings are refused by name out of range (without --rare: the test below)."""
     from pycolfrag.risk import sequences_rare as rare
     st = sq.SequenceSettings(years=10.0, n_sequences=1000, seed=3, restoration=Restoration(u_d=0.005),
                              max_record_s=4.0)
@@ -346,8 +346,38 @@ def test_rare_ways_and_tail_share_are_the_in_process_estimators_and_part_of_the_
     for bad, named in ((["--ways", "intact"], "ways"), (["--tail-share", "0"], "tail_share")):
         p = _run([str(site_file), str(tmp_path / "bad")] + ARGS + RARE + bad)
         assert p.returncode == 2 and named in p.stdout, p.stdout + p.stderr
-    p = _run([str(site_file), str(tmp_path / "crude")] + ARGS + ["--ways", "accumulated"])
-    assert p.returncode == 2 and "--rare" in p.stdout, p.stdout + p.stderr
+
+
+def _rare_group():
+    """The parser's importance-sampling group: the group that holds ``--rare``, read from argparse itself so that an
+    option added to it is a case below without being listed here."""
+    return next(g for g in sr.parser()._action_groups if any(a.dest == "rare" for a in g._group_actions))
+
+
+# a valid value of each (a refusal for the value would hide the one for the missing --rare)
+_RARE_VALUES = {"target": ["collapse"], "target_cov": ["0.2"], "pilot": ["5"], "batch": ["200"], "max_rows": ["100"],
+                "ways": ["accumulated"], "tail_share": ["0.5"], "shift": ["1.0", "0.5"]}
+_RARE_ONLY = [a for a in _rare_group()._group_actions if a.dest != "rare"]
+
+
+def test_every_rare_only_option_is_none_in_the_parser_and_has_a_case():
+    """"Given" is "not None" for the refusal, and the cases below cover the whole group."""
+    assert all(a.default is None for a in _RARE_ONLY)
+    assert sorted(a.dest for a in _RARE_ONLY) == sorted(_RARE_VALUES)
+
+
+@pytest.mark.parametrize("options", [[a.option_strings[0]] for a in _RARE_ONLY] + [["--pilot", "--shift"]],
+                         ids=lambda o: ",".join(o))
+def test_the_rare_options_are_refused_by_name_without_rare(site_file, tmp_path, options):
+    """Each option of the importance-sampling group but ``--rare`` itself, given without ``--rare``, is refused with
+    exit 2 naming it (the crude sequences read none of them: passed over in silence it would look like an effect),
+    before the crude run starts (no journal); several given are all named."""
+    dest = {a.option_strings[0]: a.dest for a in _RARE_ONLY}
+    out = tmp_path / "crude"
+    p = _run([str(site_file), str(out)] + ARGS + [w for o in options for w in [o] + _RARE_VALUES[dest[o]]])
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert all(o in p.stdout for o in options) and "--rare" in p.stdout, p.stdout + p.stderr
+    assert not (out / sr.JOURNAL).exists()
 
 
 def test_a_rare_journal_begun_without_aftershocks_is_refused_with_them(site_file, tmp_path):

@@ -232,6 +232,9 @@ def _status():
 #: The options of ``--rare`` that are :class:`pycolfrag.risk.sequences_rare.RareSequenceSettings`' fields of the same
 #: name: None in the parser, so that only those given reach the settings and each default has its one text there.
 _RARE_FIELDS = ("target", "target_cov", "pilot", "batch", "max_rows", "ways", "tail_share")
+#: Every option of the parser's importance-sampling group but ``--rare`` itself: refused without ``--rare`` (the crude
+#: sequences read none of them, so a silent pass would look like an effect); None in the parser, so given = not None.
+_RARE_ONLY = _RARE_FIELDS + ("shift",)
 
 
 class _Help(HelpFormatter):
@@ -324,6 +327,11 @@ def main(argv=None) -> int:
     comm = get_comm(args.mpi)
     rank = comm.Get_rank() if comm is not None else 0
     log = (lambda s: print(s, flush=True)) if rank == 0 else (lambda s: None)
+    given = ["--" + k.replace("_", "-") for k in _RARE_ONLY if getattr(args, k) is not None]
+    if given and not args.rare:
+        log(f"sequences: {', '.join(given)} {'needs' if len(given) == 1 else 'need'} --rare (settings of the rare "
+            "sequences; the crude sequences read none of them)")
+        return EXIT_ARGS
     try:
         model = (scene_from_file(args.scene) if args.scene else
                  Column.from_file(args.column) if args.column else Column.parthenon())
@@ -339,9 +347,6 @@ def main(argv=None) -> int:
 
     if args.rare:
         return _main_rare(args, model, st, comm, log)
-    if args.ways is not None or args.tail_share is not None:
-        log("sequences: --ways and --tail-share are settings of the rare sequences (--rare)")
-        return EXIT_ARGS
 
     def progress(done, total):
         if args.progress and (done == total or done % max(1, total // 10) == 0):
