@@ -10,7 +10,9 @@
  * then optionally perimeterN (N points per edge), exact, planar, mono: else the grid's options
  * (SolverOptions defaults: vertex, dt_factor 0.8, early exit, tail 3 s).
  * Prints: runs, total steps, thread CPU seconds, CPU microseconds per run-step, and a hash of
- * every run's result bits (the same for every mode when the batch is bitwise the single run).
+ * every run's result bits (the same for every mode when the batch is bitwise the single run); one
+ * run at a time with a points model, also the joint-steps taken asleep (option `sleep`) and all
+ * joint-steps (bench/speed_ceiling.py reads them).
  * Built with -DNO_BATCH (a baseline tree without the batch API), only "single" exists.
  */
 #define _POSIX_C_SOURCE 200809L
@@ -26,6 +28,7 @@
 #include "../tests/c/parthenon_column.h"
 #ifndef NO_BATCH
 #include "solver_batch.h"
+#include "solver_points_internal.h"
 #endif
 
 static double cpu_now(void)
@@ -63,7 +66,7 @@ int main(int argc, char **argv)
     int nseg[NB], i, count, width = -1;
     double **acc, *dt, *resid;
     int *n;
-    long steps = 0;
+    long steps = 0, slept = -1;
     cf_solver_def def;
     cf_solver *s;
     unsigned long long h = 1469598103934665603ULL;
@@ -115,6 +118,10 @@ int main(int argc, char **argv)
             int st = cf_solver_run(s, acc[i], NULL, NULL, n[i], dt[i], resid + (size_t)i * NB, &res);
             steps += res.n_steps;
             h = hash_result(h, st, &res, resid + (size_t)i * NB);
+#ifndef NO_BATCH
+            if (def.contact != CF_SOLVER_CONTACT_EXACT && !def.monolithic)
+                slept = (slept < 0 ? 0 : slept) + ((cf_points *)s->contact)->slept;
+#endif
         }
         c1 = cpu_now();
     }
@@ -137,8 +144,10 @@ int main(int argc, char **argv)
         free(jobs); free(out);
     }
 #endif
-    printf("runs %d steps %ld cpu %.6f us/run-step %.4f width %d hash %016llx\n", count, steps, c1 - c0,
+    printf("runs %d steps %ld cpu %.6f us/run-step %.4f width %d hash %016llx", count, steps, c1 - c0,
            1e6 * (c1 - c0) / (double)steps, width < 0 ? 0 : width, h);
+    if (slept >= 0) printf(" slept %ld of %ld joint-steps", slept, steps * (long)s->nj);
+    printf("\n");
     cf_solver_free(s);
     return 0;
 }

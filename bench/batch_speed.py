@@ -52,17 +52,23 @@ def write_records(path: Path, n: int) -> tuple[list[int], float]:
     spec = GridSpec()
     ctx = spec.context()
     rows = sorted({int(r) for r in np.linspace(0, spec.n_rows - 1, n).round()})
-    lens = []
+    recs = []
+    for row in rows:
+        sc, k, mw, dist = ctx.locate(row)
+        rec = ground_motion.synthesize(mw, dist, ctx.hf_seed(sc, k), dt=spec.record_dt_s, vp_scale=spec.vp_scale,
+                                       pulse=ctx.pulse(sc, k))
+        recs.append((rec.acc, rec.dt))
+    write_record_file(path, recs)
+    return rows, float(np.mean([acc.size * dt for acc, dt in recs]))
+
+
+def write_record_file(path: Path, recs) -> None:
+    """The records file of bench/batch_profile.c: their count, then each record's n, dt and n accelerations."""
     with open(path, "wb") as f:
-        f.write(struct.pack("i", len(rows)))
-        for row in rows:
-            sc, k, mw, dist = ctx.locate(row)
-            rec = ground_motion.synthesize(mw, dist, ctx.hf_seed(sc, k), dt=spec.record_dt_s, vp_scale=spec.vp_scale,
-                                           pulse=ctx.pulse(sc, k))
-            acc = np.ascontiguousarray(rec.acc, dtype=np.float64)
-            f.write(struct.pack("i", acc.size) + struct.pack("d", float(rec.dt)) + acc.tobytes())
-            lens.append(acc.size * rec.dt)
-    return rows, float(np.mean(lens))
+        f.write(struct.pack("i", len(recs)))
+        for acc, dt in recs:
+            acc = np.ascontiguousarray(acc, dtype=np.float64)
+            f.write(struct.pack("i", acc.size) + struct.pack("d", float(dt)) + acc.tobytes())
 
 
 def run(exe: Path, records: Path, mode: str, case: list[str]) -> tuple[float, int, int, str, int]:
