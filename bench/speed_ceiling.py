@@ -1,34 +1,39 @@
 #!/usr/bin/env python3
 """How much can sleeping joints and tree-order sums save on the default grid? A ceiling, measured (never a test).
 
-The third speed round asked the full default grid for >= 1.9x and the single run for >= 1.5x, by two changes of
-results at round-off: sleeping joints (a joint whose points all stick is advanced by its linear law, its points skipped) and
-sums in a fixed tree order (the face sums off their point-order chain). This bench measures what either can give
+The targets of docs/performance.md "Speed, third edition: the ceiling" -- the full default grid >= 1.9x faster and the
+single run >= 1.5x -- were to come from two changes of results at round-off: sleeping joints (a joint whose points all
+stick is advanced by its linear law, its points skipped) and sums in a fixed tree order (the face sums off their
+point-order chain). This bench measures what either can give
 at most, on the grid's own rows (``pycolfrag grid`` with no options: its 35 scenarios, samples FIRST.. of each, the
 records and solver options a full grid runs):
 
 * **closed**: the share of joint-time (history every 2 ms) in which no vertex of the joint's upper face is open
   (``History.joint_opening`` = 0). A joint can sleep only with every point of both faces in contact, so this is an
-  upper bound of the joint-steps sleeping can take, whatever its criterion.
+  upper bound of the joint-steps sleeping can take, whatever its criterion (estimated from the 2 ms samples).
 * **asleep**: the joint-steps the solver's own sleeping (option ``sleep``, margin 0.5) took, single runs, counted
   by the C driver bench/batch_profile.c (``single sleep``: every row alone, the grid's options), and the CPU
   time of the rows with and without it (the same binary, alternately, the best of the rounds).
-* **all lanes closed**: the grid runs its rows in SIMD lanes, 8 rows of one scenario side by side
-  (docs/performance.md, "Runs in lanes"); a joint's points can be skipped only when every lane sleeps on it (a
-  sleeping lane is masked, not removed). Measured as the share of joint-time in which the joint is closed in all 8
-  rows of a group at once (rows side by side from t = 0, cut to the group's shortest).
+* **all lanes closed**: the grid runs its rows in SIMD lanes, 8 side by side (docs/performance.md, "Runs in lanes");
+  a joint's points can be skipped only when every running lane sleeps on it (a sleeping lane is masked, not
+  removed). Approximated by the share of joint-time in which the joint is closed in all 8 rows of one scenario at
+  once, started together at t = 0 and cut to the group's shortest. The grid's lanes are staggered (longest record
+  first, a lane refilled as its run ends, chunks by cost), so their quiet phases coincide less than these aligned
+  ones: the approximation errs high, as a ceiling may.
 * the **ceiling** of a speed-up: 1 / (1 - p x s), s the share of joint-steps whose point work could be skipped and
-  p the share of a step that is point work -- 0.52 in a single run (perf, docs/performance.md "Profile of one
-  step": the runner 47.1 % and the full law 4.5 %) and 0.80 in an 8-lane batch (perf, "The AVX2 path": ``run_w8``
-  80 %, the joints' lanes 12 %). A sleeping step that cost nothing would reach it; the per-joint work, the bodies
-  and the monitor remain.
+  p the share of a step that is point work -- 0.52 in a single run, a generous value (perf, docs/performance.md
+  "Profile of one step": the runner with the full law 47-53 %; the same page finds the point work about a third of
+  a vertex step where every joint sleeps) and 0.80 in an 8-lane batch (perf, "The AVX2 path": ``run_w8`` 80 %, the
+  joints' lanes 12 %). A sleeping step that cost nothing would reach it; the per-joint work, the bodies and the
+  monitor remain.
 * ``--tree-sums``: the face sums of the single run's point runner accumulated as whole vectors (one vector add per
-  block, reduced once per face) instead of lane by lane in point order -- the cheapest order there is, so an upper
-  bound of what any fixed tree order can save. The patch (bench/patches/vector_sums.diff) is applied to a copy of
+  block, reduced once per face) instead of lane by lane in point order, for its blocks of easy points (a block with
+  a hard point keeps point order) -- the cheapest order for them, so what a tree order can save there. The patch (bench/patches/vector_sums.diff) is applied to a copy of
   this tree; both builds are timed alternately, on the sine of bench/solver_speed.py (bench/solver_profile.c) and
   on the grid rows above one at a time (bench/batch_profile.c). In the batch each lane is its own run and adds its
   points one after the other; bench/patches/batch_pair_sums.diff gives every lane two sums (even and odd points,
-  joined at the face's end), which halves that chain, timed at 8 lanes on the same rows.
+  joined at the face's end), which halves that chain -- one tree order, not a bound -- timed at 8 lanes on the same
+  rows.
 
     nice -n 10 .venv/bin/python bench/speed_ceiling.py [--samples 8] [--first 0] [--tree-sums] [--rounds 3]
     nice -n 10 .venv/bin/python bench/speed_ceiling.py --sums-only --samples 2 --rounds 12
@@ -202,7 +207,11 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     if a.samples < 1 or a.rounds < 1:
         ap.error(f"--samples and --rounds must be >= 1, got {a.samples} and {a.rounds}")
-    from equivalence import grid_inputs
+    if a.samples < LANES and not a.sums_only:
+        ap.error(f"--samples must be >= {LANES} (one lane group per scenario), got {a.samples}")
+    from equivalence import _git, _stale, grid_inputs
+    if not a.sums_only and _stale(ROOT):
+        ap.error("the built extension is not this tree's csrc/: run make build (the histories come from it)")
     from pycolfrag.grid.schedule import cpu_model
     cpu = cpu_model()
     with tempfile.TemporaryDirectory() as tmp:
@@ -218,9 +227,12 @@ def main(argv=None) -> int:
         out["speed_ceiling.json"] = _report_rows(res, cpu)
     if sums is not None:
         out["speed_ceiling_sums.json"] = _report_sums(sums, cpu)
+    stamp = {"utc": f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M}", "samples": a.samples,
+             "first": a.first, "rounds": a.rounds, "commit": _git("rev-parse", "--short", "HEAD"),
+             "dirty": bool(_git("status", "--porcelain", "--", "csrc", "bench", ":(exclude)bench/results"))}
     for name, data in out.items():
         if not a.no_write:
-            data.update(samples=a.samples, first=a.first, rounds=a.rounds)
+            data.update(stamp)
             (HERE / "results" / name).write_text(json.dumps(data, indent=1) + "\n")
             print(f"wrote bench/results/{name}")
     return 0

@@ -175,6 +175,16 @@ def test_a_word_after_the_bare_flag_that_names_no_model_is_the_site_or_the_folde
     assert got("site.toml", "out")[2] is None
 
 
+def test_an_unknown_option_beside_the_bare_flag_is_named(capsys):
+    """``--aftershocks site.toml out --bogus``: the error is the unknown option, not a positional said missing
+    (the fallback to argparse's own reading of the word as the model would lose ``out``)."""
+    from pycolfrag.risk.sequences_run import parse_args
+    with pytest.raises(SystemExit):
+        parse_args(["--aftershocks", "site.toml", "out", "--bogus"])
+    err = capsys.readouterr().err
+    assert "unrecognized arguments: --bogus" in err and "required" not in err
+
+
 def test_the_rare_sequences_take_aftershocks():
     """Once refused by name; now taken (tests/test_sequences_rare_aftershocks.py holds them to the exact answer)."""
     from pycolfrag.risk import sequences_rare as R

@@ -357,22 +357,22 @@ def _rare_group():
 # a valid value of each (a refusal for the value would hide the one for the missing --rare)
 _RARE_VALUES = {"target": ["collapse"], "target_cov": ["0.2"], "pilot": ["5"], "batch": ["200"], "max_rows": ["100"],
                 "ways": ["accumulated"], "tail_share": ["0.5"], "shift": ["1.0", "0.5"]}
-_RARE_ONLY = [a for a in _rare_group()._group_actions if a.dest != "rare"]
+_GROUP_ACTIONS = [a for a in _rare_group()._group_actions if a.dest != "rare"]
 
 
 def test_every_rare_only_option_is_none_in_the_parser_and_has_a_case():
     """"Given" is "not None" for the refusal, and the cases below cover the whole group."""
-    assert all(a.default is None for a in _RARE_ONLY)
-    assert sorted(a.dest for a in _RARE_ONLY) == sorted(_RARE_VALUES)
+    assert all(a.default is None for a in _GROUP_ACTIONS)
+    assert sorted(a.dest for a in _GROUP_ACTIONS) == sorted(_RARE_VALUES)
 
 
-@pytest.mark.parametrize("options", [[a.option_strings[0]] for a in _RARE_ONLY] + [["--pilot", "--shift"]],
+@pytest.mark.parametrize("options", [[a.option_strings[0]] for a in _GROUP_ACTIONS] + [["--pilot", "--shift"]],
                          ids=lambda o: ",".join(o))
 def test_the_rare_options_are_refused_by_name_without_rare(site_file, tmp_path, options):
     """Each option of the importance-sampling group but ``--rare`` itself, given without ``--rare``, is refused with
     exit 2 naming it (the crude sequences read none of them: passed over in silence it would look like an effect),
     before the crude run starts (no journal); several given are all named."""
-    dest = {a.option_strings[0]: a.dest for a in _RARE_ONLY}
+    dest = {a.option_strings[0]: a.dest for a in _GROUP_ACTIONS}
     out = tmp_path / "crude"
     p = _run([str(site_file), str(out)] + ARGS + [w for o in options for w in [o] + _RARE_VALUES[dest[o]]])
     assert p.returncode == 2, p.stdout + p.stderr

@@ -340,7 +340,7 @@ def floors(rows: list, strata, design: Design, seed: int, ways=WAYS, labels=QUAN
 def _value(row: dict, way: str, q: int) -> tuple[float, bool]:
     """A row's outcome of quantity ``q`` in ``way`` before its weights, and whether it is a hit first seen after x:
     (0, False) without a hit (or where x is not the strongest), (1, False) for a hit at or before x, (the row's
-    ``tail_weight``, True) for a hit first seen after x -- 1 / :data:`TAIL_SHARE` where its tail was run (Russian
+    ``tail_weight``, True) for a hit first seen after x -- 1 / the settings' ``tail_share`` where its tail was run (Russian
     roulette on the tail: unbiased, as the tail's hits only add)."""
     if not (row["strongest"] and row["hits"][way][q]):
         return 0.0, False

@@ -319,6 +319,8 @@ def parse_args(argv=None) -> argparse.Namespace:
         args, rest = p.parse_known_args(bare)
         if not rest:
             return args
+        if any(w.startswith("-") for w in rest):   # an unknown option is the error to report, not a lost positional
+            p.error(f"unrecognized arguments: {' '.join(rest)}")
     return p.parse_args(argv)
 
 
