@@ -189,7 +189,7 @@ def _report_rows(res: dict, cpu: str) -> dict:
 
 
 def _report_sums(sums: list, cpu: str) -> dict:
-    print("tree-order sums' upper bound (against point order; best CPU us per run-step):")
+    print("sum orders against point order (best CPU us per run-step):")
     for r in sums:
         print(f"  {r['case']:66} {r['base_us']:7.3f} -> {r['patched_us']:7.3f}  {r['speedup']:.2f}x")
     return {"cpu": cpu, "tree_sums": sums}
