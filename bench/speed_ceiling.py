@@ -59,13 +59,19 @@ ROOT = Path(__file__).resolve().parent.parent
 HERE = ROOT / "bench"
 sys.path.insert(0, str(HERE))
 
-#: share of a step that is point work: single run (perf, docs/performance.md "Profile of one step": the point runner
-#: 47.1 % plus the full law 4.5 %) and an 8-lane batch (perf, docs/performance.md "The AVX2 path": run_w8 80 %)
+#: share of a step that is point work, generous values: single run (perf, docs/performance.md "Profile of one step":
+#: the runner with the full law 47-53 %) and an 8-lane batch (perf, docs/performance.md "The AVX2 path": run_w8 80 %)
 POINT_SHARE = {"single": 0.52, "batch": 0.80}
 LANES = 8
 #: runs of the short sine case per round (0.1 s each: this many keep its best time steady on a shared VM)
 SINE_REPEAT = 5
 HISTORY_DT = 0.002
+
+
+def _in_turn(items: list, r: int) -> list:
+    """The builds or settings timed in round r: in their order, reversed every other round (none always follows
+    the same one on a shared machine)."""
+    return items if r % 2 == 0 else items[::-1]
 
 
 def ceiling(point_share: float, skipped: float) -> float:
@@ -105,8 +111,8 @@ def measure_rows(rows: list, work: Path, rounds: int) -> dict:
     for mw, mine in by_mw.items():
         rec = _records(work / f"{mw}.bin", mine)
         on, off = _single(exe, rec, "sleep"), _single(exe, rec)
-        for r in range(rounds - 1):   # best CPU of alternating rounds, in turn first (the counts are the same)
-            for flags, best in ((((), off), (("sleep",), on)) if r % 2 == 0 else (((("sleep",), on), ((), off)))):
+        for r in range(rounds - 1):   # the best CPU of the rounds (the counts are the same every round)
+            for flags, best in _in_turn([((), off), (("sleep",), on)], r):
                 best["cpu_s"] = min(best["cpu_s"], _single(exe, rec, *flags)["cpu_s"])
         d = per_mw[mw] = {"rows": len(mine), "steps": off["steps"], "samples": 0, "closed": 0, "slept": on["slept"],
                           "joint_steps": on["joint_steps"], "cpu_off": off["cpu_s"], "cpu_on": on["cpu_s"]}
@@ -149,8 +155,8 @@ def tree_sums(work: Path, rounds: int) -> list:
              "grid": ("vector", "single runs, the grid rows above, vector sums"),
              "batch": ("pairs", "8-lane batch, the grid rows above, two sums per lane")}
     best = {(case, key): float("inf") for case in cases for key in exe}
-    for r in range(rounds):   # the order reversed every other round: a build never always follows the same one
-        for key, (sine, grid) in (list(exe.items()) if r % 2 == 0 else list(exe.items())[::-1]):
+    for r in range(rounds):
+        for key, (sine, grid) in _in_turn(list(exe.items()), r):
             if key != "pairs":
                 sec, _, steps = solver_compare.run(sine, ["vertex"], SINE_REPEAT)
                 best["sine", key] = min(best["sine", key], 1e6 * sec / steps)
@@ -199,7 +205,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=8, help="grid samples per scenario (default %(default)s)")
     ap.add_argument("--first", type=int, default=0, help="from sample K of each scenario (default 0)")
-    ap.add_argument("--tree-sums", action="store_true", help="also time the cheapest sum orders (an upper bound)")
+    ap.add_argument("--tree-sums", action="store_true", help="also time two sum orders against point order")
     ap.add_argument("--sums-only", action="store_true", help="only the sum orders, on the rows' records")
     ap.add_argument("--rounds", type=int, default=3,
                     help="alternating rounds of every timing, the best CPU kept (default %(default)s)")
@@ -220,14 +226,14 @@ def main(argv=None) -> int:
         _records(work / "all.bin", rows)
         res = None if a.sums_only else measure_rows(rows, work, a.rounds)
         sums = tree_sums(work, a.rounds) if a.tree_sums or a.sums_only else None
-    print(f"# {cpu}, {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC; default grid, "
-          f"{a.samples} samples per scenario from {a.first}")
+    utc = f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M}"
+    print(f"# {cpu}, {utc} UTC; default grid, {a.samples} samples per scenario from {a.first}")
     out = {}
     if res is not None:
         out["speed_ceiling.json"] = _report_rows(res, cpu)
     if sums is not None:
         out["speed_ceiling_sums.json"] = _report_sums(sums, cpu)
-    stamp = {"utc": f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M}", "samples": a.samples,
+    stamp = {"utc": utc, "samples": a.samples,
              "first": a.first, "rounds": a.rounds, "commit": _git("rev-parse", "--short", "HEAD"),
              "dirty": bool(_git("status", "--porcelain", "--", "csrc", "bench", ":(exclude)bench/results"))}
     for name, data in out.items():
